@@ -1,0 +1,47 @@
+// Triangle meshes for the simulated gonioreflectometer: the classic sample shapes, tessellated
+// finely with exact per-vertex normals and reference tangents, and OBJ files with UVs.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/vec.h"
+
+namespace aniso {
+
+struct TriMesh {
+  std::vector<Vec3> P, N, U;                 // per vertex: position, unit normal, tangent dP/du
+  std::vector<std::array<float, 2>> uv;      // per vertex (glTF convention: v down)
+  std::vector<std::array<uint32_t, 3>> tri;  // counter-clockwise seen from outside
+  // False for shapes that cannot shadow themselves (a flat square, a disc, a sphere: convex or
+  // planar), so the simulator casts no shadow rays for them.
+  bool can_self_shadow = true;
+  Vec3 center{0, 0, 0}, axis{0, 0, 1};  // for the radial / circular / meridian fields
+  // Torus only: radii for the mathematical topology (MODELS.md §4).
+  double torus_R = 0, torus_r = 0;
+};
+
+struct ShapeOptions {
+  int resolution = 128;  // segments around the longest loop
+  double torus_R = 1.0, torus_r = 0.4;
+};
+
+// "flat" (2x2 square in z = 0, U = +x), "disc" (radius 1 in z = 0, U = +x), "sphere" (radius 1,
+// U = dP/du along the parallels), "cylinder" (radius 1, height 2, open, axis z),
+// "torus" (axis z, U around the main axis). Throws on an unknown name.
+TriMesh make_shape(const std::string& name, const ShapeOptions& opt = {});
+const std::vector<std::string>& shape_names();
+
+// Triangle mesh from an OBJ file (v, vt, vn, f; polygons fanned). U = dP/du from the UVs; OBJ's
+// v (up) is flipped to glTF's v (down). Throws naming the file and line on bad input.
+TriMesh load_obj(const std::string& path);
+
+// The reference tangent U at point P with normal N for a named fiber field ("" keeps `U`).
+Vec3 fiber_field_tangent(const std::string& field, const Vec3& P, const Vec3& N, const Vec3& U,
+                         const Vec3& center, const Vec3& axis);
+
+// Any unit vector perpendicular to N, chosen deterministically (fallback for degenerate U).
+Vec3 any_perpendicular(const Vec3& N);
+
+}  // namespace aniso

@@ -1,0 +1,305 @@
+#include "capture_sim/sim.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "capture_sim/raycast.h"
+#include "capture_sim/shade.h"
+#include "core/error.h"
+#include "core/frame.h"
+#include "core/progress.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/json_util.h"
+#include "io/material_io.h"
+#include "models/evaluate.h"
+
+namespace aniso {
+
+namespace {
+
+constexpr double kGoldenAngle = 2.39996322972865332;  // pi (3 - sqrt 5)
+
+Vec3 on_sphere(double polar_deg, double azimuth_rad, double r) {
+  const double t = polar_deg * M_PI / 180.0;
+  return {r * std::sin(t) * std::cos(azimuth_rad), r * std::sin(t) * std::sin(azimuth_rad), r * std::cos(t)};
+}
+
+Light point_light(const Vec3& pos, double distance) {
+  Light l;
+  l.type = Light::Type::kPoint;
+  l.position = pos;
+  const double i0 = distance * distance;  // irradiance about 1 at the sample
+  l.intensity = {i0, i0, i0};
+  return l;
+}
+
+}  // namespace
+
+std::vector<RigView> rig_fixed_camera(int views, double camera_polar_deg, double distance) {
+  if (views < 1) throw Error("rig: --views must be at least 1");
+  std::vector<RigView> rig;
+  const Vec3 eye = on_sphere(camera_polar_deg, -M_PI / 2, distance);
+  for (int i = 0; i < views; ++i) {
+    RigView v;
+    v.world_from_camera = look_at(eye, {0, 0, 0}, {0, 0, 1});
+    // Polar angle 10..70 degrees, uniform in cos over the band; golden-angle azimuths.
+    const double f = (i + 0.5) / views;
+    const double c = std::cos(10 * M_PI / 180) + f * (std::cos(70 * M_PI / 180) - std::cos(10 * M_PI / 180));
+    const double polar = std::acos(c) * 180.0 / M_PI;
+    v.lights.push_back(point_light(on_sphere(polar, i * kGoldenAngle, distance), distance));
+    rig.push_back(v);
+  }
+  return rig;
+}
+
+std::vector<RigView> rig_orbit(int views, double distance) {
+  if (views < 1) throw Error("rig: --views must be at least 1");
+  std::vector<RigView> rig;
+  for (int i = 0; i < views; ++i) {
+    const double f = (i + 0.5) / views;
+    RigView v;
+    const Vec3 eye = on_sphere(20 + 45 * f, -M_PI / 2 + i * kGoldenAngle, distance);
+    v.world_from_camera = look_at(eye, {0, 0, 0}, {0, 0, 1});
+    v.lights.push_back(point_light(on_sphere(60 - 45 * f, M_PI / 3 + i * 2 * kGoldenAngle, distance), distance));
+    rig.push_back(v);
+  }
+  return rig;
+}
+
+std::vector<RigView> rig_from_file(const std::string& path) {
+  using jsonu::json;
+  const json j = jsonu::parse_file(read_text_file(path), path);
+  const jsonu::Ctx root{path, ""};
+  const json& views = jsonu::need(j, "views", root);
+  if (!views.is_array() || views.empty()) root.at("views").fail("expected a non-empty array");
+  std::vector<RigView> rig;
+  for (size_t i = 0; i < views.size(); ++i) {
+    const jsonu::Ctx c = root.at("views").idx(i);
+    RigView v;
+    const Vec3 eye = jsonu::vec3(jsonu::need(views[i], "camera", c), c.at("camera"));
+    const Vec3 target = views[i].contains("target") ? jsonu::vec3(views[i]["target"], c.at("target")) : Vec3{0, 0, 0};
+    v.world_from_camera = look_at(eye, target, {0, 0, 1});
+    const json& lights = jsonu::need(views[i], "lights", c);
+    if (!lights.is_array() || lights.empty()) c.at("lights").fail("expected a non-empty array");
+    for (size_t k = 0; k < lights.size(); ++k) v.lights.push_back(parse_light(lights[k], c.at("lights").idx(k)));
+    rig.push_back(v);
+  }
+  return rig;
+}
+
+Intrinsics frame_camera(int width, int height, double radius, double distance) {
+  Intrinsics k;
+  k.width = width;
+  k.height = height;
+  const double half = std::atan(1.15 * radius / std::sqrt(std::max(distance * distance - radius * radius, 1e-6)));
+  k.fx = k.fy = 0.5 * std::min(width, height) / std::tan(half);
+  k.cx = 0.5 * (width - 1);
+  k.cy = 0.5 * (height - 1);
+  return k;
+}
+
+namespace {
+
+Vec3 px3(const Image& im, int x, int y) { return {im.at(x, y, 0), im.at(x, y, 1), im.at(x, y, 2)}; }
+
+// Noise-free radiance image of one view (exposure 1), shading every hit pixel.
+Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, const Vec3& eye,
+                 const std::vector<Light>& lights, const RGB& ambient, const RayScene& scene,
+                 std::atomic<size_t>* shadow_rays, std::atomic<size_t>* light_evals,
+                 std::vector<uint8_t>* light_used) {
+  const int w = g.P.width, h = g.P.height;
+  Image out(w, h, 3);
+  const bool shadows = scene.mesh().can_self_shadow;
+  std::vector<std::atomic<uint8_t>> used(lights.size());
+  for (auto& u : used) u = 0;
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    ShadeCounters cnt;
+    std::vector<uint8_t> local_used(lights.size(), 0);
+    auto occluded = [&](const SurfacePoint& sp, const Vec3& L, double dist, ShadeCounters* c) {
+      if (!shadows) return false;
+      ++c->shadow_rays;
+      // Leave the surface along N by more than the float precision of the scene (size ~1).
+      constexpr double kShadowOffset = 1e-4;
+      return scene.occluded(sp.P + sp.N * kShadowOffset, L, dist - 2 * kShadowOffset);
+    };
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < w; ++x) {
+        if (!g.hit[static_cast<size_t>(y) * w + x]) continue;
+        SurfacePoint sp;
+        if (!make_frame(px3(g.P, x, y), px3(g.N, x, y), px3(g.U, x, y), &sp)) continue;
+        double I[3];
+        shade_point(eval, sp, eye, lights, {truth.ka[0] * ambient[0], truth.ka[1] * ambient[1], truth.ka[2] * ambient[2]},
+                    occluded, I, &cnt, &local_used);
+        for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(I[c]);
+      }
+    *shadow_rays += cnt.shadow_rays;
+    *light_evals += cnt.light_evals;
+    for (size_t i = 0; i < lights.size(); ++i)
+      if (local_used[i]) used[i] = 1;
+  });
+  light_used->resize(lights.size());
+  for (size_t i = 0; i < lights.size(); ++i) (*light_used)[i] = used[i];
+  return out;
+}
+
+double srgb_encode(double v) {
+  v = std::clamp(v, 0.0, 1.0);
+  return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055;
+}
+
+}  // namespace
+
+SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (opt.rig.empty()) throw Error("capture_sim: the rig has no views");
+  if (opt.camera.width < 1 || opt.camera.height < 1) throw Error("capture_sim: camera size must be positive");
+  if (opt.sensor.bits != 0 && opt.sensor.bits != 8 && opt.sensor.bits != 16)
+    throw Error("capture_sim: bit depth must be 0 (float), 8 or 16");
+  if (opt.sensor.encoding != "linear" && opt.sensor.encoding != "srgb")
+    throw Error("capture_sim: encoding must be linear or srgb");
+  if (opt.sensor.read_noise < 0 || opt.sensor.shot_photons < 0)
+    throw Error("capture_sim: noise levels must be non-negative");
+  const bool is_obj = lower_ext(opt.shape) == ".obj";
+  const TriMesh mesh = is_obj ? load_obj(opt.shape) : make_shape(opt.shape, opt.shape_options);
+  const RayScene scene(mesh);
+  const Evaluator eval(opt.truth);
+  SimStats st;
+  st.views = opt.rig.size();
+
+  // Views that share the first view's camera pose share its geometry: traced and written once.
+  bool fixed_camera = true;
+  for (const auto& v : opt.rig)
+    if (v.world_from_camera.m != opt.rig[0].world_from_camera.m) fixed_camera = false;
+
+  std::vector<GBuffer> gbuffers;
+  std::vector<Image> radiance;
+  std::atomic<size_t> shadow_rays{0}, light_evals{0};
+  {
+    Progress bar("capture_sim: tracing and shading", opt.rig.size(), opt.progress);
+    for (size_t i = 0; i < opt.rig.size(); ++i) {
+      if (i == 0 || !fixed_camera) {
+        gbuffers.push_back(scene.trace(opt.camera, opt.rig[i].world_from_camera, opt.fiber_field));
+        st.primary_rays += gbuffers.back().rays;
+      }
+      const GBuffer& g = gbuffers.back();
+      std::vector<uint8_t> used;
+      radiance.push_back(shade_view(eval, opt.truth, g, opt.rig[i].world_from_camera.translation(), opt.rig[i].lights,
+                                    opt.ambient, scene, &shadow_rays, &light_evals, &used));
+      for (uint8_t u : used) st.lights_culled += u ? 0 : 1;
+      for (uint8_t hit : g.hit) st.shaded_pixels += hit;
+      bar.advance();
+    }
+  }
+  st.shadow_rays = shadow_rays;
+  st.light_evals = light_evals;
+  for (const auto& im : radiance)
+    for (float v : im.px) st.white_level = std::max(st.white_level, static_cast<double>(v));
+  if (!(st.white_level > 0)) throw Error("capture_sim: every pixel is black (no light reaches the visible sample)");
+
+  // Integer images: the white level maps to 0.8 so noise has headroom; float keeps exposure 1.
+  const double exposure = opt.sensor.bits ? 0.8 / st.white_level : 1.0;
+  const double white = exposure * st.white_level;
+  const double sat_level = opt.sensor.saturation * white;
+
+  CaptureSet set;
+  set.camera = opt.camera;
+  set.ambient = opt.ambient;
+  if (opt.sensor.encoding == "srgb") set.color.encoding = ColorSpec::Encoding::kSrgb;
+  if (std::isfinite(sat_level)) {
+    // Stored values at or above this are clipped by the sensor and must not be used.
+    set.color.saturation = opt.sensor.encoding == "srgb" ? srgb_encode(sat_level) : sat_level;
+    set.color.saturation_given = true;
+  }
+  set.truth = "truth.json";
+
+  write_folder_atomically(out_dir, [&](const std::string& dir) {
+    auto geometry_files = [&](const GBuffer& g, const std::string& stem) {
+      GeometrySpec gs;
+      gs.position = "geometry/" + stem + "_P.exr";
+      gs.normal = "geometry/" + stem + "_N.exr";
+      gs.tangent = "geometry/" + stem + "_U.exr";
+      gs.uv = "geometry/" + stem + "_uv.exr";
+      gs.mask = "geometry/" + stem + "_mask.png";
+      write_exr(join_path(dir, gs.position), g.P);
+      write_exr(join_path(dir, gs.normal), g.N);
+      write_exr(join_path(dir, gs.tangent), g.U);
+      write_exr(join_path(dir, gs.uv), g.uv);
+      Image m(g.P.width, g.P.height, 1);
+      for (size_t p = 0; p < g.hit.size(); ++p) m.px[p] = g.hit[p] ? 1.f : 0.f;
+      write_png(join_path(dir, gs.mask), m, 8);
+      return gs;
+    };
+    if (fixed_camera) set.geometry = geometry_files(gbuffers[0], "all");
+    Progress bar("capture_sim: writing", opt.rig.size(), opt.progress);
+    for (size_t i = 0; i < opt.rig.size(); ++i) {
+      char stem[32];
+      std::snprintf(stem, sizeof stem, "%03zu", i);
+      ViewSpec v;
+      v.world_from_camera = opt.rig[i].world_from_camera;
+      v.lights = opt.rig[i].lights;
+      v.exposure = exposure;
+      v.camera = opt.camera;
+      if (!fixed_camera) v.geometry = geometry_files(gbuffers[i], stem);
+      // One generator per view, seeded from (seed, view): the same set whatever the threading.
+      std::seed_seq seq{static_cast<uint32_t>(opt.seed), static_cast<uint32_t>(opt.seed >> 32), static_cast<uint32_t>(i)};
+      std::mt19937_64 rng(seq);
+      std::normal_distribution<double> gauss(0.0, 1.0);
+      Image img = radiance[i];
+      for (float& px : img.px) {
+        double val = exposure * px;
+        if (opt.sensor.shot_photons > 0) {
+          std::poisson_distribution<long long> pois(std::max(val / white * opt.sensor.shot_photons, 0.0));
+          val = static_cast<double>(pois(rng)) * white / opt.sensor.shot_photons;
+        }
+        if (opt.sensor.read_noise > 0) val += opt.sensor.read_noise * white * gauss(rng);
+        if (val > sat_level) val = sat_level;
+        if (opt.sensor.bits) {
+          val = opt.sensor.encoding == "srgb" ? srgb_encode(val) : std::clamp(val, 0.0, 1.0);
+          const double q = opt.sensor.bits == 8 ? 255.0 : 65535.0;
+          val = std::round(val * q) / q;
+        }
+        px = static_cast<float>(val);
+      }
+      v.image = std::string("images/") + stem + (opt.sensor.bits ? ".png" : ".exr");
+      if (opt.sensor.bits)
+        write_png(join_path(dir, v.image), img, opt.sensor.bits);
+      else
+        write_exr(join_path(dir, v.image), img);
+      set.views.push_back(v);
+      bar.advance();
+    }
+    jsonu::json truth;
+    material_to_json(opt.truth, &truth);
+    write_json_file(join_path(dir, "truth.json"), truth);
+    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    jsonu::json gen = {{"tool", "aniso capture_sim"},
+                       {"preset", opt.preset},
+                       {"shape", opt.shape},
+                       {"fiber_field", opt.fiber_field},
+                       {"seed", opt.seed},
+                       {"read_noise", opt.sensor.read_noise},
+                       {"shot_photons", opt.sensor.shot_photons},
+                       {"bits", opt.sensor.bits},
+                       {"white_level", white},
+                       {"counters",
+                        {{"primary_rays", st.primary_rays},
+                         {"shadow_rays", st.shadow_rays},
+                         {"shaded_pixels", st.shaded_pixels},
+                         {"light_evaluations", st.light_evals},
+                         {"lights_culled", st.lights_culled},
+                         {"geometry_traced_once", fixed_camera}}}};
+    set.provenance = gen.dump();
+    write_capture_json(set, join_path(dir, "capture.json"));
+  });
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return st;
+}
+
+}  // namespace aniso

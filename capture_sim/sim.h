@@ -1,0 +1,65 @@
+// capture_sim: a simulated gonioreflectometer. Ray casts a shape (Embree), shades every sample
+// pixel with the ground-truth material under each view's lights (MODELS.md §2-3), applies a
+// sensor model, and writes a capture set exactly per FORMAT.md.
+#pragma once
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "capture_sim/mesh.h"
+#include "io/capture.h"
+#include "models/material.h"
+
+namespace aniso {
+
+struct RigView {
+  Mat4 world_from_camera;
+  std::vector<Light> lights;
+};
+
+// Rigs over the hemisphere above the sample (z up). Deterministic: golden-angle spirals.
+// fixed camera, moving light: the camera sits at `camera_polar_deg`; the light visits `views`
+// positions between 10 and 70 degrees from the normal at all azimuths.
+std::vector<RigView> rig_fixed_camera(int views, double camera_polar_deg, double distance);
+// both moving: camera and light each follow their own spiral.
+std::vector<RigView> rig_orbit(int views, double distance);
+// Explicit list: a JSON file {"views": [{"camera": [x,y,z], "target": [..], "lights": [..]}]}
+// with lights as in FORMAT.md.
+std::vector<RigView> rig_from_file(const std::string& path);
+
+struct SensorOptions {
+  double read_noise = 0.0;   // Gaussian sigma, as a fraction of the white level
+  double shot_photons = 0.0; // photons collected at the white level (0 = no shot noise)
+  int bits = 0;              // 0 = float EXR, 8 or 16 = PNG
+  std::string encoding = "linear";  // for PNG: linear or srgb
+  double saturation = std::numeric_limits<double>::infinity();  // fraction of white level
+};
+
+struct SimOptions {
+  std::string shape = "flat";  // a shape name or an .obj path
+  ShapeOptions shape_options;
+  std::string fiber_field;     // "", radial, circular, meridian
+  Material truth;
+  Intrinsics camera;
+  std::vector<RigView> rig;
+  RGB ambient{0, 0, 0};
+  SensorOptions sensor;
+  uint64_t seed = 1;
+  std::string preset;  // recorded in the set
+  bool progress = true;
+};
+
+struct SimStats {
+  size_t views = 0, primary_rays = 0, shadow_rays = 0, shaded_pixels = 0, light_evals = 0;
+  size_t lights_culled = 0;  // (view, light) pairs skipped: the light reaches no sample pixel
+  double white_level = 0, seconds = 0;
+};
+
+// Writes the capture set into out_dir (atomically: a temporary folder renamed at the end).
+SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir);
+
+// A camera framing an object of radius `radius` at `distance`, square image of width x height.
+Intrinsics frame_camera(int width, int height, double radius, double distance);
+
+}  // namespace aniso

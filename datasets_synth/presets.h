@@ -1,0 +1,33 @@
+// datasets_synth: named scenes from the papers with ground truth, and a seeded random-material
+// generator for sweeps. Each preset is a SimOptions for capture_sim.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "capture_sim/sim.h"
+
+namespace aniso {
+
+struct PresetOptions {
+  int views = 16;
+  int width = 128, height = 128;
+  double noise = 0.0;        // Gaussian read noise, fraction of the white level
+  double shot_photons = 0.0; // photons at the white level (0 = none)
+  int bits = 0;              // 0 = float EXR, 8/16 = PNG
+  std::string encoding = "linear";
+  std::string rig;           // "" = the preset's own, "fixed-camera", "orbit", or a rig JSON file
+  uint64_t seed = 1;
+  bool progress = true;
+};
+
+// (name, description) of every preset.
+const std::vector<std::pair<std::string, std::string>>& preset_list();
+
+SimOptions make_preset(const std::string& name, const PresetOptions& opt);
+
+// A plausible line-model material drawn from a seeded generator (for sweeps).
+Material random_material(uint64_t seed);
+
+}  // namespace aniso

@@ -1,0 +1,645 @@
+#include "fit/fit.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/frame.h"
+#include "core/progress.h"
+#include "io/json_util.h"
+#include "io/material_io.h"
+#include "models/line_model.h"
+#include "models/params.h"
+
+namespace aniso {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// ---------------------------------------------------------------------------------------------
+// Observations: one per pixel (three channels), its lights already reduced to local directions
+// and irradiance scales (exposure folded in). Lights below the horizon are dropped here: they
+// contribute exactly zero, so the fit never evaluates them.
+struct ObsLight {
+  LocalDir L;
+  double E[3];
+};
+struct Observation {
+  LocalDir V;
+  uint32_t first_light = 0, num_lights = 0;
+  double y[3];     // measured value
+  double base[3];  // known constant part (ambient times k_a, which is not fitted)
+};
+struct ObsSet {
+  std::vector<Observation> obs;
+  std::vector<ObsLight> lights;
+  bool grey = false;  // a grey table: the three channels repeat one value
+};
+
+// ---------------------------------------------------------------------------------------------
+// The residual of one pixel: exposure * I(params) - y, per channel (MODELS.md §2-3).
+// Block sizes: kd 3, ks 3, log n 1, psi 1, isotropic (kd 3, ks 3, log n_iso 1) or a 1-wide dummy,
+// second fiber (psi2, w) or a 1-wide dummy. Dummies are held constant.
+template <bool kIso, bool kSecond>
+struct LineResidual {
+  LineResidual(const Observation* o, const ObsLight* l) : obs(o), lights(l) {}
+
+  template <class T>
+  bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* iso, const T* sec,
+                  T* r) const {
+    using std::exp;
+    LineParamsT<T> p;
+    for (int k = 0; k < 3; ++k) {
+      p.kd[k] = kd[k];
+      p.ks[k] = ks[k];
+    }
+    p.n = exp(logn[0]);
+    p.psi = psi[0];
+    p.isotropic = kIso;
+    p.second = kSecond;
+    if constexpr (kIso) {
+      for (int k = 0; k < 3; ++k) {
+        p.kd_iso[k] = iso[k];
+        p.ks_iso[k] = iso[3 + k];
+      }
+      p.n_iso = exp(iso[6]);
+    }
+    if constexpr (kSecond) {
+      p.psi2 = sec[0];
+      p.w = sec[1];
+    }
+    T acc[3] = {T(obs->base[0]), T(obs->base[1]), T(obs->base[2])};
+    for (uint32_t i = 0; i < obs->num_lights; ++i) {
+      const ObsLight& l = lights[obs->first_light + i];
+      T f[3];
+      line_reflectance(p, l.L, obs->V, f);
+      for (int k = 0; k < 3; ++k) acc[k] += l.E[k] * f[k];
+    }
+    for (int k = 0; k < 3; ++k) r[k] = acc[k] - obs->y[k];
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Observation* o, const ObsLight* l) {
+    return new ceres::AutoDiffCostFunction<LineResidual, 3, 3, 3, 1, 1, kIso ? 7 : 1, kSecond ? 2 : 1>(
+        new LineResidual(o, l));
+  }
+
+  const Observation* obs;
+  const ObsLight* lights;
+};
+
+// psi lives on the circle of period pi (the model is unchanged under T -> -T, MODELS.md §1).
+class HalfTurnManifold : public ceres::Manifold {
+ public:
+  int AmbientSize() const override { return 1; }
+  int TangentSize() const override { return 1; }
+  bool Plus(const double* x, const double* delta, double* y) const override {
+    y[0] = wrap(x[0] + delta[0]);
+    return true;
+  }
+  bool PlusJacobian(const double*, double* j) const override {
+    j[0] = 1.0;
+    return true;
+  }
+  bool Minus(const double* y, const double* x, double* d) const override {
+    double v = wrap(y[0] - x[0]);
+    if (v > M_PI / 2) v -= M_PI;
+    d[0] = v;
+    return true;
+  }
+  bool MinusJacobian(const double*, double* j) const override {
+    j[0] = 1.0;
+    return true;
+  }
+  static double wrap(double a) { return a - M_PI * std::floor(a / M_PI); }
+};
+
+// ---------------------------------------------------------------------------------------------
+// Parameter state.
+struct State {
+  double kd[3] = {0.1, 0.1, 0.1}, ks[3] = {0.1, 0.1, 0.1};
+  double logn = std::log(20.0), psi = 0.0;
+  double iso[7] = {0.01, 0.01, 0.01, 0.01, 0.01, 0.01, std::log(20.0)};
+  double sec[2] = {M_PI / 2, 0.5};
+  double dummy_iso[1] = {0}, dummy_sec[1] = {0};
+};
+
+// Start: grid over psi (5 degree steps) and n (powers of 2 from 2 to 4096); at each node k_d and
+// k_s are linear, solved per channel by non-negative 2x2 least squares on a strided subset.
+std::string grid_start(const ObsSet& os, State* st) {
+  constexpr size_t kMaxStartObs = 4000;
+  const size_t stride = std::max<size_t>(1, os.obs.size() / kMaxStartObs);
+  double best = std::numeric_limits<double>::infinity();
+  double best_psi = 0, best_logn = 0, best_kd[3] = {0, 0, 0}, best_ks[3] = {0, 0, 0};
+  for (int ip = 0; ip < 36; ++ip) {
+    const double psi = ip * M_PI / 36;
+    const double c = std::cos(psi), s = std::sin(psi);
+    for (int in = 1; in <= 12; ++in) {
+      const double n = std::pow(2.0, in);
+      // Normal equations per channel: [dd ds; ds ss] [kd ks]' = [dy sy]'.
+      double dd[3] = {0, 0, 0}, ds[3] = {0, 0, 0}, ss[3] = {0, 0, 0}, dy[3] = {0, 0, 0}, sy[3] = {0, 0, 0},
+             yy[3] = {0, 0, 0};
+      for (size_t i = 0; i < os.obs.size(); i += stride) {
+        const Observation& o = os.obs[i];
+        double dcol[3] = {0, 0, 0}, scol[3] = {0, 0, 0};
+        const double b = c * o.V.u + s * o.V.w;
+        for (uint32_t k = 0; k < o.num_lights; ++k) {
+          const ObsLight& l = os.lights[o.first_light + k];
+          const double a = c * l.L.u + s * l.L.w;
+          double D, S;
+          line_DS(a, b, n, &D, &S);
+          for (int ch = 0; ch < 3; ++ch) {
+            dcol[ch] += l.E[ch] * l.L.n * D;
+            scol[ch] += l.E[ch] * l.L.n * S;
+          }
+        }
+        for (int ch = 0; ch < 3; ++ch) {
+          const double y = o.y[ch] - o.base[ch];
+          dd[ch] += dcol[ch] * dcol[ch];
+          ds[ch] += dcol[ch] * scol[ch];
+          ss[ch] += scol[ch] * scol[ch];
+          dy[ch] += dcol[ch] * y;
+          sy[ch] += scol[ch] * y;
+          yy[ch] += y * y;
+        }
+      }
+      double cost = 0, kd[3], ks[3];
+      for (int ch = 0; ch < 3; ++ch) {
+        // Candidates: unconstrained, kd only, ks only; keep the best non-negative one.
+        auto sse = [&](double a, double b) {
+          return yy[ch] - 2 * a * dy[ch] - 2 * b * sy[ch] + a * a * dd[ch] + 2 * a * b * ds[ch] + b * b * ss[ch];
+        };
+        double ba = 0, bb = 0, bc = sse(0, 0);
+        const double det = dd[ch] * ss[ch] - ds[ch] * ds[ch];
+        if (det > 1e-300) {
+          const double a = (dy[ch] * ss[ch] - sy[ch] * ds[ch]) / det, b = (sy[ch] * dd[ch] - dy[ch] * ds[ch]) / det;
+          if (a >= 0 && b >= 0 && sse(a, b) < bc) ba = a, bb = b, bc = sse(a, b);
+        }
+        if (dd[ch] > 0) {
+          const double a = std::max(dy[ch] / dd[ch], 0.0);
+          if (sse(a, 0) < bc) ba = a, bb = 0, bc = sse(a, 0);
+        }
+        if (ss[ch] > 0) {
+          const double b = std::max(sy[ch] / ss[ch], 0.0);
+          if (sse(0, b) < bc) ba = 0, bb = b, bc = sse(0, b);
+        }
+        kd[ch] = ba;
+        ks[ch] = bb;
+        cost += bc;
+      }
+      if (cost < best) {
+        best = cost;
+        best_psi = psi;
+        best_logn = std::log(n);
+        std::copy(kd, kd + 3, best_kd);
+        std::copy(ks, ks + 3, best_ks);
+      }
+    }
+  }
+  st->psi = best_psi;
+  st->logn = best_logn;
+  for (int ch = 0; ch < 3; ++ch) {
+    // Keep the start strictly inside the bounds so the solver can move both ways.
+    st->kd[ch] = std::max(best_kd[ch], 1e-4);
+    st->ks[ch] = std::max(best_ks[ch], 1e-4);
+  }
+  st->sec[0] = HalfTurnManifold::wrap(best_psi + M_PI / 2);
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "grid psi=%.1f deg, n=%.0f (36 x 12 nodes on %zu pixels)", best_psi * 180 / M_PI,
+                std::exp(best_logn), (os.obs.size() + stride - 1) / stride);
+  return buf;
+}
+
+struct Solved {
+  ceres::Solver::Summary summary;
+  double rss = 0;
+  std::vector<double> residuals;
+};
+
+// Builds the problem over `idx` (observations) and solves it from `st`.
+template <bool kIso, bool kSecond>
+void add_blocks(ceres::Problem* pb, const ObsSet& os, const std::vector<size_t>& idx, State* st,
+                ceres::LossFunction* loss) {
+  for (size_t i : idx)
+    pb->AddResidualBlock(LineResidual<kIso, kSecond>::Create(&os.obs[i], os.lights.data()), loss, st->kd, st->ks,
+                         &st->logn, &st->psi, kIso ? st->iso : st->dummy_iso, kSecond ? st->sec : st->dummy_sec);
+}
+
+struct ProblemSetup {
+  bool iso = false, second = false;
+};
+
+std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vector<size_t>& idx, State* st,
+                                              const ProblemSetup& ps, ceres::LossFunction* loss) {
+  ceres::Problem::Options po;
+  po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  po.manifold_ownership = ceres::TAKE_OWNERSHIP;
+  auto pb = std::make_unique<ceres::Problem>(po);
+  if (ps.iso && ps.second) add_blocks<true, true>(pb.get(), os, idx, st, loss);
+  else if (ps.iso) add_blocks<true, false>(pb.get(), os, idx, st, loss);
+  else if (ps.second) add_blocks<false, true>(pb.get(), os, idx, st, loss);
+  else add_blocks<false, false>(pb.get(), os, idx, st, loss);
+  const ParamSpec& kd = line_param("kd");
+  const ParamSpec& ks = line_param("ks");
+  const ParamSpec& n = line_param("n");
+  for (int k = 0; k < 3; ++k) {
+    pb->SetParameterLowerBound(st->kd, k, kd.lo);
+    pb->SetParameterUpperBound(st->kd, k, kd.hi);
+    pb->SetParameterLowerBound(st->ks, k, ks.lo);
+    pb->SetParameterUpperBound(st->ks, k, ks.hi);
+  }
+  pb->SetParameterLowerBound(&st->logn, 0, std::log(n.lo));
+  pb->SetParameterUpperBound(&st->logn, 0, std::log(n.hi));
+  pb->SetManifold(&st->psi, new HalfTurnManifold);
+  if (ps.iso) {
+    for (int k = 0; k < 6; ++k) pb->SetParameterLowerBound(st->iso, k, 0.0);
+    const ParamSpec& ni = line_param("isotropic.n");
+    pb->SetParameterLowerBound(st->iso, 6, std::log(ni.lo));
+    pb->SetParameterUpperBound(st->iso, 6, std::log(ni.hi));
+  } else {
+    pb->SetParameterBlockConstant(st->dummy_iso);
+  }
+  if (ps.second) {
+    pb->SetParameterLowerBound(st->sec, 1, 0.0);
+    pb->SetParameterUpperBound(st->sec, 1, 1.0);
+  } else {
+    pb->SetParameterBlockConstant(st->dummy_sec);
+  }
+  return pb;
+}
+
+ceres::Solver::Options solver_options(const FitOptions& opt) {
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // at most 17 parameters
+  so.max_num_iterations = opt.max_iterations;
+  so.num_threads = std::max(1, opt.threads);
+  so.function_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-14;
+  so.parameter_tolerance = 1e-12;
+  so.logging_type = ceres::SILENT;
+  return so;
+}
+
+double median_abs(std::vector<double> v) {
+  if (v.empty()) return 0;
+  for (double& x : v) x = std::abs(x);
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RGB& ka) {
+  if (opt.model != "line")
+    throw Error("fit: --model " + opt.model + " is not implemented yet (the fiber model is issue 3; use --model line)");
+  if (os.obs.empty()) throw Error("fit: no usable observations (empty mask, all pixels saturated, non-finite or unlit)");
+  const size_t nparam = 8 + (opt.fit_isotropic ? 7 : 0) + (opt.fit_second ? 2 : 0);
+  if (os.obs.size() * (os.grey ? 1 : 3) <= nparam)
+    throw Error("fit: " + std::to_string(os.obs.size()) + " observations cannot determine " + std::to_string(nparam) +
+                " parameters");
+  FitResult res;
+  const auto t_start = Clock::now();
+  State st;
+  rep.start = grid_start(os, &st);
+  const ProblemSetup ps{opt.fit_isotropic, opt.fit_second};
+
+  // Stage 1: plain least squares on the start subset to settle near the optimum and measure noise.
+  std::vector<size_t> sub, all(os.obs.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  const size_t stride = std::max<size_t>(1, os.obs.size() / 4000);
+  for (size_t i = 0; i < os.obs.size(); i += stride) sub.push_back(i);
+  {
+    auto pb = build_problem(os, sub, &st, ps, nullptr);
+    ceres::Solver::Summary s1;
+    ceres::Solve(solver_options(opt), pb.get(), &s1);
+    std::vector<double> r;
+    pb->Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &r, nullptr, nullptr);
+    rep.noise_sigma = 1.4826 * median_abs(r);  // robust sigma (MAD) of the residuals
+  }
+  rep.seconds_start = since(t_start);
+
+  // Stage 2: all observations with the robust loss, scaled to 3 robust sigmas (outliers beyond
+  // it, e.g. specks or unmodelled glints, count linearly instead of quadratically). A floor keeps
+  // the scale meaningful on noise-free data.
+  const auto t_solve = Clock::now();
+  constexpr double kLossScaleFloor = 1e-6;
+  rep.loss_scale = std::max(3.0 * rep.noise_sigma, kLossScaleFloor);
+  ceres::LossFunction* loss = nullptr;
+  if (opt.loss == "huber") loss = new ceres::HuberLoss(rep.loss_scale);
+  else if (opt.loss == "cauchy") loss = new ceres::CauchyLoss(rep.loss_scale);
+  else if (opt.loss != "none") throw Error("fit: --loss must be huber, cauchy or none (got '" + opt.loss + "')");
+  rep.loss = loss ? opt.loss + "(" + std::to_string(rep.loss_scale) + ")" : "none";
+  auto pb = build_problem(os, all, &st, ps, loss);
+  ceres::Solver::Summary sum;
+  ceres::Solve(solver_options(opt), pb.get(), &sum);
+  rep.iterations = static_cast<int>(sum.iterations.size()) - 1;
+  rep.termination = ceres::TerminationTypeToString(sum.termination_type);
+  rep.residual_evaluations = sum.num_residual_evaluations;
+  rep.jacobian_evaluations = sum.num_jacobian_evaluations;
+  if (sum.termination_type == ceres::FAILURE) throw Error("fit: the solver failed: " + sum.message);
+  std::vector<double> r;
+  pb->Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &r, nullptr, nullptr);
+  double rss = 0;
+  for (double x : r) rss += x * x;
+  const double m = static_cast<double>(os.obs.size()) * (os.grey ? 1 : 3);
+  rep.rms = std::sqrt(rss / (os.grey ? 3 * m : m));
+  rep.seconds_solve = since(t_solve);
+
+  // Result.
+  Material& mat = res.material;
+  mat.model = "line";
+  for (int k = 0; k < 3; ++k) {
+    mat.kd[k] = st.kd[k];
+    mat.ks[k] = st.ks[k];
+  }
+  mat.ka = ka;
+  mat.n = std::exp(st.logn);
+  mat.fiber_angle_deg = HalfTurnManifold::wrap(st.psi) * 180 / M_PI;
+  if (opt.fit_isotropic) {
+    mat.has_isotropic = true;
+    for (int k = 0; k < 3; ++k) {
+      mat.iso_kd[k] = st.iso[k];
+      mat.iso_ks[k] = st.iso[3 + k];
+    }
+    mat.iso_n = std::exp(st.iso[6]);
+  } else {
+    res.fixed["isotropic"] = "not fitted (absent; pass --fit-isotropic to fit it)";
+  }
+  if (opt.fit_second) {
+    mat.has_second_fiber = true;
+    mat.second_angle_deg = HalfTurnManifold::wrap(st.sec[0]) * 180 / M_PI;
+    mat.second_weight = st.sec[1];
+  } else {
+    res.fixed["second_fiber"] = "not fitted (absent; pass --fit-second-fiber to fit it)";
+  }
+  res.fixed["ka"] = "not fitted: taken as given (the capture's ambient multiplies it)";
+
+  // Identifiability (MODELS.md §6). k_s -> 0 leaves n undetermined: hold log n constant so the
+  // covariance of the rest stays meaningful, and report n as undetermined rather than confident.
+  const auto t_cov = Clock::now();
+  const double ks_max = std::max({mat.ks[0], mat.ks[1], mat.ks[2]});
+  const double kd_max = std::max({mat.kd[0], mat.kd[1], mat.kd[2]});
+  // Below this fraction of the diffuse level (or absolute 1e-4) the lobe carries no usable signal.
+  constexpr double kKsNegligible = 1e-4;
+  const bool n_free = ks_max > kKsNegligible * std::max(1.0, kd_max);
+  if (!n_free) {
+    res.undetermined["n"] = "k_s is about 0 (" + std::to_string(ks_max) + "): no specular lobe to measure n from";
+    pb->SetParameterBlockConstant(&st.logn);
+  }
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  co.null_space_rank = 0;  // rank deficiency must fail, never produce a zero variance
+  co.min_reciprocal_condition_number = 1e-14;
+  co.num_threads = std::max(1, opt.threads);
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> blocks = {{st.kd, st.kd}, {st.ks, st.ks}, {&st.psi, &st.psi}};
+  if (n_free) blocks.push_back({&st.logn, &st.logn});
+  if (opt.fit_isotropic) blocks.push_back({st.iso, st.iso});
+  if (opt.fit_second) blocks.push_back({st.sec, st.sec});
+  // sigma^2 from the residuals (unweighted least squares); a grey table counts each value once.
+  const double dof = std::max(1.0, m - static_cast<double>(nparam));
+  double s2 = rss / (os.grey ? 3 : 1) / dof;
+  if (os.grey) s2 *= 3;  // its three identical channels must not count as three measurements
+  if (cov.Compute(blocks, pb.get())) {
+    auto diag = [&](const double* b, int size) {
+      std::vector<double> c(size * size);
+      cov.GetCovarianceBlock(b, b, c.data());
+      std::vector<double> d(size);
+      for (int i = 0; i < size; ++i) d[i] = std::sqrt(std::max(c[i * size + i], 0.0) * s2);
+      return d;
+    };
+    res.sigma["kd"] = diag(st.kd, 3);
+    res.sigma["ks"] = diag(st.ks, 3);
+    const double spsi = diag(&st.psi, 1)[0] * 180 / M_PI;
+    // A fiber angle this uncertain says nothing: a lone light along T (s_L -> 0) or no lobe.
+    constexpr double kPsiUndeterminedDeg = 10.0;
+    if (spsi > kPsiUndeterminedDeg)
+      res.undetermined["fiber_angle_deg"] = "sigma " + std::to_string(spsi) + " deg: the data barely constrain psi";
+    else
+      res.sigma["fiber_angle_deg"] = {spsi};
+    if (n_free) {
+      const double sl = diag(&st.logn, 1)[0];
+      constexpr double kLogNUndetermined = 1.0;  // a factor e either way: n is not known
+      if (sl > kLogNUndetermined)
+        res.undetermined["n"] = "sigma of log n is " + std::to_string(sl) + ": the lobe is barely measured";
+      else
+        res.sigma["n"] = {mat.n * sl};
+    }
+    if (opt.fit_isotropic) {
+      const auto d = diag(st.iso, 7);
+      res.sigma["isotropic.kd"] = {d[0], d[1], d[2]};
+      res.sigma["isotropic.ks"] = {d[3], d[4], d[5]};
+      res.sigma["isotropic.n"] = {mat.iso_n * d[6]};
+    }
+    if (opt.fit_second) {
+      const auto d = diag(st.sec, 2);
+      res.sigma["second_fiber.angle_deg"] = {d[0] * 180 / M_PI};
+      res.sigma["second_fiber.weight"] = {d[1]};
+    }
+  } else {
+    res.undetermined["covariance"] =
+        "rank deficient: some combination of parameters is not determined by these observations; no uncertainty "
+        "is reported rather than a false one";
+  }
+  rep.seconds_covariance = since(t_cov);
+  rep.seconds += since(t_start);
+  res.report = rep;
+  return res;
+}
+
+void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureSet& set, const Material& known,
+                            int stride, ObsSet* os, FitReport* rep) {
+  const int w = d.rgb.width, h = d.rgb.height;
+  for (int y = 0; y < h; y += stride)
+    for (int x = 0; x < w; x += stride) {
+      if (!d.use[static_cast<size_t>(y) * w + x]) continue;
+      SurfacePoint sp;
+      const Vec3 P{d.P.at(x, y, 0), d.P.at(x, y, 1), d.P.at(x, y, 2)};
+      const Vec3 N{d.N.at(x, y, 0), d.N.at(x, y, 1), d.N.at(x, y, 2)};
+      const Vec3 U{d.U.at(x, y, 0), d.U.at(x, y, 1), d.U.at(x, y, 2)};
+      if (!make_frame(P, N, U, &sp)) {
+        ++rep->nonfinite;
+        continue;
+      }
+      Observation o;
+      o.V = to_local(sp, normalize(d.eye - sp.P));
+      o.first_light = static_cast<uint32_t>(os->lights.size());
+      for (const Light& l : v.lights) {
+        Vec3 L;
+        RGB E;
+        double dist;
+        if (!light_at(l, sp.P, &L, &E, &dist)) continue;
+        ObsLight ol;
+        ol.L = to_local(sp, L);
+        if (!(ol.L.n > 0.0)) continue;
+        for (int k = 0; k < 3; ++k) ol.E[k] = v.exposure * E[k];
+        os->lights.push_back(ol);
+      }
+      o.num_lights = static_cast<uint32_t>(os->lights.size()) - o.first_light;
+      for (int k = 0; k < 3; ++k) {
+        o.y[k] = d.rgb.at(x, y, k);
+        o.base[k] = v.exposure * known.ka[k] * set.ambient[k];
+      }
+      if (o.num_lights == 0) {
+        ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
+        continue;
+      }
+      os->obs.push_back(o);
+    }
+}
+
+}  // namespace
+
+FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
+  if (opt.subsample < 1) throw Error("fit: --subsample must be at least 1");
+  const auto t0 = Clock::now();
+  ObsSet os;
+  FitReport rep;
+  rep.views = set.views.size();
+  const Material known;  // k_a = 0 unless given: the ambient term is not fitted
+  {
+    Progress bar("fit: loading views", set.views.size(), opt.progress);
+    for (size_t i = 0; i < set.views.size(); ++i) {
+      const ViewData d = load_view(set, i);
+      rep.masked_out += static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
+      rep.saturated += d.saturated;
+      rep.nonfinite += d.nonfinite;
+      add_pixel_observations(d, set.views[i], set, known, opt.subsample, &os, &rep);
+      bar.advance();
+    }
+  }
+  rep.pixels = os.obs.size();
+  rep.observations = os.obs.size() * 3;
+  rep.seconds_load = since(t0);
+  FitResult r = solve(os, opt, rep, known.ka);
+  r.report.seconds = since(t0);
+  return r;
+}
+
+FitResult fit_table(const SampleTable& t, const FitOptions& opt) {
+  if (t.values == SampleTable::Values::kNone) throw Error("fit: the sample table has no value columns (r,g,b or y)");
+  const auto t0 = Clock::now();
+  ObsSet os;
+  os.grey = t.values == SampleTable::Values::kGrey;
+  FitReport rep;
+  for (const auto& row : t.rows) {
+    Observation o;
+    o.V = dir_from_angles(row.theta_o, row.phi_o);
+    ObsLight l;
+    l.L = dir_from_angles(row.theta_i, row.phi_i);
+    l.E[0] = l.E[1] = l.E[2] = 1.0;
+    for (int k = 0; k < 3; ++k) {
+      o.y[k] = row.value[k];
+      o.base[k] = 0.0;
+    }
+    if (!(l.L.n > 0.0)) {
+      ++rep.unlit;
+      continue;
+    }
+    o.first_light = static_cast<uint32_t>(os.lights.size());
+    o.num_lights = 1;
+    os.lights.push_back(l);
+    os.obs.push_back(o);
+  }
+  rep.pixels = os.obs.size();
+  rep.observations = os.obs.size() * (os.grey ? 1 : 3);
+  FitResult r = solve(os, opt, rep, {0, 0, 0});
+  r.report.seconds = since(t0);
+  return r;
+}
+
+void write_fit(const std::string& path, const FitResult& r) {
+  jsonu::json j;
+  material_to_json(r.material, &j);
+  jsonu::json unc = jsonu::json::object();
+  for (const auto& [key, v] : r.sigma) {
+    const auto dot = key.find('.');
+    jsonu::json val = v.size() == 1 ? jsonu::json(v[0]) : jsonu::json(v);
+    if (dot == std::string::npos) unc[key] = val;
+    else unc[key.substr(0, dot)][key.substr(dot + 1)] = val;
+  }
+  for (const auto& [key, why] : r.undetermined)
+    if (key != "covariance") unc[key] = nullptr;
+  j["uncertainty"] = unc;
+  j["fixed"] = r.fixed;
+  if (!r.undetermined.empty()) j["undetermined"] = r.undetermined;
+  const FitReport& p = r.report;
+  j["report"] = {{"residual_rms", p.rms},
+                 {"noise_sigma_robust", p.noise_sigma},
+                 {"observations", p.observations},
+                 {"pixels", p.pixels},
+                 {"views", p.views},
+                 {"skipped", {{"masked_out", p.masked_out}, {"saturated", p.saturated}, {"nonfinite", p.nonfinite}, {"unlit", p.unlit}}},
+                 {"iterations", p.iterations},
+                 {"time_s", p.seconds},
+                 {"time_breakdown_s", {{"load", p.seconds_load}, {"start", p.seconds_start}, {"solve", p.seconds_solve}, {"covariance", p.seconds_covariance}}},
+                 {"termination", p.termination},
+                 {"loss", p.loss},
+                 {"start", p.start},
+                 {"residual_evaluations", p.residual_evaluations},
+                 {"jacobian_evaluations", p.jacobian_evaluations}};
+  write_json_file(path, j);
+}
+
+std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErrors* errors) {
+  std::ostringstream o;
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "%-18s %12s %12s %11s %11s %8s\n", "parameter", "truth", "fit", "sigma", "error", "err/sig");
+  o << buf;
+  TruthErrors e;
+  auto sig = [&](const std::string& key, size_t i) {
+    auto it = r.sigma.find(key);
+    return it == r.sigma.end() || i >= it->second.size() ? std::nan("") : it->second[i];
+  };
+  // err: shown (percent or degrees); abs_err: in the parameter's unit, compared with sigma.
+  auto row = [&](const std::string& name, double t, double f, double s, double err, double abs_err, const char* unit,
+                 double* worst_rel, double* worst_sig, double rel) {
+    const double es = std::isfinite(s) && s > 0 ? std::abs(abs_err) / s : std::nan("");
+    if (std::isnan(s))
+      std::snprintf(buf, sizeof buf, "%-18s %12.6g %12.6g %11s %10.4g%s %8s\n", name.c_str(), t, f, "undetermined", err, unit, "-");
+    else
+      std::snprintf(buf, sizeof buf, "%-18s %12.6g %12.6g %11.3g %10.4g%s %8.2f\n", name.c_str(), t, f, s, err, unit, es);
+    o << buf;
+    if (worst_rel) *worst_rel = std::max(*worst_rel, rel);
+    if (worst_sig && std::isfinite(es)) *worst_sig = std::max(*worst_sig, es);
+  };
+  const char* ch = "rgb";
+  for (int k = 0; k < 3; ++k) {
+    const double t = truth.kd[k], f = r.material.kd[k];
+    const double rel = std::abs(f - t) / std::max(std::abs(t), 1e-12);
+    row(std::string("kd.") + ch[k], t, f, sig("kd", k), 100 * rel, f - t, "%", &e.kd_rel, &e.kd_sigmas, rel);
+  }
+  for (int k = 0; k < 3; ++k) {
+    const double t = truth.ks[k], f = r.material.ks[k];
+    const double rel = std::abs(f - t) / std::max(std::abs(t), 1e-12);
+    row(std::string("ks.") + ch[k], t, f, sig("ks", k), 100 * rel, f - t, "%", &e.ks_rel, &e.ks_sigmas, rel);
+  }
+  {
+    const double rel = std::abs(r.material.n - truth.n) / truth.n;
+    row("n", truth.n, r.material.n, sig("n", 0), 100 * rel, r.material.n - truth.n, "%", &e.n_rel, &e.n_sigmas, rel);
+  }
+  {
+    double d = std::fmod(std::abs(r.material.fiber_angle_deg - truth.fiber_angle_deg), 180.0);
+    d = std::min(d, 180.0 - d);
+    row("fiber_angle_deg", truth.fiber_angle_deg, r.material.fiber_angle_deg, sig("fiber_angle_deg", 0), d, d, " deg", &e.psi_deg,
+        &e.psi_sigmas, d);
+  }
+  if (r.material.has_second_fiber && truth.has_second_fiber) {
+    double d = std::fmod(std::abs(r.material.second_angle_deg - truth.second_angle_deg), 180.0);
+    d = std::min(d, 180.0 - d);
+    row("second.angle_deg", truth.second_angle_deg, r.material.second_angle_deg, sig("second_fiber.angle_deg", 0), d, d, " deg",
+        nullptr, nullptr, 0);
+    row("second.weight", truth.second_weight, r.material.second_weight, sig("second_fiber.weight", 0),
+        r.material.second_weight - truth.second_weight, r.material.second_weight - truth.second_weight, "", nullptr,
+        nullptr, 0);
+  }
+  if (errors) *errors = e;
+  return o.str();
+}
+
+}  // namespace aniso

@@ -1,0 +1,63 @@
+// fit: recovers the line-lighting model's parameters from a capture set or a sample table with
+// Ceres (MODELS.md §3, §6). Observations are (pixel, channel) values; k_d, k_s (RGB), log n and
+// the fiber angle psi (on a periodic manifold, modulo 180 degrees) are fitted, plus the optional
+// isotropic and second-fiber terms when asked. The start comes from a deterministic grid over
+// (psi, n) with k_d, k_s solved in closed form at each node, so it does not depend on luck.
+#pragma once
+#include <map>
+#include <string>
+#include <vector>
+
+#include "io/capture.h"
+#include "io/table.h"
+#include "models/material.h"
+
+namespace aniso {
+
+struct FitOptions {
+  std::string model = "line";
+  bool fit_isotropic = false;
+  bool fit_second = false;
+  int subsample = 1;        // use every k-th pixel in x and y
+  int max_iterations = 200;
+  int threads = 2;
+  std::string loss = "huber";  // huber | cauchy | none; scale from the data (3 robust sigmas)
+  bool progress = true;
+};
+
+struct FitReport {
+  size_t views = 0, pixels = 0, observations = 0;  // observations = pixels x channels
+  size_t masked_out = 0, saturated = 0, nonfinite = 0, unlit = 0;
+  int iterations = 0;
+  double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0, seconds_covariance = 0;
+  double rms = 0, noise_sigma = 0, loss_scale = 0;
+  std::string termination, loss;
+  size_t residual_evaluations = 0, jacobian_evaluations = 0;
+  std::string start;  // the grid node the solve started from
+};
+
+struct FitResult {
+  Material material;
+  // One standard deviation per fitted number, keyed like the material file (kd, ks, n,
+  // fiber_angle_deg, isotropic.kd, ...); absent when undetermined.
+  std::map<std::string, std::vector<double>> sigma;
+  std::map<std::string, std::string> fixed;         // not fitted, and why
+  std::map<std::string, std::string> undetermined;  // fitted but not determined by the data
+  FitReport report;
+};
+
+FitResult fit_capture(const CaptureSet& set, const FitOptions& opt);
+FitResult fit_table(const SampleTable& table, const FitOptions& opt);
+
+// The material file with "uncertainty", "fixed", "undetermined" and "report"; atomic.
+void write_fit(const std::string& path, const FitResult& r);
+
+// A table of every parameter against the truth (value, sigma, error, error/sigma). Also returns
+// the worst relative errors through the optional pointers (for tests).
+struct TruthErrors {
+  double kd_rel = 0, ks_rel = 0, n_rel = 0, psi_deg = 0;
+  double kd_sigmas = 0, ks_sigmas = 0, n_sigmas = 0, psi_sigmas = 0;  // worst |error| / sigma
+};
+std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErrors* errors);
+
+}  // namespace aniso

@@ -1,0 +1,381 @@
+#include "io/capture.h"
+
+#include <algorithm>
+#include <filesystem>
+
+#include "capture_sim/raycast.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/json_util.h"
+
+namespace fs = std::filesystem;
+
+namespace aniso {
+
+using jsonu::Ctx;
+using jsonu::json;
+
+bool light_at(const Light& light, const Vec3& x, Vec3* L, RGB* E, double* dist) {
+  if (light.type == Light::Type::kDirectional) {
+    *L = normalize(light.direction);
+    *E = light.intensity;
+    *dist = std::numeric_limits<double>::infinity();
+  } else {
+    const Vec3 d = light.position - x;
+    const double r = length(d);
+    if (!(r > 0.0)) return false;
+    *L = d / r;
+    *dist = r;
+    const double att = light.attenuation[0] + light.attenuation[1] * r + light.attenuation[2] * r * r;
+    if (!(att > 0.0)) return false;
+    double f = 1.0 / att;
+    if (light.type == Light::Type::kSpot) {
+      const double c = -dot(*L, normalize(light.direction));
+      if (c < std::cos(light.cutoff_deg * M_PI / 180.0) || c <= 0.0) return false;
+      f *= std::pow(c, light.exponent);
+    }
+    *E = {light.intensity[0] * f, light.intensity[1] * f, light.intensity[2] * f};
+  }
+  return (*E)[0] > 0 || (*E)[1] > 0 || (*E)[2] > 0;
+}
+
+namespace {
+
+Intrinsics parse_camera(const json& j, const Ctx& c) {
+  Intrinsics k;
+  const double w = jsonu::num(jsonu::need(j, "width", c), c.at("width"));
+  const double h = jsonu::num(jsonu::need(j, "height", c), c.at("height"));
+  if (w < 1 || h < 1 || w > 65536 || h > 65536 || w != std::floor(w) || h != std::floor(h))
+    c.fail("width and height must be positive integers");
+  k.width = static_cast<int>(w);
+  k.height = static_cast<int>(h);
+  k.fx = jsonu::num(jsonu::need(j, "fx", c), c.at("fx"));
+  k.fy = jsonu::num(jsonu::need(j, "fy", c), c.at("fy"));
+  k.cx = jsonu::num(jsonu::need(j, "cx", c), c.at("cx"));
+  k.cy = jsonu::num(jsonu::need(j, "cy", c), c.at("cy"));
+  if (!(k.fx > 0) || !(k.fy > 0)) c.fail("fx and fy must be positive");
+  return k;
+}
+
+}  // namespace
+
+Light parse_light(const json& j, const Ctx& c) {
+  Light l;
+  const std::string type = jsonu::str(jsonu::need(j, "type", c), c.at("type"));
+  if (type == "point" || type == "spot") {
+    l.type = type == "point" ? Light::Type::kPoint : Light::Type::kSpot;
+    l.position = jsonu::vec3(jsonu::need(j, "position", c), c.at("position"));
+    l.intensity = jsonu::rgb(jsonu::need(j, "intensity", c), c.at("intensity"));
+    if (j.contains("attenuation")) {
+      l.attenuation = jsonu::rgb(j["attenuation"], c.at("attenuation"));
+      if (l.attenuation[0] < 0 || l.attenuation[1] < 0 || l.attenuation[2] < 0 ||
+          l.attenuation[0] + l.attenuation[1] + l.attenuation[2] <= 0)
+        c.at("attenuation").fail("coefficients must be non-negative and not all zero");
+    }
+    if (l.type == Light::Type::kSpot) {
+      l.direction = jsonu::vec3(jsonu::need(j, "direction", c), c.at("direction"));
+      l.cutoff_deg = jsonu::num(jsonu::need(j, "cutoff_deg", c), c.at("cutoff_deg"));
+      l.exponent = jsonu::num_or(j, "exponent", 0.0, c);
+      if (l.cutoff_deg <= 0 || l.cutoff_deg > 180) c.at("cutoff_deg").fail("must be in (0, 180]");
+      if (length(l.direction) == 0) c.at("direction").fail("zero vector");
+    }
+  } else if (type == "directional") {
+    l.type = Light::Type::kDirectional;
+    l.direction = jsonu::vec3(jsonu::need(j, "direction", c), c.at("direction"));
+    if (length(l.direction) == 0) c.at("direction").fail("zero vector");
+    l.intensity = jsonu::rgb(jsonu::need(j, "irradiance", c), c.at("irradiance"));
+  } else {
+    c.at("type").fail("unknown light type '" + type + "' (point, directional, spot)");
+  }
+  for (double v : l.intensity)
+    if (v < 0) c.fail("negative light intensity");
+  return l;
+}
+
+namespace {
+
+GeometrySpec parse_geometry(const json& j, const Ctx& c) {
+  if (!j.is_object()) c.fail("expected an object");
+  GeometrySpec g;
+  g.mesh = jsonu::str_or(j, "mesh", "", c);
+  g.position = jsonu::str_or(j, "position", "", c);
+  g.normal = jsonu::str_or(j, "normal", "", c);
+  g.tangent = jsonu::str_or(j, "tangent", "", c);
+  g.mask = jsonu::str_or(j, "mask", "", c);
+  g.uv = jsonu::str_or(j, "uv", "", c);
+  g.topology = jsonu::str_or(j, "topology", "", c);
+  g.fiber_field = jsonu::str_or(j, "fiber_field", "", c);
+  if (!g.fiber_field.empty() && g.fiber_field != "radial" && g.fiber_field != "circular" &&
+      g.fiber_field != "meridian")
+    c.at("fiber_field").fail("unknown value '" + g.fiber_field + "' (radial, circular, meridian)");
+  if (g.mesh.empty()) {
+    if (g.position.empty() || g.normal.empty() || g.tangent.empty())
+      c.fail("needs either \"mesh\" or the buffers \"position\", \"normal\" and \"tangent\"");
+  }
+  return g;
+}
+
+Mat4 parse_pose(const json& j, const Ctx& c) {
+  if (!j.is_array() || j.size() != 4) c.fail("expected a 4x4 row-major matrix");
+  Mat4 m;
+  for (int r = 0; r < 4; ++r) {
+    if (!j[r].is_array() || j[r].size() != 4) c.idx(r).fail("expected a row of 4 numbers");
+    for (int k = 0; k < 4; ++k) m(r, k) = jsonu::num(j[r][k], c.idx(r).idx(k));
+  }
+  // Rigid: orthonormal rotation and last row (0 0 0 1).
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      double d = 0;
+      for (int k = 0; k < 3; ++k) d += m(k, a) * m(k, b);
+      if (std::abs(d - (a == b ? 1.0 : 0.0)) > 1e-4) c.fail("rotation part is not orthonormal");
+    }
+  if (m(3, 0) != 0 || m(3, 1) != 0 || m(3, 2) != 0 || m(3, 3) != 1) c.fail("last row must be 0 0 0 1");
+  return m;
+}
+
+}  // namespace
+
+CaptureSet read_capture(const std::string& path_in) {
+  std::string file = path_in;
+  if (fs::is_directory(path_in)) file = (fs::path(path_in) / "capture.json").string();
+  if (!fs::exists(file)) throw Error(file + ": file not found");
+  const json j = jsonu::parse_file(read_text_file(file), file);
+  const Ctx root{file, ""};
+  if (!j.is_object()) root.fail("expected a JSON object");
+  const std::string format = jsonu::str(jsonu::need(j, "format", root), root.at("format"));
+  if (format != "aniso-capture") root.at("format").fail("expected \"aniso-capture\", got \"" + format + "\"");
+  const double version = jsonu::num(jsonu::need(j, "version", root), root.at("version"));
+  if (version != 1) root.at("version").fail("unsupported version " + jsonu::json(version).dump() + " (this reader knows 1)");
+
+  CaptureSet s;
+  s.file = file;
+  s.dir = parent_dir(file);
+  s.camera = parse_camera(jsonu::need(j, "camera", root), root.at("camera"));
+  if (j.contains("color")) {
+    const Ctx c = root.at("color");
+    const json& col = j["color"];
+    if (!col.is_object()) c.fail("expected an object");
+    if (col.contains("encoding")) {
+      const json& e = col["encoding"];
+      if (e.is_string()) {
+        const std::string name = e.get<std::string>();
+        if (name == "linear") s.color.encoding = ColorSpec::Encoding::kLinear;
+        else if (name == "srgb") s.color.encoding = ColorSpec::Encoding::kSrgb;
+        else c.at("encoding").fail("unknown encoding '" + name + "' (linear, srgb, {\"gamma\": g})");
+      } else if (e.is_object() && e.contains("gamma")) {
+        s.color.encoding = ColorSpec::Encoding::kGamma;
+        s.color.gamma = jsonu::num(e["gamma"], c.at("encoding").at("gamma"));
+        if (!(s.color.gamma > 0)) c.at("encoding").at("gamma").fail("must be positive");
+      } else {
+        c.at("encoding").fail("expected \"linear\", \"srgb\" or {\"gamma\": g}");
+      }
+    }
+    s.color.black_level = jsonu::num_or(col, "black_level", 0.0, c);
+    if (col.contains("saturation")) {
+      s.color.saturation = jsonu::num(col["saturation"], c.at("saturation"));
+      s.color.saturation_given = true;
+    }
+  }
+  if (j.contains("ambient")) s.ambient = jsonu::rgb(j["ambient"], root.at("ambient"));
+  if (j.contains("geometry")) s.geometry = parse_geometry(j["geometry"], root.at("geometry"));
+  s.truth = jsonu::str_or(j, "truth", "", root);
+  s.topology_map = jsonu::str_or(j, "topology_map", "", root);
+  if (j.contains("generator")) s.provenance = j["generator"].dump();
+
+  const json& views = jsonu::need(j, "views", root);
+  if (!views.is_array() || views.empty()) root.at("views").fail("expected a non-empty array of views");
+  for (size_t i = 0; i < views.size(); ++i) {
+    const Ctx c = root.at("views").idx(i);
+    const json& v = views[i];
+    if (!v.is_object()) c.fail("expected an object");
+    ViewSpec vs;
+    vs.image = jsonu::str(jsonu::need(v, "image", c), c.at("image"));
+    vs.world_from_camera = parse_pose(jsonu::need(v, "world_from_camera", c), c.at("world_from_camera"));
+    vs.exposure = jsonu::num_or(v, "exposure", 1.0, c);
+    if (vs.exposure < 0) c.at("exposure").fail("must be non-negative");
+    vs.camera = v.contains("camera") ? parse_camera(v["camera"], c.at("camera")) : s.camera;
+    const json& lights = jsonu::need(v, "lights", c);
+    if (!lights.is_array() || lights.empty()) c.at("lights").fail("a view needs at least one light");
+    for (size_t k = 0; k < lights.size(); ++k)
+      vs.lights.push_back(parse_light(lights[k], c.at("lights").idx(k)));
+    if (v.contains("geometry")) {
+      vs.geometry = parse_geometry(v["geometry"], c.at("geometry"));
+    } else {
+      if (s.geometry.empty()) c.fail("no geometry: neither the view nor the set has a \"geometry\" block");
+      vs.geometry = s.geometry;
+    }
+    s.views.push_back(std::move(vs));
+  }
+  return s;
+}
+
+void write_capture_json(const CaptureSet& s, const std::string& path) {
+  auto cam = [](const Intrinsics& k) {
+    return json{{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}};
+  };
+  auto geo = [](const GeometrySpec& g) {
+    json o = json::object();
+    auto put = [&](const char* k, const std::string& v) {
+      if (!v.empty()) o[k] = v;
+    };
+    put("mesh", g.mesh);
+    put("position", g.position);
+    put("normal", g.normal);
+    put("tangent", g.tangent);
+    put("mask", g.mask);
+    put("uv", g.uv);
+    put("topology", g.topology);
+    put("fiber_field", g.fiber_field);
+    return o;
+  };
+  json j;
+  j["format"] = "aniso-capture";
+  j["version"] = 1;
+  j["camera"] = cam(s.camera);
+  json color;
+  switch (s.color.encoding) {
+    case ColorSpec::Encoding::kLinear: color["encoding"] = "linear"; break;
+    case ColorSpec::Encoding::kSrgb: color["encoding"] = "srgb"; break;
+    case ColorSpec::Encoding::kGamma: color["encoding"] = json{{"gamma", s.color.gamma}}; break;
+  }
+  if (s.color.black_level != 0) color["black_level"] = s.color.black_level;
+  if (s.color.saturation_given) color["saturation"] = s.color.saturation;
+  j["color"] = color;
+  j["ambient"] = jsonu::to_json(s.ambient);
+  if (!s.geometry.empty()) j["geometry"] = geo(s.geometry);
+  json views = json::array();
+  for (const auto& v : s.views) {
+    json jv;
+    jv["image"] = v.image;
+    json pose = json::array();
+    for (int r = 0; r < 4; ++r)
+      pose.push_back({v.world_from_camera(r, 0), v.world_from_camera(r, 1), v.world_from_camera(r, 2),
+                      v.world_from_camera(r, 3)});
+    jv["world_from_camera"] = pose;
+    jv["exposure"] = v.exposure;
+    json lights = json::array();
+    for (const auto& l : v.lights) {
+      json jl;
+      if (l.type == Light::Type::kDirectional) {
+        jl = {{"type", "directional"}, {"direction", jsonu::to_json(l.direction)},
+              {"irradiance", jsonu::to_json(l.intensity)}};
+      } else {
+        jl = {{"type", l.type == Light::Type::kPoint ? "point" : "spot"},
+              {"position", jsonu::to_json(l.position)},
+              {"intensity", jsonu::to_json(l.intensity)},
+              {"attenuation", jsonu::to_json(l.attenuation)}};
+        if (l.type == Light::Type::kSpot) {
+          jl["direction"] = jsonu::to_json(l.direction);
+          jl["cutoff_deg"] = l.cutoff_deg;
+          jl["exponent"] = l.exponent;
+        }
+      }
+      lights.push_back(jl);
+    }
+    jv["lights"] = lights;
+    if (!v.geometry.empty()) jv["geometry"] = geo(v.geometry);
+    views.push_back(jv);
+  }
+  j["views"] = views;
+  if (!s.truth.empty()) j["truth"] = s.truth;
+  if (!s.topology_map.empty()) j["topology_map"] = s.topology_map;
+  if (!s.provenance.empty()) j["generator"] = json::parse(s.provenance);
+  write_text_file(path, j.dump(2) + "\n");
+}
+
+namespace {
+
+double decode(double v, const ColorSpec& c) {
+  v = std::max(v - c.black_level, 0.0);
+  switch (c.encoding) {
+    case ColorSpec::Encoding::kLinear: return v;
+    case ColorSpec::Encoding::kSrgb: return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+    case ColorSpec::Encoding::kGamma: return std::pow(v, c.gamma);
+  }
+  return v;
+}
+
+Image need_buffer(const std::string& path, int channels, const Intrinsics& k, const std::string& what) {
+  Image b = read_image(path).image;
+  if (b.width != k.width || b.height != k.height)
+    throw Error(path + ": " + what + " buffer is " + std::to_string(b.width) + "x" + std::to_string(b.height) +
+                ", camera is " + std::to_string(k.width) + "x" + std::to_string(k.height));
+  if (b.channels < channels) throw Error(path + ": " + what + " buffer needs " + std::to_string(channels) + " channels");
+  return b;
+}
+
+}  // namespace
+
+ViewData load_view(const CaptureSet& s, size_t i) {
+  const ViewSpec& v = s.views.at(i);
+  const Intrinsics& k = v.camera;
+  const std::string ctx = s.file + ": views[" + std::to_string(i) + "]";
+  ViewData d;
+  d.eye = v.world_from_camera.translation();
+  const std::string img_path = join_path(s.dir, v.image);
+  LoadedImage li;
+  try {
+    li = read_image(img_path);
+  } catch (const Error& e) {
+    throw Error(ctx + ".image: " + e.what());
+  }
+  const Image& raw = li.image;
+  if (raw.width != k.width || raw.height != k.height)
+    throw Error(ctx + ".image: " + img_path + " is " + std::to_string(raw.width) + "x" +
+                std::to_string(raw.height) + ", camera is " + std::to_string(k.width) + "x" +
+                std::to_string(k.height));
+  const double sat = s.color.saturation_given ? s.color.saturation : (li.bits ? 1.0 : std::numeric_limits<double>::infinity());
+
+  std::vector<uint8_t> mask(static_cast<size_t>(k.width) * k.height, 1);
+  const GeometrySpec& g = v.geometry;
+  if (!g.mesh.empty()) {
+    try {
+      trace_mesh_gbuffer(join_path(s.dir, g.mesh), g.fiber_field, k, v.world_from_camera, &d.P, &d.N, &d.U, &mask);
+    } catch (const Error& e) {
+      throw Error(ctx + ".geometry.mesh: " + e.what());
+    }
+  } else {
+    try {
+      d.P = need_buffer(join_path(s.dir, g.position), 3, k, "position");
+      d.N = need_buffer(join_path(s.dir, g.normal), 3, k, "normal");
+      d.U = need_buffer(join_path(s.dir, g.tangent), 3, k, "tangent");
+      if (!g.mask.empty()) {
+        const Image m = need_buffer(join_path(s.dir, g.mask), 1, k, "mask");
+        for (size_t p = 0; p < mask.size(); ++p) mask[p] = m.px[p * m.channels] != 0.f;
+      }
+    } catch (const Error& e) {
+      throw Error(ctx + ".geometry: " + e.what());
+    }
+  }
+  d.rgb = Image(k.width, k.height, 3);
+  d.use.assign(mask.size(), 0);
+  for (int y = 0; y < k.height; ++y)
+    for (int x = 0; x < k.width; ++x) {
+      const size_t p = static_cast<size_t>(y) * k.width + x;
+      if (!mask[p]) continue;
+      ++d.mask_pixels;
+      bool ok = true, saturated = false;
+      for (int c = 0; c < 3; ++c) {
+        const float r = raw.at(x, y, raw.channels == 3 ? c : 0);
+        if (!std::isfinite(r)) ok = false;
+        else if (r >= sat) saturated = true;
+        d.rgb.at(x, y, c) = static_cast<float>(decode(r, s.color));
+      }
+      for (int c = 0; c < 3; ++c)
+        if (!std::isfinite(d.P.at(x, y, c)) || !std::isfinite(d.N.at(x, y, c)) || !std::isfinite(d.U.at(x, y, c)))
+          ok = false;
+      if (!ok) {
+        ++d.nonfinite;
+        continue;
+      }
+      if (saturated) {
+        ++d.saturated;
+        continue;
+      }
+      d.use[p] = 1;
+      ++d.used;
+    }
+  return d;
+}
+
+}  // namespace aniso

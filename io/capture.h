@@ -1,0 +1,92 @@
+// The capture set of FORMAT.md (version 1): a folder with capture.json, images and geometry.
+// The reader accepts exactly what FORMAT.md says, from whoever wrote it, and rejects what it does
+// not understand with a message naming the file and the key.
+#pragma once
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/vec.h"
+#include "models/material.h"
+
+namespace aniso {
+
+struct Intrinsics {
+  int width = 0, height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+};
+
+struct Light {
+  enum class Type { kPoint, kDirectional, kSpot };
+  Type type = Type::kPoint;
+  Vec3 position{0, 0, 1};
+  Vec3 direction{0, 0, 1};  // directional: toward the light; spot: the beam's direction
+  RGB intensity{1, 1, 1};   // point/spot: I0; directional: irradiance E0
+  RGB attenuation{0, 0, 1};
+  double cutoff_deg = 90.0;
+  double exponent = 0.0;
+};
+
+// The light at surface point x (MODELS.md §2): unit direction toward the light, the irradiance
+// scale E (RGB) and the distance (infinity for a directional light). False when it delivers
+// nothing there (outside a spot's cone, zero intensity).
+bool light_at(const Light& light, const Vec3& x, Vec3* L, RGB* E, double* dist);
+
+struct GeometrySpec {
+  std::string position, normal, tangent, mask, uv, topology;  // per-pixel buffers
+  std::string mesh;                                           // or a triangle mesh (OBJ)
+  std::string fiber_field;                                    // "", radial, circular, meridian
+  bool empty() const { return position.empty() && mesh.empty(); }
+};
+
+struct ColorSpec {
+  enum class Encoding { kLinear, kSrgb, kGamma };
+  Encoding encoding = Encoding::kLinear;
+  double gamma = 2.2;
+  double black_level = 0.0;
+  double saturation = std::numeric_limits<double>::infinity();  // stored value; at/above: unused
+  bool saturation_given = false;
+};
+
+struct ViewSpec {
+  std::string image;
+  Mat4 world_from_camera;
+  double exposure = 1.0;
+  std::vector<Light> lights;
+  Intrinsics camera;  // the set's camera unless the view overrides it
+  GeometrySpec geometry;
+};
+
+struct CaptureSet {
+  std::string dir;   // folder holding capture.json; relative paths resolve against it
+  std::string file;  // path of capture.json
+  Intrinsics camera;
+  ColorSpec color;
+  RGB ambient{0, 0, 0};
+  GeometrySpec geometry;
+  std::vector<ViewSpec> views;
+  std::string truth;         // material file with the ground truth, or ""
+  std::string topology_map;  // known map m(u,v) (fiber model), or ""
+  std::string provenance;    // JSON text of the optional "generator" block (seed, counters)
+};
+
+// Accepts the folder or its capture.json.
+CaptureSet read_capture(const std::string& path);
+// Writes capture.json for `set` into set.dir (atomically). Paths in `set` are relative to it.
+void write_capture_json(const CaptureSet& set, const std::string& path);
+
+// One view loaded for fitting or verification: linear RGB image, per-pixel geometry, and which
+// pixels are usable (mask on, finite, not saturated, geometry finite).
+struct ViewData {
+  Image rgb;            // 3 channels, linear, black level removed
+  Image P, N, U;        // world position, unit normal, reference tangent
+  std::vector<uint8_t> use;  // 1 = pixel is an observation
+  size_t mask_pixels = 0, saturated = 0, nonfinite = 0, used = 0;
+  Vec3 eye;  // camera centre in world coordinates
+};
+
+// Loads view i; per-pixel geometry comes from its buffers or by casting rays at its mesh.
+ViewData load_view(const CaptureSet& set, size_t i);
+
+}  // namespace aniso

@@ -1,0 +1,137 @@
+#include "io/image_io.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/error.h"
+#include "io/files.h"
+
+namespace aniso {
+
+namespace {
+
+Image read_exr(const std::string& path) {
+  try {
+    Imf::InputFile file(path.c_str());
+    const Imath::Box2i dw = file.header().dataWindow();
+    const int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
+    const Imf::ChannelList& cl = file.header().channels();
+    std::vector<const char*> names;
+    if (cl.findChannel("R")) {
+      names.push_back("R");
+      if (cl.findChannel("G")) names.push_back("G");
+      if (cl.findChannel("B") && names.size() == 2) names.push_back("B");
+    } else if (cl.findChannel("Y")) {
+      names.push_back("Y");
+    } else {
+      throw Error(path + ": EXR has no R or Y channel");
+    }
+    Image img(w, h, static_cast<int>(names.size()));
+    const size_t xs = sizeof(float) * img.channels, ys = xs * w;
+    char* base = reinterpret_cast<char*>(img.px.data()) - dw.min.x * xs - dw.min.y * ys;
+    Imf::FrameBuffer fb;
+    for (size_t c = 0; c < names.size(); ++c)
+      fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys));
+    file.setFrameBuffer(fb);
+    file.readPixels(dw.min.y, dw.max.y);
+    return img;
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error(path + ": cannot read EXR: " + e.what());
+  }
+}
+
+}  // namespace
+
+LoadedImage read_image(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw Error(path + ": file not found");
+  LoadedImage out;
+  if (lower_ext(path) == ".exr") {
+    out.image = read_exr(path);
+    return out;
+  }
+  cv::Mat m = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (m.empty()) throw Error(path + ": cannot decode image (not PNG/TIFF/JPEG/EXR?)");
+  double scale = 1.0;
+  switch (m.depth()) {
+    case CV_8U: out.bits = 8; scale = 1.0 / 255.0; break;
+    case CV_16U: out.bits = 16; scale = 1.0 / 65535.0; break;
+    case CV_32F: case CV_64F: out.bits = 0; break;
+    default: throw Error(path + ": unsupported pixel depth");
+  }
+  const int c_in = m.channels();
+  const int c_out = c_in >= 3 ? 3 : 1;
+  cv::Mat f;
+  m.convertTo(f, CV_MAKETYPE(CV_32F, c_in), scale);
+  Image img(f.cols, f.rows, c_out);
+  for (int y = 0; y < f.rows; ++y) {
+    const float* row = f.ptr<float>(y);
+    for (int x = 0; x < f.cols; ++x) {
+      if (c_out == 1) {
+        img.at(x, y, 0) = row[x * c_in];
+      } else {  // OpenCV stores BGR(A)
+        img.at(x, y, 0) = row[x * c_in + 2];
+        img.at(x, y, 1) = row[x * c_in + 1];
+        img.at(x, y, 2) = row[x * c_in + 0];
+      }
+    }
+  }
+  out.image = std::move(img);
+  return out;
+}
+
+void write_exr(const std::string& path, const Image& img) {
+  if (img.channels < 1 || img.channels > 3) throw Error(path + ": EXR writer takes 1-3 channels");
+  for (float v : img.px)
+    if (!std::isfinite(v)) throw Error(path + ": refusing to write a non-finite value");
+  write_atomically(path, [&](const std::string& tmp) {
+    try {
+      static const char* kNames[] = {"R", "G", "B"};
+      Imf::Header header(img.width, img.height);
+      for (int c = 0; c < img.channels; ++c) header.channels().insert(kNames[c], Imf::Channel(Imf::FLOAT));
+      Imf::OutputFile file(tmp.c_str(), header);
+      Imf::FrameBuffer fb;
+      const size_t xs = sizeof(float) * img.channels, ys = xs * img.width;
+      char* base = const_cast<char*>(reinterpret_cast<const char*>(img.px.data()));
+      for (int c = 0; c < img.channels; ++c)
+        fb.insert(kNames[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys));
+      file.setFrameBuffer(fb);
+      file.writePixels(img.height);
+    } catch (const std::exception& e) {
+      throw Error(path + ": cannot write EXR: " + e.what());
+    }
+  });
+}
+
+void write_png(const std::string& path, const Image& img, int bits) {
+  if (bits != 8 && bits != 16) throw Error(path + ": PNG bit depth must be 8 or 16");
+  const int c = img.channels >= 3 ? 3 : 1;
+  const double maxv = bits == 8 ? 255.0 : 65535.0;
+  cv::Mat m(img.height, img.width, CV_MAKETYPE(bits == 8 ? CV_8U : CV_16U, c));
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x)
+      for (int k = 0; k < c; ++k) {
+        float v = img.at(x, y, c == 3 ? 2 - k : 0);  // RGB -> BGR
+        if (!std::isfinite(v)) throw Error(path + ": refusing to write a non-finite value");
+        const double q = std::round(std::clamp(static_cast<double>(v), 0.0, 1.0) * maxv);
+        if (bits == 8)
+          m.ptr<uint8_t>(y)[x * c + k] = static_cast<uint8_t>(q);
+        else
+          m.ptr<uint16_t>(y)[x * c + k] = static_cast<uint16_t>(q);
+      }
+  write_atomically(path, [&](const std::string& tmp) {
+    if (!cv::imwrite(tmp, m)) throw Error(path + ": cannot write PNG");
+  });
+}
+
+}  // namespace aniso

@@ -1,0 +1,25 @@
+// Image files: OpenEXR (half or float) through OpenEXR; PNG/TIFF/JPEG through OpenCV.
+// Reading returns the stored values: EXR as they are, integer images scaled to [0, 1] with no
+// colour decoding (the capture reader applies `color.encoding`). Channels come back as R,G,B
+// (or one grey channel, or R,G for two-channel buffers); alpha is dropped.
+#pragma once
+#include <string>
+
+#include "core/image.h"
+
+namespace aniso {
+
+struct LoadedImage {
+  Image image;
+  int bits = 0;  // 0 for float data, else 8 or 16
+};
+
+LoadedImage read_image(const std::string& path);
+
+// Float EXR with channels R[,G[,B]] (1, 2 or 3 channels). Written atomically.
+void write_exr(const std::string& path, const Image& img);
+
+// 8- or 16-bit PNG of values clamped to [0, 1] (already encoded by the caller). Written atomically.
+void write_png(const std::string& path, const Image& img, int bits);
+
+}  // namespace aniso

@@ -1,0 +1,124 @@
+#include "io/material_io.h"
+
+#include "io/files.h"
+#include "io/json_util.h"
+#include "models/params.h"
+
+namespace aniso {
+
+using jsonu::Ctx;
+using jsonu::json;
+
+namespace {
+
+void check_bounds(const std::string& key, const RGB& v, const Ctx& c) {
+  const ParamSpec& p = line_param(key);
+  for (double x : v)
+    if (x < p.lo || x > p.hi)
+      c.fail("value " + json(x).dump() + " outside [" + json(p.lo).dump() + ", " + json(p.hi).dump() + "]");
+}
+double scalar(const json& j, const std::string& name, const std::string& key, double def, const Ctx& c) {
+  if (!j.contains(name)) return def;
+  const double x = jsonu::num(j[name], c.at(name));
+  const ParamSpec& p = line_param(key);
+  if (p.periodic) return x - 180.0 * std::floor(x / 180.0);  // T -> -T symmetry: [0, 180)
+  if (x < p.lo || x > p.hi)
+    c.at(name).fail("value " + json(x).dump() + " outside [" + json(p.lo).dump() + ", " + json(p.hi).dump() + "]");
+  return x;
+}
+
+bool finite_json(const json& j) {
+  if (j.is_number_float()) return std::isfinite(j.get<double>());
+  if (j.is_array() || j.is_object()) {
+    for (const auto& x : j)
+      if (!finite_json(x)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+Material material_from_json(const json& j, const std::string& file) {
+  const Ctx root{file, ""};
+  if (!j.is_object()) root.fail("expected a JSON object");
+  const std::string format = jsonu::str(jsonu::need(j, "format", root), root.at("format"));
+  if (format != "aniso-material") root.at("format").fail("expected \"aniso-material\", got \"" + format + "\"");
+  const double version = jsonu::num(jsonu::need(j, "version", root), root.at("version"));
+  if (version != 1) root.at("version").fail("unsupported version (this reader knows 1)");
+  Material m;
+  m.model = jsonu::str_or(j, "model", "line", root);
+  if (m.model != "line" && m.model != "fiber")
+    root.at("model").fail("unknown model '" + m.model + "' (line, fiber)");
+  m.kd = jsonu::rgb(jsonu::need(j, "kd", root), root.at("kd"));
+  check_bounds("kd", m.kd, root.at("kd"));
+  m.ks = jsonu::rgb(jsonu::need(j, "ks", root), root.at("ks"));
+  check_bounds("ks", m.ks, root.at("ks"));
+  jsonu::need(j, "n", root);
+  m.n = scalar(j, "n", "n", 40.0, root);
+  jsonu::need(j, "fiber_angle_deg", root);
+  m.fiber_angle_deg = scalar(j, "fiber_angle_deg", "fiber_angle_deg", 0.0, root);
+  if (j.contains("ka")) {
+    m.ka = jsonu::rgb(j["ka"], root.at("ka"));
+    check_bounds("ka", m.ka, root.at("ka"));
+  }
+  if (j.contains("isotropic")) {
+    const Ctx c = root.at("isotropic");
+    const json& b = j["isotropic"];
+    if (!b.is_object()) c.fail("expected an object");
+    m.has_isotropic = true;
+    if (b.contains("kd")) m.iso_kd = jsonu::rgb(b["kd"], c.at("kd"));
+    if (b.contains("ks")) m.iso_ks = jsonu::rgb(b["ks"], c.at("ks"));
+    check_bounds("isotropic.kd", m.iso_kd, c.at("kd"));
+    check_bounds("isotropic.ks", m.iso_ks, c.at("ks"));
+    m.iso_n = scalar(b, "n", "isotropic.n", 20.0, c);
+  }
+  if (j.contains("second_fiber")) {
+    const Ctx c = root.at("second_fiber");
+    const json& b = j["second_fiber"];
+    if (!b.is_object()) c.fail("expected an object");
+    m.has_second_fiber = true;
+    m.second_angle_deg = scalar(b, "angle_deg", "second_fiber.angle_deg", m.fiber_angle_deg + 90.0, c);
+    m.second_angle_deg -= 180.0 * std::floor(m.second_angle_deg / 180.0);
+    m.second_weight = scalar(b, "weight", "second_fiber.weight", 0.5, c);
+  }
+  if (j.contains("topology")) {
+    const Ctx c = root.at("topology");
+    const json& b = j["topology"];
+    if (!b.is_object()) c.fail("expected an object");
+    if (b.contains("s")) {
+      m.has_topology = true;
+      m.topology_s = jsonu::num(b["s"], c.at("s"));
+      if (m.topology_s < 0 || m.topology_s > 1) c.at("s").fail("must be in [0, 1]");
+    }
+  }
+  if (m.model == "fiber") root.at("model").fail("the fiber model is not implemented yet (issue 3)");
+  return m;
+}
+
+Material read_material(const std::string& path) {
+  return material_from_json(jsonu::parse_file(read_text_file(path), path), path);
+}
+
+void material_to_json(const Material& m, json* out) {
+  json& j = *out;
+  j["format"] = "aniso-material";
+  j["version"] = 1;
+  j["model"] = m.model;
+  j["kd"] = jsonu::to_json(m.kd);
+  j["ks"] = jsonu::to_json(m.ks);
+  j["n"] = m.n;
+  j["fiber_angle_deg"] = m.fiber_angle_deg;
+  j["ka"] = jsonu::to_json(m.ka);
+  if (m.has_isotropic)
+    j["isotropic"] = {{"kd", jsonu::to_json(m.iso_kd)}, {"ks", jsonu::to_json(m.iso_ks)}, {"n", m.iso_n}};
+  if (m.has_second_fiber)
+    j["second_fiber"] = {{"angle_deg", m.second_angle_deg}, {"weight", m.second_weight}};
+  if (m.has_topology) j["topology"] = {{"s", m.topology_s}};
+}
+
+void write_json_file(const std::string& path, const json& j) {
+  if (!finite_json(j)) throw Error(path + ": refusing to write a non-finite number");
+  write_text_file(path, j.dump(2) + "\n");
+}
+
+}  // namespace aniso

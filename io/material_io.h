@@ -1,0 +1,17 @@
+// The material file of FORMAT.md ("aniso-material", version 1).
+#pragma once
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+
+#include "models/material.h"
+
+namespace aniso {
+
+// Reads and validates against the bounds of models/params.h; errors name the file and key.
+Material read_material(const std::string& path);
+Material material_from_json(const nlohmann::json& j, const std::string& file);
+void material_to_json(const Material& m, nlohmann::json* j);
+// Writes `j` (a material plus any extra blocks) atomically; refuses non-finite numbers.
+void write_json_file(const std::string& path, const nlohmann::json& j);
+
+}  // namespace aniso

@@ -1,0 +1,115 @@
+#include "io/table.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+#include "io/files.h"
+
+namespace aniso {
+
+namespace {
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cell;
+  std::istringstream ss(line);
+  while (std::getline(ss, cell, ',')) {
+    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' ')) cell.pop_back();
+    while (!cell.empty() && cell.front() == ' ') cell.erase(cell.begin());
+    out.push_back(cell);
+  }
+  return out;
+}
+
+}  // namespace
+
+LocalDir dir_from_angles(double theta_deg, double phi_deg) {
+  const double t = theta_deg * M_PI / 180.0, p = phi_deg * M_PI / 180.0;
+  return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
+}
+
+SampleTable read_table(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw Error(path + ": file not found");
+  std::string line;
+  if (!std::getline(f, line)) throw Error(path + ": empty file (expected a header line)");
+  const auto head = split_csv(line);
+  int col[9];
+  const char* names[9] = {"theta_i_deg", "phi_i_deg", "theta_o_deg", "phi_o_deg", "r", "g", "b", "y", "s"};
+  for (int k = 0; k < 9; ++k) {
+    col[k] = -1;
+    for (size_t c = 0; c < head.size(); ++c)
+      if (head[c] == names[k]) col[k] = static_cast<int>(c);
+  }
+  for (int k = 0; k < 4; ++k)
+    if (col[k] < 0) throw Error(path + ": header: missing column '" + names[k] + "'");
+  for (size_t c = 0; c < head.size(); ++c) {
+    bool known = false;
+    for (int k = 0; k < 9; ++k) known |= head[c] == names[k];
+    if (!known) throw Error(path + ": header: unknown column '" + head[c] + "'");
+  }
+  SampleTable t;
+  const bool rgb = col[4] >= 0 || col[5] >= 0 || col[6] >= 0;
+  if (rgb && (col[4] < 0 || col[5] < 0 || col[6] < 0)) throw Error(path + ": header: r, g and b go together");
+  if (rgb && col[7] >= 0) throw Error(path + ": header: give either r,g,b or y, not both");
+  t.values = rgb ? SampleTable::Values::kRGB : (col[7] >= 0 ? SampleTable::Values::kGrey : SampleTable::Values::kNone);
+  t.has_s = col[8] >= 0;
+  int lineno = 1;
+  while (std::getline(f, line)) {
+    ++lineno;
+    if (line.find_first_not_of(" \r\t") == std::string::npos) continue;
+    const auto cells = split_csv(line);
+    auto get = [&](int k, double lo, double hi) {
+      if (col[k] >= static_cast<int>(cells.size()))
+        throw Error(path + ":" + std::to_string(lineno) + ": missing value for '" + names[k] + "'");
+      double v;
+      try {
+        size_t used = 0;
+        v = std::stod(cells[col[k]], &used);
+        if (used != cells[col[k]].size()) throw std::invalid_argument("trailing");
+      } catch (...) {
+        throw Error(path + ":" + std::to_string(lineno) + ": " + names[k] + ": not a number: '" + cells[col[k]] + "'");
+      }
+      if (!std::isfinite(v) || v < lo || v > hi)
+        throw Error(path + ":" + std::to_string(lineno) + ": " + names[k] + ": value " + cells[col[k]] +
+                    " outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+      return v;
+    };
+    SampleRow r;
+    r.theta_i = get(0, 0, 180);
+    r.phi_i = get(1, -360, 360);
+    r.theta_o = get(2, 0, 180);
+    r.phi_o = get(3, -360, 360);
+    const double big = 1e30;
+    if (t.values == SampleTable::Values::kRGB) r.value = {get(4, -big, big), get(5, -big, big), get(6, -big, big)};
+    if (t.values == SampleTable::Values::kGrey) r.value[0] = r.value[1] = r.value[2] = get(7, -big, big);
+    if (t.has_s) r.s = get(8, 0, 1);
+    t.rows.push_back(r);
+  }
+  if (t.rows.empty()) throw Error(path + ": no data rows");
+  return t;
+}
+
+void write_table(const std::string& path, const SampleTable& t) {
+  std::ostringstream o;
+  o.precision(9);
+  o << "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg";
+  if (t.has_s) o << ",s";
+  o << (t.values == SampleTable::Values::kGrey ? ",y" : ",r,g,b") << "\n";
+  for (const auto& r : t.rows) {
+    for (double v : r.value)
+      if (!std::isfinite(v)) throw Error(path + ": refusing to write a non-finite value");
+    o << r.theta_i << "," << r.phi_i << "," << r.theta_o << "," << r.phi_o;
+    if (t.has_s) o << "," << r.s;
+    if (t.values == SampleTable::Values::kGrey)
+      o << "," << r.value[0];
+    else
+      o << "," << r.value[0] << "," << r.value[1] << "," << r.value[2];
+    o << "\n";
+  }
+  write_text_file(path, o.str());
+}
+
+}  // namespace aniso

@@ -1,0 +1,32 @@
+// The sample table of FORMAT.md: readings of a point gonioreflectometer, one per CSV row:
+// theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,r,g,b  (or one value column y; or no values).
+// Angles in the sample frame: theta from N, phi from U toward N x U; i = light, o = view.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include "models/local_dir.h"
+
+namespace aniso {
+
+struct SampleRow {
+  double theta_i = 0, phi_i = 0, theta_o = 0, phi_o = 0;
+  std::array<double, 3> value{0, 0, 0};
+  double s = 0;  // optional topology value (fiber model)
+};
+
+struct SampleTable {
+  enum class Values { kNone, kGrey, kRGB };
+  Values values = Values::kNone;
+  bool has_s = false;
+  std::vector<SampleRow> rows;
+};
+
+SampleTable read_table(const std::string& path);
+// Writes the table with values (grey tables get a y column); atomic; refuses non-finite values.
+void write_table(const std::string& path, const SampleTable& t);
+
+LocalDir dir_from_angles(double theta_deg, double phi_deg);
+
+}  // namespace aniso

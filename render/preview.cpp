@@ -1,0 +1,414 @@
+#include "render/preview.h"
+
+#include <epoxy/egl.h>
+#include <epoxy/gl.h>
+
+#include <chrono>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/frame.h"
+#include "io/files.h"
+#include "models/evaluate.h"
+#include "render/bake.h"
+
+namespace aniso {
+
+namespace {
+
+// A headless OpenGL 3.3 core context on EGL's surfaceless platform (Mesa llvmpipe or a GPU).
+class GlContext {
+ public:
+  GlContext() {
+    if (!epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_MESA_platform_surfaceless")) fail("EGL_MESA_platform_surfaceless is not available");
+    dpy_ = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+    if (dpy_ == EGL_NO_DISPLAY) fail("no surfaceless EGL display");
+    EGLint major = 0, minor = 0;
+    if (!eglInitialize(dpy_, &major, &minor)) fail("eglInitialize failed");
+    if (!eglBindAPI(EGL_OPENGL_API)) fail("eglBindAPI(OpenGL) failed");
+    const EGLint cfg_attr[] = {EGL_SURFACE_TYPE, 0, EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
+    EGLConfig cfg;
+    EGLint n = 0;
+    if (!eglChooseConfig(dpy_, cfg_attr, &cfg, 1, &n) || n < 1) fail("no EGL config with OpenGL");
+    const EGLint ctx_attr[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 3,
+                               EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+    ctx_ = eglCreateContext(dpy_, cfg, EGL_NO_CONTEXT, ctx_attr);
+    if (ctx_ == EGL_NO_CONTEXT) fail("cannot create an OpenGL 3.3 core context");
+    if (!eglMakeCurrent(dpy_, EGL_NO_SURFACE, EGL_NO_SURFACE, ctx_)) fail("eglMakeCurrent failed");
+  }
+  ~GlContext() {
+    if (dpy_ != EGL_NO_DISPLAY) {
+      eglMakeCurrent(dpy_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+      if (ctx_ != EGL_NO_CONTEXT) eglDestroyContext(dpy_, ctx_);
+      eglTerminate(dpy_);
+    }
+  }
+  [[noreturn]] void fail(const std::string& what) {
+    throw Error("preview: cannot create a headless OpenGL context (EGL surfaceless, Mesa): " + what +
+                " (EGL error 0x" + hex(eglGetError()) + ")");
+  }
+  static std::string hex(EGLint v) {
+    char b[16];
+    std::snprintf(b, sizeof b, "%x", v);
+    return b;
+  }
+
+ private:
+  EGLDisplay dpy_ = EGL_NO_DISPLAY;
+  EGLContext ctx_ = EGL_NO_CONTEXT;
+};
+
+GLuint compile(GLenum type, const char* src) {
+  GLuint s = glCreateShader(type);
+  glShaderSource(s, 1, &src, nullptr);
+  glCompileShader(s);
+  GLint ok = 0;
+  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char log[2048];
+    glGetShaderInfoLog(s, sizeof log, nullptr, log);
+    throw Error(std::string("preview: shader compile error: ") + log);
+  }
+  return s;
+}
+
+GLuint program(const char* vs, const char* fs) {
+  GLuint p = glCreateProgram();
+  GLuint a = compile(GL_VERTEX_SHADER, vs), b = compile(GL_FRAGMENT_SHADER, fs);
+  glAttachShader(p, a);
+  glAttachShader(p, b);
+  glLinkProgram(p);
+  glDeleteShader(a);
+  glDeleteShader(b);
+  GLint ok = 0;
+  glGetProgramiv(p, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char log[2048];
+    glGetProgramInfoLog(p, sizeof log, nullptr, log);
+    throw Error(std::string("preview: shader link error: ") + log);
+  }
+  return p;
+}
+
+const char* kVertex = R"(#version 330 core
+layout(location = 0) in vec3 aP;
+layout(location = 1) in vec3 aN;
+layout(location = 2) in vec3 aT;
+layout(location = 3) in vec3 aT2;
+uniform mat4 uViewProj;
+out vec3 vN; out vec3 vT; out vec3 vT2;
+invariant gl_Position;
+void main() { vN = aN; vT = aT; vT2 = aT2; gl_Position = uViewProj * vec4(aP, 1.0); }
+)";
+
+// The anisotropic pass: the paper's texture matrix applied to (T, 1), two lookups (D, S) so the
+// colours stay uniforms, and Banks' self-shadowing <N,L>^+ per fragment.
+const char* kAniso = R"(#version 330 core
+in vec3 vN; in vec3 vT; in vec3 vT2;
+uniform mat4 uTexMat;
+uniform sampler2D uD;
+uniform sampler2D uS;
+uniform vec3 uL; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs;
+uniform float uWeight; uniform int uUseT2;
+out vec4 frag;
+void main() {
+  vec3 N = normalize(vN);
+  vec3 T = uUseT2 == 1 ? vT2 : vT;
+  T = normalize(T - N * dot(N, T));
+  vec2 st = (uTexMat * vec4(T, 1.0)).xy;
+  float D = texture(uD, st).r;
+  float S = texture(uS, st).r;
+  frag = vec4(uE * uWeight * (uKd * D + uKs * S) * max(dot(N, uL), 0.0), 1.0);
+}
+)";
+
+// Isotropic component (seed 000 §4): Lambert + Blinn-Phong, one pass per light.
+const char* kIso = R"(#version 330 core
+in vec3 vN; in vec3 vT; in vec3 vT2;
+uniform vec3 uL; uniform vec3 uV; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs; uniform float uN;
+out vec4 frag;
+void main() {
+  vec3 N = normalize(vN);
+  float nl = dot(N, uL);
+  if (nl <= 0.0) { frag = vec4(0.0, 0.0, 0.0, 1.0); return; }
+  vec3 H = normalize(uL + uV);
+  float nh = max(dot(N, H), 0.0);
+  frag = vec4(uE * (uKd * nl + uKs * (nh > 0.0 ? exp(uN * log(nh)) : 0.0)), 1.0);
+}
+)";
+
+// A plain textured-and-lit pass (ordinary uv texture times Lambert), for timing comparisons.
+const char* kPlain = R"(#version 330 core
+in vec3 vN; in vec3 vT; in vec3 vT2;
+uniform sampler2D uD;
+uniform vec3 uL; uniform vec3 uE; uniform vec3 uKd;
+out vec4 frag;
+void main() {
+  vec3 N = normalize(vN);
+  float tex = texture(uD, vT.xy * 0.5 + 0.5).r;
+  frag = vec4(uE * uKd * tex * max(dot(N, uL), 0.0), 1.0);
+}
+)";
+
+// Geometry pass for the reference: N, T, T2 (orthonormalised like the shading pass).
+const char* kGBuffer = R"(#version 330 core
+in vec3 vN; in vec3 vT; in vec3 vT2;
+layout(location = 0) out vec4 oN;
+layout(location = 1) out vec4 oT;
+layout(location = 2) out vec4 oT2;
+void main() {
+  vec3 N = normalize(vN);
+  oN = vec4(N, 1.0);
+  oT = vec4(normalize(vT - N * dot(N, vT)), 1.0);
+  oT2 = vec4(normalize(vT2 - N * dot(N, vT2)), 1.0);
+}
+)";
+
+GLuint make_table_texture(const Image& t) {
+  GLuint tex;
+  glGenTextures(1, &tex);
+  glBindTexture(GL_TEXTURE_2D, tex);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, t.width, t.height, 0, GL_RED, GL_FLOAT, t.px.data());
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  return tex;
+}
+
+void set3(GLuint p, const char* name, const Vec3& v) { glUniform3f(glGetUniformLocation(p, name), float(v.x), float(v.y), float(v.z)); }
+void set3(GLuint p, const char* name, const RGB& v) { glUniform3f(glGetUniformLocation(p, name), float(v[0]), float(v[1]), float(v[2])); }
+void setm(GLuint p, const char* name, const float* m) { glUniformMatrix4fv(glGetUniformLocation(p, name), 1, GL_TRUE, m); }
+
+Image read_attachment(int attachment, int w, int h) {
+  std::vector<float> buf(static_cast<size_t>(w) * h * 4);
+  glReadBuffer(GL_COLOR_ATTACHMENT0 + attachment);
+  glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, buf.data());
+  Image img(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = buf[(static_cast<size_t>(h - 1 - y) * w + x) * 4 + c];
+  return img;
+}
+
+}  // namespace
+
+PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
+  if (opt.width < 1 || opt.height < 1 || opt.width > 8192 || opt.height > 8192)
+    throw Error("preview: --size must be between 1x1 and 8192x8192");
+  if (opt.light_dirs.empty()) throw Error("preview: at least one light is needed");
+  const bool is_obj = lower_ext(opt.shape) == ".obj";
+  TriMesh mesh = is_obj ? load_obj(opt.shape) : make_shape(opt.shape, opt.shape_options);
+  PreviewResult res;
+  res.triangles = mesh.tri.size();
+
+  // Per-vertex fiber directions T and T2 (MODELS.md §1).
+  const double psi = m.fiber_angle_deg * M_PI / 180, psi2 = m.second_angle_deg * M_PI / 180;
+  std::vector<float> vbuf;
+  double radius = 0;
+  for (size_t i = 0; i < mesh.P.size(); ++i) {
+    const Vec3 N = normalize(mesh.N[i]);
+    const Vec3 U = fiber_field_tangent(opt.fiber_field, mesh.P[i], N, mesh.U[i], mesh.center, mesh.axis);
+    const Vec3 W = cross(N, U);
+    const Vec3 T = U * std::cos(psi) + W * std::sin(psi), T2 = U * std::cos(psi2) + W * std::sin(psi2);
+    for (const Vec3& v : {mesh.P[i], N, T, T2}) {
+      vbuf.push_back(float(v.x));
+      vbuf.push_back(float(v.y));
+      vbuf.push_back(float(v.z));
+    }
+    radius = std::max(radius, length(mesh.P[i] - mesh.center));
+  }
+
+  GlContext gl;
+  res.renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  const int w = opt.width, h = opt.height;
+  GLuint vao, vbo, ibo;
+  glGenVertexArrays(1, &vao);
+  glBindVertexArray(vao);
+  glGenBuffers(1, &vbo);
+  glBindBuffer(GL_ARRAY_BUFFER, vbo);
+  glBufferData(GL_ARRAY_BUFFER, vbuf.size() * sizeof(float), vbuf.data(), GL_STATIC_DRAW);
+  for (int a = 0; a < 4; ++a) {
+    glEnableVertexAttribArray(a);
+    glVertexAttribPointer(a, 3, GL_FLOAT, GL_FALSE, 12 * sizeof(float), reinterpret_cast<void*>(a * 3 * sizeof(float)));
+  }
+  glGenBuffers(1, &ibo);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, mesh.tri.size() * 3 * sizeof(uint32_t), mesh.tri.data(), GL_STATIC_DRAW);
+
+  // Framebuffer: three float colour attachments (the reference pass uses all three) and depth.
+  GLuint fbo, color[3], depth;
+  glGenFramebuffers(1, &fbo);
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+  glGenTextures(3, color);
+  for (int i = 0; i < 3; ++i) {
+    glBindTexture(GL_TEXTURE_2D, color[i]);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, w, h, 0, GL_RGBA, GL_FLOAT, nullptr);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0 + i, GL_TEXTURE_2D, color[i], 0);
+  }
+  glGenRenderbuffers(1, &depth);
+  glBindRenderbuffer(GL_RENDERBUFFER, depth);
+  glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
+  if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+    throw Error("preview: float framebuffer incomplete on " + res.renderer);
+  glViewport(0, 0, w, h);
+
+  // Orthographic camera looking along -view_dir (a distant viewer: V constant, as in the paper).
+  const Vec3 V = normalize(opt.view_dir);
+  Vec3 right = cross(Vec3(0, 0, 1), V);
+  if (length(right) < 1e-6) right = Vec3(1, 0, 0);
+  right = normalize(right);
+  const Vec3 up = cross(V, right);
+  const double aspect = double(w) / h, ext = 1.1 * radius;
+  const Vec3 c = mesh.center;
+  const float view_proj[16] = {
+      float(right.x / (ext * aspect)), float(right.y / (ext * aspect)), float(right.z / (ext * aspect)), float(-dot(right, c) / (ext * aspect)),
+      float(up.x / ext), float(up.y / ext), float(up.z / ext), float(-dot(up, c) / ext),
+      float(-V.x / (2 * ext)), float(-V.y / (2 * ext)), float(-V.z / (2 * ext)), float(dot(V, c) / (2 * ext)),
+      0, 0, 0, 1};
+
+  const BakeTables tables = bake_line(m, opt.table_size);
+  GLuint texD = make_table_texture(tables.diffuse), texS = make_table_texture(tables.specular);
+  const GLuint p_aniso = program(kVertex, opt.plain ? kPlain : kAniso);
+  const GLuint p_iso = program(kVertex, kIso);
+  const GLsizei nidx = static_cast<GLsizei>(mesh.tri.size() * 3);
+  const double k = (opt.table_size - 1.0) / opt.table_size, o = 0.5 / opt.table_size;
+
+  const GLenum one[] = {GL_COLOR_ATTACHMENT0};
+  glDrawBuffers(1, one);
+  glEnable(GL_DEPTH_TEST);
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int frame = 0; frame < std::max(1, opt.repeat); ++frame) {
+    res.passes = 0;
+    glClearColor(0, 0, 0, 0);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glDisable(GL_BLEND);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_TRUE);
+    auto begin_pass = [&]() {
+      if (res.passes == 1) {  // every pass after the first adds onto the image
+        glEnable(GL_BLEND);
+        glBlendFunc(GL_ONE, GL_ONE);
+        glDepthFunc(GL_LEQUAL);
+        glDepthMask(GL_FALSE);
+      }
+      ++res.passes;
+    };
+    for (const Vec3& ld : opt.light_dirs) {
+      const Vec3 L = normalize(ld);
+      const float texmat[16] = {float(k * L.x / 2), float(k * L.y / 2), float(k * L.z / 2), float(k / 2 + o),
+                                float(k * V.x / 2), float(k * V.y / 2), float(k * V.z / 2), float(k / 2 + o),
+                                0, 0, 0, 0,
+                                0, 0, 0, 1};
+      const int lobes = m.second_active() && !opt.plain ? 2 : 1;
+      for (int lobe = 0; lobe < lobes; ++lobe) {
+        begin_pass();
+        glUseProgram(p_aniso);
+        setm(p_aniso, "uViewProj", view_proj);
+        setm(p_aniso, "uTexMat", texmat);
+        glActiveTexture(GL_TEXTURE0);
+        glBindTexture(GL_TEXTURE_2D, texD);
+        glActiveTexture(GL_TEXTURE1);
+        glBindTexture(GL_TEXTURE_2D, texS);
+        glUniform1i(glGetUniformLocation(p_aniso, "uD"), 0);
+        glUniform1i(glGetUniformLocation(p_aniso, "uS"), 1);
+        set3(p_aniso, "uL", L);
+        set3(p_aniso, "uE", Vec3(1, 1, 1));
+        set3(p_aniso, "uKd", m.kd);
+        set3(p_aniso, "uKs", m.ks);
+        const double wgt = m.second_active() ? (lobe == 0 ? m.second_weight : 1 - m.second_weight) : 1.0;
+        glUniform1f(glGetUniformLocation(p_aniso, "uWeight"), float(wgt));
+        glUniform1i(glGetUniformLocation(p_aniso, "uUseT2"), lobe);
+        glDrawElements(GL_TRIANGLES, nidx, GL_UNSIGNED_INT, nullptr);
+      }
+      if (m.isotropic_active() && !opt.plain) {
+        begin_pass();
+        glUseProgram(p_iso);
+        setm(p_iso, "uViewProj", view_proj);
+        set3(p_iso, "uL", L);
+        set3(p_iso, "uV", V);
+        set3(p_iso, "uE", Vec3(1, 1, 1));
+        set3(p_iso, "uKd", m.iso_kd);
+        set3(p_iso, "uKs", m.iso_ks);
+        glUniform1f(glGetUniformLocation(p_iso, "uN"), float(m.iso_n));
+        glDrawElements(GL_TRIANGLES, nidx, GL_UNSIGNED_INT, nullptr);
+      }
+    }
+    glFinish();
+  }
+  res.seconds_per_frame =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / std::max(1, opt.repeat);
+  res.rgb = read_attachment(0, w, h);
+
+  // Coverage and, when asked, the direct evaluation at the same fragments.
+  const GLuint p_g = program(kVertex, kGBuffer);
+  const GLenum three[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+  glDrawBuffers(3, three);
+  glDisable(GL_BLEND);
+  glDepthMask(GL_TRUE);
+  glDepthFunc(GL_LESS);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  glUseProgram(p_g);
+  setm(p_g, "uViewProj", view_proj);
+  glDrawElements(GL_TRIANGLES, nidx, GL_UNSIGNED_INT, nullptr);
+  glFinish();
+  const Image gN = read_attachment(0, w, h), gT = read_attachment(1, w, h), gT2 = read_attachment(2, w, h);
+  res.covered.assign(static_cast<size_t>(w) * h, 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      res.covered[static_cast<size_t>(y) * w + x] = (gN.at(x, y, 0) != 0 || gN.at(x, y, 1) != 0 || gN.at(x, y, 2) != 0);
+  if (opt.reference && !opt.plain) {
+    res.reference = Image(w, h, 3);
+    // Largest change between neighbouring texels, times the 8-bit sub-texel weight precision
+    // that hardware filtering is allowed (and llvmpipe uses): what GL_LINEAR may add to the bake's
+    // own (measured) interpolation error.
+    double max_step = 0;
+    for (int j = 0; j < tables.size; ++j)
+      for (int i = 0; i + 1 < tables.size; ++i)
+        for (int ch = 0; ch < 3; ++ch) {
+          max_step = std::max(max_step, double(std::abs(tables.combined.at(i + 1, j, ch) - tables.combined.at(i, j, ch))));
+          max_step = std::max(max_step, double(std::abs(tables.combined.at(j, i + 1, ch) - tables.combined.at(j, i, ch))));
+        }
+    constexpr double kFilterWeightStep = 1.0 / 256.0, kFloatSlack = 1e-5;
+    const int lobes = m.second_active() ? 2 : 1;
+    res.error_bound = opt.light_dirs.size() * lobes * (tables.max_abs_error + 2 * max_step * kFilterWeightStep) + kFloatSlack;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        if (!res.covered[static_cast<size_t>(y) * w + x]) continue;
+        const Vec3 N{gN.at(x, y, 0), gN.at(x, y, 1), gN.at(x, y, 2)}, T{gT.at(x, y, 0), gT.at(x, y, 1), gT.at(x, y, 2)};
+        const Vec3 T2{gT2.at(x, y, 0), gT2.at(x, y, 1), gT2.at(x, y, 2)};
+        SurfacePoint sp;
+        if (!make_frame(Vec3(0, 0, 0), N, T, &sp)) continue;
+        // In the frame (U = T) the fiber angle is 0 and the second fiber sits at atan2(<T2,W>, <T2,T>).
+        Material local = m;
+        local.fiber_angle_deg = 0;
+        local.second_angle_deg = std::atan2(dot(T2, sp.W), dot(T2, sp.U)) * 180 / M_PI;
+        const Evaluator le(local);
+        double acc[3] = {0, 0, 0};
+        for (const Vec3& ld : opt.light_dirs) {
+          double f[3];
+          le(to_local(sp, normalize(ld)), to_local(sp, V), f);
+          for (int ch = 0; ch < 3; ++ch) acc[ch] += f[ch];
+        }
+        for (int ch = 0; ch < 3; ++ch) {
+          res.reference.at(x, y, ch) = float(acc[ch]);
+          res.max_abs_diff = std::max(res.max_abs_diff, std::abs(double(res.rgb.at(x, y, ch)) - acc[ch]));
+        }
+      }
+  }
+  glDeleteProgram(p_aniso);
+  glDeleteProgram(p_iso);
+  glDeleteProgram(p_g);
+  glDeleteTextures(1, &texD);
+  glDeleteTextures(1, &texS);
+  glDeleteTextures(3, color);
+  glDeleteRenderbuffers(1, &depth);
+  glDeleteFramebuffers(1, &fbo);
+  glDeleteBuffers(1, &vbo);
+  glDeleteBuffers(1, &ibo);
+  glDeleteVertexArrays(1, &vao);
+  return res;
+}
+
+}  // namespace aniso

@@ -1,0 +1,44 @@
+// `aniso preview`: renders an object headless through OpenGL (EGL surfaceless on Mesa, no
+// display) with the baked line-model texture the way Heidrich & Seidel do it (seed 000 §3-4):
+// the fiber tangent T is the texture coordinate, a uniform texture matrix built from L and V turns
+// it into (<L,T>, <V,T>), <N,L>^+ multiplies per fragment (self-shadowing), and each light (and
+// each fiber direction) is one additive pass. Directional lights and a distant (orthographic)
+// viewer keep L and V constant, as in the paper.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "capture_sim/mesh.h"
+#include "core/image.h"
+#include "models/material.h"
+
+namespace aniso {
+
+struct PreviewOptions {
+  std::string shape = "sphere";  // shape name or .obj path
+  std::string fiber_field;       // "", radial, circular, meridian
+  ShapeOptions shape_options;
+  int width = 512, height = 512;
+  int table_size = 256;
+  Vec3 view_dir{0.0, -0.8, 0.6};             // toward the viewer
+  std::vector<Vec3> light_dirs{{0.7, -0.2, 0.7}};  // toward each light; irradiance 1 each
+  bool reference = false;  // also evaluate the model directly per pixel (CPU) for comparison
+  bool plain = false;      // a plain textured-and-lit pass instead (for timing comparisons)
+  int repeat = 1;          // frames to render (timing)
+};
+
+struct PreviewResult {
+  Image rgb;        // linear radiance, 3 channels
+  Image reference;  // direct evaluation at the same fragments (when asked)
+  std::vector<uint8_t> covered;
+  int passes = 0;
+  size_t triangles = 0;
+  double seconds_per_frame = 0;
+  double max_abs_diff = 0;   // |rgb - reference| over covered pixels (when asked)
+  double error_bound = 0;    // what the bake's measured error and filtering allow
+  std::string renderer;      // GL_RENDERER
+};
+
+PreviewResult render_preview(const Material& m, const PreviewOptions& opt);
+
+}  // namespace aniso

@@ -1,0 +1,54 @@
+#include "render/verify.h"
+
+#include <cmath>
+
+#include "capture_sim/shade.h"
+
+namespace aniso {
+
+VerifyResult verify_capture(const CaptureSet& set, const Material& m) {
+  VerifyResult res;
+  const Evaluator eval(m);
+  double sum2 = 0, sumy = 0;
+  auto no_shadows = [](const SurfacePoint&, const Vec3&, double, ShadeCounters*) { return false; };
+  for (size_t i = 0; i < set.views.size(); ++i) {
+    const ViewData d = load_view(set, i);
+    const ViewSpec& v = set.views[i];
+    ViewError e;
+    double s2 = 0, sy = 0;
+    ShadeCounters cnt;
+    const RGB amb{m.ka[0] * set.ambient[0], m.ka[1] * set.ambient[1], m.ka[2] * set.ambient[2]};
+    for (int y = 0; y < d.rgb.height; ++y)
+      for (int x = 0; x < d.rgb.width; ++x) {
+        if (!d.use[static_cast<size_t>(y) * d.rgb.width + x]) continue;
+        SurfacePoint sp;
+        const Vec3 P{d.P.at(x, y, 0), d.P.at(x, y, 1), d.P.at(x, y, 2)};
+        const Vec3 N{d.N.at(x, y, 0), d.N.at(x, y, 1), d.N.at(x, y, 2)};
+        const Vec3 U{d.U.at(x, y, 0), d.U.at(x, y, 1), d.U.at(x, y, 2)};
+        if (!make_frame(P, N, U, &sp)) continue;
+        double I[3];
+        shade_point(eval, sp, d.eye, v.lights, amb, no_shadows, I, &cnt);
+        for (int c = 0; c < 3; ++c) {
+          const double err = v.exposure * I[c] - d.rgb.at(x, y, c);
+          s2 += err * err;
+          sy += std::abs(d.rgb.at(x, y, c));
+          e.max_abs = std::max(e.max_abs, std::abs(err));
+        }
+        ++e.pixels;
+      }
+    res.light_evals += cnt.light_evals;
+    e.rms = e.pixels ? std::sqrt(s2 / (3.0 * e.pixels)) : 0;
+    e.mean_signal = e.pixels ? sy / (3.0 * e.pixels) : 0;
+    res.views.push_back(e);
+    sum2 += s2;
+    sumy += sy;
+    res.overall.pixels += e.pixels;
+    res.overall.max_abs = std::max(res.overall.max_abs, e.max_abs);
+  }
+  const double n = 3.0 * std::max<size_t>(res.overall.pixels, 1);
+  res.overall.rms = std::sqrt(sum2 / n);
+  res.overall.mean_signal = sumy / n;
+  return res;
+}
+
+}  // namespace aniso

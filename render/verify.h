@@ -1,0 +1,27 @@
+// `aniso verify`: renders every view of a capture set with a material (the same shading the
+// simulator uses, from the set's geometry buffers, without shadow rays) and reports the error
+// against the captured images, per view and overall.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "io/capture.h"
+#include "models/material.h"
+
+namespace aniso {
+
+struct ViewError {
+  size_t pixels = 0;
+  double rms = 0, max_abs = 0, mean_signal = 0;
+  double rel_rms() const { return mean_signal > 0 ? rms / mean_signal : 0; }
+};
+
+struct VerifyResult {
+  std::vector<ViewError> views;
+  ViewError overall;
+  size_t light_evals = 0;
+};
+
+VerifyResult verify_capture(const CaptureSet& set, const Material& m);
+
+}  // namespace aniso
