@@ -54,7 +54,7 @@ Image read_exr(const std::string& path) {
 }  // namespace
 
 LoadedImage read_image(const std::string& path) {
-  if (!std::filesystem::exists(path)) throw Error(path + ": file not found");
+  if (!std::filesystem::is_regular_file(path)) throw Error(path + ": file not found");
   LoadedImage out;
   if (lower_ext(path) == ".exr") {
     out.image = read_exr(path);

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Installs everything aniso needs from Debian 12's packages (nothing is downloaded at build time).
+# Usage: scripts/install_deps.sh [--with-python]   (python: SciPy/matplotlib for bench/notebooks)
+set -euo pipefail
+SUDO=""
+if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
+PKGS=(build-essential cmake ninja-build pkg-config
+      libceres-dev libeigen3-dev libopencv-dev libopenexr-dev libimath-dev libembree-dev libtbb-dev
+      libopengl-dev libegl-dev libgl-dev libgl1-mesa-dri libegl-mesa0 libepoxy-dev
+      nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev)
+if [ "${1:-}" = "--with-python" ]; then
+  PKGS+=(python3-numpy python3-scipy python3-matplotlib python3-pandas jupyter-nbconvert python3-ipykernel)
+fi
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_deps: all ${#PKGS[@]} packages present"
+  exit 0
+fi
+echo "install_deps: installing ${#missing[@]} packages: ${missing[*]}"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,184 @@
+// File formats (FORMAT.md): images, capture sets, materials and sample tables round-trip; the
+// readers decode what others may write (PNG with sRGB, OBJ meshes).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "io/capture.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/material_io.h"
+#include "io/table.h"
+#include "test_util.h"
+
+namespace aniso {
+namespace {
+
+TEST(ImageIO, ExrRoundTripIsExact) {
+  const std::string dir = test::tmp_dir("img");
+  Image a(7, 5, 3);
+  for (size_t i = 0; i < a.px.size(); ++i) a.px[i] = 0.001f * i - 0.05f;
+  write_exr(dir + "/a.exr", a);
+  const LoadedImage b = read_image(dir + "/a.exr");
+  ASSERT_EQ(b.image.width, 7);
+  ASSERT_EQ(b.image.channels, 3);
+  EXPECT_EQ(b.bits, 0);
+  EXPECT_EQ(a.px, b.image.px);
+}
+
+TEST(ImageIO, Png16RoundTripWithinHalfAStep) {
+  const std::string dir = test::tmp_dir("img");
+  Image a(9, 4, 3);
+  for (size_t i = 0; i < a.px.size(); ++i) a.px[i] = float(i) / a.px.size();
+  write_png(dir + "/a.png", a, 16);
+  const LoadedImage b = read_image(dir + "/a.png");
+  EXPECT_EQ(b.bits, 16);
+  for (size_t i = 0; i < a.px.size(); ++i) EXPECT_NEAR(a.px[i], b.image.px[i], 0.5 / 65535 + 1e-7);
+}
+
+TEST(ImageIO, RefusesNonFiniteValues) {
+  const std::string dir = test::tmp_dir("img");
+  Image a(2, 2, 3);
+  a.px[3] = NAN;
+  EXPECT_THROW(write_exr(dir + "/nan.exr", a), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/nan.exr"));
+}
+
+TEST(MaterialIO, RoundTripAndPeriodicAngle) {
+  const std::string dir = test::tmp_dir("mat");
+  Material m;
+  m.kd = {0.1, 0.2, 0.3};
+  m.n = 123;
+  m.fiber_angle_deg = 33;
+  m.has_second_fiber = true;
+  m.second_angle_deg = 120;
+  m.second_weight = 0.4;
+  nlohmann::json j;
+  material_to_json(m, &j);
+  j["fiber_angle_deg"] = 213.0;  // the same fiber: 213 - 180
+  write_json_file(dir + "/m.json", j);
+  const Material r = read_material(dir + "/m.json");
+  EXPECT_DOUBLE_EQ(r.fiber_angle_deg, 33.0);
+  EXPECT_DOUBLE_EQ(r.n, 123);
+  EXPECT_TRUE(r.has_second_fiber);
+  EXPECT_DOUBLE_EQ(r.second_weight, 0.4);
+}
+
+TEST(MaterialIO, OutOfBoundsNamesTheKey) {
+  const std::string dir = test::tmp_dir("mat");
+  std::ofstream(dir + "/m.json") << R"({"format":"aniso-material","version":1,"model":"line",
+    "kd":[0.1,0.1,0.1],"ks":0.5,"n":0.2,"fiber_angle_deg":0})";
+  try {
+    read_material(dir + "/m.json");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("m.json: n: value 0.2 outside"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SampleTable, RoundTripAndErrors) {
+  const std::string dir = test::tmp_dir("tab");
+  std::ofstream(dir + "/t.csv") << "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,y\n30,0,40,180,0.5\n10,20,30,40,0.25\n";
+  SampleTable t = read_table(dir + "/t.csv");
+  ASSERT_EQ(t.rows.size(), 2u);
+  EXPECT_EQ(t.values, SampleTable::Values::kGrey);
+  EXPECT_DOUBLE_EQ(t.rows[1].value[2], 0.25);
+  write_table(dir + "/u.csv", t);
+  EXPECT_EQ(read_table(dir + "/u.csv").rows[0].theta_o, 40);
+  std::ofstream(dir + "/bad.csv") << "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n30,0,abc,0\n";
+  try {
+    read_table(dir + "/bad.csv");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.csv:2: theta_o_deg"), std::string::npos) << e.what();
+  }
+}
+
+// A capture written by "another tool": 8-bit sRGB PNG, grey image, a black level; the reader
+// decodes to linear and leaves clipped values out.
+TEST(CaptureIO, DecodesSrgbPngAndSkipsSaturated) {
+  const std::string dir = test::tmp_dir("cap");
+  std::filesystem::create_directories(dir + "/g");
+  Image grey(4, 1, 1);
+  grey.px = {0.0f, 0.5f, 0.21404f, 1.0f};  // sRGB 0.5 -> linear 0.214, last one clipped
+  write_png(dir + "/img.png", grey, 8);
+  Image P(4, 1, 3), N(4, 1, 3), U(4, 1, 3);
+  for (int x = 0; x < 4; ++x) {
+    P.at(x, 0, 0) = float(x);
+    N.at(x, 0, 2) = 1;
+    U.at(x, 0, 0) = 1;
+  }
+  write_exr(dir + "/g/P.exr", P);
+  write_exr(dir + "/g/N.exr", N);
+  write_exr(dir + "/g/U.exr", U);
+  std::ofstream(dir + "/capture.json") << R"({"format":"aniso-capture","version":1,
+    "camera":{"width":4,"height":1,"fx":10,"fy":10,"cx":1.5,"cy":0},
+    "color":{"encoding":"srgb"},
+    "geometry":{"position":"g/P.exr","normal":"g/N.exr","tangent":"g/U.exr"},
+    "views":[{"image":"img.png","world_from_camera":[[1,0,0,0],[0,1,0,0],[0,0,1,-3],[0,0,0,1]],
+              "lights":[{"type":"directional","direction":[0,0,1],"irradiance":1}]}]})";
+  const CaptureSet s = read_capture(dir);
+  ASSERT_EQ(s.views.size(), 1u);
+  EXPECT_EQ(s.views[0].lights[0].type, Light::Type::kDirectional);
+  const ViewData d = load_view(s, 0);
+  EXPECT_NEAR(d.rgb.at(1, 0, 1), 0.2140, 2e-3);  // sRGB 128/255 -> linear
+  EXPECT_EQ(d.saturated, 1u);
+  EXPECT_EQ(d.used, 3u);
+}
+
+TEST(CaptureIO, WriteThenReadKeepsEverything) {
+  const std::string dir = test::tmp_dir("cap");
+  CaptureSet s;
+  s.camera = {32, 16, 40, 41, 15.5, 7.5};
+  s.ambient = {0.1, 0.2, 0.3};
+  s.geometry.mesh = "m.obj";
+  s.geometry.fiber_field = "circular";
+  ViewSpec v;
+  v.image = "images/000.exr";
+  v.exposure = 0.5;
+  v.camera = s.camera;
+  Light l;
+  l.type = Light::Type::kSpot;
+  l.position = {1, 2, 3};
+  l.direction = {0, 0, -1};
+  l.cutoff_deg = 30;
+  l.exponent = 4;
+  v.lights.push_back(l);
+  s.views.push_back(v);
+  write_capture_json(s, dir + "/capture.json");
+  const CaptureSet r = read_capture(dir + "/capture.json");
+  EXPECT_EQ(r.camera.height, 16);
+  EXPECT_DOUBLE_EQ(r.camera.fy, 41);
+  EXPECT_DOUBLE_EQ(r.ambient[2], 0.3);
+  EXPECT_EQ(r.views[0].geometry.fiber_field, "circular");
+  EXPECT_EQ(r.views[0].lights[0].type, Light::Type::kSpot);
+  EXPECT_DOUBLE_EQ(r.views[0].lights[0].cutoff_deg, 30);
+  EXPECT_DOUBLE_EQ(r.views[0].exposure, 0.5);
+}
+
+TEST(Lights, AttenuationAndSpotCone) {  // MODELS.md §2
+  Light p;
+  p.position = {0, 0, 2};
+  p.intensity = {8, 8, 8};
+  p.attenuation = {1, 0, 1};
+  Vec3 L;
+  RGB E;
+  double d;
+  ASSERT_TRUE(light_at(p, {0, 0, 0}, &L, &E, &d));
+  EXPECT_NEAR(E[0], 8.0 / 5.0, 1e-12);
+  EXPECT_NEAR(L.z, 1.0, 1e-12);
+  Light s = p;
+  s.type = Light::Type::kSpot;
+  s.direction = {0, 0, -1};
+  s.cutoff_deg = 20;
+  s.exponent = 2;
+  EXPECT_TRUE(light_at(s, {0.1, 0, 0}, &L, &E, &d));
+  EXPECT_FALSE(light_at(s, {2, 0, 0}, &L, &E, &d));  // outside the cone
+}
+
+}  // namespace
+}  // namespace aniso

@@ -1,0 +1,128 @@
+// render: the baked tables against direct evaluation, the OpenGL preview (a real EGL context on
+// Mesa) against the model at the same fragments, and verify.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "datasets_synth/presets.h"
+#include "io/files.h"
+#include "models/line_model.h"
+#include "render/bake.h"
+#include "render/preview.h"
+#include "render/verify.h"
+#include "test_util.h"
+
+namespace aniso {
+namespace {
+
+Material satin() {
+  Material m;
+  m.kd = {0.25, 0.1, 0.05};
+  m.ks = {0.6, 0.55, 0.5};
+  m.n = 60;
+  m.fiber_angle_deg = 20;
+  return m;
+}
+
+TEST(Bake, TexelCentresHoldExactValues) {
+  const Material m = satin();
+  const BakeTables t = bake_line(m, 65);
+  for (int j = 0; j < 65; j += 7)
+    for (int i = 0; i < 65; i += 5) {
+      const double a = -1 + 2.0 * i / 64, b = -1 + 2.0 * j / 64;
+      double D, S;
+      line_DS(a, b, m.n, &D, &S);
+      EXPECT_NEAR(lookup_bilinear(t.combined, a, b, 0), m.kd[0] * D + m.ks[0] * S, 1e-6);
+    }
+  // Grazing a = ±1 is a texel centre, not an extrapolation: D = 0 there.
+  EXPECT_NEAR(lookup_bilinear(t.diffuse, 1.0, 0.3, 0), 0.0, 1e-7);
+}
+
+TEST(Bake, ErrorShrinksWithTableSize) {
+  Material m = satin();
+  m.n = 500;  // a sharp lobe is the hard case
+  const double e64 = bake_line(m, 64).max_abs_error, e256 = bake_line(m, 256).max_abs_error,
+               e1024 = bake_line(m, 1024).max_abs_error;
+  std::printf("n=500 max abs error: 64: %.3g  256: %.3g  1024: %.3g\n", e64, e256, e1024);
+  EXPECT_LT(e256, e64);
+  EXPECT_LT(e1024, e256);
+}
+
+TEST(Bake, WritesTablesAndSidecar) {
+  const std::string dir = test::tmp_dir("bake");
+  const Material m = satin();
+  write_bake(dir + "/out", m, bake_line(m, 32), "test");
+  for (const char* f : {"diffuse.exr", "specular_8.png", "combined_16.png", "combined.exr", "bake.json"})
+    EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + f)) << f;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/out/bake.json"));
+  EXPECT_EQ(j["size"], 32);
+  EXPECT_GT(j["error"]["max_abs"].get<double>(), 0.0);
+  EXPECT_EQ(j["generated_with"], "test");
+}
+
+TEST(Preview, BakedRenderMatchesDirectEvaluationWithinStatedBound) {
+  PreviewOptions p;
+  p.width = p.height = 128;
+  p.reference = true;
+  p.light_dirs = {{0.7, -0.2, 0.7}, {-0.5, 0.3, 0.8}};
+  const PreviewResult r = render_preview(satin(), p);
+  size_t covered = 0;
+  for (auto c : r.covered) covered += c;
+  std::printf("renderer %s: %zu px, max |baked - direct| = %.3g, bound %.3g\n", r.renderer.c_str(), covered,
+              r.max_abs_diff, r.error_bound);
+  EXPECT_GT(covered, 128u * 128u / 2);
+  EXPECT_EQ(r.passes, 2);  // one additive pass per light
+  EXPECT_GT(r.max_abs_diff, 0.0);
+  EXPECT_LE(r.max_abs_diff, r.error_bound);
+}
+
+TEST(Preview, HighlightFollowsTheFiberDirection) {
+  PreviewOptions p;
+  p.width = p.height = 96;
+  Material a = satin(), b = satin();
+  a.fiber_angle_deg = 0;
+  b.fiber_angle_deg = 90;
+  const PreviewResult ra = render_preview(a, p), rb = render_preview(b, p);
+  double diff = 0, sum = 0;
+  for (size_t i = 0; i < ra.rgb.px.size(); ++i) {
+    diff += std::abs(ra.rgb.px[i] - rb.rgb.px[i]);
+    sum += ra.rgb.px[i];
+  }
+  EXPECT_GT(diff, 0.2 * sum);  // rotating the fibers moves the highlight
+}
+
+TEST(Preview, OnePassPerLightAndTermThatIsPresent) {
+  PreviewOptions p;
+  p.width = p.height = 32;
+  Material m = satin();
+  EXPECT_EQ(render_preview(m, p).passes, 1);
+  m.has_second_fiber = true;
+  m.second_weight = 0.5;
+  m.has_isotropic = true;
+  m.iso_ks = {0.2, 0.2, 0.2};
+  p.reference = true;
+  const PreviewResult r = render_preview(m, p);
+  EXPECT_EQ(r.passes, 3);
+  EXPECT_LE(r.max_abs_diff, r.error_bound);
+}
+
+TEST(Verify, TruthReproducesTheCaptureAndAWrongMaterialDoesNot) {
+  const std::string dir = test::tmp_dir("set");
+  PresetOptions po;
+  po.views = 3;
+  po.width = po.height = 48;
+  po.progress = false;
+  const SimOptions so = make_preset("satin-ball", po);
+  simulate_capture(so, dir);
+  const CaptureSet s = read_capture(dir);
+  const VerifyResult good = verify_capture(s, so.truth);
+  ASSERT_EQ(good.views.size(), 3u);
+  EXPECT_LT(good.overall.rms, 1e-6);
+  Material wrong = so.truth;
+  wrong.n *= 1.5;
+  EXPECT_GT(verify_capture(s, wrong).overall.rms, 1e-3);
+}
+
+}  // namespace
+}  // namespace aniso
