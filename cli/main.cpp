@@ -175,6 +175,9 @@ int main(int argc, char** argv) {
   bake->add_option("MATERIAL", bake_mat, "material file")->required();
   bake->add_option("--out", bake_out, "output folder (replaced atomically)")->required();
   bake->add_option("--size", bake_size, "table size N (N x N)")->capture_default_str()->check(CLI::Range(2, 8192));
+  std::string bake_index = "angle";
+  bake->add_option("--index", bake_index, "texel spacing: angle (uniform in acos, default) or cosine (the paper's)")
+      ->capture_default_str()->check(CLI::IsMember({"angle", "cosine"}));
 
   // preview -----------------------------------------------------------------------------------
   auto* prev = app.add_subcommand("preview", "Render an object headless through OpenGL with the baked texture");
@@ -193,6 +196,9 @@ int main(int argc, char** argv) {
   prev->add_option("--exposure", prev_exposure, "scale before sRGB encoding")->capture_default_str();
   prev->add_option("--table-size", prev_table, "lookup table size")->capture_default_str()->check(CLI::Range(2, 8192));
   prev->add_option("--exr", prev_exr, "also write the linear float image here");
+  std::string prev_index = "angle";
+  prev->add_option("--index", prev_index, "lookup table spacing: angle or cosine (see bake --help)")
+      ->capture_default_str()->check(CLI::IsMember({"angle", "cosine"}));
 
   // verify ------------------------------------------------------------------------------------
   auto* ver = app.add_subcommand("verify", "Render a capture's views with a material and report the error per view");
@@ -261,11 +267,11 @@ int main(int argc, char** argv) {
     }
     if (*bake) {
       const Material m = read_material(bake_mat);
-      const BakeTables t = bake_line(m, bake_size);
+      const BakeTables t = bake_line(m, bake_size, parse_index(bake_index));
       write_bake(bake_out, m, t, g_command_line);
-      std::printf("bake: %dx%d tables in %.3f s -> %s; bilinear lookup vs direct evaluation over %zu samples: max abs "
+      std::printf("bake: %dx%d tables (%s index) in %.3f s -> %s; bilinear lookup vs direct evaluation over %zu samples: max abs "
                   "%.3g, RMS %.3g (peak value %.3g)\n",
-                  bake_size, bake_size, t.seconds, bake_out.c_str(), t.samples, t.max_abs_error, t.rms_error, t.peak_value);
+                  bake_size, bake_size, index_name(t.index), t.seconds, bake_out.c_str(), t.samples, t.max_abs_error, t.rms_error, t.peak_value);
       return 0;
     }
     if (*prev) {
@@ -274,6 +280,7 @@ int main(int argc, char** argv) {
       p.fiber_field = prev_field;
       parse_size(prev_size, &p.width, &p.height);
       p.table_size = prev_table;
+      p.table_index = parse_index(prev_index) == BakeIndex::kAngle ? 1 : 0;
       if (!prev_view.empty()) p.view_dir = parse_vec(prev_view, "--view");
       if (!prev_lights.empty()) {
         p.light_dirs.clear();

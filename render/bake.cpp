@@ -14,14 +14,28 @@
 
 namespace aniso {
 
-namespace {
-double coord(int i, int n) { return -1.0 + 2.0 * i / (n - 1); }
-}  // namespace
+const char* index_name(BakeIndex i) { return i == BakeIndex::kAngle ? "angle" : "cosine"; }
 
-double lookup_bilinear(const Image& t, double a, double b, int ch) {
+BakeIndex parse_index(const std::string& name) {
+  if (name == "angle") return BakeIndex::kAngle;
+  if (name == "cosine") return BakeIndex::kCosine;
+  throw Error("bake: --index must be angle or cosine (got '" + name + "')");
+}
+
+double texel_cosine(int i, int n, BakeIndex index) {
+  if (i == n - 1) return 1.0;  // exact ends: grazing is a texel centre
+  if (i == 0) return -1.0;
+  return index == BakeIndex::kAngle ? -std::cos(M_PI * i / (n - 1)) : -1.0 + 2.0 * i / (n - 1);
+}
+
+double texel_coord(double a, int n, BakeIndex index) {
+  a = std::clamp(a, -1.0, 1.0);
+  return index == BakeIndex::kAngle ? std::acos(-a) / M_PI * (n - 1) : (a + 1.0) * 0.5 * (n - 1);
+}
+
+double lookup_bilinear(const Image& t, double a, double b, int ch, BakeIndex index) {
   const int n = t.width;
-  const double fa = (std::clamp(a, -1.0, 1.0) + 1.0) * 0.5 * (n - 1);
-  const double fb = (std::clamp(b, -1.0, 1.0) + 1.0) * 0.5 * (n - 1);
+  const double fa = texel_coord(a, n, index), fb = texel_coord(b, n, index);
   const int ia = std::min(static_cast<int>(fa), n - 2), ib = std::min(static_cast<int>(fb), n - 2);
   const double wa = fa - ia, wb = fb - ib;
   // Row = b (t coordinate), column = a (s coordinate).
@@ -29,11 +43,12 @@ double lookup_bilinear(const Image& t, double a, double b, int ch) {
          (1 - wa) * wb * t.at(ia, ib + 1, ch) + wa * wb * t.at(ia + 1, ib + 1, ch);
 }
 
-BakeTables bake_line(const Material& m, int n, uint64_t seed) {
+BakeTables bake_line(const Material& m, int n, BakeIndex index, uint64_t seed) {
   if (n < 2 || n > 8192) throw Error("bake: --size must be between 2 and 8192 (got " + std::to_string(n) + ")");
   const auto t0 = std::chrono::steady_clock::now();
   BakeTables t;
   t.size = n;
+  t.index = index;
   t.seed = seed;
   t.diffuse = Image(n, n, 1);
   t.specular = Image(n, n, 1);
@@ -41,7 +56,7 @@ BakeTables bake_line(const Material& m, int n, uint64_t seed) {
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
       double D, S;
-      line_DS(coord(i, n), coord(j, n), m.n, &D, &S);
+      line_DS(texel_cosine(i, n, index), texel_cosine(j, n, index), m.n, &D, &S);
       t.diffuse.at(i, j, 0) = static_cast<float>(D);
       t.specular.at(i, j, 0) = static_cast<float>(S);
       for (int c = 0; c < 3; ++c) t.combined.at(i, j, c) = static_cast<float>(m.kd[c] * D + m.ks[c] * S);
@@ -58,7 +73,7 @@ BakeTables bake_line(const Material& m, int n, uint64_t seed) {
     line_DS(a, b, m.n, &D, &S);
     for (int c = 0; c < 3; ++c) {
       const double ref = m.kd[c] * D + m.ks[c] * S;
-      const double err = std::abs(lookup_bilinear(t.combined, a, b, c) - ref);
+      const double err = std::abs(lookup_bilinear(t.combined, a, b, c, index) - ref);
       t.max_abs_error = std::max(t.max_abs_error, err);
       t.peak_value = std::max(t.peak_value, ref);
       sum2 += err * err;
@@ -112,14 +127,19 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t, 
         {"size", n},
         {"generated_with", command},
         {"index",
-         {{"s", "a = <L,T>: column; texel i centred on a = -1 + 2 i / (size - 1)"},
-          {"t", "b = <V,T>: row (row 0 first in the file); texel j centred on b = -1 + 2 j / (size - 1)"},
-          {"lookup", "u = ((a + 1) / 2 * (size - 1) + 0.5) / size, likewise v from b; bilinear"},
+         {{"kind", index_name(t.index)},
+          {"s", t.index == BakeIndex::kAngle ? "a = <L,T>: column; texel i centred on acos(-a) = pi i / (size - 1)"
+                                             : "a = <L,T>: column; texel i centred on a = -1 + 2 i / (size - 1)"},
+          {"t", "b = <V,T>: row (row 0 first in the file), indexed like a"},
+          {"lookup", t.index == BakeIndex::kAngle
+                         ? "s = (a + 1) / 2 from the paper's matrix (k = 1, o = 0); u = (acos(1 - 2 s) / pi * (size - 1) + "
+                           "0.5) / size, likewise v from t; bilinear"
+                         : "u = ((a + 1) / 2 * (size - 1) + 0.5) / size, likewise v from b; bilinear"},
           {"texture_matrix",
            "M = diag(k, k, 1, 1) * 1/2 [[Lx Ly Lz 1], [Vx Vy Vz 1], [0 0 0 0], [0 0 0 2]] + offset column "
            "(o, o, 0, 0), k = (size - 1) / size, o = 0.5 / size; applied to (T, 1)"},
-          {"k", sc},
-          {"o", off}}},
+          {"k", t.index == BakeIndex::kAngle ? 1.0 : sc},
+          {"o", t.index == BakeIndex::kAngle ? 0.0 : off}}},
         {"contents",
          {{"diffuse", "D(a) = sqrt(1 - a^2) (grey)"},
           {"specular", "S(a, b) = ((sqrt(1-a^2) sqrt(1-b^2) - a b)^+)^n (grey)"},

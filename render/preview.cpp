@@ -110,12 +110,16 @@ uniform sampler2D uD;
 uniform sampler2D uS;
 uniform vec3 uL; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs;
 uniform float uWeight; uniform int uUseT2;
+uniform int uAngleIndex; uniform float uTexels;
 out vec4 frag;
+const float PI = 3.14159265358979;
 void main() {
   vec3 N = normalize(vN);
   vec3 T = uUseT2 == 1 ? vT2 : vT;
   T = normalize(T - N * dot(N, T));
   vec2 st = (uTexMat * vec4(T, 1.0)).xy;
+  if (uAngleIndex == 1)  // s = (a + 1) / 2 -> texel centre of acos(-a) (render/bake.h)
+    st = (acos(clamp(1.0 - 2.0 * st, -1.0, 1.0)) / PI * (uTexels - 1.0) + 0.5) / uTexels;
   float D = texture(uD, st).r;
   float S = texture(uS, st).r;
   frag = vec4(uE * uWeight * (uKd * D + uKs * S) * max(dot(N, uL), 0.0), 1.0);
@@ -268,12 +272,15 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
       float(-V.x / (2 * ext)), float(-V.y / (2 * ext)), float(-V.z / (2 * ext)), float(dot(V, c) / (2 * ext)),
       0, 0, 0, 1};
 
-  const BakeTables tables = bake_line(m, opt.table_size);
+  const BakeIndex index = opt.table_index == 1 ? BakeIndex::kAngle : BakeIndex::kCosine;
+  const BakeTables tables = bake_line(m, opt.table_size, index);
   GLuint texD = make_table_texture(tables.diffuse), texS = make_table_texture(tables.specular);
   const GLuint p_aniso = program(kVertex, opt.plain ? kPlain : kAniso);
   const GLuint p_iso = program(kVertex, kIso);
   const GLsizei nidx = static_cast<GLsizei>(mesh.tri.size() * 3);
-  const double k = (opt.table_size - 1.0) / opt.table_size, o = 0.5 / opt.table_size;
+  // The paper's matrix; for the cosine index the texel-centre remap is folded into it.
+  const bool angle = index == BakeIndex::kAngle;
+  const double k = angle ? 1.0 : (opt.table_size - 1.0) / opt.table_size, o = angle ? 0.0 : 0.5 / opt.table_size;
 
   const GLenum one[] = {GL_COLOR_ATTACHMENT0};
   glDrawBuffers(1, one);
@@ -320,6 +327,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
         const double wgt = m.second_active() ? (lobe == 0 ? m.second_weight : 1 - m.second_weight) : 1.0;
         glUniform1f(glGetUniformLocation(p_aniso, "uWeight"), float(wgt));
         glUniform1i(glGetUniformLocation(p_aniso, "uUseT2"), lobe);
+        glUniform1i(glGetUniformLocation(p_aniso, "uAngleIndex"), angle ? 1 : 0);
+        glUniform1f(glGetUniformLocation(p_aniso, "uTexels"), float(opt.table_size));
         glDrawElements(GL_TRIANGLES, nidx, GL_UNSIGNED_INT, nullptr);
       }
       if (m.isotropic_active() && !opt.plain) {
@@ -371,8 +380,13 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
           max_step = std::max(max_step, double(std::abs(tables.combined.at(j, i + 1, ch) - tables.combined.at(j, i, ch))));
         }
     constexpr double kFilterWeightStep = 1.0 / 256.0, kFloatSlack = 1e-5;
+    // The angle index's acos in single precision: near |x| = 1 an input rounding of 2^-24 moves
+    // acos by up to sqrt(2 * 2^-24) = 3.5e-4 rad, i.e. that many texels times (N - 1) / pi.
+    const double acos_texels = angle ? std::sqrt(2.0 * std::ldexp(1.0, -24)) * (opt.table_size - 1) / M_PI : 0.0;
     const int lobes = m.second_active() ? 2 : 1;
-    res.error_bound = opt.light_dirs.size() * lobes * (tables.max_abs_error + 2 * max_step * kFilterWeightStep) + kFloatSlack;
+    res.error_bound = opt.light_dirs.size() * lobes *
+                          (tables.max_abs_error + 2 * max_step * (kFilterWeightStep + acos_texels)) +
+                      kFloatSlack;
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
         if (!res.covered[static_cast<size_t>(y) * w + x]) continue;

@@ -20,6 +20,7 @@ struct PreviewOptions {
   ShapeOptions shape_options;
   int width = 512, height = 512;
   int table_size = 256;
+  int table_index = 1;  // 1 = angle index (default), 0 = the paper's cosine index (render/bake.h)
   Vec3 view_dir{0.0, -0.8, 0.6};             // toward the viewer
   std::vector<Vec3> light_dirs{{0.7, -0.2, 0.7}};  // toward each light; irradiance 1 each
   bool reference = false;  // also evaluate the model directly per pixel (CPU) for comparison

@@ -27,26 +27,32 @@ Material satin() {
 
 TEST(Bake, TexelCentresHoldExactValues) {
   const Material m = satin();
-  const BakeTables t = bake_line(m, 65);
-  for (int j = 0; j < 65; j += 7)
-    for (int i = 0; i < 65; i += 5) {
-      const double a = -1 + 2.0 * i / 64, b = -1 + 2.0 * j / 64;
-      double D, S;
-      line_DS(a, b, m.n, &D, &S);
-      EXPECT_NEAR(lookup_bilinear(t.combined, a, b, 0), m.kd[0] * D + m.ks[0] * S, 1e-6);
-    }
-  // Grazing a = ±1 is a texel centre, not an extrapolation: D = 0 there.
-  EXPECT_NEAR(lookup_bilinear(t.diffuse, 1.0, 0.3, 0), 0.0, 1e-7);
+  for (BakeIndex index : {BakeIndex::kAngle, BakeIndex::kCosine}) {
+    const BakeTables t = bake_line(m, 65, index);
+    for (int j = 0; j < 65; j += 7)
+      for (int i = 0; i < 65; i += 5) {
+        const double a = texel_cosine(i, 65, index), b = texel_cosine(j, 65, index);
+        double D, S;
+        line_DS(a, b, m.n, &D, &S);
+        EXPECT_NEAR(lookup_bilinear(t.combined, a, b, 0, index), m.kd[0] * D + m.ks[0] * S, 1e-6);
+      }
+    // Grazing a = ±1 is a texel centre, not an extrapolation: D = 0 there.
+    EXPECT_NEAR(lookup_bilinear(t.diffuse, 1.0, 0.3, 0, index), 0.0, 1e-7);
+  }
 }
 
-TEST(Bake, ErrorShrinksWithTableSize) {
+TEST(Bake, ErrorShrinksWithTableSizeAndAngleIndexBeatsCosine) {
   Material m = satin();
   m.n = 500;  // a sharp lobe is the hard case
-  const double e64 = bake_line(m, 64).max_abs_error, e256 = bake_line(m, 256).max_abs_error,
-               e1024 = bake_line(m, 1024).max_abs_error;
-  std::printf("n=500 max abs error: 64: %.3g  256: %.3g  1024: %.3g\n", e64, e256, e1024);
-  EXPECT_LT(e256, e64);
-  EXPECT_LT(e1024, e256);
+  double prev = 1e9;
+  for (int size : {64, 256, 1024}) {
+    const double ea = bake_line(m, size, BakeIndex::kAngle).max_abs_error;
+    const double ec = bake_line(m, size, BakeIndex::kCosine).max_abs_error;
+    std::printf("n=500, %4d^2: max abs error angle index %.3g, cosine index %.3g\n", size, ea, ec);
+    EXPECT_LT(ea, prev);
+    EXPECT_LT(ea, ec);
+    prev = ea;
+  }
 }
 
 TEST(Bake, WritesTablesAndSidecar) {
