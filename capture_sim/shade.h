@@ -15,8 +15,9 @@ struct ShadeCounters {
 
 template <class Occluded>
 void shade_point(const Evaluator& eval, const SurfacePoint& sp, const Vec3& eye,
-                 const std::vector<Light>& lights, const RGB& ambient_term, Occluded&& occluded,
-                 double I[3], ShadeCounters* cnt, std::vector<uint8_t>* light_used = nullptr) {
+                 const std::vector<Light>& lights, const RGB& ambient_term, double topology_s,
+                 Occluded&& occluded, double I[3], ShadeCounters* cnt,
+                 std::vector<uint8_t>* light_used = nullptr) {
   const LocalDir Vl = to_local(sp, normalize(eye - sp.P));
   for (int c = 0; c < 3; ++c) I[c] = ambient_term[c];
   for (size_t li = 0; li < lights.size(); ++li) {
@@ -31,7 +32,7 @@ void shade_point(const Evaluator& eval, const SurfacePoint& sp, const Vec3& eye,
     }
     if (occluded(sp, L, dist, cnt)) continue;
     double f[3];
-    eval(Ll, Vl, f);
+    eval(Ll, Vl, f, topology_s);
     ++cnt->light_evals;
     if (light_used) (*light_used)[li] = 1;
     for (int c = 0; c < 3; ++c) I[c] += E[c] * f[c];

@@ -109,8 +109,9 @@ namespace {
 
 Vec3 px3(const Image& im, int x, int y) { return {im.at(x, y, 0), im.at(x, y, 1), im.at(x, y, 2)}; }
 
-// Noise-free radiance image of one view (exposure 1), shading every hit pixel.
-Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, const Vec3& eye,
+// Noise-free radiance image of one view (exposure 1), shading every hit pixel. `topo` holds the
+// topology value s of each pixel (fiber model).
+Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, const Image& topo, const Vec3& eye,
                  const std::vector<Light>& lights, const RGB& ambient, const RayScene& scene,
                  std::atomic<size_t>* shadow_rays, std::atomic<size_t>* light_evals,
                  std::vector<uint8_t>* light_used) {
@@ -136,7 +137,7 @@ Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g,
         if (!make_frame(px3(g.P, x, y), px3(g.N, x, y), px3(g.U, x, y), &sp)) continue;
         double I[3];
         shade_point(eval, sp, eye, lights, {truth.ka[0] * ambient[0], truth.ka[1] * ambient[1], truth.ka[2] * ambient[2]},
-                    occluded, I, &cnt, &local_used);
+                    topo.at(x, y, 0), occluded, I, &cnt, &local_used);
         for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(I[c]);
       }
     *shadow_rays += cnt.shadow_rays;
@@ -155,6 +156,24 @@ double srgb_encode(double v) {
 }
 
 }  // namespace
+
+double mathematical_topology_at(const std::string& kind, const Vec3& P, const ShapeOptions& shape) {
+  if (kind == "torus") {
+    const double rho = std::sqrt(P.x * P.x + P.y * P.y);
+    return torus_mathematical_s(shape.torus_R, shape.torus_r, std::atan2(P.z, rho - shape.torus_R));
+  }
+  if (kind == "sphere") {
+    // Meridian fibers are compressed by 1/sin(polar angle) away from the equator; the same
+    // in-cycle rule as the torus: c' = c / 2^floor(log2 c), theta = acos(1/c').
+    const double sin_polar = std::sqrt(P.x * P.x + P.y * P.y) / std::max(length(P), 1e-12);
+    // Closer to the pole than this the compression is unbounded: the row is close packed.
+    constexpr double kPoleSin = 1e-6;
+    const double c = 1.0 / std::max(sin_polar, kPoleSin);
+    const double cp = c / std::pow(2.0, std::floor(std::log2(c)));
+    return std::acos(1.0 / cp) / kMaxClimbRad;
+  }
+  return 0.0;
+}
 
 SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -178,7 +197,32 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   for (const auto& v : opt.rig)
     if (v.world_from_camera.m != opt.rig[0].world_from_camera.m) fixed_camera = false;
 
+  if (opt.truth.model == "fiber" && opt.truth.has_topology_map && opt.topology_map.empty())
+    throw Error("capture_sim: the material uses a topology map but none was given");
+  if (opt.mathematical_topology != "none" && opt.mathematical_topology != "torus" && opt.mathematical_topology != "sphere")
+    throw Error("capture_sim: mathematical topology must be none, torus or sphere");
+  // The map as the set will store it (16-bit), so the fit sees exactly what was rendered.
+  TopologyMap map;
+  if (!opt.topology_map.empty()) {
+    map.h = opt.topology_map;
+    for (float& v : map.h.px) v = static_cast<float>(std::round(std::clamp(v, 0.f, 1.f) * 65535.0) / 65535.0);
+  }
+  // Per-pixel topology s_math (written as the `topology` buffer) and s (used for shading).
+  auto topology_images = [&](const GBuffer& g, Image* smath, Image* s) {
+    *smath = Image(g.P.width, g.P.height, 1, 0.f);
+    *s = Image(g.P.width, g.P.height, 1, static_cast<float>(opt.truth.topology_s));
+    for (int y = 0; y < g.P.height; ++y)
+      for (int x = 0; x < g.P.width; ++x) {
+        if (!g.hit[static_cast<size_t>(y) * g.P.width + x]) continue;
+        const float sm = static_cast<float>(
+            mathematical_topology_at(opt.mathematical_topology, px3(g.P, x, y), opt.shape_options));
+        smath->at(x, y, 0) = sm;
+        const double m = map.h.empty() ? 0.0 : map.sample(g.uv.at(x, y, 0), g.uv.at(x, y, 1));
+        s->at(x, y, 0) = static_cast<float>(opt.truth.topology_at(sm, m));
+      }
+  };
   std::vector<GBuffer> gbuffers;
+  std::vector<Image> smaths, topos;
   std::vector<Image> radiance;
   std::atomic<size_t> shadow_rays{0}, light_evals{0};
   {
@@ -187,10 +231,13 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       if (i == 0 || !fixed_camera) {
         gbuffers.push_back(scene.trace(opt.camera, opt.rig[i].world_from_camera, opt.fiber_field));
         st.primary_rays += gbuffers.back().rays;
+        smaths.emplace_back();
+        topos.emplace_back();
+        topology_images(gbuffers.back(), &smaths.back(), &topos.back());
       }
       const GBuffer& g = gbuffers.back();
       std::vector<uint8_t> used;
-      radiance.push_back(shade_view(eval, opt.truth, g, opt.rig[i].world_from_camera.translation(), opt.rig[i].lights,
+      radiance.push_back(shade_view(eval, opt.truth, g, topos.back(), opt.rig[i].world_from_camera.translation(), opt.rig[i].lights,
                                     opt.ambient, scene, &shadow_rays, &light_evals, &used));
       for (uint8_t u : used) st.lights_culled += u ? 0 : 1;
       for (uint8_t hit : g.hit) st.shaded_pixels += hit;
@@ -220,7 +267,11 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   set.truth = "truth.json";
 
   write_folder_atomically(out_dir, [&](const std::string& dir) {
-    auto geometry_files = [&](const GBuffer& g, const std::string& stem) {
+    if (!map.h.empty()) {
+      set.topology_map = "maps/topology.png";
+      write_png(join_path(dir, set.topology_map), map.h, 16);
+    }
+    auto geometry_files = [&](const GBuffer& g, const Image& smath, const std::string& stem) {
       GeometrySpec gs;
       gs.position = "geometry/" + stem + "_P.exr";
       gs.normal = "geometry/" + stem + "_N.exr";
@@ -234,9 +285,13 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       Image m(g.P.width, g.P.height, 1);
       for (size_t p = 0; p < g.hit.size(); ++p) m.px[p] = g.hit[p] ? 1.f : 0.f;
       write_png(join_path(dir, gs.mask), m, 8);
+      if (opt.mathematical_topology != "none") {
+        gs.topology = "geometry/" + stem + "_topology.exr";
+        write_exr(join_path(dir, gs.topology), smath);
+      }
       return gs;
     };
-    if (fixed_camera) set.geometry = geometry_files(gbuffers[0], "all");
+    if (fixed_camera) set.geometry = geometry_files(gbuffers[0], smaths[0], "all");
     Progress bar("capture_sim: writing", opt.rig.size(), opt.progress);
     for (size_t i = 0; i < opt.rig.size(); ++i) {
       char stem[32];
@@ -246,7 +301,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       v.lights = opt.rig[i].lights;
       v.exposure = exposure;
       v.camera = opt.camera;
-      if (!fixed_camera) v.geometry = geometry_files(gbuffers[i], stem);
+      if (!fixed_camera) v.geometry = geometry_files(gbuffers[i], smaths[i], stem);
       // One generator per view, seeded from (seed, view): the same set whatever the threading.
       std::seed_seq seq{static_cast<uint32_t>(opt.seed), static_cast<uint32_t>(opt.seed >> 32), static_cast<uint32_t>(i)};
       std::mt19937_64 rng(seq);
@@ -276,7 +331,9 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       bar.advance();
     }
     jsonu::json truth;
-    material_to_json(opt.truth, &truth);
+    Material truth_m = opt.truth;
+    if (truth_m.has_topology_map) truth_m.topology_map = set.topology_map;
+    material_to_json(truth_m, &truth);
     write_json_file(join_path(dir, "truth.json"), truth);
     st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     jsonu::json gen = {{"tool", "aniso capture_sim"},
@@ -288,6 +345,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
                        {"shot_photons", opt.sensor.shot_photons},
                        {"bits", opt.sensor.bits},
                        {"white_level", white},
+                       {"mathematical_topology", opt.mathematical_topology},
                        {"counters",
                         {{"primary_rays", st.primary_rays},
                          {"shadow_rays", st.shadow_rays},

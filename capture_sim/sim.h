@@ -48,7 +48,17 @@ struct SimOptions {
   uint64_t seed = 1;
   std::string preset;  // recorded in the set
   bool progress = true;
+  // Fiber model topology. "torus" / "sphere": the per-pixel mathematical topology s_math of that
+  // shape is written as the `topology` buffer. A non-empty map (values h in [0, 1]) is stored as
+  // maps/topology.png (16-bit) and named by the set's "topology_map".
+  std::string mathematical_topology = "none";
+  Image topology_map;
 };
+
+// The mathematical topology s_math at a point of a named shape (MODELS.md §4): "torus" (radii
+// R, r, axis z) or "sphere" (fibers along meridians, compressed by 1/sin(polar angle)); 0 for
+// "none".
+double mathematical_topology_at(const std::string& kind, const Vec3& P, const ShapeOptions& shape);
 
 struct SimStats {
   size_t views = 0, primary_rays = 0, shadow_rays = 0, shaded_pixels = 0, light_evals = 0;

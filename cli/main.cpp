@@ -65,11 +65,22 @@ void print_report(const FitResult& r) {
               p.iterations, p.termination.c_str(), p.loss.c_str(), p.rms, p.seconds, p.seconds_load, p.seconds_start,
               p.seconds_solve, p.seconds_covariance);
   for (const auto& [k, why] : r.undetermined) std::printf("fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());
+  if (!p.model_selection.empty()) std::printf("fit: --model auto: %s\n", p.model_selection.c_str());
 }
 
 void print_material(const Material& m) {
-  std::printf("  kd = [%.5f, %.5f, %.5f]  ks = [%.5f, %.5f, %.5f]  n = %.4g  fiber_angle_deg = %.3f\n", m.kd[0], m.kd[1],
-              m.kd[2], m.ks[0], m.ks[1], m.ks[2], m.n, m.fiber_angle_deg);
+  std::printf("  model %s: kd = [%.5f, %.5f, %.5f]  ks = [%.5f, %.5f, %.5f]  n = %.4g  fiber_angle_deg = %.3f",
+              m.model.c_str(), m.kd[0], m.kd[1], m.kd[2], m.ks[0], m.ks[1], m.ks[2], m.n, m.fiber_angle_deg);
+  if (m.model == "fiber") {
+    if (m.has_topology_map)
+      std::printf("  topology map %s, amplitude %.4f over %s", m.topology_map.c_str(), m.topology_amplitude,
+                  m.topology_mathematical.c_str());
+    else if (m.topology_mathematical == "none")
+      std::printf("  topology s = %.4f", m.topology_s);
+    else
+      std::printf("  topology: %s (per-pixel buffer)", m.topology_mathematical.c_str());
+  }
+  std::printf("\n");
 }
 
 int run_fit(const std::string& input, const FitOptions& fo, const std::string& out, const std::string& truth_path) {
@@ -144,6 +155,11 @@ int main(int argc, char** argv) {
   synth->add_option("--encoding", po.encoding, "PNG encoding")->capture_default_str()->check(CLI::IsMember({"linear", "srgb"}));
   synth->add_option("--rig", po.rig, "fixed-camera, orbit, or a rig JSON file (default: the preset's)");
   synth->add_option("--truth", truth_override, "use this material file as the ground truth instead");
+  synth->add_option("--topology-s", po.topology_s, "fiber-flat: the sample's topology value s")
+      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  synth->add_option("--topology-map", po.topology_map_file, "silk-torus: topology map image (default: seeded noise)");
+  synth->add_option("--amplitude", po.topology_amplitude, "silk-torus: topology map amplitude A")
+      ->capture_default_str()->check(CLI::Range(-2.0, 2.0));
 
   // fit ---------------------------------------------------------------------------------------
   auto* fit = app.add_subcommand("fit", "Fit model parameters to a capture set or a sample table (CSV)");
@@ -219,11 +235,14 @@ int main(int argc, char** argv) {
     if (*params) {
       std::printf("%-24s %-8s %4s %10s %10s %8s %5s %8s %s\n", "key", "symbol", "dims", "min", "max", "default", "unit",
                   "periodic", "meaning");
-      for (const auto& p : kLineParams)
+      auto print = [](const ParamSpec& p, const char* model) {
         std::printf("%-24s %-8s %4d %10g %10g %8g %5s %8s %s\n", std::string(p.key).c_str(),
                     std::string(p.symbol).c_str(), p.dims, p.lo, p.hi, p.def,
                     p.unit.empty() ? "-" : std::string(p.unit).c_str(), p.periodic ? "yes" : "no",
-                    std::string(p.doc).c_str());
+                    (std::string(p.doc) + model).c_str());
+      };
+      for (const auto& p : kLineParams) print(p, "");
+      for (const auto& p : kFiberParams) print(p, " [fiber model]");
       return 0;
     }
     if (*synth) {
@@ -244,11 +263,6 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*fit) {
-      if (fo.model == "auto") {
-        std::printf("fit: --model auto: only the line model is implemented so far (the fiber model is issue 3); "
-                    "fitting line\n");
-        fo.model = "line";
-      }
       return run_fit(fit_in, fo, fit_out, fit_truth);
     }
     if (*eval) {
@@ -257,7 +271,10 @@ int main(int argc, char** argv) {
       const Evaluator ev(m);
       for (auto& row : t.rows) {
         double f[3];
-        ev(dir_from_angles(row.theta_i, row.phi_i), dir_from_angles(row.theta_o, row.phi_o), f);
+        if (t.has_s)
+          ev(dir_from_angles(row.theta_i, row.phi_i), dir_from_angles(row.theta_o, row.phi_o), f, row.s);
+        else
+          ev(dir_from_angles(row.theta_i, row.phi_i), dir_from_angles(row.theta_o, row.phi_o), f);
         for (int c = 0; c < 3; ++c) row.value[c] = f[c];
       }
       t.values = SampleTable::Values::kRGB;

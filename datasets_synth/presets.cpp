@@ -5,6 +5,7 @@
 
 #include "core/error.h"
 #include "io/files.h"
+#include "io/image_io.h"
 
 namespace aniso {
 
@@ -16,8 +17,39 @@ const std::vector<std::pair<std::string, std::string>>& preset_list() {
       {"radial-disc", "disc with radial fibers (Heidrich & Seidel fig. 1, right)"},
       {"woven-cloth", "flat sample with two perpendicular fiber directions (seed 000 §4)"},
       {"random", "flat sample with a random line-model material drawn from --seed"},
+      {"silk-torus", "fiber model: silk wound around a torus (R = 1, r = 0.6), mathematical topology + topology map "
+                     "(Hast's test object)"},
+      {"fiber-flat", "fiber model: flat sample with topology value --topology-s"},
+      {"satin-sphere-fiber", "fiber model: sphere with meridian fibers that climb toward the poles"},
   };
   return list;
+}
+
+Image procedural_topology_map(int size, uint64_t seed) {
+  // Three octaves of bilinear value noise on tileable lattices (8, 16, 32 cells), normalised.
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Image img(size, size, 1);
+  double amp = 1.0;
+  for (int cells : {8, 16, 32}) {
+    std::vector<double> lattice(static_cast<size_t>(cells) * cells);
+    for (double& v : lattice) v = u(rng);
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x) {
+        const double fx = double(x) / size * cells, fy = double(y) / size * cells;
+        const int x0 = int(fx), y0 = int(fy);
+        const double tx = fx - x0, ty = fy - y0;
+        const double sx = tx * tx * (3 - 2 * tx), sy = ty * ty * (3 - 2 * ty);
+        auto L = [&](int i, int j) { return lattice[static_cast<size_t>(j % cells) * cells + (i % cells)]; };
+        img.at(x, y, 0) += static_cast<float>(amp * ((1 - sx) * (1 - sy) * L(x0, y0) + sx * (1 - sy) * L(x0 + 1, y0) +
+                                                     (1 - sx) * sy * L(x0, y0 + 1) + sx * sy * L(x0 + 1, y0 + 1)));
+      }
+    amp *= 0.5;
+  }
+  float lo = 1e9f, hi = -1e9f;
+  for (float v : img.px) lo = std::min(lo, v), hi = std::max(hi, v);
+  for (float& v : img.px) v = (v - lo) / std::max(hi - lo, 1e-6f);
+  return img;
 }
 
 Material random_material(uint64_t seed) {
@@ -88,6 +120,55 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
     m.has_second_fiber = true;
     m.second_angle_deg = 100.0;
     m.second_weight = 0.65;
+  } else if (name == "silk-torus") {
+    o.shape = "torus";
+    o.shape_options.torus_R = 1.0;
+    o.shape_options.torus_r = 0.6;  // outside 4x longer than inside: fibers climb twice (Hast)
+    radius = 1.6;
+    camera_polar = 40.0;
+    m.model = "fiber";
+    m.kd = {0.30, 0.22, 0.06};
+    m.ks = {0.55, 0.50, 0.35};
+    m.n = 30.0;
+    m.fiber_angle_deg = 90.0;  // wound around the tube: perpendicular to dP/du (toroidal)
+    m.has_topology = true;
+    m.has_topology_map = true;
+    m.topology_amplitude = po.topology_amplitude;
+    m.topology_mathematical = "torus";
+    o.mathematical_topology = "torus";
+    if (po.topology_map_file.empty()) {
+      o.topology_map = procedural_topology_map(256, po.seed);
+    } else {
+      o.topology_map = read_image(po.topology_map_file).image;
+      if (o.topology_map.channels > 1) {  // first channel only
+        Image first(o.topology_map.width, o.topology_map.height, 1);
+        for (size_t p = 0; p < first.px.size(); ++p) first.px[p] = o.topology_map.px[p * o.topology_map.channels];
+        o.topology_map = first;
+      }
+    }
+  } else if (name == "fiber-flat") {
+    o.shape = "flat";
+    radius = std::sqrt(2.0);
+    m.model = "fiber";
+    m.kd = {0.25, 0.18, 0.12};
+    m.ks = {0.50, 0.50, 0.50};
+    m.n = 40.0;
+    m.fiber_angle_deg = 30.0;
+    m.has_topology = true;
+    if (po.topology_s < 0 || po.topology_s > 1) throw Error("synth: --topology-s must be in [0, 1]");
+    m.topology_s = po.topology_s;
+  } else if (name == "satin-sphere-fiber") {
+    o.shape = "sphere";
+    o.fiber_field = "meridian";
+    camera_polar = 60.0;
+    m.model = "fiber";
+    m.kd = {0.30, 0.04, 0.08};
+    m.ks = {0.45, 0.40, 0.40};
+    m.n = 25.0;
+    m.fiber_angle_deg = 0.0;
+    m.has_topology = true;
+    m.topology_mathematical = "sphere";
+    o.mathematical_topology = "sphere";
   } else if (name == "random") {
     o.shape = "flat";
     radius = std::sqrt(2.0);

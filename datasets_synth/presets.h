@@ -20,7 +20,14 @@ struct PresetOptions {
   std::string rig;           // "" = the preset's own, "fixed-camera", "orbit", or a rig JSON file
   uint64_t seed = 1;
   bool progress = true;
+  // Fiber-model presets.
+  double topology_s = 0.3;        // fiber-flat: the sample's topology value
+  std::string topology_map_file;  // silk-torus: any image (first channel = h); default procedural
+  double topology_amplitude = 0.25;
 };
+
+// A tileable, seeded value-noise map (h in [0, 1]) for topology maps.
+Image procedural_topology_map(int size, uint64_t seed);
 
 // (name, description) of every preset.
 const std::vector<std::pair<std::string, std::string>>& preset_list();

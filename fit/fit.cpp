@@ -13,6 +13,8 @@
 #include "core/progress.h"
 #include "io/json_util.h"
 #include "io/material_io.h"
+#include "io/files.h"
+#include "models/fiber_model.h"
 #include "models/line_model.h"
 #include "models/params.h"
 
@@ -36,10 +38,16 @@ struct Observation {
   uint32_t first_light = 0, num_lights = 0;
   double y[3];     // measured value
   double base[3];  // known constant part (ambient times k_a, which is not fitted)
+  double smath = 0, mapv = 0;  // fiber model: mathematical topology and map value at the pixel
 };
+// How the fiber model's topology enters: one s for the whole sample, the map amplitude A on top
+// of per-pixel s_math and map values, or s_math alone (nothing to fit).
+enum class TopologyMode { kGlobalS, kAmplitude, kMathematical };
 struct ObsSet {
   std::vector<Observation> obs;
   std::vector<ObsLight> lights;
+  TopologyMode topology = TopologyMode::kGlobalS;
+  std::string topology_map, topology_mathematical = "none";  // recorded in the result
   bool grey = false;  // a grey table: the three channels repeat one value
 };
 
@@ -95,6 +103,49 @@ struct LineResidual {
   const ObsLight* lights;
 };
 
+// The fiber model's residual (MODELS.md §4): blocks kd 3, ks 3, log n 1, psi 1, topology 1
+// (s, or the map amplitude A, or a constant dummy).
+struct FiberResidual {
+  FiberResidual(const Observation* o, const ObsLight* l, TopologyMode m, FiberAccuracy a)
+      : obs(o), lights(l), mode(m), acc(a) {}
+
+  template <class T>
+  bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* topo, T* r) const {
+    using std::exp;
+    LineParamsT<T> p;
+    for (int k = 0; k < 3; ++k) {
+      p.kd[k] = kd[k];
+      p.ks[k] = ks[k];
+    }
+    p.n = exp(logn[0]);
+    p.psi = psi[0];
+    T s;
+    switch (mode) {
+      case TopologyMode::kGlobalS: s = topo[0]; break;
+      case TopologyMode::kAmplitude: s = topology_with_map(obs->smath, topo[0], obs->mapv); break;
+      default: s = T(obs->smath); break;
+    }
+    T acc3[3] = {T(obs->base[0]), T(obs->base[1]), T(obs->base[2])};
+    for (uint32_t i = 0; i < obs->num_lights; ++i) {
+      const ObsLight& l = lights[obs->first_light + i];
+      T f[3];
+      fiber_reflectance(p, s, l.L, obs->V, acc, f);
+      for (int k = 0; k < 3; ++k) acc3[k] += l.E[k] * f[k];
+    }
+    for (int k = 0; k < 3; ++k) r[k] = acc3[k] - obs->y[k];
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Observation* o, const ObsLight* l, TopologyMode m, FiberAccuracy a) {
+    return new ceres::AutoDiffCostFunction<FiberResidual, 3, 3, 3, 1, 1, 1>(new FiberResidual(o, l, m, a));
+  }
+
+  const Observation* obs;
+  const ObsLight* lights;
+  TopologyMode mode;
+  FiberAccuracy acc;
+};
+
 // psi lives on the circle of period pi (the model is unchanged under T -> -T, MODELS.md §1).
 class HalfTurnManifold : public ceres::Manifold {
  public:
@@ -128,13 +179,70 @@ struct State {
   double logn = std::log(20.0), psi = 0.0;
   double iso[7] = {0.01, 0.01, 0.01, 0.01, 0.01, 0.01, std::log(20.0)};
   double sec[2] = {M_PI / 2, 0.5};
+  double topo[1] = {0.5};  // fiber model: s or the map amplitude A
   double dummy_iso[1] = {0}, dummy_sec[1] = {0};
 };
 
-// Start: grid over psi (5 degree steps) and n (powers of 2 from 2 to 4096); at each node k_d and
-// k_s are linear, solved per channel by non-negative 2x2 least squares on a strided subset.
+// At fixed (psi, n[, topology]) the model is linear in k_d and k_s: per channel, the 2x2
+// non-negative least-squares problem on the columns cols(o) -> (diffuse, specular) is solved in
+// closed form (unconstrained, k_d only, k_s only; best non-negative). Returns the sum of squares.
+template <class Cols>
+double solve_kd_ks(const ObsSet& os, size_t stride, Cols cols, double kd[3], double ks[3]) {
+  double dd[3] = {0, 0, 0}, ds[3] = {0, 0, 0}, ss[3] = {0, 0, 0}, dy[3] = {0, 0, 0}, sy[3] = {0, 0, 0},
+         yy[3] = {0, 0, 0};
+  for (size_t i = 0; i < os.obs.size(); i += stride) {
+    const Observation& o = os.obs[i];
+    double dcol[3] = {0, 0, 0}, scol[3] = {0, 0, 0};
+    cols(o, dcol, scol);
+    for (int ch = 0; ch < 3; ++ch) {
+      const double y = o.y[ch] - o.base[ch];
+      dd[ch] += dcol[ch] * dcol[ch];
+      ds[ch] += dcol[ch] * scol[ch];
+      ss[ch] += scol[ch] * scol[ch];
+      dy[ch] += dcol[ch] * y;
+      sy[ch] += scol[ch] * y;
+      yy[ch] += y * y;
+    }
+  }
+  double cost = 0;
+  for (int ch = 0; ch < 3; ++ch) {
+    auto sse = [&](double a, double b) {
+      return yy[ch] - 2 * a * dy[ch] - 2 * b * sy[ch] + a * a * dd[ch] + 2 * a * b * ds[ch] + b * b * ss[ch];
+    };
+    double ba = 0, bb = 0, bc = sse(0, 0);
+    const double det = dd[ch] * ss[ch] - ds[ch] * ds[ch];
+    if (det > 1e-300) {
+      const double a = (dy[ch] * ss[ch] - sy[ch] * ds[ch]) / det, b = (sy[ch] * dd[ch] - dy[ch] * ds[ch]) / det;
+      if (a >= 0 && b >= 0 && sse(a, b) < bc) ba = a, bb = b, bc = sse(a, b);
+    }
+    if (dd[ch] > 0) {
+      const double a = std::max(dy[ch] / dd[ch], 0.0);
+      if (sse(a, 0) < bc) ba = a, bb = 0, bc = sse(a, 0);
+    }
+    if (ss[ch] > 0) {
+      const double b = std::max(sy[ch] / ss[ch], 0.0);
+      if (sse(0, b) < bc) ba = 0, bb = b, bc = sse(0, b);
+    }
+    kd[ch] = ba;
+    ks[ch] = bb;
+    cost += bc;
+  }
+  return cost;
+}
+
+constexpr size_t kMaxStartObs = 4000;  // the start and stage 1 use at most this many pixels
+
+void set_start_kd_ks(const double kd[3], const double ks[3], State* st) {
+  for (int ch = 0; ch < 3; ++ch) {
+    // Keep the start strictly inside the bounds so the solver can move both ways.
+    st->kd[ch] = std::max(kd[ch], 1e-4);
+    st->ks[ch] = std::max(ks[ch], 1e-4);
+  }
+}
+
+// Start: grid over psi (5 degree steps) and n (powers of 2 from 2 to 4096) with the line model's
+// lobe (the fiber model's peaks sit at the same place); k_d, k_s solved at every node.
 std::string grid_start(const ObsSet& os, State* st) {
-  constexpr size_t kMaxStartObs = 4000;
   const size_t stride = std::max<size_t>(1, os.obs.size() / kMaxStartObs);
   double best = std::numeric_limits<double>::infinity();
   double best_psi = 0, best_logn = 0, best_kd[3] = {0, 0, 0}, best_ks[3] = {0, 0, 0};
@@ -143,57 +251,19 @@ std::string grid_start(const ObsSet& os, State* st) {
     const double c = std::cos(psi), s = std::sin(psi);
     for (int in = 1; in <= 12; ++in) {
       const double n = std::pow(2.0, in);
-      // Normal equations per channel: [dd ds; ds ss] [kd ks]' = [dy sy]'.
-      double dd[3] = {0, 0, 0}, ds[3] = {0, 0, 0}, ss[3] = {0, 0, 0}, dy[3] = {0, 0, 0}, sy[3] = {0, 0, 0},
-             yy[3] = {0, 0, 0};
-      for (size_t i = 0; i < os.obs.size(); i += stride) {
-        const Observation& o = os.obs[i];
-        double dcol[3] = {0, 0, 0}, scol[3] = {0, 0, 0};
+      double kd[3], ks[3];
+      const double cost = solve_kd_ks(os, stride, [&](const Observation& o, double* dcol, double* scol) {
         const double b = c * o.V.u + s * o.V.w;
         for (uint32_t k = 0; k < o.num_lights; ++k) {
           const ObsLight& l = os.lights[o.first_light + k];
-          const double a = c * l.L.u + s * l.L.w;
           double D, S;
-          line_DS(a, b, n, &D, &S);
+          line_DS(c * l.L.u + s * l.L.w, b, n, &D, &S);
           for (int ch = 0; ch < 3; ++ch) {
             dcol[ch] += l.E[ch] * l.L.n * D;
             scol[ch] += l.E[ch] * l.L.n * S;
           }
         }
-        for (int ch = 0; ch < 3; ++ch) {
-          const double y = o.y[ch] - o.base[ch];
-          dd[ch] += dcol[ch] * dcol[ch];
-          ds[ch] += dcol[ch] * scol[ch];
-          ss[ch] += scol[ch] * scol[ch];
-          dy[ch] += dcol[ch] * y;
-          sy[ch] += scol[ch] * y;
-          yy[ch] += y * y;
-        }
-      }
-      double cost = 0, kd[3], ks[3];
-      for (int ch = 0; ch < 3; ++ch) {
-        // Candidates: unconstrained, kd only, ks only; keep the best non-negative one.
-        auto sse = [&](double a, double b) {
-          return yy[ch] - 2 * a * dy[ch] - 2 * b * sy[ch] + a * a * dd[ch] + 2 * a * b * ds[ch] + b * b * ss[ch];
-        };
-        double ba = 0, bb = 0, bc = sse(0, 0);
-        const double det = dd[ch] * ss[ch] - ds[ch] * ds[ch];
-        if (det > 1e-300) {
-          const double a = (dy[ch] * ss[ch] - sy[ch] * ds[ch]) / det, b = (sy[ch] * dd[ch] - dy[ch] * ds[ch]) / det;
-          if (a >= 0 && b >= 0 && sse(a, b) < bc) ba = a, bb = b, bc = sse(a, b);
-        }
-        if (dd[ch] > 0) {
-          const double a = std::max(dy[ch] / dd[ch], 0.0);
-          if (sse(a, 0) < bc) ba = a, bb = 0, bc = sse(a, 0);
-        }
-        if (ss[ch] > 0) {
-          const double b = std::max(sy[ch] / ss[ch], 0.0);
-          if (sse(0, b) < bc) ba = 0, bb = b, bc = sse(0, b);
-        }
-        kd[ch] = ba;
-        ks[ch] = bb;
-        cost += bc;
-      }
+      }, kd, ks);
       if (cost < best) {
         best = cost;
         best_psi = psi;
@@ -205,16 +275,63 @@ std::string grid_start(const ObsSet& os, State* st) {
   }
   st->psi = best_psi;
   st->logn = best_logn;
-  for (int ch = 0; ch < 3; ++ch) {
-    // Keep the start strictly inside the bounds so the solver can move both ways.
-    st->kd[ch] = std::max(best_kd[ch], 1e-4);
-    st->ks[ch] = std::max(best_ks[ch], 1e-4);
-  }
+  set_start_kd_ks(best_kd, best_ks, st);
   st->sec[0] = HalfTurnManifold::wrap(best_psi + M_PI / 2);
   char buf[160];
   std::snprintf(buf, sizeof buf, "grid psi=%.1f deg, n=%.0f (36 x 12 nodes on %zu pixels)", best_psi * 180 / M_PI,
                 std::exp(best_logn), (os.obs.size() + stride - 1) / stride);
   return buf;
+}
+
+// Fiber model start: from the line grid's (psi, n), a grid over the topology (s in 0.05..0.95,
+// or A in -1..1) and n around the line value, k_d, k_s solved in closed form at every node.
+std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* st) {
+  std::string line = grid_start(os, st);
+  const size_t stride = std::max<size_t>(1, os.obs.size() / kMaxStartObs);
+  std::vector<double> topo_values;
+  if (os.topology == TopologyMode::kGlobalS)
+    for (int i = 0; i < 10; ++i) topo_values.push_back(0.05 + 0.1 * i);
+  else if (os.topology == TopologyMode::kAmplitude)
+    for (int i = 0; i <= 8; ++i) topo_values.push_back(-1.0 + 0.25 * i);
+  else
+    topo_values.push_back(0.0);
+  const double c = std::cos(st->psi), sn = std::sin(st->psi), logn0 = st->logn;
+  double best = std::numeric_limits<double>::infinity(), best_t = topo_values[0], best_logn = logn0;
+  double best_kd[3], best_ks[3];
+  for (double t : topo_values)
+    for (double dl : {-0.7, 0.0, 0.7}) {
+      const double n = std::exp(logn0 + dl);
+      double kd[3], ks[3];
+      const double cost = solve_kd_ks(os, stride, [&](const Observation& o, double* dcol, double* scol) {
+        const double s = os.topology == TopologyMode::kGlobalS     ? t
+                         : os.topology == TopologyMode::kAmplitude ? topology_with_map(o.smath, t, o.mapv)
+                                                                   : o.smath;
+        const double b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
+        for (uint32_t k = 0; k < o.num_lights; ++k) {
+          const ObsLight& l = os.lights[o.first_light + k];
+          double D, S;
+          fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n, s, acc, &D, &S);
+          for (int ch = 0; ch < 3; ++ch) {
+            dcol[ch] += l.E[ch] * D;
+            scol[ch] += l.E[ch] * S;
+          }
+        }
+      }, kd, ks);
+      if (cost < best) {
+        best = cost;
+        best_t = t;
+        best_logn = std::log(n);
+        std::copy(kd, kd + 3, best_kd);
+        std::copy(ks, ks + 3, best_ks);
+      }
+    }
+  st->topo[0] = best_t;
+  st->logn = best_logn;
+  set_start_kd_ks(best_kd, best_ks, st);
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "; fiber: topology %s=%.2f, n=%.0f (%zu x 3 nodes)",
+                os.topology == TopologyMode::kAmplitude ? "A" : "s", best_t, std::exp(best_logn), topo_values.size());
+  return line + buf;
 }
 
 struct Solved {
@@ -234,6 +351,8 @@ void add_blocks(ceres::Problem* pb, const ObsSet& os, const std::vector<size_t>&
 
 struct ProblemSetup {
   bool iso = false, second = false;
+  bool fiber = false;
+  FiberAccuracy acc;
 };
 
 std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vector<size_t>& idx, State* st,
@@ -242,7 +361,20 @@ std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vecto
   po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   auto pb = std::make_unique<ceres::Problem>(po);
-  if (ps.iso && ps.second) add_blocks<true, true>(pb.get(), os, idx, st, loss);
+  if (ps.fiber) {
+    for (size_t i : idx)
+      pb->AddResidualBlock(FiberResidual::Create(&os.obs[i], os.lights.data(), os.topology, ps.acc), loss, st->kd,
+                           st->ks, &st->logn, &st->psi, st->topo);
+    if (os.topology == TopologyMode::kGlobalS) {
+      pb->SetParameterLowerBound(st->topo, 0, line_param("topology.s").lo);
+      pb->SetParameterUpperBound(st->topo, 0, line_param("topology.s").hi);
+    } else if (os.topology == TopologyMode::kAmplitude) {
+      pb->SetParameterLowerBound(st->topo, 0, line_param("topology.amplitude").lo);
+      pb->SetParameterUpperBound(st->topo, 0, line_param("topology.amplitude").hi);
+    } else {
+      pb->SetParameterBlockConstant(st->topo);
+    }
+  } else if (ps.iso && ps.second) add_blocks<true, true>(pb.get(), os, idx, st, loss);
   else if (ps.iso) add_blocks<true, false>(pb.get(), os, idx, st, loss);
   else if (ps.second) add_blocks<false, true>(pb.get(), os, idx, st, loss);
   else add_blocks<false, false>(pb.get(), os, idx, st, loss);
@@ -258,6 +390,7 @@ std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vecto
   pb->SetParameterLowerBound(&st->logn, 0, std::log(n.lo));
   pb->SetParameterUpperBound(&st->logn, 0, std::log(n.hi));
   pb->SetManifold(&st->psi, new HalfTurnManifold);
+  if (ps.fiber) return pb;
   if (ps.iso) {
     for (int k = 0; k < 6; ++k) pb->SetParameterLowerBound(st->iso, k, 0.0);
     const ParamSpec& ni = line_param("isotropic.n");
@@ -295,18 +428,23 @@ double median_abs(std::vector<double> v) {
 }
 
 FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RGB& ka) {
-  if (opt.model != "line")
-    throw Error("fit: --model " + opt.model + " is not implemented yet (the fiber model is issue 3; use --model line)");
+  const bool fiber = opt.model == "fiber";
+  if (!fiber && opt.model != "line") throw Error("fit: --model must be line, fiber or auto (got '" + opt.model + "')");
+  if (fiber && (opt.fit_isotropic || opt.fit_second))
+    throw Error("fit: --fit-isotropic and --fit-second-fiber are available with --model line only");
   if (os.obs.empty()) throw Error("fit: no usable observations (empty mask, all pixels saturated, non-finite or unlit)");
-  const size_t nparam = 8 + (opt.fit_isotropic ? 7 : 0) + (opt.fit_second ? 2 : 0);
+  const bool fit_topo = fiber && os.topology != TopologyMode::kMathematical;
+  const size_t nparam = 8 + (opt.fit_isotropic ? 7 : 0) + (opt.fit_second ? 2 : 0) + (fit_topo ? 1 : 0);
   if (os.obs.size() * (os.grey ? 1 : 3) <= nparam)
     throw Error("fit: " + std::to_string(os.obs.size()) + " observations cannot determine " + std::to_string(nparam) +
                 " parameters");
   FitResult res;
   const auto t_start = Clock::now();
   State st;
-  rep.start = grid_start(os, &st);
-  const ProblemSetup ps{opt.fit_isotropic, opt.fit_second};
+  FiberAccuracy acc;
+  acc.order = opt.fiber_order;
+  rep.start = fiber ? fiber_grid_start(os, acc, &st) : grid_start(os, &st);
+  const ProblemSetup ps{opt.fit_isotropic, opt.fit_second, fiber, acc};
 
   // Stage 1: plain least squares on the start subset to settle near the optimum and measure noise.
   std::vector<size_t> sub, all(os.obs.size());
@@ -348,11 +486,26 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   for (double x : r) rss += x * x;
   const double m = static_cast<double>(os.obs.size()) * (os.grey ? 1 : 3);
   rep.rms = std::sqrt(rss / (os.grey ? 3 * m : m));
+  rep.rss = rss / (os.grey ? 3 : 1);
+  rep.parameters = nparam;
+  // Bayesian information criterion for Gaussian residuals (model selection, --model auto).
+  rep.bic = m * std::log(std::max(rep.rss, 1e-300) / m) + static_cast<double>(nparam) * std::log(m);
   rep.seconds_solve = since(t_solve);
 
   // Result.
   Material& mat = res.material;
-  mat.model = "line";
+  mat.model = fiber ? "fiber" : "line";
+  if (fiber) {
+    mat.has_topology = true;
+    mat.topology_mathematical = os.topology_mathematical;
+    if (os.topology == TopologyMode::kGlobalS) mat.topology_s = st.topo[0];
+    if (os.topology == TopologyMode::kAmplitude) {
+      mat.has_topology_map = true;
+      mat.topology_map = os.topology_map;
+      mat.topology_amplitude = st.topo[0];
+    }
+    if (!fit_topo) res.fixed["topology"] = "taken from the capture's mathematical topology buffer (no map to fit)";
+  }
   for (int k = 0; k < 3; ++k) {
     mat.kd[k] = st.kd[k];
     mat.ks[k] = st.ks[k];
@@ -399,6 +552,7 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   ceres::Covariance cov(co);
   std::vector<std::pair<const double*, const double*>> blocks = {{st.kd, st.kd}, {st.ks, st.ks}, {&st.psi, &st.psi}};
   if (n_free) blocks.push_back({&st.logn, &st.logn});
+  if (fit_topo) blocks.push_back({st.topo, st.topo});
   if (opt.fit_isotropic) blocks.push_back({st.iso, st.iso});
   if (opt.fit_second) blocks.push_back({st.sec, st.sec});
   // sigma^2 from the residuals (unweighted least squares); a grey table counts each value once.
@@ -429,6 +583,16 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
         res.undetermined["n"] = "sigma of log n is " + std::to_string(sl) + ": the lobe is barely measured";
       else
         res.sigma["n"] = {mat.n * sl};
+    }
+    if (fit_topo) {
+      const double sd = diag(st.topo, 1)[0];
+      const std::string key = os.topology == TopologyMode::kGlobalS ? "topology.s" : "topology.amplitude";
+      // A topology this uncertain is not measured: flat-looking data, or s near the s = 0 = 1 seam.
+      constexpr double kTopologyUndetermined = 0.25;
+      if (sd > kTopologyUndetermined)
+        res.undetermined[key] = "sigma " + std::to_string(sd) + ": the data barely constrain the topology";
+      else
+        res.sigma[key] = {sd};
     }
     if (opt.fit_isotropic) {
       const auto d = diag(st.iso, 7);
@@ -485,12 +649,36 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
         o.y[k] = d.rgb.at(x, y, k);
         o.base[k] = v.exposure * known.ka[k] * set.ambient[k];
       }
+      o.smath = d.smath.at(x, y, 0);
+      o.mapv = d.mapv.at(x, y, 0);
       if (o.num_lights == 0) {
         ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
         continue;
       }
       os->obs.push_back(o);
     }
+}
+
+// --model auto fits both models and keeps the one with the lower BIC; otherwise the one asked.
+FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& rep, const RGB& ka) {
+  if (opt.model != "auto") return solve(os, opt, rep, ka);
+  FitOptions line = opt, fiber = opt;
+  line.model = "line";
+  fiber.model = "fiber";
+  FitResult rl = solve(os, line, rep, ka);
+  FitResult rf = solve(os, fiber, rep, ka);
+  const bool pick_fiber = rf.report.bic < rl.report.bic;
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "BIC = m ln(RSS/m) + k ln m over m = %zu values: line %.1f (RSS %.4g, k = %zu), fiber %.1f (RSS %.4g, "
+                "k = %zu); chose %s (lower by %.1f)",
+                rl.report.observations, rl.report.bic, rl.report.rss, rl.report.parameters, rf.report.bic,
+                rf.report.rss, rf.report.parameters, pick_fiber ? "fiber" : "line",
+                std::abs(rf.report.bic - rl.report.bic));
+  FitResult& r = pick_fiber ? rf : rl;
+  r.report.model_selection = buf;
+  r.report.seconds_solve = rl.report.seconds_solve + rf.report.seconds_solve;
+  return r;
 }
 
 }  // namespace
@@ -502,10 +690,33 @@ FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
   FitReport rep;
   rep.views = set.views.size();
   const Material known;  // k_a = 0 unless given: the ambient term is not fitted
+  // Fiber model topology: a map in the set means its amplitude is fitted over the per-pixel
+  // mathematical topology (0 where no buffer); a topology buffer alone fixes s; else one s.
+  TopologyMap map;
+  const bool has_map = !set.topology_map.empty();
+  if (has_map) {
+    map = load_topology_map(join_path(set.dir, set.topology_map));
+    os.topology = TopologyMode::kAmplitude;
+    os.topology_map = set.topology_map;
+  }
+  bool has_buffer = false;
+  for (const auto& v : set.views) has_buffer |= !v.geometry.topology.empty();
+  if (has_buffer) {
+    // The kind of mathematical topology, when the writer recorded it (capture_sim does); "torus"
+    // otherwise (FORMAT.md's name for a per-pixel mathematical topology).
+    os.topology_mathematical = "torus";
+    if (!set.provenance.empty()) {
+      const auto g = jsonu::json::parse(set.provenance, nullptr, false);
+      if (g.is_object() && g.contains("mathematical_topology") && g["mathematical_topology"].is_string() &&
+          g["mathematical_topology"] != "none")
+        os.topology_mathematical = g["mathematical_topology"].get<std::string>();
+    }
+  }
+  if (has_buffer && !has_map) os.topology = TopologyMode::kMathematical;
   {
     Progress bar("fit: loading views", set.views.size(), opt.progress);
     for (size_t i = 0; i < set.views.size(); ++i) {
-      const ViewData d = load_view(set, i);
+      const ViewData d = load_view(set, i, has_map ? &map : nullptr);
       rep.masked_out += static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
       rep.saturated += d.saturated;
       rep.nonfinite += d.nonfinite;
@@ -516,7 +727,7 @@ FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
   rep.pixels = os.obs.size();
   rep.observations = os.obs.size() * 3;
   rep.seconds_load = since(t0);
-  FitResult r = solve(os, opt, rep, known.ka);
+  FitResult r = solve_model(os, opt, rep, known.ka);
   r.report.seconds = since(t0);
   return r;
 }
@@ -543,12 +754,15 @@ FitResult fit_table(const SampleTable& t, const FitOptions& opt) {
     }
     o.first_light = static_cast<uint32_t>(os.lights.size());
     o.num_lights = 1;
+    o.smath = row.s;
     os.lights.push_back(l);
     os.obs.push_back(o);
   }
+  // A table with an s column gives the fiber model's topology per row; otherwise one s is fitted.
+  if (t.has_s) os.topology = TopologyMode::kMathematical;
   rep.pixels = os.obs.size();
   rep.observations = os.obs.size() * (os.grey ? 1 : 3);
-  FitResult r = solve(os, opt, rep, {0, 0, 0});
+  FitResult r = solve_model(os, opt, rep, {0, 0, 0});
   r.report.seconds = since(t0);
   return r;
 }
@@ -582,7 +796,11 @@ void write_fit(const std::string& path, const FitResult& r) {
                  {"loss", p.loss},
                  {"start", p.start},
                  {"residual_evaluations", p.residual_evaluations},
+                 {"rss", p.rss},
+                 {"bic", p.bic},
+                 {"parameters", p.parameters},
                  {"jacobian_evaluations", p.jacobian_evaluations}};
+  if (!p.model_selection.empty()) j["report"]["model_selection"] = p.model_selection;
   write_json_file(path, j);
 }
 
@@ -628,6 +846,17 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
     d = std::min(d, 180.0 - d);
     row("fiber_angle_deg", truth.fiber_angle_deg, r.material.fiber_angle_deg, sig("fiber_angle_deg", 0), d, d, " deg", &e.psi_deg,
         &e.psi_sigmas, d);
+  }
+  if (r.material.model == "fiber" && truth.model == "fiber") {
+    if (r.material.has_topology_map && truth.has_topology_map) {
+      const double d = r.material.topology_amplitude - truth.topology_amplitude;
+      row("topology.amplitude", truth.topology_amplitude, r.material.topology_amplitude, sig("topology.amplitude", 0), d, d,
+          "", &e.topo_abs, &e.topo_sigmas, std::abs(d));
+    } else if (!r.material.has_topology_map && r.material.topology_mathematical == "none") {
+      const double d = r.material.topology_s - truth.topology_s;
+      row("topology.s", truth.topology_s, r.material.topology_s, sig("topology.s", 0), d, d, "", &e.topo_abs,
+          &e.topo_sigmas, std::abs(d));
+    }
   }
   if (r.material.has_second_fiber && truth.has_second_fiber) {
     double d = std::fmod(std::abs(r.material.second_angle_deg - truth.second_angle_deg), 180.0);

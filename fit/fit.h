@@ -23,6 +23,7 @@ struct FitOptions {
   int threads = 2;
   std::string loss = "huber";  // huber | cauchy | none; scale from the data (3 robust sigmas)
   bool progress = true;
+  int fiber_order = 8;  // fiber model: Gauss-Legendre order per specular panel
 };
 
 struct FitReport {
@@ -34,6 +35,9 @@ struct FitReport {
   std::string termination, loss;
   size_t residual_evaluations = 0, jacobian_evaluations = 0;
   std::string start;  // the grid node the solve started from
+  double rss = 0, bic = 0;
+  size_t parameters = 0;
+  std::string model_selection;  // --model auto: the comparison and why
 };
 
 struct FitResult {
@@ -57,6 +61,7 @@ void write_fit(const std::string& path, const FitResult& r);
 struct TruthErrors {
   double kd_rel = 0, ks_rel = 0, n_rel = 0, psi_deg = 0;
   double kd_sigmas = 0, ks_sigmas = 0, n_sigmas = 0, psi_sigmas = 0;  // worst |error| / sigma
+  double topo_abs = 0, topo_sigmas = 0;  // fiber model: |s - s_true| or |A - A_true|
 };
 std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErrors* errors);
 

@@ -306,7 +306,35 @@ Image need_buffer(const std::string& path, int channels, const Intrinsics& k, co
 
 }  // namespace
 
-ViewData load_view(const CaptureSet& s, size_t i) {
+TopologyMap load_topology_map(const std::string& path) {
+  TopologyMap m;
+  const Image img = read_image(path).image;
+  m.h = Image(img.width, img.height, 1);
+  for (size_t p = 0; p < m.h.px.size(); ++p) {
+    const float v = img.px[p * img.channels];
+    if (!std::isfinite(v)) throw Error(path + ": topology map has a non-finite value");
+    m.h.px[p] = v;
+  }
+  return m;
+}
+
+double TopologyMap::sample(double u, double v) const {
+  const int w = h.width, ht = h.height;
+  const double x = u * w - 0.5, y = v * ht - 0.5;
+  const double fx = std::floor(x), fy = std::floor(y);
+  const double tx = x - fx, ty = y - fy;
+  auto at = [&](double xx, double yy) {
+    int xi = static_cast<int>(xx) % w, yi = static_cast<int>(yy) % ht;
+    if (xi < 0) xi += w;
+    if (yi < 0) yi += ht;
+    return static_cast<double>(h.at(xi, yi, 0));
+  };
+  const double val = (1 - tx) * (1 - ty) * at(fx, fy) + tx * (1 - ty) * at(fx + 1, fy) + (1 - tx) * ty * at(fx, fy + 1) +
+                     tx * ty * at(fx + 1, fy + 1);
+  return 2.0 * val - 1.0;
+}
+
+ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
   const ViewSpec& v = s.views.at(i);
   const Intrinsics& k = v.camera;
   const std::string ctx = s.file + ": views[" + std::to_string(i) + "]";
@@ -331,6 +359,8 @@ ViewData load_view(const CaptureSet& s, size_t i) {
   if (!g.mesh.empty()) {
     try {
       trace_mesh_gbuffer(join_path(s.dir, g.mesh), g.fiber_field, k, v.world_from_camera, &d.P, &d.N, &d.U, &mask);
+      d.smath = Image(k.width, k.height, 1, 0.f);
+      d.mapv = Image(k.width, k.height, 1, 0.f);
     } catch (const Error& e) {
       throw Error(ctx + ".geometry.mesh: " + e.what());
     }
@@ -342,6 +372,23 @@ ViewData load_view(const CaptureSet& s, size_t i) {
       if (!g.mask.empty()) {
         const Image m = need_buffer(join_path(s.dir, g.mask), 1, k, "mask");
         for (size_t p = 0; p < mask.size(); ++p) mask[p] = m.px[p * m.channels] != 0.f;
+      }
+      d.smath = Image(k.width, k.height, 1, 0.f);
+      if (!g.topology.empty()) {
+        const Image t = need_buffer(join_path(s.dir, g.topology), 1, k, "topology");
+        for (size_t p = 0; p < mask.size(); ++p) {
+          const float v = t.px[p * t.channels];
+          if (mask[p] && !(v >= 0.f && v <= 1.f))
+            throw Error(join_path(s.dir, g.topology) + ": topology value " + std::to_string(v) + " outside [0, 1]");
+          d.smath.px[p] = v;
+        }
+      }
+      d.mapv = Image(k.width, k.height, 1, 0.f);
+      if (map) {
+        if (g.uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
+        const Image uv = need_buffer(join_path(s.dir, g.uv), 2, k, "uv");
+        for (size_t p = 0; p < mask.size(); ++p)
+          if (mask[p]) d.mapv.px[p] = static_cast<float>(map->sample(uv.px[p * uv.channels], uv.px[p * uv.channels + 1]));
       }
     } catch (const Error& e) {
       throw Error(ctx + ".geometry: " + e.what());

@@ -81,12 +81,24 @@ void write_capture_json(const CaptureSet& set, const std::string& path);
 struct ViewData {
   Image rgb;            // 3 channels, linear, black level removed
   Image P, N, U;        // world position, unit normal, reference tangent
+  Image smath;          // 1 channel: mathematical topology s_math (0 where no buffer is given)
+  Image mapv;           // 1 channel: topology-map value m in [-1, 1] at the pixel's uv (0 if none)
   std::vector<uint8_t> use;  // 1 = pixel is an observation
   size_t mask_pixels = 0, saturated = 0, nonfinite = 0, used = 0;
   Vec3 eye;  // camera centre in world coordinates
 };
 
+// A topology map m(u, v) (FORMAT.md): first channel read as linear h in [0, 1] (integer images
+// divided by their maximum), m = 2h - 1; glTF texture coordinates ((0,0) top-left, v down),
+// bilinear with wrap-around.
+struct TopologyMap {
+  Image h;
+  double sample(double u, double v) const;
+};
+TopologyMap load_topology_map(const std::string& path);
+
 // Loads view i; per-pixel geometry comes from its buffers or by casting rays at its mesh.
-ViewData load_view(const CaptureSet& set, size_t i);
+// `map` (the set's topology map, loaded once by the caller) fills ViewData::mapv from the uv buffer.
+ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nullptr);
 
 }  // namespace aniso

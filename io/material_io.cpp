@@ -85,13 +85,24 @@ Material material_from_json(const json& j, const std::string& file) {
     const Ctx c = root.at("topology");
     const json& b = j["topology"];
     if (!b.is_object()) c.fail("expected an object");
+    m.has_topology = true;
     if (b.contains("s")) {
-      m.has_topology = true;
       m.topology_s = jsonu::num(b["s"], c.at("s"));
       if (m.topology_s < 0 || m.topology_s > 1) c.at("s").fail("must be in [0, 1]");
     }
+    if (b.contains("map")) {
+      m.has_topology_map = true;
+      m.topology_map = jsonu::str(b["map"], c.at("map"));
+      m.topology_amplitude = jsonu::num_or(b, "amplitude", 0.25, c);
+      if (std::abs(m.topology_amplitude) > 2) c.at("amplitude").fail("must be in [-2, 2]");
+    }
+    m.topology_mathematical = jsonu::str_or(b, "mathematical", "none", c);
+    if (m.topology_mathematical != "none" && m.topology_mathematical != "torus" && m.topology_mathematical != "sphere")
+      c.at("mathematical").fail("unknown value '" + m.topology_mathematical + "' (torus, sphere, none)");
+    if (!b.contains("s") && !b.contains("map") && m.topology_mathematical == "none")
+      c.fail("needs \"s\", or \"map\" with \"amplitude\", or \"mathematical\": \"torus\"");
   }
-  if (m.model == "fiber") root.at("model").fail("the fiber model is not implemented yet (issue 3)");
+  if (m.model == "fiber" && !m.has_topology) root.at("topology").fail("the fiber model needs a topology block");
   return m;
 }
 
@@ -113,7 +124,17 @@ void material_to_json(const Material& m, json* out) {
     j["isotropic"] = {{"kd", jsonu::to_json(m.iso_kd)}, {"ks", jsonu::to_json(m.iso_ks)}, {"n", m.iso_n}};
   if (m.has_second_fiber)
     j["second_fiber"] = {{"angle_deg", m.second_angle_deg}, {"weight", m.second_weight}};
-  if (m.has_topology) j["topology"] = {{"s", m.topology_s}};
+  if (m.has_topology) {
+    jsonu::json t = jsonu::json::object();
+    if (m.has_topology_map) {
+      t["map"] = m.topology_map;
+      t["amplitude"] = m.topology_amplitude;
+    } else if (m.topology_mathematical == "none") {
+      t["s"] = m.topology_s;
+    }
+    t["mathematical"] = m.topology_mathematical;
+    j["topology"] = t;
+  }
 }
 
 void write_json_file(const std::string& path, const json& j) {

@@ -3,6 +3,7 @@
 #pragma once
 #include <cmath>
 
+#include "models/fiber_model.h"
 #include "models/line_model.h"
 #include "models/material.h"
 
@@ -26,16 +27,33 @@ inline LineParamsT<double> line_params(const Material& m) {
   return p;
 }
 
+inline double Material::topology_at(double s_math, double m) const {
+  if (has_topology_map) return topology_with_map(s_math, topology_amplitude, m);
+  if (topology_mathematical != "none") return s_math;  // torus, sphere: the capture's buffer
+  return topology_s;
+}
+
 class Evaluator {
  public:
-  explicit Evaluator(const Material& m) : line_(line_params(m)) {}
-  // Reflectance for unit irradiance from direction L seen from V (local frame).
-  void operator()(const LocalDir& L, const LocalDir& V, double out[3]) const {
-    line_reflectance(line_, L, V, out);
+  explicit Evaluator(const Material& m, FiberAccuracy acc = {})
+      : line_(line_params(m)), fiber_(m.model == "fiber"), s_(m.topology_s), acc_(acc) {}
+  // Reflectance for unit irradiance from direction L seen from V (local frame), at a point of
+  // topology s (fiber model; ignored by the line model).
+  void operator()(const LocalDir& L, const LocalDir& V, double out[3], double s) const {
+    if (fiber_)
+      fiber_reflectance(line_, s, L, V, acc_, out);
+    else
+      line_reflectance(line_, L, V, out);
   }
+  // ... with the material's own topology value.
+  void operator()(const LocalDir& L, const LocalDir& V, double out[3]) const { (*this)(L, V, out, s_); }
+  bool fiber() const { return fiber_; }
 
  private:
   LineParamsT<double> line_;
+  bool fiber_;
+  double s_;
+  FiberAccuracy acc_;
 };
 
 }  // namespace aniso

@@ -22,9 +22,18 @@ struct Material {
   bool has_second_fiber = false;
   double second_angle_deg = 90.0;
   double second_weight = 0.5;
-  // Fiber model topology (flat samples: one value of s).
+  // Fiber model topology (MODELS.md §4): one value of s (flat samples), or a known map m(u,v)
+  // with amplitude A on top of the mathematical topology ("torus": the capture's per-pixel
+  // `topology` buffer holds s_math; "none": s_math = 0).
   bool has_topology = false;
   double topology_s = 0.0;
+  bool has_topology_map = false;
+  std::string topology_map;  // the map file, as named in the capture or material
+  double topology_amplitude = 0.25;
+  std::string topology_mathematical = "none";
+
+  // The topology value at a point with mathematical topology s_math and map value m in [-1, 1].
+  double topology_at(double s_math, double m) const;
 
   bool isotropic_active() const {
     return has_isotropic && (iso_kd[0] + iso_kd[1] + iso_kd[2] + iso_ks[0] + iso_ks[1] + iso_ks[2]) > 0;

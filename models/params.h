@@ -38,8 +38,18 @@ inline constexpr ParamSpec kLineParams[] = {
      "weight of the first lobe; the second gets 1 - w"},
 };
 
+// Fiber model, MODELS.md §4: the line model's parameters plus the topology.
+inline constexpr ParamSpec kFiberParams[] = {
+    {"topology.s", "s", 1, 0.0, 1.0, 0.0, "", false, false,
+     "topology: climbing angle 60 deg * s; s = 1 looks like s = 0 (flat samples)"},
+    {"topology.amplitude", "A", 1, -2.0, 2.0, 0.25, "", false, false,
+     "topology-map amplitude added to the height 2 sin(theta_math) (Hast: 0.25)"},
+};
+
 inline const ParamSpec& line_param(std::string_view key) {
   for (const auto& p : kLineParams)
+    if (p.key == key) return p;
+  for (const auto& p : kFiberParams)
     if (p.key == key) return p;
   return kLineParams[0];  // unreachable for keys spelled in this file
 }

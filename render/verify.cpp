@@ -3,6 +3,8 @@
 #include <cmath>
 
 #include "capture_sim/shade.h"
+#include "core/error.h"
+#include "io/files.h"
 
 namespace aniso {
 
@@ -11,8 +13,14 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m) {
   const Evaluator eval(m);
   double sum2 = 0, sumy = 0;
   auto no_shadows = [](const SurfacePoint&, const Vec3&, double, ShadeCounters*) { return false; };
+  TopologyMap map;
+  const bool use_map = m.model == "fiber" && m.has_topology_map;
+  if (use_map) {
+    if (set.topology_map.empty()) throw Error(set.file + ": the material uses a topology map but the set names none");
+    map = load_topology_map(join_path(set.dir, set.topology_map));
+  }
   for (size_t i = 0; i < set.views.size(); ++i) {
-    const ViewData d = load_view(set, i);
+    const ViewData d = load_view(set, i, use_map ? &map : nullptr);
     const ViewSpec& v = set.views[i];
     ViewError e;
     double s2 = 0, sy = 0;
@@ -27,7 +35,8 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m) {
         const Vec3 U{d.U.at(x, y, 0), d.U.at(x, y, 1), d.U.at(x, y, 2)};
         if (!make_frame(P, N, U, &sp)) continue;
         double I[3];
-        shade_point(eval, sp, d.eye, v.lights, amb, no_shadows, I, &cnt);
+        const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
+        shade_point(eval, sp, d.eye, v.lights, amb, m.topology_at(d.smath.px[p], d.mapv.px[p]), no_shadows, I, &cnt);
         for (int c = 0; c < 3; ++c) {
           const double err = v.exposure * I[c] - d.rgb.at(x, y, c);
           s2 += err * err;

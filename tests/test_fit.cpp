@@ -211,3 +211,96 @@ TEST(FitRobust, HuberLossResistsHotPixels) {
 
 }  // namespace
 }  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// Issue 3's limits (noise-free): k_d, k_s within 1 %, n within 2 %, psi within 0.5 deg,
+// s within 0.01, A within 0.02.
+void expect_fiber_limits(const TruthErrors& e) {
+  EXPECT_LT(e.kd_rel, 0.01);
+  EXPECT_LT(e.ks_rel, 0.01);
+  EXPECT_LT(e.n_rel, 0.02);
+  EXPECT_LT(e.psi_deg, 0.5);
+  EXPECT_LT(e.topo_abs, 0.02);
+}
+
+TEST(FitFiber, FlatSamplesAcrossTopology) {
+  for (double s : {0.15, 0.5, 0.85}) {
+    PresetOptions p = small(10, 64);
+    p.topology_s = s;
+    const std::string dir = test::tmp_dir("flat" + std::to_string(s));
+    const SimOptions so = make_preset("fiber-flat", p);
+    simulate_capture(so, dir);
+    FitOptions fo = quiet();
+    fo.model = "fiber";
+    FitResult r;
+    const TruthErrors e = fit_and_compare(dir, so.truth, fo, &r);
+    expect_fiber_limits(e);
+    EXPECT_LT(e.topo_abs, 0.01);
+    EXPECT_EQ(r.material.model, "fiber");
+  }
+}
+
+TEST(FitFiber, TorusWithTopologyMapRecoversAmplitude) {
+  const std::string dir = test::tmp_dir("torus");
+  PresetOptions p = small(10, 80);
+  p.topology_amplitude = 0.3;
+  const SimOptions so = make_preset("silk-torus", p);
+  simulate_capture(so, dir);
+  FitOptions fo = quiet();
+  fo.model = "fiber";
+  FitResult r;
+  const TruthErrors e = fit_and_compare(dir, so.truth, fo, &r);
+  expect_fiber_limits(e);
+  EXPECT_TRUE(r.material.has_topology_map);
+  EXPECT_EQ(r.material.topology_mathematical, "torus");
+}
+
+TEST(FitFiber, AutoChoosesTheModelThatMadeTheData) {
+  for (const char* preset : {"fiber-flat", "brushed-metal"}) {
+    PresetOptions p = small(6, 48);
+    p.noise = 0.01;
+    const std::string dir = test::tmp_dir(preset);
+    const SimOptions so = make_preset(preset, p);
+    simulate_capture(so, dir);
+    FitOptions fo = quiet();
+    fo.model = "auto";
+    const FitResult r = fit_capture(read_capture(dir), fo);
+    EXPECT_EQ(r.material.model, so.truth.model) << r.report.model_selection;
+    EXPECT_NE(r.report.model_selection.find("chose " + so.truth.model), std::string::npos);
+  }
+}
+
+TEST(FitFiber, SampleTableWithTopologyColumn) {
+  Material truth;
+  truth.model = "fiber";
+  truth.has_topology = true;
+  truth.kd = {0.2, 0.25, 0.3};
+  truth.ks = {0.5, 0.4, 0.3};
+  truth.n = 20;
+  truth.fiber_angle_deg = 60;
+  const Evaluator ev(truth);
+  SampleTable t;
+  t.values = SampleTable::Values::kRGB;
+  t.has_s = true;
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> th(0, 80), ph(0, 360), u(0, 1);
+  for (int i = 0; i < 1500; ++i) {
+    SampleRow r{th(rng), ph(rng), th(rng), ph(rng)};
+    r.s = u(rng);
+    double f[3];
+    ev(dir_from_angles(r.theta_i, r.phi_i), dir_from_angles(r.theta_o, r.phi_o), f, r.s);
+    r.value = {f[0], f[1], f[2]};
+    t.rows.push_back(r);
+  }
+  FitOptions fo = quiet();
+  fo.model = "fiber";
+  const FitResult r = fit_table(t, fo);
+  TruthErrors e;
+  std::cout << compare_to_truth(r, truth, &e);
+  expect_fiber_limits(e);
+}
+
+}  // namespace
+}  // namespace aniso
