@@ -109,3 +109,31 @@ TEST(CaptureSim, ObjMeshGeometryByRayCasting) {
 
 }  // namespace
 }  // namespace aniso
+
+#include "capture_sim/microgeometry.h"
+#include "models/fiber_model.h"
+
+namespace aniso {
+namespace {
+
+// The virtual gonioreflectometer (real Embree cylinders, shadow rays) measures what the fiber
+// model predicts, within its statistical error, across topology and directions.
+TEST(MicroGeometry, MeasuresWhatTheFiberModelPredicts) {
+  const double d = M_PI / 180;
+  auto dir = [&](double t, double p) { return LocalDir{std::sin(t * d) * std::cos(p * d), std::sin(t * d) * std::sin(p * d), std::cos(t * d)}; };
+  for (double s : {0.0, 0.4, 0.8}) {
+    const MicroPatch patch(s);
+    for (const auto& [L, V] : std::vector<std::pair<LocalDir, LocalDir>>{
+             {dir(30, 90), dir(30, 270)}, {dir(60, 80), dir(20, 200)}, {dir(75, 90), dir(60, 90)}, {dir(50, 130), dir(70, 10)}}) {
+      const MicroMeasurement m = patch.measure(L, V, 20.0, 20000, 3);
+      double D, S;
+      fiber_DS(L.w, L.n, V.w, V.n, L.u, V.u, 20.0, s, FiberAccuracy{}, &D, &S);
+      EXPECT_NEAR(m.D, D, 4 * m.D_se + 1e-4) << "s=" << s;
+      EXPECT_NEAR(m.S, S, 4 * m.S_se + 1e-4) << "s=" << s;
+      EXPECT_GT(m.rays, 20000u);  // shadow rays were cast too
+    }
+  }
+}
+
+}  // namespace
+}  // namespace aniso
