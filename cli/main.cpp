@@ -299,7 +299,15 @@ int main(int argc, char** argv) {
     if (*bake) {
       const Material m = read_material(bake_mat);
       const BakeTables t = bake_line(m, bake_size, parse_index(bake_index));
-      write_bake(bake_out, m, t, g_command_line);
+      FiberBakeTables fb;
+      if (m.model == "fiber") {
+        fb = bake_fiber(m, t);
+        std::printf("bake: fiber factor tables %dx%dx%d (G) and x%d (F) in %.2f s; baked vs full fiber model over %zu "
+                    "samples: max abs %.3g, p99 %.3g, RMS %.3g (peak %.3g)\n",
+                    fb.nphi, fb.nphi, fb.ns, fb.nk, fb.seconds, fb.samples, fb.max_abs_error, fb.p99_error, fb.rms_error,
+                    fb.peak_value);
+      }
+      write_bake(bake_out, m, t, g_command_line, m.model == "fiber" ? &fb : nullptr);
       std::printf("bake: %dx%d tables (%s index) in %.3f s -> %s; bilinear lookup vs direct evaluation over %zu samples: max abs "
                   "%.3g, RMS %.3g (peak value %.3g)\n",
                   bake_size, bake_size, index_name(t.index), t.seconds, bake_out.c_str(), t.samples, t.max_abs_error, t.rms_error, t.peak_value);

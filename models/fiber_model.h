@@ -162,9 +162,11 @@ IntervalList<T, 6> unhidden_arcs(const T& dx, const T& dy, const T& phi_d, const
 
 // D and S of MODELS.md §4 for one fiber direction. Inputs are the components of L and V along
 // B and N (lb, ln, vb, vn), the cosines a = <L,T>, b = <V,T>, the exponent and the topology s.
+// With `relative_to_peak`, S comes back divided by the line model's S_line = (s_L s_V - ab)^n
+// (the integrand is (<R,V> / (s_L s_V - ab))^n): the factor the baked tables store.
 template <class T>
 void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, const T& b, const T& n, const T& s,
-              const FiberAccuracy& acc, T* D, T* S, T* W_out = nullptr) {
+              const FiberAccuracy& acc, T* D, T* S, T* W_out = nullptr, bool relative_to_peak = false) {
   using std::acos;
   using std::atan2;
   using std::cos;
@@ -224,7 +226,7 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
           for (int q = 0; q < gr.order; ++q) {
             const T p = mid + half * gr.x[q];
             const T g = sLsV * cos(2.0 * (p - phi_h)) - ab;
-            if (g > T(0.0)) ssum += half * gr.w[q] * exp(n * log(g)) * cos(p - phi_v);
+            if (g > T(0.0)) ssum += half * gr.w[q] * exp(n * log(relative_to_peak ? g / g0 : g)) * cos(p - phi_v);
           }
           edge = e1;
           if (!(edge < shi)) break;

@@ -3,13 +3,17 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <random>
+#include <tbb/parallel_for.h>
 
 #include "core/error.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
 #include "io/material_io.h"
+#include "models/evaluate.h"
+#include "models/fiber_model.h"
 #include "models/line_model.h"
 
 namespace aniso {
@@ -90,7 +94,140 @@ BakeTables bake_line(const Material& m, int n, BakeIndex index, uint64_t seed) {
   return t;
 }
 
-void write_bake(const std::string& dir, const Material& m, const BakeTables& t, const std::string& command) {
+namespace {
+
+// Continuous texel coordinate of an angle in [-pi/2, pi/2] on n texels with centres on the ends.
+double angle_texel(double phi, int n) { return std::clamp((phi + M_PI / 2) / M_PI, 0.0, 1.0) * (n - 1); }
+
+struct Lerp {
+  int i0;
+  double w;  // weight of i0 + 1
+};
+Lerp lerp_of(double f, int n) {
+  const int i = std::clamp(static_cast<int>(f), 0, n - 2);
+  return {i, std::clamp(f - i, 0.0, 1.0)};
+}
+
+// Factors G and F at the in-plane angles, topology s and kappa (multi-linear in the tables).
+void fiber_factors(const FiberBakeTables& fb, double phi_l, double phi_v, double s, double kappa, double* G, double* F) {
+  const Lerp li = lerp_of(angle_texel(phi_l, fb.nphi), fb.nphi), lj = lerp_of(angle_texel(phi_v, fb.nphi), fb.nphi);
+  const Lerp ls = lerp_of(std::clamp(s, 0.0, 1.0) * (fb.ns - 1), fb.ns);
+  const double kk = std::isfinite(kappa) ? kappa / (1 + kappa) : 1.0;
+  const Lerp lk = lerp_of(kk * (fb.nk - 1), fb.nk);
+  *G = 0;
+  *F = 0;
+  const size_t np = fb.nphi;
+  for (int c = 0; c < 2; ++c)
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a) {
+        const double w = (a ? li.w : 1 - li.w) * (b ? lj.w : 1 - lj.w) * (c ? ls.w : 1 - ls.w);
+        const size_t base = (static_cast<size_t>(ls.i0 + c) * np + (lj.i0 + b)) * np + (li.i0 + a);
+        *G += w * fb.G[base];
+        for (int d = 0; d < 2; ++d) {
+          const size_t fi = ((static_cast<size_t>(ls.i0 + c) * fb.nk + (lk.i0 + d)) * np + (lj.i0 + b)) * np + (li.i0 + a);
+          *F += w * (d ? lk.w : 1 - lk.w) * fb.F[fi];
+        }
+      }
+}
+
+}  // namespace
+
+FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, int ns, int nk, uint64_t seed) {
+  if (nphi < 2 || ns < 2 || nk < 2) throw Error("bake: fiber table sizes must be at least 2");
+  const auto t0 = std::chrono::steady_clock::now();
+  FiberBakeTables fb;
+  fb.nphi = nphi;
+  fb.ns = ns;
+  fb.nk = nk;
+  fb.G.assign(static_cast<size_t>(nphi) * nphi * ns, 0.f);
+  fb.F.assign(static_cast<size_t>(nphi) * nphi * ns * nk, 0.f);
+  // Keeps the tabulated directions strictly above the surface at the +-90 deg end texels.
+  constexpr double kGrazingCos = 1e-9;
+  tbb::parallel_for(0, ns, [&](int is) {
+    const double s = static_cast<double>(is) / (ns - 1);
+    for (int j = 0; j < nphi; ++j)
+      for (int i = 0; i < nphi; ++i) {
+        const double pl = -M_PI / 2 + M_PI * i / (nphi - 1), pv = -M_PI / 2 + M_PI * j / (nphi - 1);
+        const double lb = std::sin(pl), ln = std::max(std::cos(pl), kGrazingCos);
+        const double vb = std::sin(pv), vn = std::max(std::cos(pv), kGrazingCos);
+        double D, S;
+        fiber_DS(lb, ln, vb, vn, 0.0, 0.0, m.n, s, FiberAccuracy{}, &D, &S);
+        fb.G[(static_cast<size_t>(is) * nphi + j) * nphi + i] = static_cast<float>(D);
+        for (int k = 0; k < nk; ++k) {
+          const double kk = static_cast<double>(k) / (nk - 1);
+          double F = 0;  // k = 1 (kappa infinite): the lobe has no width, F = 0
+          if (kk < 1.0) {
+            // s_L = s_V = 1 (unit in-plane vectors) and ab chosen so that kappa = 2 / (1 - ab); at
+            // kappa = 0 a huge -ab makes (1 - kappa sin^2 x)^n = 1: the lit-and-visible fraction.
+            const double kappa = kk / (1 - kk);
+            constexpr double kHugeAB = 1e12;
+            const double ab = kappa > 0 ? 1 - 2 / kappa : -kHugeAB;
+            fiber_DS(lb, ln, vb, vn, 1.0, ab, m.n, s, FiberAccuracy{}, &D, &F, static_cast<double*>(nullptr), true);
+          }
+          fb.F[((static_cast<size_t>(is) * nk + k) * nphi + j) * nphi + i] = static_cast<float>(F);
+        }
+      }
+  });
+  fb.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // Error against the full model over random directions and topology values (seeded).
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<double> errs;
+  double sum2 = 0;
+  const Material line_only = [&] {
+    Material x = m;
+    x.model = "line";
+    return x;
+  }();
+  constexpr int kSamples = 20000;
+  for (int it = 0; it < kSamples; ++it) {
+    auto unit = [&]() {
+      const double x = g(rng), y = g(rng), z = std::abs(g(rng)), l = std::sqrt(x * x + y * y + z * z);
+      return LocalDir{x / l, y / l, z / l};
+    };
+    const LocalDir L = unit(), V = unit();
+    const double s = u(rng);
+    double ref[3], baked[3];
+    LineParamsT<double> p = line_params(m);
+    p.psi = 0;
+    p.second = false;
+    p.isotropic = false;
+    fiber_reflectance(p, s, L, V, FiberAccuracy{}, ref);
+    fiber_baked_eval(line_only, line, fb, L, V, s, baked);
+    for (int c = 0; c < 3; ++c) {
+      const double e = std::abs(baked[c] - ref[c]);
+      errs.push_back(e);
+      sum2 += e * e;
+      fb.max_abs_error = std::max(fb.max_abs_error, e);
+      fb.peak_value = std::max(fb.peak_value, ref[c]);
+    }
+    ++fb.samples;
+  }
+  fb.rms_error = std::sqrt(sum2 / errs.size());
+  std::nth_element(errs.begin(), errs.begin() + errs.size() * 99 / 100, errs.end());
+  fb.p99_error = errs[errs.size() * 99 / 100];
+  return fb;
+}
+
+void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBakeTables& fb, const LocalDir& L,
+                      const LocalDir& V, double s, double out[3]) {
+  out[0] = out[1] = out[2] = 0;
+  if (!(L.n > 0) || !(V.n > 0)) return;
+  const double a = L.u, b = V.u;
+  const double sL = std::hypot(L.w, L.n), sV = std::hypot(V.w, V.n);
+  const double phi_l = std::atan2(L.w, L.n), phi_v = std::atan2(V.w, V.n);
+  const double g0 = sL * sV - a * b;
+  const double kappa = g0 > 0 ? 2 * sL * sV / g0 : std::numeric_limits<double>::infinity();
+  double G, F;
+  fiber_factors(fb, phi_l, phi_v, s, kappa, &G, &F);
+  const double Dl = lookup_bilinear(line.diffuse, a, b, 0, line.index);
+  const double Sl = lookup_bilinear(line.specular, a, b, 0, line.index);
+  for (int c = 0; c < 3; ++c) out[c] = m.kd[c] * Dl * G + m.ks[c] * Sl * F;
+}
+
+void write_bake(const std::string& dir, const Material& m, const BakeTables& t, const std::string& command,
+                const FiberBakeTables* fiber) {
   using jsonu::json;
   write_folder_atomically(dir, [&](const std::string& tmp) {
     json files = json::object();
@@ -116,6 +253,33 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t, 
     emit("diffuse", t.diffuse);
     emit("specular", t.specular);
     emit("combined", t.combined);
+    json fiber_json = nullptr;
+    if (fiber) {
+      Image G(fiber->nphi, fiber->nphi * fiber->ns, 1), F(fiber->nphi, fiber->nphi * fiber->ns * fiber->nk, 1);
+      G.px = fiber->G;
+      F.px = fiber->F;
+      write_exr(join_path(tmp, "fiber_G.exr"), G);
+      write_exr(join_path(tmp, "fiber_F.exr"), F);
+      fiber_json = {
+          {"G", "fiber_G.exr: width nphi (phi_l), rows nphi * ns: row = is * nphi + j (phi_v)"},
+          {"F", "fiber_F.exr: width nphi (phi_l), rows nphi * ns * nk: row = (is * nk + k) * nphi + j"},
+          {"nphi", fiber->nphi},
+          {"ns", fiber->ns},
+          {"nk", fiber->nk},
+          {"angles", "phi = atan2(<L,B>, <L,N>) (likewise V), texel i at -90 + 180 i / (nphi - 1) deg"},
+          {"s", "texel is at s = is / (ns - 1)"},
+          {"k", "k = kappa / (1 + kappa), kappa = 2 s_L s_V / (s_L s_V - a b); texel k at k / (nk - 1)"},
+          {"evaluate", "k_d * diffuse(a, b) * G(phi_l, phi_v, s) + k_s * specular(a, b) * F(phi_l, phi_v, s, k); no <N,L> "
+                       "factor; multilinear lookups"},
+          {"error",
+           {{"against", "the full fiber model (models/fiber_model.h), random L, V, s"},
+            {"max_abs", fiber->max_abs_error},
+            {"rms", fiber->rms_error},
+            {"p99", fiber->p99_error},
+            {"peak_value", fiber->peak_value},
+            {"samples", fiber->samples}}},
+          {"bake_seconds", fiber->seconds}};
+    }
     json material;
     material_to_json(m, &material);
     const int n = t.size;
@@ -157,6 +321,7 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t, 
           {"seed", t.seed}}},
         {"bake_seconds", t.seconds},
         {"material", material}};
+    if (fiber) j["fiber"] = fiber_json;
     write_json_file(join_path(tmp, "bake.json"), j);
   });
 }
