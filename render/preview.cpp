@@ -10,6 +10,8 @@
 #include "core/frame.h"
 #include "io/files.h"
 #include "models/evaluate.h"
+#include "capture_sim/sim.h"
+#include "io/capture.h"
 #include "render/bake.h"
 
 namespace aniso {
@@ -95,10 +97,15 @@ layout(location = 0) in vec3 aP;
 layout(location = 1) in vec3 aN;
 layout(location = 2) in vec3 aT;
 layout(location = 3) in vec3 aT2;
+layout(location = 4) in vec2 aUV;
+layout(location = 5) in float aSmath;
 uniform mat4 uViewProj;
-out vec3 vN; out vec3 vT; out vec3 vT2;
+out vec3 vN; out vec3 vT; out vec3 vT2; out vec2 vUV; out float vSmath;
 invariant gl_Position;
-void main() { vN = aN; vT = aT; vT2 = aT2; gl_Position = uViewProj * vec4(aP, 1.0); }
+void main() {
+  vN = aN; vT = aT; vT2 = aT2; vUV = aUV; vSmath = aSmath;
+  gl_Position = uViewProj * vec4(aP, 1.0);
+}
 )";
 
 // The anisotropic pass: the paper's texture matrix applied to (T, 1), two lookups (D, S) so the
@@ -154,9 +161,11 @@ void main() {
 }
 )";
 
-// Geometry pass for the reference: N, T, T2 (orthonormalised like the shading pass).
+// Geometry pass for the reference: N, T, T2 (orthonormalised like the shading pass); for the
+// fiber model the third target holds (u, v, s_math) instead of T2.
 const char* kGBuffer = R"(#version 330 core
-in vec3 vN; in vec3 vT; in vec3 vT2;
+in vec3 vN; in vec3 vT; in vec3 vT2; in vec2 vUV; in float vSmath;
+uniform int uFiber;
 layout(location = 0) out vec4 oN;
 layout(location = 1) out vec4 oT;
 layout(location = 2) out vec4 oT2;
@@ -164,9 +173,75 @@ void main() {
   vec3 N = normalize(vN);
   oN = vec4(N, 1.0);
   oT = vec4(normalize(vT - N * dot(N, vT)), 1.0);
-  oT2 = vec4(normalize(vT2 - N * dot(N, vT2)), 1.0);
+  oT2 = uFiber == 1 ? vec4(vUV, vSmath, 1.0) : vec4(normalize(vT2 - N * dot(N, vT2)), 1.0);
 }
 )";
+
+// The fiber model from its baked form (render/bake.h): the line tables through the paper's
+// texture matrix times the factor tables G(phi_l, phi_v, s) and F(phi_l, phi_v, s, k), with the
+// topology s per fragment from the mathematical topology and the topology map (MODELS.md §4).
+const char* kFiber = R"(#version 330 core
+in vec3 vN; in vec3 vT; in vec3 vT2; in vec2 vUV; in float vSmath;
+uniform mat4 uTexMat;
+uniform sampler2D uD;
+uniform sampler2D uS;
+uniform sampler2DArray uG;
+uniform sampler2DArray uF;
+uniform sampler2D uMap;
+uniform int uAngleIndex; uniform float uTexels;
+uniform int uNphi; uniform int uNs; uniform int uNk;
+uniform int uTopo;  // 0: uniform s, 1: s_math, 2: s_math + map
+uniform float uS0; uniform float uAmp;
+uniform vec3 uL; uniform vec3 uV; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs;
+out vec4 frag;
+const float PI = 3.14159265358979;
+void main() {
+  vec3 N = normalize(vN);
+  vec3 T = normalize(vT - N * dot(N, vT));
+  vec3 B = cross(N, T);
+  float ln = dot(uL, N), vn = dot(uV, N);
+  if (ln <= 0.0 || vn <= 0.0) { frag = vec4(0.0, 0.0, 0.0, 1.0); return; }
+  vec2 st = (uTexMat * vec4(T, 1.0)).xy;
+  if (uAngleIndex == 1) st = (acos(clamp(1.0 - 2.0 * st, -1.0, 1.0)) / PI * (uTexels - 1.0) + 0.5) / uTexels;
+  float Dl = texture(uD, st).r, Sl = texture(uS, st).r;
+  float a = dot(uL, T), b = dot(uV, T), lb = dot(uL, B), vb = dot(uV, B);
+  float sL = length(vec2(lb, ln)), sV = length(vec2(vb, vn));
+  float g0 = sL * sV - a * b;
+  float kk = g0 > 0.0 ? 2.0 * sL * sV / (g0 + 2.0 * sL * sV) : 1.0;
+  float s = uS0;
+  if (uTopo >= 1) s = vSmath;
+  if (uTopo == 2) {
+    float m = 2.0 * texture(uMap, vUV).r - 1.0;
+    float H = clamp(2.0 * sin(PI / 3.0 * vSmath) + uAmp * m, 0.0, sqrt(3.0));
+    s = asin(0.5 * H) / (PI / 3.0);
+  }
+  vec2 uvphi = ((vec2(atan(lb, ln), atan(vb, vn)) + 0.5 * PI) / PI * float(uNphi - 1) + 0.5) / float(uNphi);
+  float fs = clamp(s, 0.0, 1.0) * float(uNs - 1);
+  int is = min(int(fs), uNs - 2);
+  float ws = fs - float(is);
+  float fk = kk * float(uNk - 1);
+  int ik = min(int(fk), uNk - 2);
+  float wk = fk - float(ik);
+  float G = mix(texture(uG, vec3(uvphi, float(is))).r, texture(uG, vec3(uvphi, float(is + 1))).r, ws);
+  float F0 = mix(texture(uF, vec3(uvphi, float(is * uNk + ik))).r, texture(uF, vec3(uvphi, float(is * uNk + ik + 1))).r, wk);
+  float F1 = mix(texture(uF, vec3(uvphi, float((is + 1) * uNk + ik))).r,
+                 texture(uF, vec3(uvphi, float((is + 1) * uNk + ik + 1))).r, wk);
+  float F = mix(F0, F1, ws);
+  frag = vec4(uE * (uKd * Dl * G + uKs * Sl * F), 1.0);
+}
+)";
+
+GLuint make_array_texture(const std::vector<float>& data, int w, int h, int layers) {
+  GLuint tex;
+  glGenTextures(1, &tex);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, tex);
+  glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_R32F, w, h, layers, 0, GL_RED, GL_FLOAT, data.data());
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  return tex;
+}
 
 GLuint make_table_texture(const Image& t) {
   GLuint tex;
@@ -206,7 +281,10 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   PreviewResult res;
   res.triangles = mesh.tri.size();
 
-  // Per-vertex fiber directions T and T2 (MODELS.md §1).
+  // Per-vertex fiber directions T and T2 (MODELS.md §1), uv and the mathematical topology.
+  const bool fiber = m.model == "fiber" && !opt.plain;
+  if (fiber && m.has_topology_map && opt.topology_map.empty())
+    throw Error("preview: the material uses a topology map (" + m.topology_map + ") but none was loaded");
   const double psi = m.fiber_angle_deg * M_PI / 180, psi2 = m.second_angle_deg * M_PI / 180;
   std::vector<float> vbuf;
   double radius = 0;
@@ -220,6 +298,9 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
       vbuf.push_back(float(v.y));
       vbuf.push_back(float(v.z));
     }
+    vbuf.push_back(mesh.uv[i][0]);
+    vbuf.push_back(mesh.uv[i][1]);
+    vbuf.push_back(float(mathematical_topology_at(m.topology_mathematical, mesh.P[i], opt.shape_options)));
     radius = std::max(radius, length(mesh.P[i] - mesh.center));
   }
 
@@ -232,9 +313,12 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   glGenBuffers(1, &vbo);
   glBindBuffer(GL_ARRAY_BUFFER, vbo);
   glBufferData(GL_ARRAY_BUFFER, vbuf.size() * sizeof(float), vbuf.data(), GL_STATIC_DRAW);
-  for (int a = 0; a < 4; ++a) {
+  constexpr int kStride = 15 * sizeof(float);
+  for (int a = 0; a < 6; ++a) {
     glEnableVertexAttribArray(a);
-    glVertexAttribPointer(a, 3, GL_FLOAT, GL_FALSE, 12 * sizeof(float), reinterpret_cast<void*>(a * 3 * sizeof(float)));
+    const int size = a < 4 ? 3 : (a == 4 ? 2 : 1);
+    const size_t offset = a < 4 ? a * 3 : (a == 4 ? 12 : 14);
+    glVertexAttribPointer(a, size, GL_FLOAT, GL_FALSE, kStride, reinterpret_cast<void*>(offset * sizeof(float)));
   }
   glGenBuffers(1, &ibo);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
@@ -275,7 +359,25 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   const BakeIndex index = opt.table_index == 1 ? BakeIndex::kAngle : BakeIndex::kCosine;
   const BakeTables tables = bake_line(m, opt.table_size, index);
   GLuint texD = make_table_texture(tables.diffuse), texS = make_table_texture(tables.specular);
-  const GLuint p_aniso = program(kVertex, opt.plain ? kPlain : kAniso);
+  const GLuint p_aniso = program(kVertex, opt.plain ? kPlain : (fiber ? kFiber : kAniso));
+  FiberBakeTables fb;
+  GLuint texG = 0, texF = 0, texMap = 0;
+  if (fiber) {
+    fb = bake_fiber(m, tables);
+    texG = make_array_texture(fb.G, fb.nphi, fb.nphi, fb.ns);
+    texF = make_array_texture(fb.F, fb.nphi, fb.nphi, fb.ns * fb.nk);
+    if (m.has_topology_map) {
+      glGenTextures(1, &texMap);
+      glBindTexture(GL_TEXTURE_2D, texMap);
+      // Row 0 of the image is v = 0 (glTF: top), which is t = 0 here: the same convention.
+      glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, opt.topology_map.width, opt.topology_map.height, 0, GL_RED, GL_FLOAT,
+                   opt.topology_map.px.data());
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    }
+  }
   const GLuint p_iso = program(kVertex, kIso);
   const GLsizei nidx = static_cast<GLsizei>(mesh.tri.size() * 3);
   // The paper's matrix; for the cosine index the texel-centre remap is folded into it.
@@ -308,10 +410,29 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
                                 float(k * V.x / 2), float(k * V.y / 2), float(k * V.z / 2), float(k / 2 + o),
                                 0, 0, 0, 0,
                                 0, 0, 0, 1};
-      const int lobes = m.second_active() && !opt.plain ? 2 : 1;
+      const int lobes = m.second_active() && !opt.plain && !fiber ? 2 : 1;
       for (int lobe = 0; lobe < lobes; ++lobe) {
         begin_pass();
         glUseProgram(p_aniso);
+        if (fiber) {
+          glActiveTexture(GL_TEXTURE2);
+          glBindTexture(GL_TEXTURE_2D_ARRAY, texG);
+          glActiveTexture(GL_TEXTURE3);
+          glBindTexture(GL_TEXTURE_2D_ARRAY, texF);
+          glActiveTexture(GL_TEXTURE4);
+          glBindTexture(GL_TEXTURE_2D, texMap);
+          glUniform1i(glGetUniformLocation(p_aniso, "uG"), 2);
+          glUniform1i(glGetUniformLocation(p_aniso, "uF"), 3);
+          glUniform1i(glGetUniformLocation(p_aniso, "uMap"), 4);
+          glUniform1i(glGetUniformLocation(p_aniso, "uNphi"), fb.nphi);
+          glUniform1i(glGetUniformLocation(p_aniso, "uNs"), fb.ns);
+          glUniform1i(glGetUniformLocation(p_aniso, "uNk"), fb.nk);
+          const int topo = m.has_topology_map ? 2 : (m.topology_mathematical != "none" ? 1 : 0);
+          glUniform1i(glGetUniformLocation(p_aniso, "uTopo"), topo);
+          glUniform1f(glGetUniformLocation(p_aniso, "uS0"), float(m.topology_s));
+          glUniform1f(glGetUniformLocation(p_aniso, "uAmp"), float(m.topology_amplitude));
+          set3(p_aniso, "uV", V);
+        }
         setm(p_aniso, "uViewProj", view_proj);
         setm(p_aniso, "uTexMat", texmat);
         glActiveTexture(GL_TEXTURE0);
@@ -360,6 +481,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glUseProgram(p_g);
   setm(p_g, "uViewProj", view_proj);
+  glUniform1i(glGetUniformLocation(p_g, "uFiber"), fiber ? 1 : 0);
   glDrawElements(GL_TRIANGLES, nidx, GL_UNSIGNED_INT, nullptr);
   glFinish();
   const Image gN = read_attachment(0, w, h), gT = read_attachment(1, w, h), gT2 = read_attachment(2, w, h);
@@ -367,7 +489,40 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
       res.covered[static_cast<size_t>(y) * w + x] = (gN.at(x, y, 0) != 0 || gN.at(x, y, 1) != 0 || gN.at(x, y, 2) != 0);
-  if (opt.reference && !opt.plain) {
+  if (opt.reference && fiber) {
+    // Against the full model (exact) and against the same tables evaluated on the CPU.
+    res.reference = Image(w, h, 3);
+    TopologyMap map;
+    map.h = opt.topology_map;
+    Material line_only = m;
+    line_only.model = "line";
+    res.error_bound = opt.light_dirs.size() * fb.max_abs_error + 1e-5;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        if (!res.covered[static_cast<size_t>(y) * w + x]) continue;
+        const Vec3 N{gN.at(x, y, 0), gN.at(x, y, 1), gN.at(x, y, 2)}, T{gT.at(x, y, 0), gT.at(x, y, 1), gT.at(x, y, 2)};
+        SurfacePoint sp;
+        if (!make_frame(Vec3(0, 0, 0), N, T, &sp)) continue;
+        const double u = gT2.at(x, y, 0), v = gT2.at(x, y, 1), smath = gT2.at(x, y, 2);
+        const double s = m.topology_at(smath, map.h.empty() ? 0.0 : map.sample(u, v));
+        double exact[3] = {0, 0, 0}, baked[3] = {0, 0, 0};
+        for (const Vec3& ld : opt.light_dirs) {
+          const LocalDir Ll = to_local(sp, normalize(ld)), Vl = to_local(sp, V);
+          LineParamsT<double> p = line_params(m);
+          p.psi = 0;
+          double f[3], g[3];
+          fiber_reflectance(p, s, Ll, Vl, FiberAccuracy{}, f);
+          fiber_baked_eval(line_only, tables, fb, Ll, Vl, s, g);
+          for (int ch = 0; ch < 3; ++ch) exact[ch] += f[ch], baked[ch] += g[ch];
+        }
+        for (int ch = 0; ch < 3; ++ch) {
+          res.reference.at(x, y, ch) = float(exact[ch]);
+          res.max_abs_diff = std::max(res.max_abs_diff, std::abs(double(res.rgb.at(x, y, ch)) - exact[ch]));
+          res.max_abs_diff_baked = std::max(res.max_abs_diff_baked, std::abs(double(res.rgb.at(x, y, ch)) - baked[ch]));
+        }
+      }
+  }
+  if (opt.reference && !opt.plain && !fiber) {
     res.reference = Image(w, h, 3);
     // Largest change between neighbouring texels, times the 8-bit sub-texel weight precision
     // that hardware filtering is allowed (and llvmpipe uses): what GL_LINEAR may add to the bake's
@@ -415,6 +570,9 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   glDeleteProgram(p_iso);
   glDeleteProgram(p_g);
   glDeleteTextures(1, &texD);
+  if (texG) glDeleteTextures(1, &texG);
+  if (texF) glDeleteTextures(1, &texF);
+  if (texMap) glDeleteTextures(1, &texMap);
   glDeleteTextures(1, &texS);
   glDeleteTextures(3, color);
   glDeleteRenderbuffers(1, &depth);

@@ -26,6 +26,8 @@ struct PreviewOptions {
   bool reference = false;  // also evaluate the model directly per pixel (CPU) for comparison
   bool plain = false;      // a plain textured-and-lit pass instead (for timing comparisons)
   int repeat = 1;          // frames to render (timing)
+  // Fiber model: the topology map (h in [0, 1], glTF uv) when the material uses one.
+  Image topology_map;
 };
 
 struct PreviewResult {
@@ -37,6 +39,7 @@ struct PreviewResult {
   double seconds_per_frame = 0;
   double max_abs_diff = 0;   // |rgb - reference| over covered pixels (when asked)
   double error_bound = 0;    // what the bake's measured error and filtering allow
+  double max_abs_diff_baked = 0;  // fiber model: against the same baked tables evaluated on the CPU
   std::string renderer;      // GL_RENDERER
 };
 

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "datasets_synth/presets.h"
+#include "core/error.h"
 #include "io/files.h"
 #include "models/line_model.h"
 #include "render/bake.h"
@@ -128,6 +129,60 @@ TEST(Verify, TruthReproducesTheCaptureAndAWrongMaterialDoesNot) {
   Material wrong = so.truth;
   wrong.n *= 1.5;
   EXPECT_GT(verify_capture(s, wrong).overall.rms, 1e-3);
+}
+
+}  // namespace
+}  // namespace aniso
+
+#include "capture_sim/sim.h"
+#include "datasets_synth/presets.h"
+
+namespace aniso {
+namespace {
+
+Material silk() {
+  Material m;
+  m.model = "fiber";
+  m.kd = {0.3, 0.22, 0.06};
+  m.ks = {0.55, 0.5, 0.35};
+  m.n = 30;
+  m.fiber_angle_deg = 90;
+  m.has_topology = true;
+  m.has_topology_map = true;
+  m.topology_map = "map.png";
+  m.topology_amplitude = 0.25;
+  m.topology_mathematical = "torus";
+  return m;
+}
+
+// The baked fiber form: exact structure, interpolation error measured and bounded.
+TEST(FiberBake, ErrorIsMeasuredAndSmallOnAverage) {
+  Material m = silk();
+  const BakeTables line = bake_line(m, 256);
+  const FiberBakeTables fb = bake_fiber(m, line);
+  std::printf("fiber bake: max %.3g, p99 %.3g, RMS %.3g (peak %.3g) over %zu samples, %.2f s\n", fb.max_abs_error,
+              fb.p99_error, fb.rms_error, fb.peak_value, fb.samples, fb.seconds);
+  EXPECT_GT(fb.max_abs_error, 0.0);
+  EXPECT_LT(fb.rms_error, 0.02 * fb.peak_value);
+  EXPECT_LT(fb.p99_error, 0.05 * fb.peak_value);
+}
+
+// The torus preview with its topology map: the GPU evaluates exactly the baked form.
+TEST(FiberPreview, TorusWithTopologyMapMatchesTheBakedFormOnTheCpu) {
+  PreviewOptions p;
+  p.shape = "torus";
+  p.shape_options.torus_r = 0.6;
+  p.width = p.height = 96;
+  p.reference = true;
+  p.topology_map = procedural_topology_map(64, 3);
+  const PreviewResult r = render_preview(silk(), p);
+  std::printf("torus preview: GPU vs CPU baked %.3g, vs full model %.3g (bake bound %.3g)\n", r.max_abs_diff_baked,
+              r.max_abs_diff, r.error_bound);
+  EXPECT_LT(r.max_abs_diff_baked, 2e-3);
+  EXPECT_LE(r.max_abs_diff, r.error_bound);
+  PreviewOptions missing = p;
+  missing.topology_map = Image();
+  EXPECT_THROW(render_preview(silk(), missing), Error);
 }
 
 }  // namespace
