@@ -112,12 +112,12 @@ Vec3 px3(const Image& im, int x, int y) { return {im.at(x, y, 0), im.at(x, y, 1)
 // Noise-free radiance image of one view (exposure 1), shading every hit pixel. `topo` holds the
 // topology value s of each pixel (fiber model).
 Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, const Image& topo, const Vec3& eye,
-                 const std::vector<Light>& lights, const RGB& ambient, const RayScene& scene,
+                 const std::vector<Light>& lights, const RGB& ambient, const RayScene& scene, bool force_shadows,
                  std::atomic<size_t>* shadow_rays, std::atomic<size_t>* light_evals,
                  std::vector<uint8_t>* light_used) {
   const int w = g.P.width, h = g.P.height;
   Image out(w, h, 3);
-  const bool shadows = scene.mesh().can_self_shadow;
+  const bool shadows = scene.mesh().can_self_shadow || force_shadows;
   std::vector<std::atomic<uint8_t>> used(lights.size());
   for (auto& u : used) u = 0;
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
@@ -228,7 +228,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   {
     Progress bar("capture_sim: tracing and shading", opt.rig.size(), opt.progress);
     for (size_t i = 0; i < opt.rig.size(); ++i) {
-      if (i == 0 || !fixed_camera) {
+      if (i == 0 || !fixed_camera || opt.force_retrace) {
         gbuffers.push_back(scene.trace(opt.camera, opt.rig[i].world_from_camera, opt.fiber_field));
         st.primary_rays += gbuffers.back().rays;
         smaths.emplace_back();
@@ -238,7 +238,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       const GBuffer& g = gbuffers.back();
       std::vector<uint8_t> used;
       radiance.push_back(shade_view(eval, opt.truth, g, topos.back(), opt.rig[i].world_from_camera.translation(), opt.rig[i].lights,
-                                    opt.ambient, scene, &shadow_rays, &light_evals, &used));
+                                    opt.ambient, scene, opt.force_shadows, &shadow_rays, &light_evals, &used));
       for (uint8_t u : used) st.lights_culled += u ? 0 : 1;
       for (uint8_t hit : g.hit) st.shaded_pixels += hit;
       bar.advance();

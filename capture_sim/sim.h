@@ -53,6 +53,10 @@ struct SimOptions {
   // maps/topology.png (16-bit) and named by the set's "topology_map".
   std::string mathematical_topology = "none";
   Image topology_map;
+  // Benchmark switches that turn a skip off, to measure what it saves: shadow rays even for
+  // shapes that cannot shadow themselves; re-tracing the geometry of every view of a fixed camera.
+  bool force_shadows = false;
+  bool force_retrace = false;
 };
 
 // The mathematical topology s_math at a point of a named shape (MODELS.md §4): "torus" (radii

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "bench/suites.h"
 #include "capture_sim/microgeometry.h"
 #include "capture_sim/sim.h"
 #include "core/error.h"
@@ -241,6 +242,16 @@ int main(int argc, char** argv) {
   micro->add_option("--n", micro_n, "specular exponent")->capture_default_str()->check(CLI::Range(1.0, 1e4));
   micro->add_option("--seed", micro_seed, "seed of the ray jitter")->capture_default_str();
 
+  // bench -------------------------------------------------------------------------------------
+  auto* bench = app.add_subcommand("bench", "End-to-end comparisons in one run: fit (vs SciPy), fiber (vs brute force), "
+                                            "bake, capture (vs bare Embree), preview (vs a plain pass), skips, all");
+  std::string bench_suite, bench_out, bench_work = "bench_work";
+  bool bench_quick = false;
+  bench->add_option("SUITE", bench_suite, "fit, fiber, bake, capture, preview, skips or all")->required();
+  bench->add_option("--out", bench_out, "JSON file of entries {name, ours, baseline, ratio, error, unit, ...}")->required();
+  bench->add_option("--work", bench_work, "folder for the synthetic sets it makes")->capture_default_str();
+  bench->add_flag("--quick", bench_quick, "small sweeps (for tests)");
+
   // params ------------------------------------------------------------------------------------
   auto* params = app.add_subcommand("params", "Print the model parameters: name, bounds, default, unit, periodic");
 
@@ -352,6 +363,10 @@ int main(int argc, char** argv) {
                   prev_out.c_str(), r.max_abs_diff, r.error_bound);
       if (m.model == "fiber") std::printf("; GPU vs the same tables on the CPU: %.3g", r.max_abs_diff_baked);
       std::printf("\n");
+      return 0;
+    }
+    if (*bench) {
+      run_bench(bench_suite, bench_out, bench_work, bench_quick);
       return 0;
     }
     if (*micro) {

@@ -103,6 +103,82 @@ struct LineResidual {
   const ObsLight* lights;
 };
 
+// The common case (no optional terms) with hand-written derivatives: the same residual as
+// LineResidual<false, false>, about 4x cheaper than Jets of size 8 (tests compare the two).
+// d sqrt(1 - a^2)/da uses the same chord as models/safe_math.h below kSqrtChordEps.
+class LineResidualAnalytic : public ceres::SizedCostFunction<3, 3, 3, 1, 1, 1, 1> {
+ public:
+  LineResidualAnalytic(const Observation* o, const ObsLight* l) : obs_(o), lights_(l) {}
+
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    const double* kd = p[0];
+    const double* ks = p[1];
+    const double logn = p[2][0], psi = p[3][0];
+    const double n = std::exp(logn), c = std::cos(psi), sn = std::sin(psi);
+    const LocalDir& V = obs_->V;
+    const double b = clamp_unit(c * V.u + sn * V.w), db = -sn * V.u + c * V.w;
+    double sV, dsV;
+    sin_and_derivative(b, &sV, &dsV);
+    double f[3] = {obs_->base[0], obs_->base[1], obs_->base[2]};
+    double dkd[3] = {0, 0, 0}, dks[3] = {0, 0, 0}, dlogn[3] = {0, 0, 0}, dpsi[3] = {0, 0, 0};
+    for (uint32_t i = 0; i < obs_->num_lights; ++i) {
+      const ObsLight& l = lights_[obs_->first_light + i];
+      const double nl = l.L.n;
+      const double a = clamp_unit(c * l.L.u + sn * l.L.w), da = -sn * l.L.u + c * l.L.w;
+      double sL, dsL;
+      sin_and_derivative(a, &sL, &dsL);
+      const double x = sL * sV - a * b;
+      double S = 0, dS_dx = 0, dS_dlogn = 0;
+      if (x > 0) {
+        S = std::exp(n * std::log(x));
+        dS_dx = n * S / x;
+        dS_dlogn = S * n * std::log(x);
+      }
+      const double dx_dpsi = (dsL * sV - b) * da + (sL * dsV - a) * db;
+      const double dD_dpsi = dsL * da;
+      for (int k = 0; k < 3; ++k) {
+        const double w = l.E[k] * nl;
+        f[k] += w * (kd[k] * sL + ks[k] * S);
+        dkd[k] += w * sL;
+        dks[k] += w * S;
+        dlogn[k] += w * ks[k] * dS_dlogn;
+        dpsi[k] += w * (kd[k] * dD_dpsi + ks[k] * dS_dx * dx_dpsi);
+      }
+    }
+    for (int k = 0; k < 3; ++k) r[k] = f[k] - obs_->y[k];
+    if (!J) return true;
+    if (J[0]) std::fill(J[0], J[0] + 9, 0.0);
+    if (J[1]) std::fill(J[1], J[1] + 9, 0.0);
+    for (int k = 0; k < 3; ++k) {
+      if (J[0]) J[0][k * 3 + k] = dkd[k];
+      if (J[1]) J[1][k * 3 + k] = dks[k];
+      if (J[2]) J[2][k] = dlogn[k];
+      if (J[3]) J[3][k] = dpsi[k];
+      if (J[4]) J[4][k] = 0;
+      if (J[5]) J[5][k] = 0;
+    }
+    return true;
+  }
+
+ private:
+  // sqrt(1 - a^2) and its derivative, with the chord of models/safe_math.h near |a| = 1.
+  static void sin_and_derivative(double a, double* s, double* ds) {
+    const double x = 1 - a * a;
+    if (x <= 0) {
+      *s = 0;
+      *ds = 0;
+    } else if (x < kSqrtChordEps) {
+      *s = x / std::sqrt(kSqrtChordEps);
+      *ds = -2 * a / std::sqrt(kSqrtChordEps);
+    } else {
+      *s = std::sqrt(x);
+      *ds = -a / *s;
+    }
+  }
+  const Observation* obs_;
+  const ObsLight* lights_;
+};
+
 // The fiber model's residual (MODELS.md §4): blocks kd 3, ks 3, log n 1, psi 1, topology 1
 // (s, or the map amplitude A, or a constant dummy).
 struct FiberResidual {
@@ -344,9 +420,15 @@ struct Solved {
 template <bool kIso, bool kSecond>
 void add_blocks(ceres::Problem* pb, const ObsSet& os, const std::vector<size_t>& idx, State* st,
                 ceres::LossFunction* loss) {
-  for (size_t i : idx)
-    pb->AddResidualBlock(LineResidual<kIso, kSecond>::Create(&os.obs[i], os.lights.data()), loss, st->kd, st->ks,
-                         &st->logn, &st->psi, kIso ? st->iso : st->dummy_iso, kSecond ? st->sec : st->dummy_sec);
+  for (size_t i : idx) {
+    ceres::CostFunction* cf;
+    if constexpr (!kIso && !kSecond)
+      cf = new LineResidualAnalytic(&os.obs[i], os.lights.data());
+    else
+      cf = LineResidual<kIso, kSecond>::Create(&os.obs[i], os.lights.data());
+    pb->AddResidualBlock(cf, loss, st->kd, st->ks, &st->logn, &st->psi, kIso ? st->iso : st->dummy_iso,
+                         kSecond ? st->sec : st->dummy_sec);
+  }
 }
 
 struct ProblemSetup {
@@ -683,11 +765,43 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
 
 }  // namespace
 
-FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
-  if (opt.subsample < 1) throw Error("fit: --subsample must be at least 1");
-  const auto t0 = Clock::now();
-  ObsSet os;
+namespace {
+ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep);
+}  // namespace
+
+size_t export_observations(const CaptureSet& set, const FitOptions& opt, const std::string& path,
+                           std::vector<double>* start) {
   FitReport rep;
+  const ObsSet os = load_observations(set, opt, &rep);
+  std::vector<double> rows;
+  rows.reserve(os.obs.size() * 14);
+  size_t n = 0;
+  for (const Observation& o : os.obs) {
+    if (o.num_lights != 1) continue;  // the benchmark scripts model one light per view
+    const ObsLight& l = os.lights[o.first_light];
+    const double r[14] = {o.V.u, o.V.w, o.V.n, l.L.u, l.L.w, l.L.n, l.E[0], l.E[1], l.E[2], o.y[0], o.y[1], o.y[2], o.smath, o.mapv};
+    rows.insert(rows.end(), r, r + 14);
+    ++n;
+  }
+  write_atomically(path, [&](const std::string& tmp) {
+    FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) throw Error(path + ": cannot open for writing");
+    const size_t w = std::fwrite(rows.data(), sizeof(double), rows.size(), f);
+    std::fclose(f);
+    if (w != rows.size()) throw Error(path + ": write failed");
+  });
+  State st;
+  grid_start(os, &st);
+  *start = {st.kd[0], st.kd[1], st.kd[2], st.ks[0], st.ks[1], st.ks[2], st.logn, st.psi};
+  return n;
+}
+
+namespace {
+
+ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep_out) {
+  if (opt.subsample < 1) throw Error("fit: --subsample must be at least 1");
+  ObsSet os;
+  FitReport& rep = *rep_out;
   rep.views = set.views.size();
   const Material known;  // k_a = 0 unless given: the ambient term is not fitted
   // Fiber model topology: a map in the set means its amplitude is fitted over the per-pixel
@@ -713,21 +827,28 @@ FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
     }
   }
   if (has_buffer && !has_map) os.topology = TopologyMode::kMathematical;
-  {
-    Progress bar("fit: loading views", set.views.size(), opt.progress);
-    for (size_t i = 0; i < set.views.size(); ++i) {
-      const ViewData d = load_view(set, i, has_map ? &map : nullptr);
-      rep.masked_out += static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
-      rep.saturated += d.saturated;
-      rep.nonfinite += d.nonfinite;
-      add_pixel_observations(d, set.views[i], set, known, opt.subsample, &os, &rep);
-      bar.advance();
-    }
+  Progress bar("fit: loading views", set.views.size(), opt.progress);
+  for (size_t i = 0; i < set.views.size(); ++i) {
+    const ViewData d = load_view(set, i, has_map ? &map : nullptr);
+    rep.masked_out += static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
+    rep.saturated += d.saturated;
+    rep.nonfinite += d.nonfinite;
+    add_pixel_observations(d, set.views[i], set, known, opt.subsample, &os, &rep);
+    bar.advance();
   }
   rep.pixels = os.obs.size();
   rep.observations = os.obs.size() * 3;
+  return os;
+}
+
+}  // namespace
+
+FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
+  const auto t0 = Clock::now();
+  FitReport rep;
+  const ObsSet os = load_observations(set, opt, &rep);
   rep.seconds_load = since(t0);
-  FitResult r = solve_model(os, opt, rep, known.ka);
+  FitResult r = solve_model(os, opt, rep, {0, 0, 0});
   r.report.seconds = since(t0);
   return r;
 }

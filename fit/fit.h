@@ -53,6 +53,13 @@ struct FitResult {
 FitResult fit_capture(const CaptureSet& set, const FitOptions& opt);
 FitResult fit_table(const SampleTable& table, const FitOptions& opt);
 
+// For benchmarks against other solvers: the observations of a capture as a flat little-endian
+// float64 file, one row of 14 per pixel with one light
+// (Vu Vw Vn  Lu Lw Ln  Er Eg Eb  yr yg yb  smath mapv), and the start point this fitter's grid
+// chose for the line model (kd[3] ks[3] log n psi). Returns the number of rows.
+size_t export_observations(const CaptureSet& set, const FitOptions& opt, const std::string& path,
+                           std::vector<double>* start);
+
 // The material file with "uncertainty", "fixed", "undetermined" and "report"; atomic.
 void write_fit(const std::string& path, const FitResult& r);
 
