@@ -179,6 +179,50 @@ class LineResidualAnalytic : public ceres::SizedCostFunction<3, 3, 3, 1, 1, 1, 1
   const ObsLight* lights_;
 };
 
+// Many pixels per residual block (the default line fit): per-block overhead in Ceres, not the
+// model, dominated the per-pixel form. Each pixel's three residuals are scaled by sqrt(w_i), the
+// weight of iteratively reweighted least squares that reproduces the robust loss per pixel.
+class LineChunkResidual : public ceres::CostFunction {
+ public:
+  LineChunkResidual(std::vector<const Observation*> obs, const ObsLight* lights, const std::vector<double>* sqrt_w,
+                    size_t first)
+      : obs_(std::move(obs)), lights_(lights), sqrt_w_(sqrt_w), first_(first) {
+    set_num_residuals(static_cast<int>(3 * obs_.size()));
+    *mutable_parameter_block_sizes() = {3, 3, 1, 1};
+  }
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    const double dummy_iso = 0, dummy_sec = 0;
+    const double* params[6] = {p[0], p[1], p[2], p[3], &dummy_iso, &dummy_sec};
+    const int m = num_residuals();
+    for (size_t i = 0; i < obs_.size(); ++i) {
+      const LineResidualAnalytic one(obs_[i], lights_);
+      double ri[3], j0[9], j1[9], j2[3], j3[3];
+      double* jac[6] = {j0, j1, j2, j3, nullptr, nullptr};
+      one.Evaluate(params, ri, J ? jac : nullptr);
+      const double w = (*sqrt_w_)[first_ + i];
+      for (int k = 0; k < 3; ++k) r[3 * i + k] = w * ri[k];
+      if (!J) continue;
+      for (int k = 0; k < 3; ++k) {
+        const size_t row = 3 * i + k;
+        if (J[0])
+          for (int q = 0; q < 3; ++q) J[0][row * 3 + q] = w * j0[k * 3 + q];
+        if (J[1])
+          for (int q = 0; q < 3; ++q) J[1][row * 3 + q] = w * j1[k * 3 + q];
+        if (J[2]) J[2][row] = w * j2[k];
+        if (J[3]) J[3][row] = w * j3[k];
+      }
+    }
+    (void)m;
+    return true;
+  }
+
+ private:
+  std::vector<const Observation*> obs_;
+  const ObsLight* lights_;
+  const std::vector<double>* sqrt_w_;
+  size_t first_;
+};
+
 // The fiber model's residual (MODELS.md §4): blocks kd 3, ks 3, log n 1, psi 1, topology 1
 // (s, or the map amplitude A, or a constant dummy).
 struct FiberResidual {
@@ -554,9 +598,69 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   else if (opt.loss == "cauchy") loss = new ceres::CauchyLoss(rep.loss_scale);
   else if (opt.loss != "none") throw Error("fit: --loss must be huber, cauchy or none (got '" + opt.loss + "')");
   rep.loss = loss ? opt.loss + "(" + std::to_string(rep.loss_scale) + ")" : "none";
-  auto pb = build_problem(os, all, &st, ps, loss);
+  std::unique_ptr<ceres::Problem> pb;
   ceres::Solver::Summary sum;
-  ceres::Solve(solver_options(opt), pb.get(), &sum);
+  double rss = 0;
+  std::vector<double> sqrt_w;  // IRLS weights of the chunked path (must outlive pb)
+  const bool chunked = !fiber && !opt.fit_isotropic && !opt.fit_second && opt.chunked;
+  if (chunked) {
+    // Robust loss by iteratively reweighted least squares: per pixel w = rho'(|r|^2) of the
+    // loss Ceres would apply, re-solved until the weights settle (at most kIrlsRounds).
+    constexpr int kIrlsRounds = 6;
+    constexpr double kWeightsSettled = 1e-3;
+    constexpr size_t kChunk = 256;
+    sqrt_w.assign(os.obs.size(), 1.0);
+    std::vector<double> w_prev(os.obs.size(), 1.0);
+    for (int round = 0; round < kIrlsRounds; ++round) {
+      ceres::Problem::Options po;
+      po.manifold_ownership = ceres::TAKE_OWNERSHIP;
+      pb = std::make_unique<ceres::Problem>(po);
+      for (size_t c0 = 0; c0 < os.obs.size(); c0 += kChunk) {
+        std::vector<const Observation*> chunk;
+        for (size_t i = c0; i < std::min(os.obs.size(), c0 + kChunk); ++i) chunk.push_back(&os.obs[i]);
+        pb->AddResidualBlock(new LineChunkResidual(std::move(chunk), os.lights.data(), &sqrt_w, c0), nullptr, st.kd,
+                             st.ks, &st.logn, &st.psi);
+      }
+      for (int k = 0; k < 3; ++k) {
+        pb->SetParameterLowerBound(st.kd, k, line_param("kd").lo);
+        pb->SetParameterUpperBound(st.kd, k, line_param("kd").hi);
+        pb->SetParameterLowerBound(st.ks, k, line_param("ks").lo);
+        pb->SetParameterUpperBound(st.ks, k, line_param("ks").hi);
+      }
+      pb->SetParameterLowerBound(&st.logn, 0, std::log(line_param("n").lo));
+      pb->SetParameterUpperBound(&st.logn, 0, std::log(line_param("n").hi));
+      pb->SetManifold(&st.psi, new HalfTurnManifold);
+      ceres::Solver::Summary round_sum;
+      ceres::Solve(solver_options(opt), pb.get(), &round_sum);
+      sum.iterations.insert(sum.iterations.end(), round_sum.iterations.begin() + (round ? 1 : 0), round_sum.iterations.end());
+      sum.num_residual_evaluations += round_sum.num_residual_evaluations;
+      sum.num_jacobian_evaluations += round_sum.num_jacobian_evaluations;
+      sum.termination_type = round_sum.termination_type;
+      sum.message = round_sum.message;
+      if (!loss) break;
+      // New weights from the unweighted residuals.
+      double change = 0;
+      for (size_t i = 0; i < os.obs.size(); ++i) {
+        const LineResidualAnalytic one(&os.obs[i], os.lights.data());
+        const double dummy = 0;
+        const double* params[6] = {st.kd, st.ks, &st.logn, &st.psi, &dummy, &dummy};
+        double ri[3];
+        one.Evaluate(params, ri, nullptr);
+        const double s2 = ri[0] * ri[0] + ri[1] * ri[1] + ri[2] * ri[2];
+        double rho[3];
+        loss->Evaluate(s2, rho);
+        change = std::max(change, std::abs(rho[1] - w_prev[i]));
+        w_prev[i] = rho[1];
+        sqrt_w[i] = std::sqrt(std::max(rho[1], 0.0));
+      }
+      if (change < kWeightsSettled) break;
+    }
+    delete loss;
+    loss = nullptr;
+  } else {
+    pb = build_problem(os, all, &st, ps, loss);
+    ceres::Solve(solver_options(opt), pb.get(), &sum);
+  }
   rep.iterations = static_cast<int>(sum.iterations.size()) - 1;
   rep.termination = ceres::TerminationTypeToString(sum.termination_type);
   rep.residual_evaluations = sum.num_residual_evaluations;
@@ -564,7 +668,6 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   if (sum.termination_type == ceres::FAILURE) throw Error("fit: the solver failed: " + sum.message);
   std::vector<double> r;
   pb->Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &r, nullptr, nullptr);
-  double rss = 0;
   for (double x : r) rss += x * x;
   const double m = static_cast<double>(os.obs.size()) * (os.grey ? 1 : 3);
   rep.rms = std::sqrt(rss / (os.grey ? 3 * m : m));

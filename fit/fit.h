@@ -24,6 +24,9 @@ struct FitOptions {
   std::string loss = "huber";  // huber | cauchy | none; scale from the data (3 robust sigmas)
   bool progress = true;
   int fiber_order = 8;  // fiber model: Gauss-Legendre order per specular panel
+  // Line model without optional terms: 256 pixels per residual block with analytic derivatives
+  // and the robust loss by reweighting (false: one autodiff block per pixel with Ceres' loss).
+  bool chunked = true;
 };
 
 struct FitReport {
