@@ -229,7 +229,9 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     Progress bar("capture_sim: tracing and shading", opt.rig.size(), opt.progress);
     for (size_t i = 0; i < opt.rig.size(); ++i) {
       if (i == 0 || !fixed_camera || opt.force_retrace) {
+        const auto tt = std::chrono::steady_clock::now();
         gbuffers.push_back(scene.trace(opt.camera, opt.rig[i].world_from_camera, opt.fiber_field));
+        st.seconds_trace += std::chrono::duration<double>(std::chrono::steady_clock::now() - tt).count();
         st.primary_rays += gbuffers.back().rays;
         smaths.emplace_back();
         topos.emplace_back();
@@ -237,8 +239,10 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       }
       const GBuffer& g = gbuffers.back();
       std::vector<uint8_t> used;
+      const auto ts = std::chrono::steady_clock::now();
       radiance.push_back(shade_view(eval, opt.truth, g, topos.back(), opt.rig[i].world_from_camera.translation(), opt.rig[i].lights,
                                     opt.ambient, scene, opt.force_shadows, &shadow_rays, &light_evals, &used));
+      st.seconds_shade += std::chrono::duration<double>(std::chrono::steady_clock::now() - ts).count();
       for (uint8_t u : used) st.lights_culled += u ? 0 : 1;
       for (uint8_t hit : g.hit) st.shaded_pixels += hit;
       bar.advance();
@@ -266,6 +270,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   }
   set.truth = "truth.json";
 
+  const auto t_write = std::chrono::steady_clock::now();
   write_folder_atomically(out_dir, [&](const std::string& dir) {
     if (!map.h.empty()) {
       set.topology_map = "maps/topology.png";
@@ -293,7 +298,9 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     };
     if (fixed_camera) set.geometry = geometry_files(gbuffers[0], smaths[0], "all");
     Progress bar("capture_sim: writing", opt.rig.size(), opt.progress);
-    for (size_t i = 0; i < opt.rig.size(); ++i) {
+    // Views are written in parallel; each has its own seeded generator, so the set is the same.
+    set.views.resize(opt.rig.size());
+    tbb::parallel_for(size_t(0), opt.rig.size(), [&](size_t i) {
       char stem[32];
       std::snprintf(stem, sizeof stem, "%03zu", i);
       ViewSpec v;
@@ -327,9 +334,9 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
         write_png(join_path(dir, v.image), img, opt.sensor.bits);
       else
         write_exr(join_path(dir, v.image), img);
-      set.views.push_back(v);
+      set.views[i] = v;
       bar.advance();
-    }
+    });
     jsonu::json truth;
     Material truth_m = opt.truth;
     if (truth_m.has_topology_map) truth_m.topology_map = set.topology_map;
@@ -356,6 +363,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     set.provenance = gen.dump();
     write_capture_json(set, join_path(dir, "capture.json"));
   });
+  st.seconds_write = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_write).count();
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return st;
 }

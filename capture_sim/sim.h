@@ -68,6 +68,7 @@ struct SimStats {
   size_t views = 0, primary_rays = 0, shadow_rays = 0, shaded_pixels = 0, light_evals = 0;
   size_t lights_culled = 0;  // (view, light) pairs skipped: the light reaches no sample pixel
   double white_level = 0, seconds = 0;
+  double seconds_trace = 0, seconds_shade = 0, seconds_write = 0;  // where the time went
 };
 
 // Writes the capture set into out_dir (atomically: a temporary folder renamed at the end).

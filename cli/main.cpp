@@ -157,6 +157,9 @@ int main(int argc, char** argv) {
   synth->add_option("--encoding", po.encoding, "PNG encoding")->capture_default_str()->check(CLI::IsMember({"linear", "srgb"}));
   synth->add_option("--rig", po.rig, "fixed-camera, orbit, or a rig JSON file (default: the preset's)");
   synth->add_option("--truth", truth_override, "use this material file as the ground truth instead");
+  std::string synth_compression = "none";
+  synth->add_option("--exr-compression", synth_compression, "EXR compression: none (fastest), zip (zlib level 1, about half the size) or piz")
+      ->capture_default_str()->check(CLI::IsMember({"zip", "piz", "none"}));
   synth->add_option("--topology-s", po.topology_s, "fiber-flat: the sample's topology value s")
       ->capture_default_str()->check(CLI::Range(0.0, 1.0));
   synth->add_option("--topology-map", po.topology_map_file, "silk-torus: topology map image (default: seeded noise)");
@@ -215,6 +218,8 @@ int main(int argc, char** argv) {
   prev->add_option("--table-size", prev_table, "lookup table size")->capture_default_str()->check(CLI::Range(2, 8192));
   prev->add_option("--exr", prev_exr, "also write the linear float image here");
   std::string prev_map;
+  bool prev_paper = false;
+  prev->add_flag("--per-vertex", prev_paper, "the paper's construction exactly: texture matrix per vertex, cosine table");
   double prev_R = 1.0, prev_r = 0.6;
   prev->add_option("--topology-map", prev_map, "fiber model: topology map image (default: the material's, relative to it)");
   prev->add_option("--torus-R", prev_R, "torus major radius (shape torus)")->capture_default_str();
@@ -228,6 +233,8 @@ int main(int argc, char** argv) {
   std::string ver_cap, ver_mat;
   ver->add_option("CAPTURE", ver_cap, "capture folder or capture.json")->required();
   ver->add_option("MATERIAL", ver_mat, "material file")->required();
+  std::string ver_resid;
+  ver->add_option("--residuals", ver_resid, "folder for per-view residual images (model - image, float EXR)");
 
   // microgeometry -----------------------------------------------------------------------------
   auto* micro = app.add_subcommand(
@@ -282,14 +289,15 @@ int main(int argc, char** argv) {
       }
       if (preset.empty() || synth_out.empty()) throw Error("synth: needs PRESET and OUT_DIR (see --list)");
       parse_size(synth_size, &po.width, &po.height);
+      set_exr_compression(synth_compression);
       SimOptions so = make_preset(preset, po);
       if (!truth_override.empty()) so.truth = read_material(truth_override);
       const SimStats st = simulate_capture(so, synth_out);
       std::printf("synth: %s -> %s: %zu views %dx%d, seed %llu; %zu primary rays, %zu shadow rays, %zu shaded pixels, "
-                  "%zu light evaluations, %zu (view, light) pairs culled; %.2f s\n",
+                  "%zu light evaluations, %zu (view, light) pairs culled; %.2f s (trace %.2f, shade %.2f, write %.2f)\n",
                   preset.c_str(), synth_out.c_str(), st.views, po.width, po.height,
                   static_cast<unsigned long long>(po.seed), st.primary_rays, st.shadow_rays, st.shaded_pixels,
-                  st.light_evals, st.lights_culled, st.seconds);
+                  st.light_evals, st.lights_culled, st.seconds, st.seconds_trace, st.seconds_shade, st.seconds_write);
       return 0;
     }
     if (*fit) {
@@ -336,6 +344,7 @@ int main(int argc, char** argv) {
       parse_size(prev_size, &p.width, &p.height);
       p.table_size = prev_table;
       p.table_index = parse_index(prev_index) == BakeIndex::kAngle ? 1 : 0;
+      p.per_vertex = prev_paper;
       if (!prev_view.empty()) p.view_dir = parse_vec(prev_view, "--view");
       if (!prev_lights.empty()) {
         p.light_dirs.clear();
@@ -379,7 +388,7 @@ int main(int argc, char** argv) {
     if (*ver) {
       const CaptureSet set = read_capture(ver_cap);
       const Material m = read_material(ver_mat);
-      const VerifyResult r = verify_capture(set, m);
+      const VerifyResult r = verify_capture(set, m, ver_resid);
       std::printf("%-6s %8s %12s %12s %10s\n", "view", "pixels", "rms", "max_abs", "rel_rms");
       for (size_t i = 0; i < r.views.size(); ++i)
         std::printf("%-6zu %8zu %12.4g %12.4g %9.4f%%\n", i, r.views[i].pixels, r.views[i].rms, r.views[i].max_abs,

@@ -16,6 +16,10 @@ struct LoadedImage {
 
 LoadedImage read_image(const std::string& path);
 
+// EXR compression for everything written after the call: "zip" (default, zlib level 1), "piz",
+// "none". Throws on another name.
+void set_exr_compression(const std::string& name);
+
 // Float EXR with channels R[,G[,B]] (1, 2 or 3 channels). Written atomically.
 void write_exr(const std::string& path, const Image& img);
 

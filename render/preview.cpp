@@ -133,6 +133,28 @@ void main() {
 }
 )";
 
+// The paper's construction to the letter: the texture matrix applied per vertex to (T, 1), the
+// coordinates interpolated, one lookup per table, <N,L>^+ per fragment.
+const char* kVertexPaper = R"(#version 330 core
+layout(location = 0) in vec3 aP;
+layout(location = 1) in vec3 aN;
+layout(location = 2) in vec3 aT;
+uniform mat4 uViewProj;
+uniform mat4 uTexMat;
+out vec3 vN; out vec2 vST;
+invariant gl_Position;
+void main() { vN = aN; vST = (uTexMat * vec4(aT, 1.0)).xy; gl_Position = uViewProj * vec4(aP, 1.0); }
+)";
+const char* kAnisoPaper = R"(#version 330 core
+in vec3 vN; in vec2 vST;
+uniform sampler2D uD; uniform sampler2D uS;
+uniform vec3 uL; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs; uniform float uWeight;
+out vec4 frag;
+void main() {
+  frag = vec4(uE * uWeight * (uKd * texture(uD, vST).r + uKs * texture(uS, vST).r) * max(dot(normalize(vN), uL), 0.0), 1.0);
+}
+)";
+
 // Isotropic component (seed 000 §4): Lambert + Blinn-Phong, one pass per light.
 const char* kIso = R"(#version 330 core
 in vec3 vN; in vec3 vT; in vec3 vT2;
@@ -356,10 +378,12 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
       float(-V.x / (2 * ext)), float(-V.y / (2 * ext)), float(-V.z / (2 * ext)), float(dot(V, c) / (2 * ext)),
       0, 0, 0, 1};
 
-  const BakeIndex index = opt.table_index == 1 ? BakeIndex::kAngle : BakeIndex::kCosine;
+  const bool paper = opt.per_vertex && !opt.plain && m.model != "fiber";
+  const BakeIndex index = opt.table_index == 1 && !paper ? BakeIndex::kAngle : BakeIndex::kCosine;
   const BakeTables tables = bake_line(m, opt.table_size, index);
   GLuint texD = make_table_texture(tables.diffuse), texS = make_table_texture(tables.specular);
-  const GLuint p_aniso = program(kVertex, opt.plain ? kPlain : (fiber ? kFiber : kAniso));
+  const GLuint p_aniso = paper ? program(kVertexPaper, kAnisoPaper)
+                               : program(kVertex, opt.plain ? kPlain : (fiber ? kFiber : kAniso));
   FiberBakeTables fb;
   GLuint texG = 0, texF = 0, texMap = 0;
   if (fiber) {

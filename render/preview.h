@@ -25,6 +25,9 @@ struct PreviewOptions {
   std::vector<Vec3> light_dirs{{0.7, -0.2, 0.7}};  // toward each light; irradiance 1 each
   bool reference = false;  // also evaluate the model directly per pixel (CPU) for comparison
   bool plain = false;      // a plain textured-and-lit pass instead (for timing comparisons)
+  // The paper's exact construction: texture coordinates from the texture matrix per vertex
+  // (interpolated), the cosine-indexed table. Cheapest; errs where T bends across a triangle.
+  bool per_vertex = false;
   int repeat = 1;          // frames to render (timing)
   // Fiber model: the topology map (h in [0, 1], glTF uv) when the material uses one.
   Image topology_map;

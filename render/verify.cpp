@@ -5,10 +5,12 @@
 #include "capture_sim/shade.h"
 #include "core/error.h"
 #include "io/files.h"
+#include "io/image_io.h"
+#include <cstdio>
 
 namespace aniso {
 
-VerifyResult verify_capture(const CaptureSet& set, const Material& m) {
+VerifyResult verify_capture(const CaptureSet& set, const Material& m, const std::string& residual_dir) {
   VerifyResult res;
   const Evaluator eval(m);
   double sum2 = 0, sumy = 0;
@@ -24,6 +26,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m) {
     const ViewSpec& v = set.views[i];
     ViewError e;
     double s2 = 0, sy = 0;
+    Image resid(d.rgb.width, d.rgb.height, 3, 0.f);
     ShadeCounters cnt;
     const RGB amb{m.ka[0] * set.ambient[0], m.ka[1] * set.ambient[1], m.ka[2] * set.ambient[2]};
     for (int y = 0; y < d.rgb.height; ++y)
@@ -39,6 +42,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m) {
         shade_point(eval, sp, d.eye, v.lights, amb, m.topology_at(d.smath.px[p], d.mapv.px[p]), no_shadows, I, &cnt);
         for (int c = 0; c < 3; ++c) {
           const double err = v.exposure * I[c] - d.rgb.at(x, y, c);
+          resid.at(x, y, c) = static_cast<float>(err);
           s2 += err * err;
           sy += std::abs(d.rgb.at(x, y, c));
           e.max_abs = std::max(e.max_abs, std::abs(err));
@@ -46,6 +50,11 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m) {
         ++e.pixels;
       }
     res.light_evals += cnt.light_evals;
+    if (!residual_dir.empty()) {
+      char name[48];
+      std::snprintf(name, sizeof name, "residual_%03zu.exr", i);
+      write_exr(join_path(residual_dir, name), resid);
+    }
     e.rms = e.pixels ? std::sqrt(s2 / (3.0 * e.pixels)) : 0;
     e.mean_signal = e.pixels ? sy / (3.0 * e.pixels) : 0;
     res.views.push_back(e);

@@ -9,7 +9,8 @@ PKGS=(build-essential cmake ninja-build pkg-config
       libopengl-dev libegl-dev libgl-dev libgl1-mesa-dri libegl-mesa0 libepoxy-dev
       nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev)
 if [ "${1:-}" = "--with-python" ]; then
-  PKGS+=(python3-numpy python3-scipy python3-matplotlib python3-pandas jupyter-nbconvert python3-ipykernel)
+  PKGS+=(python3-numpy python3-scipy python3-matplotlib python3-pandas python3-opencv python3-nbformat
+        jupyter-nbconvert python3-ipykernel)
 fi
 missing=()
 for p in "${PKGS[@]}"; do
