@@ -59,8 +59,8 @@ bool is_table(const std::string& p) { return lower_ext(p) == ".csv"; }
 void print_report(const FitResult& r) {
   const FitReport& p = r.report;
   std::printf("fit: %zu observations (%zu pixels x 3 channels) from %zu views; skipped: %zu masked, %zu saturated, "
-              "%zu non-finite, %zu unlit\n",
-              p.observations, p.pixels, p.views, p.masked_out, p.saturated, p.nonfinite, p.unlit);
+              "%zu non-finite, %zu unlit, %zu implausible\n",
+              p.observations, p.pixels, p.views, p.masked_out, p.saturated, p.nonfinite, p.unlit, p.implausible);
   std::printf("fit: start %s\n", p.start.c_str());
   std::printf("fit: %d iterations, %s, loss %s, residual RMS %.3g, time %.3f s (load %.3f, start %.3f, solve %.3f, "
               "covariance %.3f)\n",

@@ -795,6 +795,18 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
         "rank deficient: some combination of parameters is not determined by these observations; no uncertainty "
         "is reported rather than a false one";
   }
+  // A variance that is not a finite number (0 * inf on data without signal) is no uncertainty:
+  // the parameter is reported as undetermined instead.
+  for (auto it = res.sigma.begin(); it != res.sigma.end();) {
+    bool ok = true;
+    for (double v : it->second) ok &= std::isfinite(v);
+    if (ok) {
+      ++it;
+      continue;
+    }
+    res.undetermined[it->first] = "its variance is not finite: the data carry no information about it";
+    it = res.sigma.erase(it);
+  }
   rep.seconds_covariance = since(t_cov);
   rep.seconds += since(t_start);
   res.report = rep;
@@ -842,6 +854,26 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
       }
       os->obs.push_back(o);
     }
+}
+
+// Values far above anything else in the set (hot pixels, a broken writer's 1e30) would steer the
+// closed-form start and the noise estimate before any robust loss can act: a pixel with a value
+// above kImplausible times the 90th percentile of all values is left out and counted (a real
+// highlight is brighter than most pixels, but not 10^4 times brighter than the brightest tenth).
+void drop_implausible(ObsSet* os, FitReport* rep) {
+  if (os->obs.size() < 100) return;
+  std::vector<double> mags;
+  mags.reserve(os->obs.size());
+  for (const auto& o : os->obs) mags.push_back(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}));
+  std::nth_element(mags.begin(), mags.begin() + mags.size() * 9 / 10, mags.end());
+  const double p90 = mags[mags.size() * 9 / 10];
+  constexpr double kImplausible = 1e4;
+  const double limit = kImplausible * std::max(p90, 1e-12);
+  size_t kept = 0;
+  for (const auto& o : os->obs)
+    if (std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit) os->obs[kept++] = o;
+  rep->implausible += os->obs.size() - kept;
+  os->obs.resize(kept);
 }
 
 // --model auto fits both models and keeps the one with the lower BIC; otherwise the one asked.
@@ -939,6 +971,7 @@ ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport
     add_pixel_observations(d, set.views[i], set, known, opt.subsample, &os, &rep);
     bar.advance();
   }
+  drop_implausible(&os, &rep);
   rep.pixels = os.obs.size();
   rep.observations = os.obs.size() * 3;
   return os;
@@ -1012,7 +1045,8 @@ void write_fit(const std::string& path, const FitResult& r) {
                  {"observations", p.observations},
                  {"pixels", p.pixels},
                  {"views", p.views},
-                 {"skipped", {{"masked_out", p.masked_out}, {"saturated", p.saturated}, {"nonfinite", p.nonfinite}, {"unlit", p.unlit}}},
+                 {"skipped", {{"masked_out", p.masked_out}, {"saturated", p.saturated}, {"nonfinite", p.nonfinite}, {"unlit", p.unlit},
+                              {"implausible", p.implausible}}},
                  {"iterations", p.iterations},
                  {"time_s", p.seconds},
                  {"time_breakdown_s", {{"load", p.seconds_load}, {"start", p.seconds_start}, {"solve", p.seconds_solve}, {"covariance", p.seconds_covariance}}},

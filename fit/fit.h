@@ -32,6 +32,7 @@ struct FitOptions {
 struct FitReport {
   size_t views = 0, pixels = 0, observations = 0;  // observations = pixels x channels
   size_t masked_out = 0, saturated = 0, nonfinite = 0, unlit = 0;
+  size_t implausible = 0;  // values above 1e4 x the 90th percentile: left out
   int iterations = 0;
   double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0, seconds_covariance = 0;
   double rms = 0, noise_sigma = 0, loss_scale = 0;

@@ -1,0 +1,47 @@
+// libFuzzer target: every file reader on arbitrary bytes. The first byte picks the reader
+// (capture.json, material, sample table, image, OBJ); the rest is the file. A reader may reject
+// the file with aniso::Error; anything else (a crash, another exception, a sanitizer report) is a
+// bug. Build and run: scripts/fuzz.sh.
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "capture_sim/mesh.h"
+#include "core/error.h"
+#include "io/capture.h"
+#include "io/image_io.h"
+#include "io/material_io.h"
+#include "io/table.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  if (size < 1) return 0;
+  static const char* kExt[] = {".json", ".json", ".csv", ".png", ".exr", ".obj"};
+  const int which = data[0] % 6;
+  const std::string dir = "/tmp/aniso_fuzz_" + std::to_string(::getpid());
+  std::string cmd = "mkdir -p " + dir;
+  if (std::system(cmd.c_str()) != 0) return 0;
+  const std::string path = dir + (which == 0 ? "/capture" : "/input") + kExt[which];
+  if (FILE* f = std::fopen(path.c_str(), "wb")) {
+    std::fwrite(data + 1, 1, size - 1, f);
+    std::fclose(f);
+  }
+  try {
+    switch (which) {
+      case 0: {
+        const aniso::CaptureSet s = aniso::read_capture(path);
+        for (size_t i = 0; i < s.views.size() && i < 2; ++i) aniso::load_view(s, i);
+        break;
+      }
+      case 1: aniso::read_material(path); break;
+      case 2: aniso::read_table(path); break;
+      case 3: case 4: aniso::read_image(path); break;
+      case 5: aniso::load_obj(path); break;
+    }
+  } catch (const aniso::Error&) {
+    // A clear rejection is the expected outcome for most inputs.
+  }
+  return 0;
+}
