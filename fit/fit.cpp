@@ -52,6 +52,33 @@ struct ObsSet {
 };
 
 // ---------------------------------------------------------------------------------------------
+// The model parameters from the fitted blocks (k_d, k_s, log n, psi).
+template <class T>
+LineParamsT<T> fitted_params(const T* kd, const T* ks, const T* logn, const T* psi) {
+  using std::exp;
+  LineParamsT<T> p;
+  for (int k = 0; k < 3; ++k) {
+    p.kd[k] = kd[k];
+    p.ks[k] = ks[k];
+  }
+  p.n = exp(logn[0]);
+  p.psi = psi[0];
+  return p;
+}
+
+// residual = known part + sum over the pixel's lights of E * reflectance(L, V) - y.
+template <class T, class Reflectance>
+void pixel_residual(const Observation* obs, const ObsLight* lights, Reflectance reflectance, T* r) {
+  T acc[3] = {T(obs->base[0]), T(obs->base[1]), T(obs->base[2])};
+  for (uint32_t i = 0; i < obs->num_lights; ++i) {
+    const ObsLight& l = lights[obs->first_light + i];
+    T f[3];
+    reflectance(l.L, obs->V, f);
+    for (int k = 0; k < 3; ++k) acc[k] += l.E[k] * f[k];
+  }
+  for (int k = 0; k < 3; ++k) r[k] = acc[k] - obs->y[k];
+}
+
 // The residual of one pixel: exposure * I(params) - y, per channel (MODELS.md §2-3).
 // Block sizes: kd 3, ks 3, log n 1, psi 1, isotropic (kd 3, ks 3, log n_iso 1) or a 1-wide dummy,
 // second fiber (psi2, w) or a 1-wide dummy. Dummies are held constant.
@@ -63,13 +90,7 @@ struct LineResidual {
   bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* iso, const T* sec,
                   T* r) const {
     using std::exp;
-    LineParamsT<T> p;
-    for (int k = 0; k < 3; ++k) {
-      p.kd[k] = kd[k];
-      p.ks[k] = ks[k];
-    }
-    p.n = exp(logn[0]);
-    p.psi = psi[0];
+    LineParamsT<T> p = fitted_params(kd, ks, logn, psi);
     p.isotropic = kIso;
     p.second = kSecond;
     if constexpr (kIso) {
@@ -83,14 +104,7 @@ struct LineResidual {
       p.psi2 = sec[0];
       p.w = sec[1];
     }
-    T acc[3] = {T(obs->base[0]), T(obs->base[1]), T(obs->base[2])};
-    for (uint32_t i = 0; i < obs->num_lights; ++i) {
-      const ObsLight& l = lights[obs->first_light + i];
-      T f[3];
-      line_reflectance(p, l.L, obs->V, f);
-      for (int k = 0; k < 3; ++k) acc[k] += l.E[k] * f[k];
-    }
-    for (int k = 0; k < 3; ++k) r[k] = acc[k] - obs->y[k];
+    pixel_residual(obs, lights, [&](const LocalDir& L, const LocalDir& V, T* f) { line_reflectance(p, L, V, f); }, r);
     return true;
   }
 
@@ -231,28 +245,15 @@ struct FiberResidual {
 
   template <class T>
   bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* topo, T* r) const {
-    using std::exp;
-    LineParamsT<T> p;
-    for (int k = 0; k < 3; ++k) {
-      p.kd[k] = kd[k];
-      p.ks[k] = ks[k];
-    }
-    p.n = exp(logn[0]);
-    p.psi = psi[0];
+    const LineParamsT<T> p = fitted_params(kd, ks, logn, psi);
     T s;
     switch (mode) {
       case TopologyMode::kGlobalS: s = topo[0]; break;
       case TopologyMode::kAmplitude: s = topology_with_map(obs->smath, topo[0], obs->mapv); break;
       default: s = T(obs->smath); break;
     }
-    T acc3[3] = {T(obs->base[0]), T(obs->base[1]), T(obs->base[2])};
-    for (uint32_t i = 0; i < obs->num_lights; ++i) {
-      const ObsLight& l = lights[obs->first_light + i];
-      T f[3];
-      fiber_reflectance(p, s, l.L, obs->V, acc, f);
-      for (int k = 0; k < 3; ++k) acc3[k] += l.E[k] * f[k];
-    }
-    for (int k = 0; k < 3; ++k) r[k] = acc3[k] - obs->y[k];
+    pixel_residual(obs, lights, [&](const LocalDir& L, const LocalDir& V, T* f) { fiber_reflectance(p, s, L, V, acc, f); },
+                   r);
     return true;
   }
 
