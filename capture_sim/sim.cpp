@@ -13,6 +13,7 @@
 #include "capture_sim/shade.h"
 #include "core/error.h"
 #include "core/frame.h"
+#include "core/texture.h"
 #include "core/progress.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -207,6 +208,8 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     map.h = opt.topology_map;
     for (float& v : map.h.px) v = static_cast<float>(std::round(std::clamp(v, 0.f, 1.f) * 65535.0) / 65535.0);
   }
+  Image s_map = opt.s_map;  // quantised as stored (16-bit)
+  for (float& v : s_map.px) v = static_cast<float>(std::round(std::clamp(v, 0.f, 1.f) * 65535.0) / 65535.0);
   // Per-pixel topology s_math (written as the `topology` buffer) and s (used for shading).
   auto topology_images = [&](const GBuffer& g, Image* smath, Image* s) {
     *smath = Image(g.P.width, g.P.height, 1, 0.f);
@@ -218,7 +221,13 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
             mathematical_topology_at(opt.mathematical_topology, px3(g.P, x, y), opt.shape_options));
         smath->at(x, y, 0) = sm;
         const double m = map.h.empty() ? 0.0 : map.sample(g.uv.at(x, y, 0), g.uv.at(x, y, 1));
-        s->at(x, y, 0) = static_cast<float>(opt.truth.topology_at(sm, m));
+        double sv = opt.truth.topology_at(sm, m);
+        if (!s_map.empty()) {
+          const BilinearTaps t = bilinear_wrap(g.uv.at(x, y, 0), g.uv.at(x, y, 1), s_map.width, s_map.height);
+          sv = 0;
+          for (int k = 0; k < 4; ++k) sv += t.weight[k] * s_map.px[t.index[k]];
+        }
+        s->at(x, y, 0) = static_cast<float>(sv);
       }
   };
   std::vector<GBuffer> gbuffers;
@@ -276,6 +285,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       set.topology_map = "maps/topology.png";
       write_png(join_path(dir, set.topology_map), map.h, 16);
     }
+    if (!s_map.empty()) write_png(join_path(dir, "maps/topology_s.png"), s_map, 16);
     auto geometry_files = [&](const GBuffer& g, const Image& smath, const std::string& stem) {
       GeometrySpec gs;
       gs.position = "geometry/" + stem + "_P.exr";
@@ -340,6 +350,10 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     jsonu::json truth;
     Material truth_m = opt.truth;
     if (truth_m.has_topology_map) truth_m.topology_map = set.topology_map;
+    if (!s_map.empty()) {
+      truth_m.has_s_map = true;
+      truth_m.topology_s_map = "maps/topology_s.png";
+    }
     material_to_json(truth_m, &truth);
     write_json_file(join_path(dir, "truth.json"), truth);
     st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

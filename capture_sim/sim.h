@@ -53,6 +53,9 @@ struct SimOptions {
   // maps/topology.png (16-bit) and named by the set's "topology_map".
   std::string mathematical_topology = "none";
   Image topology_map;
+  // A per-texel map of s itself (first channel, [0, 1]) over uv; stored as maps/topology_s.png
+  // and named by the truth material's topology.s_map.
+  Image s_map;
   // Benchmark switches that turn a skip off, to measure what it saves: shadow rays even for
   // shapes that cannot shadow themselves; re-tracing the geometry of every view of a fixed camera.
   bool force_shadows = false;

@@ -77,6 +77,8 @@ void print_material(const Material& m) {
     if (m.has_topology_map)
       std::printf("  topology map %s, amplitude %.4f over %s", m.topology_map.c_str(), m.topology_amplitude,
                   m.topology_mathematical.c_str());
+    else if (m.has_s_map)
+      std::printf("  topology: a per-texel map of s");
     else if (m.topology_mathematical == "none")
       std::printf("  topology s = %.4f", m.topology_s);
     else
@@ -155,6 +157,10 @@ int main(int argc, char** argv) {
   synth->add_option("--size", synth_size, "image size WxH")->capture_default_str();
   synth->add_option("--bits", po.bits, "0 = float EXR, 8 or 16 = PNG")->capture_default_str()->check(CLI::IsMember({0, 8, 16}));
   synth->add_option("--encoding", po.encoding, "PNG encoding")->capture_default_str()->check(CLI::IsMember({"linear", "srgb"}));
+  synth->add_option("--saturation", po.saturation,
+                    "sensor clips at this fraction of the white level (0 = never); clipped values are flagged in "
+                    "capture.json so the fit leaves them out")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
   synth->add_option("--rig", po.rig, "fixed-camera, orbit, or a rig JSON file (default: the preset's)");
   synth->add_option("--truth", truth_override, "use this material file as the ground truth instead");
   std::string synth_compression = "none";
@@ -179,6 +185,9 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::IsMember({"huber", "cauchy", "none"}));
   fit->add_flag("--fit-isotropic", fo.fit_isotropic, "also fit the isotropic (Lambert + Blinn-Phong) term");
   fit->add_flag("--fit-second-fiber", fo.fit_second, "also fit a second fiber direction and its weight (woven cloth)");
+  fit->add_option("--topology-map", fo.topology_texels,
+                  "fiber model: fit a per-texel map of s, N x N texels over uv (written beside --out as an EXR)")
+      ->check(CLI::Range(2, 256));
   fit->add_option("--threads", fo.threads, "solver threads")->capture_default_str()->check(CLI::Range(1, 256));
   fit->add_option("--max-iterations", fo.max_iterations, "solver iterations")->capture_default_str()->check(CLI::Range(1, 100000));
 

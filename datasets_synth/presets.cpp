@@ -21,6 +21,7 @@ const std::vector<std::pair<std::string, std::string>>& preset_list() {
                      "(Hast's test object)"},
       {"fiber-flat", "fiber model: flat sample with topology value --topology-s"},
       {"satin-sphere-fiber", "fiber model: sphere with meridian fibers that climb toward the poles"},
+      {"fiber-flat-map", "fiber model: flat sample whose topology varies over it (an 8x8 map of s in [0.15, 0.85])"},
   };
   return list;
 }
@@ -77,6 +78,8 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
   o.sensor.shot_photons = po.shot_photons;
   o.sensor.bits = po.bits;
   o.sensor.encoding = po.encoding;
+  if (po.saturation < 0) throw Error("synth: --saturation must be positive (a fraction of the white level)");
+  if (po.saturation > 0) o.sensor.saturation = po.saturation;
   constexpr double kDistance = 4.0;
   double radius = 1.0, camera_polar = 35.0;
   bool orbit = false;
@@ -157,6 +160,18 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
     m.has_topology = true;
     if (po.topology_s < 0 || po.topology_s > 1) throw Error("synth: --topology-s must be in [0, 1]");
     m.topology_s = po.topology_s;
+  } else if (name == "fiber-flat-map") {
+    o.shape = "flat";
+    radius = std::sqrt(2.0);
+    m.model = "fiber";
+    m.kd = {0.25, 0.18, 0.12};
+    m.ks = {0.50, 0.50, 0.50};
+    m.n = 40.0;
+    m.fiber_angle_deg = 30.0;
+    m.has_topology = true;
+    m.has_s_map = true;
+    o.s_map = procedural_topology_map(8, po.seed);
+    for (float& v : o.s_map.px) v = 0.15f + 0.7f * v;
   } else if (name == "satin-sphere-fiber") {
     o.shape = "sphere";
     o.fiber_field = "meridian";

@@ -17,6 +17,7 @@ struct PresetOptions {
   double shot_photons = 0.0; // photons at the white level (0 = none)
   int bits = 0;              // 0 = float EXR, 8/16 = PNG
   std::string encoding = "linear";
+  double saturation = 0;     // clip at this fraction of the white level (0 = no clipping)
   std::string rig;           // "" = the preset's own, "fixed-camera", "orbit", or a rig JSON file
   uint64_t seed = 1;
   bool progress = true;

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <sstream>
 
 #include "core/error.h"
@@ -13,7 +14,9 @@
 #include "core/progress.h"
 #include "io/json_util.h"
 #include "io/material_io.h"
+#include "core/texture.h"
 #include "io/files.h"
+#include "io/image_io.h"
 #include "models/fiber_model.h"
 #include "models/line_model.h"
 #include "models/params.h"
@@ -39,14 +42,16 @@ struct Observation {
   double y[3];     // measured value
   double base[3];  // known constant part (ambient times k_a, which is not fitted)
   double smath = 0, mapv = 0;  // fiber model: mathematical topology and map value at the pixel
+  double u = 0, v = 0;         // texture coordinates (per-texel topology fits)
 };
 // How the fiber model's topology enters: one s for the whole sample, the map amplitude A on top
 // of per-pixel s_math and map values, or s_math alone (nothing to fit).
-enum class TopologyMode { kGlobalS, kAmplitude, kMathematical };
+enum class TopologyMode { kGlobalS, kAmplitude, kMathematical, kTexels };
 struct ObsSet {
   std::vector<Observation> obs;
   std::vector<ObsLight> lights;
   TopologyMode topology = TopologyMode::kGlobalS;
+  int texels = 0;  // kTexels: an N x N map of s over uv
   std::string topology_map, topology_mathematical = "none";  // recorded in the result
   bool grey = false;  // a grey table: the three channels repeat one value
 };
@@ -267,6 +272,32 @@ struct FiberResidual {
   FiberAccuracy acc;
 };
 
+// The fiber model with a per-texel map of s: the pixel's s is the bilinear mix (wrap-around, glTF
+// uv) of four texel parameters.
+struct FiberTexelResidual {
+  FiberTexelResidual(const Observation* o, const ObsLight* l, const BilinearTaps& t, FiberAccuracy a)
+      : obs(o), lights(l), taps(t), acc(a) {}
+
+  template <class T>
+  bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* t0, const T* t1, const T* t2,
+                  const T* t3, T* r) const {
+    const LineParamsT<T> p = fitted_params(kd, ks, logn, psi);
+    const T s = taps.weight[0] * t0[0] + taps.weight[1] * t1[0] + taps.weight[2] * t2[0] + taps.weight[3] * t3[0];
+    pixel_residual(obs, lights, [&](const LocalDir& L, const LocalDir& V, T* f) { fiber_reflectance(p, s, L, V, acc, f); },
+                   r);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Observation* o, const ObsLight* l, const BilinearTaps& t, FiberAccuracy a) {
+    return new ceres::AutoDiffCostFunction<FiberTexelResidual, 3, 3, 3, 1, 1, 1, 1, 1, 1>(new FiberTexelResidual(o, l, t, a));
+  }
+
+  const Observation* obs;
+  const ObsLight* lights;
+  BilinearTaps taps;
+  FiberAccuracy acc;
+};
+
 // psi lives on the circle of period pi (the model is unchanged under T -> -T, MODELS.md §1).
 class HalfTurnManifold : public ceres::Manifold {
  public:
@@ -301,6 +332,7 @@ struct State {
   double iso[7] = {0.01, 0.01, 0.01, 0.01, 0.01, 0.01, std::log(20.0)};
   double sec[2] = {M_PI / 2, 0.5};
   double topo[1] = {0.5};  // fiber model: s or the map amplitude A
+  std::vector<double> texels;  // fiber model, kTexels: N x N values of s
   double dummy_iso[1] = {0}, dummy_sec[1] = {0};
 };
 
@@ -410,7 +442,7 @@ std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* 
   std::string line = grid_start(os, st);
   const size_t stride = std::max<size_t>(1, os.obs.size() / kMaxStartObs);
   std::vector<double> topo_values;
-  if (os.topology == TopologyMode::kGlobalS)
+  if (os.topology == TopologyMode::kGlobalS || os.topology == TopologyMode::kTexels)
     for (int i = 0; i < 10; ++i) topo_values.push_back(0.05 + 0.1 * i);
   else if (os.topology == TopologyMode::kAmplitude)
     for (int i = 0; i <= 8; ++i) topo_values.push_back(-1.0 + 0.25 * i);
@@ -424,9 +456,9 @@ std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* 
       const double n = std::exp(logn0 + dl);
       double kd[3], ks[3];
       const double cost = solve_kd_ks(os, stride, [&](const Observation& o, double* dcol, double* scol) {
-        const double s = os.topology == TopologyMode::kGlobalS     ? t
-                         : os.topology == TopologyMode::kAmplitude ? topology_with_map(o.smath, t, o.mapv)
-                                                                   : o.smath;
+        const double s = os.topology == TopologyMode::kAmplitude      ? topology_with_map(o.smath, t, o.mapv)
+                         : os.topology == TopologyMode::kMathematical ? o.smath
+                                                                      : t;
         const double b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
         for (uint32_t k = 0; k < o.num_lights; ++k) {
           const ObsLight& l = os.lights[o.first_light + k];
@@ -447,6 +479,7 @@ std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* 
       }
     }
   st->topo[0] = best_t;
+  if (os.topology == TopologyMode::kTexels) st->texels.assign(static_cast<size_t>(os.texels) * os.texels, best_t);
   st->logn = best_logn;
   set_start_kd_ks(best_kd, best_ks, st);
   char buf[200];
@@ -488,7 +521,19 @@ std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vecto
   po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   auto pb = std::make_unique<ceres::Problem>(po);
-  if (ps.fiber) {
+  if (ps.fiber && os.topology == TopologyMode::kTexels) {
+    for (size_t i : idx) {
+      const BilinearTaps t = bilinear_wrap(os.obs[i].u, os.obs[i].v, os.texels, os.texels);
+      pb->AddResidualBlock(FiberTexelResidual::Create(&os.obs[i], os.lights.data(), t, ps.acc), loss, st->kd, st->ks,
+                           &st->logn, &st->psi, &st->texels[t.index[0]], &st->texels[t.index[1]],
+                           &st->texels[t.index[2]], &st->texels[t.index[3]]);
+    }
+    for (double& t : st->texels)
+      if (pb->HasParameterBlock(&t)) {
+        pb->SetParameterLowerBound(&t, 0, line_param("topology.s").lo);
+        pb->SetParameterUpperBound(&t, 0, line_param("topology.s").hi);
+      }
+  } else if (ps.fiber) {
     for (size_t i : idx)
       pb->AddResidualBlock(FiberResidual::Create(&os.obs[i], os.lights.data(), os.topology, ps.acc), loss, st->kd,
                            st->ks, &st->logn, &st->psi, st->topo);
@@ -561,7 +606,11 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
     throw Error("fit: --fit-isotropic and --fit-second-fiber are available with --model line only");
   if (os.obs.empty()) throw Error("fit: no usable observations (empty mask, all pixels saturated, non-finite or unlit)");
   const bool fit_topo = fiber && os.topology != TopologyMode::kMathematical;
-  const size_t nparam = 8 + (opt.fit_isotropic ? 7 : 0) + (opt.fit_second ? 2 : 0) + (fit_topo ? 1 : 0);
+  const bool texels = fiber && os.topology == TopologyMode::kTexels;
+  if (os.topology == TopologyMode::kTexels && !fiber)
+    throw Error("fit: --topology-map fits the fiber model's topology: use it with --model fiber");
+  const size_t ntopo = texels ? static_cast<size_t>(os.texels) * os.texels : (fit_topo ? 1 : 0);
+  const size_t nparam = 8 + (opt.fit_isotropic ? 7 : 0) + (opt.fit_second ? 2 : 0) + ntopo;
   if (os.obs.size() * (os.grey ? 1 : 3) <= nparam)
     throw Error("fit: " + std::to_string(os.obs.size()) + " observations cannot determine " + std::to_string(nparam) +
                 " parameters");
@@ -690,6 +739,10 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
       mat.topology_map = os.topology_map;
       mat.topology_amplitude = st.topo[0];
     }
+    if (texels) {
+      mat.has_s_map = true;
+      res.s_texels_n = os.texels;
+    }
     if (!fit_topo) res.fixed["topology"] = "taken from the capture's mathematical topology buffer (no map to fit)";
   }
   for (int k = 0; k < 3; ++k) {
@@ -738,7 +791,10 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   ceres::Covariance cov(co);
   std::vector<std::pair<const double*, const double*>> blocks = {{st.kd, st.kd}, {st.ks, st.ks}, {&st.psi, &st.psi}};
   if (n_free) blocks.push_back({&st.logn, &st.logn});
-  if (fit_topo) blocks.push_back({st.topo, st.topo});
+  if (fit_topo && !texels) blocks.push_back({st.topo, st.topo});
+  if (texels)
+    for (double& t : st.texels)
+      if (pb->HasParameterBlock(&t)) blocks.push_back({&t, &t});
   if (opt.fit_isotropic) blocks.push_back({st.iso, st.iso});
   if (opt.fit_second) blocks.push_back({st.sec, st.sec});
   // sigma^2 from the residuals (unweighted least squares); a grey table counts each value once.
@@ -770,7 +826,25 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
       else
         res.sigma["n"] = {mat.n * sl};
     }
-    if (fit_topo) {
+    if (texels) {
+      res.s_texels = st.texels;
+      res.s_texel_sigma.assign(st.texels.size(), -1.0);
+      size_t undetermined = 0;
+      for (size_t i = 0; i < st.texels.size(); ++i) {
+        if (!pb->HasParameterBlock(&st.texels[i])) {
+          ++undetermined;
+          continue;
+        }
+        const double sd = diag(&st.texels[i], 1)[0];
+        constexpr double kTexelUndetermined = 0.25;  // as for one global s
+        if (std::isfinite(sd) && sd <= kTexelUndetermined) res.s_texel_sigma[i] = sd;
+        else ++undetermined;
+      }
+      if (undetermined)
+        res.undetermined["topology.s_map"] = std::to_string(undetermined) + " of " + std::to_string(st.texels.size()) +
+                                             " texels are not determined (no pixel covers them, or too few do); their "
+                                             "sigma is written as -1";
+    } else if (fit_topo) {
       const double sd = diag(st.topo, 1)[0];
       const std::string key = os.topology == TopologyMode::kGlobalS ? "topology.s" : "topology.amplitude";
       // A topology this uncertain is not measured: flat-looking data, or s near the s = 0 = 1 seam.
@@ -849,6 +923,10 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
       }
       o.smath = d.smath.at(x, y, 0);
       o.mapv = d.mapv.at(x, y, 0);
+      if (!d.uv.empty()) {
+        o.u = d.uv.at(x, y, 0);
+        o.v = d.uv.at(x, y, 1);
+      }
       if (o.num_lights == 0) {
         ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
         continue;
@@ -963,6 +1041,17 @@ ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport
     }
   }
   if (has_buffer && !has_map) os.topology = TopologyMode::kMathematical;
+  if (opt.topology_texels > 0) {
+    if (opt.topology_texels < 2 || opt.topology_texels > 256) throw Error("fit: --topology-map N needs N in [2, 256]");
+    if (has_map || has_buffer)
+      throw Error(set.file + ": --topology-map fits s per texel, but this set has a topology map or buffer (its "
+                             "amplitude is what can be fitted: leave --topology-map out)");
+    for (const auto& v : set.views)
+      if (v.geometry.uv.empty())
+        throw Error(set.file + ": --topology-map needs the \"uv\" buffer in every view's geometry");
+    os.topology = TopologyMode::kTexels;
+    os.texels = opt.topology_texels;
+  }
   Progress bar("fit: loading views", set.views.size(), opt.progress);
   for (size_t i = 0; i < set.views.size(); ++i) {
     const ViewData d = load_view(set, i, has_map ? &map : nullptr);
@@ -1027,7 +1116,16 @@ FitResult fit_table(const SampleTable& t, const FitOptions& opt) {
 
 void write_fit(const std::string& path, const FitResult& r) {
   jsonu::json j;
-  material_to_json(r.material, &j);
+  Material m = r.material;
+  std::string s_map_path;
+  if (!r.s_texels.empty()) {
+    // The map of s beside the material file: R = s, G = its sigma (-1 where undetermined).
+    std::string stem = std::filesystem::path(path).stem().string();
+    m.topology_s_map = stem + "_topology_s.exr";
+    s_map_path = join_path(parent_dir(path), m.topology_s_map);
+  }
+  material_to_json(m, &j);
+  if (!r.s_texels.empty()) j["topology"]["s_map_texels"] = r.s_texels_n;
   jsonu::json unc = jsonu::json::object();
   for (const auto& [key, v] : r.sigma) {
     const auto dot = key.find('.');
@@ -1060,6 +1158,14 @@ void write_fit(const std::string& path, const FitResult& r) {
                  {"parameters", p.parameters},
                  {"jacobian_evaluations", p.jacobian_evaluations}};
   if (!p.model_selection.empty()) j["report"]["model_selection"] = p.model_selection;
+  if (!s_map_path.empty()) {
+    Image img(r.s_texels_n, r.s_texels_n, 2);
+    for (size_t i = 0; i < r.s_texels.size(); ++i) {
+      img.px[2 * i] = static_cast<float>(r.s_texels[i]);
+      img.px[2 * i + 1] = static_cast<float>(r.s_texel_sigma[i]);
+    }
+    write_exr(s_map_path, img);
+  }
   write_json_file(path, j);
 }
 
@@ -1111,6 +1217,26 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
       const double d = r.material.topology_amplitude - truth.topology_amplitude;
       row("topology.amplitude", truth.topology_amplitude, r.material.topology_amplitude, sig("topology.amplitude", 0), d, d,
           "", &e.topo_abs, &e.topo_sigmas, std::abs(d));
+    } else if (!r.s_texels.empty() && truth.has_s_map) {
+      // The fitted texels against the true map sampled at their centres.
+      const Image t = read_image(join_path(truth.base_dir, truth.topology_s_map)).image;
+      double worst = 0, sum2 = 0;
+      const int n = r.s_texels_n;
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          const BilinearTaps tp = bilinear_wrap((x + 0.5) / n, (y + 0.5) / n, t.width, t.height);
+          double ts = 0;
+          for (int k = 0; k < 4; ++k) ts += tp.weight[k] * t.px[static_cast<size_t>(tp.index[k]) * t.channels];
+          const double d = std::abs(r.s_texels[static_cast<size_t>(y) * n + x] - ts);
+          worst = std::max(worst, d);
+          sum2 += d * d;
+        }
+      double smax = 0;
+      for (double sd : r.s_texel_sigma) smax = std::max(smax, sd);
+      // Rows: the worst and the RMS texel error (the "truth" column is 0: these are errors).
+      row("topology.s_map max", 0, worst, smax > 0 ? smax : NAN, worst, worst, "", &e.topo_abs, &e.topo_sigmas, worst);
+      row("topology.s_map rms", 0, std::sqrt(sum2 / (n * n)), smax > 0 ? smax : NAN, std::sqrt(sum2 / (n * n)), 0, "",
+          nullptr, nullptr, 0);
     } else if (!r.material.has_topology_map && r.material.topology_mathematical == "none") {
       const double d = r.material.topology_s - truth.topology_s;
       row("topology.s", truth.topology_s, r.material.topology_s, sig("topology.s", 0), d, d, "", &e.topo_abs,

@@ -27,6 +27,7 @@ struct FitOptions {
   // Line model without optional terms: 256 pixels per residual block with analytic derivatives
   // and the robust loss by reweighting (false: one autodiff block per pixel with Ceres' loss).
   bool chunked = true;
+  int topology_texels = 0;  // fiber model: fit an N x N map of s over uv (0 = one s)
 };
 
 struct FitReport {
@@ -52,6 +53,9 @@ struct FitResult {
   std::map<std::string, std::string> fixed;         // not fitted, and why
   std::map<std::string, std::string> undetermined;  // fitted but not determined by the data
   FitReport report;
+  // --topology-map N: the N x N texels of s (row-major, glTF uv) and their sigmas (-1: undetermined).
+  int s_texels_n = 0;
+  std::vector<double> s_texels, s_texel_sigma;
 };
 
 FitResult fit_capture(const CaptureSet& set, const FitOptions& opt);

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "capture_sim/raycast.h"
+#include "core/texture.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
@@ -319,18 +320,9 @@ TopologyMap load_topology_map(const std::string& path) {
 }
 
 double TopologyMap::sample(double u, double v) const {
-  const int w = h.width, ht = h.height;
-  const double x = u * w - 0.5, y = v * ht - 0.5;
-  const double fx = std::floor(x), fy = std::floor(y);
-  const double tx = x - fx, ty = y - fy;
-  auto at = [&](double xx, double yy) {
-    int xi = static_cast<int>(xx) % w, yi = static_cast<int>(yy) % ht;
-    if (xi < 0) xi += w;
-    if (yi < 0) yi += ht;
-    return static_cast<double>(h.at(xi, yi, 0));
-  };
-  const double val = (1 - tx) * (1 - ty) * at(fx, fy) + tx * (1 - ty) * at(fx + 1, fy) + (1 - tx) * ty * at(fx, fy + 1) +
-                     tx * ty * at(fx + 1, fy + 1);
+  const BilinearTaps t = bilinear_wrap(u, v, h.width, h.height);
+  double val = 0;
+  for (int k = 0; k < 4; ++k) val += t.weight[k] * h.px[t.index[k]];
   return 2.0 * val - 1.0;
 }
 
@@ -384,11 +376,16 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
         }
       }
       d.mapv = Image(k.width, k.height, 1, 0.f);
-      if (map) {
-        if (g.uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
+      if (!g.uv.empty()) {
         const Image uv = need_buffer(join_path(s.dir, g.uv), 2, k, "uv");
+        d.uv = Image(k.width, k.height, 2);
         for (size_t p = 0; p < mask.size(); ++p)
-          if (mask[p]) d.mapv.px[p] = static_cast<float>(map->sample(uv.px[p * uv.channels], uv.px[p * uv.channels + 1]));
+          for (int c = 0; c < 2; ++c) d.uv.px[2 * p + c] = uv.px[p * uv.channels + c];
+      }
+      if (map) {
+        if (d.uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
+        for (size_t p = 0; p < mask.size(); ++p)
+          if (mask[p]) d.mapv.px[p] = static_cast<float>(map->sample(d.uv.px[2 * p], d.uv.px[2 * p + 1]));
       }
     } catch (const Error& e) {
       throw Error(ctx + ".geometry: " + e.what());

@@ -83,6 +83,7 @@ struct ViewData {
   Image P, N, U;        // world position, unit normal, reference tangent
   Image smath;          // 1 channel: mathematical topology s_math (0 where no buffer is given)
   Image mapv;           // 1 channel: topology-map value m in [-1, 1] at the pixel's uv (0 if none)
+  Image uv;             // 2 channels, when the set has a uv buffer (empty otherwise)
   std::vector<uint8_t> use;  // 1 = pixel is an observation
   size_t mask_pixels = 0, saturated = 0, nonfinite = 0, used = 0;
   Vec3 eye;  // camera centre in world coordinates

@@ -96,18 +96,24 @@ Material material_from_json(const json& j, const std::string& file) {
       m.topology_amplitude = jsonu::num_or(b, "amplitude", 0.25, c);
       if (std::abs(m.topology_amplitude) > 2) c.at("amplitude").fail("must be in [-2, 2]");
     }
+    if (b.contains("s_map")) {
+      m.has_s_map = true;
+      m.topology_s_map = jsonu::str(b["s_map"], c.at("s_map"));
+    }
     m.topology_mathematical = jsonu::str_or(b, "mathematical", "none", c);
     if (m.topology_mathematical != "none" && m.topology_mathematical != "torus" && m.topology_mathematical != "sphere")
       c.at("mathematical").fail("unknown value '" + m.topology_mathematical + "' (torus, sphere, none)");
-    if (!b.contains("s") && !b.contains("map") && m.topology_mathematical == "none")
-      c.fail("needs \"s\", or \"map\" with \"amplitude\", or \"mathematical\": \"torus\"");
+    if (!b.contains("s") && !b.contains("map") && !b.contains("s_map") && m.topology_mathematical == "none")
+      c.fail("needs \"s\", \"s_map\", or \"map\" with \"amplitude\", or \"mathematical\": \"torus\"");
   }
   if (m.model == "fiber" && !m.has_topology) root.at("topology").fail("the fiber model needs a topology block");
   return m;
 }
 
 Material read_material(const std::string& path) {
-  return material_from_json(jsonu::parse_file(read_text_file(path), path), path);
+  Material m = material_from_json(jsonu::parse_file(read_text_file(path), path), path);
+  m.base_dir = parent_dir(path);
+  return m;
 }
 
 void material_to_json(const Material& m, json* out) {
@@ -129,6 +135,8 @@ void material_to_json(const Material& m, json* out) {
     if (m.has_topology_map) {
       t["map"] = m.topology_map;
       t["amplitude"] = m.topology_amplitude;
+    } else if (m.has_s_map) {
+      t["s_map"] = m.topology_s_map;
     } else if (m.topology_mathematical == "none") {
       t["s"] = m.topology_s;
     }

@@ -31,6 +31,11 @@ struct Material {
   std::string topology_map;  // the map file, as named in the capture or material
   double topology_amplitude = 0.25;
   std::string topology_mathematical = "none";
+  // Or a per-texel map of s itself over the uv buffer (what `fit --topology-map N` recovers): an
+  // image whose first channel is s in [0, 1], sampled bilinearly with wrap (glTF uv).
+  bool has_s_map = false;
+  std::string topology_s_map;
+  std::string base_dir = ".";  // folder of the material file: relative map paths resolve here
 
   // The topology value at a point with mathematical topology s_math and map value m in [-1, 1].
   double topology_at(double s_math, double m) const;

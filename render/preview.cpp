@@ -305,6 +305,9 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
 
   // Per-vertex fiber directions T and T2 (MODELS.md §1), uv and the mathematical topology.
   const bool fiber = m.model == "fiber" && !opt.plain;
+  if (fiber && m.has_s_map)
+    throw Error("preview: a per-texel map of s (topology.s_map) is not rendered by the preview yet; verify and eval "
+                "support it");
   if (fiber && m.has_topology_map && opt.topology_map.empty())
     throw Error("preview: the material uses a topology map (" + m.topology_map + ") but none was loaded");
   const double psi = m.fiber_angle_deg * M_PI / 180, psi2 = m.second_angle_deg * M_PI / 180;

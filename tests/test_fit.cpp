@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "core/error.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
 #include "io/files.h"
@@ -327,6 +328,37 @@ TEST(FitPaths, ChunkedAnalyticMatchesPerPixelAutodiff) {
   }
   EXPECT_NEAR(ra.material.n, rb.material.n, 0.1 * ra.sigma.at("n")[0]);
   EXPECT_NEAR(ra.material.fiber_angle_deg, rb.material.fiber_angle_deg, 0.1 * ra.sigma.at("fiber_angle_deg")[0]);
+}
+
+}  // namespace
+}  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// --topology-map N: a per-texel map of s over uv, recovered texel by texel on a flat sample whose
+// topology varies over its surface; the map is written beside the material.
+TEST(FitFiber, PerTexelTopologyMap) {
+  const std::string dir = test::tmp_dir("set");
+  const SimOptions so = make_preset("fiber-flat-map", small(6, 64));
+  simulate_capture(so, dir);
+  FitOptions fo = quiet();
+  fo.model = "fiber";
+  fo.topology_texels = 8;
+  FitResult r;
+  const TruthErrors e = fit_and_compare(dir, read_material(dir + "/truth.json"), fo, &r);
+  EXPECT_EQ(r.s_texels.size(), 64u);
+  EXPECT_LT(e.topo_abs, 0.01);
+  EXPECT_LT(e.kd_rel, 0.01);
+  EXPECT_LT(e.n_rel, 0.02);
+  write_fit(dir + "/out/m.json", r);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/out/m_topology_s.exr"));
+  const Material back = read_material(dir + "/out/m.json");
+  EXPECT_TRUE(back.has_s_map);
+  // Asked of a set without uv or with a topology map: a clear error.
+  FitOptions line = fo;
+  line.model = "line";
+  EXPECT_THROW(fit_capture(read_capture(dir), line), Error);
 }
 
 }  // namespace

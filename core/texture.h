@@ -1,0 +1,25 @@
+// Bilinear sampling with wrap-around in glTF texture coordinates ((0,0) the top-left corner of
+// the image, u right, v down, texel centres at ((i + 0.5)/w, (j + 0.5)/h)): the four texels and
+// their weights. Shared by topology maps, per-texel topology fits and their ground truth.
+#pragma once
+#include <cmath>
+
+namespace aniso {
+
+struct BilinearTaps {
+  int index[4];  // y * w + x
+  double weight[4];
+};
+
+inline BilinearTaps bilinear_wrap(double u, double v, int w, int h) {
+  const double x = u * w - 0.5, y = v * h - 0.5;
+  const double fx = std::floor(x), fy = std::floor(y);
+  const double tx = x - fx, ty = y - fy;
+  auto wrap = [](long i, int n) { return static_cast<int>(((i % n) + n) % n); };
+  const int x0 = wrap(static_cast<long>(fx), w), x1 = wrap(static_cast<long>(fx) + 1, w);
+  const int y0 = wrap(static_cast<long>(fy), h), y1 = wrap(static_cast<long>(fy) + 1, h);
+  return {{y0 * w + x0, y0 * w + x1, y1 * w + x0, y1 * w + x1},
+          {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty}};
+}
+
+}  // namespace aniso
