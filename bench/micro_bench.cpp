@@ -106,7 +106,8 @@ void BM_FiberBruteForce(benchmark::State& st) {
   size_t i = 0;
   for (auto _ : st) {
     const LocalDir &L = d[i & 63], &V = d[(i + 1) & 63];
-    benchmark::DoNotOptimize(reference::fiber_bruteforce(L.w, L.n, V.w, V.n, L.u, V.u, 40.0, 0.5, 4000));
+    benchmark::DoNotOptimize(
+        reference::fiber_bruteforce(L.w, L.n, V.w, V.n, L.u, V.u, 40.0, 0.5, 4000));
     ++i;
   }
 }
@@ -114,7 +115,8 @@ BENCHMARK(BM_FiberBruteForce)->Unit(benchmark::kMillisecond);
 
 void BM_Bake(benchmark::State& st) {
   const Material m = material("line");
-  for (auto _ : st) benchmark::DoNotOptimize(bake_line(m, static_cast<int>(st.range(0))).combined.px.data());
+  for (auto _ : st)
+    benchmark::DoNotOptimize(bake_line(m, static_cast<int>(st.range(0))).combined.px.data());
 }
 BENCHMARK(BM_Bake)->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond);
 

@@ -15,6 +15,7 @@
 #include <random>
 #include <thread>
 
+#include "../tests/fiber_reference.h"
 #include "capture_sim/mesh.h"
 #include "capture_sim/sim.h"
 #include "core/error.h"
@@ -30,7 +31,6 @@
 #include "models/line_model.h"
 #include "render/bake.h"
 #include "render/preview.h"
-#include "../tests/fiber_reference.h"
 
 namespace aniso {
 
@@ -38,10 +38,12 @@ namespace {
 
 using jsonu::json;
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
-json entry(const std::string& suite, const std::string& name, double ours, double baseline, const std::string& unit,
-           double error) {
+json entry(const std::string& suite, const std::string& name, double ours, double baseline,
+           const std::string& unit, double error) {
   json e = {{"suite", suite}, {"name", name}, {"ours", ours}, {"unit", unit}};
   e["baseline"] = std::isfinite(baseline) ? json(baseline) : json(nullptr);
   e["ratio"] = std::isfinite(baseline) && ours != 0 ? json(baseline / ours) : json(nullptr);
@@ -111,8 +113,8 @@ json bench_fit(const std::string& work, bool quick) {
     const std::string obs = join_path(work, "obs_" + std::to_string(sub) + ".bin");
     std::vector<double> start;
     const size_t rows = export_observations(set, fo, obs, &start);
-    std::string cmd = "/usr/bin/python3 " + std::string(ANISO_SOURCE_DIR) + "/bench/scipy_fit.py " + obs + " '" +
-                      json(start).dump() + "' 2>&1";
+    std::string cmd = "/usr/bin/python3 " + std::string(ANISO_SOURCE_DIR) + "/bench/scipy_fit.py " +
+                      obs + " '" + json(start).dump() + "' 2>&1";
     double scipy_s = NAN, scipy_err = NAN;
     std::string outtxt;
     if (FILE* p = popen(cmd.c_str(), "r")) {
@@ -121,7 +123,9 @@ json bench_fit(const std::string& work, bool quick) {
       while ((n = fread(buf, 1, sizeof buf, p)) > 0) outtxt.append(buf, n);
       pclose(p);
     }
-    const json sj = json::parse(outtxt.substr(outtxt.find('{') == std::string::npos ? 0 : outtxt.find('{')), nullptr, false);
+    const json sj =
+        json::parse(outtxt.substr(outtxt.find('{') == std::string::npos ? 0 : outtxt.find('{')),
+                    nullptr, false);
     if (sj.is_object() && sj.contains("x")) {
       scipy_s = sj["seconds"].get<double>();
       Material sm = so.truth;
@@ -131,36 +135,44 @@ json bench_fit(const std::string& work, bool quick) {
       sm.fiber_angle_deg = std::fmod(std::fmod(x[7] * 180 / M_PI, 180.0) + 180.0, 180.0);
       scipy_err = errors_of(sm, so.truth).worst();
     }
-    json e1 = entry("fit", "line fit vs SciPy least_squares, subsample " + std::to_string(sub), r.report.seconds, scipy_s,
-                    "s", e.worst());
+    json e1 = entry("fit", "line fit vs SciPy least_squares, subsample " + std::to_string(sub),
+                    r.report.seconds, scipy_s, "s", e.worst());
     e1["observations"] = r.report.observations;
     e1["pixels"] = rows;
     e1["baseline_error"] = std::isfinite(scipy_err) ? json(scipy_err) : json(nullptr);
     e1["error_definition"] = "worst of max relative error of kd, ks, n and psi error / 180 deg";
-    e1["ours_breakdown_s"] = {{"load", r.report.seconds_load}, {"start", r.report.seconds_start},
-                              {"solve", r.report.seconds_solve}, {"covariance", r.report.seconds_covariance}};
+    e1["ours_breakdown_s"] = {{"load", r.report.seconds_load},
+                              {"start", r.report.seconds_start},
+                              {"solve", r.report.seconds_solve},
+                              {"covariance", r.report.seconds_covariance}};
     e1["errors"] = {{"kd_rel", e.kd}, {"ks_rel", e.ks}, {"n_rel", e.n}, {"psi_deg", e.psi}};
     if (!std::isfinite(scipy_s)) e1["baseline_note"] = "SciPy run failed: " + outtxt.substr(0, 300);
-    const bool met = std::isfinite(scipy_s) && scipy_s / r.report.seconds >= 30 && e.worst() <= scipy_err * 1.0001 + 1e-9;
+    const bool met = std::isfinite(scipy_s) && scipy_s / r.report.seconds >= 30 &&
+                     e.worst() <= scipy_err * 1.0001 + 1e-9;
     target(&e1, ">= 30x less wall time than SciPy at equal or better error", met,
            "SciPy's 2-point Jacobian is vectorised numpy; the ratio is what was measured");
     e1["us_per_observation"] = 1e6 * r.report.seconds / r.report.observations;
     out.push_back(e1);
     // The solver alone (both start from the same grid point with the data in memory).
     const double ours_solve = r.report.seconds_solve;
-    json e2 = entry("fit", "line solve vs SciPy least_squares solve, subsample " + std::to_string(sub), ours_solve, scipy_s,
-                    "s", e.worst());
+    json e2 =
+        entry("fit", "line solve vs SciPy least_squares solve, subsample " + std::to_string(sub),
+              ours_solve, scipy_s, "s", e.worst());
     e2["observations"] = r.report.observations;
     e2["baseline_error"] = e1["baseline_error"];
     target(&e2, ">= 30x less wall time than SciPy at equal or better error",
-           std::isfinite(scipy_s) && scipy_s / ours_solve >= 30 && e.worst() <= scipy_err * 1.0001 + 1e-9,
-           "both solvers take a handful of iterations; SciPy's per-iteration cost is vectorised numpy, ours is "
+           std::isfinite(scipy_s) && scipy_s / ours_solve >= 30 &&
+               e.worst() <= scipy_err * 1.0001 + 1e-9,
+           "both solvers take a handful of iterations; SciPy's per-iteration cost is vectorised "
+           "numpy, ours is "
            "Ceres with analytic derivatives: the gap is a small constant, not 30x");
     out.push_back(e2);
-    std::printf("bench fit: subsample %d: %zu obs, ours %.3f s total / %.3f s solve (err %.2e), SciPy %.3f s solve (err "
-                "%.2e), ratios %.2f / %.2f\n",
-                sub, r.report.observations, r.report.seconds, r.report.seconds_solve, e.worst(), scipy_s, scipy_err,
-                scipy_s / r.report.seconds, scipy_s / r.report.seconds_solve);
+    std::printf(
+        "bench fit: subsample %d: %zu obs, ours %.3f s total / %.3f s solve (err %.2e), SciPy %.3f "
+        "s solve (err "
+        "%.2e), ratios %.2f / %.2f\n",
+        sub, r.report.observations, r.report.seconds, r.report.seconds_solve, e.worst(), scipy_s,
+        scipy_err, scipy_s / r.report.seconds, scipy_s / r.report.seconds_solve);
   }
   // Linearity: time per observation across the sweep.
   // Peak memory of a full-resolution fit, measured in a child process.
@@ -192,16 +204,19 @@ json bench_fit(const std::string& work, bool quick) {
         // The observations' own size: per pixel the record of the export format (14 float64:
         // view and light directions, irradiance, the three values, topology).
         const double own_kb = pixels * 14 * 8 / 1024.0;
-        json e = entry("fit", "peak memory of a full fit over the observations' own size", (peak - before) / own_kb,
-                       NAN, "ratio", NAN);
+        json e = entry("fit", "peak memory of a full fit over the observations' own size",
+                       (peak - before) / own_kb, NAN, "ratio", NAN);
         e["peak_kb_above_start"] = peak - before;
         e["observations_kb"] = own_kb;
         target(&e, "<= 2x the observations' own size", (peak - before) <= 2 * own_kb,
-               "one Ceres residual block per pixel (cost function, Jacobian storage and bookkeeping) and the loaded "
+               "one Ceres residual block per pixel (cost function, Jacobian storage and "
+               "bookkeeping) and the loaded "
                "EXR images of every view dominate; batching pixels into larger blocks is the fix");
         out.push_back(e);
-        std::printf("bench fit: peak memory %.1f x the observations' own size (%ld kB above start, %.0f kB own)\n",
-                    (peak - before) / own_kb, peak - before, own_kb);
+        std::printf(
+            "bench fit: peak memory %.1f x the observations' own size (%ld kB above start, %.0f kB "
+            "own)\n",
+            (peak - before) / own_kb, peak - before, own_kb);
       }
     }
   }
@@ -220,13 +235,18 @@ json bench_fit(const std::string& work, bool quick) {
       fo.subsample = sub;
       const FitResult r = fit_capture(fs, fo);
       const Errs e = errors_of(r.material, sf.truth);
-      json ef = entry("fit", "fiber fit, subsample " + std::to_string(sub), r.report.seconds, NAN, "s", e.worst());
+      json ef = entry("fit", "fiber fit, subsample " + std::to_string(sub), r.report.seconds, NAN,
+                      "s", e.worst());
       ef["observations"] = r.report.observations;
-      ef["errors"] = {{"kd_rel", e.kd}, {"ks_rel", e.ks}, {"n_rel", e.n}, {"psi_deg", e.psi}, {"s_abs", e.topo}};
+      ef["errors"] = {{"kd_rel", e.kd},
+                      {"ks_rel", e.ks},
+                      {"n_rel", e.n},
+                      {"psi_deg", e.psi},
+                      {"s_abs", e.topo}};
       ef["us_per_observation"] = 1e6 * r.report.seconds / r.report.observations;
       out.push_back(ef);
-      std::printf("bench fit: fiber subsample %d: %zu obs, %.3f s, worst error %.2e, |ds| %.2e\n", sub,
-                  r.report.observations, r.report.seconds, e.worst(), e.topo);
+      std::printf("bench fit: fiber subsample %d: %zu obs, %.3f s, worst error %.2e, |ds| %.2e\n",
+                  sub, r.report.observations, r.report.seconds, e.worst(), e.topo);
     }
   }
   return out;
@@ -244,7 +264,8 @@ json bench_fiber(bool quick) {
   const int ncases = quick ? 200 : 2000;
   for (int i = 0; i < ncases; ++i) {
     auto unit = [&]() {
-      const double x = g(rng), y = g(rng), z = std::abs(g(rng)), l = std::sqrt(x * x + y * y + z * z);
+      const double x = g(rng), y = g(rng), z = std::abs(g(rng)),
+                   l = std::sqrt(x * x + y * y + z * z);
       return std::array<double, 3>{x / l, y / l, z / l};
     };
     const auto L = unit(), V = unit();
@@ -280,19 +301,24 @@ json bench_fiber(bool quick) {
           if (rep == 0) err = std::max(err, std::abs(S - ref[i]) / std::max(ref[i], 1e-3));
         }
       const double ns = 1e9 * since(t0) / (reps * cases.size());
-      json e = entry("fiber", "fiber model order " + std::to_string(order) + ", n=" + std::to_string(int(n)), ns, brute_ns,
-                     "ns/eval", err);
-      e["error_definition"] = "max |S - S_order32| / max(S_order32, 1e-3) over random directions, s = 0.5";
+      json e = entry("fiber",
+                     "fiber model order " + std::to_string(order) + ", n=" + std::to_string(int(n)),
+                     ns, brute_ns, "ns/eval", err);
+      e["error_definition"] =
+          "max |S - S_order32| / max(S_order32, 1e-3) over random directions, s = 0.5";
       e["baseline_error"] = brute_err;
       e["baseline"] = brute_ns;
       e["baseline_note"] = "brute force, 24000 normal samples per fiber, ray-circle tests";
-      target(&e, ">= 100x faster than brute force at relative error <= 1e-4", brute_ns / ns >= 100 && err <= 1e-4,
+      target(&e, ">= 100x faster than brute force at relative error <= 1e-4",
+             brute_ns / ns >= 100 && err <= 1e-4,
              err > 1e-4 ? "this order is below the accuracy target; higher orders meet it" : "");
       e["checksum"] = sink;
       out.push_back(e);
     }
-    std::printf("bench fiber: n=%g: brute force %.0f us/eval (its error %.1e); see the orders in the output\n", n,
-                brute_ns / 1e3, brute_err);
+    std::printf(
+        "bench fiber: n=%g: brute force %.0f us/eval (its error %.1e); see the orders in the "
+        "output\n",
+        n, brute_ns / 1e3, brute_err);
   }
   return out;
 }
@@ -305,12 +331,14 @@ json bench_bake(bool quick) {
     m.kd = {0.2, 0.2, 0.2};
     m.ks = {0.6, 0.6, 0.6};
     m.n = n;
-    for (int size : quick ? std::vector<int>{64, 256} : std::vector<int>{64, 128, 256, 512, 1024, 2048})
+    for (int size :
+         quick ? std::vector<int>{64, 256} : std::vector<int>{64, 128, 256, 512, 1024, 2048})
       for (BakeIndex index : {BakeIndex::kAngle, BakeIndex::kCosine}) {
         const BakeTables t = bake_line(m, size, index);
         // Quantisation: PNG stores value / peak in 2^bits - 1 steps.
-        json e = entry("bake", std::string("bake ") + index_name(index) + " " + std::to_string(size) + "^2 n=" +
-                                   std::to_string(int(n)),
+        json e = entry("bake",
+                       std::string("bake ") + index_name(index) + " " + std::to_string(size) +
+                           "^2 n=" + std::to_string(int(n)),
                        t.seconds, NAN, "s", t.max_abs_error);
         e["rms_error"] = t.rms_error;
         e["peak_value"] = t.peak_value;
@@ -330,8 +358,11 @@ json bench_bake(bool quick) {
       for (const auto& c : out)
         if (c["index"] == "cosine" && c["size"] == e["size"] && c["n"] == e["n"]) {
           e["baseline"] = c["error"];
-          e["baseline_note"] = "the paper's cosine-spaced table: its max error (ratio = error reduction)";
-          e["ratio"] = e["error"].get<double>() > 0 ? c["error"].get<double>() / e["error"].get<double>() : 0.0;
+          e["baseline_note"] =
+              "the paper's cosine-spaced table: its max error (ratio = error reduction)";
+          e["ratio"] = e["error"].get<double>() > 0
+                           ? c["error"].get<double>() / e["error"].get<double>()
+                           : 0.0;
         }
   std::printf("bench bake: %zu table configurations\n", out.size());
   return out;
@@ -344,10 +375,10 @@ double bare_embree_rays_per_s(const TriMesh& mesh, const SimOptions& so, size_t*
   RTCDevice dev = rtcNewDevice(nullptr);
   RTCScene scene = rtcNewScene(dev);
   RTCGeometry geom = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vb = static_cast<float*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.P.size()));
-  auto* ib = static_cast<unsigned*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.tri.size()));
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.P.size()));
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.tri.size()));
   for (size_t i = 0; i < mesh.P.size(); ++i)
     for (int k = 0; k < 3; ++k) vb[3 * i + k] = static_cast<float>(mesh.P[i][k]);
   for (size_t i = 0; i < mesh.tri.size(); ++i)
@@ -368,11 +399,13 @@ double bare_embree_rays_per_s(const TriMesh& mesh, const SimOptions& so, size_t*
       size_t local = 0;
       for (int y = r.begin(); y < r.end(); ++y)
         for (int x = 0; x < k.width; ++x) {
-          const Vec3 d = normalize(v.world_from_camera.dir(Vec3((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0)));
+          const Vec3 d =
+              normalize(v.world_from_camera.dir(Vec3((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0)));
           RTCRayHit rh;
           rh.ray.org_x = float(eye.x), rh.ray.org_y = float(eye.y), rh.ray.org_z = float(eye.z);
           rh.ray.dir_x = float(d.x), rh.ray.dir_y = float(d.y), rh.ray.dir_z = float(d.z);
-          rh.ray.tnear = 0, rh.ray.tfar = INFINITY, rh.ray.mask = ~0u, rh.ray.time = 0, rh.ray.flags = 0;
+          rh.ray.tnear = 0, rh.ray.tfar = INFINITY, rh.ray.mask = ~0u, rh.ray.time = 0,
+          rh.ray.flags = 0;
           rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
           rtcIntersect1(scene, &ctx, &rh);
           ++local;
@@ -380,7 +413,8 @@ double bare_embree_rays_per_s(const TriMesh& mesh, const SimOptions& so, size_t*
           const Vec3 p = eye + d * double(rh.ray.tfar);
           const Vec3 L = normalize(lp - p);
           RTCRay sr;
-          sr.org_x = float(p.x + 1e-4 * L.x), sr.org_y = float(p.y + 1e-4 * L.y), sr.org_z = float(p.z + 1e-4 * L.z);
+          sr.org_x = float(p.x + 1e-4 * L.x), sr.org_y = float(p.y + 1e-4 * L.y),
+          sr.org_z = float(p.z + 1e-4 * L.z);
           sr.dir_x = float(L.x), sr.dir_y = float(L.y), sr.dir_z = float(L.z);
           sr.tnear = 0, sr.tfar = float(length(lp - p)), sr.mask = ~0u, sr.time = 0, sr.flags = 0;
           rtcOccluded1(scene, &ctx, &sr);
@@ -408,25 +442,32 @@ json bench_capture(const std::string& work, bool quick) {
     so.shape_options.torus_r = 0.6;
     so.camera = frame_camera(po.width, po.height, 1.6, 4.0);
     so.rig = rig_orbit(po.views, 4.0);  // a moving camera: every view traced
-    set_exr_compression("none");  // the synth default
+    set_exr_compression("none");        // the synth default
     const SimStats st = simulate_capture(so, join_path(work, std::string("capture_") + shape));
     const double ours = (st.primary_rays + st.shadow_rays) / st.seconds;
     size_t bare_rays = 0;
     const double bare = bare_embree_rays_per_s(make_shape(shape, so.shape_options), so, &bare_rays);
-    json e = entry("capture", std::string("capture_sim rays/s (tracing, shading, noise, EXR writing) vs bare Embree, ") + shape,
-                   ours, bare, "rays/s", NAN);
+    json e = entry(
+        "capture",
+        std::string("capture_sim rays/s (tracing, shading, noise, EXR writing) vs bare Embree, ") +
+            shape,
+        ours, bare, "rays/s", NAN);
     e["ratio"] = ours / bare;  // ours relative to the bare loop (target >= 0.6)
     e["ratio_definition"] = "ours / baseline";
     e["rays"] = st.primary_rays + st.shadow_rays;
     e["bare_rays"] = bare_rays;
     e["seconds"] = st.seconds;
-    e["seconds_breakdown"] = {{"trace", st.seconds_trace}, {"shade", st.seconds_shade}, {"write", st.seconds_write},
-                              {"other", st.seconds - st.seconds_trace - st.seconds_shade - st.seconds_write}};
+    e["seconds_breakdown"] = {
+        {"trace", st.seconds_trace},
+        {"shade", st.seconds_shade},
+        {"write", st.seconds_write},
+        {"other", st.seconds - st.seconds_trace - st.seconds_shade - st.seconds_write}};
     target(&e, ">= 0.6x the bare Embree loop's rays per second", ours / bare >= 0.6,
-           "shading, sensor noise and EXR compression/writing cost more than 40 % of a bare ray loop at this size");
+           "shading, sensor noise and EXR compression/writing cost more than 40 % of a bare ray "
+           "loop at this size");
     out.push_back(e);
-    std::printf("bench capture: %s: ours %.2f Mrays/s, bare Embree %.2f Mrays/s, ratio %.2f\n", shape, ours / 1e6,
-                bare / 1e6, ours / bare);
+    std::printf("bench capture: %s: ours %.2f Mrays/s, bare Embree %.2f Mrays/s, ratio %.2f\n",
+                shape, ours / 1e6, bare / 1e6, ours / bare);
   }
   return out;
 }
@@ -453,28 +494,38 @@ json bench_preview(bool quick) {
     const PreviewResult ra = render_preview(m, p);
     const PreviewResult rp = render_preview(m, plain);
     const PreviewResult rq = render_preview(m, paper);
-    json eq = entry("preview", std::string("paper's construction (per-vertex texture matrix, cosine table) vs plain pass, ") + shape,
-                    1e3 * rq.seconds_per_frame, 1e3 * rp.seconds_per_frame, "ms/frame", NAN);
+    json eq = entry(
+        "preview",
+        std::string(
+            "paper's construction (per-vertex texture matrix, cosine table) vs plain pass, ") +
+            shape,
+        1e3 * rq.seconds_per_frame, 1e3 * rp.seconds_per_frame, "ms/frame", NAN);
     eq["ratio"] = rq.seconds_per_frame / rp.seconds_per_frame;
     eq["ratio_definition"] = "ours / baseline";
-    target(&eq, "anisotropic pass <= 1.05x the plain pass", rq.seconds_per_frame <= 1.05 * rp.seconds_per_frame,
+    target(&eq, "anisotropic pass <= 1.05x the plain pass",
+           rq.seconds_per_frame <= 1.05 * rp.seconds_per_frame,
            "llvmpipe shades in software: the second lookup is not free");
     out.push_back(eq);
-    std::printf("bench preview: %s: paper-exact pass %.2f ms vs plain %.2f ms, ratio %.3f\n", shape, 1e3 * rq.seconds_per_frame,
-                1e3 * rp.seconds_per_frame, rq.seconds_per_frame / rp.seconds_per_frame);
-    json e = entry("preview", std::string("anisotropic pass vs plain textured-and-lit pass, ") + shape,
-                   1e3 * ra.seconds_per_frame, 1e3 * rp.seconds_per_frame, "ms/frame", NAN);
+    std::printf("bench preview: %s: paper-exact pass %.2f ms vs plain %.2f ms, ratio %.3f\n", shape,
+                1e3 * rq.seconds_per_frame, 1e3 * rp.seconds_per_frame,
+                rq.seconds_per_frame / rp.seconds_per_frame);
+    json e =
+        entry("preview", std::string("anisotropic pass vs plain textured-and-lit pass, ") + shape,
+              1e3 * ra.seconds_per_frame, 1e3 * rp.seconds_per_frame, "ms/frame", NAN);
     e["ratio"] = ra.seconds_per_frame / rp.seconds_per_frame;
     e["ratio_definition"] = "ours / baseline";
     e["renderer"] = ra.renderer;
     e["triangles"] = ra.triangles;
     e["pixels"] = p.width * p.height;
-    target(&e, "anisotropic pass <= 1.05x the plain pass", ra.seconds_per_frame <= 1.05 * rp.seconds_per_frame,
-           "on llvmpipe (CPU rasteriser) per-fragment work is not free: the acos of the angle index, normalisation "
+    target(&e, "anisotropic pass <= 1.05x the plain pass",
+           ra.seconds_per_frame <= 1.05 * rp.seconds_per_frame,
+           "on llvmpipe (CPU rasteriser) per-fragment work is not free: the acos of the angle "
+           "index, normalisation "
            "and two lookups cost more than one lookup and a dot product");
     out.push_back(e);
-    std::printf("bench preview: %s on %s: aniso %.2f ms, plain %.2f ms, ratio %.3f\n", shape, ra.renderer.c_str(),
-                1e3 * ra.seconds_per_frame, 1e3 * rp.seconds_per_frame, ra.seconds_per_frame / rp.seconds_per_frame);
+    std::printf("bench preview: %s on %s: aniso %.2f ms, plain %.2f ms, ratio %.3f\n", shape,
+                ra.renderer.c_str(), 1e3 * ra.seconds_per_frame, 1e3 * rp.seconds_per_frame,
+                ra.seconds_per_frame / rp.seconds_per_frame);
   }
   return out;
 }
@@ -492,12 +543,13 @@ json bench_skips(const std::string& work, bool quick) {
     const SimStats skip = simulate_capture(so, join_path(work, "skip_a"));
     so.force_shadows = true;
     const SimStats all = simulate_capture(so, join_path(work, "skip_b"));
-    json e = entry("skips", "no shadow rays for a convex shape (sphere): shading time", skip.seconds_shade,
-                   all.seconds_shade, "s", NAN);
+    json e = entry("skips", "no shadow rays for a convex shape (sphere): shading time",
+                   skip.seconds_shade, all.seconds_shade, "s", NAN);
     e["shadow_rays_skipped"] = all.shadow_rays;
     out.push_back(e);
-    std::printf("bench skips: shadow rays: shading %.3f s with the skip, %.3f s without (%zu rays)\n", skip.seconds_shade,
-                all.seconds_shade, all.shadow_rays);
+    std::printf(
+        "bench skips: shadow rays: shading %.3f s with the skip, %.3f s without (%zu rays)\n",
+        skip.seconds_shade, all.seconds_shade, all.shadow_rays);
   }
   // Geometry of a fixed camera traced once.
   {
@@ -505,12 +557,12 @@ json bench_skips(const std::string& work, bool quick) {
     const SimStats skip = simulate_capture(so, join_path(work, "skip_c"));
     so.force_retrace = true;
     const SimStats all = simulate_capture(so, join_path(work, "skip_d"));
-    json e = entry("skips", "fixed camera: geometry traced once, not per view: tracing time", skip.seconds_trace,
-                   all.seconds_trace, "s", NAN);
+    json e = entry("skips", "fixed camera: geometry traced once, not per view: tracing time",
+                   skip.seconds_trace, all.seconds_trace, "s", NAN);
     e["primary_rays"] = {{"ours", skip.primary_rays}, {"baseline", all.primary_rays}};
     out.push_back(e);
-    std::printf("bench skips: geometry once: tracing %.3f s vs %.3f s (%zu vs %zu primary rays)\n", skip.seconds_trace,
-                all.seconds_trace, skip.primary_rays, all.primary_rays);
+    std::printf("bench skips: geometry once: tracing %.3f s vs %.3f s (%zu vs %zu primary rays)\n",
+                skip.seconds_trace, all.seconds_trace, skip.primary_rays, all.primary_rays);
   }
   // Zero-weight terms: the line model with an isotropic block of zero weights.
   {
@@ -526,7 +578,8 @@ json bench_skips(const std::string& work, bool quick) {
     std::normal_distribution<double> g;
     std::vector<LocalDir> dirs;
     for (int i = 0; i < 200000; ++i) {
-      const double x = g(rng), y = g(rng), z = std::abs(g(rng)), l = std::sqrt(x * x + y * y + z * z);
+      const double x = g(rng), y = g(rng), z = std::abs(g(rng)),
+                   l = std::sqrt(x * x + y * y + z * z);
       dirs.push_back({x / l, y / l, z / l});
     }
     double sink = 0;
@@ -541,7 +594,8 @@ json bench_skips(const std::string& work, bool quick) {
     };
     time(pa);
     const double ta = time(pa), tb = time(pb);
-    json e = entry("skips", "zero-weight isotropic term skipped in the model", ta, tb, "ns/eval", NAN);
+    json e =
+        entry("skips", "zero-weight isotropic term skipped in the model", ta, tb, "ns/eval", NAN);
     e["checksum"] = sink;
     out.push_back(e);
     std::printf("bench skips: zero-weight term: %.1f ns vs %.1f ns per evaluation\n", ta, tb);
@@ -551,11 +605,14 @@ json bench_skips(const std::string& work, bool quick) {
 
 }  // namespace
 
-void run_bench(const std::string& suite, const std::string& out_path, const std::string& work_dir, bool quick) {
+void run_bench(const std::string& suite, const std::string& out_path, const std::string& work_dir,
+               bool quick) {
   static const char* kSuites[] = {"fit", "fiber", "bake", "capture", "preview", "skips", "all"};
   bool known = false;
   for (const char* s : kSuites) known |= suite == s;
-  if (!known) throw Error("bench: unknown suite '" + suite + "' (fit, fiber, bake, capture, preview, skips, all)");
+  if (!known)
+    throw Error("bench: unknown suite '" + suite +
+                "' (fit, fiber, bake, capture, preview, skips, all)");
   std::filesystem::create_directories(work_dir);
   json entries = json::array();
   auto add = [&](const json& a) {
@@ -579,8 +636,8 @@ void run_bench(const std::string& suite, const std::string& out_path, const std:
   size_t met = 0, missed = 0;
   for (const auto& e : entries)
     if (e.contains("met")) (e["met"].get<bool>() ? met : missed)++;
-  std::printf("bench %s: %zu entries, targets met %zu, missed %zu -> %s (%.1f s)\n", suite.c_str(), entries.size(), met,
-              missed, out_path.c_str(), since(t0));
+  std::printf("bench %s: %zu entries, targets met %zu, missed %zu -> %s (%.1f s)\n", suite.c_str(),
+              entries.size(), met, missed, out_path.c_str(), since(t0));
 }
 
 }  // namespace aniso

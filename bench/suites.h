@@ -8,6 +8,7 @@ namespace aniso {
 
 // SUITE: fit, fiber, bake, capture, preview, skips, or all. `work_dir` holds the synthetic sets.
 // `quick` shrinks every sweep (for tests). Writes the JSON atomically and prints a summary.
-void run_bench(const std::string& suite, const std::string& out_path, const std::string& work_dir, bool quick);
+void run_bench(const std::string& suite, const std::string& out_path, const std::string& work_dir,
+               bool quick);
 
 }  // namespace aniso

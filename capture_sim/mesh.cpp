@@ -82,8 +82,9 @@ TriMesh make_shape(const std::string& name, const ShapeOptions& opt) {
       *N = {0, 0, 1};
       *U = {1, 0, 0};
     });
-    for (auto& t : m.uv) t = {0.5f + 0.5f * t[1] * std::cos(-float(tau) * t[0]),
-                              0.5f - 0.5f * t[1] * std::sin(-float(tau) * t[0])};
+    for (auto& t : m.uv)
+      t = {0.5f + 0.5f * t[1] * std::cos(-float(tau) * t[0]),
+           0.5f - 0.5f * t[1] * std::sin(-float(tau) * t[0])};
     m.can_self_shadow = false;
   } else if (name == "sphere") {
     m = grid(n, n / 2, [&](double u, double v, Vec3* P, Vec3* N, Vec3* U) {
@@ -163,7 +164,8 @@ TriMesh load_obj(const std::string& path) {
         size_t start = 0;
         for (int k = 0; k < 3 && start <= tok.size(); ++k) {
           const size_t slash = tok.find('/', start);
-          const std::string part = tok.substr(start, slash == std::string::npos ? std::string::npos : slash - start);
+          const std::string part =
+              tok.substr(start, slash == std::string::npos ? std::string::npos : slash - start);
           if (!part.empty()) {
             try {
               *fields[k] = std::stol(part);
@@ -176,7 +178,8 @@ TriMesh load_obj(const std::string& path) {
         }
         auto fix = [&](long& i, size_t count) {
           if (i < 0) i = static_cast<long>(count) + i + 1;
-          if (i < 0 || i > static_cast<long>(count)) fail("face index out of range in '" + tok + "'");
+          if (i < 0 || i > static_cast<long>(count))
+            fail("face index out of range in '" + tok + "'");
         };
         fix(c.v, v.size());
         fix(c.t, vt.size());

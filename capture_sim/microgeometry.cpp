@@ -4,9 +4,9 @@
 
 #include <chrono>
 #include <cmath>
-#include <sstream>
 #include <limits>
 #include <random>
+#include <sstream>
 #include <vector>
 
 #include "core/error.h"
@@ -38,10 +38,12 @@ MicroPatch::MicroPatch(double s, int copies, double length) : impl_(std::make_un
   constexpr double kSegment = 2.0;
   const int segs = std::max(1, static_cast<int>(std::ceil(length / kSegment)));
   const int fibers = 2 * (2 * copies + 1);
-  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4,
-                                                        4 * sizeof(float), static_cast<size_t>(fibers) * (segs + 1)));
-  auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT,
-                                                             sizeof(unsigned), static_cast<size_t>(fibers) * segs));
+  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                        RTC_FORMAT_FLOAT4, 4 * sizeof(float),
+                                                        static_cast<size_t>(fibers) * (segs + 1)));
+  auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0,
+                                                             RTC_FORMAT_UINT, sizeof(unsigned),
+                                                             static_cast<size_t>(fibers) * segs));
   if (!v || !idx) throw Error("microgeometry: cannot allocate Embree buffers");
   int f = 0;
   for (int k = -copies; k <= copies; ++k)
@@ -55,7 +57,8 @@ MicroPatch::MicroPatch(double s, int copies, double length) : impl_(std::make_un
         p[2] = static_cast<float>(z);
         p[3] = 1.0f;  // unit radius
       }
-      for (int e = 0; e < segs; ++e) idx[static_cast<size_t>(f) * segs + e] = static_cast<unsigned>(f * (segs + 1) + e);
+      for (int e = 0; e < segs; ++e)
+        idx[static_cast<size_t>(f) * segs + e] = static_cast<unsigned>(f * (segs + 1) + e);
       ++f;
     }
   impl_->segments_per_fiber = segs;
@@ -64,7 +67,8 @@ MicroPatch::MicroPatch(double s, int copies, double length) : impl_(std::make_un
   rtcReleaseGeometry(g);
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
   rtcCommitScene(impl_->scene);
-  if (rtcGetDeviceError(impl_->device) != RTC_ERROR_NONE) throw Error("microgeometry: Embree scene build failed");
+  if (rtcGetDeviceError(impl_->device) != RTC_ERROR_NONE)
+    throw Error("microgeometry: Embree scene build failed");
 }
 
 MicroPatch::~MicroPatch() {
@@ -72,7 +76,8 @@ MicroPatch::~MicroPatch() {
   if (impl_->device) rtcReleaseDevice(impl_->device);
 }
 
-MicroMeasurement MicroPatch::measure(const LocalDir& L, const LocalDir& V, double n, int rays, uint64_t seed) const {
+MicroMeasurement MicroPatch::measure(const LocalDir& L, const LocalDir& V, double n, int rays,
+                                     uint64_t seed) const {
   MicroMeasurement m;
   if (!(L.n > 0) || !(V.n > 0) || rays < 1) return m;
   std::mt19937_64 rng(seed);
@@ -107,10 +112,12 @@ MicroMeasurement MicroPatch::measure(const LocalDir& L, const LocalDir& V, doubl
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(impl_->scene, &ctx, &rh);
     ++m.rays;
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;  // through a gap (cannot happen for a full row)
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+      continue;  // through a gap (cannot happen for a full row)
     const auto& c = impl_->centers[rh.hit.primID / impl_->segments_per_fiber];
     const double t = rh.ray.tfar;
-    const double px = rh.ray.org_x - t * V.u, py = rh.ray.org_y - t * V.w, pz = rh.ray.org_z - t * V.n;
+    const double px = rh.ray.org_x - t * V.u, py = rh.ray.org_y - t * V.w,
+                 pz = rh.ray.org_z - t * V.n;
     double ny = py - c[0], nz = pz - c[1];
     const double nl = std::hypot(ny, nz);
     ny /= nl;
@@ -152,13 +159,15 @@ MicroMeasurement MicroPatch::measure(const LocalDir& L, const LocalDir& V, doubl
   return m;
 }
 
-MicroSweepSummary micro_sweep(const std::string& csv_path, double n, int rays, uint64_t seed, bool progress) {
+MicroSweepSummary micro_sweep(const std::string& csv_path, double n, int rays, uint64_t seed,
+                              bool progress) {
   const auto t0 = std::chrono::steady_clock::now();
   MicroSweepSummary sum;
   const double svals[] = {0.0, 0.25, 0.5, 0.75, 1.0};
   const double theta[] = {15, 45, 75}, phil[] = {0, 45, 90, 135}, phiv[] = {0, 90, 180, 270};
   std::ostringstream csv;
-  csv << "s,theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,n,model_D,micro_D,micro_D_se,model_S,micro_S,micro_S_se\n";
+  csv << "s,theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,n,model_D,micro_D,micro_D_se,model_S,micro_"
+         "S,micro_S_se\n";
   csv.precision(8);
   Progress bar("microgeometry sweep", 5 * 3 * 4 * 3 * 4, progress);
   for (double s : svals) {
@@ -169,13 +178,15 @@ MicroSweepSummary micro_sweep(const std::string& csv_path, double n, int rays, u
           for (double pv : phiv) {
             const double d = M_PI / 180;
             // phi from T toward B (the fiber frame: u = T, w = B).
-            const LocalDir L{std::sin(tl * d) * std::cos(pl * d), std::sin(tl * d) * std::sin(pl * d), std::cos(tl * d)};
-            const LocalDir V{std::sin(tv * d) * std::cos(pv * d), std::sin(tv * d) * std::sin(pv * d), std::cos(tv * d)};
+            const LocalDir L{std::sin(tl * d) * std::cos(pl * d),
+                             std::sin(tl * d) * std::sin(pl * d), std::cos(tl * d)};
+            const LocalDir V{std::sin(tv * d) * std::cos(pv * d),
+                             std::sin(tv * d) * std::sin(pv * d), std::cos(tv * d)};
             const MicroMeasurement m = patch.measure(L, V, n, rays, seed + sum.configs);
             double D, S;
             fiber_DS(L.w, L.n, V.w, V.n, L.u, V.u, n, s, FiberAccuracy{}, &D, &S);
-            csv << s << "," << tl << "," << pl << "," << tv << "," << pv << "," << n << "," << D << "," << m.D << ","
-                << m.D_se << "," << S << "," << m.S << "," << m.S_se << "\n";
+            csv << s << "," << tl << "," << pl << "," << tv << "," << pv << "," << n << "," << D
+                << "," << m.D << "," << m.D_se << "," << S << "," << m.S << "," << m.S_se << "\n";
             sum.max_dD = std::max(sum.max_dD, std::abs(D - m.D));
             sum.max_dS = std::max(sum.max_dS, std::abs(S - m.S));
             // The standard error of a stratified mean is below the plain one used here; floor it

@@ -28,7 +28,8 @@ class MicroPatch {
   MicroPatch(const MicroPatch&) = delete;
   MicroPatch& operator=(const MicroPatch&) = delete;
   // L and V in the fiber frame (u = T, w = B, n = N), both unit and above the surface.
-  MicroMeasurement measure(const LocalDir& L, const LocalDir& V, double n, int rays, uint64_t seed) const;
+  MicroMeasurement measure(const LocalDir& L, const LocalDir& V, double n, int rays,
+                           uint64_t seed) const;
 
  private:
   struct Impl;
@@ -42,6 +43,7 @@ struct MicroSweepSummary {
   size_t configs = 0, rays = 0;
   double max_dD = 0, max_dS = 0, max_zD = 0, max_zS = 0, seconds = 0;
 };
-MicroSweepSummary micro_sweep(const std::string& csv_path, double n, int rays, uint64_t seed, bool progress);
+MicroSweepSummary micro_sweep(const std::string& csv_path, double n, int rays, uint64_t seed,
+                              bool progress);
 
 }  // namespace aniso

@@ -25,7 +25,9 @@ RTCDevice shared_device() {
   static RTCDevice device = nullptr;
   std::call_once(once, [] {
     device = rtcNewDevice(nullptr);
-    if (!device) throw Error("Embree: cannot create device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
+    if (!device)
+      throw Error("Embree: cannot create device (error " +
+                  std::to_string(rtcGetDeviceError(nullptr)) + ")");
     rtcSetDeviceErrorFunction(device, embree_error, nullptr);
   });
   return device;
@@ -41,10 +43,10 @@ RayScene::RayScene(const TriMesh& mesh) : impl_(std::make_unique<Impl>()), mesh_
   RTCDevice dev = shared_device();
   impl_->scene = rtcNewScene(dev);
   RTCGeometry geom = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                         3 * sizeof(float), mesh.P.size()));
-  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                            3 * sizeof(unsigned), mesh.tri.size()));
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.P.size()));
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.tri.size()));
   if (!vb || !ib) throw Error("Embree: cannot allocate geometry buffers");
   for (size_t i = 0; i < mesh.P.size(); ++i) {
     vb[3 * i] = static_cast<float>(mesh.P[i].x);
@@ -75,7 +77,8 @@ bool RayScene::occluded(const Vec3& org, const Vec3& dir, double tfar) const {
   ray.dir_y = static_cast<float>(dir.y);
   ray.dir_z = static_cast<float>(dir.z);
   ray.tnear = 0.f;
-  ray.tfar = std::isfinite(tfar) ? static_cast<float>(tfar) : std::numeric_limits<float>::infinity();
+  ray.tfar =
+      std::isfinite(tfar) ? static_cast<float>(tfar) : std::numeric_limits<float>::infinity();
   ray.time = 0.f;
   ray.mask = 0xFFFFFFFFu;
   ray.id = 0;
@@ -142,7 +145,8 @@ GBuffer RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string
             g.U.at(x, y, c) = static_cast<float>(U[c]);
           }
           for (int c = 0; c < 2; ++c)
-            g.uv.at(x, y, c) = static_cast<float>(m.uv[t[0]][c] * b0 + m.uv[t[1]][c] * b1 + m.uv[t[2]][c] * b2);
+            g.uv.at(x, y, c) =
+                static_cast<float>(m.uv[t[0]][c] * b0 + m.uv[t[1]][c] * b1 + m.uv[t[2]][c] * b2);
         }
       }
   });
@@ -151,7 +155,8 @@ GBuffer RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string
 }
 
 void trace_mesh_gbuffer(const std::string& obj_path, const std::string& field, const Intrinsics& k,
-                        const Mat4& pose, Image* P, Image* N, Image* U, std::vector<uint8_t>* mask) {
+                        const Mat4& pose, Image* P, Image* N, Image* U,
+                        std::vector<uint8_t>* mask) {
   const RayScene scene(load_obj(obj_path));
   GBuffer g = scene.trace(k, pose, field);
   *P = std::move(g.P);

@@ -14,9 +14,9 @@
 namespace aniso {
 
 struct GBuffer {
-  Image P, N, U, uv;          // 3, 3, 3, 2 channels
-  std::vector<uint8_t> hit;   // 1 = the pixel sees the front of the surface
-  size_t rays = 0;            // primary rays cast
+  Image P, N, U, uv;         // 3, 3, 3, 2 channels
+  std::vector<uint8_t> hit;  // 1 = the pixel sees the front of the surface
+  size_t rays = 0;           // primary rays cast
 };
 
 class RayScene {

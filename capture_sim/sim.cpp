@@ -13,8 +13,8 @@
 #include "capture_sim/shade.h"
 #include "core/error.h"
 #include "core/frame.h"
-#include "core/texture.h"
 #include "core/progress.h"
+#include "core/texture.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
@@ -29,7 +29,8 @@ constexpr double kGoldenAngle = 2.39996322972865332;  // pi (3 - sqrt 5)
 
 Vec3 on_sphere(double polar_deg, double azimuth_rad, double r) {
   const double t = polar_deg * M_PI / 180.0;
-  return {r * std::sin(t) * std::cos(azimuth_rad), r * std::sin(t) * std::sin(azimuth_rad), r * std::cos(t)};
+  return {r * std::sin(t) * std::cos(azimuth_rad), r * std::sin(t) * std::sin(azimuth_rad),
+          r * std::cos(t)};
 }
 
 Light point_light(const Vec3& pos, double distance) {
@@ -52,7 +53,8 @@ std::vector<RigView> rig_fixed_camera(int views, double camera_polar_deg, double
     v.world_from_camera = look_at(eye, {0, 0, 0}, {0, 0, 1});
     // Polar angle 10..70 degrees, uniform in cos over the band; golden-angle azimuths.
     const double f = (i + 0.5) / views;
-    const double c = std::cos(10 * M_PI / 180) + f * (std::cos(70 * M_PI / 180) - std::cos(10 * M_PI / 180));
+    const double c =
+        std::cos(10 * M_PI / 180) + f * (std::cos(70 * M_PI / 180) - std::cos(10 * M_PI / 180));
     const double polar = std::acos(c) * 180.0 / M_PI;
     v.lights.push_back(point_light(on_sphere(polar, i * kGoldenAngle, distance), distance));
     rig.push_back(v);
@@ -68,7 +70,8 @@ std::vector<RigView> rig_orbit(int views, double distance) {
     RigView v;
     const Vec3 eye = on_sphere(20 + 45 * f, -M_PI / 2 + i * kGoldenAngle, distance);
     v.world_from_camera = look_at(eye, {0, 0, 0}, {0, 0, 1});
-    v.lights.push_back(point_light(on_sphere(60 - 45 * f, M_PI / 3 + i * 2 * kGoldenAngle, distance), distance));
+    v.lights.push_back(
+        point_light(on_sphere(60 - 45 * f, M_PI / 3 + i * 2 * kGoldenAngle, distance), distance));
     rig.push_back(v);
   }
   return rig;
@@ -85,11 +88,14 @@ std::vector<RigView> rig_from_file(const std::string& path) {
     const jsonu::Ctx c = root.at("views").idx(i);
     RigView v;
     const Vec3 eye = jsonu::vec3(jsonu::need(views[i], "camera", c), c.at("camera"));
-    const Vec3 target = views[i].contains("target") ? jsonu::vec3(views[i]["target"], c.at("target")) : Vec3{0, 0, 0};
+    const Vec3 target = views[i].contains("target")
+                            ? jsonu::vec3(views[i]["target"], c.at("target"))
+                            : Vec3{0, 0, 0};
     v.world_from_camera = look_at(eye, target, {0, 0, 1});
     const json& lights = jsonu::need(views[i], "lights", c);
     if (!lights.is_array() || lights.empty()) c.at("lights").fail("expected a non-empty array");
-    for (size_t k = 0; k < lights.size(); ++k) v.lights.push_back(parse_light(lights[k], c.at("lights").idx(k)));
+    for (size_t k = 0; k < lights.size(); ++k)
+      v.lights.push_back(parse_light(lights[k], c.at("lights").idx(k)));
     rig.push_back(v);
   }
   return rig;
@@ -99,7 +105,8 @@ Intrinsics frame_camera(int width, int height, double radius, double distance) {
   Intrinsics k;
   k.width = width;
   k.height = height;
-  const double half = std::atan(1.15 * radius / std::sqrt(std::max(distance * distance - radius * radius, 1e-6)));
+  const double half =
+      std::atan(1.15 * radius / std::sqrt(std::max(distance * distance - radius * radius, 1e-6)));
   k.fx = k.fy = 0.5 * std::min(width, height) / std::tan(half);
   k.cx = 0.5 * (width - 1);
   k.cy = 0.5 * (height - 1);
@@ -112,10 +119,10 @@ Vec3 px3(const Image& im, int x, int y) { return {im.at(x, y, 0), im.at(x, y, 1)
 
 // Noise-free radiance image of one view (exposure 1), shading every hit pixel. `topo` holds the
 // topology value s of each pixel (fiber model).
-Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, const Image& topo, const Vec3& eye,
-                 const std::vector<Light>& lights, const RGB& ambient, const RayScene& scene, bool force_shadows,
-                 std::atomic<size_t>* shadow_rays, std::atomic<size_t>* light_evals,
-                 std::vector<uint8_t>* light_used) {
+Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, const Image& topo,
+                 const Vec3& eye, const std::vector<Light>& lights, const RGB& ambient,
+                 const RayScene& scene, bool force_shadows, std::atomic<size_t>* shadow_rays,
+                 std::atomic<size_t>* light_evals, std::vector<uint8_t>* light_used) {
   const int w = g.P.width, h = g.P.height;
   Image out(w, h, 3);
   const bool shadows = scene.mesh().can_self_shadow || force_shadows;
@@ -137,7 +144,8 @@ Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g,
         SurfacePoint sp;
         if (!make_frame(px3(g.P, x, y), px3(g.N, x, y), px3(g.U, x, y), &sp)) continue;
         double I[3];
-        shade_point(eval, sp, eye, lights, {truth.ka[0] * ambient[0], truth.ka[1] * ambient[1], truth.ka[2] * ambient[2]},
+        shade_point(eval, sp, eye, lights,
+                    {truth.ka[0] * ambient[0], truth.ka[1] * ambient[1], truth.ka[2] * ambient[2]},
                     topo.at(x, y, 0), occluded, I, &cnt, &local_used);
         for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(I[c]);
       }
@@ -179,7 +187,8 @@ double mathematical_topology_at(const std::string& kind, const Vec3& P, const Sh
 SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   const auto t0 = std::chrono::steady_clock::now();
   if (opt.rig.empty()) throw Error("capture_sim: the rig has no views");
-  if (opt.camera.width < 1 || opt.camera.height < 1) throw Error("capture_sim: camera size must be positive");
+  if (opt.camera.width < 1 || opt.camera.height < 1)
+    throw Error("capture_sim: camera size must be positive");
   if (opt.sensor.bits != 0 && opt.sensor.bits != 8 && opt.sensor.bits != 16)
     throw Error("capture_sim: bit depth must be 0 (float), 8 or 16");
   if (opt.sensor.encoding != "linear" && opt.sensor.encoding != "srgb")
@@ -200,16 +209,19 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
 
   if (opt.truth.model == "fiber" && opt.truth.has_topology_map && opt.topology_map.empty())
     throw Error("capture_sim: the material uses a topology map but none was given");
-  if (opt.mathematical_topology != "none" && opt.mathematical_topology != "torus" && opt.mathematical_topology != "sphere")
+  if (opt.mathematical_topology != "none" && opt.mathematical_topology != "torus" &&
+      opt.mathematical_topology != "sphere")
     throw Error("capture_sim: mathematical topology must be none, torus or sphere");
   // The map as the set will store it (16-bit), so the fit sees exactly what was rendered.
   TopologyMap map;
   if (!opt.topology_map.empty()) {
     map.h = opt.topology_map;
-    for (float& v : map.h.px) v = static_cast<float>(std::round(std::clamp(v, 0.f, 1.f) * 65535.0) / 65535.0);
+    for (float& v : map.h.px)
+      v = static_cast<float>(std::round(std::clamp(v, 0.f, 1.f) * 65535.0) / 65535.0);
   }
   Image s_map = opt.s_map;  // quantised as stored (16-bit)
-  for (float& v : s_map.px) v = static_cast<float>(std::round(std::clamp(v, 0.f, 1.f) * 65535.0) / 65535.0);
+  for (float& v : s_map.px)
+    v = static_cast<float>(std::round(std::clamp(v, 0.f, 1.f) * 65535.0) / 65535.0);
   // Per-pixel topology s_math (written as the `topology` buffer) and s (used for shading).
   auto topology_images = [&](const GBuffer& g, Image* smath, Image* s) {
     *smath = Image(g.P.width, g.P.height, 1, 0.f);
@@ -223,7 +235,8 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
         const double m = map.h.empty() ? 0.0 : map.sample(g.uv.at(x, y, 0), g.uv.at(x, y, 1));
         double sv = opt.truth.topology_at(sm, m);
         if (!s_map.empty()) {
-          const BilinearTaps t = bilinear_wrap(g.uv.at(x, y, 0), g.uv.at(x, y, 1), s_map.width, s_map.height);
+          const BilinearTaps t =
+              bilinear_wrap(g.uv.at(x, y, 0), g.uv.at(x, y, 1), s_map.width, s_map.height);
           sv = 0;
           for (int k = 0; k < 4; ++k) sv += t.weight[k] * s_map.px[t.index[k]];
         }
@@ -240,7 +253,8 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       if (i == 0 || !fixed_camera || opt.force_retrace) {
         const auto tt = std::chrono::steady_clock::now();
         gbuffers.push_back(scene.trace(opt.camera, opt.rig[i].world_from_camera, opt.fiber_field));
-        st.seconds_trace += std::chrono::duration<double>(std::chrono::steady_clock::now() - tt).count();
+        st.seconds_trace +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - tt).count();
         st.primary_rays += gbuffers.back().rays;
         smaths.emplace_back();
         topos.emplace_back();
@@ -249,9 +263,12 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       const GBuffer& g = gbuffers.back();
       std::vector<uint8_t> used;
       const auto ts = std::chrono::steady_clock::now();
-      radiance.push_back(shade_view(eval, opt.truth, g, topos.back(), opt.rig[i].world_from_camera.translation(), opt.rig[i].lights,
-                                    opt.ambient, scene, opt.force_shadows, &shadow_rays, &light_evals, &used));
-      st.seconds_shade += std::chrono::duration<double>(std::chrono::steady_clock::now() - ts).count();
+      radiance.push_back(shade_view(eval, opt.truth, g, topos.back(),
+                                    opt.rig[i].world_from_camera.translation(), opt.rig[i].lights,
+                                    opt.ambient, scene, opt.force_shadows, &shadow_rays,
+                                    &light_evals, &used));
+      st.seconds_shade +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - ts).count();
       for (uint8_t u : used) st.lights_culled += u ? 0 : 1;
       for (uint8_t hit : g.hit) st.shaded_pixels += hit;
       bar.advance();
@@ -261,7 +278,8 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   st.light_evals = light_evals;
   for (const auto& im : radiance)
     for (float v : im.px) st.white_level = std::max(st.white_level, static_cast<double>(v));
-  if (!(st.white_level > 0)) throw Error("capture_sim: every pixel is black (no light reaches the visible sample)");
+  if (!(st.white_level > 0))
+    throw Error("capture_sim: every pixel is black (no light reaches the visible sample)");
 
   // Integer images: the white level maps to 0.8 so noise has headroom; float keeps exposure 1.
   const double exposure = opt.sensor.bits ? 0.8 / st.white_level : 1.0;
@@ -320,14 +338,16 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       v.camera = opt.camera;
       if (!fixed_camera) v.geometry = geometry_files(gbuffers[i], smaths[i], stem);
       // One generator per view, seeded from (seed, view): the same set whatever the threading.
-      std::seed_seq seq{static_cast<uint32_t>(opt.seed), static_cast<uint32_t>(opt.seed >> 32), static_cast<uint32_t>(i)};
+      std::seed_seq seq{static_cast<uint32_t>(opt.seed), static_cast<uint32_t>(opt.seed >> 32),
+                        static_cast<uint32_t>(i)};
       std::mt19937_64 rng(seq);
       std::normal_distribution<double> gauss(0.0, 1.0);
       Image img = radiance[i];
       for (float& px : img.px) {
         double val = exposure * px;
         if (opt.sensor.shot_photons > 0) {
-          std::poisson_distribution<long long> pois(std::max(val / white * opt.sensor.shot_photons, 0.0));
+          std::poisson_distribution<long long> pois(
+              std::max(val / white * opt.sensor.shot_photons, 0.0));
           val = static_cast<double>(pois(rng)) * white / opt.sensor.shot_photons;
         }
         if (opt.sensor.read_noise > 0) val += opt.sensor.read_noise * white * gauss(rng);
@@ -377,7 +397,8 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     set.provenance = gen.dump();
     write_capture_json(set, join_path(dir, "capture.json"));
   });
-  st.seconds_write = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_write).count();
+  st.seconds_write =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_write).count();
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return st;
 }

@@ -29,9 +29,9 @@ std::vector<RigView> rig_orbit(int views, double distance);
 std::vector<RigView> rig_from_file(const std::string& path);
 
 struct SensorOptions {
-  double read_noise = 0.0;   // Gaussian sigma, as a fraction of the white level
-  double shot_photons = 0.0; // photons collected at the white level (0 = no shot noise)
-  int bits = 0;              // 0 = float EXR, 8 or 16 = PNG
+  double read_noise = 0.0;          // Gaussian sigma, as a fraction of the white level
+  double shot_photons = 0.0;        // photons collected at the white level (0 = no shot noise)
+  int bits = 0;                     // 0 = float EXR, 8 or 16 = PNG
   std::string encoding = "linear";  // for PNG: linear or srgb
   double saturation = std::numeric_limits<double>::infinity();  // fraction of white level
 };
@@ -39,7 +39,7 @@ struct SensorOptions {
 struct SimOptions {
   std::string shape = "flat";  // a shape name or an .obj path
   ShapeOptions shape_options;
-  std::string fiber_field;     // "", radial, circular, meridian
+  std::string fiber_field;  // "", radial, circular, meridian
   Material truth;
   Intrinsics camera;
   std::vector<RigView> rig;

@@ -12,7 +12,9 @@ struct Image {
   Image() = default;
   Image(int w, int h, int c, float fill = 0.f)
       : width(w), height(h), channels(c), px(static_cast<size_t>(w) * h * c, fill) {}
-  float& at(int x, int y, int ch) { return px[(static_cast<size_t>(y) * width + x) * channels + ch]; }
+  float& at(int x, int y, int ch) {
+    return px[(static_cast<size_t>(y) * width + x) * channels + ch];
+  }
   float at(int x, int y, int ch) const {
     return px[(static_cast<size_t>(y) * width + x) * channels + ch];
   }

@@ -1,10 +1,11 @@
 // A progress bar on stderr, shown only when stderr is a terminal. Thread-safe `advance`.
 #pragma once
+#include <unistd.h>
+
 #include <atomic>
 #include <cstdio>
 #include <mutex>
 #include <string>
-#include <unistd.h>
 
 namespace aniso {
 
@@ -22,8 +23,8 @@ class Progress {
     if (pct == last_) return;
     last_ = pct;
     const int bar = pct * 30 / 100;
-    std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%", label_.c_str(), bar, "##############################",
-                 30 - bar, "", pct);
+    std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%", label_.c_str(), bar,
+                 "##############################", 30 - bar, "", pct);
     std::fflush(stderr);
   }
   void finish() {

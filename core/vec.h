@@ -50,7 +50,8 @@ struct Mat4 {
   double operator()(int r, int c) const { return m[r * 4 + c]; }
   double& operator()(int r, int c) { return m[r * 4 + c]; }
   Vec3 point(const Vec3& p) const {
-    return {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+    return {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],
+            m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
             m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]};
   }
   Vec3 dir(const Vec3& d) const {

@@ -11,17 +11,22 @@ namespace aniso {
 
 const std::vector<std::pair<std::string, std::string>>& preset_list() {
   static const std::vector<std::pair<std::string, std::string>> list = {
-      {"brushed-metal", "flat sample, scratches at 30 deg, fixed camera, light over the hemisphere"},
+      {"brushed-metal",
+       "flat sample, scratches at 30 deg, fixed camera, light over the hemisphere"},
       {"satin-ball", "sphere with pole-to-pole (meridian) fibers (Heidrich & Seidel fig. 3)"},
       {"cd", "disc with circular grooves (Heidrich & Seidel fig. 1, centre)"},
       {"radial-disc", "disc with radial fibers (Heidrich & Seidel fig. 1, right)"},
       {"woven-cloth", "flat sample with two perpendicular fiber directions (seed 000 §4)"},
       {"random", "flat sample with a random line-model material drawn from --seed"},
-      {"silk-torus", "fiber model: silk wound around a torus (R = 1, r = 0.6), mathematical topology + topology map "
-                     "(Hast's test object)"},
+      {"silk-torus",
+       "fiber model: silk wound around a torus (R = 1, r = 0.6), mathematical topology + topology "
+       "map "
+       "(Hast's test object)"},
       {"fiber-flat", "fiber model: flat sample with topology value --topology-s"},
-      {"satin-sphere-fiber", "fiber model: sphere with meridian fibers that climb toward the poles"},
-      {"fiber-flat-map", "fiber model: flat sample whose topology varies over it (an 8x8 map of s in [0.15, 0.85])"},
+      {"satin-sphere-fiber",
+       "fiber model: sphere with meridian fibers that climb toward the poles"},
+      {"fiber-flat-map",
+       "fiber model: flat sample whose topology varies over it (an 8x8 map of s in [0.15, 0.85])"},
   };
   return list;
 }
@@ -41,9 +46,12 @@ Image procedural_topology_map(int size, uint64_t seed) {
         const int x0 = int(fx), y0 = int(fy);
         const double tx = fx - x0, ty = fy - y0;
         const double sx = tx * tx * (3 - 2 * tx), sy = ty * ty * (3 - 2 * ty);
-        auto L = [&](int i, int j) { return lattice[static_cast<size_t>(j % cells) * cells + (i % cells)]; };
-        img.at(x, y, 0) += static_cast<float>(amp * ((1 - sx) * (1 - sy) * L(x0, y0) + sx * (1 - sy) * L(x0 + 1, y0) +
-                                                     (1 - sx) * sy * L(x0, y0 + 1) + sx * sy * L(x0 + 1, y0 + 1)));
+        auto L = [&](int i, int j) {
+          return lattice[static_cast<size_t>(j % cells) * cells + (i % cells)];
+        };
+        img.at(x, y, 0) += static_cast<float>(
+            amp * ((1 - sx) * (1 - sy) * L(x0, y0) + sx * (1 - sy) * L(x0 + 1, y0) +
+                   (1 - sx) * sy * L(x0, y0 + 1) + sx * sy * L(x0 + 1, y0 + 1)));
       }
     amp *= 0.5;
   }
@@ -78,7 +86,8 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
   o.sensor.shot_photons = po.shot_photons;
   o.sensor.bits = po.bits;
   o.sensor.encoding = po.encoding;
-  if (po.saturation < 0) throw Error("synth: --saturation must be positive (a fraction of the white level)");
+  if (po.saturation < 0)
+    throw Error("synth: --saturation must be positive (a fraction of the white level)");
   if (po.saturation > 0) o.sensor.saturation = po.saturation;
   constexpr double kDistance = 4.0;
   double radius = 1.0, camera_polar = 35.0;
@@ -145,7 +154,8 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
       o.topology_map = read_image(po.topology_map_file).image;
       if (o.topology_map.channels > 1) {  // first channel only
         Image first(o.topology_map.width, o.topology_map.height, 1);
-        for (size_t p = 0; p < first.px.size(); ++p) first.px[p] = o.topology_map.px[p * o.topology_map.channels];
+        for (size_t p = 0; p < first.px.size(); ++p)
+          first.px[p] = o.topology_map.px[p * o.topology_map.channels];
         o.topology_map = first;
       }
     }
@@ -158,7 +168,8 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
     m.n = 40.0;
     m.fiber_angle_deg = 30.0;
     m.has_topology = true;
-    if (po.topology_s < 0 || po.topology_s > 1) throw Error("synth: --topology-s must be in [0, 1]");
+    if (po.topology_s < 0 || po.topology_s > 1)
+      throw Error("synth: --topology-s must be in [0, 1]");
     m.topology_s = po.topology_s;
   } else if (name == "fiber-flat-map") {
     o.shape = "flat";
@@ -201,7 +212,8 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
   else if (lower_ext(po.rig) == ".json")
     o.rig = rig_from_file(po.rig);
   else
-    throw Error("synth: --rig must be fixed-camera, orbit or a rig .json file (got '" + po.rig + "')");
+    throw Error("synth: --rig must be fixed-camera, orbit or a rig .json file (got '" + po.rig +
+                "')");
   return o;
 }
 

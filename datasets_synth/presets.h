@@ -13,12 +13,12 @@ namespace aniso {
 struct PresetOptions {
   int views = 16;
   int width = 128, height = 128;
-  double noise = 0.0;        // Gaussian read noise, fraction of the white level
-  double shot_photons = 0.0; // photons at the white level (0 = none)
-  int bits = 0;              // 0 = float EXR, 8/16 = PNG
+  double noise = 0.0;         // Gaussian read noise, fraction of the white level
+  double shot_photons = 0.0;  // photons at the white level (0 = none)
+  int bits = 0;               // 0 = float EXR, 8/16 = PNG
   std::string encoding = "linear";
-  double saturation = 0;     // clip at this fraction of the white level (0 = no clipping)
-  std::string rig;           // "" = the preset's own, "fixed-camera", "orbit", or a rig JSON file
+  double saturation = 0;  // clip at this fraction of the white level (0 = no clipping)
+  std::string rig;        // "" = the preset's own, "fixed-camera", "orbit", or a rig JSON file
   uint64_t seed = 1;
   bool progress = true;
   // Fiber-model presets.

@@ -12,11 +12,11 @@
 #include "core/error.h"
 #include "core/frame.h"
 #include "core/progress.h"
-#include "io/json_util.h"
-#include "io/material_io.h"
 #include "core/texture.h"
 #include "io/files.h"
 #include "io/image_io.h"
+#include "io/json_util.h"
+#include "io/material_io.h"
 #include "models/fiber_model.h"
 #include "models/line_model.h"
 #include "models/params.h"
@@ -26,7 +26,9 @@ namespace aniso {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 // ---------------------------------------------------------------------------------------------
 // Observations: one per pixel (three channels), its lights already reduced to local directions
@@ -39,8 +41,8 @@ struct ObsLight {
 struct Observation {
   LocalDir V;
   uint32_t first_light = 0, num_lights = 0;
-  double y[3];     // measured value
-  double base[3];  // known constant part (ambient times k_a, which is not fitted)
+  double y[3];                 // measured value
+  double base[3];              // known constant part (ambient times k_a, which is not fitted)
   double smath = 0, mapv = 0;  // fiber model: mathematical topology and map value at the pixel
   double u = 0, v = 0;         // texture coordinates (per-texel topology fits)
 };
@@ -51,7 +53,7 @@ struct ObsSet {
   std::vector<Observation> obs;
   std::vector<ObsLight> lights;
   TopologyMode topology = TopologyMode::kGlobalS;
-  int texels = 0;  // kTexels: an N x N map of s over uv
+  int texels = 0;                                            // kTexels: an N x N map of s over uv
   std::string topology_map, topology_mathematical = "none";  // recorded in the result
   bool grey = false;  // a grey table: the three channels repeat one value
 };
@@ -109,13 +111,15 @@ struct LineResidual {
       p.psi2 = sec[0];
       p.w = sec[1];
     }
-    pixel_residual(obs, lights, [&](const LocalDir& L, const LocalDir& V, T* f) { line_reflectance(p, L, V, f); }, r);
+    pixel_residual(
+        obs, lights,
+        [&](const LocalDir& L, const LocalDir& V, T* f) { line_reflectance(p, L, V, f); }, r);
     return true;
   }
 
   static ceres::CostFunction* Create(const Observation* o, const ObsLight* l) {
-    return new ceres::AutoDiffCostFunction<LineResidual, 3, 3, 3, 1, 1, kIso ? 7 : 1, kSecond ? 2 : 1>(
-        new LineResidual(o, l));
+    return new ceres::AutoDiffCostFunction < LineResidual, 3, 3, 3, 1, 1, kIso ? 7 : 1,
+           kSecond ? 2 : 1 > (new LineResidual(o, l));
   }
 
   const Observation* obs;
@@ -203,8 +207,8 @@ class LineResidualAnalytic : public ceres::SizedCostFunction<3, 3, 3, 1, 1, 1, 1
 // weight of iteratively reweighted least squares that reproduces the robust loss per pixel.
 class LineChunkResidual : public ceres::CostFunction {
  public:
-  LineChunkResidual(std::vector<const Observation*> obs, const ObsLight* lights, const std::vector<double>* sqrt_w,
-                    size_t first)
+  LineChunkResidual(std::vector<const Observation*> obs, const ObsLight* lights,
+                    const std::vector<double>* sqrt_w, size_t first)
       : obs_(std::move(obs)), lights_(lights), sqrt_w_(sqrt_w), first_(first) {
     set_num_residuals(static_cast<int>(3 * obs_.size()));
     *mutable_parameter_block_sizes() = {3, 3, 1, 1};
@@ -249,21 +253,32 @@ struct FiberResidual {
       : obs(o), lights(l), mode(m), acc(a) {}
 
   template <class T>
-  bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* topo, T* r) const {
+  bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* topo,
+                  T* r) const {
     const LineParamsT<T> p = fitted_params(kd, ks, logn, psi);
     T s;
     switch (mode) {
-      case TopologyMode::kGlobalS: s = topo[0]; break;
-      case TopologyMode::kAmplitude: s = topology_with_map(obs->smath, topo[0], obs->mapv); break;
-      default: s = T(obs->smath); break;
+      case TopologyMode::kGlobalS:
+        s = topo[0];
+        break;
+      case TopologyMode::kAmplitude:
+        s = topology_with_map(obs->smath, topo[0], obs->mapv);
+        break;
+      default:
+        s = T(obs->smath);
+        break;
     }
-    pixel_residual(obs, lights, [&](const LocalDir& L, const LocalDir& V, T* f) { fiber_reflectance(p, s, L, V, acc, f); },
-                   r);
+    pixel_residual(
+        obs, lights,
+        [&](const LocalDir& L, const LocalDir& V, T* f) { fiber_reflectance(p, s, L, V, acc, f); },
+        r);
     return true;
   }
 
-  static ceres::CostFunction* Create(const Observation* o, const ObsLight* l, TopologyMode m, FiberAccuracy a) {
-    return new ceres::AutoDiffCostFunction<FiberResidual, 3, 3, 3, 1, 1, 1>(new FiberResidual(o, l, m, a));
+  static ceres::CostFunction* Create(const Observation* o, const ObsLight* l, TopologyMode m,
+                                     FiberAccuracy a) {
+    return new ceres::AutoDiffCostFunction<FiberResidual, 3, 3, 3, 1, 1, 1>(
+        new FiberResidual(o, l, m, a));
   }
 
   const Observation* obs;
@@ -275,21 +290,27 @@ struct FiberResidual {
 // The fiber model with a per-texel map of s: the pixel's s is the bilinear mix (wrap-around, glTF
 // uv) of four texel parameters.
 struct FiberTexelResidual {
-  FiberTexelResidual(const Observation* o, const ObsLight* l, const BilinearTaps& t, FiberAccuracy a)
+  FiberTexelResidual(const Observation* o, const ObsLight* l, const BilinearTaps& t,
+                     FiberAccuracy a)
       : obs(o), lights(l), taps(t), acc(a) {}
 
   template <class T>
-  bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* t0, const T* t1, const T* t2,
-                  const T* t3, T* r) const {
+  bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* t0, const T* t1,
+                  const T* t2, const T* t3, T* r) const {
     const LineParamsT<T> p = fitted_params(kd, ks, logn, psi);
-    const T s = taps.weight[0] * t0[0] + taps.weight[1] * t1[0] + taps.weight[2] * t2[0] + taps.weight[3] * t3[0];
-    pixel_residual(obs, lights, [&](const LocalDir& L, const LocalDir& V, T* f) { fiber_reflectance(p, s, L, V, acc, f); },
-                   r);
+    const T s = taps.weight[0] * t0[0] + taps.weight[1] * t1[0] + taps.weight[2] * t2[0] +
+                taps.weight[3] * t3[0];
+    pixel_residual(
+        obs, lights,
+        [&](const LocalDir& L, const LocalDir& V, T* f) { fiber_reflectance(p, s, L, V, acc, f); },
+        r);
     return true;
   }
 
-  static ceres::CostFunction* Create(const Observation* o, const ObsLight* l, const BilinearTaps& t, FiberAccuracy a) {
-    return new ceres::AutoDiffCostFunction<FiberTexelResidual, 3, 3, 3, 1, 1, 1, 1, 1, 1>(new FiberTexelResidual(o, l, t, a));
+  static ceres::CostFunction* Create(const Observation* o, const ObsLight* l, const BilinearTaps& t,
+                                     FiberAccuracy a) {
+    return new ceres::AutoDiffCostFunction<FiberTexelResidual, 3, 3, 3, 1, 1, 1, 1, 1, 1>(
+        new FiberTexelResidual(o, l, t, a));
   }
 
   const Observation* obs;
@@ -331,7 +352,7 @@ struct State {
   double logn = std::log(20.0), psi = 0.0;
   double iso[7] = {0.01, 0.01, 0.01, 0.01, 0.01, 0.01, std::log(20.0)};
   double sec[2] = {M_PI / 2, 0.5};
-  double topo[1] = {0.5};  // fiber model: s or the map amplitude A
+  double topo[1] = {0.5};      // fiber model: s or the map amplitude A
   std::vector<double> texels;  // fiber model, kTexels: N x N values of s
   double dummy_iso[1] = {0}, dummy_sec[1] = {0};
 };
@@ -341,8 +362,8 @@ struct State {
 // closed form (unconstrained, k_d only, k_s only; best non-negative). Returns the sum of squares.
 template <class Cols>
 double solve_kd_ks(const ObsSet& os, size_t stride, Cols cols, double kd[3], double ks[3]) {
-  double dd[3] = {0, 0, 0}, ds[3] = {0, 0, 0}, ss[3] = {0, 0, 0}, dy[3] = {0, 0, 0}, sy[3] = {0, 0, 0},
-         yy[3] = {0, 0, 0};
+  double dd[3] = {0, 0, 0}, ds[3] = {0, 0, 0}, ss[3] = {0, 0, 0}, dy[3] = {0, 0, 0},
+         sy[3] = {0, 0, 0}, yy[3] = {0, 0, 0};
   for (size_t i = 0; i < os.obs.size(); i += stride) {
     const Observation& o = os.obs[i];
     double dcol[3] = {0, 0, 0}, scol[3] = {0, 0, 0};
@@ -360,12 +381,14 @@ double solve_kd_ks(const ObsSet& os, size_t stride, Cols cols, double kd[3], dou
   double cost = 0;
   for (int ch = 0; ch < 3; ++ch) {
     auto sse = [&](double a, double b) {
-      return yy[ch] - 2 * a * dy[ch] - 2 * b * sy[ch] + a * a * dd[ch] + 2 * a * b * ds[ch] + b * b * ss[ch];
+      return yy[ch] - 2 * a * dy[ch] - 2 * b * sy[ch] + a * a * dd[ch] + 2 * a * b * ds[ch] +
+             b * b * ss[ch];
     };
     double ba = 0, bb = 0, bc = sse(0, 0);
     const double det = dd[ch] * ss[ch] - ds[ch] * ds[ch];
     if (det > 1e-300) {
-      const double a = (dy[ch] * ss[ch] - sy[ch] * ds[ch]) / det, b = (sy[ch] * dd[ch] - dy[ch] * ds[ch]) / det;
+      const double a = (dy[ch] * ss[ch] - sy[ch] * ds[ch]) / det,
+                   b = (sy[ch] * dd[ch] - dy[ch] * ds[ch]) / det;
       if (a >= 0 && b >= 0 && sse(a, b) < bc) ba = a, bb = b, bc = sse(a, b);
     }
     if (dd[ch] > 0) {
@@ -405,18 +428,21 @@ std::string grid_start(const ObsSet& os, State* st) {
     for (int in = 1; in <= 12; ++in) {
       const double n = std::pow(2.0, in);
       double kd[3], ks[3];
-      const double cost = solve_kd_ks(os, stride, [&](const Observation& o, double* dcol, double* scol) {
-        const double b = c * o.V.u + s * o.V.w;
-        for (uint32_t k = 0; k < o.num_lights; ++k) {
-          const ObsLight& l = os.lights[o.first_light + k];
-          double D, S;
-          line_DS(c * l.L.u + s * l.L.w, b, n, &D, &S);
-          for (int ch = 0; ch < 3; ++ch) {
-            dcol[ch] += l.E[ch] * l.L.n * D;
-            scol[ch] += l.E[ch] * l.L.n * S;
-          }
-        }
-      }, kd, ks);
+      const double cost = solve_kd_ks(
+          os, stride,
+          [&](const Observation& o, double* dcol, double* scol) {
+            const double b = c * o.V.u + s * o.V.w;
+            for (uint32_t k = 0; k < o.num_lights; ++k) {
+              const ObsLight& l = os.lights[o.first_light + k];
+              double D, S;
+              line_DS(c * l.L.u + s * l.L.w, b, n, &D, &S);
+              for (int ch = 0; ch < 3; ++ch) {
+                dcol[ch] += l.E[ch] * l.L.n * D;
+                scol[ch] += l.E[ch] * l.L.n * S;
+              }
+            }
+          },
+          kd, ks);
       if (cost < best) {
         best = cost;
         best_psi = psi;
@@ -431,8 +457,8 @@ std::string grid_start(const ObsSet& os, State* st) {
   set_start_kd_ks(best_kd, best_ks, st);
   st->sec[0] = HalfTurnManifold::wrap(best_psi + M_PI / 2);
   char buf[160];
-  std::snprintf(buf, sizeof buf, "grid psi=%.1f deg, n=%.0f (36 x 12 nodes on %zu pixels)", best_psi * 180 / M_PI,
-                std::exp(best_logn), (os.obs.size() + stride - 1) / stride);
+  std::snprintf(buf, sizeof buf, "grid psi=%.1f deg, n=%.0f (36 x 12 nodes on %zu pixels)",
+                best_psi * 180 / M_PI, std::exp(best_logn), (os.obs.size() + stride - 1) / stride);
   return buf;
 }
 
@@ -455,21 +481,26 @@ std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* 
     for (double dl : {-0.7, 0.0, 0.7}) {
       const double n = std::exp(logn0 + dl);
       double kd[3], ks[3];
-      const double cost = solve_kd_ks(os, stride, [&](const Observation& o, double* dcol, double* scol) {
-        const double s = os.topology == TopologyMode::kAmplitude      ? topology_with_map(o.smath, t, o.mapv)
-                         : os.topology == TopologyMode::kMathematical ? o.smath
-                                                                      : t;
-        const double b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
-        for (uint32_t k = 0; k < o.num_lights; ++k) {
-          const ObsLight& l = os.lights[o.first_light + k];
-          double D, S;
-          fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n, s, acc, &D, &S);
-          for (int ch = 0; ch < 3; ++ch) {
-            dcol[ch] += l.E[ch] * D;
-            scol[ch] += l.E[ch] * S;
-          }
-        }
-      }, kd, ks);
+      const double cost = solve_kd_ks(
+          os, stride,
+          [&](const Observation& o, double* dcol, double* scol) {
+            const double s = os.topology == TopologyMode::kAmplitude
+                                 ? topology_with_map(o.smath, t, o.mapv)
+                             : os.topology == TopologyMode::kMathematical ? o.smath
+                                                                          : t;
+            const double b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
+            for (uint32_t k = 0; k < o.num_lights; ++k) {
+              const ObsLight& l = os.lights[o.first_light + k];
+              double D, S;
+              fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n, s,
+                       acc, &D, &S);
+              for (int ch = 0; ch < 3; ++ch) {
+                dcol[ch] += l.E[ch] * D;
+                scol[ch] += l.E[ch] * S;
+              }
+            }
+          },
+          kd, ks);
       if (cost < best) {
         best = cost;
         best_t = t;
@@ -479,12 +510,14 @@ std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* 
       }
     }
   st->topo[0] = best_t;
-  if (os.topology == TopologyMode::kTexels) st->texels.assign(static_cast<size_t>(os.texels) * os.texels, best_t);
+  if (os.topology == TopologyMode::kTexels)
+    st->texels.assign(static_cast<size_t>(os.texels) * os.texels, best_t);
   st->logn = best_logn;
   set_start_kd_ks(best_kd, best_ks, st);
   char buf[200];
   std::snprintf(buf, sizeof buf, "; fiber: topology %s=%.2f, n=%.0f (%zu x 3 nodes)",
-                os.topology == TopologyMode::kAmplitude ? "A" : "s", best_t, std::exp(best_logn), topo_values.size());
+                os.topology == TopologyMode::kAmplitude ? "A" : "s", best_t, std::exp(best_logn),
+                topo_values.size());
   return line + buf;
 }
 
@@ -504,8 +537,8 @@ void add_blocks(ceres::Problem* pb, const ObsSet& os, const std::vector<size_t>&
       cf = new LineResidualAnalytic(&os.obs[i], os.lights.data());
     else
       cf = LineResidual<kIso, kSecond>::Create(&os.obs[i], os.lights.data());
-    pb->AddResidualBlock(cf, loss, st->kd, st->ks, &st->logn, &st->psi, kIso ? st->iso : st->dummy_iso,
-                         kSecond ? st->sec : st->dummy_sec);
+    pb->AddResidualBlock(cf, loss, st->kd, st->ks, &st->logn, &st->psi,
+                         kIso ? st->iso : st->dummy_iso, kSecond ? st->sec : st->dummy_sec);
   }
 }
 
@@ -515,8 +548,9 @@ struct ProblemSetup {
   FiberAccuracy acc;
 };
 
-std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vector<size_t>& idx, State* st,
-                                              const ProblemSetup& ps, ceres::LossFunction* loss) {
+std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vector<size_t>& idx,
+                                              State* st, const ProblemSetup& ps,
+                                              ceres::LossFunction* loss) {
   ceres::Problem::Options po;
   po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
@@ -524,9 +558,10 @@ std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vecto
   if (ps.fiber && os.topology == TopologyMode::kTexels) {
     for (size_t i : idx) {
       const BilinearTaps t = bilinear_wrap(os.obs[i].u, os.obs[i].v, os.texels, os.texels);
-      pb->AddResidualBlock(FiberTexelResidual::Create(&os.obs[i], os.lights.data(), t, ps.acc), loss, st->kd, st->ks,
-                           &st->logn, &st->psi, &st->texels[t.index[0]], &st->texels[t.index[1]],
-                           &st->texels[t.index[2]], &st->texels[t.index[3]]);
+      pb->AddResidualBlock(FiberTexelResidual::Create(&os.obs[i], os.lights.data(), t, ps.acc),
+                           loss, st->kd, st->ks, &st->logn, &st->psi, &st->texels[t.index[0]],
+                           &st->texels[t.index[1]], &st->texels[t.index[2]],
+                           &st->texels[t.index[3]]);
     }
     for (double& t : st->texels)
       if (pb->HasParameterBlock(&t)) {
@@ -535,8 +570,8 @@ std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vecto
       }
   } else if (ps.fiber) {
     for (size_t i : idx)
-      pb->AddResidualBlock(FiberResidual::Create(&os.obs[i], os.lights.data(), os.topology, ps.acc), loss, st->kd,
-                           st->ks, &st->logn, &st->psi, st->topo);
+      pb->AddResidualBlock(FiberResidual::Create(&os.obs[i], os.lights.data(), os.topology, ps.acc),
+                           loss, st->kd, st->ks, &st->logn, &st->psi, st->topo);
     if (os.topology == TopologyMode::kGlobalS) {
       pb->SetParameterLowerBound(st->topo, 0, line_param("topology.s").lo);
       pb->SetParameterUpperBound(st->topo, 0, line_param("topology.s").hi);
@@ -546,10 +581,14 @@ std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vecto
     } else {
       pb->SetParameterBlockConstant(st->topo);
     }
-  } else if (ps.iso && ps.second) add_blocks<true, true>(pb.get(), os, idx, st, loss);
-  else if (ps.iso) add_blocks<true, false>(pb.get(), os, idx, st, loss);
-  else if (ps.second) add_blocks<false, true>(pb.get(), os, idx, st, loss);
-  else add_blocks<false, false>(pb.get(), os, idx, st, loss);
+  } else if (ps.iso && ps.second)
+    add_blocks<true, true>(pb.get(), os, idx, st, loss);
+  else if (ps.iso)
+    add_blocks<true, false>(pb.get(), os, idx, st, loss);
+  else if (ps.second)
+    add_blocks<false, true>(pb.get(), os, idx, st, loss);
+  else
+    add_blocks<false, false>(pb.get(), os, idx, st, loss);
   const ParamSpec& kd = line_param("kd");
   const ParamSpec& ks = line_param("ks");
   const ParamSpec& n = line_param("n");
@@ -601,10 +640,13 @@ double median_abs(std::vector<double> v) {
 
 FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RGB& ka) {
   const bool fiber = opt.model == "fiber";
-  if (!fiber && opt.model != "line") throw Error("fit: --model must be line, fiber or auto (got '" + opt.model + "')");
+  if (!fiber && opt.model != "line")
+    throw Error("fit: --model must be line, fiber or auto (got '" + opt.model + "')");
   if (fiber && (opt.fit_isotropic || opt.fit_second))
     throw Error("fit: --fit-isotropic and --fit-second-fiber are available with --model line only");
-  if (os.obs.empty()) throw Error("fit: no usable observations (empty mask, all pixels saturated, non-finite or unlit)");
+  if (os.obs.empty())
+    throw Error(
+        "fit: no usable observations (empty mask, all pixels saturated, non-finite or unlit)");
   const bool fit_topo = fiber && os.topology != TopologyMode::kMathematical;
   const bool texels = fiber && os.topology == TopologyMode::kTexels;
   if (os.topology == TopologyMode::kTexels && !fiber)
@@ -612,8 +654,8 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   const size_t ntopo = texels ? static_cast<size_t>(os.texels) * os.texels : (fit_topo ? 1 : 0);
   const size_t nparam = 8 + (opt.fit_isotropic ? 7 : 0) + (opt.fit_second ? 2 : 0) + ntopo;
   if (os.obs.size() * (os.grey ? 1 : 3) <= nparam)
-    throw Error("fit: " + std::to_string(os.obs.size()) + " observations cannot determine " + std::to_string(nparam) +
-                " parameters");
+    throw Error("fit: " + std::to_string(os.obs.size()) + " observations cannot determine " +
+                std::to_string(nparam) + " parameters");
   FitResult res;
   const auto t_start = Clock::now();
   State st;
@@ -644,9 +686,12 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   constexpr double kLossScaleFloor = 1e-6;
   rep.loss_scale = std::max(3.0 * rep.noise_sigma, kLossScaleFloor);
   ceres::LossFunction* loss = nullptr;
-  if (opt.loss == "huber") loss = new ceres::HuberLoss(rep.loss_scale);
-  else if (opt.loss == "cauchy") loss = new ceres::CauchyLoss(rep.loss_scale);
-  else if (opt.loss != "none") throw Error("fit: --loss must be huber, cauchy or none (got '" + opt.loss + "')");
+  if (opt.loss == "huber")
+    loss = new ceres::HuberLoss(rep.loss_scale);
+  else if (opt.loss == "cauchy")
+    loss = new ceres::CauchyLoss(rep.loss_scale);
+  else if (opt.loss != "none")
+    throw Error("fit: --loss must be huber, cauchy or none (got '" + opt.loss + "')");
   rep.loss = loss ? opt.loss + "(" + std::to_string(rep.loss_scale) + ")" : "none";
   std::unique_ptr<ceres::Problem> pb;
   ceres::Solver::Summary sum;
@@ -667,9 +712,10 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
       pb = std::make_unique<ceres::Problem>(po);
       for (size_t c0 = 0; c0 < os.obs.size(); c0 += kChunk) {
         std::vector<const Observation*> chunk;
-        for (size_t i = c0; i < std::min(os.obs.size(), c0 + kChunk); ++i) chunk.push_back(&os.obs[i]);
-        pb->AddResidualBlock(new LineChunkResidual(std::move(chunk), os.lights.data(), &sqrt_w, c0), nullptr, st.kd,
-                             st.ks, &st.logn, &st.psi);
+        for (size_t i = c0; i < std::min(os.obs.size(), c0 + kChunk); ++i)
+          chunk.push_back(&os.obs[i]);
+        pb->AddResidualBlock(new LineChunkResidual(std::move(chunk), os.lights.data(), &sqrt_w, c0),
+                             nullptr, st.kd, st.ks, &st.logn, &st.psi);
       }
       for (int k = 0; k < 3; ++k) {
         pb->SetParameterLowerBound(st.kd, k, line_param("kd").lo);
@@ -682,7 +728,8 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
       pb->SetManifold(&st.psi, new HalfTurnManifold);
       ceres::Solver::Summary round_sum;
       ceres::Solve(solver_options(opt), pb.get(), &round_sum);
-      sum.iterations.insert(sum.iterations.end(), round_sum.iterations.begin() + (round ? 1 : 0), round_sum.iterations.end());
+      sum.iterations.insert(sum.iterations.end(), round_sum.iterations.begin() + (round ? 1 : 0),
+                            round_sum.iterations.end());
       sum.num_residual_evaluations += round_sum.num_residual_evaluations;
       sum.num_jacobian_evaluations += round_sum.num_jacobian_evaluations;
       sum.termination_type = round_sum.termination_type;
@@ -743,7 +790,9 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
       mat.has_s_map = true;
       res.s_texels_n = os.texels;
     }
-    if (!fit_topo) res.fixed["topology"] = "taken from the capture's mathematical topology buffer (no map to fit)";
+    if (!fit_topo)
+      res.fixed["topology"] =
+          "taken from the capture's mathematical topology buffer (no map to fit)";
   }
   for (int k = 0; k < 3; ++k) {
     mat.kd[k] = st.kd[k];
@@ -780,7 +829,8 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   constexpr double kKsNegligible = 1e-4;
   const bool n_free = ks_max > kKsNegligible * std::max(1.0, kd_max);
   if (!n_free) {
-    res.undetermined["n"] = "k_s is about 0 (" + std::to_string(ks_max) + "): no specular lobe to measure n from";
+    res.undetermined["n"] =
+        "k_s is about 0 (" + std::to_string(ks_max) + "): no specular lobe to measure n from";
     pb->SetParameterBlockConstant(&st.logn);
   }
   ceres::Covariance::Options co;
@@ -789,7 +839,8 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   co.min_reciprocal_condition_number = 1e-14;
   co.num_threads = std::max(1, opt.threads);
   ceres::Covariance cov(co);
-  std::vector<std::pair<const double*, const double*>> blocks = {{st.kd, st.kd}, {st.ks, st.ks}, {&st.psi, &st.psi}};
+  std::vector<std::pair<const double*, const double*>> blocks = {
+      {st.kd, st.kd}, {st.ks, st.ks}, {&st.psi, &st.psi}};
   if (n_free) blocks.push_back({&st.logn, &st.logn});
   if (fit_topo && !texels) blocks.push_back({st.topo, st.topo});
   if (texels)
@@ -815,14 +866,16 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
     // A fiber angle this uncertain says nothing: a lone light along T (s_L -> 0) or no lobe.
     constexpr double kPsiUndeterminedDeg = 10.0;
     if (spsi > kPsiUndeterminedDeg)
-      res.undetermined["fiber_angle_deg"] = "sigma " + std::to_string(spsi) + " deg: the data barely constrain psi";
+      res.undetermined["fiber_angle_deg"] =
+          "sigma " + std::to_string(spsi) + " deg: the data barely constrain psi";
     else
       res.sigma["fiber_angle_deg"] = {spsi};
     if (n_free) {
       const double sl = diag(&st.logn, 1)[0];
       constexpr double kLogNUndetermined = 1.0;  // a factor e either way: n is not known
       if (sl > kLogNUndetermined)
-        res.undetermined["n"] = "sigma of log n is " + std::to_string(sl) + ": the lobe is barely measured";
+        res.undetermined["n"] =
+            "sigma of log n is " + std::to_string(sl) + ": the lobe is barely measured";
       else
         res.sigma["n"] = {mat.n * sl};
     }
@@ -837,20 +890,25 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
         }
         const double sd = diag(&st.texels[i], 1)[0];
         constexpr double kTexelUndetermined = 0.25;  // as for one global s
-        if (std::isfinite(sd) && sd <= kTexelUndetermined) res.s_texel_sigma[i] = sd;
-        else ++undetermined;
+        if (std::isfinite(sd) && sd <= kTexelUndetermined)
+          res.s_texel_sigma[i] = sd;
+        else
+          ++undetermined;
       }
       if (undetermined)
-        res.undetermined["topology.s_map"] = std::to_string(undetermined) + " of " + std::to_string(st.texels.size()) +
-                                             " texels are not determined (no pixel covers them, or too few do); their "
-                                             "sigma is written as -1";
+        res.undetermined["topology.s_map"] =
+            std::to_string(undetermined) + " of " + std::to_string(st.texels.size()) +
+            " texels are not determined (no pixel covers them, or too few do); their "
+            "sigma is written as -1";
     } else if (fit_topo) {
       const double sd = diag(st.topo, 1)[0];
-      const std::string key = os.topology == TopologyMode::kGlobalS ? "topology.s" : "topology.amplitude";
+      const std::string key =
+          os.topology == TopologyMode::kGlobalS ? "topology.s" : "topology.amplitude";
       // A topology this uncertain is not measured: flat-looking data, or s near the s = 0 = 1 seam.
       constexpr double kTopologyUndetermined = 0.25;
       if (sd > kTopologyUndetermined)
-        res.undetermined[key] = "sigma " + std::to_string(sd) + ": the data barely constrain the topology";
+        res.undetermined[key] =
+            "sigma " + std::to_string(sd) + ": the data barely constrain the topology";
       else
         res.sigma[key] = {sd};
     }
@@ -867,7 +925,8 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
     }
   } else {
     res.undetermined["covariance"] =
-        "rank deficient: some combination of parameters is not determined by these observations; no uncertainty "
+        "rank deficient: some combination of parameters is not determined by these observations; "
+        "no uncertainty "
         "is reported rather than a false one";
   }
   // A variance that is not a finite number (0 * inf on data without signal) is no uncertainty:
@@ -879,7 +938,8 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
       ++it;
       continue;
     }
-    res.undetermined[it->first] = "its variance is not finite: the data carry no information about it";
+    res.undetermined[it->first] =
+        "its variance is not finite: the data carry no information about it";
     it = res.sigma.erase(it);
   }
   rep.seconds_covariance = since(t_cov);
@@ -888,8 +948,8 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   return res;
 }
 
-void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureSet& set, const Material& known,
-                            int stride, ObsSet* os, FitReport* rep) {
+void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureSet& set,
+                            const Material& known, int stride, ObsSet* os, FitReport* rep) {
   const int w = d.rgb.width, h = d.rgb.height;
   for (int y = 0; y < h; y += stride)
     for (int x = 0; x < w; x += stride) {
@@ -943,20 +1003,23 @@ void drop_implausible(ObsSet* os, FitReport* rep) {
   if (os->obs.size() < 100) return;
   std::vector<double> mags;
   mags.reserve(os->obs.size());
-  for (const auto& o : os->obs) mags.push_back(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}));
+  for (const auto& o : os->obs)
+    mags.push_back(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}));
   std::nth_element(mags.begin(), mags.begin() + mags.size() * 9 / 10, mags.end());
   const double p90 = mags[mags.size() * 9 / 10];
   constexpr double kImplausible = 1e4;
   const double limit = kImplausible * std::max(p90, 1e-12);
   size_t kept = 0;
   for (const auto& o : os->obs)
-    if (std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit) os->obs[kept++] = o;
+    if (std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)
+      os->obs[kept++] = o;
   rep->implausible += os->obs.size() - kept;
   os->obs.resize(kept);
 }
 
 // --model auto fits both models and keeps the one with the lower BIC; otherwise the one asked.
-FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& rep, const RGB& ka) {
+FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& rep,
+                      const RGB& ka) {
   if (opt.model != "auto") return solve(os, opt, rep, ka);
   FitOptions line = opt, fiber = opt;
   line.model = "line";
@@ -966,10 +1029,11 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
   const bool pick_fiber = rf.report.bic < rl.report.bic;
   char buf[400];
   std::snprintf(buf, sizeof buf,
-                "BIC = m ln(RSS/m) + k ln m over m = %zu values: line %.1f (RSS %.4g, k = %zu), fiber %.1f (RSS %.4g, "
+                "BIC = m ln(RSS/m) + k ln m over m = %zu values: line %.1f (RSS %.4g, k = %zu), "
+                "fiber %.1f (RSS %.4g, "
                 "k = %zu); chose %s (lower by %.1f)",
-                rl.report.observations, rl.report.bic, rl.report.rss, rl.report.parameters, rf.report.bic,
-                rf.report.rss, rf.report.parameters, pick_fiber ? "fiber" : "line",
+                rl.report.observations, rl.report.bic, rl.report.rss, rl.report.parameters,
+                rf.report.bic, rf.report.rss, rf.report.parameters, pick_fiber ? "fiber" : "line",
                 std::abs(rf.report.bic - rl.report.bic));
   FitResult& r = pick_fiber ? rf : rl;
   r.report.model_selection = buf;
@@ -993,7 +1057,8 @@ size_t export_observations(const CaptureSet& set, const FitOptions& opt, const s
   for (const Observation& o : os.obs) {
     if (o.num_lights != 1) continue;  // the benchmark scripts model one light per view
     const ObsLight& l = os.lights[o.first_light];
-    const double r[14] = {o.V.u, o.V.w, o.V.n, l.L.u, l.L.w, l.L.n, l.E[0], l.E[1], l.E[2], o.y[0], o.y[1], o.y[2], o.smath, o.mapv};
+    const double r[14] = {o.V.u,  o.V.w,  o.V.n,  l.L.u,  l.L.w,  l.L.n,   l.E[0],
+                          l.E[1], l.E[2], o.y[0], o.y[1], o.y[2], o.smath, o.mapv};
     rows.insert(rows.end(), r, r + 14);
     ++n;
   }
@@ -1035,17 +1100,20 @@ ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport
     os.topology_mathematical = "torus";
     if (!set.provenance.empty()) {
       const auto g = jsonu::json::parse(set.provenance, nullptr, false);
-      if (g.is_object() && g.contains("mathematical_topology") && g["mathematical_topology"].is_string() &&
-          g["mathematical_topology"] != "none")
+      if (g.is_object() && g.contains("mathematical_topology") &&
+          g["mathematical_topology"].is_string() && g["mathematical_topology"] != "none")
         os.topology_mathematical = g["mathematical_topology"].get<std::string>();
     }
   }
   if (has_buffer && !has_map) os.topology = TopologyMode::kMathematical;
   if (opt.topology_texels > 0) {
-    if (opt.topology_texels < 2 || opt.topology_texels > 256) throw Error("fit: --topology-map N needs N in [2, 256]");
+    if (opt.topology_texels < 2 || opt.topology_texels > 256)
+      throw Error("fit: --topology-map N needs N in [2, 256]");
     if (has_map || has_buffer)
-      throw Error(set.file + ": --topology-map fits s per texel, but this set has a topology map or buffer (its "
-                             "amplitude is what can be fitted: leave --topology-map out)");
+      throw Error(
+          set.file +
+          ": --topology-map fits s per texel, but this set has a topology map or buffer (its "
+          "amplitude is what can be fitted: leave --topology-map out)");
     for (const auto& v : set.views)
       if (v.geometry.uv.empty())
         throw Error(set.file + ": --topology-map needs the \"uv\" buffer in every view's geometry");
@@ -1080,7 +1148,8 @@ FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
 }
 
 FitResult fit_table(const SampleTable& t, const FitOptions& opt) {
-  if (t.values == SampleTable::Values::kNone) throw Error("fit: the sample table has no value columns (r,g,b or y)");
+  if (t.values == SampleTable::Values::kNone)
+    throw Error("fit: the sample table has no value columns (r,g,b or y)");
   const auto t0 = Clock::now();
   ObsSet os;
   os.grey = t.values == SampleTable::Values::kGrey;
@@ -1130,8 +1199,10 @@ void write_fit(const std::string& path, const FitResult& r) {
   for (const auto& [key, v] : r.sigma) {
     const auto dot = key.find('.');
     jsonu::json val = v.size() == 1 ? jsonu::json(v[0]) : jsonu::json(v);
-    if (dot == std::string::npos) unc[key] = val;
-    else unc[key.substr(0, dot)][key.substr(dot + 1)] = val;
+    if (dot == std::string::npos)
+      unc[key] = val;
+    else
+      unc[key.substr(0, dot)][key.substr(dot + 1)] = val;
   }
   for (const auto& [key, why] : r.undetermined)
     if (key != "covariance") unc[key] = nullptr;
@@ -1144,11 +1215,19 @@ void write_fit(const std::string& path, const FitResult& r) {
                  {"observations", p.observations},
                  {"pixels", p.pixels},
                  {"views", p.views},
-                 {"skipped", {{"masked_out", p.masked_out}, {"saturated", p.saturated}, {"nonfinite", p.nonfinite}, {"unlit", p.unlit},
-                              {"implausible", p.implausible}}},
+                 {"skipped",
+                  {{"masked_out", p.masked_out},
+                   {"saturated", p.saturated},
+                   {"nonfinite", p.nonfinite},
+                   {"unlit", p.unlit},
+                   {"implausible", p.implausible}}},
                  {"iterations", p.iterations},
                  {"time_s", p.seconds},
-                 {"time_breakdown_s", {{"load", p.seconds_load}, {"start", p.seconds_start}, {"solve", p.seconds_solve}, {"covariance", p.seconds_covariance}}},
+                 {"time_breakdown_s",
+                  {{"load", p.seconds_load},
+                   {"start", p.seconds_start},
+                   {"solve", p.seconds_solve},
+                   {"covariance", p.seconds_covariance}}},
                  {"termination", p.termination},
                  {"loss", p.loss},
                  {"start", p.start},
@@ -1172,7 +1251,8 @@ void write_fit(const std::string& path, const FitResult& r) {
 std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErrors* errors) {
   std::ostringstream o;
   char buf[200];
-  std::snprintf(buf, sizeof buf, "%-18s %12s %12s %11s %11s %8s\n", "parameter", "truth", "fit", "sigma", "error", "err/sig");
+  std::snprintf(buf, sizeof buf, "%-18s %12s %12s %11s %11s %8s\n", "parameter", "truth", "fit",
+                "sigma", "error", "err/sig");
   o << buf;
   TruthErrors e;
   auto sig = [&](const std::string& key, size_t i) {
@@ -1180,13 +1260,15 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
     return it == r.sigma.end() || i >= it->second.size() ? std::nan("") : it->second[i];
   };
   // err: shown (percent or degrees); abs_err: in the parameter's unit, compared with sigma.
-  auto row = [&](const std::string& name, double t, double f, double s, double err, double abs_err, const char* unit,
-                 double* worst_rel, double* worst_sig, double rel) {
+  auto row = [&](const std::string& name, double t, double f, double s, double err, double abs_err,
+                 const char* unit, double* worst_rel, double* worst_sig, double rel) {
     const double es = std::isfinite(s) && s > 0 ? std::abs(abs_err) / s : std::nan("");
     if (std::isnan(s))
-      std::snprintf(buf, sizeof buf, "%-18s %12.6g %12.6g %11s %10.4g%s %8s\n", name.c_str(), t, f, "undetermined", err, unit, "-");
+      std::snprintf(buf, sizeof buf, "%-18s %12.6g %12.6g %11s %10.4g%s %8s\n", name.c_str(), t, f,
+                    "undetermined", err, unit, "-");
     else
-      std::snprintf(buf, sizeof buf, "%-18s %12.6g %12.6g %11.3g %10.4g%s %8.2f\n", name.c_str(), t, f, s, err, unit, es);
+      std::snprintf(buf, sizeof buf, "%-18s %12.6g %12.6g %11.3g %10.4g%s %8.2f\n", name.c_str(), t,
+                    f, s, err, unit, es);
     o << buf;
     if (worst_rel) *worst_rel = std::max(*worst_rel, rel);
     if (worst_sig && std::isfinite(es)) *worst_sig = std::max(*worst_sig, es);
@@ -1195,28 +1277,31 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
   for (int k = 0; k < 3; ++k) {
     const double t = truth.kd[k], f = r.material.kd[k];
     const double rel = std::abs(f - t) / std::max(std::abs(t), 1e-12);
-    row(std::string("kd.") + ch[k], t, f, sig("kd", k), 100 * rel, f - t, "%", &e.kd_rel, &e.kd_sigmas, rel);
+    row(std::string("kd.") + ch[k], t, f, sig("kd", k), 100 * rel, f - t, "%", &e.kd_rel,
+        &e.kd_sigmas, rel);
   }
   for (int k = 0; k < 3; ++k) {
     const double t = truth.ks[k], f = r.material.ks[k];
     const double rel = std::abs(f - t) / std::max(std::abs(t), 1e-12);
-    row(std::string("ks.") + ch[k], t, f, sig("ks", k), 100 * rel, f - t, "%", &e.ks_rel, &e.ks_sigmas, rel);
+    row(std::string("ks.") + ch[k], t, f, sig("ks", k), 100 * rel, f - t, "%", &e.ks_rel,
+        &e.ks_sigmas, rel);
   }
   {
     const double rel = std::abs(r.material.n - truth.n) / truth.n;
-    row("n", truth.n, r.material.n, sig("n", 0), 100 * rel, r.material.n - truth.n, "%", &e.n_rel, &e.n_sigmas, rel);
+    row("n", truth.n, r.material.n, sig("n", 0), 100 * rel, r.material.n - truth.n, "%", &e.n_rel,
+        &e.n_sigmas, rel);
   }
   {
     double d = std::fmod(std::abs(r.material.fiber_angle_deg - truth.fiber_angle_deg), 180.0);
     d = std::min(d, 180.0 - d);
-    row("fiber_angle_deg", truth.fiber_angle_deg, r.material.fiber_angle_deg, sig("fiber_angle_deg", 0), d, d, " deg", &e.psi_deg,
-        &e.psi_sigmas, d);
+    row("fiber_angle_deg", truth.fiber_angle_deg, r.material.fiber_angle_deg,
+        sig("fiber_angle_deg", 0), d, d, " deg", &e.psi_deg, &e.psi_sigmas, d);
   }
   if (r.material.model == "fiber" && truth.model == "fiber") {
     if (r.material.has_topology_map && truth.has_topology_map) {
       const double d = r.material.topology_amplitude - truth.topology_amplitude;
-      row("topology.amplitude", truth.topology_amplitude, r.material.topology_amplitude, sig("topology.amplitude", 0), d, d,
-          "", &e.topo_abs, &e.topo_sigmas, std::abs(d));
+      row("topology.amplitude", truth.topology_amplitude, r.material.topology_amplitude,
+          sig("topology.amplitude", 0), d, d, "", &e.topo_abs, &e.topo_sigmas, std::abs(d));
     } else if (!r.s_texels.empty() && truth.has_s_map) {
       // The fitted texels against the true map sampled at their centres.
       const Image t = read_image(join_path(truth.base_dir, truth.topology_s_map)).image;
@@ -1226,7 +1311,8 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
         for (int x = 0; x < n; ++x) {
           const BilinearTaps tp = bilinear_wrap((x + 0.5) / n, (y + 0.5) / n, t.width, t.height);
           double ts = 0;
-          for (int k = 0; k < 4; ++k) ts += tp.weight[k] * t.px[static_cast<size_t>(tp.index[k]) * t.channels];
+          for (int k = 0; k < 4; ++k)
+            ts += tp.weight[k] * t.px[static_cast<size_t>(tp.index[k]) * t.channels];
           const double d = std::abs(r.s_texels[static_cast<size_t>(y) * n + x] - ts);
           worst = std::max(worst, d);
           sum2 += d * d;
@@ -1234,23 +1320,24 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
       double smax = 0;
       for (double sd : r.s_texel_sigma) smax = std::max(smax, sd);
       // Rows: the worst and the RMS texel error (the "truth" column is 0: these are errors).
-      row("topology.s_map max", 0, worst, smax > 0 ? smax : NAN, worst, worst, "", &e.topo_abs, &e.topo_sigmas, worst);
-      row("topology.s_map rms", 0, std::sqrt(sum2 / (n * n)), smax > 0 ? smax : NAN, std::sqrt(sum2 / (n * n)), 0, "",
-          nullptr, nullptr, 0);
+      row("topology.s_map max", 0, worst, smax > 0 ? smax : NAN, worst, worst, "", &e.topo_abs,
+          &e.topo_sigmas, worst);
+      row("topology.s_map rms", 0, std::sqrt(sum2 / (n * n)), smax > 0 ? smax : NAN,
+          std::sqrt(sum2 / (n * n)), 0, "", nullptr, nullptr, 0);
     } else if (!r.material.has_topology_map && r.material.topology_mathematical == "none") {
       const double d = r.material.topology_s - truth.topology_s;
-      row("topology.s", truth.topology_s, r.material.topology_s, sig("topology.s", 0), d, d, "", &e.topo_abs,
-          &e.topo_sigmas, std::abs(d));
+      row("topology.s", truth.topology_s, r.material.topology_s, sig("topology.s", 0), d, d, "",
+          &e.topo_abs, &e.topo_sigmas, std::abs(d));
     }
   }
   if (r.material.has_second_fiber && truth.has_second_fiber) {
     double d = std::fmod(std::abs(r.material.second_angle_deg - truth.second_angle_deg), 180.0);
     d = std::min(d, 180.0 - d);
-    row("second.angle_deg", truth.second_angle_deg, r.material.second_angle_deg, sig("second_fiber.angle_deg", 0), d, d, " deg",
-        nullptr, nullptr, 0);
-    row("second.weight", truth.second_weight, r.material.second_weight, sig("second_fiber.weight", 0),
-        r.material.second_weight - truth.second_weight, r.material.second_weight - truth.second_weight, "", nullptr,
-        nullptr, 0);
+    row("second.angle_deg", truth.second_angle_deg, r.material.second_angle_deg,
+        sig("second_fiber.angle_deg", 0), d, d, " deg", nullptr, nullptr, 0);
+    row("second.weight", truth.second_weight, r.material.second_weight,
+        sig("second_fiber.weight", 0), r.material.second_weight - truth.second_weight,
+        r.material.second_weight - truth.second_weight, "", nullptr, nullptr, 0);
   }
   if (errors) *errors = e;
   return o.str();

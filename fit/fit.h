@@ -18,7 +18,7 @@ struct FitOptions {
   std::string model = "line";
   bool fit_isotropic = false;
   bool fit_second = false;
-  int subsample = 1;        // use every k-th pixel in x and y
+  int subsample = 1;  // use every k-th pixel in x and y
   int max_iterations = 200;
   int threads = 2;
   std::string loss = "huber";  // huber | cauchy | none; scale from the data (3 robust sigmas)
@@ -35,7 +35,8 @@ struct FitReport {
   size_t masked_out = 0, saturated = 0, nonfinite = 0, unlit = 0;
   size_t implausible = 0;  // values above 1e4 x the 90th percentile: left out
   int iterations = 0;
-  double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0, seconds_covariance = 0;
+  double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0,
+         seconds_covariance = 0;
   double rms = 0, noise_sigma = 0, loss_scale = 0;
   std::string termination, loss;
   size_t residual_evaluations = 0, jacobian_evaluations = 0;
@@ -53,7 +54,8 @@ struct FitResult {
   std::map<std::string, std::string> fixed;         // not fitted, and why
   std::map<std::string, std::string> undetermined;  // fitted but not determined by the data
   FitReport report;
-  // --topology-map N: the N x N texels of s (row-major, glTF uv) and their sigmas (-1: undetermined).
+  // --topology-map N: the N x N texels of s (row-major, glTF uv) and their sigmas (-1:
+  // undetermined).
   int s_texels_n = 0;
   std::vector<double> s_texels, s_texel_sigma;
 };

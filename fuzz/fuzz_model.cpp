@@ -14,7 +14,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (!std::isfinite(x)) x = 0.5;
   auto unit = [](double x, double y, double z) {
     const double l = std::sqrt(x * x + y * y + z * z);
-    return l > 0 && std::isfinite(l) ? aniso::LocalDir{x / l, y / l, z / l} : aniso::LocalDir{0, 0, 1};
+    return l > 0 && std::isfinite(l) ? aniso::LocalDir{x / l, y / l, z / l}
+                                     : aniso::LocalDir{0, 0, 1};
   };
   const aniso::LocalDir L = unit(v[0], v[1], v[2]), V = unit(v[3], v[4], v[5]);
   aniso::Material m;

@@ -35,10 +35,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         for (size_t i = 0; i < s.views.size() && i < 2; ++i) aniso::load_view(s, i);
         break;
       }
-      case 1: aniso::read_material(path); break;
-      case 2: aniso::read_table(path); break;
-      case 3: case 4: aniso::read_image(path); break;
-      case 5: aniso::load_obj(path); break;
+      case 1:
+        aniso::read_material(path);
+        break;
+      case 2:
+        aniso::read_table(path);
+        break;
+      case 3:
+      case 4:
+        aniso::read_image(path);
+        break;
+      case 5:
+        aniso::load_obj(path);
+        break;
     }
   } catch (const aniso::Error&) {
     // A clear rejection is the expected outcome for most inputs.

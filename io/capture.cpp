@@ -27,7 +27,8 @@ bool light_at(const Light& light, const Vec3& x, Vec3* L, RGB* E, double* dist) 
     if (!(r > 0.0)) return false;
     *L = d / r;
     *dist = r;
-    const double att = light.attenuation[0] + light.attenuation[1] * r + light.attenuation[2] * r * r;
+    const double att =
+        light.attenuation[0] + light.attenuation[1] * r + light.attenuation[2] * r * r;
     if (!(att > 0.0)) return false;
     double f = 1.0 / att;
     if (light.type == Light::Type::kSpot) {
@@ -130,7 +131,8 @@ Mat4 parse_pose(const json& j, const Ctx& c) {
       for (int k = 0; k < 3; ++k) d += m(k, a) * m(k, b);
       if (std::abs(d - (a == b ? 1.0 : 0.0)) > 1e-4) c.fail("rotation part is not orthonormal");
     }
-  if (m(3, 0) != 0 || m(3, 1) != 0 || m(3, 2) != 0 || m(3, 3) != 1) c.fail("last row must be 0 0 0 1");
+  if (m(3, 0) != 0 || m(3, 1) != 0 || m(3, 2) != 0 || m(3, 3) != 1)
+    c.fail("last row must be 0 0 0 1");
   return m;
 }
 
@@ -144,9 +146,12 @@ CaptureSet read_capture(const std::string& path_in) {
   const Ctx root{file, ""};
   if (!j.is_object()) root.fail("expected a JSON object");
   const std::string format = jsonu::str(jsonu::need(j, "format", root), root.at("format"));
-  if (format != "aniso-capture") root.at("format").fail("expected \"aniso-capture\", got \"" + format + "\"");
+  if (format != "aniso-capture")
+    root.at("format").fail("expected \"aniso-capture\", got \"" + format + "\"");
   const double version = jsonu::num(jsonu::need(j, "version", root), root.at("version"));
-  if (version != 1) root.at("version").fail("unsupported version " + jsonu::json(version).dump() + " (this reader knows 1)");
+  if (version != 1)
+    root.at("version").fail("unsupported version " + jsonu::json(version).dump() +
+                            " (this reader knows 1)");
 
   CaptureSet s;
   s.file = file;
@@ -160,9 +165,12 @@ CaptureSet read_capture(const std::string& path_in) {
       const json& e = col["encoding"];
       if (e.is_string()) {
         const std::string name = e.get<std::string>();
-        if (name == "linear") s.color.encoding = ColorSpec::Encoding::kLinear;
-        else if (name == "srgb") s.color.encoding = ColorSpec::Encoding::kSrgb;
-        else c.at("encoding").fail("unknown encoding '" + name + "' (linear, srgb, {\"gamma\": g})");
+        if (name == "linear")
+          s.color.encoding = ColorSpec::Encoding::kLinear;
+        else if (name == "srgb")
+          s.color.encoding = ColorSpec::Encoding::kSrgb;
+        else
+          c.at("encoding").fail("unknown encoding '" + name + "' (linear, srgb, {\"gamma\": g})");
       } else if (e.is_object() && e.contains("gamma")) {
         s.color.encoding = ColorSpec::Encoding::kGamma;
         s.color.gamma = jsonu::num(e["gamma"], c.at("encoding").at("gamma"));
@@ -184,25 +192,29 @@ CaptureSet read_capture(const std::string& path_in) {
   if (j.contains("generator")) s.provenance = j["generator"].dump();
 
   const json& views = jsonu::need(j, "views", root);
-  if (!views.is_array() || views.empty()) root.at("views").fail("expected a non-empty array of views");
+  if (!views.is_array() || views.empty())
+    root.at("views").fail("expected a non-empty array of views");
   for (size_t i = 0; i < views.size(); ++i) {
     const Ctx c = root.at("views").idx(i);
     const json& v = views[i];
     if (!v.is_object()) c.fail("expected an object");
     ViewSpec vs;
     vs.image = jsonu::str(jsonu::need(v, "image", c), c.at("image"));
-    vs.world_from_camera = parse_pose(jsonu::need(v, "world_from_camera", c), c.at("world_from_camera"));
+    vs.world_from_camera =
+        parse_pose(jsonu::need(v, "world_from_camera", c), c.at("world_from_camera"));
     vs.exposure = jsonu::num_or(v, "exposure", 1.0, c);
     if (vs.exposure < 0) c.at("exposure").fail("must be non-negative");
     vs.camera = v.contains("camera") ? parse_camera(v["camera"], c.at("camera")) : s.camera;
     const json& lights = jsonu::need(v, "lights", c);
-    if (!lights.is_array() || lights.empty()) c.at("lights").fail("a view needs at least one light");
+    if (!lights.is_array() || lights.empty())
+      c.at("lights").fail("a view needs at least one light");
     for (size_t k = 0; k < lights.size(); ++k)
       vs.lights.push_back(parse_light(lights[k], c.at("lights").idx(k)));
     if (v.contains("geometry")) {
       vs.geometry = parse_geometry(v["geometry"], c.at("geometry"));
     } else {
-      if (s.geometry.empty()) c.fail("no geometry: neither the view nor the set has a \"geometry\" block");
+      if (s.geometry.empty())
+        c.fail("no geometry: neither the view nor the set has a \"geometry\" block");
       vs.geometry = s.geometry;
     }
     s.views.push_back(std::move(vs));
@@ -212,7 +224,8 @@ CaptureSet read_capture(const std::string& path_in) {
 
 void write_capture_json(const CaptureSet& s, const std::string& path) {
   auto cam = [](const Intrinsics& k) {
-    return json{{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}};
+    return json{{"width", k.width}, {"height", k.height}, {"fx", k.fx},
+                {"fy", k.fy},       {"cx", k.cx},         {"cy", k.cy}};
   };
   auto geo = [](const GeometrySpec& g) {
     json o = json::object();
@@ -235,9 +248,15 @@ void write_capture_json(const CaptureSet& s, const std::string& path) {
   j["camera"] = cam(s.camera);
   json color;
   switch (s.color.encoding) {
-    case ColorSpec::Encoding::kLinear: color["encoding"] = "linear"; break;
-    case ColorSpec::Encoding::kSrgb: color["encoding"] = "srgb"; break;
-    case ColorSpec::Encoding::kGamma: color["encoding"] = json{{"gamma", s.color.gamma}}; break;
+    case ColorSpec::Encoding::kLinear:
+      color["encoding"] = "linear";
+      break;
+    case ColorSpec::Encoding::kSrgb:
+      color["encoding"] = "srgb";
+      break;
+    case ColorSpec::Encoding::kGamma:
+      color["encoding"] = json{{"gamma", s.color.gamma}};
+      break;
   }
   if (s.color.black_level != 0) color["black_level"] = s.color.black_level;
   if (s.color.saturation_given) color["saturation"] = s.color.saturation;
@@ -250,15 +269,16 @@ void write_capture_json(const CaptureSet& s, const std::string& path) {
     jv["image"] = v.image;
     json pose = json::array();
     for (int r = 0; r < 4; ++r)
-      pose.push_back({v.world_from_camera(r, 0), v.world_from_camera(r, 1), v.world_from_camera(r, 2),
-                      v.world_from_camera(r, 3)});
+      pose.push_back({v.world_from_camera(r, 0), v.world_from_camera(r, 1),
+                      v.world_from_camera(r, 2), v.world_from_camera(r, 3)});
     jv["world_from_camera"] = pose;
     jv["exposure"] = v.exposure;
     json lights = json::array();
     for (const auto& l : v.lights) {
       json jl;
       if (l.type == Light::Type::kDirectional) {
-        jl = {{"type", "directional"}, {"direction", jsonu::to_json(l.direction)},
+        jl = {{"type", "directional"},
+              {"direction", jsonu::to_json(l.direction)},
               {"irradiance", jsonu::to_json(l.intensity)}};
       } else {
         jl = {{"type", l.type == Light::Type::kPoint ? "point" : "spot"},
@@ -289,19 +309,25 @@ namespace {
 double decode(double v, const ColorSpec& c) {
   v = std::max(v - c.black_level, 0.0);
   switch (c.encoding) {
-    case ColorSpec::Encoding::kLinear: return v;
-    case ColorSpec::Encoding::kSrgb: return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
-    case ColorSpec::Encoding::kGamma: return std::pow(v, c.gamma);
+    case ColorSpec::Encoding::kLinear:
+      return v;
+    case ColorSpec::Encoding::kSrgb:
+      return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+    case ColorSpec::Encoding::kGamma:
+      return std::pow(v, c.gamma);
   }
   return v;
 }
 
-Image need_buffer(const std::string& path, int channels, const Intrinsics& k, const std::string& what) {
+Image need_buffer(const std::string& path, int channels, const Intrinsics& k,
+                  const std::string& what) {
   Image b = read_image(path).image;
   if (b.width != k.width || b.height != k.height)
-    throw Error(path + ": " + what + " buffer is " + std::to_string(b.width) + "x" + std::to_string(b.height) +
-                ", camera is " + std::to_string(k.width) + "x" + std::to_string(k.height));
-  if (b.channels < channels) throw Error(path + ": " + what + " buffer needs " + std::to_string(channels) + " channels");
+    throw Error(path + ": " + what + " buffer is " + std::to_string(b.width) + "x" +
+                std::to_string(b.height) + ", camera is " + std::to_string(k.width) + "x" +
+                std::to_string(k.height));
+  if (b.channels < channels)
+    throw Error(path + ": " + what + " buffer needs " + std::to_string(channels) + " channels");
   return b;
 }
 
@@ -344,13 +370,16 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
     throw Error(ctx + ".image: " + img_path + " is " + std::to_string(raw.width) + "x" +
                 std::to_string(raw.height) + ", camera is " + std::to_string(k.width) + "x" +
                 std::to_string(k.height));
-  const double sat = s.color.saturation_given ? s.color.saturation : (li.bits ? 1.0 : std::numeric_limits<double>::infinity());
+  const double sat = s.color.saturation_given
+                         ? s.color.saturation
+                         : (li.bits ? 1.0 : std::numeric_limits<double>::infinity());
 
   std::vector<uint8_t> mask(static_cast<size_t>(k.width) * k.height, 1);
   const GeometrySpec& g = v.geometry;
   if (!g.mesh.empty()) {
     try {
-      trace_mesh_gbuffer(join_path(s.dir, g.mesh), g.fiber_field, k, v.world_from_camera, &d.P, &d.N, &d.U, &mask);
+      trace_mesh_gbuffer(join_path(s.dir, g.mesh), g.fiber_field, k, v.world_from_camera, &d.P,
+                         &d.N, &d.U, &mask);
       d.smath = Image(k.width, k.height, 1, 0.f);
       d.mapv = Image(k.width, k.height, 1, 0.f);
     } catch (const Error& e) {
@@ -371,7 +400,8 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
         for (size_t p = 0; p < mask.size(); ++p) {
           const float v = t.px[p * t.channels];
           if (mask[p] && !(v >= 0.f && v <= 1.f))
-            throw Error(join_path(s.dir, g.topology) + ": topology value " + std::to_string(v) + " outside [0, 1]");
+            throw Error(join_path(s.dir, g.topology) + ": topology value " + std::to_string(v) +
+                        " outside [0, 1]");
           d.smath.px[p] = v;
         }
       }
@@ -385,7 +415,8 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
       if (map) {
         if (d.uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
         for (size_t p = 0; p < mask.size(); ++p)
-          if (mask[p]) d.mapv.px[p] = static_cast<float>(map->sample(d.uv.px[2 * p], d.uv.px[2 * p + 1]));
+          if (mask[p])
+            d.mapv.px[p] = static_cast<float>(map->sample(d.uv.px[2 * p], d.uv.px[2 * p + 1]));
       }
     } catch (const Error& e) {
       throw Error(ctx + ".geometry: " + e.what());
@@ -401,12 +432,15 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
       bool ok = true, saturated = false;
       for (int c = 0; c < 3; ++c) {
         const float r = raw.at(x, y, raw.channels == 3 ? c : 0);
-        if (!std::isfinite(r)) ok = false;
-        else if (r >= sat) saturated = true;
+        if (!std::isfinite(r))
+          ok = false;
+        else if (r >= sat)
+          saturated = true;
         d.rgb.at(x, y, c) = static_cast<float>(decode(r, s.color));
       }
       for (int c = 0; c < 3; ++c)
-        if (!std::isfinite(d.P.at(x, y, c)) || !std::isfinite(d.N.at(x, y, c)) || !std::isfinite(d.U.at(x, y, c)))
+        if (!std::isfinite(d.P.at(x, y, c)) || !std::isfinite(d.N.at(x, y, c)) ||
+            !std::isfinite(d.U.at(x, y, c)))
           ok = false;
       if (!ok) {
         ++d.nonfinite;

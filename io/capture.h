@@ -79,11 +79,11 @@ void write_capture_json(const CaptureSet& set, const std::string& path);
 // One view loaded for fitting or verification: linear RGB image, per-pixel geometry, and which
 // pixels are usable (mask on, finite, not saturated, geometry finite).
 struct ViewData {
-  Image rgb;            // 3 channels, linear, black level removed
-  Image P, N, U;        // world position, unit normal, reference tangent
-  Image smath;          // 1 channel: mathematical topology s_math (0 where no buffer is given)
-  Image mapv;           // 1 channel: topology-map value m in [-1, 1] at the pixel's uv (0 if none)
-  Image uv;             // 2 channels, when the set has a uv buffer (empty otherwise)
+  Image rgb;      // 3 channels, linear, black level removed
+  Image P, N, U;  // world position, unit normal, reference tangent
+  Image smath;    // 1 channel: mathematical topology s_math (0 where no buffer is given)
+  Image mapv;     // 1 channel: topology-map value m in [-1, 1] at the pixel's uv (0 if none)
+  Image uv;       // 2 channels, when the set has a uv buffer (empty otherwise)
   std::vector<uint8_t> use;  // 1 = pixel is an observation
   size_t mask_pixels = 0, saturated = 0, nonfinite = 0, used = 0;
   Vec3 eye;  // camera centre in world coordinates
@@ -99,7 +99,8 @@ struct TopologyMap {
 TopologyMap load_topology_map(const std::string& path);
 
 // Loads view i; per-pixel geometry comes from its buffers or by casting rays at its mesh.
-// `map` (the set's topology map, loaded once by the caller) fills ViewData::mapv from the uv buffer.
+// `map` (the set's topology map, loaded once by the caller) fills ViewData::mapv from the uv
+// buffer.
 ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nullptr);
 
 }  // namespace aniso

@@ -1,9 +1,10 @@
 #include "io/files.h"
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <unistd.h>
 
 #include "core/error.h"
 
@@ -63,8 +64,8 @@ void write_folder_atomically(const std::string& dir,
                              const std::function<void(const std::string&)>& fill) {
   fs::path target = fs::absolute(fs::path(dir)).lexically_normal();
   if (target.filename().empty()) target = target.parent_path();
-  const fs::path tmp =
-      target.parent_path() / (".tmp" + std::to_string(::getpid()) + "_" + target.filename().string());
+  const fs::path tmp = target.parent_path() /
+                       (".tmp" + std::to_string(::getpid()) + "_" + target.filename().string());
   std::error_code ec;
   fs::remove_all(tmp, ec);
   fs::create_directories(tmp, ec);

@@ -9,7 +9,8 @@ namespace aniso {
 std::string temp_sibling(const std::string& path);
 
 // Calls write(tmp) and renames tmp to path; removes tmp and rethrows if write throws.
-void write_atomically(const std::string& path, const std::function<void(const std::string&)>& write);
+void write_atomically(const std::string& path,
+                      const std::function<void(const std::string&)>& write);
 
 void write_text_file(const std::string& path, const std::string& text);
 std::string read_text_file(const std::string& path);

@@ -57,10 +57,14 @@ std::atomic<int> g_compression{static_cast<int>(Imf::ZIP_COMPRESSION)};
 }  // namespace
 
 void set_exr_compression(const std::string& name) {
-  if (name == "zip") g_compression = Imf::ZIP_COMPRESSION;
-  else if (name == "piz") g_compression = Imf::PIZ_COMPRESSION;
-  else if (name == "none") g_compression = Imf::NO_COMPRESSION;
-  else throw Error("EXR compression must be zip, piz or none (got '" + name + "')");
+  if (name == "zip")
+    g_compression = Imf::ZIP_COMPRESSION;
+  else if (name == "piz")
+    g_compression = Imf::PIZ_COMPRESSION;
+  else if (name == "none")
+    g_compression = Imf::NO_COMPRESSION;
+  else
+    throw Error("EXR compression must be zip, piz or none (got '" + name + "')");
 }
 
 LoadedImage read_image(const std::string& path) {
@@ -74,10 +78,20 @@ LoadedImage read_image(const std::string& path) {
   if (m.empty()) throw Error(path + ": cannot decode image (not PNG/TIFF/JPEG/EXR?)");
   double scale = 1.0;
   switch (m.depth()) {
-    case CV_8U: out.bits = 8; scale = 1.0 / 255.0; break;
-    case CV_16U: out.bits = 16; scale = 1.0 / 65535.0; break;
-    case CV_32F: case CV_64F: out.bits = 0; break;
-    default: throw Error(path + ": unsupported pixel depth");
+    case CV_8U:
+      out.bits = 8;
+      scale = 1.0 / 255.0;
+      break;
+    case CV_16U:
+      out.bits = 16;
+      scale = 1.0 / 65535.0;
+      break;
+    case CV_32F:
+    case CV_64F:
+      out.bits = 0;
+      break;
+    default:
+      throw Error(path + ": unsupported pixel depth");
   }
   const int c_in = m.channels();
   const int c_out = c_in >= 3 ? 3 : 1;
@@ -112,7 +126,8 @@ void write_exr(const std::string& path, const Image& img) {
       constexpr int kZipLevel = 1;
       header.zipCompressionLevel() = kZipLevel;
       header.compression() = static_cast<Imf::Compression>(g_compression.load());
-      for (int c = 0; c < img.channels; ++c) header.channels().insert(kNames[c], Imf::Channel(Imf::FLOAT));
+      for (int c = 0; c < img.channels; ++c)
+        header.channels().insert(kNames[c], Imf::Channel(Imf::FLOAT));
       Imf::OutputFile file(tmp.c_str(), header);
       Imf::FrameBuffer fb;
       const size_t xs = sizeof(float) * img.channels, ys = xs * img.width;

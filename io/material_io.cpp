@@ -15,15 +15,18 @@ void check_bounds(const std::string& key, const RGB& v, const Ctx& c) {
   const ParamSpec& p = line_param(key);
   for (double x : v)
     if (x < p.lo || x > p.hi)
-      c.fail("value " + json(x).dump() + " outside [" + json(p.lo).dump() + ", " + json(p.hi).dump() + "]");
+      c.fail("value " + json(x).dump() + " outside [" + json(p.lo).dump() + ", " +
+             json(p.hi).dump() + "]");
 }
-double scalar(const json& j, const std::string& name, const std::string& key, double def, const Ctx& c) {
+double scalar(const json& j, const std::string& name, const std::string& key, double def,
+              const Ctx& c) {
   if (!j.contains(name)) return def;
   const double x = jsonu::num(j[name], c.at(name));
   const ParamSpec& p = line_param(key);
   if (p.periodic) return x - 180.0 * std::floor(x / 180.0);  // T -> -T symmetry: [0, 180)
   if (x < p.lo || x > p.hi)
-    c.at(name).fail("value " + json(x).dump() + " outside [" + json(p.lo).dump() + ", " + json(p.hi).dump() + "]");
+    c.at(name).fail("value " + json(x).dump() + " outside [" + json(p.lo).dump() + ", " +
+                    json(p.hi).dump() + "]");
   return x;
 }
 
@@ -42,7 +45,8 @@ Material material_from_json(const json& j, const std::string& file) {
   const Ctx root{file, ""};
   if (!j.is_object()) root.fail("expected a JSON object");
   const std::string format = jsonu::str(jsonu::need(j, "format", root), root.at("format"));
-  if (format != "aniso-material") root.at("format").fail("expected \"aniso-material\", got \"" + format + "\"");
+  if (format != "aniso-material")
+    root.at("format").fail("expected \"aniso-material\", got \"" + format + "\"");
   const double version = jsonu::num(jsonu::need(j, "version", root), root.at("version"));
   if (version != 1) root.at("version").fail("unsupported version (this reader knows 1)");
   Material m;
@@ -77,7 +81,8 @@ Material material_from_json(const json& j, const std::string& file) {
     const json& b = j["second_fiber"];
     if (!b.is_object()) c.fail("expected an object");
     m.has_second_fiber = true;
-    m.second_angle_deg = scalar(b, "angle_deg", "second_fiber.angle_deg", m.fiber_angle_deg + 90.0, c);
+    m.second_angle_deg =
+        scalar(b, "angle_deg", "second_fiber.angle_deg", m.fiber_angle_deg + 90.0, c);
     m.second_angle_deg -= 180.0 * std::floor(m.second_angle_deg / 180.0);
     m.second_weight = scalar(b, "weight", "second_fiber.weight", 0.5, c);
   }
@@ -101,12 +106,17 @@ Material material_from_json(const json& j, const std::string& file) {
       m.topology_s_map = jsonu::str(b["s_map"], c.at("s_map"));
     }
     m.topology_mathematical = jsonu::str_or(b, "mathematical", "none", c);
-    if (m.topology_mathematical != "none" && m.topology_mathematical != "torus" && m.topology_mathematical != "sphere")
-      c.at("mathematical").fail("unknown value '" + m.topology_mathematical + "' (torus, sphere, none)");
-    if (!b.contains("s") && !b.contains("map") && !b.contains("s_map") && m.topology_mathematical == "none")
-      c.fail("needs \"s\", \"s_map\", or \"map\" with \"amplitude\", or \"mathematical\": \"torus\"");
+    if (m.topology_mathematical != "none" && m.topology_mathematical != "torus" &&
+        m.topology_mathematical != "sphere")
+      c.at("mathematical")
+          .fail("unknown value '" + m.topology_mathematical + "' (torus, sphere, none)");
+    if (!b.contains("s") && !b.contains("map") && !b.contains("s_map") &&
+        m.topology_mathematical == "none")
+      c.fail(
+          "needs \"s\", \"s_map\", or \"map\" with \"amplitude\", or \"mathematical\": \"torus\"");
   }
-  if (m.model == "fiber" && !m.has_topology) root.at("topology").fail("the fiber model needs a topology block");
+  if (m.model == "fiber" && !m.has_topology)
+    root.at("topology").fail("the fiber model needs a topology block");
   return m;
 }
 
@@ -127,7 +137,8 @@ void material_to_json(const Material& m, json* out) {
   j["fiber_angle_deg"] = m.fiber_angle_deg;
   j["ka"] = jsonu::to_json(m.ka);
   if (m.has_isotropic)
-    j["isotropic"] = {{"kd", jsonu::to_json(m.iso_kd)}, {"ks", jsonu::to_json(m.iso_ks)}, {"n", m.iso_n}};
+    j["isotropic"] = {
+        {"kd", jsonu::to_json(m.iso_kd)}, {"ks", jsonu::to_json(m.iso_ks)}, {"n", m.iso_n}};
   if (m.has_second_fiber)
     j["second_fiber"] = {{"angle_deg", m.second_angle_deg}, {"weight", m.second_weight}};
   if (m.has_topology) {

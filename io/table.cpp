@@ -37,7 +37,8 @@ SampleTable read_table(const std::string& path) {
   if (!std::getline(f, line)) throw Error(path + ": empty file (expected a header line)");
   const auto head = split_csv(line);
   int col[9];
-  const char* names[9] = {"theta_i_deg", "phi_i_deg", "theta_o_deg", "phi_o_deg", "r", "g", "b", "y", "s"};
+  const char* names[9] = {"theta_i_deg", "phi_i_deg", "theta_o_deg", "phi_o_deg", "r",
+                          "g",           "b",         "y",           "s"};
   for (int k = 0; k < 9; ++k) {
     col[k] = -1;
     for (size_t c = 0; c < head.size(); ++c)
@@ -52,9 +53,11 @@ SampleTable read_table(const std::string& path) {
   }
   SampleTable t;
   const bool rgb = col[4] >= 0 || col[5] >= 0 || col[6] >= 0;
-  if (rgb && (col[4] < 0 || col[5] < 0 || col[6] < 0)) throw Error(path + ": header: r, g and b go together");
+  if (rgb && (col[4] < 0 || col[5] < 0 || col[6] < 0))
+    throw Error(path + ": header: r, g and b go together");
   if (rgb && col[7] >= 0) throw Error(path + ": header: give either r,g,b or y, not both");
-  t.values = rgb ? SampleTable::Values::kRGB : (col[7] >= 0 ? SampleTable::Values::kGrey : SampleTable::Values::kNone);
+  t.values = rgb ? SampleTable::Values::kRGB
+                 : (col[7] >= 0 ? SampleTable::Values::kGrey : SampleTable::Values::kNone);
   t.has_s = col[8] >= 0;
   int lineno = 1;
   while (std::getline(f, line)) {
@@ -70,11 +73,13 @@ SampleTable read_table(const std::string& path) {
         v = std::stod(cells[col[k]], &used);
         if (used != cells[col[k]].size()) throw std::invalid_argument("trailing");
       } catch (...) {
-        throw Error(path + ":" + std::to_string(lineno) + ": " + names[k] + ": not a number: '" + cells[col[k]] + "'");
+        throw Error(path + ":" + std::to_string(lineno) + ": " + names[k] + ": not a number: '" +
+                    cells[col[k]] + "'");
       }
       if (!std::isfinite(v) || v < lo || v > hi)
-        throw Error(path + ":" + std::to_string(lineno) + ": " + names[k] + ": value " + cells[col[k]] +
-                    " outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+        throw Error(path + ":" + std::to_string(lineno) + ": " + names[k] + ": value " +
+                    cells[col[k]] + " outside [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                    "]");
       return v;
     };
     SampleRow r;
@@ -83,8 +88,10 @@ SampleTable read_table(const std::string& path) {
     r.theta_o = get(2, 0, 180);
     r.phi_o = get(3, -360, 360);
     const double big = 1e30;
-    if (t.values == SampleTable::Values::kRGB) r.value = {get(4, -big, big), get(5, -big, big), get(6, -big, big)};
-    if (t.values == SampleTable::Values::kGrey) r.value[0] = r.value[1] = r.value[2] = get(7, -big, big);
+    if (t.values == SampleTable::Values::kRGB)
+      r.value = {get(4, -big, big), get(5, -big, big), get(6, -big, big)};
+    if (t.values == SampleTable::Values::kGrey)
+      r.value[0] = r.value[1] = r.value[2] = get(7, -big, big);
     if (t.has_s) r.s = get(8, 0, 1);
     t.rows.push_back(r);
   }

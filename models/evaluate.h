@@ -46,7 +46,9 @@ class Evaluator {
       line_reflectance(line_, L, V, out);
   }
   // ... with the material's own topology value.
-  void operator()(const LocalDir& L, const LocalDir& V, double out[3]) const { (*this)(L, V, out, s_); }
+  void operator()(const LocalDir& L, const LocalDir& V, double out[3]) const {
+    (*this)(L, V, out, s_);
+  }
   bool fiber() const { return fiber_; }
 
  private:

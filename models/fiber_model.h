@@ -82,8 +82,8 @@ T tmin(const T& a, const T& b) {
 // (x0 + kP, y0) casts on fiber c = (cx, cy) along unit direction (dx, dy), dy > 0.
 // Half-lines use +-4 (beyond the front arc [-1, 1]).
 template <class T>
-void row_shadows(const T& dx, const T& dy, const T& cx, const T& cy, const T& x0, const T& y0, const T& P,
-                 IntervalList<T, 8>* sh) {
+void row_shadows(const T& dx, const T& dy, const T& cx, const T& cy, const T& x0, const T& y0,
+                 const T& P, IntervalList<T, 8>* sh) {
   using std::ceil;
   using std::floor;
   const double kBeyond = 4.0;
@@ -111,22 +111,24 @@ void row_shadows(const T& dx, const T& dy, const T& cx, const T& cy, const T& x0
     if (spacing < 2.0) {
       sh->add(offset(k0) - 1.0, T(kBeyond));
     } else {
-      for (double k = std::max(k0, floor(klo)); k <= ceil(khi); k += 1.0) sh->add(offset(k) - 1.0, offset(k) + 1.0);
+      for (double k = std::max(k0, floor(klo)); k <= ceil(khi); k += 1.0)
+        sh->add(offset(k) - 1.0, offset(k) + 1.0);
     }
   } else {
     const double k1 = ceil(kstar) - 1.0;
     if (spacing < 2.0) {
       sh->add(T(-kBeyond), offset(k1) + 1.0);
     } else {
-      for (double k = std::min(k1, ceil(khi)); k >= floor(klo); k -= 1.0) sh->add(offset(k) - 1.0, offset(k) + 1.0);
+      for (double k = std::min(k1, ceil(khi)); k >= floor(klo); k -= 1.0)
+        sh->add(offset(k) - 1.0, offset(k) + 1.0);
     }
   }
 }
 
 // The part of fiber c's front arc (e in [-1, 1]) that no other fiber hides along d, as angles phi.
 template <class T>
-IntervalList<T, 6> unhidden_arcs(const T& dx, const T& dy, const T& phi_d, const T& cx, const T& cy, const T& P,
-                                 const T& H) {
+IntervalList<T, 6> unhidden_arcs(const T& dx, const T& dy, const T& phi_d, const T& cx, const T& cy,
+                                 const T& P, const T& H) {
   using std::asin;
   IntervalList<T, 8> sh;
   row_shadows(dx, dy, cx, cy, T(0.0), T(0.0), P, &sh);
@@ -165,8 +167,11 @@ IntervalList<T, 6> unhidden_arcs(const T& dx, const T& dy, const T& phi_d, const
 // With `relative_to_peak`, S comes back divided by the line model's S_line = (s_L s_V - ab)^n
 // (the integrand is (<R,V> / (s_L s_V - ab))^n): the factor the baked tables store.
 template <class T>
-void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, const T& b, const T& n, const T& s,
-              const FiberAccuracy& acc, T* D, T* S, T* W_out = nullptr, bool relative_to_peak = false) {
+void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, const T& b,
+              const T& n, const T& s, const FiberAccuracy& acc, T* D, T* S, T* W_out = nullptr,
+              bool relative_to_peak = false) {
+  using fiber_detail::tmax;
+  using fiber_detail::tmin;
   using std::acos;
   using std::atan2;
   using std::cos;
@@ -174,8 +179,6 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
   using std::log;
   using std::sin;
   using std::sqrt;
-  using fiber_detail::tmax;
-  using fiber_detail::tmin;
   *D = T(0.0);
   *S = T(0.0);
   if (W_out) *W_out = T(0.0);
@@ -197,8 +200,10 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
   T xmax = T(M_PI / 2), sigma = T(1.0);
   if (spec) {
     const T rho = ab / sLsV;
-    if (!(rho < T(1.0))) spec = false;
-    else if (rho > T(-1.0)) xmax = 0.5 * acos(rho);
+    if (!(rho < T(1.0)))
+      spec = false;
+    else if (rho > T(-1.0))
+      xmax = 0.5 * acos(rho);
     sigma = sqrt(g0 / (4.0 * n * sLsV));
   }
   const GaussRule& gr = gauss_legendre(acc.order);
@@ -213,7 +218,8 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
         const T lo = tmax(vis.v[i].lo, lit.v[j].lo), hi = tmin(vis.v[i].hi, lit.v[j].hi);
         if (!(lo < hi)) continue;
         // Diffuse: int cos(p - pl) cos(p - pv) = (p/2) cos(pv - pl) + sin(2p - pl - pv) / 4.
-        dsum += 0.5 * (hi - lo) * cdiff + 0.25 * (sin(2.0 * hi - phi_l - phi_v) - sin(2.0 * lo - phi_l - phi_v));
+        dsum += 0.5 * (hi - lo) * cdiff +
+                0.25 * (sin(2.0 * hi - phi_l - phi_v) - sin(2.0 * lo - phi_l - phi_v));
         if (!spec) continue;
         const T slo = tmax(lo, phi_h - xmax), shi = tmin(hi, phi_h + xmax);
         if (!(slo < shi)) continue;
@@ -226,7 +232,8 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
           for (int q = 0; q < gr.order; ++q) {
             const T p = mid + half * gr.x[q];
             const T g = sLsV * cos(2.0 * (p - phi_h)) - ab;
-            if (g > T(0.0)) ssum += half * gr.w[q] * exp(n * log(relative_to_peak ? g / g0 : g)) * cos(p - phi_v);
+            if (g > T(0.0))
+              ssum += half * gr.w[q] * exp(n * log(relative_to_peak ? g / g0 : g)) * cos(p - phi_v);
           }
           edge = e1;
           if (!(edge < shi)) break;
@@ -244,7 +251,8 @@ namespace aniso {
 
 // Topology helpers (MODELS.md §4, seed 001 §3-4), templated for the fit.
 // The topology value s of a point from its mathematical topology s_math, a map value m in
-// [-1, 1] and the map amplitude A: H = clamp(2 sin theta_math + A m, 0, sqrt 3), s = asin(H/2)/60deg.
+// [-1, 1] and the map amplitude A: H = clamp(2 sin theta_math + A m, 0, sqrt 3), s =
+// asin(H/2)/60deg.
 template <class T>
 T topology_with_map(double s_math, const T& amplitude, double m) {
   using std::asin;
@@ -282,8 +290,8 @@ void fiber_lobe(const P& p, const T& psi, const T& s, const LocalDir& L, const L
 }
 
 template <class T, class P>
-void fiber_reflectance(const P& p, const T& s, const LocalDir& L, const LocalDir& V, const FiberAccuracy& acc,
-                       T out[3]) {
+void fiber_reflectance(const P& p, const T& s, const LocalDir& L, const LocalDir& V,
+                       const FiberAccuracy& acc, T out[3]) {
   out[0] = out[1] = out[2] = T(0.0);
   if (!(L.n > 0.0) || !(V.n > 0.0)) return;
   fiber_lobe(p, p.psi, s, L, V, acc, out);

@@ -25,7 +25,6 @@
 
 namespace aniso {
 
-
 template <class T>
 struct LineParamsT {
   T kd[3];

@@ -41,7 +41,8 @@ struct Material {
   double topology_at(double s_math, double m) const;
 
   bool isotropic_active() const {
-    return has_isotropic && (iso_kd[0] + iso_kd[1] + iso_kd[2] + iso_ks[0] + iso_ks[1] + iso_ks[2]) > 0;
+    return has_isotropic &&
+           (iso_kd[0] + iso_kd[1] + iso_kd[2] + iso_ks[0] + iso_ks[1] + iso_ks[2]) > 0;
   }
   bool second_active() const { return has_second_fiber && second_weight < 1.0; }
 };

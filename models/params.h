@@ -13,8 +13,8 @@ struct ParamSpec {
   int dims;                 // 3 = RGB, 1 = scalar
   double lo, hi, def;       // bounds and default
   std::string_view unit;
-  bool periodic;     // fiber angles live in [0, 180) degrees (MODELS.md §1)
-  bool fit_log;      // fitted as log(value) (MODELS.md §6: log n, not n)
+  bool periodic;  // fiber angles live in [0, 180) degrees (MODELS.md §1)
+  bool fit_log;   // fitted as log(value) (MODELS.md §6: log n, not n)
   std::string_view doc;
 };
 

@@ -1,11 +1,12 @@
 #include "render/bake.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <random>
-#include <tbb/parallel_for.h>
 
 #include "core/error.h"
 #include "io/files.h"
@@ -48,7 +49,8 @@ double lookup_bilinear(const Image& t, double a, double b, int ch, BakeIndex ind
 }
 
 BakeTables bake_line(const Material& m, int n, BakeIndex index, uint64_t seed) {
-  if (n < 2 || n > 8192) throw Error("bake: --size must be between 2 and 8192 (got " + std::to_string(n) + ")");
+  if (n < 2 || n > 8192)
+    throw Error("bake: --size must be between 2 and 8192 (got " + std::to_string(n) + ")");
   const auto t0 = std::chrono::steady_clock::now();
   BakeTables t;
   t.size = n;
@@ -63,7 +65,8 @@ BakeTables bake_line(const Material& m, int n, BakeIndex index, uint64_t seed) {
       line_DS(texel_cosine(i, n, index), texel_cosine(j, n, index), m.n, &D, &S);
       t.diffuse.at(i, j, 0) = static_cast<float>(D);
       t.specular.at(i, j, 0) = static_cast<float>(S);
-      for (int c = 0; c < 3; ++c) t.combined.at(i, j, c) = static_cast<float>(m.kd[c] * D + m.ks[c] * S);
+      for (int c = 0; c < 3; ++c)
+        t.combined.at(i, j, c) = static_cast<float>(m.kd[c] * D + m.ks[c] * S);
     }
   t.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
@@ -97,7 +100,9 @@ BakeTables bake_line(const Material& m, int n, BakeIndex index, uint64_t seed) {
 namespace {
 
 // Continuous texel coordinate of an angle in [-pi/2, pi/2] on n texels with centres on the ends.
-double angle_texel(double phi, int n) { return std::clamp((phi + M_PI / 2) / M_PI, 0.0, 1.0) * (n - 1); }
+double angle_texel(double phi, int n) {
+  return std::clamp((phi + M_PI / 2) / M_PI, 0.0, 1.0) * (n - 1);
+}
 
 struct Lerp {
   int i0;
@@ -109,8 +114,10 @@ Lerp lerp_of(double f, int n) {
 }
 
 // Factors G and F at the in-plane angles, topology s and kappa (multi-linear in the tables).
-void fiber_factors(const FiberBakeTables& fb, double phi_l, double phi_v, double s, double kappa, double* G, double* F) {
-  const Lerp li = lerp_of(angle_texel(phi_l, fb.nphi), fb.nphi), lj = lerp_of(angle_texel(phi_v, fb.nphi), fb.nphi);
+void fiber_factors(const FiberBakeTables& fb, double phi_l, double phi_v, double s, double kappa,
+                   double* G, double* F) {
+  const Lerp li = lerp_of(angle_texel(phi_l, fb.nphi), fb.nphi),
+             lj = lerp_of(angle_texel(phi_v, fb.nphi), fb.nphi);
   const Lerp ls = lerp_of(std::clamp(s, 0.0, 1.0) * (fb.ns - 1), fb.ns);
   const double kk = std::isfinite(kappa) ? kappa / (1 + kappa) : 1.0;
   const Lerp lk = lerp_of(kk * (fb.nk - 1), fb.nk);
@@ -124,7 +131,9 @@ void fiber_factors(const FiberBakeTables& fb, double phi_l, double phi_v, double
         const size_t base = (static_cast<size_t>(ls.i0 + c) * np + (lj.i0 + b)) * np + (li.i0 + a);
         *G += w * fb.G[base];
         for (int d = 0; d < 2; ++d) {
-          const size_t fi = ((static_cast<size_t>(ls.i0 + c) * fb.nk + (lk.i0 + d)) * np + (lj.i0 + b)) * np + (li.i0 + a);
+          const size_t fi =
+              ((static_cast<size_t>(ls.i0 + c) * fb.nk + (lk.i0 + d)) * np + (lj.i0 + b)) * np +
+              (li.i0 + a);
           *F += w * (d ? lk.w : 1 - lk.w) * fb.F[fi];
         }
       }
@@ -132,7 +141,8 @@ void fiber_factors(const FiberBakeTables& fb, double phi_l, double phi_v, double
 
 }  // namespace
 
-FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, int ns, int nk, uint64_t seed) {
+FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, int ns, int nk,
+                           uint64_t seed) {
   if (nphi < 2 || ns < 2 || nk < 2) throw Error("bake: fiber table sizes must be at least 2");
   const auto t0 = std::chrono::steady_clock::now();
   FiberBakeTables fb;
@@ -162,7 +172,8 @@ FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, 
             const double kappa = kk / (1 - kk);
             constexpr double kHugeAB = 1e12;
             const double ab = kappa > 0 ? 1 - 2 / kappa : -kHugeAB;
-            fiber_DS(lb, ln, vb, vn, 1.0, ab, m.n, s, FiberAccuracy{}, &D, &F, static_cast<double*>(nullptr), true);
+            fiber_DS(lb, ln, vb, vn, 1.0, ab, m.n, s, FiberAccuracy{}, &D, &F,
+                     static_cast<double*>(nullptr), true);
           }
           fb.F[((static_cast<size_t>(is) * nk + k) * nphi + j) * nphi + i] = static_cast<float>(F);
         }
@@ -183,7 +194,8 @@ FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, 
   constexpr int kSamples = 20000;
   for (int it = 0; it < kSamples; ++it) {
     auto unit = [&]() {
-      const double x = g(rng), y = g(rng), z = std::abs(g(rng)), l = std::sqrt(x * x + y * y + z * z);
+      const double x = g(rng), y = g(rng), z = std::abs(g(rng)),
+                   l = std::sqrt(x * x + y * y + z * z);
       return LocalDir{x / l, y / l, z / l};
     };
     const LocalDir L = unit(), V = unit();
@@ -210,8 +222,8 @@ FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, 
   return fb;
 }
 
-void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBakeTables& fb, const LocalDir& L,
-                      const LocalDir& V, double s, double out[3]) {
+void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBakeTables& fb,
+                      const LocalDir& L, const LocalDir& V, double s, double out[3]) {
   out[0] = out[1] = out[2] = 0;
   if (!(L.n > 0) || !(V.n > 0)) return;
   const double a = L.u, b = V.u;
@@ -226,8 +238,8 @@ void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBake
   for (int c = 0; c < 3; ++c) out[c] = m.kd[c] * Dl * G + m.ks[c] * Sl * F;
 }
 
-void write_bake(const std::string& dir, const Material& m, const BakeTables& t, const std::string& command,
-                const FiberBakeTables* fiber) {
+void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
+                const std::string& command, const FiberBakeTables* fiber) {
   using jsonu::json;
   write_folder_atomically(dir, [&](const std::string& tmp) {
     json files = json::object();
@@ -255,22 +267,28 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t, 
     emit("combined", t.combined);
     json fiber_json = nullptr;
     if (fiber) {
-      Image G(fiber->nphi, fiber->nphi * fiber->ns, 1), F(fiber->nphi, fiber->nphi * fiber->ns * fiber->nk, 1);
+      Image G(fiber->nphi, fiber->nphi * fiber->ns, 1),
+          F(fiber->nphi, fiber->nphi * fiber->ns * fiber->nk, 1);
       G.px = fiber->G;
       F.px = fiber->F;
       write_exr(join_path(tmp, "fiber_G.exr"), G);
       write_exr(join_path(tmp, "fiber_F.exr"), F);
       fiber_json = {
           {"G", "fiber_G.exr: width nphi (phi_l), rows nphi * ns: row = is * nphi + j (phi_v)"},
-          {"F", "fiber_F.exr: width nphi (phi_l), rows nphi * ns * nk: row = (is * nk + k) * nphi + j"},
+          {"F",
+           "fiber_F.exr: width nphi (phi_l), rows nphi * ns * nk: row = (is * nk + k) * nphi + j"},
           {"nphi", fiber->nphi},
           {"ns", fiber->ns},
           {"nk", fiber->nk},
-          {"angles", "phi = atan2(<L,B>, <L,N>) (likewise V), texel i at -90 + 180 i / (nphi - 1) deg"},
+          {"angles",
+           "phi = atan2(<L,B>, <L,N>) (likewise V), texel i at -90 + 180 i / (nphi - 1) deg"},
           {"s", "texel is at s = is / (ns - 1)"},
-          {"k", "k = kappa / (1 + kappa), kappa = 2 s_L s_V / (s_L s_V - a b); texel k at k / (nk - 1)"},
-          {"evaluate", "k_d * diffuse(a, b) * G(phi_l, phi_v, s) + k_s * specular(a, b) * F(phi_l, phi_v, s, k); no <N,L> "
-                       "factor; multilinear lookups"},
+          {"k",
+           "k = kappa / (1 + kappa), kappa = 2 s_L s_V / (s_L s_V - a b); texel k at k / (nk - 1)"},
+          {"evaluate",
+           "k_d * diffuse(a, b) * G(phi_l, phi_v, s) + k_s * specular(a, b) * F(phi_l, phi_v, s, "
+           "k); no <N,L> "
+           "factor; multilinear lookups"},
           {"error",
            {{"against", "the full fiber model (models/fiber_model.h), random L, V, s"},
             {"max_abs", fiber->max_abs_error},
@@ -292,15 +310,19 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t, 
         {"generated_with", command},
         {"index",
          {{"kind", index_name(t.index)},
-          {"s", t.index == BakeIndex::kAngle ? "a = <L,T>: column; texel i centred on acos(-a) = pi i / (size - 1)"
-                                             : "a = <L,T>: column; texel i centred on a = -1 + 2 i / (size - 1)"},
+          {"s", t.index == BakeIndex::kAngle
+                    ? "a = <L,T>: column; texel i centred on acos(-a) = pi i / (size - 1)"
+                    : "a = <L,T>: column; texel i centred on a = -1 + 2 i / (size - 1)"},
           {"t", "b = <V,T>: row (row 0 first in the file), indexed like a"},
-          {"lookup", t.index == BakeIndex::kAngle
-                         ? "s = (a + 1) / 2 from the paper's matrix (k = 1, o = 0); u = (acos(1 - 2 s) / pi * (size - 1) + "
-                           "0.5) / size, likewise v from t; bilinear"
-                         : "u = ((a + 1) / 2 * (size - 1) + 0.5) / size, likewise v from b; bilinear"},
+          {"lookup",
+           t.index == BakeIndex::kAngle
+               ? "s = (a + 1) / 2 from the paper's matrix (k = 1, o = 0); u = (acos(1 - 2 s) / pi "
+                 "* (size - 1) + "
+                 "0.5) / size, likewise v from t; bilinear"
+               : "u = ((a + 1) / 2 * (size - 1) + 0.5) / size, likewise v from b; bilinear"},
           {"texture_matrix",
-           "M = diag(k, k, 1, 1) * 1/2 [[Lx Ly Lz 1], [Vx Vy Vz 1], [0 0 0 0], [0 0 0 2]] + offset column "
+           "M = diag(k, k, 1, 1) * 1/2 [[Lx Ly Lz 1], [Vx Vy Vz 1], [0 0 0 0], [0 0 0 2]] + offset "
+           "column "
            "(o, o, 0, 0), k = (size - 1) / size, o = 0.5 / size; applied to (T, 1)"},
           {"k", t.index == BakeIndex::kAngle ? 1.0 : sc},
           {"o", t.index == BakeIndex::kAngle ? 0.0 : off}}},
@@ -308,8 +330,9 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t, 
          {{"diffuse", "D(a) = sqrt(1 - a^2) (grey)"},
           {"specular", "S(a, b) = ((sqrt(1-a^2) sqrt(1-b^2) - a b)^+)^n (grey)"},
           {"combined", "k_d D + k_s S (RGB)"},
-          {"not_baked", "<N,L>^+ (per fragment), the isotropic term (its own pass), the second fiber (a second "
-                        "lookup with T2, weights w and 1 - w)"}}},
+          {"not_baked",
+           "<N,L>^+ (per fragment), the isotropic term (its own pass), the second fiber (a second "
+           "lookup with T2, weights w and 1 - w)"}}},
         {"files", files},
         {"error",
          {{"against", "direct evaluation of k_d D + k_s S, float table, bilinear lookup"},

@@ -16,7 +16,6 @@
 #pragma once
 #include <cstdint>
 #include <string>
-
 #include <vector>
 
 #include "core/image.h"
@@ -43,7 +42,8 @@ struct BakeTables {
   double seconds = 0;
 };
 
-BakeTables bake_line(const Material& m, int size, BakeIndex index = BakeIndex::kAngle, uint64_t seed = 1);
+BakeTables bake_line(const Material& m, int size, BakeIndex index = BakeIndex::kAngle,
+                     uint64_t seed = 1);
 
 // The cosine a at texel i, and the continuous texel coordinate in [0, N - 1] of a cosine a.
 double texel_cosine(int i, int n, BakeIndex index);
@@ -55,11 +55,12 @@ double lookup_bilinear(const Image& table, double a, double b, int channel, Bake
 // The fiber model's baked form (ours, MODELS.md §5): the line tables times factors over the
 // projected angles. Exactly,
 //   D_fiber = D_line(a) * G(phi_l, phi_v, s),          G = (1/W) int_{vis&lit} <n,l><n,v> dphi
-//   S_fiber = S_line(a, b) * F(phi_l, phi_v, s, kappa), F = (1/W) int_{vis&lit} (1 - kappa sin^2 x)^n <n,v> dphi
+//   S_fiber = S_line(a, b) * F(phi_l, phi_v, s, kappa), F = (1/W) int_{vis&lit} (1 - kappa sin^2
+//   x)^n <n,v> dphi
 // with phi_l, phi_v the angles of the projected L, V from N in the fiber's cross-section,
-// x = phi - (phi_l + phi_v)/2 and kappa = 2 s_L s_V / (s_L s_V - ab). So the factorisation is exact and
-// only interpolation errs: G is tabulated over (phi_l, phi_v, s), F over (phi_l, phi_v, s, k) with
-// k = kappa / (1 + kappa) in [0, 1]. Angles span [-90, 90] deg with texel centres on the ends,
+// x = phi - (phi_l + phi_v)/2 and kappa = 2 s_L s_V / (s_L s_V - ab). So the factorisation is exact
+// and only interpolation errs: G is tabulated over (phi_l, phi_v, s), F over (phi_l, phi_v, s, k)
+// with k = kappa / (1 + kappa) in [0, 1]. Angles span [-90, 90] deg with texel centres on the ends,
 // s spans [0, 1]. The error against the full model is measured at bake time and published.
 struct FiberBakeTables {
   int nphi = 64, ns = 9, nk = 16;
@@ -70,18 +71,18 @@ struct FiberBakeTables {
   double seconds = 0;
 };
 
-FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi = 64, int ns = 9, int nk = 16,
-                           uint64_t seed = 1);
+FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi = 64, int ns = 9,
+                           int nk = 16, uint64_t seed = 1);
 
 // What the preview's shader computes, on the CPU: k_d D + k_s S from the baked tables for L, V in
 // the fiber frame (u = T, w = B, n = N) at topology s.
-void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBakeTables& fb, const LocalDir& L,
-                      const LocalDir& V, double s, double out[3]);
+void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBakeTables& fb,
+                      const LocalDir& L, const LocalDir& V, double s, double out[3]);
 
 // Writes diffuse/specular/combined as float EXR, 8- and 16-bit PNG, and bake.json (the sidecar:
 // indexing, decoding scales, texture matrix, measured error, the command that generated it).
 // With a fiber material, also fiber_G.exr and fiber_F.exr (layers stacked vertically).
-void write_bake(const std::string& dir, const Material& m, const BakeTables& t, const std::string& command,
-                const FiberBakeTables* fiber = nullptr);
+void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
+                const std::string& command, const FiberBakeTables* fiber = nullptr);
 
 }  // namespace aniso

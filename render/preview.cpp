@@ -6,12 +6,12 @@
 #include <chrono>
 #include <cmath>
 
+#include "capture_sim/sim.h"
 #include "core/error.h"
 #include "core/frame.h"
+#include "io/capture.h"
 #include "io/files.h"
 #include "models/evaluate.h"
-#include "capture_sim/sim.h"
-#include "io/capture.h"
 #include "render/bake.h"
 
 namespace aniso {
@@ -22,7 +22,8 @@ namespace {
 class GlContext {
  public:
   GlContext() {
-    if (!epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_MESA_platform_surfaceless")) fail("EGL_MESA_platform_surfaceless is not available");
+    if (!epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_MESA_platform_surfaceless"))
+      fail("EGL_MESA_platform_surfaceless is not available");
     dpy_ = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
     if (dpy_ == EGL_NO_DISPLAY) fail("no surfaceless EGL display");
     EGLint major = 0, minor = 0;
@@ -32,8 +33,13 @@ class GlContext {
     EGLConfig cfg;
     EGLint n = 0;
     if (!eglChooseConfig(dpy_, cfg_attr, &cfg, 1, &n) || n < 1) fail("no EGL config with OpenGL");
-    const EGLint ctx_attr[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 3,
-                               EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+    const EGLint ctx_attr[] = {EGL_CONTEXT_MAJOR_VERSION,
+                               3,
+                               EGL_CONTEXT_MINOR_VERSION,
+                               3,
+                               EGL_CONTEXT_OPENGL_PROFILE_MASK,
+                               EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+                               EGL_NONE};
     ctx_ = eglCreateContext(dpy_, cfg, EGL_NO_CONTEXT, ctx_attr);
     if (ctx_ == EGL_NO_CONTEXT) fail("cannot create an OpenGL 3.3 core context");
     if (!eglMakeCurrent(dpy_, EGL_NO_SURFACE, EGL_NO_SURFACE, ctx_)) fail("eglMakeCurrent failed");
@@ -46,8 +52,8 @@ class GlContext {
     }
   }
   [[noreturn]] void fail(const std::string& what) {
-    throw Error("preview: cannot create a headless OpenGL context (EGL surfaceless, Mesa): " + what +
-                " (EGL error 0x" + hex(eglGetError()) + ")");
+    throw Error("preview: cannot create a headless OpenGL context (EGL surfaceless, Mesa): " +
+                what + " (EGL error 0x" + hex(eglGetError()) + ")");
   }
   static std::string hex(EGLint v) {
     char b[16];
@@ -277,9 +283,15 @@ GLuint make_table_texture(const Image& t) {
   return tex;
 }
 
-void set3(GLuint p, const char* name, const Vec3& v) { glUniform3f(glGetUniformLocation(p, name), float(v.x), float(v.y), float(v.z)); }
-void set3(GLuint p, const char* name, const RGB& v) { glUniform3f(glGetUniformLocation(p, name), float(v[0]), float(v[1]), float(v[2])); }
-void setm(GLuint p, const char* name, const float* m) { glUniformMatrix4fv(glGetUniformLocation(p, name), 1, GL_TRUE, m); }
+void set3(GLuint p, const char* name, const Vec3& v) {
+  glUniform3f(glGetUniformLocation(p, name), float(v.x), float(v.y), float(v.z));
+}
+void set3(GLuint p, const char* name, const RGB& v) {
+  glUniform3f(glGetUniformLocation(p, name), float(v[0]), float(v[1]), float(v[2]));
+}
+void setm(GLuint p, const char* name, const float* m) {
+  glUniformMatrix4fv(glGetUniformLocation(p, name), 1, GL_TRUE, m);
+}
 
 Image read_attachment(int attachment, int w, int h) {
   std::vector<float> buf(static_cast<size_t>(w) * h * 4);
@@ -288,7 +300,8 @@ Image read_attachment(int attachment, int w, int h) {
   Image img(w, h, 3);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c) img.at(x, y, c) = buf[(static_cast<size_t>(h - 1 - y) * w + x) * 4 + c];
+      for (int c = 0; c < 3; ++c)
+        img.at(x, y, c) = buf[(static_cast<size_t>(h - 1 - y) * w + x) * 4 + c];
   return img;
 }
 
@@ -306,18 +319,23 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   // Per-vertex fiber directions T and T2 (MODELS.md §1), uv and the mathematical topology.
   const bool fiber = m.model == "fiber" && !opt.plain;
   if (fiber && m.has_s_map)
-    throw Error("preview: a per-texel map of s (topology.s_map) is not rendered by the preview yet; verify and eval "
-                "support it");
+    throw Error(
+        "preview: a per-texel map of s (topology.s_map) is not rendered by the preview yet; verify "
+        "and eval "
+        "support it");
   if (fiber && m.has_topology_map && opt.topology_map.empty())
-    throw Error("preview: the material uses a topology map (" + m.topology_map + ") but none was loaded");
+    throw Error("preview: the material uses a topology map (" + m.topology_map +
+                ") but none was loaded");
   const double psi = m.fiber_angle_deg * M_PI / 180, psi2 = m.second_angle_deg * M_PI / 180;
   std::vector<float> vbuf;
   double radius = 0;
   for (size_t i = 0; i < mesh.P.size(); ++i) {
     const Vec3 N = normalize(mesh.N[i]);
-    const Vec3 U = fiber_field_tangent(opt.fiber_field, mesh.P[i], N, mesh.U[i], mesh.center, mesh.axis);
+    const Vec3 U =
+        fiber_field_tangent(opt.fiber_field, mesh.P[i], N, mesh.U[i], mesh.center, mesh.axis);
     const Vec3 W = cross(N, U);
-    const Vec3 T = U * std::cos(psi) + W * std::sin(psi), T2 = U * std::cos(psi2) + W * std::sin(psi2);
+    const Vec3 T = U * std::cos(psi) + W * std::sin(psi),
+               T2 = U * std::cos(psi2) + W * std::sin(psi2);
     for (const Vec3& v : {mesh.P[i], N, T, T2}) {
       vbuf.push_back(float(v.x));
       vbuf.push_back(float(v.y));
@@ -325,7 +343,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     }
     vbuf.push_back(mesh.uv[i][0]);
     vbuf.push_back(mesh.uv[i][1]);
-    vbuf.push_back(float(mathematical_topology_at(m.topology_mathematical, mesh.P[i], opt.shape_options)));
+    vbuf.push_back(
+        float(mathematical_topology_at(m.topology_mathematical, mesh.P[i], opt.shape_options)));
     radius = std::max(radius, length(mesh.P[i] - mesh.center));
   }
 
@@ -343,11 +362,13 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     glEnableVertexAttribArray(a);
     const int size = a < 4 ? 3 : (a == 4 ? 2 : 1);
     const size_t offset = a < 4 ? a * 3 : (a == 4 ? 12 : 14);
-    glVertexAttribPointer(a, size, GL_FLOAT, GL_FALSE, kStride, reinterpret_cast<void*>(offset * sizeof(float)));
+    glVertexAttribPointer(a, size, GL_FLOAT, GL_FALSE, kStride,
+                          reinterpret_cast<void*>(offset * sizeof(float)));
   }
   glGenBuffers(1, &ibo);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
-  glBufferData(GL_ELEMENT_ARRAY_BUFFER, mesh.tri.size() * 3 * sizeof(uint32_t), mesh.tri.data(), GL_STATIC_DRAW);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, mesh.tri.size() * 3 * sizeof(uint32_t), mesh.tri.data(),
+               GL_STATIC_DRAW);
 
   // Framebuffer: three float colour attachments (the reference pass uses all three) and depth.
   GLuint fbo, color[3], depth;
@@ -375,11 +396,22 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   const Vec3 up = cross(V, right);
   const double aspect = double(w) / h, ext = 1.1 * radius;
   const Vec3 c = mesh.center;
-  const float view_proj[16] = {
-      float(right.x / (ext * aspect)), float(right.y / (ext * aspect)), float(right.z / (ext * aspect)), float(-dot(right, c) / (ext * aspect)),
-      float(up.x / ext), float(up.y / ext), float(up.z / ext), float(-dot(up, c) / ext),
-      float(-V.x / (2 * ext)), float(-V.y / (2 * ext)), float(-V.z / (2 * ext)), float(dot(V, c) / (2 * ext)),
-      0, 0, 0, 1};
+  const float view_proj[16] = {float(right.x / (ext * aspect)),
+                               float(right.y / (ext * aspect)),
+                               float(right.z / (ext * aspect)),
+                               float(-dot(right, c) / (ext * aspect)),
+                               float(up.x / ext),
+                               float(up.y / ext),
+                               float(up.z / ext),
+                               float(-dot(up, c) / ext),
+                               float(-V.x / (2 * ext)),
+                               float(-V.y / (2 * ext)),
+                               float(-V.z / (2 * ext)),
+                               float(dot(V, c) / (2 * ext)),
+                               0,
+                               0,
+                               0,
+                               1};
 
   const bool paper = opt.per_vertex && !opt.plain && m.model != "fiber";
   const BakeIndex index = opt.table_index == 1 && !paper ? BakeIndex::kAngle : BakeIndex::kCosine;
@@ -397,8 +429,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
       glGenTextures(1, &texMap);
       glBindTexture(GL_TEXTURE_2D, texMap);
       // Row 0 of the image is v = 0 (glTF: top), which is t = 0 here: the same convention.
-      glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, opt.topology_map.width, opt.topology_map.height, 0, GL_RED, GL_FLOAT,
-                   opt.topology_map.px.data());
+      glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, opt.topology_map.width, opt.topology_map.height, 0,
+                   GL_RED, GL_FLOAT, opt.topology_map.px.data());
       glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
       glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
       glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
@@ -409,7 +441,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   const GLsizei nidx = static_cast<GLsizei>(mesh.tri.size() * 3);
   // The paper's matrix; for the cosine index the texel-centre remap is folded into it.
   const bool angle = index == BakeIndex::kAngle;
-  const double k = angle ? 1.0 : (opt.table_size - 1.0) / opt.table_size, o = angle ? 0.0 : 0.5 / opt.table_size;
+  const double k = angle ? 1.0 : (opt.table_size - 1.0) / opt.table_size,
+               o = angle ? 0.0 : 0.5 / opt.table_size;
 
   const GLenum one[] = {GL_COLOR_ATTACHMENT0};
   glDrawBuffers(1, one);
@@ -433,10 +466,22 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     };
     for (const Vec3& ld : opt.light_dirs) {
       const Vec3 L = normalize(ld);
-      const float texmat[16] = {float(k * L.x / 2), float(k * L.y / 2), float(k * L.z / 2), float(k / 2 + o),
-                                float(k * V.x / 2), float(k * V.y / 2), float(k * V.z / 2), float(k / 2 + o),
-                                0, 0, 0, 0,
-                                0, 0, 0, 1};
+      const float texmat[16] = {float(k * L.x / 2),
+                                float(k * L.y / 2),
+                                float(k * L.z / 2),
+                                float(k / 2 + o),
+                                float(k * V.x / 2),
+                                float(k * V.y / 2),
+                                float(k * V.z / 2),
+                                float(k / 2 + o),
+                                0,
+                                0,
+                                0,
+                                0,
+                                0,
+                                0,
+                                0,
+                                1};
       const int lobes = m.second_active() && !opt.plain && !fiber ? 2 : 1;
       for (int lobe = 0; lobe < lobes; ++lobe) {
         begin_pass();
@@ -472,7 +517,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
         set3(p_aniso, "uE", Vec3(1, 1, 1));
         set3(p_aniso, "uKd", m.kd);
         set3(p_aniso, "uKs", m.ks);
-        const double wgt = m.second_active() ? (lobe == 0 ? m.second_weight : 1 - m.second_weight) : 1.0;
+        const double wgt =
+            m.second_active() ? (lobe == 0 ? m.second_weight : 1 - m.second_weight) : 1.0;
         glUniform1f(glGetUniformLocation(p_aniso, "uWeight"), float(wgt));
         glUniform1i(glGetUniformLocation(p_aniso, "uUseT2"), lobe);
         glUniform1i(glGetUniformLocation(p_aniso, "uAngleIndex"), angle ? 1 : 0);
@@ -495,7 +541,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     glFinish();
   }
   res.seconds_per_frame =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / std::max(1, opt.repeat);
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() /
+      std::max(1, opt.repeat);
   res.rgb = read_attachment(0, w, h);
 
   // Coverage and, when asked, the direct evaluation at the same fragments.
@@ -511,11 +558,13 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   glUniform1i(glGetUniformLocation(p_g, "uFiber"), fiber ? 1 : 0);
   glDrawElements(GL_TRIANGLES, nidx, GL_UNSIGNED_INT, nullptr);
   glFinish();
-  const Image gN = read_attachment(0, w, h), gT = read_attachment(1, w, h), gT2 = read_attachment(2, w, h);
+  const Image gN = read_attachment(0, w, h), gT = read_attachment(1, w, h),
+              gT2 = read_attachment(2, w, h);
   res.covered.assign(static_cast<size_t>(w) * h, 0);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
-      res.covered[static_cast<size_t>(y) * w + x] = (gN.at(x, y, 0) != 0 || gN.at(x, y, 1) != 0 || gN.at(x, y, 2) != 0);
+      res.covered[static_cast<size_t>(y) * w + x] =
+          (gN.at(x, y, 0) != 0 || gN.at(x, y, 1) != 0 || gN.at(x, y, 2) != 0);
   if (opt.reference && fiber) {
     // Against the full model (exact) and against the same tables evaluated on the CPU.
     res.reference = Image(w, h, 3);
@@ -527,7 +576,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
         if (!res.covered[static_cast<size_t>(y) * w + x]) continue;
-        const Vec3 N{gN.at(x, y, 0), gN.at(x, y, 1), gN.at(x, y, 2)}, T{gT.at(x, y, 0), gT.at(x, y, 1), gT.at(x, y, 2)};
+        const Vec3 N{gN.at(x, y, 0), gN.at(x, y, 1), gN.at(x, y, 2)},
+            T{gT.at(x, y, 0), gT.at(x, y, 1), gT.at(x, y, 2)};
         SurfacePoint sp;
         if (!make_frame(Vec3(0, 0, 0), N, T, &sp)) continue;
         const double u = gT2.at(x, y, 0), v = gT2.at(x, y, 1), smath = gT2.at(x, y, 2);
@@ -544,8 +594,10 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
         }
         for (int ch = 0; ch < 3; ++ch) {
           res.reference.at(x, y, ch) = float(exact[ch]);
-          res.max_abs_diff = std::max(res.max_abs_diff, std::abs(double(res.rgb.at(x, y, ch)) - exact[ch]));
-          res.max_abs_diff_baked = std::max(res.max_abs_diff_baked, std::abs(double(res.rgb.at(x, y, ch)) - baked[ch]));
+          res.max_abs_diff =
+              std::max(res.max_abs_diff, std::abs(double(res.rgb.at(x, y, ch)) - exact[ch]));
+          res.max_abs_diff_baked =
+              std::max(res.max_abs_diff_baked, std::abs(double(res.rgb.at(x, y, ch)) - baked[ch]));
         }
       }
   }
@@ -558,25 +610,31 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     for (int j = 0; j < tables.size; ++j)
       for (int i = 0; i + 1 < tables.size; ++i)
         for (int ch = 0; ch < 3; ++ch) {
-          max_step = std::max(max_step, double(std::abs(tables.combined.at(i + 1, j, ch) - tables.combined.at(i, j, ch))));
-          max_step = std::max(max_step, double(std::abs(tables.combined.at(j, i + 1, ch) - tables.combined.at(j, i, ch))));
+          max_step = std::max(max_step, double(std::abs(tables.combined.at(i + 1, j, ch) -
+                                                        tables.combined.at(i, j, ch))));
+          max_step = std::max(max_step, double(std::abs(tables.combined.at(j, i + 1, ch) -
+                                                        tables.combined.at(j, i, ch))));
         }
     constexpr double kFilterWeightStep = 1.0 / 256.0, kFloatSlack = 1e-5;
     // The angle index's acos in single precision: near |x| = 1 an input rounding of 2^-24 moves
     // acos by up to sqrt(2 * 2^-24) = 3.5e-4 rad, i.e. that many texels times (N - 1) / pi.
-    const double acos_texels = angle ? std::sqrt(2.0 * std::ldexp(1.0, -24)) * (opt.table_size - 1) / M_PI : 0.0;
+    const double acos_texels =
+        angle ? std::sqrt(2.0 * std::ldexp(1.0, -24)) * (opt.table_size - 1) / M_PI : 0.0;
     const int lobes = m.second_active() ? 2 : 1;
-    res.error_bound = opt.light_dirs.size() * lobes *
-                          (tables.max_abs_error + 2 * max_step * (kFilterWeightStep + acos_texels)) +
-                      kFloatSlack;
+    res.error_bound =
+        opt.light_dirs.size() * lobes *
+            (tables.max_abs_error + 2 * max_step * (kFilterWeightStep + acos_texels)) +
+        kFloatSlack;
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
         if (!res.covered[static_cast<size_t>(y) * w + x]) continue;
-        const Vec3 N{gN.at(x, y, 0), gN.at(x, y, 1), gN.at(x, y, 2)}, T{gT.at(x, y, 0), gT.at(x, y, 1), gT.at(x, y, 2)};
+        const Vec3 N{gN.at(x, y, 0), gN.at(x, y, 1), gN.at(x, y, 2)},
+            T{gT.at(x, y, 0), gT.at(x, y, 1), gT.at(x, y, 2)};
         const Vec3 T2{gT2.at(x, y, 0), gT2.at(x, y, 1), gT2.at(x, y, 2)};
         SurfacePoint sp;
         if (!make_frame(Vec3(0, 0, 0), N, T, &sp)) continue;
-        // In the frame (U = T) the fiber angle is 0 and the second fiber sits at atan2(<T2,W>, <T2,T>).
+        // In the frame (U = T) the fiber angle is 0 and the second fiber sits at atan2(<T2,W>,
+        // <T2,T>).
         Material local = m;
         local.fiber_angle_deg = 0;
         local.second_angle_deg = std::atan2(dot(T2, sp.W), dot(T2, sp.U)) * 180 / M_PI;
@@ -589,7 +647,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
         }
         for (int ch = 0; ch < 3; ++ch) {
           res.reference.at(x, y, ch) = float(acc[ch]);
-          res.max_abs_diff = std::max(res.max_abs_diff, std::abs(double(res.rgb.at(x, y, ch)) - acc[ch]));
+          res.max_abs_diff =
+              std::max(res.max_abs_diff, std::abs(double(res.rgb.at(x, y, ch)) - acc[ch]));
         }
       }
   }

@@ -21,14 +21,14 @@ struct PreviewOptions {
   int width = 512, height = 512;
   int table_size = 256;
   int table_index = 1;  // 1 = angle index (default), 0 = the paper's cosine index (render/bake.h)
-  Vec3 view_dir{0.0, -0.8, 0.6};             // toward the viewer
+  Vec3 view_dir{0.0, -0.8, 0.6};                   // toward the viewer
   std::vector<Vec3> light_dirs{{0.7, -0.2, 0.7}};  // toward each light; irradiance 1 each
   bool reference = false;  // also evaluate the model directly per pixel (CPU) for comparison
   bool plain = false;      // a plain textured-and-lit pass instead (for timing comparisons)
   // The paper's exact construction: texture coordinates from the texture matrix per vertex
   // (interpolated), the cosine-indexed table. Cheapest; errs where T bends across a triangle.
   bool per_vertex = false;
-  int repeat = 1;          // frames to render (timing)
+  int repeat = 1;  // frames to render (timing)
   // Fiber model: the topology map (h in [0, 1], glTF uv) when the material uses one.
   Image topology_map;
 };
@@ -40,10 +40,10 @@ struct PreviewResult {
   int passes = 0;
   size_t triangles = 0;
   double seconds_per_frame = 0;
-  double max_abs_diff = 0;   // |rgb - reference| over covered pixels (when asked)
-  double error_bound = 0;    // what the bake's measured error and filtering allow
+  double max_abs_diff = 0;        // |rgb - reference| over covered pixels (when asked)
+  double error_bound = 0;         // what the bake's measured error and filtering allow
   double max_abs_diff_baked = 0;  // fiber model: against the same baked tables evaluated on the CPU
-  std::string renderer;      // GL_RENDERER
+  std::string renderer;           // GL_RENDERER
 };
 
 PreviewResult render_preview(const Material& m, const PreviewOptions& opt);

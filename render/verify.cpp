@@ -1,17 +1,18 @@
 #include "render/verify.h"
 
 #include <cmath>
+#include <cstdio>
 
 #include "capture_sim/shade.h"
 #include "core/error.h"
 #include "core/texture.h"
 #include "io/files.h"
 #include "io/image_io.h"
-#include <cstdio>
 
 namespace aniso {
 
-VerifyResult verify_capture(const CaptureSet& set, const Material& m, const std::string& residual_dir) {
+VerifyResult verify_capture(const CaptureSet& set, const Material& m,
+                            const std::string& residual_dir) {
   VerifyResult res;
   const Evaluator eval(m);
   double sum2 = 0, sumy = 0;
@@ -19,14 +20,17 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m, const std:
   TopologyMap map;
   const bool use_map = m.model == "fiber" && m.has_topology_map;
   if (use_map) {
-    if (set.topology_map.empty()) throw Error(set.file + ": the material uses a topology map but the set names none");
+    if (set.topology_map.empty())
+      throw Error(set.file + ": the material uses a topology map but the set names none");
     map = load_topology_map(join_path(set.dir, set.topology_map));
   }
   Image s_map;  // a per-texel map of s (what `fit --topology-map` writes), R channel
-  if (m.model == "fiber" && m.has_s_map) s_map = read_image(join_path(m.base_dir, m.topology_s_map)).image;
+  if (m.model == "fiber" && m.has_s_map)
+    s_map = read_image(join_path(m.base_dir, m.topology_s_map)).image;
   for (size_t i = 0; i < set.views.size(); ++i) {
     const ViewData d = load_view(set, i, use_map ? &map : nullptr);
-    if (!s_map.empty() && d.uv.empty()) throw Error(set.file + ": the material's map of s needs the \"uv\" buffer");
+    if (!s_map.empty() && d.uv.empty())
+      throw Error(set.file + ": the material's map of s needs the \"uv\" buffer");
     const ViewSpec& v = set.views[i];
     ViewError e;
     double s2 = 0, sy = 0;
@@ -45,9 +49,11 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m, const std:
         const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
         double topo = m.topology_at(d.smath.px[p], d.mapv.px[p]);
         if (!s_map.empty()) {
-          const BilinearTaps t = bilinear_wrap(d.uv.px[2 * p], d.uv.px[2 * p + 1], s_map.width, s_map.height);
+          const BilinearTaps t =
+              bilinear_wrap(d.uv.px[2 * p], d.uv.px[2 * p + 1], s_map.width, s_map.height);
           topo = 0;
-          for (int k = 0; k < 4; ++k) topo += t.weight[k] * s_map.px[static_cast<size_t>(t.index[k]) * s_map.channels];
+          for (int k = 0; k < 4; ++k)
+            topo += t.weight[k] * s_map.px[static_cast<size_t>(t.index[k]) * s_map.channels];
         }
         shade_point(eval, sp, d.eye, v.lights, amb, topo, no_shadows, I, &cnt);
         for (int c = 0; c < 3; ++c) {

@@ -22,7 +22,9 @@ struct VerifyResult {
   size_t light_evals = 0;
 };
 
-// With `residual_dir`, also writes residual_NNN.exr per view (model - image, RGB; 0 off the sample).
-VerifyResult verify_capture(const CaptureSet& set, const Material& m, const std::string& residual_dir = "");
+// With `residual_dir`, also writes residual_NNN.exr per view (model - image, RGB; 0 off the
+// sample).
+VerifyResult verify_capture(const CaptureSet& set, const Material& m,
+                            const std::string& residual_dir = "");
 
 }  // namespace aniso

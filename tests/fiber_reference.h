@@ -28,8 +28,8 @@ struct Result {
 };
 
 // `samples` normal angles per fiber; `plane` replaces the fibers by a flat plane (identity 4).
-inline Result fiber_bruteforce(double lb, double ln, double vb, double vn, double a, double b, double n, double s,
-                               int samples, bool plane = false) {
+inline Result fiber_bruteforce(double lb, double ln, double vb, double vn, double a, double b,
+                               double n, double s, int samples, bool plane = false) {
   Result r;
   if (ln <= 0 || vn <= 0) return r;
   const double sL = std::hypot(lb, ln), sV = std::hypot(vb, vn);

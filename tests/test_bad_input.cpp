@@ -1,15 +1,14 @@
 // Bad input through the real CLI: a message naming the file and key, a non-zero exit, and no
 // output file left behind.
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfOutputFile.h>
 
 #include "datasets_synth/presets.h"
 #include "io/files.h"
@@ -37,10 +36,12 @@ void edit_json(const std::string& file, const std::function<void(nlohmann::json&
   write_text_file(file, j.dump());
 }
 
-void expect_failure(const std::string& args, const std::vector<std::string>& must_mention, const std::string& out) {
+void expect_failure(const std::string& args, const std::vector<std::string>& must_mention,
+                    const std::string& out) {
   const test::RunResult r = test::run_cli(args);
   EXPECT_NE(r.status, 0) << r.output;
-  for (const auto& s : must_mention) EXPECT_NE(r.output.find(s), std::string::npos) << "'" << s << "' not in: " << r.output;
+  for (const auto& s : must_mention)
+    EXPECT_NE(r.output.find(s), std::string::npos) << "'" << s << "' not in: " << r.output;
   EXPECT_FALSE(fs::exists(out)) << out << " was written";
   // No temporary left beside it either.
   for (const auto& e : fs::directory_iterator(fs::path(out).parent_path()))
@@ -49,32 +50,36 @@ void expect_failure(const std::string& args, const std::vector<std::string>& mus
 
 TEST(BadInput, MissingFile) {
   const std::string dir = test::tmp_dir("x");
-  expect_failure("fit " + dir + "/nope --out " + dir + "/m.json", {"x/nope", "not found"}, dir + "/m.json");
+  expect_failure("fit " + dir + "/nope --out " + dir + "/m.json", {"x/nope", "not found"},
+                 dir + "/m.json");
   expect_failure("bake " + dir + "/nope.json --out " + dir + "/bake", {"nope.json"}, dir + "/bake");
 }
 
 TEST(BadInput, MalformedJson) {
   const std::string dir = test::tmp_dir("x");
   std::ofstream(dir + "/capture.json") << "{\"format\": \"aniso-capture\", \"version\": 1,";
-  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"capture.json", "malformed JSON"}, dir + "/m.json");
+  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"capture.json", "malformed JSON"},
+                 dir + "/m.json");
 }
 
 TEST(BadInput, UnknownVersionAndFormat) {
   const std::string dir = good_capture(test::tmp_dir("set"));
   edit_json(dir + "/capture.json", [](auto& j) { j["version"] = 7; });
-  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"capture.json", "version", "7"}, dir + "/m.json");
+  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"capture.json", "version", "7"},
+                 dir + "/m.json");
   edit_json(dir + "/capture.json", [](auto& j) {
     j["version"] = 1;
     j["format"] = "something-else";
   });
-  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"capture.json", "format"}, dir + "/m.json");
+  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"capture.json", "format"},
+                 dir + "/m.json");
 }
 
 TEST(BadInput, ImageSizeMismatch) {
   const std::string dir = good_capture(test::tmp_dir("set"));
   write_exr(dir + "/images/001.exr", Image(10, 12, 3, 0.5f));
-  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"views[1].image", "001.exr", "10x12", "24x24"},
-                 dir + "/m.json");
+  expect_failure("fit " + dir + " --out " + dir + "/m.json",
+                 {"views[1].image", "001.exr", "10x12", "24x24"}, dir + "/m.json");
 }
 
 // An EXR with non-finite pixels, as another tool may write (our writer refuses to).
@@ -102,51 +107,61 @@ TEST(BadInput, NanPixelsAreLeftOutAndAllNanFails) {
   const auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
   EXPECT_GT(j["report"]["skipped"]["nonfinite"].get<int>(), 50);
   fs::remove(dir + "/m.json");
-  for (const char* v : {"000", "001"}) write_raw_exr(dir + "/images/" + v + ".exr", Image(24, 24, 3, NAN));
-  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"no usable observations"}, dir + "/m.json");
+  for (const char* v : {"000", "001"})
+    write_raw_exr(dir + "/images/" + v + ".exr", Image(24, 24, 3, NAN));
+  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"no usable observations"},
+                 dir + "/m.json");
 }
 
 TEST(BadInput, EmptyMask) {
   const std::string dir = good_capture(test::tmp_dir("set"));
   write_png(dir + "/geometry/all_mask.png", Image(24, 24, 1, 0.f), 8);
-  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"no usable observations"}, dir + "/m.json");
+  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"no usable observations"},
+                 dir + "/m.json");
 }
 
 TEST(BadInput, NoLights) {
   const std::string dir = good_capture(test::tmp_dir("set"));
-  edit_json(dir + "/capture.json", [](auto& j) { j["views"][1]["lights"] = nlohmann::json::array(); });
-  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"capture.json", "views[1].lights", "at least one light"},
-                 dir + "/m.json");
+  edit_json(dir + "/capture.json",
+            [](auto& j) { j["views"][1]["lights"] = nlohmann::json::array(); });
+  expect_failure("fit " + dir + " --out " + dir + "/m.json",
+                 {"capture.json", "views[1].lights", "at least one light"}, dir + "/m.json");
 }
 
 TEST(BadInput, UnknownLightTypeAndNegativeExposure) {
   const std::string dir = good_capture(test::tmp_dir("set"));
   edit_json(dir + "/capture.json", [](auto& j) { j["views"][0]["lights"][0]["type"] = "laser"; });
-  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"views[0].lights[0].type", "laser"}, dir + "/m.json");
+  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"views[0].lights[0].type", "laser"},
+                 dir + "/m.json");
   edit_json(dir + "/capture.json", [](auto& j) {
     j["views"][0]["lights"][0]["type"] = "point";
     j["views"][0]["exposure"] = -1;
   });
-  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"views[0].exposure"}, dir + "/m.json");
+  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"views[0].exposure"},
+                 dir + "/m.json");
 }
 
 TEST(BadInput, MissingGeometryBuffer) {
   const std::string dir = good_capture(test::tmp_dir("set"));
   fs::remove(dir + "/geometry/all_N.exr");
-  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"geometry", "all_N.exr", "not found"}, dir + "/m.json");
+  expect_failure("fit " + dir + " --out " + dir + "/m.json", {"geometry", "all_N.exr", "not found"},
+                 dir + "/m.json");
 }
 
 TEST(BadInput, BadMaterialAndTable) {
   const std::string dir = test::tmp_dir("x");
-  std::ofstream(dir + "/m.json") << R"({"format":"aniso-material","version":1,"kd":[0.1,0.1],"ks":0.5,"n":10,
+  std::ofstream(dir + "/m.json")
+      << R"({"format":"aniso-material","version":1,"kd":[0.1,0.1],"ks":0.5,"n":10,
                                        "fiber_angle_deg":0})";
   expect_failure("bake " + dir + "/m.json --out " + dir + "/bake", {"m.json", "kd"}, dir + "/bake");
-  std::ofstream(dir + "/good.json") << R"({"format":"aniso-material","version":1,"kd":0.1,"ks":0.5,"n":10,
+  std::ofstream(dir + "/good.json")
+      << R"({"format":"aniso-material","version":1,"kd":0.1,"ks":0.5,"n":10,
                                           "fiber_angle_deg":0})";
   std::ofstream(dir + "/t.csv") << "theta_i_deg,phi_i_deg,theta_o,phi_o_deg\n1,2,3,4\n";
-  expect_failure("eval " + dir + "/good.json --table " + dir + "/t.csv --out " + dir + "/o.csv", {"t.csv", "theta_o"},
-                 dir + "/o.csv");
-  expect_failure("preview " + dir + "/good.json --out " + dir + "/p.png --light 0,0,0", {"--light"}, dir + "/p.png");
+  expect_failure("eval " + dir + "/good.json --table " + dir + "/t.csv --out " + dir + "/o.csv",
+                 {"t.csv", "theta_o"}, dir + "/o.csv");
+  expect_failure("preview " + dir + "/good.json --out " + dir + "/p.png --light 0,0,0", {"--light"},
+                 dir + "/p.png");
 }
 
 TEST(BadInput, UnknownPresetAndOption) {

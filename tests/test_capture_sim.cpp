@@ -39,7 +39,8 @@ TEST(CaptureSim, ShadowRaysOnlyForShapesThatCanShadowThemselves) {
   // The shadows are real: rendering the torus set without shadow rays disagrees somewhere.
   const VerifyResult v = verify_capture(read_capture(dir + "/torus"), torus.truth);
   EXPECT_GT(v.overall.max_abs, 1e-3);
-  const VerifyResult vs = verify_capture(read_capture(dir + "/satin-ball"), make_preset("satin-ball", small()).truth);
+  const VerifyResult vs =
+      verify_capture(read_capture(dir + "/satin-ball"), make_preset("satin-ball", small()).truth);
   EXPECT_LT(vs.overall.max_abs, 1e-5);
 }
 
@@ -65,7 +66,8 @@ TEST(CaptureSim, NoiseIsSeededAndRecorded) {
   simulate_capture(make_preset("brushed-metal", o), dir + "/b");
   o.seed = 43;
   simulate_capture(make_preset("brushed-metal", o), dir + "/c");
-  const Image a = read_image(dir + "/a/images/001.exr").image, b = read_image(dir + "/b/images/001.exr").image,
+  const Image a = read_image(dir + "/a/images/001.exr").image,
+              b = read_image(dir + "/b/images/001.exr").image,
               c = read_image(dir + "/c/images/001.exr").image;
   EXPECT_EQ(a.px, b.px);
   EXPECT_NE(a.px, c.px);
@@ -103,7 +105,8 @@ TEST(CaptureSim, ObjMeshGeometryByRayCasting) {
   EXPECT_NEAR(P.at(8, 8, 2), 0.0, 1e-5);
   // A fiber field replaces dP/du: circular about the z axis through the mesh centre.
   trace_mesh_gbuffer(dir + "/sq.obj", "circular", k, pose, &P, &N, &U, &mask);
-  const Vec3 p{P.at(12, 8, 0), P.at(12, 8, 1), 0}, u{U.at(12, 8, 0), U.at(12, 8, 1), U.at(12, 8, 2)};
+  const Vec3 p{P.at(12, 8, 0), P.at(12, 8, 1), 0},
+      u{U.at(12, 8, 0), U.at(12, 8, 1), U.at(12, 8, 2)};
   EXPECT_NEAR(dot(normalize(p), u), 0.0, 1e-5);
 }
 
@@ -120,11 +123,17 @@ namespace {
 // model predicts, within its statistical error, across topology and directions.
 TEST(MicroGeometry, MeasuresWhatTheFiberModelPredicts) {
   const double d = M_PI / 180;
-  auto dir = [&](double t, double p) { return LocalDir{std::sin(t * d) * std::cos(p * d), std::sin(t * d) * std::sin(p * d), std::cos(t * d)}; };
+  auto dir = [&](double t, double p) {
+    return LocalDir{std::sin(t * d) * std::cos(p * d), std::sin(t * d) * std::sin(p * d),
+                    std::cos(t * d)};
+  };
   for (double s : {0.0, 0.4, 0.8}) {
     const MicroPatch patch(s);
-    for (const auto& [L, V] : std::vector<std::pair<LocalDir, LocalDir>>{
-             {dir(30, 90), dir(30, 270)}, {dir(60, 80), dir(20, 200)}, {dir(75, 90), dir(60, 90)}, {dir(50, 130), dir(70, 10)}}) {
+    for (const auto& [L, V] :
+         std::vector<std::pair<LocalDir, LocalDir>>{{dir(30, 90), dir(30, 270)},
+                                                    {dir(60, 80), dir(20, 200)},
+                                                    {dir(75, 90), dir(60, 90)},
+                                                    {dir(50, 130), dir(70, 10)}}) {
       const MicroMeasurement m = patch.measure(L, V, 20.0, 20000, 3);
       double D, S;
       fiber_DS(L.w, L.n, V.w, V.n, L.u, V.u, 20.0, s, FiberAccuracy{}, &D, &S);

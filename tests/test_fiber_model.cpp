@@ -34,15 +34,18 @@ std::vector<Dirs> adversarial() {
   std::vector<Dirs> out;
   auto mk = [](double ta, double pa, double tb, double pb) {
     // theta from N, phi from T toward B.
-    const double a = std::sin(ta) * std::cos(pa), lb = std::sin(ta) * std::sin(pa), ln = std::cos(ta);
-    const double b = std::sin(tb) * std::cos(pb), vb = std::sin(tb) * std::sin(pb), vn = std::cos(tb);
+    const double a = std::sin(ta) * std::cos(pa), lb = std::sin(ta) * std::sin(pa),
+                 ln = std::cos(ta);
+    const double b = std::sin(tb) * std::cos(pb), vb = std::sin(tb) * std::sin(pb),
+                 vn = std::cos(tb);
     return Dirs{lb, ln, vb, vn, a, b};
   };
   const double d = M_PI / 180;
   for (double tl : {1.0, 45.0, 80.0, 88.0, 89.5})
     for (double tv : {1.0, 30.0, 85.0, 89.0})
       for (double pl : {0.0, 5.0, 90.0, 170.0})
-        for (double pv : {0.0, 90.0, 180.0, 270.0}) out.push_back(mk(tl * d, pl * d, tv * d, pv * d));
+        for (double pv : {0.0, 90.0, 180.0, 270.0})
+          out.push_back(mk(tl * d, pl * d, tv * d, pv * d));
   out.push_back(mk(40 * d, 90 * d, 40 * d, 90 * d));   // L = V
   out.push_back(mk(89.9 * d, 0.5 * d, 20 * d, 0));     // L nearly along T
   out.push_back(mk(60 * d, 90 * d, 60 * d, 270 * d));  // mirror pair across N in the plane
@@ -59,7 +62,8 @@ TEST(FiberModel, VisibleWidthIsTheProjectedPeriod) {  // identity 1
       const double P = 4 * std::cos(M_PI / 3 * s);
       EXPECT_NEAR(W, P * d.vn / std::hypot(d.vb, d.vn), 1e-12);
       if (i % 30 == 0) {
-        const auto r = reference::fiber_bruteforce(d.lb, d.ln, d.vb, d.vn, d.a, d.b, 20.0, s, 20000);
+        const auto r =
+            reference::fiber_bruteforce(d.lb, d.ln, d.vb, d.vn, d.a, d.b, 20.0, s, 20000);
         EXPECT_NEAR(r.W, W, 2e-3 * W) << "s=" << s;
       }
     }
@@ -94,7 +98,8 @@ TEST(FiberModel, FlatPlaneLimitGivesLambert) {  // identity 4, on the reference
   std::mt19937_64 rng(4);
   for (int i = 0; i < 100; ++i) {
     const Dirs d = random_dirs(rng);
-    const auto r = reference::fiber_bruteforce(d.lb, d.ln, d.vb, d.vn, d.a, d.b, 10.0, 0.0, 10, true);
+    const auto r =
+        reference::fiber_bruteforce(d.lb, d.ln, d.vb, d.vn, d.a, d.b, 10.0, 0.0, 10, true);
     EXPECT_NEAR(r.D, d.ln, 1e-12);  // <N,L>
   }
 }
@@ -116,7 +121,9 @@ TEST(FiberModel, FiberSignAndSwapSymmetry) {  // identity 5
   }
 }
 
-double rel_err(double x, double ref, double scale) { return std::abs(x - ref) / std::max(std::abs(ref), scale); }
+double rel_err(double x, double ref, double scale) {
+  return std::abs(x - ref) / std::max(std::abs(ref), scale);
+}
 
 TEST(FiberModel, MatchesBruteForceOverRandomAndAdversarialDirections) {
   std::mt19937_64 rng(6);
@@ -136,12 +143,14 @@ TEST(FiberModel, MatchesBruteForceOverRandomAndAdversarialDirections) {
         const double ed = std::abs(D - r.D), es = rel_err(S, r.S, 1e-3);
         worst_d = std::max(worst_d, ed);
         worst_s = std::max(worst_s, es);
-        EXPECT_LT(ed, 5e-3) << "s=" << s << " n=" << n << " L=(" << d.a << "," << d.lb << "," << d.ln << ") V=(" << d.b
-                            << "," << d.vb << "," << d.vn << ")";
+        EXPECT_LT(ed, 5e-3) << "s=" << s << " n=" << n << " L=(" << d.a << "," << d.lb << ","
+                            << d.ln << ") V=(" << d.b << "," << d.vb << "," << d.vn << ")";
         EXPECT_LT(es, 1e-2) << "S=" << S << " ref=" << r.S << " n=" << n << " s=" << s;
       }
-  std::printf("fast vs brute force (24000 samples/fiber) over %zu direction pairs x 9: max |dD| = %.2e, max rel dS = %.2e\n",
-              cases.size(), worst_d, worst_s);
+  std::printf(
+      "fast vs brute force (24000 samples/fiber) over %zu direction pairs x 9: max |dD| = %.2e, "
+      "max rel dS = %.2e\n",
+      cases.size(), worst_d, worst_s);
 }
 
 TEST(FiberModel, QuadratureConvergesForSharpLobes) {
@@ -224,7 +233,8 @@ TEST(FiberModel, JetDerivativesMatchNumericIncludingMovingLimits) {
       xm[k] -= h;
       const double num = (f(xp[0], xp[1], xp[2]) - f(xm[0], xm[1], xm[2])) / (2 * h);
       ASSERT_TRUE(std::isfinite(out[0].v[k]));
-      EXPECT_NEAR(out[0].v[k], num, 2e-4 * std::max(1.0, std::abs(num))) << "param " << k << " case " << i;
+      EXPECT_NEAR(out[0].v[k], num, 2e-4 * std::max(1.0, std::abs(num)))
+          << "param " << k << " case " << i;
       ++checked;
     }
   }
@@ -235,9 +245,9 @@ TEST(FiberModel, TorusMathematicalTopology) {
   // Outside (v = 0): c = 1, flat. Where the circumference halves, c = 2 -> c' = 1 again (flat).
   EXPECT_NEAR(torus_mathematical_s(1.0, 0.5, 0.0), 0.0, 1e-12);
   const double R = 1.0, r = 0.6;
-  const double v_half = std::acos(((R + r) / 2 - R) / r);  // R + r cos v = (R + r)/2
+  const double v_half = std::acos(((R + r) / 2 - R) / r);             // R + r cos v = (R + r)/2
   EXPECT_NEAR(torus_mathematical_s(R, r, v_half + 1e-9), 0.0, 1e-3);  // acos(1/(1+e)) ~ sqrt(2e)
-  EXPECT_GT(torus_mathematical_s(R, r, v_half - 0.05), 0.9);  // just before: close packed
+  EXPECT_GT(torus_mathematical_s(R, r, v_half - 0.05), 0.9);          // just before: close packed
   EXPECT_NEAR(topology_with_map(0.0, 0.25, 0.0), 0.0, 1e-12);
   EXPECT_NEAR(topology_with_map(1.0, 0.25, 1.0), 1.0, 1e-12);  // clamped at sqrt 3
 }

@@ -33,8 +33,8 @@ FitOptions quiet() {
   return f;
 }
 
-TruthErrors fit_and_compare(const std::string& dir, const Material& truth, const FitOptions& fo = quiet(),
-                            FitResult* out = nullptr) {
+TruthErrors fit_and_compare(const std::string& dir, const Material& truth,
+                            const FitOptions& fo = quiet(), FitResult* out = nullptr) {
   const FitResult r = fit_capture(read_capture(dir), fo);
   TruthErrors e;
   const std::string table = compare_to_truth(r, truth, &e);
@@ -327,7 +327,8 @@ TEST(FitPaths, ChunkedAnalyticMatchesPerPixelAutodiff) {
     EXPECT_NEAR(ra.sigma.at("kd")[k], rb.sigma.at("kd")[k], 0.05 * rb.sigma.at("kd")[k]);
   }
   EXPECT_NEAR(ra.material.n, rb.material.n, 0.1 * ra.sigma.at("n")[0]);
-  EXPECT_NEAR(ra.material.fiber_angle_deg, rb.material.fiber_angle_deg, 0.1 * ra.sigma.at("fiber_angle_deg")[0]);
+  EXPECT_NEAR(ra.material.fiber_angle_deg, rb.material.fiber_angle_deg,
+              0.1 * ra.sigma.at("fiber_angle_deg")[0]);
 }
 
 }  // namespace

@@ -76,13 +76,15 @@ TEST(MaterialIO, OutOfBoundsNamesTheKey) {
     read_material(dir + "/m.json");
     FAIL() << "expected an error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("m.json: n: value 0.2 outside"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("m.json: n: value 0.2 outside"), std::string::npos)
+        << e.what();
   }
 }
 
 TEST(SampleTable, RoundTripAndErrors) {
   const std::string dir = test::tmp_dir("tab");
-  std::ofstream(dir + "/t.csv") << "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,y\n30,0,40,180,0.5\n10,20,30,40,0.25\n";
+  std::ofstream(dir + "/t.csv")
+      << "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,y\n30,0,40,180,0.5\n10,20,30,40,0.25\n";
   SampleTable t = read_table(dir + "/t.csv");
   ASSERT_EQ(t.rows.size(), 2u);
   EXPECT_EQ(t.values, SampleTable::Values::kGrey);

@@ -112,7 +112,8 @@ TEST(LineModel, SecondFiberMixesTwoLobes) {
 TEST(LineModel, FiniteAtGrazingAndDegenerateDirections) {
   Material m = test_material();
   const Evaluator e(m);
-  const LocalDir cases[] = {{1, 0, 0}, {-1, 0, 0}, {0, 0, 1}, {0.9063, 0.4226, 0}, {1, 1e-17, 1e-17}};
+  const LocalDir cases[] = {
+      {1, 0, 0}, {-1, 0, 0}, {0, 0, 1}, {0.9063, 0.4226, 0}, {1, 1e-17, 1e-17}};
   for (double n : {1.0, 10.0, 1e4}) {
     m.n = n;
     const Evaluator en(m);
@@ -174,7 +175,8 @@ TEST(LineModel, JetDerivativesMatchNumeric) {
       xp[k] += h;
       xm[k] -= h;
       const double num =
-          (eval(L, V, xp[0], xp[1], xp[2], xp[3]) - eval(L, V, xm[0], xm[1], xm[2], xm[3])) / (2 * h);
+          (eval(L, V, xp[0], xp[1], xp[2], xp[3]) - eval(L, V, xm[0], xm[1], xm[2], xm[3])) /
+          (2 * h);
       EXPECT_TRUE(std::isfinite(r.v[k]));
       EXPECT_NEAR(r.v[k], num, 1e-5 * std::max(1.0, std::abs(num))) << "param " << k;
     }

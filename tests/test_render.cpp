@@ -5,8 +5,8 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "datasets_synth/presets.h"
 #include "core/error.h"
+#include "datasets_synth/presets.h"
 #include "io/files.h"
 #include "models/line_model.h"
 #include "render/bake.h"
@@ -60,7 +60,8 @@ TEST(Bake, WritesTablesAndSidecar) {
   const std::string dir = test::tmp_dir("bake");
   const Material m = satin();
   write_bake(dir + "/out", m, bake_line(m, 32), "test");
-  for (const char* f : {"diffuse.exr", "specular_8.png", "combined_16.png", "combined.exr", "bake.json"})
+  for (const char* f :
+       {"diffuse.exr", "specular_8.png", "combined_16.png", "combined.exr", "bake.json"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + f)) << f;
   const auto j = nlohmann::json::parse(read_text_file(dir + "/out/bake.json"));
   EXPECT_EQ(j["size"], 32);
@@ -76,8 +77,8 @@ TEST(Preview, BakedRenderMatchesDirectEvaluationWithinStatedBound) {
   const PreviewResult r = render_preview(satin(), p);
   size_t covered = 0;
   for (auto c : r.covered) covered += c;
-  std::printf("renderer %s: %zu px, max |baked - direct| = %.3g, bound %.3g\n", r.renderer.c_str(), covered,
-              r.max_abs_diff, r.error_bound);
+  std::printf("renderer %s: %zu px, max |baked - direct| = %.3g, bound %.3g\n", r.renderer.c_str(),
+              covered, r.max_abs_diff, r.error_bound);
   EXPECT_GT(covered, 128u * 128u / 2);
   EXPECT_EQ(r.passes, 2);  // one additive pass per light
   EXPECT_GT(r.max_abs_diff, 0.0);
@@ -92,7 +93,8 @@ TEST(Preview, PaperConstructionPerVertexStaysCloseToDirectEvaluation) {
   const PreviewResult r = render_preview(satin(), p);
   std::printf("per-vertex (paper) construction: max |baked - direct| = %.3g\n", r.max_abs_diff);
   EXPECT_EQ(r.passes, 1);
-  EXPECT_LT(r.max_abs_diff, 0.1);  // interpolating texture coordinates across a triangle errs a little
+  EXPECT_LT(r.max_abs_diff,
+            0.1);  // interpolating texture coordinates across a triangle errs a little
 }
 
 TEST(Preview, HighlightFollowsTheFiberDirection) {
@@ -171,8 +173,8 @@ TEST(FiberBake, ErrorIsMeasuredAndSmallOnAverage) {
   Material m = silk();
   const BakeTables line = bake_line(m, 256);
   const FiberBakeTables fb = bake_fiber(m, line);
-  std::printf("fiber bake: max %.3g, p99 %.3g, RMS %.3g (peak %.3g) over %zu samples, %.2f s\n", fb.max_abs_error,
-              fb.p99_error, fb.rms_error, fb.peak_value, fb.samples, fb.seconds);
+  std::printf("fiber bake: max %.3g, p99 %.3g, RMS %.3g (peak %.3g) over %zu samples, %.2f s\n",
+              fb.max_abs_error, fb.p99_error, fb.rms_error, fb.peak_value, fb.samples, fb.seconds);
   EXPECT_GT(fb.max_abs_error, 0.0);
   EXPECT_LT(fb.rms_error, 0.02 * fb.peak_value);
   EXPECT_LT(fb.p99_error, 0.05 * fb.peak_value);
@@ -187,8 +189,8 @@ TEST(FiberPreview, TorusWithTopologyMapMatchesTheBakedFormOnTheCpu) {
   p.reference = true;
   p.topology_map = procedural_topology_map(64, 3);
   const PreviewResult r = render_preview(silk(), p);
-  std::printf("torus preview: GPU vs CPU baked %.3g, vs full model %.3g (bake bound %.3g)\n", r.max_abs_diff_baked,
-              r.max_abs_diff, r.error_bound);
+  std::printf("torus preview: GPU vs CPU baked %.3g, vs full model %.3g (bake bound %.3g)\n",
+              r.max_abs_diff_baked, r.max_abs_diff, r.error_bound);
   EXPECT_LT(r.max_abs_diff_baked, 2e-3);
   EXPECT_LE(r.max_abs_diff, r.error_bound);
   PreviewOptions missing = p;

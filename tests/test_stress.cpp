@@ -22,11 +22,16 @@ LocalDir any_dir(std::mt19937_64& rng) {  // the whole sphere, plus exact axes n
   std::normal_distribution<double> g;
   std::uniform_int_distribution<int> pick(0, 20);
   switch (pick(rng)) {
-    case 0: return {1, 0, 0};
-    case 1: return {-1, 0, 0};
-    case 2: return {0, 0, 1};
-    case 3: return {0, 1, 0};
-    default: break;
+    case 0:
+      return {1, 0, 0};
+    case 1:
+      return {-1, 0, 0};
+    case 2:
+      return {0, 0, 1};
+    case 3:
+      return {0, 1, 0};
+    default:
+      break;
   }
   const double x = g(rng), y = g(rng), z = g(rng), l = std::sqrt(x * x + y * y + z * z);
   return {x / l, y / l, z / l};
@@ -118,7 +123,8 @@ TEST(Stress, AllDarkCaptureNamesUndeterminedParameters) {
   edit(dir + "/capture.json", [](auto& j) {
     for (auto& v : j["views"]) v["exposure"] = 0.0;  // exposure 0: the model predicts black
   });
-  for (const char* v : {"000", "001", "002"}) write_exr(dir + "/images/" + v + ".exr", Image(40, 40, 3, 0.f));
+  for (const char* v : {"000", "001", "002"})
+    write_exr(dir + "/images/" + v + ".exr", Image(40, 40, 3, 0.f));
   const test::RunResult r = test::run_cli("fit " + dir + " --out " + dir + "/m.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("UNDETERMINED"), std::string::npos) << r.output;

@@ -10,7 +10,8 @@ namespace aniso::test {
 
 inline std::string tmp_dir(const std::string& name) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const std::string dir = std::string(ANISO_TEST_TMP) + "/" + info->test_suite_name() + "." + info->name() + "/" + name;
+  const std::string dir =
+      std::string(ANISO_TEST_TMP) + "/" + info->test_suite_name() + "." + info->name() + "/" + name;
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
