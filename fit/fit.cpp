@@ -521,13 +521,7 @@ std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* 
   return line + buf;
 }
 
-struct Solved {
-  ceres::Solver::Summary summary;
-  double rss = 0;
-  std::vector<double> residuals;
-};
-
-// Builds the problem over `idx` (observations) and solves it from `st`.
+// Adds one residual block per observation in `idx` (analytic for the plain line model).
 template <bool kIso, bool kSecond>
 void add_blocks(ceres::Problem* pb, const ObsSet& os, const std::vector<size_t>& idx, State* st,
                 ceres::LossFunction* loss) {
