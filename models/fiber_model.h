@@ -243,6 +243,12 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
   if (!(W > T(0.0))) return;
   *D = sL * dsum / W;
   *S = ssum / W;
+  // At a view within ~1e-13 of the surface W is that small and the rounding of the closed form
+  // (about 1e-16) is amplified past the bounds: keep 0 <= D <= s_L (identity 3) and S >= 0. Found
+  // by fuzz/fuzz_model.cpp; the clamp only ever moves values that rounding pushed out.
+  if (*D < T(0.0)) *D = T(0.0);
+  if (*D > sL) *D = sL;
+  if (*S < T(0.0)) *S = T(0.0);
 }
 
 }  // namespace aniso

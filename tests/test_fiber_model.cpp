@@ -254,3 +254,25 @@ TEST(FiberModel, TorusMathematicalTopology) {
 
 }  // namespace
 }  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// Found by fuzz/fuzz_model.cpp (tests/fuzz_regressions/model_grazing_view_negative_D.bin): a view
+// 7e-14 above the surface made W ~ 1e-13 and rounding pushed D below zero.
+TEST(FiberModel, ExtremelyGrazingViewStaysWithinBounds) {
+  const double psi = -72 * M_PI / 180, c = std::cos(psi), sn = std::sin(psi);
+  const LocalDir L{1.3e-82, 0.99999999999272404, 3.8146972655972444e-06},
+      V{1, 2.8e-221, 7.1054227188982636e-14};
+  const double a = c * L.u + sn * L.w, b = c * V.u + sn * V.w;
+  const double lb = c * L.w - sn * L.u, vb = c * V.w - sn * V.u;
+  double D, S;
+  fiber_DS(lb, L.n, vb, V.n, a, b, 1.5, 0.5, FiberAccuracy{}, &D, &S);
+  EXPECT_GE(D, 0.0);
+  EXPECT_LE(D, std::sqrt(1 - a * a));
+  EXPECT_GE(S, 0.0);
+  EXPECT_TRUE(std::isfinite(D) && std::isfinite(S));
+}
+
+}  // namespace
+}  // namespace aniso
