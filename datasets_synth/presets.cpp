@@ -159,7 +159,8 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
         o.topology_map = first;
       }
     }
-  } else if (name == "fiber-flat") {
+  } else if (name == "fiber-flat" || name == "fiber-flat-map") {
+    // One satin material; the topology is one value of s, or a map of s over the sample.
     o.shape = "flat";
     radius = std::sqrt(2.0);
     m.model = "fiber";
@@ -171,18 +172,11 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
     if (po.topology_s < 0 || po.topology_s > 1)
       throw Error("synth: --topology-s must be in [0, 1]");
     m.topology_s = po.topology_s;
-  } else if (name == "fiber-flat-map") {
-    o.shape = "flat";
-    radius = std::sqrt(2.0);
-    m.model = "fiber";
-    m.kd = {0.25, 0.18, 0.12};
-    m.ks = {0.50, 0.50, 0.50};
-    m.n = 40.0;
-    m.fiber_angle_deg = 30.0;
-    m.has_topology = true;
-    m.has_s_map = true;
-    o.s_map = procedural_topology_map(8, po.seed);
-    for (float& v : o.s_map.px) v = 0.15f + 0.7f * v;
+    if (name == "fiber-flat-map") {
+      m.has_s_map = true;
+      o.s_map = procedural_topology_map(8, po.seed);
+      for (float& v : o.s_map.px) v = 0.15f + 0.7f * v;
+    }
   } else if (name == "satin-sphere-fiber") {
     o.shape = "sphere";
     o.fiber_field = "meridian";
