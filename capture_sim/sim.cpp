@@ -115,8 +115,6 @@ Intrinsics frame_camera(int width, int height, double radius, double distance) {
 
 namespace {
 
-Vec3 px3(const Image& im, int x, int y) { return {im.at(x, y, 0), im.at(x, y, 1), im.at(x, y, 2)}; }
-
 // Noise-free radiance image of one view (exposure 1), shading every hit pixel. `topo` holds the
 // topology value s of each pixel (fiber model).
 Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, const Image& topo,
@@ -142,7 +140,7 @@ Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g,
       for (int x = 0; x < w; ++x) {
         if (!g.hit[static_cast<size_t>(y) * w + x]) continue;
         SurfacePoint sp;
-        if (!make_frame(px3(g.P, x, y), px3(g.N, x, y), px3(g.U, x, y), &sp)) continue;
+        if (!frame_at(g.P, g.N, g.U, x, y, &sp)) continue;
         double I[3];
         shade_point(eval, sp, eye, lights,
                     {truth.ka[0] * ambient[0], truth.ka[1] * ambient[1], truth.ka[2] * ambient[2]},
@@ -229,8 +227,8 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     for (int y = 0; y < g.P.height; ++y)
       for (int x = 0; x < g.P.width; ++x) {
         if (!g.hit[static_cast<size_t>(y) * g.P.width + x]) continue;
-        const float sm = static_cast<float>(
-            mathematical_topology_at(opt.mathematical_topology, px3(g.P, x, y), opt.shape_options));
+        const float sm = static_cast<float>(mathematical_topology_at(
+            opt.mathematical_topology, pixel_vec3(g.P, x, y), opt.shape_options));
         smath->at(x, y, 0) = sm;
         const double m = map.h.empty() ? 0.0 : map.sample(g.uv.at(x, y, 0), g.uv.at(x, y, 1));
         double sv = opt.truth.topology_at(sm, m);

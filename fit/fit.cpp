@@ -536,6 +536,23 @@ void add_blocks(ceres::Problem* pb, const ObsSet& os, const std::vector<size_t>&
   }
 }
 
+// Bounds of k_d, k_s, log n from models/params.h, and psi on its half-turn manifold: the blocks
+// every problem here shares.
+void set_core_bounds(ceres::Problem* pb, State* st) {
+  const ParamSpec& kd = line_param("kd");
+  const ParamSpec& ks = line_param("ks");
+  const ParamSpec& n = line_param("n");
+  for (int k = 0; k < 3; ++k) {
+    pb->SetParameterLowerBound(st->kd, k, kd.lo);
+    pb->SetParameterUpperBound(st->kd, k, kd.hi);
+    pb->SetParameterLowerBound(st->ks, k, ks.lo);
+    pb->SetParameterUpperBound(st->ks, k, ks.hi);
+  }
+  pb->SetParameterLowerBound(&st->logn, 0, std::log(n.lo));
+  pb->SetParameterUpperBound(&st->logn, 0, std::log(n.hi));
+  pb->SetManifold(&st->psi, new HalfTurnManifold);
+}
+
 struct ProblemSetup {
   bool iso = false, second = false;
   bool fiber = false;
@@ -583,18 +600,7 @@ std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vecto
     add_blocks<false, true>(pb.get(), os, idx, st, loss);
   else
     add_blocks<false, false>(pb.get(), os, idx, st, loss);
-  const ParamSpec& kd = line_param("kd");
-  const ParamSpec& ks = line_param("ks");
-  const ParamSpec& n = line_param("n");
-  for (int k = 0; k < 3; ++k) {
-    pb->SetParameterLowerBound(st->kd, k, kd.lo);
-    pb->SetParameterUpperBound(st->kd, k, kd.hi);
-    pb->SetParameterLowerBound(st->ks, k, ks.lo);
-    pb->SetParameterUpperBound(st->ks, k, ks.hi);
-  }
-  pb->SetParameterLowerBound(&st->logn, 0, std::log(n.lo));
-  pb->SetParameterUpperBound(&st->logn, 0, std::log(n.hi));
-  pb->SetManifold(&st->psi, new HalfTurnManifold);
+  set_core_bounds(pb.get(), st);
   if (ps.fiber) return pb;
   if (ps.iso) {
     for (int k = 0; k < 6; ++k) pb->SetParameterLowerBound(st->iso, k, 0.0);
@@ -711,15 +717,7 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
         pb->AddResidualBlock(new LineChunkResidual(std::move(chunk), os.lights.data(), &sqrt_w, c0),
                              nullptr, st.kd, st.ks, &st.logn, &st.psi);
       }
-      for (int k = 0; k < 3; ++k) {
-        pb->SetParameterLowerBound(st.kd, k, line_param("kd").lo);
-        pb->SetParameterUpperBound(st.kd, k, line_param("kd").hi);
-        pb->SetParameterLowerBound(st.ks, k, line_param("ks").lo);
-        pb->SetParameterUpperBound(st.ks, k, line_param("ks").hi);
-      }
-      pb->SetParameterLowerBound(&st.logn, 0, std::log(line_param("n").lo));
-      pb->SetParameterUpperBound(&st.logn, 0, std::log(line_param("n").hi));
-      pb->SetManifold(&st.psi, new HalfTurnManifold);
+      set_core_bounds(pb.get(), &st);
       ceres::Solver::Summary round_sum;
       ceres::Solve(solver_options(opt), pb.get(), &round_sum);
       sum.iterations.insert(sum.iterations.end(), round_sum.iterations.begin() + (round ? 1 : 0),
@@ -949,10 +947,7 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
     for (int x = 0; x < w; x += stride) {
       if (!d.use[static_cast<size_t>(y) * w + x]) continue;
       SurfacePoint sp;
-      const Vec3 P{d.P.at(x, y, 0), d.P.at(x, y, 1), d.P.at(x, y, 2)};
-      const Vec3 N{d.N.at(x, y, 0), d.N.at(x, y, 1), d.N.at(x, y, 2)};
-      const Vec3 U{d.U.at(x, y, 0), d.U.at(x, y, 1), d.U.at(x, y, 2)};
-      if (!make_frame(P, N, U, &sp)) {
+      if (!frame_at(d.P, d.N, d.U, x, y, &sp)) {
         ++rep->nonfinite;
         continue;
       }

@@ -41,10 +41,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
       for (int x = 0; x < d.rgb.width; ++x) {
         if (!d.use[static_cast<size_t>(y) * d.rgb.width + x]) continue;
         SurfacePoint sp;
-        const Vec3 P{d.P.at(x, y, 0), d.P.at(x, y, 1), d.P.at(x, y, 2)};
-        const Vec3 N{d.N.at(x, y, 0), d.N.at(x, y, 1), d.N.at(x, y, 2)};
-        const Vec3 U{d.U.at(x, y, 0), d.U.at(x, y, 1), d.U.at(x, y, 2)};
-        if (!make_frame(P, N, U, &sp)) continue;
+        if (!frame_at(d.P, d.N, d.U, x, y, &sp)) continue;
         double I[3];
         const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
         double topo = m.topology_at(d.smath.px[p], d.mapv.px[p]);
