@@ -1,5 +1,7 @@
 #include "capture_sim/sim.h"
 
+#include "core/color.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -155,11 +157,6 @@ Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g,
   light_used->resize(lights.size());
   for (size_t i = 0; i < lights.size(); ++i) (*light_used)[i] = used[i];
   return out;
-}
-
-double srgb_encode(double v) {
-  v = std::clamp(v, 0.0, 1.0);
-  return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055;
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/frame.h"
 #include "core/progress.h"
@@ -792,7 +793,7 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   }
   mat.ka = ka;
   mat.n = std::exp(st.logn);
-  mat.fiber_angle_deg = HalfTurnManifold::wrap(st.psi) * 180 / M_PI;
+  mat.fiber_angle_deg = wrap_fiber_deg(rad_to_deg(st.psi));
   if (opt.fit_isotropic) {
     mat.has_isotropic = true;
     for (int k = 0; k < 3; ++k) {
@@ -805,7 +806,7 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   }
   if (opt.fit_second) {
     mat.has_second_fiber = true;
-    mat.second_angle_deg = HalfTurnManifold::wrap(st.sec[0]) * 180 / M_PI;
+    mat.second_angle_deg = wrap_fiber_deg(rad_to_deg(st.sec[0]));
     mat.second_weight = st.sec[1];
   } else {
     res.fixed["second_fiber"] = "not fitted (absent; pass --fit-second-fiber to fit it)";
@@ -1079,7 +1080,7 @@ ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport
   if (has_map) {
     map = load_topology_map(join_path(set.dir, set.topology_map));
     os.topology = TopologyMode::kAmplitude;
-    os.topology_map = set.topology_map;
+    os.topology_map = join_path(set.dir, set.topology_map);  // made relative on writing
   }
   bool has_buffer = false;
   for (const auto& v : set.views) has_buffer |= !v.geometry.topology.empty();
@@ -1182,6 +1183,9 @@ void write_fit(const std::string& path, const FitResult& r) {
     m.topology_s_map = stem + "_topology_s.exr";
     s_map_path = join_path(parent_dir(path), m.topology_s_map);
   }
+  // Paths in a written file are relative to that file.
+  if (m.has_topology_map && path != "-")
+    m.topology_map = relative_to(m.topology_map, parent_dir(path));
   material_to_json(m, &j);
   if (!r.s_texels.empty()) j["topology"]["s_map_texels"] = r.s_texels_n;
   jsonu::json unc = jsonu::json::object();
@@ -1237,6 +1241,50 @@ void write_fit(const std::string& path, const FitResult& r) {
   write_json_file(path, j);
 }
 
+std::string describe_fit(const FitResult& r) {
+  std::ostringstream o;
+  const Material& m = r.material;
+  o << "  model " << m.model << "\n";
+  auto value = [&](const std::string& key) -> std::vector<double> {
+    if (key == "kd") return {m.kd.begin(), m.kd.end()};
+    if (key == "ks") return {m.ks.begin(), m.ks.end()};
+    if (key == "n") return {m.n};
+    if (key == "fiber_angle_deg") return {m.fiber_angle_deg};
+    if (key == "isotropic.kd") return {m.iso_kd.begin(), m.iso_kd.end()};
+    if (key == "isotropic.ks") return {m.iso_ks.begin(), m.iso_ks.end()};
+    if (key == "isotropic.n") return {m.iso_n};
+    if (key == "second_fiber.angle_deg") return {m.second_angle_deg};
+    if (key == "second_fiber.weight") return {m.second_weight};
+    if (key == "topology.s") return {m.topology_s};
+    if (key == "topology.amplitude") return {m.topology_amplitude};
+    return {};
+  };
+  auto line = [&](const ParamSpec& p) {
+    const std::string key(p.key);
+    const auto s = r.sigma.find(key);
+    const bool undetermined = r.undetermined.count(key) > 0;
+    if (s == r.sigma.end() && !undetermined) return;  // not fitted
+    const std::vector<double> v = value(key);
+    char buf[160];
+    for (size_t i = 0; i < v.size(); ++i) {
+      const std::string name = v.size() == 3 ? key + "." + "rgb"[i] : key;
+      if (undetermined || s->second.size() <= i)
+        std::snprintf(buf, sizeof buf, "  %-24s %12.6g  (undetermined)\n", name.c_str(), v[i]);
+      else
+        std::snprintf(buf, sizeof buf, "  %-24s %12.6g +- %.3g%s\n", name.c_str(), v[i],
+                      s->second[i], p.unit.empty() ? "" : (" " + std::string(p.unit)).c_str());
+      o << buf;
+    }
+  };
+  for (const auto& p : kLineParams) line(p);
+  for (const auto& p : kFiberParams) line(p);
+  if (m.model == "fiber" && m.has_topology_map)
+    o << "  topology map " << m.topology_map << " over " << m.topology_mathematical << "\n";
+  if (!r.s_texels.empty())
+    o << "  topology: a per-texel map of s, " << r.s_texels_n << " x " << r.s_texels_n << "\n";
+  return o.str();
+}
+
 std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErrors* errors) {
   std::ostringstream o;
   char buf[200];
@@ -1263,26 +1311,26 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
     if (worst_sig && std::isfinite(es)) *worst_sig = std::max(*worst_sig, es);
   };
   const char* ch = "rgb";
-  for (int k = 0; k < 3; ++k) {
-    const double t = truth.kd[k], f = r.material.kd[k];
-    const double rel = std::abs(f - t) / std::max(std::abs(t), 1e-12);
-    row(std::string("kd.") + ch[k], t, f, sig("kd", k), 100 * rel, f - t, "%", &e.kd_rel,
-        &e.kd_sigmas, rel);
-  }
-  for (int k = 0; k < 3; ++k) {
-    const double t = truth.ks[k], f = r.material.ks[k];
-    const double rel = std::abs(f - t) / std::max(std::abs(t), 1e-12);
-    row(std::string("ks.") + ch[k], t, f, sig("ks", k), 100 * rel, f - t, "%", &e.ks_rel,
-        &e.ks_sigmas, rel);
-  }
+  // Relative error in percent; where the truth is 0, the absolute error (no percent of nothing).
+  auto rgb_rows = [&](const char* key, const RGB& tv, const RGB& fv, double* worst_rel,
+                      double* worst_sig) {
+    for (int k = 0; k < 3; ++k) {
+      const double t = tv[k], f = fv[k];
+      const bool zero = std::abs(t) < 1e-12;
+      const double rel = zero ? std::abs(f - t) : std::abs(f - t) / std::abs(t);
+      row(std::string(key) + "." + ch[k], t, f, sig(key, k), zero ? f - t : 100 * rel, f - t,
+          zero ? " abs" : "%", worst_rel, worst_sig, rel);
+    }
+  };
+  rgb_rows("kd", truth.kd, r.material.kd, &e.kd_rel, &e.kd_sigmas);
+  rgb_rows("ks", truth.ks, r.material.ks, &e.ks_rel, &e.ks_sigmas);
   {
     const double rel = std::abs(r.material.n - truth.n) / truth.n;
     row("n", truth.n, r.material.n, sig("n", 0), 100 * rel, r.material.n - truth.n, "%", &e.n_rel,
         &e.n_sigmas, rel);
   }
   {
-    double d = std::fmod(std::abs(r.material.fiber_angle_deg - truth.fiber_angle_deg), 180.0);
-    d = std::min(d, 180.0 - d);
+    const double d = fiber_deg_distance(r.material.fiber_angle_deg, truth.fiber_angle_deg);
     row("fiber_angle_deg", truth.fiber_angle_deg, r.material.fiber_angle_deg,
         sig("fiber_angle_deg", 0), d, d, " deg", &e.psi_deg, &e.psi_sigmas, d);
   }
@@ -1320,8 +1368,7 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
     }
   }
   if (r.material.has_second_fiber && truth.has_second_fiber) {
-    double d = std::fmod(std::abs(r.material.second_angle_deg - truth.second_angle_deg), 180.0);
-    d = std::min(d, 180.0 - d);
+    const double d = fiber_deg_distance(r.material.second_angle_deg, truth.second_angle_deg);
     row("second.angle_deg", truth.second_angle_deg, r.material.second_angle_deg,
         sig("second_fiber.angle_deg", 0), d, d, " deg", nullptr, nullptr, 0);
     row("second.weight", truth.second_weight, r.material.second_weight,

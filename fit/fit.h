@@ -80,6 +80,10 @@ struct TruthErrors {
   double kd_sigmas = 0, ks_sigmas = 0, n_sigmas = 0, psi_sigmas = 0;  // worst |error| / sigma
   double topo_abs = 0, topo_sigmas = 0;  // fiber model: |s - s_true| or |A - A_true|
 };
+// Every fitted value with its sigma ("undetermined" where the data cannot fix it): printed by
+// `aniso fit` every time, with or without a truth.
+std::string describe_fit(const FitResult& r);
+
 std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErrors* errors);
 
 }  // namespace aniso

@@ -222,6 +222,25 @@ CaptureSet read_capture(const std::string& path_in) {
   return s;
 }
 
+std::vector<std::string> capture_input_files(const CaptureSet& s) {
+  std::vector<std::string> f{s.file};
+  auto add = [&](const std::string& rel) {
+    if (!rel.empty()) f.push_back(join_path(s.dir, rel));
+  };
+  auto geo = [&](const GeometrySpec& g) {
+    for (const auto* p : {&g.position, &g.normal, &g.tangent, &g.mask, &g.uv, &g.topology, &g.mesh})
+      add(*p);
+  };
+  geo(s.geometry);
+  for (const auto& v : s.views) {
+    add(v.image);
+    geo(v.geometry);
+  }
+  add(s.topology_map);
+  add(s.truth);
+  return f;
+}
+
 void write_capture_json(const CaptureSet& s, const std::string& path) {
   auto cam = [](const Intrinsics& k) {
     return json{{"width", k.width}, {"height", k.height}, {"fx", k.fx},

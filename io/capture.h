@@ -73,6 +73,10 @@ struct CaptureSet {
 
 // Accepts the folder or its capture.json.
 CaptureSet read_capture(const std::string& path);
+
+// Every file a capture set names (capture.json, images, buffers, meshes, maps): what an output of
+// a command reading the set must never replace.
+std::vector<std::string> capture_input_files(const CaptureSet& set);
 // Writes capture.json for `set` into set.dir (atomically). Paths in `set` are relative to it.
 void write_capture_json(const CaptureSet& set, const std::string& path);
 

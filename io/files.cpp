@@ -1,10 +1,16 @@
 #include "io/files.h"
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 #include "core/error.h"
 
@@ -12,75 +18,289 @@ namespace fs = std::filesystem;
 
 namespace aniso {
 
-std::string temp_sibling(const std::string& path) {
-  const fs::path p(path);
-  const std::string name = ".tmp" + std::to_string(::getpid()) + "_" + p.filename().string();
-  return (p.parent_path() / name).string();
+namespace {
+
+std::atomic<bool> g_force{false};
+std::atomic<unsigned> g_counter{0};
+
+std::string errno_text() { return std::strerror(errno); }
+
+// The target without a trailing separator or "." (so `--out .` names the folder itself).
+fs::path normal_target(const std::string& p) {
+  fs::path t = fs::absolute(fs::path(p)).lexically_normal();
+  while (t.filename().empty() && t.has_parent_path() && t != t.root_path()) t = t.parent_path();
+  return t;
 }
+
+std::string tmp_prefix(const fs::path& target) {
+  return "." + target.filename().string() + ".aniso-tmp-";
+}
+
+// ".NAME.aniso-tmp-PID-N[.ext]" beside the target.
+fs::path temp_name(const fs::path& target) {
+  return target.parent_path() / (tmp_prefix(target) + std::to_string(::getpid()) + "-" +
+                                 std::to_string(g_counter++) + target.extension().string());
+}
+
+// Removes what killed runs left beside `target`: temporaries named after a process that no
+// longer exists. Only names of our own pattern are touched.
+void remove_stale_temps(const fs::path& target) {
+  const std::string prefix = tmp_prefix(target);
+  std::error_code ec;
+  fs::directory_iterator it(target.parent_path().empty() ? "." : target.parent_path(), ec);
+  if (ec) return;
+  for (const auto& e : it) {
+    const std::string name = e.path().filename().string();
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const long pid = std::strtol(name.c_str() + prefix.size(), nullptr, 10);
+    if (pid <= 0 || (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH)) continue;
+    fs::remove_all(e.path(), ec);
+  }
+}
+
+void write_all(int fd, const char* data, size_t n, const std::string& what) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, data, n);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      throw Error(what + ": write failed: " + errno_text());
+    }
+    data += w;
+    n -= static_cast<size_t>(w);
+  }
+}
+
+// Copies the finished temporary file into an existing special file (or stdout) in place.
+void copy_in_place(const std::string& tmp, const std::string& path) {
+  const int in = ::open(tmp.c_str(), O_RDONLY | O_CLOEXEC);
+  if (in < 0) throw Error(path + ": cannot reopen the finished output: " + errno_text());
+  const bool to_stdout = path == "-";
+  const int out = to_stdout ? STDOUT_FILENO : ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (out < 0) {
+    ::close(in);
+    throw Error(path + ": cannot open for writing: " + errno_text());
+  }
+  char buf[1 << 16];
+  try {
+    for (;;) {
+      const ssize_t r = ::read(in, buf, sizeof buf);
+      if (r < 0 && errno == EINTR) continue;
+      if (r < 0) throw Error(path + ": cannot read back the output: " + errno_text());
+      if (r == 0) break;
+      write_all(out, buf, static_cast<size_t>(r), to_stdout ? "standard output" : path);
+    }
+  } catch (...) {
+    ::close(in);
+    if (!to_stdout) ::close(out);
+    throw;
+  }
+  ::close(in);
+  if (!to_stdout && ::close(out) != 0) throw Error(path + ": write failed: " + errno_text());
+}
+
+void run_writer(const std::string& tmp, const std::string& path,
+                const std::function<void(const std::string&)>& write) {
+  try {
+    write(tmp);
+    struct stat st;
+    if (::stat(tmp.c_str(), &st) != 0 || !S_ISREG(st.st_mode))
+      throw Error(path + ": the writer produced no file");
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw;
+  }
+}
+
+bool folder_is_empty(const fs::path& dir, std::string* first) {
+  std::error_code ec;
+  fs::directory_iterator it(dir, ec);
+  if (ec) throw Error(dir.string() + ": cannot list folder: " + ec.message());
+  if (it == fs::directory_iterator()) return true;
+  *first = it->path().filename().string();
+  return false;
+}
+
+}  // namespace
+
+void set_force_overwrite(bool force) { g_force = force; }
+bool force_overwrite() { return g_force; }
 
 void write_atomically(const std::string& path,
                       const std::function<void(const std::string&)>& write) {
-  const fs::path parent = fs::path(path).parent_path();
+  if (path.empty()) throw Error("output path is empty");
+  struct stat st;
+  const bool exists = path != "-" && ::stat(path.c_str(), &st) == 0;
+  const bool device_path = path.rfind("/dev/", 0) == 0 || path.rfind("/proc/", 0) == 0;
+  if (exists && S_ISDIR(st.st_mode))
+    throw Error(path + ": is a folder; this output is a file, give a file name");
+  if (path == "-" || (exists && (!S_ISREG(st.st_mode) || device_path))) {
+    // Standard output, a device, a FIFO: write in place, never rename over it.
+    const fs::path tmp = fs::temp_directory_path() /
+                         ("aniso-out-" + std::to_string(::getpid()) + "-" +
+                          std::to_string(g_counter++) + fs::path(path).extension().string());
+    run_writer(tmp.string(), path, write);
+    try {
+      copy_in_place(tmp.string(), path);
+    } catch (...) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      throw;
+    }
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    return;
+  }
+  if (!exists && fs::is_symlink(fs::symlink_status(path)))
+    throw Error(path + ": is a symbolic link to nothing; give a real file name");
+  // A symbolic link to a regular file: replace the file it names, keep the link.
+  const fs::path target = exists ? fs::canonical(path) : normal_target(path);
+  const fs::path parent = target.parent_path();
   if (!parent.empty() && !fs::is_directory(parent)) {
     std::error_code ec;
     fs::create_directories(parent, ec);
     if (ec) throw Error(path + ": cannot create folder " + parent.string() + ": " + ec.message());
   }
-  const std::string tmp = temp_sibling(path);
-  try {
-    write(tmp);
-  } catch (...) {
+  remove_stale_temps(target);
+  const std::string tmp = temp_name(target).string();
+  run_writer(tmp, path, write);
+  if (exists) {  // keep mode and, where allowed, owner of the file it replaces
+    if (::chmod(tmp.c_str(), st.st_mode & 07777) != 0) {
+    }
+    if (::chown(tmp.c_str(), st.st_uid, st.st_gid) != 0) {
+    }
+  }
+  if (std::rename(tmp.c_str(), target.c_str()) != 0) {
+    const std::string why = errno_text();
     std::error_code ec;
     fs::remove(tmp, ec);
-    throw;
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(path + ": cannot write: " + ec.message());
+    throw Error(path + ": cannot move the finished file into place: " + why);
   }
 }
 
 void write_text_file(const std::string& path, const std::string& text) {
   write_atomically(path, [&](const std::string& tmp) {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) throw Error(path + ": cannot open for writing");
-    f << text;
-    f.close();
-    if (!f) throw Error(path + ": write failed");
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd < 0) throw Error(path + ": cannot open for writing: " + errno_text());
+    try {
+      write_all(fd, text.data(), text.size(), path);
+    } catch (...) {
+      ::close(fd);
+      throw;
+    }
+    if (::close(fd) != 0) throw Error(path + ": write failed: " + errno_text());
   });
 }
 
-std::string read_text_file(const std::string& path) {
+std::string read_text_file(const std::string& path, size_t max_bytes) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0) throw Error(path + ": file not found");
+  if (S_ISDIR(st.st_mode)) throw Error(path + ": is a folder, expected a file");
+  if (!S_ISREG(st.st_mode))
+    throw Error(path + ": not a regular file (a device, FIFO or socket is not read)");
+  if (static_cast<size_t>(st.st_size) > max_bytes)
+    throw Error(path + ": too large (" + std::to_string(st.st_size) + " bytes; at most " +
+                std::to_string(max_bytes) + ")");
   std::ifstream f(path, std::ios::binary);
-  if (!f) throw Error(path + ": cannot open (missing or unreadable)");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
+  if (!f) throw Error(path + ": cannot open (unreadable)");
+  std::string out(static_cast<size_t>(st.st_size), '\0');
+  f.read(out.data(), static_cast<std::streamsize>(out.size()));
+  out.resize(static_cast<size_t>(f.gcount()));
+  return out;
+}
+
+void check_output_folder(const std::string& dir) {
+  if (dir.empty()) throw Error("output folder: empty path");
+  const fs::path target = normal_target(dir);
+  std::error_code ec;
+  const fs::file_status ls = fs::symlink_status(target, ec);
+  if (!fs::exists(ls)) return;
+  const std::string hint = "; choose a new or empty folder, or pass --force to replace it";
+  if (fs::is_symlink(ls)) {
+    if (!force_overwrite()) throw Error(dir + ": is a symbolic link" + hint);
+    return;
+  }
+  if (!fs::is_directory(ls)) {
+    if (!force_overwrite()) throw Error(dir + ": exists and is not a folder" + hint);
+    return;
+  }
+  std::string first;
+  if (folder_is_empty(target, &first)) return;
+  if (fs::exists(target / kOutputMarker)) return;
+  if (!force_overwrite())
+    throw Error(dir + ": folder holds files aniso did not write (e.g. '" + first + "')" + hint);
 }
 
 void write_folder_atomically(const std::string& dir,
                              const std::function<void(const std::string&)>& fill) {
-  fs::path target = fs::absolute(fs::path(dir)).lexically_normal();
-  if (target.filename().empty()) target = target.parent_path();
-  const fs::path tmp = target.parent_path() /
-                       (".tmp" + std::to_string(::getpid()) + "_" + target.filename().string());
+  check_output_folder(dir);
+  const fs::path target = normal_target(dir);
+  const fs::path parent = target.parent_path();
   std::error_code ec;
-  fs::remove_all(tmp, ec);
-  fs::create_directories(tmp, ec);
+  fs::create_directories(parent, ec);
+  if (ec) throw Error(dir + ": cannot create folder " + parent.string() + ": " + ec.message());
+  remove_stale_temps(target);
+  const fs::path tmp = temp_name(target);
+  fs::create_directory(tmp, ec);
   if (ec) throw Error(dir + ": cannot create folder: " + ec.message());
   try {
-    fill(tmp.string());
+    try {
+      fill(tmp.string());
+    } catch (const Error& e) {
+      throw Error(dir + ": not written (what was there is kept): " + e.what());
+    }
+    write_text_file((tmp / kOutputMarker).string(),
+                    "{\"written_by\": \"aniso\", \"note\": \"this folder is an aniso output; "
+                    "aniso may replace it\"}\n");
   } catch (...) {
     fs::remove_all(tmp, ec);
     throw;
   }
-  fs::remove_all(target, ec);
-  fs::rename(tmp, target, ec);
-  if (ec) {
+  // New: one rename. Existing: one atomic exchange, then the old content (now at tmp) goes.
+  if (std::rename(tmp.c_str(), target.c_str()) == 0) return;
+  if (errno != ENOTEMPTY && errno != EEXIST && errno != EISDIR && errno != ENOTDIR) {
+    const std::string why = errno_text();
     fs::remove_all(tmp, ec);
-    throw Error(dir + ": cannot move the finished folder into place: " + ec.message());
+    throw Error(dir + ": cannot move the finished folder into place: " + why);
+  }
+  if (::renameat2(AT_FDCWD, tmp.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) != 0) {
+    // File systems without RENAME_EXCHANGE: move the old aside, the new in, then drop the old.
+    const fs::path old = temp_name(target);
+    if (std::rename(target.c_str(), old.c_str()) != 0 ||
+        std::rename(tmp.c_str(), target.c_str()) != 0) {
+      const std::string why = errno_text();
+      if (!fs::exists(target)) std::rename(old.c_str(), target.c_str());
+      fs::remove_all(tmp, ec);
+      throw Error(dir + ": cannot move the finished folder into place: " + why);
+    }
+    fs::remove_all(old, ec);
+    return;
+  }
+  fs::remove_all(tmp, ec);
+}
+
+void check_outputs_apart(const std::vector<std::string>& outputs,
+                         const std::vector<std::string>& inputs) {
+  auto special = [](const std::string& p) {
+    return p.empty() || p == "-" || p.rfind("/dev/", 0) == 0 || p.rfind("/proc/", 0) == 0;
+  };
+  for (const auto& o : outputs) {
+    if (special(o)) continue;
+    std::error_code ec;
+    const fs::path po = fs::weakly_canonical(normal_target(o), ec);
+    if (ec) continue;
+    for (const auto& i : inputs) {
+      if (special(i)) continue;
+      const fs::path pi = fs::weakly_canonical(normal_target(i), ec);
+      if (ec) continue;
+      const bool same = po == pi || fs::equivalent(po, pi, ec);
+      if (same) throw Error(o + ": is an input of this command (" + i + "); choose another --out");
+      // An input inside a folder the output would replace.
+      const auto rel = pi.lexically_relative(po);
+      if (fs::is_directory(po) && !rel.empty() && *rel.begin() != "..")
+        throw Error(o + ": would replace a folder holding an input of this command (" + i +
+                    "); choose another --out");
+    }
   }
 }
 
@@ -99,6 +319,13 @@ std::string lower_ext(const std::string& path) {
   std::string e = fs::path(path).extension().string();
   for (auto& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return e;
+}
+
+std::string relative_to(const std::string& path, const std::string& base) {
+  const fs::path p = fs::weakly_canonical(fs::absolute(path));
+  const fs::path b = fs::weakly_canonical(fs::absolute(base));
+  const fs::path r = p.lexically_relative(b);
+  return r.empty() ? p.string() : r.string();
 }
 
 }  // namespace aniso

@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "core/color.h"
 #include "core/error.h"
 #include "io/files.h"
 
@@ -158,9 +159,15 @@ void write_png(const std::string& path, const Image& img, int bits) {
         else
           m.ptr<uint16_t>(y)[x * c + k] = static_cast<uint16_t>(q);
       }
-  write_atomically(path, [&](const std::string& tmp) {
-    if (!cv::imwrite(tmp, m)) throw Error(path + ": cannot write PNG");
-  });
+  std::vector<uchar> bytes;
+  if (!cv::imencode(".png", m, bytes)) throw Error(path + ": cannot encode PNG");
+  write_text_file(path, std::string(bytes.begin(), bytes.end()));
+}
+
+Image encode_srgb(const Image& linear, double exposure) {
+  Image out = linear;
+  for (float& v : out.px) v = static_cast<float>(srgb_encode(v * exposure));
+  return out;
 }
 
 }  // namespace aniso

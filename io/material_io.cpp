@@ -1,5 +1,7 @@
 #include "io/material_io.h"
 
+#include <filesystem>
+
 #include "io/files.h"
 #include "io/json_util.h"
 #include "models/params.h"
@@ -123,7 +125,24 @@ Material material_from_json(const json& j, const std::string& file) {
 Material read_material(const std::string& path) {
   Material m = material_from_json(jsonu::parse_file(read_text_file(path), path), path);
   m.base_dir = parent_dir(path);
+  // A map the material names must be there: say so now, naming the material and the key.
+  auto need_file = [&](bool has, const std::string& rel, const char* key) {
+    if (!has) return;
+    const std::string f = join_path(m.base_dir, rel);
+    if (!std::filesystem::is_regular_file(f))
+      throw Error(path + ": " + key + ": map file not found: " + f +
+                  " (paths in a material are relative to the material file)");
+  };
+  need_file(m.has_topology_map, m.topology_map, "topology.map");
+  need_file(m.has_s_map, m.topology_s_map, "topology.s_map");
   return m;
+}
+
+std::vector<std::string> material_input_files(const Material& m, const std::string& path) {
+  std::vector<std::string> f{path};
+  if (m.has_topology_map) f.push_back(join_path(m.base_dir, m.topology_map));
+  if (m.has_s_map) f.push_back(join_path(m.base_dir, m.topology_s_map));
+  return f;
 }
 
 void material_to_json(const Material& m, json* out) {

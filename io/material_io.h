@@ -2,6 +2,7 @@
 #pragma once
 #include <nlohmann/json_fwd.hpp>
 #include <string>
+#include <vector>
 
 #include "models/material.h"
 
@@ -9,6 +10,9 @@ namespace aniso {
 
 // Reads and validates against the bounds of models/params.h; errors name the file and key.
 Material read_material(const std::string& path);
+
+// The material file and every map it names (resolved against its folder).
+std::vector<std::string> material_input_files(const Material& m, const std::string& path);
 Material material_from_json(const nlohmann::json& j, const std::string& file);
 void material_to_json(const Material& m, nlohmann::json* j);
 // Writes `j` (a material plus any extra blocks) atomically; refuses non-finite numbers.

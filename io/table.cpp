@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "io/files.h"
+#include "models/evaluate.h"
 
 namespace aniso {
 
@@ -117,6 +118,21 @@ void write_table(const std::string& path, const SampleTable& t) {
     o << "\n";
   }
   write_text_file(path, o.str());
+}
+
+void evaluate_table(const Material& m, SampleTable* t) {
+  const Evaluator ev(m);
+  for (auto& row : t->rows) {
+    double f[3];
+    const LocalDir L = dir_from_angles(row.theta_i, row.phi_i);
+    const LocalDir V = dir_from_angles(row.theta_o, row.phi_o);
+    if (t->has_s)
+      ev(L, V, f, row.s);
+    else
+      ev(L, V, f);
+    for (int c = 0; c < 3; ++c) row.value[c] = f[c];
+  }
+  t->values = SampleTable::Values::kRGB;
 }
 
 }  // namespace aniso

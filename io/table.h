@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "models/local_dir.h"
+#include "models/material.h"
 
 namespace aniso {
 
@@ -28,5 +29,9 @@ SampleTable read_table(const std::string& path);
 void write_table(const std::string& path, const SampleTable& t);
 
 LocalDir dir_from_angles(double theta_deg, double phi_deg);
+
+// Fills every row's r,g,b with the material's reflectance (an `s` column gives the fiber
+// model's topology per row).
+void evaluate_table(const Material& m, SampleTable* t);
 
 }  // namespace aniso

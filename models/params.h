@@ -3,7 +3,10 @@
 // fitter, the material reader, the CLI (`aniso params`), the bake and the docs all read this
 // table; nothing else states a bound.
 #pragma once
+#include <string>
 #include <string_view>
+
+#include "core/error.h"
 
 namespace aniso {
 
@@ -46,12 +49,13 @@ inline constexpr ParamSpec kFiberParams[] = {
      "topology-map amplitude added to the height 2 sin(theta_math) (Hast: 0.25)"},
 };
 
+// The entry for `key`; an unknown key is a programming error and throws (never k_d's bounds).
 inline const ParamSpec& line_param(std::string_view key) {
   for (const auto& p : kLineParams)
     if (p.key == key) return p;
   for (const auto& p : kFiberParams)
     if (p.key == key) return p;
-  return kLineParams[0];  // unreachable for keys spelled in this file
+  throw Error("internal: no parameter '" + std::string(key) + "' in models/params.h");
 }
 
 }  // namespace aniso

@@ -14,6 +14,7 @@ namespace aniso {
 VerifyResult verify_capture(const CaptureSet& set, const Material& m,
                             const std::string& residual_dir) {
   VerifyResult res;
+  std::vector<Image> resids;  // --residuals: written together at the end
   const Evaluator eval(m);
   double sum2 = 0, sumy = 0;
   auto no_shadows = [](const SurfacePoint&, const Vec3&, double, ShadeCounters*) { return false; };
@@ -63,11 +64,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
         ++e.pixels;
       }
     res.light_evals += cnt.light_evals;
-    if (!residual_dir.empty()) {
-      char name[48];
-      std::snprintf(name, sizeof name, "residual_%03zu.exr", i);
-      write_exr(join_path(residual_dir, name), resid);
-    }
+    if (!residual_dir.empty()) resids.push_back(std::move(resid));
     e.rms = e.pixels ? std::sqrt(s2 / (3.0 * e.pixels)) : 0;
     e.mean_signal = e.pixels ? sy / (3.0 * e.pixels) : 0;
     res.views.push_back(e);
@@ -76,6 +73,14 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     res.overall.pixels += e.pixels;
     res.overall.max_abs = std::max(res.overall.max_abs, e.max_abs);
   }
+  if (!residual_dir.empty())  // one folder output, swapped in whole (io/files.h)
+    write_folder_atomically(residual_dir, [&](const std::string& dir) {
+      for (size_t i = 0; i < resids.size(); ++i) {
+        char name[48];
+        std::snprintf(name, sizeof name, "residual_%03zu.exr", i);
+        write_exr(join_path(dir, name), resids[i]);
+      }
+    });
   const double n = 3.0 * std::max<size_t>(res.overall.pixels, 1);
   res.overall.rms = std::sqrt(sum2 / n);
   res.overall.mean_signal = sumy / n;

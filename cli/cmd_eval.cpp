@@ -1,0 +1,36 @@
+// aniso eval: fills a sample table's values from a material.
+#include <cstdio>
+#include <memory>
+
+#include "cli/command.h"
+#include "io/files.h"
+#include "io/material_io.h"
+#include "io/table.h"
+
+namespace aniso::cli {
+
+Command add_eval(CLI::App& app) {
+  struct Args {
+    std::string mat, table, out;
+  };
+  auto a = std::make_shared<Args>();
+  auto* eval = app.add_subcommand("eval", "Fill in a sample table (CSV) by evaluating a material");
+  eval->add_option("MATERIAL", a->mat, "material file")->required();
+  eval->add_option("--table", a->table,
+                   "sample table: theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg[,...]")
+      ->required();
+  eval->add_option("--out", a->out, "table to write with r,g,b ('-' = standard output)")
+      ->required();
+  return {eval, [a] {
+            const Material m = read_material(a->mat);
+            SampleTable t = read_table(a->table);
+            check_outputs_apart({a->out}, {a->mat, a->table});
+            evaluate_table(m, &t);
+            write_table(a->out, t);
+            // The table may be on standard output: the summary goes to the error stream.
+            std::fprintf(stderr, "eval: %zu rows -> %s\n", t.rows.size(), a->out.c_str());
+            return 0;
+          }};
+}
+
+}  // namespace aniso::cli

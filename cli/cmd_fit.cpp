@@ -1,0 +1,110 @@
+// aniso fit: a capture set or a sample table in, a material file out.
+#include <cstdio>
+#include <memory>
+
+#include "cli/command.h"
+#include "fit/fit.h"
+#include "io/capture.h"
+#include "io/files.h"
+#include "io/material_io.h"
+#include "io/table.h"
+
+namespace aniso::cli {
+
+namespace {
+
+struct FitArgs {
+  std::string in, out, truth;
+  FitOptions fo;
+};
+
+void print_report(const FitResult& r) {
+  const FitReport& p = r.report;
+  std::printf(
+      "fit: %zu observations (%zu pixels) from %zu views; skipped: %zu masked, %zu saturated, "
+      "%zu non-finite, %zu unlit, %zu implausible\n",
+      p.observations, p.pixels, p.views, p.masked_out, p.saturated, p.nonfinite, p.unlit,
+      p.implausible);
+  std::printf("fit: start %s\n", p.start.c_str());
+  std::printf(
+      "fit: %d iterations, %s, loss %s, residual RMS %.3g, time %.3f s (load %.3f, start %.3f, "
+      "solve %.3f, covariance %.3f)\n",
+      p.iterations, p.termination.c_str(), p.loss.c_str(), p.rms, p.seconds, p.seconds_load,
+      p.seconds_start, p.seconds_solve, p.seconds_covariance);
+  for (const auto& [k, why] : r.undetermined)
+    std::printf("fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());
+  if (!p.model_selection.empty()) std::printf("fit: --model auto: %s\n", p.model_selection.c_str());
+}
+
+}  // namespace
+
+int run_fit(const std::string& input, const FitOptions& fo, const std::string& out,
+            const std::string& truth_path) {
+  // Every input is read and checked before the (long) fit; the output never replaces one.
+  std::vector<std::string> inputs{input};
+  std::string truth = truth_path;
+  CaptureSet set;
+  SampleTable table;
+  const bool is_table = lower_ext(input) == ".csv";
+  if (is_table) {
+    table = read_table(input);
+  } else {
+    set = read_capture(input);
+    for (const auto& f : capture_input_files(set)) inputs.push_back(f);
+    if (truth.empty() && !set.truth.empty()) truth = join_path(set.dir, set.truth);
+  }
+  Material truth_m;
+  if (!truth.empty()) {
+    truth_m = read_material(truth);
+    inputs.push_back(truth);
+  }
+  check_outputs_apart({out}, inputs);
+  const FitResult r = is_table ? fit_table(table, fo) : fit_capture(set, fo);
+  write_fit(out, r);
+  print_report(r);
+  std::printf("fit: wrote %s\n", out.c_str());
+  std::printf("%s", describe_fit(r).c_str());
+  if (!truth.empty())
+    std::printf("against the truth (%s):\n%s", truth.c_str(),
+                compare_to_truth(r, truth_m, nullptr).c_str());
+  return 0;
+}
+
+Command add_fit(CLI::App& app) {
+  auto a = std::make_shared<FitArgs>();
+  auto* fit =
+      app.add_subcommand("fit", "Fit model parameters to a capture set or a sample table (CSV)");
+  FitOptions& fo = a->fo;
+  fit->add_option("CAPTURE", a->in, "capture folder, its capture.json, or a sample table .csv")
+      ->required();
+  fit->add_option("--model", fo.model, "model to fit")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"line", "fiber", "auto"}));
+  fit->add_option("--out", a->out, "material file to write ('-' = standard output)")->required();
+  fit->add_option(
+      "--truth", a->truth,
+      "ground-truth material: print every parameter's error (default: the set's truth)");
+  fit->add_option("--subsample", fo.subsample, "use every k-th pixel in x and y")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1024));
+  fit->add_option("--loss", fo.loss, "robust loss, scaled to 3 robust sigmas of the residuals")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"huber", "cauchy", "none"}));
+  fit->add_flag("--fit-isotropic", fo.fit_isotropic,
+                "also fit the isotropic (Lambert + Blinn-Phong) term");
+  fit->add_flag("--fit-second-fiber", fo.fit_second,
+                "also fit a second fiber direction and its weight (woven cloth)");
+  fit->add_option("--topology-map", fo.topology_texels,
+                  "fiber model: fit a per-texel map of s, N x N texels over uv (written beside "
+                  "--out as an EXR)")
+      ->check(CLI::Range(2, 256));
+  fit->add_option("--threads", fo.threads, "solver threads")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 256));
+  fit->add_option("--max-iterations", fo.max_iterations, "solver iterations")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  return {fit, [a] { return run_fit(a->in, a->fo, a->out, a->truth); }};
+}
+
+}  // namespace aniso::cli

@@ -1,0 +1,108 @@
+// aniso synth: a ground-truth capture set from a named preset.
+#include <cstdio>
+#include <memory>
+
+#include "capture_sim/sim.h"
+#include "cli/command.h"
+#include "core/error.h"
+#include "datasets_synth/presets.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/material_io.h"
+
+namespace aniso::cli {
+
+namespace {
+struct SynthArgs {
+  std::string preset, out, size = "128x128", truth, compression = "none";
+  PresetOptions po;
+  bool list = false;
+};
+
+int run(const SynthArgs& a) {
+  if (a.list) {
+    for (const auto& [name, desc] : preset_list())
+      std::printf("%-14s %s\n", name.c_str(), desc.c_str());
+    return 0;
+  }
+  if (a.preset.empty() || a.out.empty())
+    throw Error("synth: needs PRESET and OUT_DIR (see --list)");
+  PresetOptions po = a.po;
+  parse_size(a.size, &po.width, &po.height);
+  check_output_folder(a.out);
+  check_outputs_apart({a.out}, {a.truth, po.topology_map_file, po.rig});
+  set_exr_compression(a.compression);
+  SimOptions so = make_preset(a.preset, po);
+  if (!a.truth.empty()) so.truth = read_material(a.truth);
+  const SimStats st = simulate_capture(so, a.out);
+  std::printf(
+      "synth: %s -> %s: %zu views %dx%d, seed %llu; %zu primary rays, %zu shadow rays, %zu "
+      "shaded pixels, %zu light evaluations, %zu (view, light) pairs culled; %.2f s (trace %.2f, "
+      "shade %.2f, write %.2f)\n",
+      a.preset.c_str(), a.out.c_str(), st.views, po.width, po.height,
+      static_cast<unsigned long long>(po.seed), st.primary_rays, st.shadow_rays, st.shaded_pixels,
+      st.light_evals, st.lights_culled, st.seconds, st.seconds_trace, st.seconds_shade,
+      st.seconds_write);
+  return 0;
+}
+}  // namespace
+
+Command add_synth(CLI::App& app) {
+  auto a = std::make_shared<SynthArgs>();
+  PresetOptions& po = a->po;
+  auto* synth = app.add_subcommand("synth", "Make a ground-truth capture set from a named preset");
+  synth->add_option("PRESET", a->preset, "preset name (--list shows them)");
+  synth->add_option("OUT_DIR", a->out,
+                    "capture folder to write: new, empty, or an earlier aniso output (replaced "
+                    "atomically)");
+  synth->add_flag("--list", a->list, "list the presets and exit");
+  add_force_flag(synth);
+  synth
+      ->add_option("--noise", po.noise,
+                   "Gaussian read noise sigma, as a fraction of the white level (0.01 = 1%)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
+  synth
+      ->add_option("--shot", po.shot_photons,
+                   "Poisson shot noise: photons at the white level (0 = off, at most 1e12)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e12));
+  synth->add_option("--seed", po.seed, "seed for every random draw (recorded in capture.json)")
+      ->capture_default_str();
+  synth->add_option("--views", po.views, "number of views")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 10000));
+  synth->add_option("--size", a->size, "image size WxH")->capture_default_str();
+  synth->add_option("--bits", po.bits, "0 = float EXR, 8 or 16 = PNG")
+      ->capture_default_str()
+      ->check(CLI::IsMember({0, 8, 16}));
+  synth->add_option("--encoding", po.encoding, "PNG encoding")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"linear", "srgb"}));
+  synth
+      ->add_option("--saturation", po.saturation,
+                   "sensor clips at this fraction of the white level (0 = never); clipped values "
+                   "are flagged in capture.json so the fit leaves them out")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  synth->add_option("--rig", po.rig,
+                    "fixed-camera, orbit, or a rig JSON file (default: the preset's)");
+  synth->add_option("--truth", a->truth, "use this material file as the ground truth instead");
+  synth
+      ->add_option(
+          "--exr-compression", a->compression,
+          "EXR compression: none (fastest), zip (zlib level 1, about half the size) or piz")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"zip", "piz", "none"}));
+  synth->add_option("--topology-s", po.topology_s, "fiber-flat: the sample's topology value s")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
+  synth->add_option("--topology-map", po.topology_map_file,
+                    "silk-torus: topology map image (default: seeded noise)");
+  synth->add_option("--amplitude", po.topology_amplitude, "silk-torus: topology map amplitude A")
+      ->capture_default_str()
+      ->check(CLI::Range(-2.0, 2.0));
+  return {synth, [a] { return run(*a); }};
+}
+
+}  // namespace aniso::cli

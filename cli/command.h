@@ -1,0 +1,43 @@
+// The CLI's pieces: each subcommand lives in its own cli/cmd_*.cpp, registers its options on the
+// application and returns the function that runs it. main() only dispatches.
+#pragma once
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/vec.h"
+
+namespace aniso::cli {
+
+struct Command {
+  CLI::App* sub = nullptr;
+  std::function<int()> run;
+};
+
+Command add_demo(CLI::App& app);
+Command add_synth(CLI::App& app);
+Command add_fit(CLI::App& app);
+Command add_eval(CLI::App& app);
+Command add_bake(CLI::App& app);
+Command add_preview(CLI::App& app);
+Command add_verify(CLI::App& app);
+Command add_microgeometry(CLI::App& app);
+Command add_bench(CLI::App& app);
+Command add_params(CLI::App& app);
+
+// The whole command line, recorded in outputs that say how they were made.
+const std::string& command_line();
+void set_command_line(int argc, char** argv);
+
+// `--size WxH` or `--size N`.
+void parse_size(const std::string& s, int* w, int* h);
+// A non-zero direction "x,y,z" for option `opt`.
+Vec3 parse_vec(const std::string& s, const std::string& opt);
+// `--force`: a folder output may replace a folder holding files aniso did not write.
+void add_force_flag(CLI::App* sub);
+
+// The closest of `candidates` to `word` within a small edit distance, or "".
+std::string closest(const std::string& word, const std::vector<std::string>& candidates);
+
+}  // namespace aniso::cli

@@ -1,0 +1,79 @@
+#include <cstdio>
+
+#include "cli/command.h"
+#include "core/error.h"
+#include "io/files.h"
+
+namespace aniso::cli {
+
+namespace {
+std::string g_command_line;
+}
+
+const std::string& command_line() { return g_command_line; }
+
+void set_command_line(int argc, char** argv) {
+  g_command_line.clear();
+  for (int i = 0; i < argc; ++i) g_command_line += (i ? " " : "") + std::string(argv[i]);
+}
+
+void parse_size(const std::string& s, int* w, int* h) {
+  long a = 0, b = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(s.c_str(), "%ld%c%ld%c", &a, &x, &b, &extra) == 3 && (x == 'x' || x == 'X')) {
+  } else if (std::sscanf(s.c_str(), "%ld%c", &a, &extra) == 1) {
+    b = a;
+  } else {
+    throw Error("--size: expected WxH or N, got '" + s + "'");
+  }
+  constexpr long kMaxSide = 16384;  // keeps W * H * channels well inside memory and int
+  if (a < 1 || b < 1 || a > kMaxSide || b > kMaxSide)
+    throw Error("--size: each side must be in [1, " + std::to_string(kMaxSide) + "], got '" + s +
+                "'");
+  *w = static_cast<int>(a);
+  *h = static_cast<int>(b);
+}
+
+Vec3 parse_vec(const std::string& s, const std::string& opt) {
+  Vec3 v;
+  char extra;
+  if (std::sscanf(s.c_str(), "%lf,%lf,%lf%c", &v.x, &v.y, &v.z, &extra) != 3 || !finite(v) ||
+      length(v) == 0)
+    throw Error(opt + ": expected a non-zero direction x,y,z, got '" + s + "'");
+  return v;
+}
+
+void add_force_flag(CLI::App* sub) {
+  sub->add_flag_callback(
+      "--force", [] { set_force_overwrite(true); },
+      "replace an output folder even if it holds files aniso did not write (never an input)");
+}
+
+std::string closest(const std::string& word, const std::vector<std::string>& candidates) {
+  auto distance = [](const std::string& a, const std::string& b) {
+    std::vector<size_t> d(b.size() + 1);
+    for (size_t j = 0; j <= b.size(); ++j) d[j] = j;
+    for (size_t i = 1; i <= a.size(); ++i) {
+      size_t prev = d[0];
+      d[0] = i;
+      for (size_t j = 1; j <= b.size(); ++j) {
+        const size_t cur = d[j];
+        d[j] = std::min({d[j] + 1, d[j - 1] + 1, prev + (a[i - 1] == b[j - 1] ? 0 : 1)});
+        prev = cur;
+      }
+    }
+    return d[b.size()];
+  };
+  std::string best;
+  size_t best_d = std::max<size_t>(2, word.size() / 3) + 1;
+  for (const auto& c : candidates) {
+    const size_t dist = distance(word, c);
+    if (dist < best_d) {
+      best_d = dist;
+      best = c;
+    }
+  }
+  return best;
+}
+
+}  // namespace aniso::cli
