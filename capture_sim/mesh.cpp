@@ -123,7 +123,7 @@ TriMesh make_shape(const std::string& name, const ShapeOptions& opt) {
   return m;
 }
 
-TriMesh load_obj(const std::string& path) {
+TriMesh load_obj(const std::string& path, bool need_uv) {
   std::ifstream f(path);
   if (!f) throw Error(path + ": file not found");
   std::vector<Vec3> v, vn;
@@ -193,7 +193,12 @@ TriMesh load_obj(const std::string& path) {
   }
   if (faces.empty()) throw Error(path + ": no faces");
   // One output vertex per corner (simple and exact for seams); U accumulated per triangle.
+  const std::string uv_hint =
+      ": the reference tangent U is dP/du, so every face needs texture coordinates (vt) that "
+      "span an area; add them, or give a fiber_field (radial, circular, meridian)";
   for (const auto& fc : faces) {
+    if (need_uv && (!fc[0].t || !fc[1].t || !fc[2].t))
+      throw Error(path + ": a face has no texture coordinates" + uv_hint);
     const uint32_t base = static_cast<uint32_t>(m.P.size());
     Vec3 p[3];
     std::array<float, 2> t[3];
@@ -207,6 +212,8 @@ TriMesh load_obj(const std::string& path) {
     const double du1 = t[1][0] - t[0][0], du2 = t[2][0] - t[0][0];
     const double dv1 = t[1][1] - t[0][1], dv2 = t[2][1] - t[0][1];
     const double det = du1 * dv2 - du2 * dv1;
+    if (need_uv && !(std::abs(det) > 1e-20))
+      throw Error(path + ": a face's texture coordinates are degenerate (zero area)" + uv_hint);
     Vec3 dpdu = std::abs(det) > 1e-20 ? (e1 * dv2 - e2 * dv1) / det : any_perpendicular(fn);
     for (int k = 0; k < 3; ++k) {
       m.P.push_back(p[k]);

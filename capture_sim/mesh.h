@@ -34,8 +34,10 @@ TriMesh make_shape(const std::string& name, const ShapeOptions& opt = {});
 const std::vector<std::string>& shape_names();
 
 // Triangle mesh from an OBJ file (v, vt, vn, f; polygons fanned). U = dP/du from the UVs; OBJ's
-// v (up) is flipped to glTF's v (down). Throws naming the file and line on bad input.
-TriMesh load_obj(const std::string& path);
+// v (up) is flipped to glTF's v (down). Throws naming the file and line on bad input. With
+// `need_uv` (no fiber field replaces dP/du), a face without texture coordinates, or whose
+// coordinates are degenerate, is an error: U, and so psi, would be measured from no axis.
+TriMesh load_obj(const std::string& path, bool need_uv = true);
 
 // The reference tangent U at point P with normal N for a named fiber field ("" keeps `U`).
 Vec3 fiber_field_tangent(const std::string& field, const Vec3& P, const Vec3& N, const Vec3& U,

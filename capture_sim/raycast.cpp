@@ -157,7 +157,7 @@ GBuffer RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string
 void trace_mesh_gbuffer(const std::string& obj_path, const std::string& field, const Intrinsics& k,
                         const Mat4& pose, Image* P, Image* N, Image* U,
                         std::vector<uint8_t>* mask) {
-  const RayScene scene(load_obj(obj_path));
+  const RayScene scene(load_obj(obj_path, field.empty()));
   GBuffer g = scene.trace(k, pose, field);
   *P = std::move(g.P);
   *N = std::move(g.N);

@@ -191,7 +191,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   if (opt.sensor.read_noise < 0 || opt.sensor.shot_photons < 0)
     throw Error("capture_sim: noise levels must be non-negative");
   const bool is_obj = lower_ext(opt.shape) == ".obj";
-  const TriMesh mesh = is_obj ? load_obj(opt.shape) : make_shape(opt.shape, opt.shape_options);
+  const TriMesh mesh = is_obj ? load_obj(opt.shape, opt.fiber_field.empty()) : make_shape(opt.shape, opt.shape_options);
   const RayScene scene(mesh);
   const Evaluator eval(opt.truth);
   SimStats st;

@@ -37,7 +37,4 @@ Vec3 parse_vec(const std::string& s, const std::string& opt);
 // `--force`: a folder output may replace a folder holding files aniso did not write.
 void add_force_flag(CLI::App* sub);
 
-// The closest of `candidates` to `word` within a small edit distance, or "".
-std::string closest(const std::string& word, const std::vector<std::string>& candidates);
-
 }  // namespace aniso::cli

@@ -8,6 +8,8 @@
 
 #include "cli/command.h"
 #include "core/error.h"
+#include "core/text.h"
+#include "io/image_io.h"
 
 using namespace aniso;
 
@@ -32,7 +34,7 @@ bool explain_unknown_option(const CLI::App* sub, int argc, char** argv) {
     bool ok = false;
     for (const auto& k : known) ok = ok || k == a;
     if (ok) continue;
-    const std::string best = cli::closest(a, known);
+    const std::string best = closest(a, known);
     std::fprintf(stderr, "aniso %s: unknown option '%s'%s (aniso %s --help lists them)\n",
                  sub->get_name().c_str(), a.c_str(),
                  best.empty() ? "" : (" (did you mean '" + best + "'?)").c_str(),
@@ -46,6 +48,8 @@ bool explain_unknown_option(const CLI::App* sub, int argc, char** argv) {
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  // OpenCV checks decoded sizes against this (our own readers check PNG and EXR headers).
+  ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", std::to_string(kMaxImagePixels).c_str(), 0);
   cli::set_command_line(argc, argv);
   CLI::App app{
       "aniso: measure and fit anisotropic materials (line-lighting model of Banks / Heidrich & "
@@ -68,7 +72,7 @@ int main(int argc, char** argv) {
       known = known || names.back() == argv[1];
     }
     if (!known) {
-      const std::string best = cli::closest(argv[1], names);
+      const std::string best = closest(argv[1], names);
       std::fprintf(stderr, "aniso: unknown subcommand '%s'%s (aniso --help lists them)\n", argv[1],
                    best.empty() ? "" : (" (did you mean '" + best + "'?)").c_str());
       return 2;

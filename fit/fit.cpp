@@ -1111,8 +1111,10 @@ ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport
     os.texels = opt.topology_texels;
   }
   Progress bar("fit: loading views", set.views.size(), opt.progress);
+  size_t grey_views = 0;
   for (size_t i = 0; i < set.views.size(); ++i) {
     const ViewData d = load_view(set, i, has_map ? &map : nullptr);
+    grey_views += d.channels == 1;
     rep.masked_out += static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
     rep.saturated += d.saturated;
     rep.nonfinite += d.nonfinite;
@@ -1120,8 +1122,10 @@ ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport
     bar.advance();
   }
   drop_implausible(&os, &rep);
+  // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
+  os.grey = grey_views == set.views.size();
   rep.pixels = os.obs.size();
-  rep.observations = os.obs.size() * 3;
+  rep.observations = os.obs.size() * (os.grey ? 1 : 3);
   return os;
 }
 

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "capture_sim/raycast.h"
+#include "core/color.h"
 #include "core/texture.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -45,6 +46,20 @@ namespace {
 
 Intrinsics parse_camera(const json& j, const Ctx& c) {
   Intrinsics k;
+  jsonu::check_keys(j, {"width", "height", "fx", "fy", "cx", "cy", "distortion"}, c);
+  if (j.is_object() && j.contains("distortion")) {
+    // OpenCV's k1 k2 p1 p2 k3: this reader casts pinhole rays, so only zeros are understood.
+    const json& d = j["distortion"];
+    bool zero = d.is_array();
+    if (zero)
+      for (size_t i = 0; i < d.size(); ++i)
+        zero = zero && jsonu::num(d[i], c.at("distortion").idx(i)) == 0;
+    if (!zero)
+      c.at("distortion")
+          .fail(
+              "lens distortion is not applied by this reader (pinhole rays); undistort the images "
+              "first, or give zeros");
+  }
   const double w = jsonu::num(jsonu::need(j, "width", c), c.at("width"));
   const double h = jsonu::num(jsonu::need(j, "height", c), c.at("height"));
   if (w < 1 || h < 1 || w > 65536 || h > 65536 || w != std::floor(w) || h != std::floor(h))
@@ -64,6 +79,14 @@ Intrinsics parse_camera(const json& j, const Ctx& c) {
 Light parse_light(const json& j, const Ctx& c) {
   Light l;
   const std::string type = jsonu::str(jsonu::need(j, "type", c), c.at("type"));
+  if (type == "point")
+    jsonu::check_keys(j, {"type", "position", "intensity", "attenuation"}, c);
+  else if (type == "spot")
+    jsonu::check_keys(
+        j, {"type", "position", "intensity", "attenuation", "direction", "cutoff_deg", "exponent"},
+        c);
+  else if (type == "directional")
+    jsonu::check_keys(j, {"type", "direction", "irradiance"}, c);
   if (type == "point" || type == "spot") {
     l.type = type == "point" ? Light::Type::kPoint : Light::Type::kSpot;
     l.position = jsonu::vec3(jsonu::need(j, "position", c), c.at("position"));
@@ -98,6 +121,8 @@ namespace {
 
 GeometrySpec parse_geometry(const json& j, const Ctx& c) {
   if (!j.is_object()) c.fail("expected an object");
+  jsonu::check_keys(
+      j, {"mesh", "position", "normal", "tangent", "mask", "uv", "topology", "fiber_field"}, c);
   GeometrySpec g;
   g.mesh = jsonu::str_or(j, "mesh", "", c);
   g.position = jsonu::str_or(j, "position", "", c);
@@ -153,6 +178,10 @@ CaptureSet read_capture(const std::string& path_in) {
     root.at("version").fail("unsupported version " + jsonu::json(version).dump() +
                             " (this reader knows 1)");
 
+  jsonu::check_keys(j,
+                    {"format", "version", "camera", "color", "ambient", "geometry", "views",
+                     "truth", "topology_map", "generator"},
+                    root);
   CaptureSet s;
   s.file = file;
   s.dir = parent_dir(file);
@@ -161,6 +190,8 @@ CaptureSet read_capture(const std::string& path_in) {
     const Ctx c = root.at("color");
     const json& col = j["color"];
     if (!col.is_object()) c.fail("expected an object");
+    jsonu::check_keys(col, {"encoding", "black_level", "saturation"}, c);
+    s.color.encoding_given = col.contains("encoding");
     if (col.contains("encoding")) {
       const json& e = col["encoding"];
       if (e.is_string()) {
@@ -180,6 +211,9 @@ CaptureSet read_capture(const std::string& path_in) {
       }
     }
     s.color.black_level = jsonu::num_or(col, "black_level", 0.0, c);
+    // Stored integer codes are scaled to [0, 1]: a black level outside it is a mistake.
+    if (s.color.black_level < 0 || s.color.black_level >= 1)
+      c.at("black_level").fail("must be in [0, 1) (a fraction of the largest code)");
     if (col.contains("saturation")) {
       s.color.saturation = jsonu::num(col["saturation"], c.at("saturation"));
       s.color.saturation_given = true;
@@ -198,6 +232,8 @@ CaptureSet read_capture(const std::string& path_in) {
     const Ctx c = root.at("views").idx(i);
     const json& v = views[i];
     if (!v.is_object()) c.fail("expected an object");
+    jsonu::check_keys(
+        v, {"image", "world_from_camera", "exposure", "lights", "camera", "geometry", "source"}, c);
     ViewSpec vs;
     vs.image = jsonu::str(jsonu::need(v, "image", c), c.at("image"));
     vs.world_from_camera =
@@ -325,22 +361,25 @@ void write_capture_json(const CaptureSet& s, const std::string& path) {
 
 namespace {
 
+// An integer image's stored value (scaled to [0, 1]) to linear. Below the black level the value
+// keeps its sign (clipping to 0 would bias dark, noisy pixels upward); the curves are applied
+// odd-symmetrically. EXR images are linear and never pass through here (FORMAT.md).
 double decode(double v, const ColorSpec& c) {
-  v = std::max(v - c.black_level, 0.0);
+  v -= c.black_level;
   switch (c.encoding) {
     case ColorSpec::Encoding::kLinear:
       return v;
     case ColorSpec::Encoding::kSrgb:
-      return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+      return srgb_decode(v);
     case ColorSpec::Encoding::kGamma:
-      return std::pow(v, c.gamma);
+      return v < 0 ? -std::pow(-v, c.gamma) : std::pow(v, c.gamma);
   }
   return v;
 }
 
 Image need_buffer(const std::string& path, int channels, const Intrinsics& k,
                   const std::string& what) {
-  Image b = read_image(path).image;
+  Image b = read_image(path, k.width, k.height).image;
   if (b.width != k.width || b.height != k.height)
     throw Error(path + ": " + what + " buffer is " + std::to_string(b.width) + "x" +
                 std::to_string(b.height) + ", camera is " + std::to_string(k.width) + "x" +
@@ -380,11 +419,20 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
   const std::string img_path = join_path(s.dir, v.image);
   LoadedImage li;
   try {
-    li = read_image(img_path);
+    li = read_image(img_path, k.width, k.height);
   } catch (const Error& e) {
     throw Error(ctx + ".image: " + e.what());
   }
   const Image& raw = li.image;
+  if (raw.channels != 1 && raw.channels != 3)
+    throw Error(ctx + ".image: " + img_path + " has " + std::to_string(raw.channels) +
+                " channels; a view is grey (1) or RGB (3)");
+  if (li.bits != 0 && !s.color.encoding_given)
+    throw Error(ctx + ".image: " + img_path + " is a " + std::to_string(li.bits) +
+                "-bit integer image and " + s.file +
+                " states no color.encoding: add \"color\": {\"encoding\": \"srgb\"} (most "
+                "cameras and 8-bit exports) or \"linear\" (raw sensor data)");
+  d.channels = raw.channels;
   if (raw.width != k.width || raw.height != k.height)
     throw Error(ctx + ".image: " + img_path + " is " + std::to_string(raw.width) + "x" +
                 std::to_string(raw.height) + ", camera is " + std::to_string(k.width) + "x" +
@@ -434,7 +482,7 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
       if (map) {
         if (d.uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
         for (size_t p = 0; p < mask.size(); ++p)
-          if (mask[p])
+          if (mask[p] && std::isfinite(d.uv.px[2 * p]) && std::isfinite(d.uv.px[2 * p + 1]))
             d.mapv.px[p] = static_cast<float>(map->sample(d.uv.px[2 * p], d.uv.px[2 * p + 1]));
       }
     } catch (const Error& e) {
@@ -455,8 +503,12 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
           ok = false;
         else if (r >= sat)
           saturated = true;
-        d.rgb.at(x, y, c) = static_cast<float>(decode(r, s.color));
+        const double lin = li.bits ? decode(r, s.color) : r;
+        if (!std::isfinite(lin) || std::abs(lin) > std::numeric_limits<float>::max()) ok = false;
+        d.rgb.at(x, y, c) = static_cast<float>(lin);
       }
+      if (!d.uv.empty() && (!std::isfinite(d.uv.at(x, y, 0)) || !std::isfinite(d.uv.at(x, y, 1))))
+        ok = false;
       for (int c = 0; c < 3; ++c)
         if (!std::isfinite(d.P.at(x, y, c)) || !std::isfinite(d.N.at(x, y, c)) ||
             !std::isfinite(d.U.at(x, y, c)))

@@ -43,6 +43,7 @@ struct GeometrySpec {
 struct ColorSpec {
   enum class Encoding { kLinear, kSrgb, kGamma };
   Encoding encoding = Encoding::kLinear;
+  bool encoding_given = false;  // integer images need it stated (no silent assumption)
   double gamma = 2.2;
   double black_level = 0.0;
   double saturation = std::numeric_limits<double>::infinity();  // stored value; at/above: unused
@@ -90,7 +91,8 @@ struct ViewData {
   Image uv;       // 2 channels, when the set has a uv buffer (empty otherwise)
   std::vector<uint8_t> use;  // 1 = pixel is an observation
   size_t mask_pixels = 0, saturated = 0, nonfinite = 0, used = 0;
-  Vec3 eye;  // camera centre in world coordinates
+  int channels = 3;  // of the image: 1 (grey, repeated into rgb) or 3
+  Vec3 eye;          // camera centre in world coordinates
 };
 
 // A topology map m(u, v) (FORMAT.md): first channel read as linear h in [0, 1] (integer images

@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -21,10 +23,42 @@ namespace aniso {
 
 namespace {
 
-Image read_exr(const std::string& path) {
+// The size a header declares, checked before a single pixel is allocated: a forged header must
+// not make the reader ask for gigabytes.
+void check_declared_size(const std::string& path, long long w, long long h, int expect_w,
+                         int expect_h) {
+  if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide || w * h > kMaxImagePixels)
+    throw Error(path + ": declared size " + std::to_string(w) + "x" + std::to_string(h) +
+                " is outside the limits (sides up to " + std::to_string(kMaxImageSide) + ", " +
+                std::to_string(kMaxImagePixels) + " pixels)");
+  if (expect_w > 0 && (w != expect_w || h != expect_h))
+    throw Error(path + ": is " + std::to_string(w) + "x" + std::to_string(h) + ", expected " +
+                std::to_string(expect_w) + "x" + std::to_string(expect_h));
+}
+
+// A PNG's size from its IHDR chunk (bytes 16-23, big-endian), or false if not a PNG.
+bool png_size(const std::string& path, long long* w, long long* h) {
+  unsigned char b[24];
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return false;
+  const size_t n = std::fread(b, 1, sizeof b, f);
+  std::fclose(f);
+  static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (n < 24 || std::memcmp(b, sig, 8) != 0) return false;
+  auto be = [&](int o) {
+    return (static_cast<long long>(b[o]) << 24) | (b[o + 1] << 16) | (b[o + 2] << 8) | b[o + 3];
+  };
+  *w = be(16);
+  *h = be(20);
+  return true;
+}
+
+Image read_exr(const std::string& path, int expect_w, int expect_h) {
   try {
     Imf::InputFile file(path.c_str());
     const Imath::Box2i dw = file.header().dataWindow();
+    check_declared_size(path, static_cast<long long>(dw.max.x) - dw.min.x + 1,
+                        static_cast<long long>(dw.max.y) - dw.min.y + 1, expect_w, expect_h);
     const int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
     const Imf::ChannelList& cl = file.header().channels();
     std::vector<const char*> names;
@@ -32,6 +66,8 @@ Image read_exr(const std::string& path) {
       names.push_back("R");
       if (cl.findChannel("G")) names.push_back("G");
       if (cl.findChannel("B") && names.size() == 2) names.push_back("B");
+      if (cl.findChannel("B") && names.size() == 1)
+        throw Error(path + ": EXR has channels R and B but no G");
     } else if (cl.findChannel("Y")) {
       names.push_back("Y");
     } else {
@@ -68,14 +104,25 @@ void set_exr_compression(const std::string& name) {
     throw Error("EXR compression must be zip, piz or none (got '" + name + "')");
 }
 
-LoadedImage read_image(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) throw Error(path + ": file not found");
+LoadedImage read_image(const std::string& path, int expect_w, int expect_h) {
+  std::error_code ec;
+  const auto st = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(st)) throw Error(path + ": file not found");
+  if (!std::filesystem::is_regular_file(st))
+    throw Error(path + ": not a regular file (a folder, device or FIFO is not read)");
   LoadedImage out;
   if (lower_ext(path) == ".exr") {
-    out.image = read_exr(path);
+    out.image = read_exr(path, expect_w, expect_h);
     return out;
   }
-  cv::Mat m = cv::imread(path, cv::IMREAD_UNCHANGED);
+  long long pw = 0, ph = 0;
+  if (png_size(path, &pw, &ph)) check_declared_size(path, pw, ph, expect_w, expect_h);
+  cv::Mat m;
+  try {
+    m = cv::imread(path, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw Error(path + ": cannot decode image: " + e.what());
+  }
   if (m.empty()) throw Error(path + ": cannot decode image (not PNG/TIFF/JPEG/EXR?)");
   double scale = 1.0;
   switch (m.depth()) {

@@ -14,7 +14,13 @@ struct LoadedImage {
   int bits = 0;  // 0 for float data, else 8 or 16
 };
 
-LoadedImage read_image(const std::string& path);
+// Limits checked against an image's declared size before its pixels are allocated.
+inline constexpr long long kMaxImageSide = 65536;
+inline constexpr long long kMaxImagePixels = 1LL << 26;  // 8192 x 8192
+
+// Reads an image; with expect_w > 0 its declared size must be expect_w x expect_h (checked
+// before decoding).
+LoadedImage read_image(const std::string& path, int expect_w = 0, int expect_h = 0);
 
 // EXR compression for everything written after the call: "zip" (default, zlib level 1), "piz",
 // "none". Throws on another name.

@@ -2,11 +2,13 @@
 // (e.g. "capture.json: views[2].lights[0].intensity: expected a number or an RGB triple").
 // Include only from .cpp files: it pulls in nlohmann/json.
 #pragma once
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "core/vec.h"
 #include "models/material.h"
 
@@ -71,12 +73,47 @@ inline RGB rgb(const json& v, const Ctx& c) {
 inline json to_json(const RGB& v) { return json::array({v[0], v[1], v[2]}); }
 inline json to_json(const Vec3& v) { return json::array({v.x, v.y, v.z}); }
 
+// Rejects keys this reader does not know (FORMAT.md: a reader rejects what it does not
+// understand), with a "did you mean" where a known key is close.
+inline void check_keys(const json& j, const std::vector<std::string>& known, const Ctx& c) {
+  if (!j.is_object()) return;
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (std::find(known.begin(), known.end(), it.key()) != known.end()) continue;
+    c.at(it.key()).fail("unknown key" + did_you_mean(it.key(), known) +
+                        "; known keys here: " + [&] {
+                          std::string s;
+                          for (const auto& k : known) s += (s.empty() ? "" : ", ") + k;
+                          return s;
+                        }());
+  }
+}
+
+// Parses a whole file; malformed JSON, numbers out of range (1e400) and duplicate keys are
+// errors naming the file.
 inline json parse_file(const std::string& text, const std::string& file) {
+  std::vector<std::vector<std::string>> keys;  // keys seen in each open object
+  std::string duplicate;
+  const json::parser_callback_t cb = [&](int, json::parse_event_t ev, json& parsed) {
+    if (ev == json::parse_event_t::object_start) keys.emplace_back();
+    if (ev == json::parse_event_t::object_end && !keys.empty()) keys.pop_back();
+    if (ev == json::parse_event_t::key && !keys.empty()) {
+      const std::string k = parsed.get<std::string>();
+      if (std::find(keys.back().begin(), keys.back().end(), k) != keys.back().end() &&
+          duplicate.empty())
+        duplicate = k;
+      keys.back().push_back(k);
+    }
+    return true;
+  };
+  json j;
   try {
-    return json::parse(text);
-  } catch (const json::parse_error& e) {
+    j = json::parse(text, cb);
+  } catch (const json::exception& e) {
     throw Error(file + ": malformed JSON: " + e.what());
   }
+  if (!duplicate.empty())
+    throw Error(file + ": key '" + duplicate + "' appears twice in one object");
+  return j;
 }
 
 }  // namespace aniso::jsonu

@@ -51,6 +51,11 @@ Material material_from_json(const json& j, const std::string& file) {
     root.at("format").fail("expected \"aniso-material\", got \"" + format + "\"");
   const double version = jsonu::num(jsonu::need(j, "version", root), root.at("version"));
   if (version != 1) root.at("version").fail("unsupported version (this reader knows 1)");
+  jsonu::check_keys(
+      j,
+      {"format", "version", "model", "kd", "ks", "n", "fiber_angle_deg", "ka", "isotropic",
+       "second_fiber", "topology", "uncertainty", "fixed", "undetermined", "report"},
+      root);
   Material m;
   m.model = jsonu::str_or(j, "model", "line", root);
   if (m.model != "line" && m.model != "fiber")
@@ -71,6 +76,7 @@ Material material_from_json(const json& j, const std::string& file) {
     const Ctx c = root.at("isotropic");
     const json& b = j["isotropic"];
     if (!b.is_object()) c.fail("expected an object");
+    jsonu::check_keys(b, {"kd", "ks", "n"}, c);
     m.has_isotropic = true;
     if (b.contains("kd")) m.iso_kd = jsonu::rgb(b["kd"], c.at("kd"));
     if (b.contains("ks")) m.iso_ks = jsonu::rgb(b["ks"], c.at("ks"));
@@ -82,6 +88,7 @@ Material material_from_json(const json& j, const std::string& file) {
     const Ctx c = root.at("second_fiber");
     const json& b = j["second_fiber"];
     if (!b.is_object()) c.fail("expected an object");
+    jsonu::check_keys(b, {"angle_deg", "weight"}, c);
     m.has_second_fiber = true;
     m.second_angle_deg =
         scalar(b, "angle_deg", "second_fiber.angle_deg", m.fiber_angle_deg + 90.0, c);
@@ -92,6 +99,7 @@ Material material_from_json(const json& j, const std::string& file) {
     const Ctx c = root.at("topology");
     const json& b = j["topology"];
     if (!b.is_object()) c.fail("expected an object");
+    jsonu::check_keys(b, {"s", "map", "amplitude", "mathematical", "s_map", "s_map_texels"}, c);
     m.has_topology = true;
     if (b.contains("s")) {
       m.topology_s = jsonu::num(b["s"], c.at("s"));

@@ -2,9 +2,11 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "io/files.h"
 #include "models/evaluate.h"
 
@@ -32,10 +34,10 @@ LocalDir dir_from_angles(double theta_deg, double phi_deg) {
 }
 
 SampleTable read_table(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw Error(path + ": file not found");
+  std::istringstream f(read_text_file(path));  // a regular file of bounded size
   std::string line;
   if (!std::getline(f, line)) throw Error(path + ": empty file (expected a header line)");
+  if (line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // a UTF-8 byte-order mark
   const auto head = split_csv(line);
   int col[9];
   const char* names[9] = {"theta_i_deg", "phi_i_deg", "theta_o_deg", "phi_o_deg", "r",
@@ -47,10 +49,16 @@ SampleTable read_table(const std::string& path) {
   }
   for (int k = 0; k < 4; ++k)
     if (col[k] < 0) throw Error(path + ": header: missing column '" + names[k] + "'");
+  const std::vector<std::string> known_names(names, names + 9);
   for (size_t c = 0; c < head.size(); ++c) {
     bool known = false;
     for (int k = 0; k < 9; ++k) known |= head[c] == names[k];
-    if (!known) throw Error(path + ": header: unknown column '" + head[c] + "'");
+    if (!known)
+      throw Error(path + ": header: unknown column '" + head[c] + "'" +
+                  did_you_mean(head[c], known_names));
+    for (size_t d = 0; d < c; ++d)
+      if (head[d] == head[c])
+        throw Error(path + ": header: column '" + head[c] + "' appears twice");
   }
   SampleTable t;
   const bool rgb = col[4] >= 0 || col[5] >= 0 || col[6] >= 0;
@@ -84,10 +92,13 @@ SampleTable read_table(const std::string& path) {
       return v;
     };
     SampleRow r;
+    // theta is measured from the normal: [0, 180]. phi is periodic: any finite value is a
+    // direction (FORMAT.md's angles), so it is accepted as it is.
+    const double inf = std::numeric_limits<double>::infinity();
     r.theta_i = get(0, 0, 180);
-    r.phi_i = get(1, -360, 360);
+    r.phi_i = get(1, -inf, inf);
     r.theta_o = get(2, 0, 180);
-    r.phi_o = get(3, -360, 360);
+    r.phi_o = get(3, -inf, inf);
     const double big = 1e30;
     if (t.values == SampleTable::Values::kRGB)
       r.value = {get(4, -big, big), get(5, -big, big), get(6, -big, big)};

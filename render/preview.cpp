@@ -312,7 +312,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     throw Error("preview: --size must be between 1x1 and 8192x8192");
   if (opt.light_dirs.empty()) throw Error("preview: at least one light is needed");
   const bool is_obj = lower_ext(opt.shape) == ".obj";
-  TriMesh mesh = is_obj ? load_obj(opt.shape) : make_shape(opt.shape, opt.shape_options);
+  TriMesh mesh = is_obj ? load_obj(opt.shape, opt.fiber_field.empty()) : make_shape(opt.shape, opt.shape_options);
   PreviewResult res;
   res.triangles = mesh.tri.size();
 

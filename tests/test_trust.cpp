@@ -1,0 +1,233 @@
+// No wrong answer in silence (issue 8): what a reader does not understand is an error naming the
+// file and key; assumptions that change the answer are never made quietly.
+#include <ImfChannelList.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/angles.h"
+#include "core/error.h"
+#include "datasets_synth/presets.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/table.h"
+#include "test_util.h"
+
+namespace aniso {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string small_capture(const std::string& dir, int bits = 0, const std::string& enc = "linear") {
+  PresetOptions p;
+  p.views = 3;
+  p.width = p.height = 24;
+  p.bits = bits;
+  p.encoding = enc;
+  p.progress = false;
+  simulate_capture(make_preset("brushed-metal", p), dir);
+  return dir;
+}
+
+void edit_json(const std::string& file, const std::function<void(nlohmann::json&)>& f) {
+  auto j = nlohmann::json::parse(read_text_file(file));
+  f(j);
+  write_text_file(file, j.dump());
+}
+
+const char* kMaterial = R"({"format": "aniso-material", "version": 1, "model": "line",
+  "kd": [0.2, 0.15, 0.1], "ks": 0.6, "n": 40, "fiber_angle_deg": 30})";
+
+TEST(Trust, IntegerImagesWithoutAStatedEncodingAreAnError) {
+  const std::string dir = small_capture(test::tmp_dir("set"), 8, "srgb");
+  edit_json(dir + "/capture.json", [](auto& j) { j.erase("color"); });
+  const auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("color.encoding"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("8-bit"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir + "/../m.json"));
+}
+
+TEST(Trust, ExrImagesAreLinearWhateverTheEncodingSays) {
+  const std::string dir = small_capture(test::tmp_dir("set"));
+  edit_json(dir + "/capture.json", [](auto& j) { j["color"]["encoding"] = "srgb"; });
+  const auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/../m.json"));
+  EXPECT_NEAR(j["kd"][0].get<double>(), 0.2, 0.002);
+}
+
+TEST(Trust, UnknownKeysAreRejectedWithADidYouMean) {
+  const std::string dir = test::tmp_dir("x");
+  auto material_with = [&](const std::string& extra) {
+    std::string m = kMaterial;
+    m.insert(m.size() - 1, ", " + extra);
+    std::ofstream(dir + "/m.json") << m;
+    return test::run_cli("bake " + dir + "/m.json --out " + dir + "/b");
+  };
+  auto r = material_with(R"("second_fibre": {"angle_deg": 120, "weight": 0.5})");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("second_fibre"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("did you mean 'second_fiber'"), std::string::npos) << r.output;
+  r = material_with(R"("isotropic": {"kd": 0.1, "N": 20})");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("isotropic.N"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("did you mean 'n'"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir + "/b"));
+
+  const std::string set = small_capture(test::tmp_dir("set"));
+  edit_json(set + "/capture.json", [](auto& j) {
+    j["camera"]["distortion"] = {-0.2, 0.05, 0, 0, 0};
+  });
+  r = test::run_cli("fit " + set + " --out " + dir + "/f.json");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("camera.distortion"), std::string::npos) << r.output;
+  edit_json(set + "/capture.json", [](auto& j) {
+    j["camera"].erase("distortion");
+    j["views"][0]["lights"][0]["intensty"] = 3;
+  });
+  r = test::run_cli("fit " + set + " --out " + dir + "/f.json");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("views[0].lights[0].intensty"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("did you mean 'intensity'"), std::string::npos) << r.output;
+}
+
+TEST(Trust, DuplicateKeysAndOverflowingNumbersNameTheFile) {
+  const std::string dir = test::tmp_dir("x");
+  std::ofstream(dir + "/dup.json") << R"({"format": "aniso-material", "version": 1,
+    "kd": 0.2, "kd": 0.5, "ks": 0.6, "n": 40, "fiber_angle_deg": 30})";
+  auto r = test::run_cli("bake " + dir + "/dup.json --out " + dir + "/b");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("dup.json: key 'kd' appears twice"), std::string::npos) << r.output;
+  std::ofstream(dir + "/big.json") << R"({"format": "aniso-material", "version": 1,
+    "kd": 1e400, "ks": 0.6, "n": 40, "fiber_angle_deg": 30})";
+  r = test::run_cli("bake " + dir + "/big.json --out " + dir + "/b");
+  EXPECT_EQ(r.status, 1) << r.output;  // not "internal error"
+  EXPECT_NE(r.output.find("big.json"), std::string::npos) << r.output;
+}
+
+TEST(Trust, ObjWithoutTextureCoordinatesIsAnError) {
+  const std::string dir = test::tmp_dir("x");
+  std::ofstream(dir + "/m.json") << kMaterial;
+  std::ofstream(dir + "/quad.obj") << "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n";
+  auto r = test::run_cli("preview " + dir + "/m.json --shape " + dir + "/quad.obj --out " + dir +
+                         "/p.png --size 32");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("texture coordinates"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir + "/p.png"));
+  // A fiber field replaces dP/du: then no uv is needed.
+  r = test::run_cli("preview " + dir + "/m.json --shape " + dir + "/quad.obj --fiber-field " +
+                    "radial --out " + dir + "/p.png --size 32");
+  EXPECT_EQ(r.status, 0) << r.output;
+}
+
+TEST(Trust, GreyImagesCountEachPixelOnce) {
+  const std::string dir = small_capture(test::tmp_dir("set"));
+  for (const auto& e : fs::directory_iterator(dir + "/images")) {
+    const Image rgb = read_image(e.path().string()).image;
+    Image grey(rgb.width, rgb.height, 1);
+    for (size_t p = 0; p < grey.px.size(); ++p) grey.px[p] = rgb.px[3 * p];
+    write_exr(e.path().string(), grey);
+  }
+  const auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/../m.json"));
+  EXPECT_GT(j["report"]["pixels"].get<int>(), 100);
+  EXPECT_EQ(j["report"]["observations"], j["report"]["pixels"]);
+}
+
+TEST(Trust, ViewsWithTwoChannelsOrABadBlackLevelAreRefused) {
+  const std::string dir = small_capture(test::tmp_dir("set"));
+  write_exr(dir + "/images/000.exr", Image(24, 24, 2, 0.1f));
+  auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("2 channels"), std::string::npos) << r.output;
+  const std::string png = small_capture(test::tmp_dir("png"), 16, "linear");
+  edit_json(png + "/capture.json", [](auto& j) { j["color"]["black_level"] = -1e300; });
+  r = test::run_cli("fit " + png + " --out " + png + "/../m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("color.black_level"), std::string::npos) << r.output;
+}
+
+TEST(Trust, ForgedImageHeadersAreRefusedBeforeAllocating) {
+  const std::string dir = test::tmp_dir("x");
+  {  // An EXR whose header declares 60000 x 60000 pixels (13 GB as float RGB).
+    Imf::Header h(60000, 60000);
+    h.channels().insert("R", Imf::Channel(Imf::HALF));
+    h.compression() = Imf::ZIP_COMPRESSION;
+    Imf::OutputFile f((dir + "/big.exr").c_str(), h);
+  }
+  EXPECT_THROW(
+      {
+        try {
+          read_image(dir + "/big.exr");
+        } catch (const Error& e) {
+          EXPECT_NE(std::string(e.what()).find("declared size 60000x60000"), std::string::npos)
+              << e.what();
+          throw;
+        }
+      },
+      Error);
+  {  // A PNG signature and IHDR declaring 100000 x 100000, then nothing.
+    std::ofstream f(dir + "/big.png", std::ios::binary);
+    const unsigned char b[] = {0x89, 'P', 'N',  'G',  '\r', '\n', 0x1a, '\n', 0,    0,
+                               0,    13,  'I',  'H',  'D',  'R',  0,    1,    0x86, 0xa0,
+                               0,    1,   0x86, 0xa0, 8,    2,    0,    0};
+    f.write(reinterpret_cast<const char*>(b), sizeof b);
+  }
+  EXPECT_THROW(read_image(dir + "/big.png"), Error);
+}
+
+TEST(Trust, SampleTablesTakeABomAnyPeriodicPhiAndRejectDuplicateColumns) {
+  const std::string dir = test::tmp_dir("x");
+  std::ofstream(dir + "/bom.csv") << "\xEF\xBB\xBFtheta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n"
+                                  << "30,400,30,-140\n30,40,30,220\n";
+  const SampleTable t = read_table(dir + "/bom.csv");
+  ASSERT_EQ(t.rows.size(), 2u);
+  const LocalDir a = dir_from_angles(t.rows[0].theta_i, t.rows[0].phi_i);
+  const LocalDir b = dir_from_angles(t.rows[1].theta_i, t.rows[1].phi_i);
+  EXPECT_NEAR(a.u, b.u, 1e-12);
+  EXPECT_NEAR(a.w, b.w, 1e-12);
+  std::ofstream(dir + "/dup.csv")
+      << "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,phi_o_deg\n1,2,3,4,5\n";
+  EXPECT_THROW(read_table(dir + "/dup.csv"), Error);
+}
+
+TEST(Trust, FiberAngleIsReportedInZeroTo180) {
+  EXPECT_EQ(wrap_fiber_deg(179.99999999), 0.0);
+  EXPECT_EQ(wrap_fiber_deg(180.0), 0.0);
+  EXPECT_NEAR(wrap_fiber_deg(-30.0), 150.0, 1e-12);
+  EXPECT_NEAR(wrap_fiber_deg(390.0), 30.0, 1e-12);
+  EXPECT_NEAR(fiber_deg_distance(179.5, 0.5), 1.0, 1e-12);
+}
+
+TEST(Trust, AZeroTruthGetsAnAbsoluteErrorNotAHugePercentage) {
+  const std::string dir = small_capture(test::tmp_dir("set"));
+  std::ofstream(dir + "/../zero.json") << R"({"format": "aniso-material", "version": 1,
+    "kd": [0.2, 0.15, 0.0], "ks": 0.6, "n": 40, "fiber_angle_deg": 30})";
+  const auto r =
+      test::run_cli("fit " + dir + " --out " + dir + "/../m.json --truth " + dir + "/../zero.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string table = r.output.substr(r.output.find("against the truth"));
+  const auto line = table.substr(table.find("kd.b "));
+  EXPECT_NE(line.substr(0, line.find('\n')).find(" abs"), std::string::npos) << line;
+  EXPECT_EQ(r.output.find("e+"), std::string::npos) << r.output;
+}
+
+TEST(Trust, TheFitPrintsEveryValueWithItsSigma) {
+  const std::string dir = small_capture(test::tmp_dir("set"));
+  fs::remove(dir + "/truth.json");
+  edit_json(dir + "/capture.json", [](auto& j) { j.erase("truth"); });
+  const auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* k : {"kd.r", "ks.b", "n ", "fiber_angle_deg"})
+    EXPECT_NE(r.output.find(k), std::string::npos) << k << " in " << r.output;
+  EXPECT_NE(r.output.find("+-"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace aniso
