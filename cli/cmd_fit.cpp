@@ -34,6 +34,7 @@ void print_report(const FitResult& r) {
   for (const auto& [k, why] : r.undetermined)
     std::printf("fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());
   if (!p.model_selection.empty()) std::printf("fit: --model auto: %s\n", p.model_selection.c_str());
+  for (const auto& w : p.warnings) std::printf("fit: WARNING: %s\n", w.c_str());
 }
 
 }  // namespace

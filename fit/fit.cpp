@@ -57,6 +57,9 @@ struct ObsSet {
   int texels = 0;                                            // kTexels: an N x N map of s over uv
   std::string topology_map, topology_mathematical = "none";  // recorded in the result
   bool grey = false;  // a grey table: the three channels repeat one value
+  // Noise of the images themselves, from differences of neighbouring pixels (robust, so edges
+  // and the smooth shading between neighbours hardly count); 0 where there are no images.
+  double pixel_noise = 0;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -358,14 +361,41 @@ struct State {
   double dummy_iso[1] = {0}, dummy_sec[1] = {0};
 };
 
+// Up to `count` of n observation indices, spread by the golden-ratio sequence rather than a
+// fixed stride: a stride can alias with the layout of the data (10 000 identical views, a
+// stride equal to the view size, gave two distinct pixels and psi 131 deg for 30).
+std::vector<size_t> start_subset(size_t n, size_t count) {
+  std::vector<size_t> idx;
+  if (n <= count) {
+    idx.resize(n);
+    for (size_t i = 0; i < n; ++i) idx[i] = i;
+    return idx;
+  }
+  constexpr double kGolden = 0.6180339887498949;
+  std::vector<uint8_t> taken(n, 0);
+  double x = 0.5;
+  for (size_t k = 0; k < count; ++k) {
+    x += kGolden;
+    x -= std::floor(x);
+    const size_t i = std::min(n - 1, static_cast<size_t>(x * static_cast<double>(n)));
+    if (!taken[i]) {
+      taken[i] = 1;
+      idx.push_back(i);
+    }
+  }
+  std::sort(idx.begin(), idx.end());
+  return idx;
+}
+
 // At fixed (psi, n[, topology]) the model is linear in k_d and k_s: per channel, the 2x2
 // non-negative least-squares problem on the columns cols(o) -> (diffuse, specular) is solved in
 // closed form (unconstrained, k_d only, k_s only; best non-negative). Returns the sum of squares.
 template <class Cols>
-double solve_kd_ks(const ObsSet& os, size_t stride, Cols cols, double kd[3], double ks[3]) {
+double solve_kd_ks(const ObsSet& os, const std::vector<size_t>& subset, Cols cols, double kd[3],
+                   double ks[3]) {
   double dd[3] = {0, 0, 0}, ds[3] = {0, 0, 0}, ss[3] = {0, 0, 0}, dy[3] = {0, 0, 0},
          sy[3] = {0, 0, 0}, yy[3] = {0, 0, 0};
-  for (size_t i = 0; i < os.obs.size(); i += stride) {
+  for (size_t i : subset) {
     const Observation& o = os.obs[i];
     double dcol[3] = {0, 0, 0}, scol[3] = {0, 0, 0};
     cols(o, dcol, scol);
@@ -420,7 +450,7 @@ void set_start_kd_ks(const double kd[3], const double ks[3], State* st) {
 // Start: grid over psi (5 degree steps) and n (powers of 2 from 2 to 4096) with the line model's
 // lobe (the fiber model's peaks sit at the same place); k_d, k_s solved at every node.
 std::string grid_start(const ObsSet& os, State* st) {
-  const size_t stride = std::max<size_t>(1, os.obs.size() / kMaxStartObs);
+  const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
   double best = std::numeric_limits<double>::infinity();
   double best_psi = 0, best_logn = 0, best_kd[3] = {0, 0, 0}, best_ks[3] = {0, 0, 0};
   for (int ip = 0; ip < 36; ++ip) {
@@ -430,7 +460,7 @@ std::string grid_start(const ObsSet& os, State* st) {
       const double n = std::pow(2.0, in);
       double kd[3], ks[3];
       const double cost = solve_kd_ks(
-          os, stride,
+          os, subset,
           [&](const Observation& o, double* dcol, double* scol) {
             const double b = c * o.V.u + s * o.V.w;
             for (uint32_t k = 0; k < o.num_lights; ++k) {
@@ -459,7 +489,7 @@ std::string grid_start(const ObsSet& os, State* st) {
   st->sec[0] = HalfTurnManifold::wrap(best_psi + M_PI / 2);
   char buf[160];
   std::snprintf(buf, sizeof buf, "grid psi=%.1f deg, n=%.0f (36 x 12 nodes on %zu pixels)",
-                best_psi * 180 / M_PI, std::exp(best_logn), (os.obs.size() + stride - 1) / stride);
+                rad_to_deg(best_psi), std::exp(best_logn), subset.size());
   return buf;
 }
 
@@ -467,7 +497,7 @@ std::string grid_start(const ObsSet& os, State* st) {
 // or A in -1..1) and n around the line value, k_d, k_s solved in closed form at every node.
 std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* st) {
   std::string line = grid_start(os, st);
-  const size_t stride = std::max<size_t>(1, os.obs.size() / kMaxStartObs);
+  const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
   std::vector<double> topo_values;
   if (os.topology == TopologyMode::kGlobalS || os.topology == TopologyMode::kTexels)
     for (int i = 0; i < 10; ++i) topo_values.push_back(0.05 + 0.1 * i);
@@ -483,7 +513,7 @@ std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* 
       const double n = std::exp(logn0 + dl);
       double kd[3], ks[3];
       const double cost = solve_kd_ks(
-          os, stride,
+          os, subset,
           [&](const Observation& o, double* dcol, double* scol) {
             const double s = os.topology == TopologyMode::kAmplitude
                                  ? topology_with_map(o.smath, t, o.mapv)
@@ -668,8 +698,8 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   // Stage 1: plain least squares on the start subset to settle near the optimum and measure noise.
   std::vector<size_t> sub, all(os.obs.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = i;
-  const size_t stride = std::max<size_t>(1, os.obs.size() / 4000);
-  for (size_t i = 0; i < os.obs.size(); i += stride) sub.push_back(i);
+  constexpr size_t kStage1Obs = 4000;
+  sub = start_subset(os.obs.size(), kStage1Obs);
   {
     auto pb = build_problem(os, sub, &st, ps, nullptr);
     ceres::Solver::Summary s1;
@@ -765,6 +795,30 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   rep.parameters = nparam;
   // Bayesian information criterion for Gaussian residuals (model selection, --model auto).
   rep.bic = m * std::log(std::max(rep.rss, 1e-300) / m) + static_cast<double>(nparam) * std::log(m);
+  // Does the model describe the data? The residual RMS of a model that fits is about the noise
+  // of the images (neighbouring pixels tell it, whatever the model); a systematic misfit makes
+  // it larger. Without images (tables) the robust sigma of the residuals stands in. Noise-free
+  // data has no noise to compare with: there a misfit below 1e-4 of the signal counts as a fit.
+  {
+    double signal = 0;
+    for (const auto& o : os.obs) signal += std::abs(o.y[0]) + std::abs(o.y[1]) + std::abs(o.y[2]);
+    signal /= std::max<double>(1.0, 3.0 * static_cast<double>(os.obs.size()));
+    constexpr double kMisfitRatio = 2.0, kNoiseFreeFloor = 1e-4;
+    const double noise = os.pixel_noise > 0 ? os.pixel_noise : rep.noise_sigma;
+    rep.pixel_noise = os.pixel_noise;
+    const double floor = std::max(noise, kNoiseFreeFloor * signal);
+    if (rep.rms > kMisfitRatio * floor) {
+      char buf[512];
+      std::snprintf(buf, sizeof buf,
+                    "the model does not describe the data: residual RMS %.3g is %.1fx the noise "
+                    "of the images %.3g. Likely causes: a second fiber direction (woven cloth: "
+                    "--fit-second-fiber), an isotropic term (--fit-isotropic), shadows or "
+                    "interreflections, a wrong exposure or color.encoding, hot pixels. Check "
+                    "`aniso verify CAPTURE MATERIAL --residuals DIR`.",
+                    rep.rms, rep.rms / std::max(noise, 1e-300), noise);
+      rep.warnings.push_back(buf);
+    }
+  }
   rep.seconds_solve = since(t_solve);
 
   // Result.
@@ -825,6 +879,29 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
     res.undetermined["n"] =
         "k_s is about 0 (" + std::to_string(ks_max) + "): no specular lobe to measure n from";
     pb->SetParameterBlockConstant(&st.logn);
+  }
+  // The same for the optional terms: an isotropic lobe of zero weight leaves n_iso free, a
+  // second fiber of zero weight (w -> 1) leaves its angle free. Hold the free coordinate fixed
+  // (a subset manifold), name it, and keep everyone else's sigma.
+  bool iso_n_free = true, sec_angle_free = true;
+  if (opt.fit_isotropic) {
+    const double iso_ks = std::max({st.iso[3], st.iso[4], st.iso[5]});
+    if (!(iso_ks > kKsNegligible * std::max(1.0, kd_max))) {
+      iso_n_free = false;
+      res.undetermined["isotropic.n"] =
+          "the isotropic specular k_s,iso is about 0 (" + std::to_string(iso_ks) +
+          "): no isotropic lobe to measure n_iso from (the data show no isotropic term)";
+      pb->SetManifold(st.iso, new ceres::SubsetManifold(7, {6}));
+    }
+  }
+  if (opt.fit_second) {
+    constexpr double kWeightNegligible = 1e-4;  // of the second lobe: 1 - w
+    if (!(1.0 - st.sec[1] > kWeightNegligible)) {
+      sec_angle_free = false;
+      res.undetermined["second_fiber.angle_deg"] =
+          "the second fiber's weight 1 - w is about 0: no second lobe to measure its angle from";
+      pb->SetManifold(st.sec, new ceres::SubsetManifold(2, {0}));
+    }
   }
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;
@@ -909,11 +986,11 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
       const auto d = diag(st.iso, 7);
       res.sigma["isotropic.kd"] = {d[0], d[1], d[2]};
       res.sigma["isotropic.ks"] = {d[3], d[4], d[5]};
-      res.sigma["isotropic.n"] = {mat.iso_n * d[6]};
+      if (iso_n_free) res.sigma["isotropic.n"] = {mat.iso_n * d[6]};
     }
     if (opt.fit_second) {
       const auto d = diag(st.sec, 2);
-      res.sigma["second_fiber.angle_deg"] = {d[0] * 180 / M_PI};
+      if (sec_angle_free) res.sigma["second_fiber.angle_deg"] = {rad_to_deg(d[0])};
       res.sigma["second_fiber.weight"] = {d[1]};
     }
   } else {
@@ -1008,8 +1085,20 @@ void drop_implausible(ObsSet* os, FitReport* rep) {
 }
 
 // --model auto fits both models and keeps the one with the lower BIC; otherwise the one asked.
+// Ceres logs through glog to stderr; what it says is reported as our own messages instead
+// (undetermined parameters, termination), so its raw lines never reach a user's terminal.
+void quiet_library_logs() {
+  static const bool once = [] {
+    FLAGS_minloglevel = google::GLOG_FATAL;
+    FLAGS_stderrthreshold = google::GLOG_FATAL;
+    return true;
+  }();
+  (void)once;
+}
+
 FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& rep,
                       const RGB& ka) {
+  quiet_library_logs();
   if (opt.model != "auto") return solve(os, opt, rep, ka);
   FitOptions line = opt, fiber = opt;
   line.model = "line";
@@ -1112,9 +1201,22 @@ ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport
   }
   Progress bar("fit: loading views", set.views.size(), opt.progress);
   size_t grey_views = 0;
+  std::vector<double> neighbour_diffs;
   for (size_t i = 0; i < set.views.size(); ++i) {
     const ViewData d = load_view(set, i, has_map ? &map : nullptr);
     grey_views += d.channels == 1;
+    // Second differences of three horizontal neighbours (a - 2b + c cancels the shading's
+    // gradient) on every 4th row: enough for a median, little time. Zeros are clipped values.
+    for (int y = 0; y < d.rgb.height; y += 4)
+      for (int x = 0; x + 2 < d.rgb.width; ++x) {
+        const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
+        if (d.use[p] && d.use[p + 1] && d.use[p + 2])
+          for (int c = 0; c < d.channels; ++c) {
+            const float a = d.rgb.px[3 * p + c], b = d.rgb.px[3 * (p + 1) + c],
+                        e = d.rgb.px[3 * (p + 2) + c];
+            if (a > 0 && b > 0 && e > 0) neighbour_diffs.push_back(a - 2 * b + e);
+          }
+      }
     rep.masked_out += static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
     rep.saturated += d.saturated;
     rep.nonfinite += d.nonfinite;
@@ -1122,6 +1224,9 @@ ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport
     bar.advance();
   }
   drop_implausible(&os, &rep);
+  // sigma of one pixel: the robust sigma of a - 2b + c, over sqrt(1 + 4 + 1).
+  if (!neighbour_diffs.empty())
+    os.pixel_noise = 1.4826 * median_abs(neighbour_diffs) / std::sqrt(6.0);
   // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
   os.grey = grey_views == set.views.size();
   rep.pixels = os.obs.size();
@@ -1209,6 +1314,7 @@ void write_fit(const std::string& path, const FitResult& r) {
   const FitReport& p = r.report;
   j["report"] = {{"residual_rms", p.rms},
                  {"noise_sigma_robust", p.noise_sigma},
+                 {"pixel_noise", p.pixel_noise},
                  {"observations", p.observations},
                  {"pixels", p.pixels},
                  {"views", p.views},
@@ -1234,6 +1340,7 @@ void write_fit(const std::string& path, const FitResult& r) {
                  {"parameters", p.parameters},
                  {"jacobian_evaluations", p.jacobian_evaluations}};
   if (!p.model_selection.empty()) j["report"]["model_selection"] = p.model_selection;
+  if (!p.warnings.empty()) j["report"]["warnings"] = p.warnings;
   if (!s_map_path.empty()) {
     Image img(r.s_texels_n, r.s_texels_n, 2);
     for (size_t i = 0; i < r.s_texels.size(); ++i) {

@@ -38,12 +38,16 @@ struct FitReport {
   double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0,
          seconds_covariance = 0;
   double rms = 0, noise_sigma = 0, loss_scale = 0;
+  double pixel_noise = 0;  // of the images, from neighbouring pixels (0 for tables)
   std::string termination, loss;
   size_t residual_evaluations = 0, jacobian_evaluations = 0;
   std::string start;  // the grid node the solve started from
   double rss = 0, bic = 0;
   size_t parameters = 0;
   std::string model_selection;  // --model auto: the comparison and why
+  // Said plainly to the user and recorded in the file: a fit that may be wrong (the model does
+  // not describe the data, ...), with the likely cause.
+  std::vector<std::string> warnings;
 };
 
 struct FitResult {

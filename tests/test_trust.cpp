@@ -231,3 +231,72 @@ TEST(Trust, TheFitPrintsEveryValueWithItsSigma) {
 
 }  // namespace
 }  // namespace aniso
+
+namespace aniso {
+namespace {
+
+TEST(Trust, AnAbsentIsotropicTermNamesOnlyNIsoAsUndetermined) {
+  const std::string dir = small_capture(test::tmp_dir("set"));
+  const auto r = test::run_cli("fit " + dir + " --fit-isotropic --out " + dir + "/../m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("covariance_impl"), std::string::npos) << "raw Ceres log: " << r.output;
+  EXPECT_EQ(r.output.find("WARNING: Logging"), std::string::npos) << r.output;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/../m.json"));
+  ASSERT_TRUE(j.contains("undetermined"));
+  EXPECT_TRUE(j["undetermined"].contains("isotropic.n")) << j["undetermined"].dump();
+  EXPECT_FALSE(j["undetermined"].contains("covariance")) << j["undetermined"].dump();
+  EXPECT_TRUE(j["uncertainty"]["kd"].is_array()) << j["uncertainty"].dump();
+  EXPECT_TRUE(j["uncertainty"]["fiber_angle_deg"].is_number()) << j["uncertainty"].dump();
+}
+
+TEST(Trust, AModelThatDoesNotDescribeTheDataIsSaidPlainly) {
+  const std::string dir = test::tmp_dir("cloth");
+  PresetOptions p;
+  p.views = 8;
+  p.width = p.height = 48;
+  p.noise = 0.01;
+  p.progress = false;
+  simulate_capture(make_preset("woven-cloth", p), dir);
+  auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("WARNING: the model does not describe the data"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("--fit-second-fiber"), std::string::npos) << r.output;
+  auto j = nlohmann::json::parse(read_text_file(dir + "/../m.json"));
+  EXPECT_EQ(j["report"]["warnings"].size(), 1u);
+  r = test::run_cli("fit " + dir + " --fit-second-fiber --out " + dir + "/../m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("WARNING"), std::string::npos) << r.output;
+  // The noise estimate from neighbouring pixels is the noise the right model leaves.
+  j = nlohmann::json::parse(read_text_file(dir + "/../m.json"));
+  const double ratio =
+      j["report"]["residual_rms"].get<double>() / j["report"]["pixel_noise"].get<double>();
+  EXPECT_GT(ratio, 0.7);
+  EXPECT_LT(ratio, 1.4);
+}
+
+TEST(Trust, ManyIdenticalViewsDoNotAliasTheStartSubset) {
+  const std::string dir = test::tmp_dir("same");
+  PresetOptions p;
+  p.views = 1;
+  p.width = p.height = 10;
+  p.noise = 0.01;
+  p.progress = false;
+  simulate_capture(make_preset("brushed-metal", p), dir);
+  // 4000 copies of one view: a stride of (observations / 4000) lands on one pixel every time.
+  edit_json(dir + "/capture.json", [](auto& j) {
+    const auto v = j["views"][0];
+    j["views"] = nlohmann::json::array();
+    for (int i = 0; i < 4000; ++i) j["views"].push_back(v);
+  });
+  const auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/../m.json"));
+  EXPECT_NEAR(j["fiber_angle_deg"].get<double>(), 30.0, 0.5);
+  // The robust scale comes from real residuals, not from one pixel fitted exactly.
+  EXPECT_GT(j["report"]["noise_sigma_robust"].get<double>(), 1e-4);
+  EXPECT_NE(r.output.find("start grid psi=30.0"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace aniso
