@@ -30,6 +30,7 @@
 // Parameters: those of the line model (models/params.h) plus the topology s (kFiberParams).
 // Limits: fibers are assumed much smaller than a pixel (one period stands for the footprint).
 #pragma once
+#include <algorithm>
 #include <cmath>
 
 #include "models/local_dir.h"
@@ -39,6 +40,14 @@
 namespace aniso {
 
 inline constexpr double kMaxClimbRad = M_PI / 3.0;  // theta = 60 deg * s (Hast eq. 5 range)
+
+// Degenerate directions. A light or view exactly in the surface plane (|<N,L>| within rounding)
+// is evaluated as its neighbour a hair above the plane, so the model is the limit of its
+// neighbours up to the horizon: along the fiber axis the direction has no projection into the
+// cross-section plane, and the limit from above is the projection along N (l = (0, 1)), which
+// lights and shows the whole front. Below the horizon nothing is lit or seen (MODELS.md §4).
+inline constexpr double kHorizonRounding = 1e-12;  // |<N,L>| this small is 0 up to rounding
+inline constexpr double kHairAbovePlane = 1e-9;    // where the in-plane limit is evaluated
 
 // Scalar part of a double or a ceres::Jet (`.a`): for the discrete choices (which fiber copy is
 // the first ahead), which are piecewise constant in the parameters.
@@ -182,10 +191,13 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
   *D = T(0.0);
   *S = T(0.0);
   if (W_out) *W_out = T(0.0);
-  // Nothing is lit when <N,L> <= 0 and nothing visible when <N,V> <= 0 (MODELS.md §4).
-  if (!(ln > T(0.0)) || !(vn > T(0.0))) return;
-  const T sL = sqrt(lb * lb + ln * ln), sV = sqrt(vb * vb + vn * vn);
-  const T lx = lb / sL, ly = ln / sL, vx = vb / sV, vy = vn / sV;
+  // Nothing is lit when <N,L> < 0 and nothing visible when <N,V> < 0 (MODELS.md §4); exactly in
+  // the plane, the limit from just above it (kHairAbovePlane).
+  const T lnh = std::abs(ceres_value(ln)) <= kHorizonRounding ? T(kHairAbovePlane) : ln;
+  const T vnh = std::abs(ceres_value(vn)) <= kHorizonRounding ? T(kHairAbovePlane) : vn;
+  if (!(lnh > T(0.0)) || !(vnh > T(0.0))) return;
+  const T sL = sqrt(lb * lb + lnh * lnh), sV = sqrt(vb * vb + vnh * vnh);
+  const T lx = lb / sL, ly = lnh / sL, vx = vb / sV, vy = vnh / sV;
   const T phi_l = atan2(lx, ly), phi_v = atan2(vx, vy);
   const T theta = kMaxClimbRad * s;
   const T P = 4.0 * cos(theta), H = 2.0 * sin(theta);
@@ -299,7 +311,7 @@ template <class T, class P>
 void fiber_reflectance(const P& p, const T& s, const LocalDir& L, const LocalDir& V,
                        const FiberAccuracy& acc, T out[3]) {
   out[0] = out[1] = out[2] = T(0.0);
-  if (!(L.n > 0.0) || !(V.n > 0.0)) return;
+  if (L.n < -kHorizonRounding || V.n < -kHorizonRounding) return;  // in the plane: see fiber_DS
   fiber_lobe(p, p.psi, s, L, V, acc, out);
   if (p.second) {
     T lobe2[3];
@@ -310,7 +322,7 @@ void fiber_reflectance(const P& p, const T& s, const LocalDir& L, const LocalDir
     const double hu = L.u + V.u, hw = L.w + V.w, hn = L.n + V.n;
     const double hl = std::sqrt(hu * hu + hw * hw + hn * hn);
     const T spec = pos_pow(T(hl > 0.0 ? hn / hl : 0.0), p.n_iso);
-    for (int k = 0; k < 3; ++k) out[k] += p.kd_iso[k] * L.n + p.ks_iso[k] * spec;
+    for (int k = 0; k < 3; ++k) out[k] += p.kd_iso[k] * std::max(L.n, 0.0) + p.ks_iso[k] * spec;
   }
 }
 
