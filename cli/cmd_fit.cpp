@@ -33,6 +33,7 @@ void print_report(const FitResult& r) {
       p.seconds_start, p.seconds_solve, p.seconds_covariance);
   for (const auto& [k, why] : r.undetermined)
     std::printf("fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());
+  for (const auto& s : p.model_summaries) std::printf("fit: --model auto: %s\n", s.c_str());
   if (!p.model_selection.empty()) std::printf("fit: --model auto: %s\n", p.model_selection.c_str());
   for (const auto& w : p.warnings) std::printf("fit: WARNING: %s\n", w.c_str());
 }

@@ -2,6 +2,8 @@
 
 #include <ceres/ceres.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -449,11 +451,12 @@ void set_start_kd_ks(const double kd[3], const double ks[3], State* st) {
 
 // Start: grid over psi (5 degree steps) and n (powers of 2 from 2 to 4096) with the line model's
 // lobe (the fiber model's peaks sit at the same place); k_d, k_s solved at every node.
-std::string grid_start(const ObsSet& os, State* st) {
+std::string grid_start(const ObsSet& os, State* st, bool progress = false) {
+  Progress bar("fit: start grid (psi x n)", 36, progress);
   const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
   double best = std::numeric_limits<double>::infinity();
   double best_psi = 0, best_logn = 0, best_kd[3] = {0, 0, 0}, best_ks[3] = {0, 0, 0};
-  for (int ip = 0; ip < 36; ++ip) {
+  for (int ip = 0; ip < 36; ++ip, bar.advance()) {
     const double psi = ip * M_PI / 36;
     const double c = std::cos(psi), s = std::sin(psi);
     for (int in = 1; in <= 12; ++in) {
@@ -495,8 +498,9 @@ std::string grid_start(const ObsSet& os, State* st) {
 
 // Fiber model start: from the line grid's (psi, n), a grid over the topology (s in 0.05..0.95,
 // or A in -1..1) and n around the line value, k_d, k_s solved in closed form at every node.
-std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* st) {
-  std::string line = grid_start(os, st);
+std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* st,
+                             bool progress) {
+  std::string line = grid_start(os, st, progress);
   const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
   std::vector<double> topo_values;
   if (os.topology == TopologyMode::kGlobalS || os.topology == TopologyMode::kTexels)
@@ -650,8 +654,21 @@ std::unique_ptr<ceres::Problem> build_problem(const ObsSet& os, const std::vecto
   return pb;
 }
 
+// Each solver iteration on the terminal (stderr), overwriting one line; nothing when piped.
+class TerminalIterations : public ceres::IterationCallback {
+ public:
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    std::fprintf(stderr, "\rfit: iteration %3d, cost %.6g, step %.3g      ", s.iteration, s.cost,
+                 s.step_norm);
+    std::fflush(stderr);
+    return ceres::SOLVER_CONTINUE;
+  }
+};
+
 ceres::Solver::Options solver_options(const FitOptions& opt) {
   ceres::Solver::Options so;
+  static TerminalIterations terminal;  // stateless: one for every solve
+  if (opt.progress && ::isatty(2)) so.callbacks.push_back(&terminal);
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // at most 17 parameters
   so.max_num_iterations = opt.max_iterations;
   so.num_threads = std::max(1, opt.threads);
@@ -692,7 +709,8 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   State st;
   FiberAccuracy acc;
   acc.order = opt.fiber_order;
-  rep.start = fiber ? fiber_grid_start(os, acc, &st) : grid_start(os, &st);
+  rep.start =
+      fiber ? fiber_grid_start(os, acc, &st, opt.progress) : grid_start(os, &st, opt.progress);
   const ProblemSetup ps{opt.fit_isotropic, opt.fit_second, fiber, acc};
 
   // Stage 1: plain least squares on the start subset to settle near the optimum and measure noise.
@@ -781,6 +799,7 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
     pb = build_problem(os, all, &st, ps, loss);
     ceres::Solve(solver_options(opt), pb.get(), &sum);
   }
+  if (opt.progress && ::isatty(2)) std::fprintf(stderr, "\r%70s\r", "");  // the iteration line
   rep.iterations = static_cast<int>(sum.iterations.size()) - 1;
   rep.termination = ceres::TerminationTypeToString(sum.termination_type);
   rep.residual_evaluations = sum.num_residual_evaluations;
@@ -1103,8 +1122,12 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
   FitOptions line = opt, fiber = opt;
   line.model = "line";
   fiber.model = "fiber";
+  const bool tty = opt.progress && ::isatty(2);
+  if (tty) std::fprintf(stderr, "fit: --model auto: 1/2 the line model\n");
   FitResult rl = solve(os, line, rep, ka);
+  if (tty) std::fprintf(stderr, "\nfit: --model auto: 2/2 the fiber model (the slow half)\n");
   FitResult rf = solve(os, fiber, rep, ka);
+  if (tty) std::fprintf(stderr, "\n");
   const bool pick_fiber = rf.report.bic < rl.report.bic;
   char buf[400];
   std::snprintf(buf, sizeof buf,
@@ -1116,6 +1139,13 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
                 std::abs(rf.report.bic - rl.report.bic));
   FitResult& r = pick_fiber ? rf : rl;
   r.report.model_selection = buf;
+  for (const FitResult* x : {&rl, &rf}) {
+    std::snprintf(buf, sizeof buf,
+                  "%-5s residual RMS %.4g, BIC %.1f, %d iterations, %s, solve %.3f s",
+                  x->material.model.c_str(), x->report.rms, x->report.bic, x->report.iterations,
+                  x->report.termination.c_str(), x->report.seconds_solve);
+    r.report.model_summaries.push_back(buf);
+  }
   r.report.seconds_solve = rl.report.seconds_solve + rf.report.seconds_solve;
   return r;
 }

@@ -48,6 +48,7 @@ struct FitReport {
   // Said plainly to the user and recorded in the file: a fit that may be wrong (the model does
   // not describe the data, ...), with the likely cause.
   std::vector<std::string> warnings;
+  std::vector<std::string> model_summaries;  // --model auto: one line per model
 };
 
 struct FitResult {

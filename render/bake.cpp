@@ -9,6 +9,7 @@
 #include <random>
 
 #include "core/error.h"
+#include "core/progress.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
@@ -153,9 +154,10 @@ FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, 
   fb.F.assign(static_cast<size_t>(nphi) * nphi * ns * nk, 0.f);
   // Keeps the tabulated directions strictly above the surface at the +-90 deg end texels.
   constexpr double kGrazingCos = 1e-9;
+  Progress bar("bake: fiber factor tables", static_cast<size_t>(ns) * nphi);
   tbb::parallel_for(0, ns, [&](int is) {
     const double s = static_cast<double>(is) / (ns - 1);
-    for (int j = 0; j < nphi; ++j)
+    for (int j = 0; j < nphi; ++j, bar.advance())
       for (int i = 0; i < nphi; ++i) {
         const double pl = -M_PI / 2 + M_PI * i / (nphi - 1), pv = -M_PI / 2 + M_PI * j / (nphi - 1);
         const double lb = std::sin(pl), ln = std::max(std::cos(pl), kGrazingCos);
