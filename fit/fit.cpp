@@ -1,7 +1,6 @@
 #include "fit/fit.h"
 
 #include <ceres/ceres.h>
-
 #include <unistd.h>
 
 #include <algorithm>
@@ -498,8 +497,7 @@ std::string grid_start(const ObsSet& os, State* st, bool progress = false) {
 
 // Fiber model start: from the line grid's (psi, n), a grid over the topology (s in 0.05..0.95,
 // or A in -1..1) and n around the line value, k_d, k_s solved in closed form at every node.
-std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* st,
-                             bool progress) {
+std::string fiber_grid_start(const ObsSet& os, const FiberAccuracy& acc, State* st, bool progress) {
   std::string line = grid_start(os, st, progress);
   const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
   std::vector<double> topo_values;
@@ -941,7 +939,48 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   const double dof = std::max(1.0, m - static_cast<double>(nparam));
   double s2 = rss / (os.grey ? 3 : 1) / dof;
   if (os.grey) s2 *= 3;  // its three identical channels must not count as three measurements
-  if (cov.Compute(blocks, pb.get())) {
+  // Every pair of blocks (for the correlation matrix), except with per-texel maps (N^2 blocks).
+  std::vector<const double*> block_list;
+  for (const auto& b : blocks) block_list.push_back(b.first);
+  const bool computed = texels ? cov.Compute(blocks, pb.get()) : cov.Compute(block_list, pb.get());
+  if (computed) {
+    // The full correlation matrix of the fitted numbers (not the per-texel maps), in the
+    // coordinates the solver uses (log n, psi in radians): how the parameters trade off.
+    {
+      std::vector<const double*> cb;
+      std::vector<std::string>& names = res.correlation_names;
+      auto add = [&](const double* b, std::initializer_list<const char*> ns) {
+        if (!pb->HasParameterBlock(const_cast<double*>(b)) ||
+            pb->IsParameterBlockConstant(const_cast<double*>(b)))
+          return;
+        cb.push_back(b);
+        for (const char* n : ns) names.push_back(n);
+      };
+      add(st.kd, {"kd.r", "kd.g", "kd.b"});
+      add(st.ks, {"ks.r", "ks.g", "ks.b"});
+      add(&st.psi, {"fiber_angle"});
+      if (n_free) add(&st.logn, {"log n"});
+      if (fit_topo && !texels)
+        add(st.topo, {os.topology == TopologyMode::kGlobalS ? "topology.s" : "topology.amplitude"});
+      if (opt.fit_isotropic)
+        add(st.iso, {"isotropic.kd.r", "isotropic.kd.g", "isotropic.kd.b", "isotropic.ks.r",
+                     "isotropic.ks.g", "isotropic.ks.b", "isotropic.log n"});
+      if (opt.fit_second) add(st.sec, {"second_fiber.angle", "second_fiber.weight"});
+      const size_t k = names.size();
+      std::vector<double> c(k * k, 0.0);
+      // Tangent-space size differs from the ambient size for the subset manifolds: ask in the
+      // ambient space and leave held coordinates at 0 correlation.
+      if (!cb.empty() && !texels && cov.GetCovarianceMatrix(cb, c.data())) {
+        res.correlation.assign(k, std::vector<double>(k, 0.0));
+        for (size_t i = 0; i < k; ++i)
+          for (size_t j = 0; j < k; ++j) {
+            const double d = std::sqrt(c[i * k + i] * c[j * k + j]);
+            res.correlation[i][j] = d > 0 && std::isfinite(d) ? c[i * k + j] / d : (i == j);
+          }
+      } else {
+        names.clear();
+      }
+    }
     auto diag = [&](const double* b, int size) {
       std::vector<double> c(size * size);
       cov.GetCovarianceBlock(b, b, c.data());
@@ -1371,6 +1410,12 @@ void write_fit(const std::string& path, const FitResult& r) {
                  {"jacobian_evaluations", p.jacobian_evaluations}};
   if (!p.model_selection.empty()) j["report"]["model_selection"] = p.model_selection;
   if (!p.warnings.empty()) j["report"]["warnings"] = p.warnings;
+  if (!r.correlation.empty())
+    j["report"]["correlation"] = {{"parameters", r.correlation_names},
+                                  {"matrix", r.correlation},
+                                  {"note",
+                                   "correlation of the fitted numbers in the solver's coordinates "
+                                   "(log n, angles in radians)"}};
   if (!s_map_path.empty()) {
     Image img(r.s_texels_n, r.s_texels_n, 2);
     for (size_t i = 0; i < r.s_texels.size(); ++i) {

@@ -59,6 +59,10 @@ struct FitResult {
   std::map<std::string, std::string> fixed;         // not fitted, and why
   std::map<std::string, std::string> undetermined;  // fitted but not determined by the data
   FitReport report;
+  // The full correlation matrix of the fitted numbers (kd.r ... ks.b, fiber_angle, log n, ...),
+  // row-major, with the parameter names; empty when the covariance is not available.
+  std::vector<std::string> correlation_names;
+  std::vector<std::vector<double>> correlation;
   // --topology-map N: the N x N texels of s (row-major, glTF uv) and their sigmas (-1:
   // undetermined).
   int s_texels_n = 0;

@@ -227,6 +227,17 @@ TEST(Trust, TheFitPrintsEveryValueWithItsSigma) {
   for (const char* k : {"kd.r", "ks.b", "n ", "fiber_angle_deg"})
     EXPECT_NE(r.output.find(k), std::string::npos) << k << " in " << r.output;
   EXPECT_NE(r.output.find("+-"), std::string::npos) << r.output;
+  // The full correlation matrix in the file's report: 8 fitted numbers, symmetric, unit diagonal.
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/../m.json"));
+  const auto& c = j["report"]["correlation"];
+  ASSERT_EQ(c["parameters"].size(), 8u) << c.dump();
+  for (size_t a = 0; a < 8; ++a)
+    for (size_t b = 0; b < 8; ++b) {
+      const double x = c["matrix"][a][b].get<double>();
+      EXPECT_NEAR(x, c["matrix"][b][a].get<double>(), 1e-9);
+      EXPECT_LE(std::abs(x), 1.0 + 1e-9);
+      if (a == b) EXPECT_NEAR(x, 1.0, 1e-9);
+    }
 }
 
 }  // namespace
