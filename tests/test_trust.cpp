@@ -236,7 +236,9 @@ TEST(Trust, TheFitPrintsEveryValueWithItsSigma) {
       const double x = c["matrix"][a][b].get<double>();
       EXPECT_NEAR(x, c["matrix"][b][a].get<double>(), 1e-9);
       EXPECT_LE(std::abs(x), 1.0 + 1e-9);
-      if (a == b) EXPECT_NEAR(x, 1.0, 1e-9);
+      if (a == b) {
+        EXPECT_NEAR(x, 1.0, 1e-9);
+      }
     }
 }
 
