@@ -44,6 +44,8 @@ int run(const PreviewArgs& a) {
     // The map named by the material (relative to the material file), unless given.
     p.topology_map =
         load_topology_map(a.map.empty() ? join_path(m.base_dir, m.topology_map) : a.map).h;
+  if (m.model == "fiber" && m.has_s_map)
+    p.s_map = read_image(join_path(m.base_dir, m.topology_s_map)).image;
   p.shape_options.torus_R = a.R;
   p.shape_options.torus_r = a.r;
   const PreviewResult r = render_preview(m, p);

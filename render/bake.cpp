@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <random>
 
@@ -300,14 +301,32 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
             {"samples", fiber->samples}}},
           {"bake_seconds", fiber->seconds}};
     }
+    // The maps the material names travel with the bake (an engine needs them as much as the
+    // tables); the material recorded below names them relative to bake.json.
+    Material mm = m;
+    json maps = json::object();
+    auto carry = [&](bool has, std::string* rel, const char* key, const char* meaning) {
+      if (!has) return;
+      const std::string src = join_path(m.base_dir, *rel);
+      const std::string dst = "maps/" + std::filesystem::path(src).filename().string();
+      write_text_file(join_path(tmp, dst), read_text_file(src));
+      *rel = dst;
+      maps[key] = {{"file", dst}, {"meaning", meaning}};
+    };
+    carry(m.model == "fiber" && m.has_topology_map, &mm.topology_map, "topology.map",
+          "topology map h in [0, 1] (first channel; integer images divided by their maximum), "
+          "m = 2h - 1, over glTF uv with wrap; s from s_math and the amplitude (MODELS.md §4)");
+    carry(m.model == "fiber" && m.has_s_map, &mm.topology_s_map, "topology.s_map",
+          "the topology s itself per texel (channel R; G = its sigma, -1 where undetermined), "
+          "over glTF uv, bilinear with wrap");
     json material;
-    material_to_json(m, &material);
+    material_to_json(mm, &material);
     const int n = t.size;
     const double sc = (n - 1.0) / n, off = 0.5 / n;
     json j = {
         {"format", "aniso-bake"},
         {"version", 1},
-        {"model", "line"},
+        {"model", m.model},
         {"size", n},
         {"generated_with", command},
         {"index",
@@ -347,6 +366,7 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
         {"bake_seconds", t.seconds},
         {"material", material}};
     if (fiber) j["fiber"] = fiber_json;
+    if (!maps.empty()) j["maps"] = maps;
     write_json_file(join_path(tmp, "bake.json"), j);
   });
 }

@@ -9,6 +9,7 @@
 #include "capture_sim/sim.h"
 #include "core/error.h"
 #include "core/frame.h"
+#include "core/texture.h"
 #include "io/capture.h"
 #include "io/files.h"
 #include "models/evaluate.h"
@@ -218,7 +219,7 @@ uniform sampler2DArray uF;
 uniform sampler2D uMap;
 uniform int uAngleIndex; uniform float uTexels;
 uniform int uNphi; uniform int uNs; uniform int uNk;
-uniform int uTopo;  // 0: uniform s, 1: s_math, 2: s_math + map
+uniform int uTopo;  // 0: uniform s, 1: s_math, 2: s_math + map, 3: a map of s itself
 uniform float uS0; uniform float uAmp;
 uniform vec3 uL; uniform vec3 uV; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs;
 out vec4 frag;
@@ -238,6 +239,7 @@ void main() {
   float kk = g0 > 0.0 ? 2.0 * sL * sV / (g0 + 2.0 * sL * sV) : 1.0;
   float s = uS0;
   if (uTopo >= 1) s = vSmath;
+  if (uTopo == 3) s = texture(uMap, vUV).r;
   if (uTopo == 2) {
     float m = 2.0 * texture(uMap, vUV).r - 1.0;
     float H = clamp(2.0 * sin(PI / 3.0 * vSmath) + uAmp * m, 0.0, sqrt(3.0));
@@ -312,17 +314,16 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     throw Error("preview: --size must be between 1x1 and 8192x8192");
   if (opt.light_dirs.empty()) throw Error("preview: at least one light is needed");
   const bool is_obj = lower_ext(opt.shape) == ".obj";
-  TriMesh mesh = is_obj ? load_obj(opt.shape, opt.fiber_field.empty()) : make_shape(opt.shape, opt.shape_options);
+  TriMesh mesh = is_obj ? load_obj(opt.shape, opt.fiber_field.empty())
+                        : make_shape(opt.shape, opt.shape_options);
   PreviewResult res;
   res.triangles = mesh.tri.size();
 
   // Per-vertex fiber directions T and T2 (MODELS.md §1), uv and the mathematical topology.
   const bool fiber = m.model == "fiber" && !opt.plain;
-  if (fiber && m.has_s_map)
-    throw Error(
-        "preview: a per-texel map of s (topology.s_map) is not rendered by the preview yet; verify "
-        "and eval "
-        "support it");
+  if (fiber && m.has_s_map && opt.s_map.empty())
+    throw Error("preview: the material uses a map of s (" + m.topology_s_map +
+                ") but none was loaded");
   if (fiber && m.has_topology_map && opt.topology_map.empty())
     throw Error("preview: the material uses a topology map (" + m.topology_map +
                 ") but none was loaded");
@@ -425,12 +426,15 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     fb = bake_fiber(m, tables);
     texG = make_array_texture(fb.G, fb.nphi, fb.nphi, fb.ns);
     texF = make_array_texture(fb.F, fb.nphi, fb.nphi, fb.ns * fb.nk);
-    if (m.has_topology_map) {
+    if (m.has_topology_map || m.has_s_map) {
+      const Image& img = m.has_s_map ? opt.s_map : opt.topology_map;
+      std::vector<float> first(static_cast<size_t>(img.width) * img.height);
+      for (size_t p = 0; p < first.size(); ++p) first[p] = img.px[p * img.channels];
       glGenTextures(1, &texMap);
       glBindTexture(GL_TEXTURE_2D, texMap);
       // Row 0 of the image is v = 0 (glTF: top), which is t = 0 here: the same convention.
-      glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, opt.topology_map.width, opt.topology_map.height, 0,
-                   GL_RED, GL_FLOAT, opt.topology_map.px.data());
+      glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, img.width, img.height, 0, GL_RED, GL_FLOAT,
+                   first.data());
       glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
       glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
       glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
@@ -499,7 +503,9 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
           glUniform1i(glGetUniformLocation(p_aniso, "uNphi"), fb.nphi);
           glUniform1i(glGetUniformLocation(p_aniso, "uNs"), fb.ns);
           glUniform1i(glGetUniformLocation(p_aniso, "uNk"), fb.nk);
-          const int topo = m.has_topology_map ? 2 : (m.topology_mathematical != "none" ? 1 : 0);
+          const int topo = m.has_s_map          ? 3
+                           : m.has_topology_map ? 2
+                                                : (m.topology_mathematical != "none" ? 1 : 0);
           glUniform1i(glGetUniformLocation(p_aniso, "uTopo"), topo);
           glUniform1f(glGetUniformLocation(p_aniso, "uS0"), float(m.topology_s));
           glUniform1f(glGetUniformLocation(p_aniso, "uAmp"), float(m.topology_amplitude));
@@ -581,7 +587,13 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
         SurfacePoint sp;
         if (!make_frame(Vec3(0, 0, 0), N, T, &sp)) continue;
         const double u = gT2.at(x, y, 0), v = gT2.at(x, y, 1), smath = gT2.at(x, y, 2);
-        const double s = m.topology_at(smath, map.h.empty() ? 0.0 : map.sample(u, v));
+        double s = m.topology_at(smath, map.h.empty() ? 0.0 : map.sample(u, v));
+        if (m.has_s_map) {
+          const BilinearTaps t = bilinear_wrap(u, v, opt.s_map.width, opt.s_map.height);
+          s = 0;
+          for (int q = 0; q < 4; ++q)
+            s += t.weight[q] * opt.s_map.px[static_cast<size_t>(t.index[q]) * opt.s_map.channels];
+        }
         double exact[3] = {0, 0, 0}, baked[3] = {0, 0, 0};
         for (const Vec3& ld : opt.light_dirs) {
           const LocalDir Ll = to_local(sp, normalize(ld)), Vl = to_local(sp, V);

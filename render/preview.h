@@ -31,6 +31,8 @@ struct PreviewOptions {
   int repeat = 1;  // frames to render (timing)
   // Fiber model: the topology map (h in [0, 1], glTF uv) when the material uses one.
   Image topology_map;
+  // Or a map of s itself (topology.s_map, what `fit --topology-map N` writes): channel 0 = s.
+  Image s_map;
 };
 
 struct PreviewResult {

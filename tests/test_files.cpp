@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "test_util.h"
@@ -216,6 +217,53 @@ TEST(Files, UnknownSubcommandsAndOptionsGetADidYouMean) {
   const auto o = test::sh("$A fit x --modle line --out y");
   EXPECT_NE(o.status, 0);
   EXPECT_NE(o.output.find("did you mean '--model'"), std::string::npos) << o.output;
+}
+
+}  // namespace
+}  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// Paths in a written file are relative to that file: a fitted material that uses the capture's
+// topology map previews and bakes from anywhere, and the bake carries the map.
+TEST(Files, AFittedMaterialNamesItsMapsRelativeToItselfAndTheBakeCarriesThem) {
+  const std::string ws = workspace();
+  ASSERT_EQ(test::sh("$A synth silk-torus " + ws + "/torus --views 4 --size 32").status, 0);
+  auto r = test::sh("$A fit " + ws + "/torus --model fiber --out " + ws + "/fitted/m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(slurp(ws + "/fitted/m.json"));
+  EXPECT_EQ(j["topology"]["map"], "../torus/maps/topology.png") << j["topology"].dump();
+  r = test::sh("cd / && $A preview " + ws + "/fitted/m.json --out " + ws + "/p.png --size 48");
+  EXPECT_EQ(r.status, 0) << r.output;
+  r = test::sh("$A bake " + ws + "/fitted/m.json --out " + ws + "/b --size 16");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(fs::exists(ws + "/b/maps/topology.png"));
+  const auto b = nlohmann::json::parse(slurp(ws + "/b/bake.json"));
+  EXPECT_EQ(b["model"], "fiber");
+  EXPECT_EQ(b["material"]["topology"]["map"], "maps/topology.png");
+  // A missing map is an error naming the material and the key.
+  fs::remove(ws + "/torus/maps/topology.png");
+  r = test::sh("$A preview " + ws + "/fitted/m.json --out " + ws + "/p2.png --size 48");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("m.json: topology.map"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(ws + "/p2.png"));
+}
+
+TEST(Files, AMaterialWithAMapOfSPreviewsAndBakes) {
+  const std::string ws = workspace();
+  ASSERT_EQ(test::sh("$A synth fiber-flat-map " + ws + "/set --views 4 --size 32").status, 0);
+  auto r = test::sh("$A fit " + ws + "/set --model fiber --topology-map 4 --out " + ws + "/s.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::sh("$A preview " + ws + "/s.json --shape flat --out " + ws + "/p.png --size 64");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // The GPU renders the same s per fragment as the CPU evaluation of the same tables.
+  const auto pos = r.output.find("GPU vs the same tables on the CPU: ");
+  ASSERT_NE(pos, std::string::npos) << r.output;
+  EXPECT_LT(std::stod(r.output.substr(pos + 35)), 1e-3) << r.output;
+  r = test::sh("$A bake " + ws + "/s.json --out " + ws + "/b --size 16");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(fs::exists(ws + "/b/maps/s_topology_s.exr"));
 }
 
 }  // namespace
