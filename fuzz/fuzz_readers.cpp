@@ -1,7 +1,10 @@
 // libFuzzer target: every file reader on arbitrary bytes. The first byte picks the reader
 // (capture.json, material, sample table, image, OBJ); the rest is the file. A reader may reject
 // the file with aniso::Error; anything else (a crash, another exception, a sanitizer report) is a
-// bug. Build and run: scripts/fuzz.sh.
+// bug. Build and run: scripts/fuzz.sh. With ANISO_FUZZ_SET naming a real capture folder, its
+// files are copied beside the fuzzed capture.json first, so a mutated capture.json that still
+// names them reaches image decoding and the per-pixel checks (the corpus holds that set's
+// capture.json, and real PNG and EXR files).
 #include <unistd.h>
 
 #include <cstdint>
@@ -21,8 +24,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const char* kExt[] = {".json", ".json", ".csv", ".png", ".exr", ".obj"};
   const int which = data[0] % 6;
   const std::string dir = "/tmp/aniso_fuzz_" + std::to_string(::getpid());
-  std::string cmd = "mkdir -p " + dir;
-  if (std::system(cmd.c_str()) != 0) return 0;
+  static bool seeded = false;
+  if (!seeded) {
+    seeded = true;
+    std::string cmd = "mkdir -p " + dir;
+    if (const char* set = std::getenv("ANISO_FUZZ_SET"))
+      cmd += " && cp -r " + std::string(set) + "/. " + dir + "/";
+    if (std::system(cmd.c_str()) != 0) return 0;
+  }
   const std::string path = dir + (which == 0 ? "/capture" : "/input") + kExt[which];
   if (FILE* f = std::fopen(path.c_str(), "wb")) {
     std::fwrite(data + 1, 1, size - 1, f);

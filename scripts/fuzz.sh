@@ -10,8 +10,17 @@ dpkg-query -W clang libclang-rt-14-dev >/dev/null 2>&1 ||
 scripts/install_deps.sh
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DANISO_FUZZ=ON \
   -DANISO_WERROR=OFF -DANISO_BUILD_BENCH=OFF
-cmake --build build-fuzz -j "$(nproc)" --target fuzz_model fuzz_readers
+cmake --build build-fuzz -j "$(nproc)" --target fuzz_model fuzz_readers aniso
 mkdir -p build-fuzz/corpus_readers build-fuzz/corpus_model
+# A real capture set (EXR and 8-bit PNG) whose files exist, so decoding is actually reached.
+rm -rf build-fuzz/seedset build-fuzz/seedpng
+build-fuzz/aniso synth brushed-metal build-fuzz/seedset --views 2 --size 8 >/dev/null
+build-fuzz/aniso synth brushed-metal build-fuzz/seedpng --views 1 --size 8 --bits 8 --encoding srgb >/dev/null
+{ printf '\x00'; cat build-fuzz/seedset/capture.json; } > build-fuzz/corpus_readers/capture_real
+{ printf '\x04'; cat build-fuzz/seedset/images/000.exr; } > build-fuzz/corpus_readers/exr_real
+{ printf '\x03'; cat build-fuzz/seedpng/images/000.png; } > build-fuzz/corpus_readers/png_real
+{ printf '\x01'; cat build-fuzz/seedset/truth.json; } > build-fuzz/corpus_readers/material_real
+export ANISO_FUZZ_SET="$PWD/build-fuzz/seedset"
 # Seeds: one of each file kind, prefixed with its reader-selector byte.
 printf '\x01{"format":"aniso-material","version":1,"kd":0.2,"ks":0.5,"n":10,"fiber_angle_deg":0}' > build-fuzz/corpus_readers/material
 printf '\x02theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,y\n30,0,40,180,0.5\n' > build-fuzz/corpus_readers/table

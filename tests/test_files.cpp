@@ -268,3 +268,30 @@ TEST(Files, AMaterialWithAMapOfSPreviewsAndBakes) {
 
 }  // namespace
 }  // namespace aniso
+
+namespace aniso {
+namespace {
+
+TEST(Files, AReadOnlyFolderGetsAClearErrorAndNothingHalfWritten) {
+  if (::geteuid() == 0) {
+    // root writes anywhere; a read-only bind is not available here, so stand in with a file
+    // where the parent folder should be.
+    const std::string ws = workspace();
+    const auto r = test::sh("$A bake " + ws + "/m.json --out " + ws + "/photo.jpg/b");
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find("photo.jpg"), std::string::npos) << r.output;
+    EXPECT_EQ(slurp(ws + "/photo.jpg"), "a person's photo");
+    return;
+  }
+  const std::string ws = workspace();
+  fs::create_directories(ws + "/ro");
+  fs::permissions(ws + "/ro", fs::perms::owner_read | fs::perms::owner_exec);
+  const auto r = test::sh("$A bake " + ws + "/m.json --out " + ws + "/ro/b");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("ro/b"), std::string::npos) << r.output;
+  fs::permissions(ws + "/ro", fs::perms::owner_all);
+  EXPECT_TRUE(fs::is_empty(ws + "/ro"));
+}
+
+}  // namespace
+}  // namespace aniso
