@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "../tests/fiber_reference.h"
+#include "models/fiber_reference.h"
 #include "models/evaluate.h"
 #include "models/fiber_model.h"
 #include "render/bake.h"

@@ -15,10 +15,11 @@
 #include <random>
 #include <thread>
 
-#include "../tests/fiber_reference.h"
-#include "capture_sim/mesh.h"
+#include "models/fiber_reference.h"
+#include "geometry/mesh.h"
 #include "capture_sim/sim.h"
 #include "core/error.h"
+#include "geometry/embree_device.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
 #include "io/capture.h"
@@ -372,7 +373,7 @@ json bench_bake(bool quick) {
 // A bare Embree loop over the same scene: the primary rays of every view and one shadow ray per
 // front-facing hit, no shading, no I/O.
 double bare_embree_rays_per_s(const TriMesh& mesh, const SimOptions& so, size_t* rays_out) {
-  RTCDevice dev = rtcNewDevice(nullptr);
+  RTCDevice dev = new_embree_device("bench (bare Embree loop)");
   RTCScene scene = rtcNewScene(dev);
   RTCGeometry geom = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(

@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "geometry/embree_device.h"
 #include "io/files.h"
 #include "models/fiber_model.h"
 
@@ -29,8 +30,7 @@ MicroPatch::MicroPatch(double s, int copies, double length) : impl_(std::make_un
   const double theta = kMaxClimbRad * s;
   impl_->P = 4 * std::cos(theta);
   impl_->H = 2 * std::sin(theta);
-  impl_->device = rtcNewDevice(nullptr);
-  if (!impl_->device) throw Error("microgeometry: cannot create an Embree device");
+  impl_->device = new_embree_device("microgeometry");
   impl_->scene = rtcNewScene(impl_->device);
   RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE);
   // Embree's curve intersector is accurate for segments a few radii long (it is built for hair):

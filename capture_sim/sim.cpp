@@ -1,7 +1,5 @@
 #include "capture_sim/sim.h"
 
-#include "core/color.h"
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -11,17 +9,18 @@
 #include <cstdio>
 #include <random>
 
-#include "capture_sim/raycast.h"
-#include "capture_sim/shade.h"
+#include "core/color.h"
 #include "core/error.h"
 #include "core/frame.h"
 #include "core/progress.h"
 #include "core/texture.h"
+#include "geometry/raycast.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
 #include "io/material_io.h"
 #include "models/evaluate.h"
+#include "models/shade.h"
 
 namespace aniso {
 
@@ -161,24 +160,6 @@ Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g,
 
 }  // namespace
 
-double mathematical_topology_at(const std::string& kind, const Vec3& P, const ShapeOptions& shape) {
-  if (kind == "torus") {
-    const double rho = std::sqrt(P.x * P.x + P.y * P.y);
-    return torus_mathematical_s(shape.torus_R, shape.torus_r, std::atan2(P.z, rho - shape.torus_R));
-  }
-  if (kind == "sphere") {
-    // Meridian fibers are compressed by 1/sin(polar angle) away from the equator; the same
-    // in-cycle rule as the torus: c' = c / 2^floor(log2 c), theta = acos(1/c').
-    const double sin_polar = std::sqrt(P.x * P.x + P.y * P.y) / std::max(length(P), 1e-12);
-    // Closer to the pole than this the compression is unbounded: the row is close packed.
-    constexpr double kPoleSin = 1e-6;
-    const double c = 1.0 / std::max(sin_polar, kPoleSin);
-    const double cp = c / std::pow(2.0, std::floor(std::log2(c)));
-    return std::acos(1.0 / cp) / kMaxClimbRad;
-  }
-  return 0.0;
-}
-
 SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   const auto t0 = std::chrono::steady_clock::now();
   if (opt.rig.empty()) throw Error("capture_sim: the rig has no views");
@@ -196,7 +177,8 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   if (opt.sensor.shot_photons > kMaxShotPhotons)
     throw Error("capture_sim: --shot must be at most 1e12 photons");
   const bool is_obj = lower_ext(opt.shape) == ".obj";
-  const TriMesh mesh = is_obj ? load_obj(opt.shape, opt.fiber_field.empty()) : make_shape(opt.shape, opt.shape_options);
+  const TriMesh mesh = is_obj ? load_obj(opt.shape, opt.fiber_field.empty())
+                              : make_shape(opt.shape, opt.shape_options);
   const RayScene scene(mesh);
   const Evaluator eval(opt.truth);
   SimStats st;

@@ -7,7 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "capture_sim/mesh.h"
+#include "geometry/mesh.h"
+#include "geometry/topology.h"
 #include "io/capture.h"
 #include "models/material.h"
 
@@ -61,11 +62,6 @@ struct SimOptions {
   bool force_shadows = false;
   bool force_retrace = false;
 };
-
-// The mathematical topology s_math at a point of a named shape (MODELS.md §4): "torus" (radii
-// R, r, axis z) or "sphere" (fibers along meridians, compressed by 1/sin(polar angle)); 0 for
-// "none".
-double mathematical_topology_at(const std::string& kind, const Vec3& P, const ShapeOptions& shape);
 
 struct SimStats {
   size_t views = 0, primary_rays = 0, shadow_rays = 0, shaded_pixels = 0, light_evals = 0;

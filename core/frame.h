@@ -4,7 +4,7 @@
 #pragma once
 #include "core/image.h"
 #include "core/vec.h"
-#include "models/local_dir.h"
+#include "core/local_dir.h"
 
 namespace aniso {
 

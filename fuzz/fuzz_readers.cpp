@@ -12,7 +12,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "capture_sim/mesh.h"
+#include "geometry/mesh.h"
 #include "core/error.h"
 #include "io/capture.h"
 #include "io/image_io.h"

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "capture_sim/raycast.h"
 #include "core/color.h"
 #include "core/texture.h"
+#include "geometry/raycast.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
@@ -16,31 +16,6 @@ namespace aniso {
 
 using jsonu::Ctx;
 using jsonu::json;
-
-bool light_at(const Light& light, const Vec3& x, Vec3* L, RGB* E, double* dist) {
-  if (light.type == Light::Type::kDirectional) {
-    *L = normalize(light.direction);
-    *E = light.intensity;
-    *dist = std::numeric_limits<double>::infinity();
-  } else {
-    const Vec3 d = light.position - x;
-    const double r = length(d);
-    if (!(r > 0.0)) return false;
-    *L = d / r;
-    *dist = r;
-    const double att =
-        light.attenuation[0] + light.attenuation[1] * r + light.attenuation[2] * r * r;
-    if (!(att > 0.0)) return false;
-    double f = 1.0 / att;
-    if (light.type == Light::Type::kSpot) {
-      const double c = -dot(*L, normalize(light.direction));
-      if (c < std::cos(light.cutoff_deg * M_PI / 180.0) || c <= 0.0) return false;
-      f *= std::pow(c, light.exponent);
-    }
-    *E = {light.intensity[0] * f, light.intensity[1] * f, light.intensity[2] * f};
-  }
-  return (*E)[0] > 0 || (*E)[1] > 0 || (*E)[2] > 0;
-}
 
 namespace {
 

@@ -6,32 +6,13 @@
 #include <string>
 #include <vector>
 
+#include "core/camera.h"
 #include "core/image.h"
 #include "core/vec.h"
+#include "models/light.h"
 #include "models/material.h"
 
 namespace aniso {
-
-struct Intrinsics {
-  int width = 0, height = 0;
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-};
-
-struct Light {
-  enum class Type { kPoint, kDirectional, kSpot };
-  Type type = Type::kPoint;
-  Vec3 position{0, 0, 1};
-  Vec3 direction{0, 0, 1};  // directional: toward the light; spot: the beam's direction
-  RGB intensity{1, 1, 1};   // point/spot: I0; directional: irradiance E0
-  RGB attenuation{0, 0, 1};
-  double cutoff_deg = 90.0;
-  double exponent = 0.0;
-};
-
-// The light at surface point x (MODELS.md §2): unit direction toward the light, the irradiance
-// scale E (RGB) and the distance (infinity for a directional light). False when it delivers
-// nothing there (outside a spot's cone, zero intensity).
-bool light_at(const Light& light, const Vec3& x, Vec3* L, RGB* E, double* dist);
 
 struct GeometrySpec {
   std::string position, normal, tangent, mask, uv, topology;  // per-pixel buffers

@@ -1,10 +1,3 @@
+// The models take directions in the local frame of a surface point (core/local_dir.h).
 #pragma once
-
-namespace aniso {
-
-// A unit direction in the local frame (U, W = N x U, N) of a surface point (MODELS.md §1).
-struct LocalDir {
-  double u = 0, w = 0, n = 1;
-};
-
-}  // namespace aniso
+#include "core/local_dir.h"

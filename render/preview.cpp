@@ -6,7 +6,7 @@
 #include <chrono>
 #include <cmath>
 
-#include "capture_sim/sim.h"
+#include "geometry/topology.h"
 #include "core/error.h"
 #include "core/frame.h"
 #include "core/texture.h"

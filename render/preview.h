@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "capture_sim/mesh.h"
+#include "geometry/mesh.h"
 #include "core/image.h"
 #include "models/material.h"
 

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "capture_sim/shade.h"
+#include "models/shade.h"
 #include "core/error.h"
 #include "core/texture.h"
 #include "io/files.h"

@@ -5,10 +5,10 @@
 #include <filesystem>
 #include <fstream>
 
-#include "capture_sim/raycast.h"
 #include "capture_sim/sim.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
+#include "geometry/raycast.h"
 #include "io/capture.h"
 #include "io/image_io.h"
 #include "render/verify.h"
@@ -181,6 +181,26 @@ TEST(CaptureSim, ExplicitRigWithSpotAndDirectionalLights) {
   const FitResult r = fit_capture(s, fo);
   EXPECT_NEAR(r.material.n, so.truth.n, 0.01 * so.truth.n);
   EXPECT_NEAR(r.material.kd[0], so.truth.kd[0], 0.005 * so.truth.kd[0]);
+}
+
+}  // namespace
+}  // namespace aniso
+
+#include "geometry/embree_device.h"
+
+namespace aniso {
+namespace {
+
+// Embree errors reach the user with their code and message (issue 7), on every device.
+TEST(Embree, ErrorsArePrintedWithCodeAndMessage) {
+  RTCDevice dev = new_embree_device("test");
+  testing::internal::CaptureStderr();
+  RTCGeometry g = rtcNewGeometry(dev, static_cast<RTCGeometryType>(12345));  // no such type
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(g, nullptr);
+  EXPECT_NE(err.find("Embree error in test: RTC_ERROR_"), std::string::npos) << err;
+  EXPECT_GT(err.size(), 40u) << err;  // Embree's own message follows the code
+  rtcReleaseDevice(dev);
 }
 
 }  // namespace

@@ -6,7 +6,7 @@
 #include <chrono>
 #include <random>
 
-#include "fiber_reference.h"
+#include "models/fiber_reference.h"
 #include "models/fiber_model.h"
 #include "models/line_model.h"
 

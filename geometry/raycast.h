@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "capture_sim/mesh.h"
+#include "core/camera.h"
 #include "core/image.h"
-#include "io/capture.h"
+#include "geometry/mesh.h"
 
 namespace aniso {
 

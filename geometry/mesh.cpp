@@ -1,4 +1,4 @@
-#include "capture_sim/mesh.h"
+#include "geometry/mesh.h"
 
 #include <cmath>
 #include <fstream>

@@ -1,11 +1,14 @@
-// Shading of one surface point under a view's lights (MODELS.md §2): the simulator uses it with
-// shadow rays, `aniso verify` without. `occluded(P, L, dist)` decides shadowing.
+// The forward model of MODELS.md §2 at one surface point: ambient plus, for every light above the
+// horizon and not occluded, irradiance times the material's reflectance at the point's topology.
+// The simulator uses it with shadow rays, `aniso verify` without; `occluded(sp, L, dist, cnt)`
+// decides shadowing.
 #pragma once
 #include <cstddef>
+#include <vector>
 
 #include "core/frame.h"
-#include "io/capture.h"
 #include "models/evaluate.h"
+#include "models/light.h"
 
 namespace aniso {
 

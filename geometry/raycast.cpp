@@ -1,4 +1,4 @@
-#include "capture_sim/raycast.h"
+#include "geometry/raycast.h"
 
 #include <embree3/rtcore.h>
 #include <tbb/blocked_range.h>
@@ -9,27 +9,16 @@
 #include <mutex>
 
 #include "core/error.h"
+#include "geometry/embree_device.h"
 
 namespace aniso {
 
 namespace {
 
-void embree_error(void*, RTCError code, const char* str) {
-  // Errors surface through rtcGetDeviceError after each build step; this keeps a log line.
-  (void)code;
-  (void)str;
-}
-
 RTCDevice shared_device() {
   static std::once_flag once;
   static RTCDevice device = nullptr;
-  std::call_once(once, [] {
-    device = rtcNewDevice(nullptr);
-    if (!device)
-      throw Error("Embree: cannot create device (error " +
-                  std::to_string(rtcGetDeviceError(nullptr)) + ")");
-    rtcSetDeviceErrorFunction(device, embree_error, nullptr);
-  });
+  std::call_once(once, [] { device = new_embree_device("ray casting"); });
   return device;
 }
 
