@@ -7,9 +7,9 @@
 #include <random>
 #include <vector>
 
-#include "models/fiber_reference.h"
 #include "models/evaluate.h"
 #include "models/fiber_model.h"
+#include "models/fiber_reference.h"
 #include "render/bake.h"
 
 namespace {
@@ -29,13 +29,12 @@ std::vector<LocalDir> dirs(size_t n, uint64_t seed) {
 
 Material material(const char* model) {
   Material m;
-  m.model = model;
+  m.model = std::string(model) == "fiber" ? Model::kFiber : Model::kLine;
   m.kd = {0.2, 0.2, 0.2};
   m.ks = {0.6, 0.6, 0.6};
   m.n = 40;
   m.fiber_angle_deg = 30;
-  m.has_topology = true;
-  m.topology_s = 0.5;
+  m.topology = UniformS{0.5};
   return m;
 }
 

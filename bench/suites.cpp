@@ -15,13 +15,12 @@
 #include <random>
 #include <thread>
 
-#include "models/fiber_reference.h"
-#include "geometry/mesh.h"
 #include "capture_sim/sim.h"
 #include "core/error.h"
-#include "geometry/embree_device.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
+#include "geometry/embree_device.h"
+#include "geometry/mesh.h"
 #include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -29,6 +28,7 @@
 #include "io/material_io.h"
 #include "models/evaluate.h"
 #include "models/fiber_model.h"
+#include "models/fiber_reference.h"
 #include "models/line_model.h"
 #include "render/bake.h"
 #include "render/preview.h"
@@ -87,7 +87,7 @@ Errs errors_of(const Material& m, const Material& t) {
   e.n = std::abs(m.n - t.n) / t.n;
   double d = std::fmod(std::abs(m.fiber_angle_deg - t.fiber_angle_deg), 180.0);
   e.psi = std::min(d, 180 - d);
-  e.topo = std::abs(m.topology_s - t.topology_s);
+  e.topo = std::abs(m.uniform_s() - t.uniform_s());
   return e;
 }
 

@@ -21,6 +21,7 @@
 #include "io/material_io.h"
 #include "models/evaluate.h"
 #include "models/shade.h"
+#include "models/topology.h"
 
 namespace aniso {
 
@@ -189,11 +190,10 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   for (const auto& v : opt.rig)
     if (v.world_from_camera.m != opt.rig[0].world_from_camera.m) fixed_camera = false;
 
-  if (opt.truth.model == "fiber" && opt.truth.has_topology_map && opt.topology_map.empty())
+  if (opt.truth.fiber() && opt.truth.topology_as<TopologyMapRef>() && opt.topology_map.empty())
     throw Error("capture_sim: the material uses a topology map but none was given");
-  if (opt.mathematical_topology != "none" && opt.mathematical_topology != "torus" &&
-      opt.mathematical_topology != "sphere")
-    throw Error("capture_sim: mathematical topology must be none, torus or sphere");
+  if (opt.truth.fiber() && opt.truth.topology_as<SMapRef>() && opt.s_map.empty())
+    throw Error("capture_sim: the material uses a map of s but none was given");
   // The map as the set will store it (16-bit), so the fit sees exactly what was rendered.
   TopologyMap map;
   if (!opt.topology_map.empty()) {
@@ -207,22 +207,17 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   // Per-pixel topology s_math (written as the `topology` buffer) and s (used for shading).
   auto topology_images = [&](const GBuffer& g, Image* smath, Image* s) {
     *smath = Image(g.P.width, g.P.height, 1, 0.f);
-    *s = Image(g.P.width, g.P.height, 1, static_cast<float>(opt.truth.topology_s));
+    *s = Image(g.P.width, g.P.height, 1, static_cast<float>(opt.truth.uniform_s()));
     for (int y = 0; y < g.P.height; ++y)
       for (int x = 0; x < g.P.width; ++x) {
         if (!g.hit[static_cast<size_t>(y) * g.P.width + x]) continue;
         const float sm = static_cast<float>(mathematical_topology_at(
             opt.mathematical_topology, pixel_vec3(g.P, x, y), opt.shape_options));
         smath->at(x, y, 0) = sm;
-        const double m = map.h.empty() ? 0.0 : map.sample(g.uv.at(x, y, 0), g.uv.at(x, y, 1));
-        double sv = opt.truth.topology_at(sm, m);
-        if (!s_map.empty()) {
-          const BilinearTaps t =
-              bilinear_wrap(g.uv.at(x, y, 0), g.uv.at(x, y, 1), s_map.width, s_map.height);
-          sv = 0;
-          for (int k = 0; k < 4; ++k) sv += t.weight[k] * s_map.px[t.index[k]];
-        }
-        s->at(x, y, 0) = static_cast<float>(sv);
+        const double u = g.uv.at(x, y, 0), v = g.uv.at(x, y, 1);
+        double mv = map.h.empty() ? 0.0 : map.sample(u, v);
+        if (!s_map.empty()) mv = sample_first_channel(s_map, u, v);
+        s->at(x, y, 0) = static_cast<float>(s_at(opt.truth, sm, mv));
       }
   };
   std::vector<GBuffer> gbuffers;
@@ -300,7 +295,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       Image m(g.P.width, g.P.height, 1);
       for (size_t p = 0; p < g.hit.size(); ++p) m.px[p] = g.hit[p] ? 1.f : 0.f;
       write_png(join_path(dir, gs.mask), m, 8);
-      if (opt.mathematical_topology != "none") {
+      if (opt.mathematical_topology != MathTopology::kNone) {
         gs.topology = "geometry/" + stem + "_topology.exr";
         write_exr(join_path(dir, gs.topology), smath);
       }
@@ -351,11 +346,8 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     });
     jsonu::json truth;
     Material truth_m = opt.truth;
-    if (truth_m.has_topology_map) truth_m.topology_map = set.topology_map;
-    if (!s_map.empty()) {
-      truth_m.has_s_map = true;
-      truth_m.topology_s_map = "maps/topology_s.png";
-    }
+    if (auto* t = truth_m.topology_as<TopologyMapRef>()) t->file = set.topology_map;
+    if (!s_map.empty()) truth_m.topology = SMapRef{"maps/topology_s.png"};
     material_to_json(truth_m, &truth);
     write_json_file(join_path(dir, "truth.json"), truth);
     st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -368,7 +360,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
                        {"shot_photons", opt.sensor.shot_photons},
                        {"bits", opt.sensor.bits},
                        {"white_level", white},
-                       {"mathematical_topology", opt.mathematical_topology},
+                       {"mathematical_topology", math_topology_name(opt.mathematical_topology)},
                        {"counters",
                         {{"primary_rays", st.primary_rays},
                          {"shadow_rays", st.shadow_rays},

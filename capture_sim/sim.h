@@ -52,7 +52,7 @@ struct SimOptions {
   // Fiber model topology. "torus" / "sphere": the per-pixel mathematical topology s_math of that
   // shape is written as the `topology` buffer. A non-empty map (values h in [0, 1]) is stored as
   // maps/topology.png (16-bit) and named by the set's "topology_map".
-  std::string mathematical_topology = "none";
+  MathTopology mathematical_topology = MathTopology::kNone;
   Image topology_map;
   // A per-texel map of s itself (first channel, [0, 1]) over uv; stored as maps/topology_s.png
   // and named by the truth material's topology.s_map.

@@ -35,7 +35,7 @@ Command add_bake(CLI::App& app) {
             check_output_folder(a->out);
             const BakeTables t = bake_line(m, a->size, parse_index(a->index));
             FiberBakeTables fb;
-            if (m.model == "fiber") {
+            if (m.fiber()) {
               fb = bake_fiber(m, t);
               std::printf(
                   "bake: fiber factor tables %dx%dx%d (G) and x%d (F) in %.2f s; baked vs full "
@@ -43,7 +43,7 @@ Command add_bake(CLI::App& app) {
                   fb.nphi, fb.nphi, fb.ns, fb.nk, fb.seconds, fb.samples, fb.max_abs_error,
                   fb.p99_error, fb.rms_error, fb.peak_value);
             }
-            write_bake(a->out, m, t, command_line(), m.model == "fiber" ? &fb : nullptr);
+            write_bake(a->out, m, t, command_line(), m.fiber() ? &fb : nullptr);
             std::printf(
                 "bake: %dx%d tables (%s index) in %.3f s -> %s; bilinear lookup vs direct "
                 "evaluation over %zu samples: max abs %.3g, RMS %.3g (peak value %.3g)\n",

@@ -40,12 +40,11 @@ int run(const PreviewArgs& a) {
     for (const auto& l : a.lights) p.light_dirs.push_back(parse_vec(l, "--light"));
   }
   p.reference = true;
-  if (m.model == "fiber" && m.has_topology_map)
+  if (const auto* t = m.fiber() ? m.topology_as<TopologyMapRef>() : nullptr)
     // The map named by the material (relative to the material file), unless given.
-    p.topology_map =
-        load_topology_map(a.map.empty() ? join_path(m.base_dir, m.topology_map) : a.map).h;
-  if (m.model == "fiber" && m.has_s_map)
-    p.s_map = read_image(join_path(m.base_dir, m.topology_s_map)).image;
+    p.topology_map = load_topology_map(a.map.empty() ? join_path(m.base_dir, t->file) : a.map).h;
+  if (const auto* t = m.fiber() ? m.topology_as<SMapRef>() : nullptr)
+    p.s_map = read_image(join_path(m.base_dir, t->file)).image;
   p.shape_options.torus_R = a.R;
   p.shape_options.torus_r = a.r;
   const PreviewResult r = render_preview(m, p);
@@ -56,7 +55,7 @@ int run(const PreviewArgs& a) {
                "evaluation: max abs difference %.3g (bound %.3g)",
                p.shape.c_str(), r.triangles, r.passes, 1e3 * r.seconds_per_frame,
                r.renderer.c_str(), a.out.c_str(), r.max_abs_diff, r.error_bound);
-  if (m.model == "fiber")
+  if (m.fiber())
     std::fprintf(stderr, "; GPU vs the same tables on the CPU: %.3g", r.max_abs_diff_baked);
   std::fprintf(stderr, "\n");
   return 0;

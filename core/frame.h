@@ -3,8 +3,8 @@
 // the same float buffers, so a noise-free capture is fitted exactly.
 #pragma once
 #include "core/image.h"
-#include "core/vec.h"
 #include "core/local_dir.h"
+#include "core/vec.h"
 
 namespace aniso {
 

@@ -4,6 +4,8 @@
 #pragma once
 #include <cmath>
 
+#include "core/image.h"
+
 namespace aniso {
 
 struct BilinearTaps {
@@ -20,6 +22,15 @@ inline BilinearTaps bilinear_wrap(double u, double v, int w, int h) {
   const int y0 = wrap(static_cast<long>(fy), h), y1 = wrap(static_cast<long>(fy) + 1, h);
   return {{y0 * w + x0, y0 * w + x1, y1 * w + x0, y1 * w + x1},
           {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty}};
+}
+
+// The first channel of `img` at (u, v), bilinear with wrap-around.
+inline double sample_first_channel(const Image& img, double u, double v) {
+  const BilinearTaps t = bilinear_wrap(u, v, img.width, img.height);
+  double s = 0;
+  for (int k = 0; k < 4; ++k)
+    s += t.weight[k] * img.px[static_cast<size_t>(t.index[k]) * img.channels];
+  return s;
 }
 
 }  // namespace aniso

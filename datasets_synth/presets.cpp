@@ -138,16 +138,14 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
     o.shape_options.torus_r = 0.6;  // outside 4x longer than inside: fibers climb twice (Hast)
     radius = 1.6;
     camera_polar = 40.0;
-    m.model = "fiber";
+    m.model = Model::kFiber;
     m.kd = {0.30, 0.22, 0.06};
     m.ks = {0.55, 0.50, 0.35};
     m.n = 30.0;
     m.fiber_angle_deg = 90.0;  // wound around the tube: perpendicular to dP/du (toroidal)
-    m.has_topology = true;
-    m.has_topology_map = true;
-    m.topology_amplitude = po.topology_amplitude;
-    m.topology_mathematical = "torus";
-    o.mathematical_topology = "torus";
+    // The map's file is named by the capture set that stores it (capture_sim).
+    m.topology = TopologyMapRef{"", po.topology_amplitude, MathTopology::kTorus};
+    o.mathematical_topology = MathTopology::kTorus;
     if (po.topology_map_file.empty()) {
       o.topology_map = procedural_topology_map(256, po.seed);
     } else {
@@ -163,17 +161,16 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
     // One satin material; the topology is one value of s, or a map of s over the sample.
     o.shape = "flat";
     radius = std::sqrt(2.0);
-    m.model = "fiber";
+    m.model = Model::kFiber;
     m.kd = {0.25, 0.18, 0.12};
     m.ks = {0.50, 0.50, 0.50};
     m.n = 40.0;
     m.fiber_angle_deg = 30.0;
-    m.has_topology = true;
     if (po.topology_s < 0 || po.topology_s > 1)
       throw Error("synth: --topology-s must be in [0, 1]");
-    m.topology_s = po.topology_s;
+    m.topology = UniformS{po.topology_s};
     if (name == "fiber-flat-map") {
-      m.has_s_map = true;
+      m.topology = SMapRef{};  // named by the capture set that stores it
       o.s_map = procedural_topology_map(8, po.seed);
       for (float& v : o.s_map.px) v = 0.15f + 0.7f * v;
     }
@@ -181,14 +178,13 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
     o.shape = "sphere";
     o.fiber_field = "meridian";
     camera_polar = 60.0;
-    m.model = "fiber";
+    m.model = Model::kFiber;
     m.kd = {0.30, 0.04, 0.08};
     m.ks = {0.45, 0.40, 0.40};
     m.n = 25.0;
     m.fiber_angle_deg = 0.0;
-    m.has_topology = true;
-    m.topology_mathematical = "sphere";
-    o.mathematical_topology = "sphere";
+    m.topology = MathematicalS{MathTopology::kSphere};
+    o.mathematical_topology = MathTopology::kSphere;
   } else if (name == "random") {
     o.shape = "flat";
     radius = std::sqrt(2.0);

@@ -55,8 +55,9 @@ struct ObsSet {
   std::vector<Observation> obs;
   std::vector<ObsLight> lights;
   TopologyMode topology = TopologyMode::kGlobalS;
-  int texels = 0;                                            // kTexels: an N x N map of s over uv
-  std::string topology_map, topology_mathematical = "none";  // recorded in the result
+  int texels = 0;            // kTexels: an N x N map of s over uv
+  std::string topology_map;  // recorded in the result
+  MathTopology topology_mathematical = MathTopology::kNone;
   bool grey = false;  // a grey table: the three channels repeat one value
   // Noise of the images themselves, from differences of neighbouring pixels (robust, so edges
   // and the smooth shading between neighbours hardly count); 0 where there are no images.
@@ -840,19 +841,22 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
 
   // Result.
   Material& mat = res.material;
-  mat.model = fiber ? "fiber" : "line";
+  mat.model = fiber ? Model::kFiber : Model::kLine;
   if (fiber) {
-    mat.has_topology = true;
-    mat.topology_mathematical = os.topology_mathematical;
-    if (os.topology == TopologyMode::kGlobalS) mat.topology_s = st.topo[0];
-    if (os.topology == TopologyMode::kAmplitude) {
-      mat.has_topology_map = true;
-      mat.topology_map = os.topology_map;
-      mat.topology_amplitude = st.topo[0];
-    }
-    if (texels) {
-      mat.has_s_map = true;
-      res.s_texels_n = os.texels;
+    switch (os.topology) {
+      case TopologyMode::kGlobalS:
+        mat.topology = UniformS{st.topo[0]};
+        break;
+      case TopologyMode::kAmplitude:
+        mat.topology = TopologyMapRef{os.topology_map, st.topo[0], os.topology_mathematical};
+        break;
+      case TopologyMode::kMathematical:
+        mat.topology = MathematicalS{os.topology_mathematical};
+        break;
+      case TopologyMode::kTexels:
+        mat.topology = SMapRef{};  // the file is named when the material is written
+        res.s_texels_n = os.texels;
+        break;
     }
     if (!fit_topo)
       res.fixed["topology"] =
@@ -1181,7 +1185,7 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
   for (const FitResult* x : {&rl, &rf}) {
     std::snprintf(buf, sizeof buf,
                   "%-5s residual RMS %.4g, BIC %.1f, %d iterations, %s, solve %.3f s",
-                  x->material.model.c_str(), x->report.rms, x->report.bic, x->report.iterations,
+                  model_name(x->material.model), x->report.rms, x->report.bic, x->report.iterations,
                   x->report.termination.c_str(), x->report.seconds_solve);
     r.report.model_summaries.push_back(buf);
   }
@@ -1245,12 +1249,12 @@ ObsSet load_observations(const CaptureSet& set, const FitOptions& opt, FitReport
   if (has_buffer) {
     // The kind of mathematical topology, when the writer recorded it (capture_sim does); "torus"
     // otherwise (FORMAT.md's name for a per-pixel mathematical topology).
-    os.topology_mathematical = "torus";
+    os.topology_mathematical = MathTopology::kTorus;
     if (!set.provenance.empty()) {
       const auto g = jsonu::json::parse(set.provenance, nullptr, false);
       if (g.is_object() && g.contains("mathematical_topology") &&
-          g["mathematical_topology"].is_string() && g["mathematical_topology"] != "none")
-        os.topology_mathematical = g["mathematical_topology"].get<std::string>();
+          g["mathematical_topology"] == "sphere")
+        os.topology_mathematical = MathTopology::kSphere;
     }
   }
   if (has_buffer && !has_map) os.topology = TopologyMode::kMathematical;
@@ -1358,12 +1362,12 @@ void write_fit(const std::string& path, const FitResult& r) {
   if (!r.s_texels.empty()) {
     // The map of s beside the material file: R = s, G = its sigma (-1 where undetermined).
     std::string stem = std::filesystem::path(path).stem().string();
-    m.topology_s_map = stem + "_topology_s.exr";
-    s_map_path = join_path(parent_dir(path), m.topology_s_map);
+    m.topology = SMapRef{stem + "_topology_s.exr"};
+    s_map_path = join_path(parent_dir(path), stem + "_topology_s.exr");
   }
   // Paths in a written file are relative to that file.
-  if (m.has_topology_map && path != "-")
-    m.topology_map = relative_to(m.topology_map, parent_dir(path));
+  if (auto* t = m.topology_as<TopologyMapRef>(); t && path != "-")
+    t->file = relative_to(t->file, parent_dir(path));
   material_to_json(m, &j);
   if (!r.s_texels.empty()) j["topology"]["s_map_texels"] = r.s_texels_n;
   jsonu::json unc = jsonu::json::object();
@@ -1430,7 +1434,7 @@ void write_fit(const std::string& path, const FitResult& r) {
 std::string describe_fit(const FitResult& r) {
   std::ostringstream o;
   const Material& m = r.material;
-  o << "  model " << m.model << "\n";
+  o << "  model " << model_name(m.model) << "\n";
   auto value = [&](const std::string& key) -> std::vector<double> {
     if (key == "kd") return {m.kd.begin(), m.kd.end()};
     if (key == "ks") return {m.ks.begin(), m.ks.end()};
@@ -1441,8 +1445,9 @@ std::string describe_fit(const FitResult& r) {
     if (key == "isotropic.n") return {m.iso_n};
     if (key == "second_fiber.angle_deg") return {m.second_angle_deg};
     if (key == "second_fiber.weight") return {m.second_weight};
-    if (key == "topology.s") return {m.topology_s};
-    if (key == "topology.amplitude") return {m.topology_amplitude};
+    if (key == "topology.s") return {m.uniform_s()};
+    if (const auto* t = m.topology_as<TopologyMapRef>(); t && key == "topology.amplitude")
+      return {t->amplitude};
     return {};
   };
   auto line = [&](const ParamSpec& p) {
@@ -1464,8 +1469,8 @@ std::string describe_fit(const FitResult& r) {
   };
   for (const auto& p : kLineParams) line(p);
   for (const auto& p : kFiberParams) line(p);
-  if (m.model == "fiber" && m.has_topology_map)
-    o << "  topology map " << m.topology_map << " over " << m.topology_mathematical << "\n";
+  if (const auto* t = m.topology_as<TopologyMapRef>())
+    o << "  topology map " << t->file << " over " << math_topology_name(t->over) << "\n";
   if (!r.s_texels.empty())
     o << "  topology: a per-texel map of s, " << r.s_texels_n << " x " << r.s_texels_n << "\n";
   return o.str();
@@ -1520,22 +1525,22 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
     row("fiber_angle_deg", truth.fiber_angle_deg, r.material.fiber_angle_deg,
         sig("fiber_angle_deg", 0), d, d, " deg", &e.psi_deg, &e.psi_sigmas, d);
   }
-  if (r.material.model == "fiber" && truth.model == "fiber") {
-    if (r.material.has_topology_map && truth.has_topology_map) {
-      const double d = r.material.topology_amplitude - truth.topology_amplitude;
-      row("topology.amplitude", truth.topology_amplitude, r.material.topology_amplitude,
+  const auto* fit_map = r.material.topology_as<TopologyMapRef>();
+  const auto* true_map = truth.topology_as<TopologyMapRef>();
+  const auto* true_s_map = truth.topology_as<SMapRef>();
+  if (r.material.fiber() && truth.fiber()) {
+    if (fit_map && true_map) {
+      const double d = fit_map->amplitude - true_map->amplitude;
+      row("topology.amplitude", true_map->amplitude, fit_map->amplitude,
           sig("topology.amplitude", 0), d, d, "", &e.topo_abs, &e.topo_sigmas, std::abs(d));
-    } else if (!r.s_texels.empty() && truth.has_s_map) {
+    } else if (!r.s_texels.empty() && true_s_map) {
       // The fitted texels against the true map sampled at their centres.
-      const Image t = read_image(join_path(truth.base_dir, truth.topology_s_map)).image;
+      const Image t = read_image(join_path(truth.base_dir, true_s_map->file)).image;
       double worst = 0, sum2 = 0;
       const int n = r.s_texels_n;
       for (int y = 0; y < n; ++y)
         for (int x = 0; x < n; ++x) {
-          const BilinearTaps tp = bilinear_wrap((x + 0.5) / n, (y + 0.5) / n, t.width, t.height);
-          double ts = 0;
-          for (int k = 0; k < 4; ++k)
-            ts += tp.weight[k] * t.px[static_cast<size_t>(tp.index[k]) * t.channels];
+          const double ts = sample_first_channel(t, (x + 0.5) / n, (y + 0.5) / n);
           const double d = std::abs(r.s_texels[static_cast<size_t>(y) * n + x] - ts);
           worst = std::max(worst, d);
           sum2 += d * d;
@@ -1547,9 +1552,9 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
           &e.topo_sigmas, worst);
       row("topology.s_map rms", 0, std::sqrt(sum2 / (n * n)), smax > 0 ? smax : NAN,
           std::sqrt(sum2 / (n * n)), 0, "", nullptr, nullptr, 0);
-    } else if (!r.material.has_topology_map && r.material.topology_mathematical == "none") {
-      const double d = r.material.topology_s - truth.topology_s;
-      row("topology.s", truth.topology_s, r.material.topology_s, sig("topology.s", 0), d, d, "",
+    } else if (r.material.topology_as<UniformS>()) {
+      const double d = r.material.uniform_s() - truth.uniform_s();
+      row("topology.s", truth.uniform_s(), r.material.uniform_s(), sig("topology.s", 0), d, d, "",
           &e.topo_abs, &e.topo_sigmas, std::abs(d));
     }
   }

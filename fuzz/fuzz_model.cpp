@@ -22,7 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   m.n = 1.0 + std::fmod(std::abs(v[6]), 1e4 - 1);
   m.fiber_angle_deg = std::fmod(v[7], 180.0);
   const double s = std::fmod(std::abs(v[8]), 1.0);
-  for (const char* model : {"line", "fiber"}) {
+  for (const aniso::Model model : {aniso::Model::kLine, aniso::Model::kFiber}) {
     m.model = model;
     const aniso::Evaluator e(m);
     double f[3];

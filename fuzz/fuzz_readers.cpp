@@ -12,8 +12,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "geometry/mesh.h"
 #include "core/error.h"
+#include "geometry/mesh.h"
 #include "io/capture.h"
 #include "io/image_io.h"
 #include "io/material_io.h"

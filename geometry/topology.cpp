@@ -7,12 +7,12 @@
 
 namespace aniso {
 
-double mathematical_topology_at(const std::string& kind, const Vec3& P, const ShapeOptions& shape) {
-  if (kind == "torus") {
+double mathematical_topology_at(MathTopology kind, const Vec3& P, const ShapeOptions& shape) {
+  if (kind == MathTopology::kTorus) {
     const double rho = std::sqrt(P.x * P.x + P.y * P.y);
     return torus_mathematical_s(shape.torus_R, shape.torus_r, std::atan2(P.z, rho - shape.torus_R));
   }
-  if (kind == "sphere") {
+  if (kind == MathTopology::kSphere) {
     // Meridian fibers are compressed by 1/sin(polar angle) away from the equator; the same
     // in-cycle rule as the torus: c' = c / 2^floor(log2 c), theta = acos(1/c').
     const double sin_polar = std::sqrt(P.x * P.x + P.y * P.y) / std::max(length(P), 1e-12);

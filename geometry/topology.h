@@ -6,12 +6,13 @@
 
 #include "core/vec.h"
 #include "geometry/mesh.h"
+#include "models/material.h"
 
 namespace aniso {
 
 // The mathematical topology s_math at a point of a named shape (MODELS.md §4): "torus" (radii
 // R, r, axis z) or "sphere" (fibers along meridians, compressed by 1/sin(polar angle)); 0 for
 // "none".
-double mathematical_topology_at(const std::string& kind, const Vec3& P, const ShapeOptions& shape);
+double mathematical_topology_at(MathTopology kind, const Vec3& P, const ShapeOptions& shape);
 
 }  // namespace aniso

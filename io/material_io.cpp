@@ -57,9 +57,14 @@ Material material_from_json(const json& j, const std::string& file) {
        "second_fiber", "topology", "uncertainty", "fixed", "undetermined", "report"},
       root);
   Material m;
-  m.model = jsonu::str_or(j, "model", "line", root);
-  if (m.model != "line" && m.model != "fiber")
-    root.at("model").fail("unknown model '" + m.model + "' (line, fiber)");
+  const std::string model = jsonu::str_or(j, "model", "line", root);
+  if (model == "line")
+    m.model = Model::kLine;
+  else if (model == "fiber")
+    m.model = Model::kFiber;
+  else
+    root.at("model").fail("unknown model '" + model + "'" + did_you_mean(model, {"line", "fiber"}) +
+                          " (line, fiber)");
   m.kd = jsonu::rgb(jsonu::need(j, "kd", root), root.at("kd"));
   check_bounds("kd", m.kd, root.at("kd"));
   m.ks = jsonu::rgb(jsonu::need(j, "ks", root), root.at("ks"));
@@ -96,37 +101,52 @@ Material material_from_json(const json& j, const std::string& file) {
     m.second_weight = scalar(b, "weight", "second_fiber.weight", 0.5, c);
   }
   if (j.contains("topology")) {
+    // One topology source (MODELS.md §4), parsed into its type here and nowhere else.
     const Ctx c = root.at("topology");
     const json& b = j["topology"];
     if (!b.is_object()) c.fail("expected an object");
     jsonu::check_keys(b, {"s", "map", "amplitude", "mathematical", "s_map", "s_map_texels"}, c);
-    m.has_topology = true;
-    if (b.contains("s")) {
-      m.topology_s = jsonu::num(b["s"], c.at("s"));
-      if (m.topology_s < 0 || m.topology_s > 1) c.at("s").fail("must be in [0, 1]");
-    }
-    if (b.contains("map")) {
-      m.has_topology_map = true;
-      m.topology_map = jsonu::str(b["map"], c.at("map"));
-      m.topology_amplitude = jsonu::num_or(b, "amplitude", 0.25, c);
-      if (std::abs(m.topology_amplitude) > 2) c.at("amplitude").fail("must be in [-2, 2]");
-    }
-    if (b.contains("s_map")) {
-      m.has_s_map = true;
-      m.topology_s_map = jsonu::str(b["s_map"], c.at("s_map"));
-    }
-    m.topology_mathematical = jsonu::str_or(b, "mathematical", "none", c);
-    if (m.topology_mathematical != "none" && m.topology_mathematical != "torus" &&
-        m.topology_mathematical != "sphere")
+    const std::string math = jsonu::str_or(b, "mathematical", "none", c);
+    MathTopology kind = MathTopology::kNone;
+    if (math == "torus")
+      kind = MathTopology::kTorus;
+    else if (math == "sphere")
+      kind = MathTopology::kSphere;
+    else if (math != "none")
       c.at("mathematical")
-          .fail("unknown value '" + m.topology_mathematical + "' (torus, sphere, none)");
-    if (!b.contains("s") && !b.contains("map") && !b.contains("s_map") &&
-        m.topology_mathematical == "none")
+          .fail("unknown value '" + math + "'" + did_you_mean(math, {"torus", "sphere", "none"}) +
+                " (torus, sphere, none)");
+    const int sources = b.contains("s") + b.contains("map") + b.contains("s_map");
+    if (sources > 1) c.fail("give one topology source: \"s\", \"map\" or \"s_map\", not several");
+    if (b.contains("s")) {
+      if (kind != MathTopology::kNone)
+        c.fail("\"s\" is one value for a flat sample; with \"mathematical\": \"" + math +
+               "\" the capture's per-pixel topology applies (leave \"s\" out)");
+      UniformS u{jsonu::num(b["s"], c.at("s"))};
+      if (u.s < 0 || u.s > 1) c.at("s").fail("must be in [0, 1]");
+      m.topology = u;
+    } else if (b.contains("map")) {
+      TopologyMapRef t;
+      t.file = jsonu::str(b["map"], c.at("map"));
+      t.amplitude = jsonu::num_or(b, "amplitude", 0.25, c);
+      if (std::abs(t.amplitude) > 2) c.at("amplitude").fail("must be in [-2, 2]");
+      t.over = kind;
+      m.topology = t;
+    } else if (b.contains("s_map")) {
+      if (kind != MathTopology::kNone)
+        c.fail("a map of s (\"s_map\") stands alone: no \"mathematical\"");
+      m.topology = SMapRef{jsonu::str(b["s_map"], c.at("s_map"))};
+    } else if (kind != MathTopology::kNone) {
+      m.topology = MathematicalS{kind};
+    } else {
       c.fail(
           "needs \"s\", \"s_map\", or \"map\" with \"amplitude\", or \"mathematical\": \"torus\"");
-  }
-  if (m.model == "fiber" && !m.has_topology)
+    }
+    if (b.contains("amplitude") && !b.contains("map"))
+      c.at("amplitude").fail("belongs with \"map\"");
+  } else if (m.fiber()) {
     root.at("topology").fail("the fiber model needs a topology block");
+  }
   return m;
 }
 
@@ -141,15 +161,15 @@ Material read_material(const std::string& path) {
       throw Error(path + ": " + key + ": map file not found: " + f +
                   " (paths in a material are relative to the material file)");
   };
-  need_file(m.has_topology_map, m.topology_map, "topology.map");
-  need_file(m.has_s_map, m.topology_s_map, "topology.s_map");
+  if (const auto* t = m.topology_as<TopologyMapRef>()) need_file(true, t->file, "topology.map");
+  if (const auto* t = m.topology_as<SMapRef>()) need_file(true, t->file, "topology.s_map");
   return m;
 }
 
 std::vector<std::string> material_input_files(const Material& m, const std::string& path) {
   std::vector<std::string> f{path};
-  if (m.has_topology_map) f.push_back(join_path(m.base_dir, m.topology_map));
-  if (m.has_s_map) f.push_back(join_path(m.base_dir, m.topology_s_map));
+  if (const auto* t = m.topology_as<TopologyMapRef>()) f.push_back(join_path(m.base_dir, t->file));
+  if (const auto* t = m.topology_as<SMapRef>()) f.push_back(join_path(m.base_dir, t->file));
   return f;
 }
 
@@ -157,7 +177,7 @@ void material_to_json(const Material& m, json* out) {
   json& j = *out;
   j["format"] = "aniso-material";
   j["version"] = 1;
-  j["model"] = m.model;
+  j["model"] = model_name(m.model);
   j["kd"] = jsonu::to_json(m.kd);
   j["ks"] = jsonu::to_json(m.ks);
   j["n"] = m.n;
@@ -168,17 +188,15 @@ void material_to_json(const Material& m, json* out) {
         {"kd", jsonu::to_json(m.iso_kd)}, {"ks", jsonu::to_json(m.iso_ks)}, {"n", m.iso_n}};
   if (m.has_second_fiber)
     j["second_fiber"] = {{"angle_deg", m.second_angle_deg}, {"weight", m.second_weight}};
-  if (m.has_topology) {
+  if (m.fiber()) {
     jsonu::json t = jsonu::json::object();
-    if (m.has_topology_map) {
-      t["map"] = m.topology_map;
-      t["amplitude"] = m.topology_amplitude;
-    } else if (m.has_s_map) {
-      t["s_map"] = m.topology_s_map;
-    } else if (m.topology_mathematical == "none") {
-      t["s"] = m.topology_s;
+    if (const auto* u = m.topology_as<UniformS>()) t["s"] = u->s;
+    if (const auto* x = m.topology_as<TopologyMapRef>()) {
+      t["map"] = x->file;
+      t["amplitude"] = x->amplitude;
     }
-    t["mathematical"] = m.topology_mathematical;
+    if (const auto* x = m.topology_as<SMapRef>()) t["s_map"] = x->file;
+    t["mathematical"] = math_topology_name(m.mathematical());
     j["topology"] = t;
   }
 }

@@ -3,6 +3,7 @@
 #pragma once
 #include <cmath>
 
+#include "core/angles.h"
 #include "models/fiber_model.h"
 #include "models/line_model.h"
 #include "models/material.h"
@@ -18,25 +19,19 @@ inline LineParamsT<double> line_params(const Material& m) {
     p.ks_iso[k] = m.iso_ks[k];
   }
   p.n = m.n;
-  p.psi = m.fiber_angle_deg * M_PI / 180.0;
+  p.psi = deg_to_rad(m.fiber_angle_deg);
   p.isotropic = m.isotropic_active();
   p.n_iso = m.iso_n;
   p.second = m.second_active();
-  p.psi2 = m.second_angle_deg * M_PI / 180.0;
+  p.psi2 = deg_to_rad(m.second_angle_deg);
   p.w = m.second_weight;
   return p;
-}
-
-inline double Material::topology_at(double s_math, double m) const {
-  if (has_topology_map) return topology_with_map(s_math, topology_amplitude, m);
-  if (topology_mathematical != "none") return s_math;  // torus, sphere: the capture's buffer
-  return topology_s;
 }
 
 class Evaluator {
  public:
   explicit Evaluator(const Material& m, FiberAccuracy acc = {})
-      : line_(line_params(m)), fiber_(m.model == "fiber"), s_(m.topology_s), acc_(acc) {}
+      : line_(line_params(m)), fiber_(m.fiber()), s_(m.uniform_s()), acc_(acc) {}
   // Reflectance for unit irradiance from direction L seen from V (local frame), at a point of
   // topology s (fiber model; ignored by the line model).
   void operator()(const LocalDir& L, const LocalDir& V, double out[3], double s) const {

@@ -1,14 +1,40 @@
 // A material in plain numbers (the `aniso-material` file of FORMAT.md, without the fit's report).
+// Typed: the model is an enum and the fiber model's topology source a variant, so a combination
+// the format does not allow cannot be built. Strings are parsed once, by the file reader.
 #pragma once
 #include <array>
 #include <string>
+#include <variant>
 
 namespace aniso {
 
 using RGB = std::array<double, 3>;
 
+enum class Model { kLine, kFiber };  // MODELS.md §3, §4
+
+// The mathematical topology of a shape (MODELS.md §4): the capture's per-pixel `topology` buffer
+// holds s_math for these.
+enum class MathTopology { kNone, kTorus, kSphere };
+
+// Where the fiber model's topology s comes from (MODELS.md §4), one of:
+struct UniformS {  // one value for the whole (flat) sample
+  double s = 0.0;
+};
+struct MathematicalS {  // the capture's per-pixel s_math buffer, as it is
+  MathTopology kind = MathTopology::kTorus;
+};
+struct TopologyMapRef {  // a known map h(u,v) with amplitude A on top of s_math (Hast)
+  std::string file;      // relative to the material file (or as named in a capture)
+  double amplitude = 0.25;
+  MathTopology over = MathTopology::kNone;
+};
+struct SMapRef {  // a map of s itself over uv (what `fit --topology-map N` writes)
+  std::string file;
+};
+using Topology = std::variant<UniformS, MathematicalS, TopologyMapRef, SMapRef>;
+
 struct Material {
-  std::string model = "line";  // "line" (MODELS.md §3) or "fiber" (§4)
+  Model model = Model::kLine;
   RGB kd{0.2, 0.2, 0.2};
   RGB ks{0.5, 0.5, 0.5};
   double n = 40.0;
@@ -22,23 +48,30 @@ struct Material {
   bool has_second_fiber = false;
   double second_angle_deg = 90.0;
   double second_weight = 0.5;
-  // Fiber model topology (MODELS.md §4): one value of s (flat samples), or a known map m(u,v)
-  // with amplitude A on top of the mathematical topology ("torus": the capture's per-pixel
-  // `topology` buffer holds s_math; "none": s_math = 0).
-  bool has_topology = false;
-  double topology_s = 0.0;
-  bool has_topology_map = false;
-  std::string topology_map;  // the map file, as named in the capture or material
-  double topology_amplitude = 0.25;
-  std::string topology_mathematical = "none";
-  // Or a per-texel map of s itself over the uv buffer (what `fit --topology-map N` recovers): an
-  // image whose first channel is s in [0, 1], sampled bilinearly with wrap (glTF uv).
-  bool has_s_map = false;
-  std::string topology_s_map;
+  Topology topology;           // the fiber model's; unused by the line model
   std::string base_dir = ".";  // folder of the material file: relative map paths resolve here
 
-  // The topology value at a point with mathematical topology s_math and map value m in [-1, 1].
-  double topology_at(double s_math, double m) const;
+  bool fiber() const { return model == Model::kFiber; }
+  // The topology source when it is of kind X, else nullptr.
+  template <class X>
+  const X* topology_as() const {
+    return std::get_if<X>(&topology);
+  }
+  template <class X>
+  X* topology_as() {
+    return std::get_if<X>(&topology);
+  }
+  // The shape's mathematical topology the source relies on (kNone for uniform s and maps of s).
+  MathTopology mathematical() const {
+    if (const auto* m = topology_as<MathematicalS>()) return m->kind;
+    if (const auto* t = topology_as<TopologyMapRef>()) return t->over;
+    return MathTopology::kNone;
+  }
+  // The one value of a uniform topology (0 for every other source).
+  double uniform_s() const {
+    const auto* u = topology_as<UniformS>();
+    return u ? u->s : 0.0;
+  }
 
   bool isotropic_active() const {
     return has_isotropic &&
@@ -46,5 +79,10 @@ struct Material {
   }
   bool second_active() const { return has_second_fiber && second_weight < 1.0; }
 };
+
+inline const char* model_name(Model m) { return m == Model::kFiber ? "fiber" : "line"; }
+inline const char* math_topology_name(MathTopology t) {
+  return t == MathTopology::kTorus ? "torus" : t == MathTopology::kSphere ? "sphere" : "none";
+}
 
 }  // namespace aniso

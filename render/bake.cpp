@@ -191,7 +191,7 @@ FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, 
   double sum2 = 0;
   const Material line_only = [&] {
     Material x = m;
-    x.model = "line";
+    x.model = Model::kLine;
     return x;
   }();
   constexpr int kSamples = 20000;
@@ -313,10 +313,12 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
       *rel = dst;
       maps[key] = {{"file", dst}, {"meaning", meaning}};
     };
-    carry(m.model == "fiber" && m.has_topology_map, &mm.topology_map, "topology.map",
+    auto* mm_map = mm.topology_as<TopologyMapRef>();
+    auto* mm_s_map = mm.topology_as<SMapRef>();
+    carry(m.fiber() && mm_map, mm_map ? &mm_map->file : nullptr, "topology.map",
           "topology map h in [0, 1] (first channel; integer images divided by their maximum), "
           "m = 2h - 1, over glTF uv with wrap; s from s_math and the amplitude (MODELS.md §4)");
-    carry(m.model == "fiber" && m.has_s_map, &mm.topology_s_map, "topology.s_map",
+    carry(m.fiber() && mm_s_map, mm_s_map ? &mm_s_map->file : nullptr, "topology.s_map",
           "the topology s itself per texel (channel R; G = its sigma, -1 where undetermined), "
           "over glTF uv, bilinear with wrap");
     json material;
@@ -326,7 +328,7 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
     json j = {
         {"format", "aniso-bake"},
         {"version", 1},
-        {"model", m.model},
+        {"model", model_name(m.model)},
         {"size", n},
         {"generated_with", command},
         {"index",

@@ -6,13 +6,14 @@
 #include <chrono>
 #include <cmath>
 
-#include "geometry/topology.h"
 #include "core/error.h"
 #include "core/frame.h"
 #include "core/texture.h"
+#include "geometry/topology.h"
 #include "io/capture.h"
 #include "io/files.h"
 #include "models/evaluate.h"
+#include "models/topology.h"
 #include "render/bake.h"
 
 namespace aniso {
@@ -320,12 +321,14 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   res.triangles = mesh.tri.size();
 
   // Per-vertex fiber directions T and T2 (MODELS.md §1), uv and the mathematical topology.
-  const bool fiber = m.model == "fiber" && !opt.plain;
-  if (fiber && m.has_s_map && opt.s_map.empty())
-    throw Error("preview: the material uses a map of s (" + m.topology_s_map +
+  const bool fiber = m.fiber() && !opt.plain;
+  const auto* map_ref = m.topology_as<TopologyMapRef>();
+  const auto* s_map_ref = m.topology_as<SMapRef>();
+  if (fiber && s_map_ref && opt.s_map.empty())
+    throw Error("preview: the material uses a map of s (" + s_map_ref->file +
                 ") but none was loaded");
-  if (fiber && m.has_topology_map && opt.topology_map.empty())
-    throw Error("preview: the material uses a topology map (" + m.topology_map +
+  if (fiber && map_ref && opt.topology_map.empty())
+    throw Error("preview: the material uses a topology map (" + map_ref->file +
                 ") but none was loaded");
   const double psi = m.fiber_angle_deg * M_PI / 180, psi2 = m.second_angle_deg * M_PI / 180;
   std::vector<float> vbuf;
@@ -344,8 +347,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     }
     vbuf.push_back(mesh.uv[i][0]);
     vbuf.push_back(mesh.uv[i][1]);
-    vbuf.push_back(
-        float(mathematical_topology_at(m.topology_mathematical, mesh.P[i], opt.shape_options)));
+    vbuf.push_back(float(mathematical_topology_at(m.mathematical(), mesh.P[i], opt.shape_options)));
     radius = std::max(radius, length(mesh.P[i] - mesh.center));
   }
 
@@ -414,7 +416,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
                                0,
                                1};
 
-  const bool paper = opt.per_vertex && !opt.plain && m.model != "fiber";
+  const bool paper = opt.per_vertex && !opt.plain && !m.fiber();
   const BakeIndex index = opt.table_index == 1 && !paper ? BakeIndex::kAngle : BakeIndex::kCosine;
   const BakeTables tables = bake_line(m, opt.table_size, index);
   GLuint texD = make_table_texture(tables.diffuse), texS = make_table_texture(tables.specular);
@@ -426,8 +428,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     fb = bake_fiber(m, tables);
     texG = make_array_texture(fb.G, fb.nphi, fb.nphi, fb.ns);
     texF = make_array_texture(fb.F, fb.nphi, fb.nphi, fb.ns * fb.nk);
-    if (m.has_topology_map || m.has_s_map) {
-      const Image& img = m.has_s_map ? opt.s_map : opt.topology_map;
+    if (map_ref || s_map_ref) {
+      const Image& img = s_map_ref ? opt.s_map : opt.topology_map;
       std::vector<float> first(static_cast<size_t>(img.width) * img.height);
       for (size_t p = 0; p < first.size(); ++p) first[p] = img.px[p * img.channels];
       glGenTextures(1, &texMap);
@@ -503,12 +505,12 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
           glUniform1i(glGetUniformLocation(p_aniso, "uNphi"), fb.nphi);
           glUniform1i(glGetUniformLocation(p_aniso, "uNs"), fb.ns);
           glUniform1i(glGetUniformLocation(p_aniso, "uNk"), fb.nk);
-          const int topo = m.has_s_map          ? 3
-                           : m.has_topology_map ? 2
-                                                : (m.topology_mathematical != "none" ? 1 : 0);
+          // The shader's copy of s_at (models/topology.h): one branch per topology source.
+          const int topo = s_map_ref ? 3 : map_ref ? 2 : m.topology_as<MathematicalS>() ? 1 : 0;
           glUniform1i(glGetUniformLocation(p_aniso, "uTopo"), topo);
-          glUniform1f(glGetUniformLocation(p_aniso, "uS0"), float(m.topology_s));
-          glUniform1f(glGetUniformLocation(p_aniso, "uAmp"), float(m.topology_amplitude));
+          glUniform1f(glGetUniformLocation(p_aniso, "uS0"), float(m.uniform_s()));
+          glUniform1f(glGetUniformLocation(p_aniso, "uAmp"),
+                      float(map_ref ? map_ref->amplitude : 0.0));
           set3(p_aniso, "uV", V);
         }
         setm(p_aniso, "uViewProj", view_proj);
@@ -577,7 +579,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     TopologyMap map;
     map.h = opt.topology_map;
     Material line_only = m;
-    line_only.model = "line";
+    line_only.model = Model::kLine;
     res.error_bound = opt.light_dirs.size() * fb.max_abs_error + 1e-5;
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
@@ -587,13 +589,10 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
         SurfacePoint sp;
         if (!make_frame(Vec3(0, 0, 0), N, T, &sp)) continue;
         const double u = gT2.at(x, y, 0), v = gT2.at(x, y, 1), smath = gT2.at(x, y, 2);
-        double s = m.topology_at(smath, map.h.empty() ? 0.0 : map.sample(u, v));
-        if (m.has_s_map) {
-          const BilinearTaps t = bilinear_wrap(u, v, opt.s_map.width, opt.s_map.height);
-          s = 0;
-          for (int q = 0; q < 4; ++q)
-            s += t.weight[q] * opt.s_map.px[static_cast<size_t>(t.index[q]) * opt.s_map.channels];
-        }
+        const double mv = s_map_ref       ? sample_first_channel(opt.s_map, u, v)
+                          : map.h.empty() ? 0.0
+                                          : map.sample(u, v);
+        const double s = s_at(m, smath, mv);
         double exact[3] = {0, 0, 0}, baked[3] = {0, 0, 0};
         for (const Vec3& ld : opt.light_dirs) {
           const LocalDir Ll = to_local(sp, normalize(ld)), Vl = to_local(sp, V);

@@ -3,11 +3,12 @@
 #include <cmath>
 #include <cstdio>
 
-#include "models/shade.h"
 #include "core/error.h"
 #include "core/texture.h"
 #include "io/files.h"
 #include "io/image_io.h"
+#include "models/shade.h"
+#include "models/topology.h"
 
 namespace aniso {
 
@@ -19,15 +20,13 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
   double sum2 = 0, sumy = 0;
   auto no_shadows = [](const SurfacePoint&, const Vec3&, double, ShadeCounters*) { return false; };
   TopologyMap map;
-  const bool use_map = m.model == "fiber" && m.has_topology_map;
-  if (use_map) {
-    if (set.topology_map.empty())
-      throw Error(set.file + ": the material uses a topology map but the set names none");
-    map = load_topology_map(join_path(set.dir, set.topology_map));
-  }
+  // The material's own maps (paths relative to the material file).
+  const auto* map_ref = m.fiber() ? m.topology_as<TopologyMapRef>() : nullptr;
+  const bool use_map = map_ref != nullptr;
+  if (use_map) map = load_topology_map(join_path(m.base_dir, map_ref->file));
   Image s_map;  // a per-texel map of s (what `fit --topology-map` writes), R channel
-  if (m.model == "fiber" && m.has_s_map)
-    s_map = read_image(join_path(m.base_dir, m.topology_s_map)).image;
+  if (const auto* s = m.fiber() ? m.topology_as<SMapRef>() : nullptr)
+    s_map = read_image(join_path(m.base_dir, s->file)).image;
   for (size_t i = 0; i < set.views.size(); ++i) {
     const ViewData d = load_view(set, i, use_map ? &map : nullptr);
     if (!s_map.empty() && d.uv.empty())
@@ -45,14 +44,10 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
         if (!frame_at(d.P, d.N, d.U, x, y, &sp)) continue;
         double I[3];
         const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
-        double topo = m.topology_at(d.smath.px[p], d.mapv.px[p]);
-        if (!s_map.empty()) {
-          const BilinearTaps t =
-              bilinear_wrap(d.uv.px[2 * p], d.uv.px[2 * p + 1], s_map.width, s_map.height);
-          topo = 0;
-          for (int k = 0; k < 4; ++k)
-            topo += t.weight[k] * s_map.px[static_cast<size_t>(t.index[k]) * s_map.channels];
-        }
+        const double mv = s_map.empty()
+                              ? d.mapv.px[p]
+                              : sample_first_channel(s_map, d.uv.px[2 * p], d.uv.px[2 * p + 1]);
+        const double topo = s_at(m, d.smath.px[p], mv);
         shade_point(eval, sp, d.eye, v.lights, amb, topo, no_shadows, I, &cnt);
         for (int c = 0; c < 3; ++c) {
           const double err = v.exposure * I[c] - d.rgb.at(x, y, c);

@@ -6,8 +6,8 @@
 #include <chrono>
 #include <random>
 
-#include "models/fiber_reference.h"
 #include "models/fiber_model.h"
+#include "models/fiber_reference.h"
 #include "models/line_model.h"
 
 namespace aniso {

@@ -239,7 +239,7 @@ TEST(FitFiber, FlatSamplesAcrossTopology) {
     const TruthErrors e = fit_and_compare(dir, so.truth, fo, &r);
     expect_fiber_limits(e);
     EXPECT_LT(e.topo_abs, 0.01);
-    EXPECT_EQ(r.material.model, "fiber");
+    EXPECT_EQ(r.material.model, Model::kFiber);
   }
 }
 
@@ -254,8 +254,8 @@ TEST(FitFiber, TorusWithTopologyMapRecoversAmplitude) {
   FitResult r;
   const TruthErrors e = fit_and_compare(dir, so.truth, fo, &r);
   expect_fiber_limits(e);
-  EXPECT_TRUE(r.material.has_topology_map);
-  EXPECT_EQ(r.material.topology_mathematical, "torus");
+  ASSERT_NE(r.material.topology_as<TopologyMapRef>(), nullptr);
+  EXPECT_EQ(r.material.mathematical(), MathTopology::kTorus);
 }
 
 TEST(FitFiber, AutoChoosesTheModelThatMadeTheData) {
@@ -269,14 +269,14 @@ TEST(FitFiber, AutoChoosesTheModelThatMadeTheData) {
     fo.model = "auto";
     const FitResult r = fit_capture(read_capture(dir), fo);
     EXPECT_EQ(r.material.model, so.truth.model) << r.report.model_selection;
-    EXPECT_NE(r.report.model_selection.find("chose " + so.truth.model), std::string::npos);
+    EXPECT_NE(r.report.model_selection.find(std::string("chose ") + model_name(so.truth.model)),
+              std::string::npos);
   }
 }
 
 TEST(FitFiber, SampleTableWithTopologyColumn) {
   Material truth;
-  truth.model = "fiber";
-  truth.has_topology = true;
+  truth.model = Model::kFiber;
   truth.kd = {0.2, 0.25, 0.3};
   truth.ks = {0.5, 0.4, 0.3};
   truth.n = 20;
@@ -355,7 +355,7 @@ TEST(FitFiber, PerTexelTopologyMap) {
   write_fit(dir + "/out/m.json", r);
   EXPECT_TRUE(std::filesystem::exists(dir + "/out/m_topology_s.exr"));
   const Material back = read_material(dir + "/out/m.json");
-  EXPECT_TRUE(back.has_s_map);
+  EXPECT_NE(back.topology_as<SMapRef>(), nullptr);
   // Asked of a set without uv or with a topology map: a clear error.
   FitOptions line = fo;
   line.model = "line";

@@ -184,3 +184,43 @@ TEST(Lights, AttenuationAndSpotCone) {  // MODELS.md §2
 
 }  // namespace
 }  // namespace aniso
+
+#include "io/json_util.h"
+#include "models/topology.h"
+
+namespace aniso {
+namespace {
+
+// The material's topology is one typed source, parsed once (issue 7): contradictory blocks are
+// refused, and each source survives a write and a read; s_at decides s the same way for all.
+TEST(MaterialTypes, TopologySourcesRoundTripAndContradictionsAreRefused) {
+  const std::string head = R"({"format": "aniso-material", "version": 1, "model": "fiber",
+    "kd": 0.2, "ks": 0.5, "n": 20, "fiber_angle_deg": 10, "topology": )";
+  auto parse = [&](const std::string& topo) {
+    return material_from_json(jsonu::parse_file(head + topo + "}", "m.json"), "m.json");
+  };
+  for (const char* bad : {R"({"s": 0.3, "map": "t.png"})", R"({"s": 0.3, "mathematical": "torus"})",
+                          R"({"s_map": "s.exr", "mathematical": "torus"})", R"({"amplitude": 0.3,
+                          "mathematical": "torus"})",
+                          R"({"mathematical": "tours"})"})
+    EXPECT_THROW(parse(bad), Error) << bad;
+  const Material u = parse(R"({"s": 0.3})");
+  const Material t = parse(R"({"map": "t.png", "amplitude": 0.5, "mathematical": "torus"})");
+  const Material x = parse(R"({"mathematical": "sphere"})");
+  const Material s = parse(R"({"s_map": "s.exr"})");
+  EXPECT_EQ(s_at(u, 0.9, 0.7), 0.3);
+  EXPECT_EQ(s_at(x, 0.9, 0.7), 0.9);
+  EXPECT_NEAR(s_at(t, 0.0, 1.0), topology_with_map(0.0, 0.5, 1.0), 1e-15);
+  EXPECT_EQ(s_at(s, 0.9, 0.7), 0.7);
+  for (const Material* m : {&u, &t, &x, &s}) {
+    jsonu::json j;
+    material_to_json(*m, &j);
+    const Material back = material_from_json(j, "back.json");
+    EXPECT_EQ(back.topology.index(), m->topology.index()) << j.dump();
+    EXPECT_EQ(back.mathematical(), m->mathematical()) << j.dump();
+  }
+  EXPECT_EQ(t.topology_as<TopologyMapRef>()->amplitude, 0.5);
+}
+
+}  // namespace
+}  // namespace aniso

@@ -155,16 +155,12 @@ namespace {
 
 Material silk() {
   Material m;
-  m.model = "fiber";
+  m.model = Model::kFiber;
   m.kd = {0.3, 0.22, 0.06};
   m.ks = {0.55, 0.5, 0.35};
   m.n = 30;
   m.fiber_angle_deg = 90;
-  m.has_topology = true;
-  m.has_topology_map = true;
-  m.topology_map = "map.png";
-  m.topology_amplitude = 0.25;
-  m.topology_mathematical = "torus";
+  m.topology = TopologyMapRef{"map.png", 0.25, MathTopology::kTorus};
   return m;
 }
 

@@ -53,12 +53,11 @@ TEST(Stress, FiberDegenerateDirectionsAreTheLimitsOfTheirNeighbours) {
   for (double psi : {0.0, 30.0, 90.0})
     for (double s : {0.0, 0.5}) {
       Material m;
-      m.model = "fiber";
-      m.has_topology = true;
+      m.model = Model::kFiber;
       m.kd = {0.3, 0.3, 0.3};
       m.ks = {0.6, 0.6, 0.6};
       m.n = 1;
-      m.topology_s = s;
+      m.topology = UniformS{s};
       m.fiber_angle_deg = psi;
       const Evaluator ev(m);
       const double c = std::cos(psi * M_PI / 180), sn = std::sin(psi * M_PI / 180);
@@ -127,8 +126,7 @@ TEST(Stress, MillionFiberEvaluationsAreFinite) {
   size_t bad = 0, n_evals = 0;
   for (int block = 0; block < 20; ++block) {
     Material m;
-    m.model = "fiber";
-    m.has_topology = true;
+    m.model = Model::kFiber;
     m.n = block % 2 ? 1e4 : 1.0 + 100 * u(rng);
     const Evaluator e(m);
     for (int i = 0; i < 50000; ++i) {
