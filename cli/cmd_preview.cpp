@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "cli/command.h"
+#include "core/error.h"
 #include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -14,7 +15,8 @@ namespace aniso::cli {
 
 namespace {
 struct PreviewArgs {
-  std::string mat, out, shape = "sphere", field, size = "512x512", view, exr, map, index = "angle";
+  std::string mat, bake, out, shape = "sphere", field, size = "512x512", view, exr, map,
+                              index = "angle";
   std::vector<std::string> lights;
   double exposure = 1.0, R = 1.0, r = 0.6;
   int table = 256;
@@ -22,8 +24,14 @@ struct PreviewArgs {
 };
 
 int run(const PreviewArgs& a) {
-  const Material m = read_material(a.mat);
-  std::vector<std::string> inputs = material_input_files(m, a.mat);
+  if (a.mat.empty() == a.bake.empty())
+    throw Error("preview: give a MATERIAL file or --bake DIR (one of them)");
+  // From a bake folder: its material and the very tables written there (read back, not re-baked).
+  BakeFolder bake;
+  if (!a.bake.empty()) bake = read_bake(a.bake);
+  const Material m = a.bake.empty() ? read_material(a.mat) : bake.material;
+  std::vector<std::string> inputs =
+      a.bake.empty() ? material_input_files(m, a.mat) : std::vector<std::string>{a.bake};
   inputs.push_back(a.map);
   if (lower_ext(a.shape) == ".obj") inputs.push_back(a.shape);
   check_outputs_apart({a.out, a.exr}, inputs);
@@ -40,6 +48,10 @@ int run(const PreviewArgs& a) {
     for (const auto& l : a.lights) p.light_dirs.push_back(parse_vec(l, "--light"));
   }
   p.reference = true;
+  if (!a.bake.empty()) {
+    p.baked = &bake.tables;
+    if (bake.has_fiber) p.baked_fiber = &bake.fiber;
+  }
   if (const auto* t = m.fiber() ? m.topology_as<TopologyMapRef>() : nullptr)
     // The map named by the material (relative to the material file), unless given.
     p.topology_map = load_topology_map(a.map.empty() ? join_path(m.base_dir, t->file) : a.map).h;
@@ -66,7 +78,10 @@ Command add_preview(CLI::App& app) {
   auto a = std::make_shared<PreviewArgs>();
   auto* prev = app.add_subcommand(
       "preview", "Render an object headless through OpenGL with the baked texture");
-  prev->add_option("MATERIAL", a->mat, "material file")->required();
+  prev->add_option("MATERIAL", a->mat, "material file (or --bake)");
+  prev->add_option("--bake", a->bake,
+                   "render from a bake folder (what `aniso bake` wrote: its material and tables, "
+                   "read back as an engine would)");
   prev->add_option("--out", a->out, "PNG to write (sRGB, 8-bit; '-' = standard output)")
       ->required();
   prev->add_option("--shape", a->shape, "sphere, disc, cylinder, torus, flat, or an .obj file")

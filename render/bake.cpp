@@ -373,4 +373,77 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
   });
 }
 
+BakeFolder read_bake(const std::string& dir) {
+  using jsonu::Ctx;
+  using jsonu::json;
+  const std::string file = join_path(dir, "bake.json");
+  const json j = jsonu::parse_file(read_text_file(file), file);
+  const Ctx root{file, ""};
+  if (jsonu::str(jsonu::need(j, "format", root), root.at("format")) != "aniso-bake")
+    root.at("format").fail("expected \"aniso-bake\"");
+  if (jsonu::num(jsonu::need(j, "version", root), root.at("version")) != 1)
+    root.at("version").fail("unsupported version (this reader knows 1)");
+  BakeFolder b;
+  b.material = material_from_json(jsonu::need(j, "material", root), file + ": material");
+  b.material.base_dir = dir;
+  BakeTables& t = b.tables;
+  const double size = jsonu::num(jsonu::need(j, "size", root), root.at("size"));
+  if (size < 2 || size > 8192 || size != std::floor(size))
+    root.at("size").fail("must be in [2, 8192]");
+  t.size = static_cast<int>(size);
+  const json& idx = jsonu::need(j, "index", root);
+  t.index =
+      parse_index(jsonu::str(jsonu::need(idx, "kind", root.at("index")), root.at("index.kind")));
+  const json& err = jsonu::need(j, "error", root);
+  const Ctx ce = root.at("error");
+  t.max_abs_error = jsonu::num(jsonu::need(err, "max_abs", ce), ce.at("max_abs"));
+  t.rms_error = jsonu::num(jsonu::need(err, "rms", ce), ce.at("rms"));
+  t.peak_value = jsonu::num(jsonu::need(err, "peak_value", ce), ce.at("peak_value"));
+  t.samples = static_cast<size_t>(jsonu::num_or(err, "samples", 0, ce));
+  t.seed = static_cast<uint64_t>(jsonu::num_or(err, "seed", 1, ce));
+  const json& files = jsonu::need(j, "files", root);
+  auto table = [&](const char* stem, int channels) {
+    const Ctx c = root.at("files").at(stem);
+    const std::string name =
+        jsonu::str(jsonu::need(jsonu::need(files, stem, root.at("files")), "exr", c), c.at("exr"));
+    Image img = read_image(join_path(dir, name), t.size, t.size).image;
+    if (img.channels != channels)
+      c.fail(name + " has " + std::to_string(img.channels) + " channels, expected " +
+             std::to_string(channels));
+    return img;
+  };
+  t.diffuse = table("diffuse", 1);
+  t.specular = table("specular", 1);
+  t.combined = table("combined", 3);
+  if (j.contains("fiber") && !j["fiber"].is_null()) {
+    const json& f = j["fiber"];
+    const Ctx c = root.at("fiber");
+    FiberBakeTables& fb = b.fiber;
+    auto count = [&](const char* key) {
+      const double v = jsonu::num(jsonu::need(f, key, c), c.at(key));
+      if (v < 2 || v > 4096 || v != std::floor(v))
+        c.at(key).fail("must be an integer in [2, 4096]");
+      return static_cast<int>(v);
+    };
+    fb.nphi = count("nphi");
+    fb.ns = count("ns");
+    fb.nk = count("nk");
+    const json& fe = jsonu::need(f, "error", c);
+    fb.max_abs_error = jsonu::num(jsonu::need(fe, "max_abs", c.at("error")), c.at("error.max_abs"));
+    fb.rms_error = jsonu::num_or(fe, "rms", 0, c.at("error"));
+    fb.p99_error = jsonu::num_or(fe, "p99", 0, c.at("error"));
+    fb.peak_value = jsonu::num_or(fe, "peak_value", 0, c.at("error"));
+    const Image G = read_image(join_path(dir, "fiber_G.exr"), fb.nphi, fb.nphi * fb.ns).image;
+    const Image F =
+        read_image(join_path(dir, "fiber_F.exr"), fb.nphi, fb.nphi * fb.ns * fb.nk).image;
+    if (G.channels != 1 || F.channels != 1) c.fail("fiber_G.exr and fiber_F.exr hold one channel");
+    fb.G = G.px;
+    fb.F = F.px;
+    b.has_fiber = true;
+  }
+  if (b.material.fiber() && !b.has_fiber)
+    root.fail("a fiber material's bake needs its \"fiber\" tables");
+  return b;
+}
+
 }  // namespace aniso

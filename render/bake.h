@@ -85,4 +85,15 @@ void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBake
 void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
                 const std::string& command, const FiberBakeTables* fiber = nullptr);
 
+// What write_bake wrote, read back: the material (its maps relative to the bake folder), the
+// tables with their indexing and measured error, and the fiber tables when there are any.
+// Anything missing or malformed is an error naming the file and key.
+struct BakeFolder {
+  Material material;
+  BakeTables tables;
+  bool has_fiber = false;
+  FiberBakeTables fiber;
+};
+BakeFolder read_bake(const std::string& dir);
+
 }  // namespace aniso

@@ -417,15 +417,22 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
                                1};
 
   const bool paper = opt.per_vertex && !opt.plain && !m.fiber();
-  const BakeIndex index = opt.table_index == 1 && !paper ? BakeIndex::kAngle : BakeIndex::kCosine;
-  const BakeTables tables = bake_line(m, opt.table_size, index);
+  const BakeIndex index = opt.baked                        ? opt.baked->index
+                          : opt.table_index == 1 && !paper ? BakeIndex::kAngle
+                                                           : BakeIndex::kCosine;
+  if (paper && index != BakeIndex::kCosine)
+    throw Error("preview: --per-vertex (the paper's construction) needs a cosine-index bake");
+  const BakeTables tables = opt.baked ? *opt.baked : bake_line(m, opt.table_size, index);
   GLuint texD = make_table_texture(tables.diffuse), texS = make_table_texture(tables.specular);
   const GLuint p_aniso = paper ? program(kVertexPaper, kAnisoPaper)
                                : program(kVertex, opt.plain ? kPlain : (fiber ? kFiber : kAniso));
   FiberBakeTables fb;
   GLuint texG = 0, texF = 0, texMap = 0;
   if (fiber) {
-    fb = bake_fiber(m, tables);
+    if (opt.baked_fiber)
+      fb = *opt.baked_fiber;
+    else
+      fb = bake_fiber(m, tables);
     texG = make_array_texture(fb.G, fb.nphi, fb.nphi, fb.ns);
     texF = make_array_texture(fb.F, fb.nphi, fb.nphi, fb.ns * fb.nk);
     if (map_ref || s_map_ref) {
@@ -447,8 +454,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   const GLsizei nidx = static_cast<GLsizei>(mesh.tri.size() * 3);
   // The paper's matrix; for the cosine index the texel-centre remap is folded into it.
   const bool angle = index == BakeIndex::kAngle;
-  const double k = angle ? 1.0 : (opt.table_size - 1.0) / opt.table_size,
-               o = angle ? 0.0 : 0.5 / opt.table_size;
+  const double k = angle ? 1.0 : (tables.size - 1.0) / tables.size,
+               o = angle ? 0.0 : 0.5 / tables.size;
 
   const GLenum one[] = {GL_COLOR_ATTACHMENT0};
   glDrawBuffers(1, one);
@@ -530,7 +537,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
         glUniform1f(glGetUniformLocation(p_aniso, "uWeight"), float(wgt));
         glUniform1i(glGetUniformLocation(p_aniso, "uUseT2"), lobe);
         glUniform1i(glGetUniformLocation(p_aniso, "uAngleIndex"), angle ? 1 : 0);
-        glUniform1f(glGetUniformLocation(p_aniso, "uTexels"), float(opt.table_size));
+        glUniform1f(glGetUniformLocation(p_aniso, "uTexels"), float(tables.size));
         glDrawElements(GL_TRIANGLES, nidx, GL_UNSIGNED_INT, nullptr);
       }
       if (m.isotropic_active() && !opt.plain) {
@@ -630,7 +637,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     // The angle index's acos in single precision: near |x| = 1 an input rounding of 2^-24 moves
     // acos by up to sqrt(2 * 2^-24) = 3.5e-4 rad, i.e. that many texels times (N - 1) / pi.
     const double acos_texels =
-        angle ? std::sqrt(2.0 * std::ldexp(1.0, -24)) * (opt.table_size - 1) / M_PI : 0.0;
+        angle ? std::sqrt(2.0 * std::ldexp(1.0, -24)) * (tables.size - 1) / M_PI : 0.0;
     const int lobes = m.second_active() ? 2 : 1;
     res.error_bound =
         opt.light_dirs.size() * lobes *

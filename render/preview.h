@@ -8,9 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "geometry/mesh.h"
 #include "core/image.h"
+#include "geometry/mesh.h"
 #include "models/material.h"
+#include "render/bake.h"
 
 namespace aniso {
 
@@ -33,6 +34,9 @@ struct PreviewOptions {
   Image topology_map;
   // Or a map of s itself (topology.s_map, what `fit --topology-map N` writes): channel 0 = s.
   Image s_map;
+  // Render from these tables (a bake folder read back) instead of baking the material here.
+  const BakeTables* baked = nullptr;
+  const FiberBakeTables* baked_fiber = nullptr;
 };
 
 struct PreviewResult {

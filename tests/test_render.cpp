@@ -196,3 +196,63 @@ TEST(FiberPreview, TorusWithTopologyMapMatchesTheBakedFormOnTheCpu) {
 
 }  // namespace
 }  // namespace aniso
+
+#include <cstdlib>
+
+#include "io/material_io.h"
+#include "render/preview.h"
+
+namespace aniso {
+namespace {
+
+// Golden bake (Filament's cmgen habit): the checked-in tables against today's bake of the same
+// material. Fails when a table moves by more than the bake's stated error; ANISO_UPDATE_GOLDEN=1
+// rewrites the golden folder instead (then review the diff and commit it).
+TEST(Bake, GoldenTablesHoldWithinTheirStatedError) {
+  const std::string golden = std::string(ANISO_SOURCE_DIR) + "/tests/golden/bake_line_64";
+  const Material m = read_material(std::string(ANISO_SOURCE_DIR) + "/tests/golden/material.json");
+  const BakeTables now = bake_line(m, 64);
+  if (const char* u = std::getenv("ANISO_UPDATE_GOLDEN"); u && std::string(u) == "1") {
+    write_bake(golden, m, now, "aniso bake tests/golden/material.json --size 64");
+    GTEST_SKIP() << "golden bake rewritten: " << golden;
+  }
+  const BakeFolder g = read_bake(golden);
+  ASSERT_EQ(g.tables.size, 64);
+  EXPECT_EQ(g.tables.index, BakeIndex::kAngle);
+  const double tol = std::max(1e-6, g.tables.max_abs_error);
+  double worst = 0;
+  for (const auto& [a, b] :
+       {std::pair{&g.tables.diffuse, &now.diffuse}, std::pair{&g.tables.specular, &now.specular},
+        std::pair{&g.tables.combined, &now.combined}}) {
+    ASSERT_EQ(a->px.size(), b->px.size());
+    for (size_t i = 0; i < a->px.size(); ++i)
+      worst = std::max(worst, std::abs(double(a->px[i]) - double(b->px[i])));
+  }
+  EXPECT_LE(worst, tol) << "a table moved by more than the golden bake's stated error";
+  std::printf("golden bake: worst texel change %.3g (stated error %.3g)\n", worst, tol);
+}
+
+// The deliverable read back: a preview from the bake folder renders exactly the tables written
+// there (the same image as baking in memory), and a changed table file changes the picture.
+TEST(Bake, PreviewFromABakeFolderRendersTheTablesWrittenThere) {
+  const std::string dir = test::tmp_dir("bake");
+  const Material m = read_material(std::string(ANISO_SOURCE_DIR) + "/tests/golden/material.json");
+  write_bake(dir + "/b", m, bake_line(m, 32), "test");
+  const BakeFolder b = read_bake(dir + "/b");
+  EXPECT_EQ(b.material.kd, m.kd);
+  PreviewOptions p;
+  p.width = p.height = 64;
+  p.table_size = 32;
+  const PreviewResult direct = render_preview(m, p);
+  p.baked = &b.tables;
+  const PreviewResult from_bake = render_preview(b.material, p);
+  EXPECT_EQ(direct.rgb.px, from_bake.rgb.px);
+  BakeTables tampered = b.tables;
+  for (float& v : tampered.specular.px) v *= 0.5f;
+  p.baked = &tampered;
+  const PreviewResult changed = render_preview(b.material, p);
+  EXPECT_NE(direct.rgb.px, changed.rgb.px);
+}
+
+}  // namespace
+}  // namespace aniso
