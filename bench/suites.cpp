@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "capture_sim/sim.h"
+#include "core/angles.h"
 #include "core/error.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
@@ -85,8 +86,7 @@ Errs errors_of(const Material& m, const Material& t) {
     e.ks = std::max(e.ks, std::abs(m.ks[c] - t.ks[c]) / t.ks[c]);
   }
   e.n = std::abs(m.n - t.n) / t.n;
-  double d = std::fmod(std::abs(m.fiber_angle_deg - t.fiber_angle_deg), 180.0);
-  e.psi = std::min(d, 180 - d);
+  e.psi = fiber_deg_distance(m.fiber_angle_deg, t.fiber_angle_deg);
   e.topo = std::abs(m.uniform_s() - t.uniform_s());
   return e;
 }
@@ -133,7 +133,7 @@ json bench_fit(const std::string& work, bool quick) {
       const auto x = sj["x"].get<std::vector<double>>();
       for (int c = 0; c < 3; ++c) sm.kd[c] = x[c], sm.ks[c] = x[3 + c];
       sm.n = std::exp(x[6]);
-      sm.fiber_angle_deg = std::fmod(std::fmod(x[7] * 180 / M_PI, 180.0) + 180.0, 180.0);
+      sm.fiber_angle_deg = wrap_fiber_deg(rad_to_deg(x[7]));
       scipy_err = errors_of(sm, so.truth).worst();
     }
     json e1 = entry("fit", "line fit vs SciPy least_squares, subsample " + std::to_string(sub),

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <random>
 
+#include "core/angles.h"
 #include "core/color.h"
 #include "core/error.h"
 #include "core/frame.h"
@@ -30,7 +31,7 @@ namespace {
 constexpr double kGoldenAngle = 2.39996322972865332;  // pi (3 - sqrt 5)
 
 Vec3 on_sphere(double polar_deg, double azimuth_rad, double r) {
-  const double t = polar_deg * M_PI / 180.0;
+  const double t = deg_to_rad(polar_deg);
   return {r * std::sin(t) * std::cos(azimuth_rad), r * std::sin(t) * std::sin(azimuth_rad),
           r * std::cos(t)};
 }
@@ -56,8 +57,8 @@ std::vector<RigView> rig_fixed_camera(int views, double camera_polar_deg, double
     // Polar angle 10..70 degrees, uniform in cos over the band; golden-angle azimuths.
     const double f = (i + 0.5) / views;
     const double c =
-        std::cos(10 * M_PI / 180) + f * (std::cos(70 * M_PI / 180) - std::cos(10 * M_PI / 180));
-    const double polar = std::acos(c) * 180.0 / M_PI;
+        std::cos(deg_to_rad(10.0)) + f * (std::cos(deg_to_rad(70.0)) - std::cos(deg_to_rad(10.0)));
+    const double polar = rad_to_deg(std::acos(c));
     v.lights.push_back(point_light(on_sphere(polar, i * kGoldenAngle, distance), distance));
     rig.push_back(v);
   }

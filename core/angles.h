@@ -17,6 +17,9 @@ constexpr T rad_to_deg(T rad) {
   return rad * T(180.0 / kPi);
 }
 
+// An angle in radians into [0, pi): the fiber direction's period (the fit's manifold uses it).
+inline double wrap_half_turn(double rad) { return rad - kPi * std::floor(rad / kPi); }
+
 // An angle in degrees into [0, 180). A value within a micro-degree below 180 (rounding of an
 // angle that is 0 modulo 180) becomes 0, so 180 is never reported.
 inline double wrap_fiber_deg(double deg) {

@@ -348,7 +348,7 @@ class HalfTurnManifold : public ceres::Manifold {
     j[0] = 1.0;
     return true;
   }
-  static double wrap(double a) { return a - M_PI * std::floor(a / M_PI); }
+  static double wrap(double a) { return wrap_half_turn(a); }
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -994,7 +994,7 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
     };
     res.sigma["kd"] = diag(st.kd, 3);
     res.sigma["ks"] = diag(st.ks, 3);
-    const double spsi = diag(&st.psi, 1)[0] * 180 / M_PI;
+    const double spsi = rad_to_deg(diag(&st.psi, 1)[0]);
     // A fiber angle this uncertain says nothing: a lone light along T (s_L -> 0) or no lobe.
     constexpr double kPsiUndeterminedDeg = 10.0;
     if (spsi > kPsiUndeterminedDeg)

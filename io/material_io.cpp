@@ -2,6 +2,7 @@
 
 #include <filesystem>
 
+#include "core/angles.h"
 #include "io/files.h"
 #include "io/json_util.h"
 #include "models/params.h"
@@ -25,7 +26,7 @@ double scalar(const json& j, const std::string& name, const std::string& key, do
   if (!j.contains(name)) return def;
   const double x = jsonu::num(j[name], c.at(name));
   const ParamSpec& p = line_param(key);
-  if (p.periodic) return x - 180.0 * std::floor(x / 180.0);  // T -> -T symmetry: [0, 180)
+  if (p.periodic) return wrap_fiber_deg(x);  // T -> -T symmetry: [0, 180)
   if (x < p.lo || x > p.hi)
     c.at(name).fail("value " + json(x).dump() + " outside [" + json(p.lo).dump() + ", " +
                     json(p.hi).dump() + "]");
@@ -97,7 +98,6 @@ Material material_from_json(const json& j, const std::string& file) {
     m.has_second_fiber = true;
     m.second_angle_deg =
         scalar(b, "angle_deg", "second_fiber.angle_deg", m.fiber_angle_deg + 90.0, c);
-    m.second_angle_deg -= 180.0 * std::floor(m.second_angle_deg / 180.0);
     m.second_weight = scalar(b, "weight", "second_fiber.weight", 0.5, c);
   }
   if (j.contains("topology")) {

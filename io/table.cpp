@@ -5,6 +5,7 @@
 #include <limits>
 #include <sstream>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/text.h"
 #include "io/files.h"
@@ -29,7 +30,7 @@ std::vector<std::string> split_csv(const std::string& line) {
 }  // namespace
 
 LocalDir dir_from_angles(double theta_deg, double phi_deg) {
-  const double t = theta_deg * M_PI / 180.0, p = phi_deg * M_PI / 180.0;
+  const double t = deg_to_rad(theta_deg), p = deg_to_rad(phi_deg);
   return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
 }
 

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/frame.h"
 #include "core/texture.h"
@@ -330,7 +331,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   if (fiber && map_ref && opt.topology_map.empty())
     throw Error("preview: the material uses a topology map (" + map_ref->file +
                 ") but none was loaded");
-  const double psi = m.fiber_angle_deg * M_PI / 180, psi2 = m.second_angle_deg * M_PI / 180;
+  const double psi = deg_to_rad(m.fiber_angle_deg), psi2 = deg_to_rad(m.second_angle_deg);
   std::vector<float> vbuf;
   double radius = 0;
   for (size_t i = 0; i < mesh.P.size(); ++i) {
@@ -655,7 +656,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
         // <T2,T>).
         Material local = m;
         local.fiber_angle_deg = 0;
-        local.second_angle_deg = std::atan2(dot(T2, sp.W), dot(T2, sp.U)) * 180 / M_PI;
+        local.second_angle_deg = rad_to_deg(std::atan2(dot(T2, sp.W), dot(T2, sp.U)));
         const Evaluator le(local);
         double acc[3] = {0, 0, 0};
         for (const Vec3& ld : opt.light_dirs) {
