@@ -30,12 +30,6 @@ std::string good_capture(const std::string& dir) {
   return dir;
 }
 
-void edit_json(const std::string& file, const std::function<void(nlohmann::json&)>& f) {
-  auto j = nlohmann::json::parse(read_text_file(file));
-  f(j);
-  write_text_file(file, j.dump());
-}
-
 void expect_failure(const std::string& args, const std::vector<std::string>& must_mention,
                     const std::string& out) {
   const test::RunResult r = test::run_cli(args);
@@ -64,10 +58,10 @@ TEST(BadInput, MalformedJson) {
 
 TEST(BadInput, UnknownVersionAndFormat) {
   const std::string dir = good_capture(test::tmp_dir("set"));
-  edit_json(dir + "/capture.json", [](auto& j) { j["version"] = 7; });
+  test::edit_json(dir + "/capture.json", [](auto& j) { j["version"] = 7; });
   expect_failure("fit " + dir + " --out " + dir + "/m.json", {"capture.json", "version", "7"},
                  dir + "/m.json");
-  edit_json(dir + "/capture.json", [](auto& j) {
+  test::edit_json(dir + "/capture.json", [](auto& j) {
     j["version"] = 1;
     j["format"] = "something-else";
   });
@@ -122,18 +116,19 @@ TEST(BadInput, EmptyMask) {
 
 TEST(BadInput, NoLights) {
   const std::string dir = good_capture(test::tmp_dir("set"));
-  edit_json(dir + "/capture.json",
-            [](auto& j) { j["views"][1]["lights"] = nlohmann::json::array(); });
+  test::edit_json(dir + "/capture.json",
+                  [](auto& j) { j["views"][1]["lights"] = nlohmann::json::array(); });
   expect_failure("fit " + dir + " --out " + dir + "/m.json",
                  {"capture.json", "views[1].lights", "at least one light"}, dir + "/m.json");
 }
 
 TEST(BadInput, UnknownLightTypeAndNegativeExposure) {
   const std::string dir = good_capture(test::tmp_dir("set"));
-  edit_json(dir + "/capture.json", [](auto& j) { j["views"][0]["lights"][0]["type"] = "laser"; });
+  test::edit_json(dir + "/capture.json",
+                  [](auto& j) { j["views"][0]["lights"][0]["type"] = "laser"; });
   expect_failure("fit " + dir + " --out " + dir + "/m.json", {"views[0].lights[0].type", "laser"},
                  dir + "/m.json");
-  edit_json(dir + "/capture.json", [](auto& j) {
+  test::edit_json(dir + "/capture.json", [](auto& j) {
     j["views"][0]["lights"][0]["type"] = "point";
     j["views"][0]["exposure"] = -1;
   });

@@ -151,12 +151,6 @@ std::string small_set(const std::string& dir, int views, uint64_t seed = 1) {
   return dir;
 }
 
-void edit(const std::string& file, const std::function<void(nlohmann::json&)>& f) {
-  auto j = nlohmann::json::parse(read_text_file(file));
-  f(j);
-  write_text_file(file, j.dump());
-}
-
 bool all_finite(const nlohmann::json& j) {
   if (j.is_number_float()) return std::isfinite(j.get<double>());
   if (j.is_array() || j.is_object())
@@ -175,7 +169,7 @@ TEST(Stress, OneViewFitsOrNamesWhatItCannotDetermine) {
 
 TEST(Stress, AllDarkCaptureNamesUndeterminedParameters) {
   const std::string dir = small_set(test::tmp_dir("dark"), 3);
-  edit(dir + "/capture.json", [](auto& j) {
+  test::edit_json(dir + "/capture.json", [](auto& j) {
     for (auto& v : j["views"]) v["exposure"] = 0.0;  // exposure 0: the model predicts black
   });
   for (const char* v : {"000", "001", "002"})
@@ -190,7 +184,7 @@ TEST(Stress, AllDarkCaptureNamesUndeterminedParameters) {
 
 TEST(Stress, AllSaturatedCaptureIsRejected) {
   const std::string dir = small_set(test::tmp_dir("sat"), 2);
-  edit(dir + "/capture.json", [](auto& j) { j["color"]["saturation"] = -1.0; });
+  test::edit_json(dir + "/capture.json", [](auto& j) { j["color"]["saturation"] = -1.0; });
   const test::RunResult r = test::run_cli("fit " + dir + " --out " + dir + "/m.json");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("no usable observations"), std::string::npos) << r.output;

@@ -22,21 +22,21 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string small_capture(const std::string& dir, int bits = 0, const std::string& enc = "linear") {
+std::string capture_of(const std::string& dir, const std::string& preset, int views, int size,
+                       double noise = 0, int bits = 0, const std::string& enc = "linear") {
   PresetOptions p;
-  p.views = 3;
-  p.width = p.height = 24;
+  p.views = views;
+  p.width = p.height = size;
+  p.noise = noise;
   p.bits = bits;
   p.encoding = enc;
   p.progress = false;
-  simulate_capture(make_preset("brushed-metal", p), dir);
+  simulate_capture(make_preset(preset, p), dir);
   return dir;
 }
 
-void edit_json(const std::string& file, const std::function<void(nlohmann::json&)>& f) {
-  auto j = nlohmann::json::parse(read_text_file(file));
-  f(j);
-  write_text_file(file, j.dump());
+std::string small_capture(const std::string& dir, int bits = 0, const std::string& enc = "linear") {
+  return capture_of(dir, "brushed-metal", 3, 24, 0, bits, enc);
 }
 
 const char* kMaterial = R"({"format": "aniso-material", "version": 1, "model": "line",
@@ -44,7 +44,7 @@ const char* kMaterial = R"({"format": "aniso-material", "version": 1, "model": "
 
 TEST(Trust, IntegerImagesWithoutAStatedEncodingAreAnError) {
   const std::string dir = small_capture(test::tmp_dir("set"), 8, "srgb");
-  edit_json(dir + "/capture.json", [](auto& j) { j.erase("color"); });
+  test::edit_json(dir + "/capture.json", [](auto& j) { j.erase("color"); });
   const auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("color.encoding"), std::string::npos) << r.output;
@@ -54,7 +54,7 @@ TEST(Trust, IntegerImagesWithoutAStatedEncodingAreAnError) {
 
 TEST(Trust, ExrImagesAreLinearWhateverTheEncodingSays) {
   const std::string dir = small_capture(test::tmp_dir("set"));
-  edit_json(dir + "/capture.json", [](auto& j) { j["color"]["encoding"] = "srgb"; });
+  test::edit_json(dir + "/capture.json", [](auto& j) { j["color"]["encoding"] = "srgb"; });
   const auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto j = nlohmann::json::parse(read_text_file(dir + "/../m.json"));
@@ -80,13 +80,13 @@ TEST(Trust, UnknownKeysAreRejectedWithADidYouMean) {
   EXPECT_FALSE(fs::exists(dir + "/b"));
 
   const std::string set = small_capture(test::tmp_dir("set"));
-  edit_json(set + "/capture.json", [](auto& j) {
+  test::edit_json(set + "/capture.json", [](auto& j) {
     j["camera"]["distortion"] = {-0.2, 0.05, 0, 0, 0};
   });
   r = test::run_cli("fit " + set + " --out " + dir + "/f.json");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("camera.distortion"), std::string::npos) << r.output;
-  edit_json(set + "/capture.json", [](auto& j) {
+  test::edit_json(set + "/capture.json", [](auto& j) {
     j["camera"].erase("distortion");
     j["views"][0]["lights"][0]["intensty"] = 3;
   });
@@ -147,7 +147,7 @@ TEST(Trust, ViewsWithTwoChannelsOrABadBlackLevelAreRefused) {
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("2 channels"), std::string::npos) << r.output;
   const std::string png = small_capture(test::tmp_dir("png"), 16, "linear");
-  edit_json(png + "/capture.json", [](auto& j) { j["color"]["black_level"] = -1e300; });
+  test::edit_json(png + "/capture.json", [](auto& j) { j["color"]["black_level"] = -1e300; });
   r = test::run_cli("fit " + png + " --out " + png + "/../m.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("color.black_level"), std::string::npos) << r.output;
@@ -221,7 +221,7 @@ TEST(Trust, AZeroTruthGetsAnAbsoluteErrorNotAHugePercentage) {
 TEST(Trust, TheFitPrintsEveryValueWithItsSigma) {
   const std::string dir = small_capture(test::tmp_dir("set"));
   fs::remove(dir + "/truth.json");
-  edit_json(dir + "/capture.json", [](auto& j) { j.erase("truth"); });
+  test::edit_json(dir + "/capture.json", [](auto& j) { j.erase("truth"); });
   const auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
   ASSERT_EQ(r.status, 0) << r.output;
   for (const char* k : {"kd.r", "ks.b", "n ", "fiber_angle_deg"})
@@ -263,13 +263,7 @@ TEST(Trust, AnAbsentIsotropicTermNamesOnlyNIsoAsUndetermined) {
 }
 
 TEST(Trust, AModelThatDoesNotDescribeTheDataIsSaidPlainly) {
-  const std::string dir = test::tmp_dir("cloth");
-  PresetOptions p;
-  p.views = 8;
-  p.width = p.height = 48;
-  p.noise = 0.01;
-  p.progress = false;
-  simulate_capture(make_preset("woven-cloth", p), dir);
+  const std::string dir = capture_of(test::tmp_dir("cloth"), "woven-cloth", 8, 48, 0.01);
   auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("WARNING: the model does not describe the data"), std::string::npos)
@@ -289,15 +283,9 @@ TEST(Trust, AModelThatDoesNotDescribeTheDataIsSaidPlainly) {
 }
 
 TEST(Trust, ManyIdenticalViewsDoNotAliasTheStartSubset) {
-  const std::string dir = test::tmp_dir("same");
-  PresetOptions p;
-  p.views = 1;
-  p.width = p.height = 10;
-  p.noise = 0.01;
-  p.progress = false;
-  simulate_capture(make_preset("brushed-metal", p), dir);
+  const std::string dir = capture_of(test::tmp_dir("same"), "brushed-metal", 1, 10, 0.01);
   // 4000 copies of one view: a stride of (observations / 4000) lands on one pixel every time.
-  edit_json(dir + "/capture.json", [](auto& j) {
+  test::edit_json(dir + "/capture.json", [](auto& j) {
     const auto v = j["views"][0];
     j["views"] = nlohmann::json::array();
     for (int i = 0; i < 4000; ++i) j["views"].push_back(v);

@@ -6,6 +6,9 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 
 namespace aniso::test {
@@ -24,10 +27,10 @@ struct RunResult {
   std::string output;  // stdout and stderr
 };
 
-inline RunResult run_cli(const std::string& args) {
+// Runs a shell command line, collecting stdout and stderr together.
+inline RunResult run_command(const std::string& cmd) {
   RunResult r;
-  const std::string cmd = std::string(ANISO_BIN) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
   if (!p) return r;
   char buf[4096];
   size_t n;
@@ -37,31 +40,37 @@ inline RunResult run_cli(const std::string& args) {
   return r;
 }
 
+inline RunResult run_cli(const std::string& args) {
+  return run_command(std::string(ANISO_BIN) + " " + args);
+}
+
 }  // namespace aniso::test
 
 namespace aniso::test {
 
 // Runs a shell command line; "$A" in it is the aniso binary.
 inline RunResult sh(const std::string& script) {
-  RunResult r;
   const std::string cmd = "A='" + std::string(ANISO_BIN) + "'\n" + script + "\n";
   // Through a script file, so the command line needs no quoting.
   const std::string file = std::string(ANISO_TEST_TMP) + "/sh_" + std::to_string(::getpid()) + "_" +
-                           std::to_string(reinterpret_cast<uintptr_t>(&r)) + ".sh";
+                           std::to_string(reinterpret_cast<uintptr_t>(&script)) + ".sh";
   {
     FILE* f = std::fopen(file.c_str(), "w");
     std::fputs(cmd.c_str(), f);
     std::fclose(f);
   }
-  FILE* q = popen(("bash " + file + " 2>&1").c_str(), "r");
-  if (!q) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, q)) > 0) r.output.append(buf, n);
-  const int st = pclose(q);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  RunResult r = run_command("bash " + file);
   std::remove(file.c_str());
   return r;
+}
+
+// Rewrites a JSON file through `f` (to break a valid capture or material in one place).
+inline void edit_json(const std::string& file, const std::function<void(nlohmann::json&)>& f) {
+  std::ifstream in(file);
+  nlohmann::json j = nlohmann::json::parse(in);
+  in.close();
+  f(j);
+  std::ofstream(file) << j.dump();
 }
 
 }  // namespace aniso::test
