@@ -18,24 +18,27 @@ struct FitArgs {
   FitOptions fo;
 };
 
-void print_report(const FitResult& r) {
+void print_report(FILE* o, const FitResult& r) {
   const FitReport& p = r.report;
-  std::printf(
+  std::fprintf(
+      o,
       "fit: %zu observations (%zu pixels) from %zu views; skipped: %zu masked, %zu saturated, "
       "%zu non-finite, %zu unlit, %zu implausible\n",
       p.observations, p.pixels, p.views, p.masked_out, p.saturated, p.nonfinite, p.unlit,
       p.implausible);
-  std::printf("fit: start %s\n", p.start.c_str());
-  std::printf(
+  std::fprintf(o, "fit: start %s\n", p.start.c_str());
+  std::fprintf(
+      o,
       "fit: %d iterations, %s, loss %s, residual RMS %.3g, time %.3f s (load %.3f, start %.3f, "
       "solve %.3f, covariance %.3f)\n",
       p.iterations, p.termination.c_str(), p.loss.c_str(), p.rms, p.seconds, p.seconds_load,
       p.seconds_start, p.seconds_solve, p.seconds_covariance);
   for (const auto& [k, why] : r.undetermined)
-    std::printf("fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());
-  for (const auto& s : p.model_summaries) std::printf("fit: --model auto: %s\n", s.c_str());
-  if (!p.model_selection.empty()) std::printf("fit: --model auto: %s\n", p.model_selection.c_str());
-  for (const auto& w : p.warnings) std::printf("fit: WARNING: %s\n", w.c_str());
+    std::fprintf(o, "fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());
+  for (const auto& s : p.model_summaries) std::fprintf(o, "fit: --model auto: %s\n", s.c_str());
+  if (!p.model_selection.empty())
+    std::fprintf(o, "fit: --model auto: %s\n", p.model_selection.c_str());
+  for (const auto& w : p.warnings) std::fprintf(o, "fit: WARNING: %s\n", w.c_str());
 }
 
 }  // namespace
@@ -62,13 +65,15 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   }
   check_outputs_apart({out}, inputs);
   const FitResult r = is_table ? fit_table(table, fo) : fit_capture(set, fo);
+  // With `--out -` the material goes to standard output: everything said goes to stderr.
+  FILE* o = out == "-" ? stderr : stdout;
   write_fit(out, r);
-  print_report(r);
-  std::printf("fit: wrote %s\n", out.c_str());
-  std::printf("%s", describe_fit(r).c_str());
+  print_report(o, r);
+  std::fprintf(o, "fit: wrote %s\n", out.c_str());
+  std::fprintf(o, "%s", describe_fit(r).c_str());
   if (!truth.empty())
-    std::printf("against the truth (%s):\n%s", truth.c_str(),
-                compare_to_truth(r, truth_m, nullptr).c_str());
+    std::fprintf(o, "against the truth (%s):\n%s", truth.c_str(),
+                 compare_to_truth(r, truth_m, nullptr).c_str());
   return 0;
 }
 

@@ -12,6 +12,7 @@
 #include "core/angles.h"
 #include "core/error.h"
 #include "datasets_synth/presets.h"
+#include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/table.h"
@@ -297,6 +298,45 @@ TEST(Trust, ManyIdenticalViewsDoNotAliasTheStartSubset) {
   // The robust scale comes from real residuals, not from one pixel fitted exactly.
   EXPECT_GT(j["report"]["noise_sigma_robust"].get<double>(), 1e-4);
   EXPECT_NE(r.output.find("start grid psi=30.0"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace aniso
+
+namespace aniso {
+namespace {
+
+TEST(Trust, LinearValuesBelowTheBlackLevelKeepTheirSign) {
+  const std::string dir = capture_of(test::tmp_dir("png"), "brushed-metal", 1, 24, 0, 16);
+  test::edit_json(dir + "/capture.json", [](auto& j) { j["color"]["black_level"] = 0.5; });
+  const CaptureSet set = read_capture(dir);
+  const ViewData d = load_view(set, 0);
+  float lo = 0;
+  for (size_t p = 0; p < d.use.size(); ++p)
+    if (d.use[p]) lo = std::min(lo, d.rgb.px[3 * p]);
+  EXPECT_LT(lo, -0.1f);  // clipping to 0 would bias dark, noisy pixels upward
+}
+
+TEST(Trust, OutOfRangeOptionsAreRefusedUpFront) {
+  const std::string dir = test::tmp_dir("x");
+  std::ofstream(dir + "/m.json") << kMaterial;
+  for (const std::string& args : {"synth brushed-metal " + dir + "/a --shot 1e20",
+                                  "synth brushed-metal " + dir + "/b --size 99999999999x2",
+                                  "bake " + dir + "/m.json --out ''"}) {
+    const auto r = test::run_cli(args);
+    EXPECT_NE(r.status, 0) << args << ": " << r.output;
+    EXPECT_EQ(r.output.find("internal error"), std::string::npos) << args << ": " << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir + "/a"));
+  EXPECT_FALSE(fs::exists(dir + "/b"));
+}
+
+TEST(Trust, FitToStandardOutputWritesOnlyTheMaterialThere) {
+  const std::string dir = small_capture(test::tmp_dir("set"));
+  const auto r = test::sh("$A fit " + dir + " --out - 2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output);  // throws if anything else is mixed in
+  EXPECT_EQ(j["format"], "aniso-material");
 }
 
 }  // namespace
