@@ -1,0 +1,235 @@
+// The fit's output: the material file with its uncertainty and report, the console summary of
+// every value with its sigma, and the comparison against a ground truth.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "core/angles.h"
+#include "core/texture.h"
+#include "fit/fit.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/json_util.h"
+#include "io/material_io.h"
+#include "models/params.h"
+
+namespace aniso {
+
+void write_fit(const std::string& path, const FitResult& r) {
+  jsonu::json j;
+  Material m = r.material;
+  std::string s_map_path;
+  if (!r.s_texels.empty()) {
+    // The map of s beside the material file: R = s, G = its sigma (-1 where undetermined).
+    std::string stem = std::filesystem::path(path).stem().string();
+    m.topology = SMapRef{stem + "_topology_s.exr"};
+    s_map_path = join_path(parent_dir(path), stem + "_topology_s.exr");
+  }
+  // Paths in a written file are relative to that file.
+  if (auto* t = m.topology_as<TopologyMapRef>(); t && path != "-")
+    t->file = relative_to(t->file, parent_dir(path));
+  material_to_json(m, &j);
+  if (!r.s_texels.empty()) j["topology"]["s_map_texels"] = r.s_texels_n;
+  jsonu::json unc = jsonu::json::object();
+  for (const auto& [key, v] : r.sigma) {
+    const auto dot = key.find('.');
+    jsonu::json val = v.size() == 1 ? jsonu::json(v[0]) : jsonu::json(v);
+    if (dot == std::string::npos)
+      unc[key] = val;
+    else
+      unc[key.substr(0, dot)][key.substr(dot + 1)] = val;
+  }
+  for (const auto& [key, why] : r.undetermined)
+    if (key != "covariance") unc[key] = nullptr;
+  j["uncertainty"] = unc;
+  j["fixed"] = r.fixed;
+  if (!r.undetermined.empty()) j["undetermined"] = r.undetermined;
+  const FitReport& p = r.report;
+  j["report"] = {{"residual_rms", p.rms},
+                 {"noise_sigma_robust", p.noise_sigma},
+                 {"pixel_noise", p.pixel_noise},
+                 {"observations", p.observations},
+                 {"pixels", p.pixels},
+                 {"views", p.views},
+                 {"skipped",
+                  {{"masked_out", p.masked_out},
+                   {"saturated", p.saturated},
+                   {"nonfinite", p.nonfinite},
+                   {"unlit", p.unlit},
+                   {"implausible", p.implausible}}},
+                 {"iterations", p.iterations},
+                 {"time_s", p.seconds},
+                 {"time_breakdown_s",
+                  {{"load", p.seconds_load},
+                   {"start", p.seconds_start},
+                   {"solve", p.seconds_solve},
+                   {"covariance", p.seconds_covariance}}},
+                 {"termination", p.termination},
+                 {"loss", p.loss},
+                 {"start", p.start},
+                 {"residual_evaluations", p.residual_evaluations},
+                 {"rss", p.rss},
+                 {"bic", p.bic},
+                 {"parameters", p.parameters},
+                 {"jacobian_evaluations", p.jacobian_evaluations}};
+  if (!p.model_selection.empty()) j["report"]["model_selection"] = p.model_selection;
+  if (!p.warnings.empty()) j["report"]["warnings"] = p.warnings;
+  if (!r.correlation.empty())
+    j["report"]["correlation"] = {{"parameters", r.correlation_names},
+                                  {"matrix", r.correlation},
+                                  {"note",
+                                   "correlation of the fitted numbers in the solver's coordinates "
+                                   "(log n, angles in radians)"}};
+  if (!s_map_path.empty()) {
+    Image img(r.s_texels_n, r.s_texels_n, 2);
+    for (size_t i = 0; i < r.s_texels.size(); ++i) {
+      img.px[2 * i] = static_cast<float>(r.s_texels[i]);
+      img.px[2 * i + 1] = static_cast<float>(r.s_texel_sigma[i]);
+    }
+    write_exr(s_map_path, img);
+  }
+  write_json_file(path, j);
+}
+
+std::string describe_fit(const FitResult& r) {
+  std::ostringstream o;
+  const Material& m = r.material;
+  o << "  model " << model_name(m.model) << "\n";
+  auto value = [&](const std::string& key) -> std::vector<double> {
+    if (key == "kd") return {m.kd.begin(), m.kd.end()};
+    if (key == "ks") return {m.ks.begin(), m.ks.end()};
+    if (key == "n") return {m.n};
+    if (key == "fiber_angle_deg") return {m.fiber_angle_deg};
+    if (key == "isotropic.kd") return {m.iso_kd.begin(), m.iso_kd.end()};
+    if (key == "isotropic.ks") return {m.iso_ks.begin(), m.iso_ks.end()};
+    if (key == "isotropic.n") return {m.iso_n};
+    if (key == "second_fiber.angle_deg") return {m.second_angle_deg};
+    if (key == "second_fiber.weight") return {m.second_weight};
+    if (key == "topology.s") return {m.uniform_s()};
+    if (const auto* t = m.topology_as<TopologyMapRef>(); t && key == "topology.amplitude")
+      return {t->amplitude};
+    return {};
+  };
+  auto line = [&](const ParamSpec& p) {
+    const std::string key(p.key);
+    const auto s = r.sigma.find(key);
+    const bool undetermined = r.undetermined.count(key) > 0;
+    if (s == r.sigma.end() && !undetermined) return;  // not fitted
+    const std::vector<double> v = value(key);
+    char buf[160];
+    for (size_t i = 0; i < v.size(); ++i) {
+      const std::string name = v.size() == 3 ? key + "." + "rgb"[i] : key;
+      if (undetermined || s->second.size() <= i)
+        std::snprintf(buf, sizeof buf, "  %-24s %12.6g  (undetermined)\n", name.c_str(), v[i]);
+      else
+        std::snprintf(buf, sizeof buf, "  %-24s %12.6g +- %.3g%s\n", name.c_str(), v[i],
+                      s->second[i], p.unit.empty() ? "" : (" " + std::string(p.unit)).c_str());
+      o << buf;
+    }
+  };
+  for (const auto& p : kLineParams) line(p);
+  for (const auto& p : kFiberParams) line(p);
+  if (const auto* t = m.topology_as<TopologyMapRef>())
+    o << "  topology map " << t->file << " over " << math_topology_name(t->over) << "\n";
+  if (!r.s_texels.empty())
+    o << "  topology: a per-texel map of s, " << r.s_texels_n << " x " << r.s_texels_n << "\n";
+  return o.str();
+}
+
+std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErrors* errors) {
+  std::ostringstream o;
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "%-18s %12s %12s %11s %11s %8s\n", "parameter", "truth", "fit",
+                "sigma", "error", "err/sig");
+  o << buf;
+  TruthErrors e;
+  auto sig = [&](const std::string& key, size_t i) {
+    auto it = r.sigma.find(key);
+    return it == r.sigma.end() || i >= it->second.size() ? std::nan("") : it->second[i];
+  };
+  // err: shown (percent or degrees); abs_err: in the parameter's unit, compared with sigma.
+  auto row = [&](const std::string& name, double t, double f, double s, double err, double abs_err,
+                 const char* unit, double* worst_rel, double* worst_sig, double rel) {
+    const double es = std::isfinite(s) && s > 0 ? std::abs(abs_err) / s : std::nan("");
+    if (std::isnan(s))
+      std::snprintf(buf, sizeof buf, "%-18s %12.6g %12.6g %11s %10.4g%s %8s\n", name.c_str(), t, f,
+                    "undetermined", err, unit, "-");
+    else
+      std::snprintf(buf, sizeof buf, "%-18s %12.6g %12.6g %11.3g %10.4g%s %8.2f\n", name.c_str(), t,
+                    f, s, err, unit, es);
+    o << buf;
+    if (worst_rel) *worst_rel = std::max(*worst_rel, rel);
+    if (worst_sig && std::isfinite(es)) *worst_sig = std::max(*worst_sig, es);
+  };
+  const char* ch = "rgb";
+  // Relative error in percent; where the truth is 0, the absolute error (no percent of nothing).
+  auto rgb_rows = [&](const char* key, const RGB& tv, const RGB& fv, double* worst_rel,
+                      double* worst_sig) {
+    for (int k = 0; k < 3; ++k) {
+      const double t = tv[k], f = fv[k];
+      const bool zero = std::abs(t) < 1e-12;
+      const double rel = zero ? std::abs(f - t) : std::abs(f - t) / std::abs(t);
+      row(std::string(key) + "." + ch[k], t, f, sig(key, k), zero ? f - t : 100 * rel, f - t,
+          zero ? " abs" : "%", worst_rel, worst_sig, rel);
+    }
+  };
+  rgb_rows("kd", truth.kd, r.material.kd, &e.kd_rel, &e.kd_sigmas);
+  rgb_rows("ks", truth.ks, r.material.ks, &e.ks_rel, &e.ks_sigmas);
+  {
+    const double rel = std::abs(r.material.n - truth.n) / truth.n;
+    row("n", truth.n, r.material.n, sig("n", 0), 100 * rel, r.material.n - truth.n, "%", &e.n_rel,
+        &e.n_sigmas, rel);
+  }
+  {
+    const double d = fiber_deg_distance(r.material.fiber_angle_deg, truth.fiber_angle_deg);
+    row("fiber_angle_deg", truth.fiber_angle_deg, r.material.fiber_angle_deg,
+        sig("fiber_angle_deg", 0), d, d, " deg", &e.psi_deg, &e.psi_sigmas, d);
+  }
+  const auto* fit_map = r.material.topology_as<TopologyMapRef>();
+  const auto* true_map = truth.topology_as<TopologyMapRef>();
+  const auto* true_s_map = truth.topology_as<SMapRef>();
+  if (r.material.fiber() && truth.fiber()) {
+    if (fit_map && true_map) {
+      const double d = fit_map->amplitude - true_map->amplitude;
+      row("topology.amplitude", true_map->amplitude, fit_map->amplitude,
+          sig("topology.amplitude", 0), d, d, "", &e.topo_abs, &e.topo_sigmas, std::abs(d));
+    } else if (!r.s_texels.empty() && true_s_map) {
+      // The fitted texels against the true map sampled at their centres.
+      const Image t = read_image(join_path(truth.base_dir, true_s_map->file)).image;
+      double worst = 0, sum2 = 0;
+      const int n = r.s_texels_n;
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          const double ts = sample_first_channel(t, (x + 0.5) / n, (y + 0.5) / n);
+          const double d = std::abs(r.s_texels[static_cast<size_t>(y) * n + x] - ts);
+          worst = std::max(worst, d);
+          sum2 += d * d;
+        }
+      double smax = 0;
+      for (double sd : r.s_texel_sigma) smax = std::max(smax, sd);
+      // Rows: the worst and the RMS texel error (the "truth" column is 0: these are errors).
+      row("topology.s_map max", 0, worst, smax > 0 ? smax : NAN, worst, worst, "", &e.topo_abs,
+          &e.topo_sigmas, worst);
+      row("topology.s_map rms", 0, std::sqrt(sum2 / (n * n)), smax > 0 ? smax : NAN,
+          std::sqrt(sum2 / (n * n)), 0, "", nullptr, nullptr, 0);
+    } else if (r.material.topology_as<UniformS>()) {
+      const double d = r.material.uniform_s() - truth.uniform_s();
+      row("topology.s", truth.uniform_s(), r.material.uniform_s(), sig("topology.s", 0), d, d, "",
+          &e.topo_abs, &e.topo_sigmas, std::abs(d));
+    }
+  }
+  if (r.material.has_second_fiber && truth.has_second_fiber) {
+    const double d = fiber_deg_distance(r.material.second_angle_deg, truth.second_angle_deg);
+    row("second.angle_deg", truth.second_angle_deg, r.material.second_angle_deg,
+        sig("second_fiber.angle_deg", 0), d, d, " deg", nullptr, nullptr, 0);
+    row("second.weight", truth.second_weight, r.material.second_weight,
+        sig("second_fiber.weight", 0), r.material.second_weight - truth.second_weight,
+        r.material.second_weight - truth.second_weight, "", nullptr, nullptr, 0);
+  }
+  if (errors) *errors = e;
+  return o.str();
+}
+
+}  // namespace aniso
