@@ -15,9 +15,6 @@
 
 namespace aniso::cli {
 
-int run_fit(const std::string& input, const FitOptions& fo, const std::string& out,
-            const std::string& truth_path);
-
 namespace {
 struct DemoArgs {
   std::string out = "demo_out", size = "128x128";

@@ -8,6 +8,10 @@
 
 #include "core/vec.h"
 
+namespace aniso {
+struct FitOptions;  // fit/fit.h
+}  // namespace aniso
+
 namespace aniso::cli {
 
 struct Command {
@@ -25,6 +29,10 @@ Command add_verify(CLI::App& app);
 Command add_microgeometry(CLI::App& app);
 Command add_bench(CLI::App& app);
 Command add_params(CLI::App& app);
+
+// `aniso fit` as a function (the demo runs it too): reads every input, fits, writes, prints.
+int run_fit(const std::string& input, const FitOptions& fo, const std::string& out,
+            const std::string& truth_path);
 
 // The whole command line, recorded in outputs that say how they were made.
 const std::string& command_line();

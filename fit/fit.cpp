@@ -685,6 +685,29 @@ double median_abs(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// Does the model describe the data? The residual RMS of a model that fits is about the noise of
+// the images (neighbouring pixels tell it, whatever the model); a systematic misfit makes it
+// larger. Without images (tables) the robust sigma of the residuals stands in. Noise-free data
+// has no noise to compare with: there a misfit below 1e-4 of the signal counts as a fit.
+// Returns the warning to give, or "".
+std::string misfit_warning(const ObsSet& os, const FitReport& rep) {
+  double signal = 0;
+  for (const auto& o : os.obs) signal += std::abs(o.y[0]) + std::abs(o.y[1]) + std::abs(o.y[2]);
+  signal /= std::max<double>(1.0, 3.0 * static_cast<double>(os.obs.size()));
+  constexpr double kMisfitRatio = 2.0, kNoiseFreeFloor = 1e-4;
+  const double noise = os.pixel_noise > 0 ? os.pixel_noise : rep.noise_sigma;
+  if (!(rep.rms > kMisfitRatio * std::max(noise, kNoiseFreeFloor * signal))) return "";
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "the model does not describe the data: residual RMS %.3g is %.1fx the noise of "
+                "the images %.3g. Likely causes: a second fiber direction (woven cloth: "
+                "--fit-second-fiber), an isotropic term (--fit-isotropic), shadows or "
+                "interreflections, a wrong exposure or color.encoding, hot pixels. Check "
+                "`aniso verify CAPTURE MATERIAL --residuals DIR`.",
+                rep.rms, rep.rms / std::max(noise, 1e-300), noise);
+  return buf;
+}
+
 FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RGB& ka) {
   const bool fiber = opt.model == "fiber";
   if (!fiber && opt.model != "line")
@@ -813,30 +836,8 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   rep.parameters = nparam;
   // Bayesian information criterion for Gaussian residuals (model selection, --model auto).
   rep.bic = m * std::log(std::max(rep.rss, 1e-300) / m) + static_cast<double>(nparam) * std::log(m);
-  // Does the model describe the data? The residual RMS of a model that fits is about the noise
-  // of the images (neighbouring pixels tell it, whatever the model); a systematic misfit makes
-  // it larger. Without images (tables) the robust sigma of the residuals stands in. Noise-free
-  // data has no noise to compare with: there a misfit below 1e-4 of the signal counts as a fit.
-  {
-    double signal = 0;
-    for (const auto& o : os.obs) signal += std::abs(o.y[0]) + std::abs(o.y[1]) + std::abs(o.y[2]);
-    signal /= std::max<double>(1.0, 3.0 * static_cast<double>(os.obs.size()));
-    constexpr double kMisfitRatio = 2.0, kNoiseFreeFloor = 1e-4;
-    const double noise = os.pixel_noise > 0 ? os.pixel_noise : rep.noise_sigma;
-    rep.pixel_noise = os.pixel_noise;
-    const double floor = std::max(noise, kNoiseFreeFloor * signal);
-    if (rep.rms > kMisfitRatio * floor) {
-      char buf[512];
-      std::snprintf(buf, sizeof buf,
-                    "the model does not describe the data: residual RMS %.3g is %.1fx the noise "
-                    "of the images %.3g. Likely causes: a second fiber direction (woven cloth: "
-                    "--fit-second-fiber), an isotropic term (--fit-isotropic), shadows or "
-                    "interreflections, a wrong exposure or color.encoding, hot pixels. Check "
-                    "`aniso verify CAPTURE MATERIAL --residuals DIR`.",
-                    rep.rms, rep.rms / std::max(noise, 1e-300), noise);
-      rep.warnings.push_back(buf);
-    }
-  }
+  rep.pixel_noise = os.pixel_noise;
+  if (auto w = misfit_warning(os, rep); !w.empty()) rep.warnings.push_back(w);
   rep.seconds_solve = since(t_solve);
 
   // Result.
@@ -950,7 +951,7 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
   if (computed) {
     // The full correlation matrix of the fitted numbers (not the per-texel maps), in the
     // coordinates the solver uses (log n, psi in radians): how the parameters trade off.
-    {
+    if (!texels) {
       std::vector<const double*> cb;
       std::vector<std::string>& names = res.correlation_names;
       auto add = [&](const double* b, std::initializer_list<const char*> ns) {
@@ -964,7 +965,7 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
       add(st.ks, {"ks.r", "ks.g", "ks.b"});
       add(&st.psi, {"fiber_angle"});
       if (n_free) add(&st.logn, {"log n"});
-      if (fit_topo && !texels)
+      if (fit_topo)
         add(st.topo, {os.topology == TopologyMode::kGlobalS ? "topology.s" : "topology.amplitude"});
       if (opt.fit_isotropic)
         add(st.iso, {"isotropic.kd.r", "isotropic.kd.g", "isotropic.kd.b", "isotropic.ks.r",
@@ -974,7 +975,7 @@ FitResult solve(const ObsSet& os, const FitOptions& opt, FitReport rep, const RG
       std::vector<double> c(k * k, 0.0);
       // Tangent-space size differs from the ambient size for the subset manifolds: ask in the
       // ambient space and leave held coordinates at 0 correlation.
-      if (!cb.empty() && !texels && cov.GetCovarianceMatrix(cb, c.data())) {
+      if (!cb.empty() && cov.GetCovarianceMatrix(cb, c.data())) {
         res.correlation.assign(k, std::vector<double>(k, 0.0));
         for (size_t i = 0; i < k; ++i)
           for (size_t j = 0; j < k; ++j) {

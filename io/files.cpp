@@ -25,6 +25,12 @@ std::atomic<unsigned> g_counter{0};
 
 std::string errno_text() { return std::strerror(errno); }
 
+// Standard output, or a path under /dev or /proc (devices, /dev/stdout and its kin): written in
+// place and never compared with inputs by name.
+bool is_stream_path(const std::string& p) {
+  return p == "-" || p.rfind("/dev/", 0) == 0 || p.rfind("/proc/", 0) == 0;
+}
+
 // The target without a trailing separator or "." (so `--out .` names the folder itself).
 fs::path normal_target(const std::string& p) {
   fs::path t = fs::absolute(fs::path(p)).lexically_normal();
@@ -131,7 +137,7 @@ void write_atomically(const std::string& path,
   if (path.empty()) throw Error("output path is empty");
   struct stat st;
   const bool exists = path != "-" && ::stat(path.c_str(), &st) == 0;
-  const bool device_path = path.rfind("/dev/", 0) == 0 || path.rfind("/proc/", 0) == 0;
+  const bool device_path = is_stream_path(path);
   if (exists && S_ISDIR(st.st_mode))
     throw Error(path + ": is a folder; this output is a file, give a file name");
   if (path == "-" || (exists && (!S_ISREG(st.st_mode) || device_path))) {
@@ -165,10 +171,9 @@ void write_atomically(const std::string& path,
   const std::string tmp = temp_name(target).string();
   run_writer(tmp, path, write);
   if (exists) {  // keep mode and, where allowed, owner of the file it replaces
-    if (::chmod(tmp.c_str(), st.st_mode & 07777) != 0) {
-    }
-    if (::chown(tmp.c_str(), st.st_uid, st.st_gid) != 0) {
-    }
+    // Best effort: a process may not give a file to another owner; the write still stands.
+    (void)!::chmod(tmp.c_str(), st.st_mode & 07777);
+    (void)!::chown(tmp.c_str(), st.st_uid, st.st_gid);
   }
   if (std::rename(tmp.c_str(), target.c_str()) != 0) {
     const std::string why = errno_text();
@@ -281,9 +286,7 @@ void write_folder_atomically(const std::string& dir,
 
 void check_outputs_apart(const std::vector<std::string>& outputs,
                          const std::vector<std::string>& inputs) {
-  auto special = [](const std::string& p) {
-    return p.empty() || p == "-" || p.rfind("/dev/", 0) == 0 || p.rfind("/proc/", 0) == 0;
-  };
+  auto special = [](const std::string& p) { return p.empty() || is_stream_path(p); };
   for (const auto& o : outputs) {
     if (special(o)) continue;
     std::error_code ec;
