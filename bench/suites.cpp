@@ -232,7 +232,7 @@ json bench_fit(const std::string& work, bool quick) {
     for (int sub : quick ? std::vector<int>{4} : std::vector<int>{8, 4, 2, 1}) {
       FitOptions fo;
       fo.progress = false;
-      fo.model = "fiber";
+      fo.model = FitModel::kFiber;
       fo.subsample = sub;
       const FitResult r = fit_capture(fs, fo);
       const Errs e = errors_of(r.material, sf.truth);

@@ -84,9 +84,12 @@ Command add_fit(CLI::App& app) {
   FitOptions& fo = a->fo;
   fit->add_option("CAPTURE", a->in, "capture folder, its capture.json, or a sample table .csv")
       ->required();
-  fit->add_option("--model", fo.model, "model to fit")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"line", "fiber", "auto"}));
+  const std::map<std::string, FitModel> models{
+      {"line", FitModel::kLine}, {"fiber", FitModel::kFiber}, {"auto", FitModel::kAuto}};
+  fit->add_option("--model", fo.model,
+                  "model to fit: line, fiber, or auto (both; the lower BIC is kept)")
+      ->default_str("line")
+      ->transform(CLI::CheckedTransformer(models));
   fit->add_option("--out", a->out, "material file to write ('-' = standard output)")->required();
   fit->add_option(
       "--truth", a->truth,
@@ -94,9 +97,12 @@ Command add_fit(CLI::App& app) {
   fit->add_option("--subsample", fo.subsample, "use every k-th pixel in x and y")
       ->capture_default_str()
       ->check(CLI::Range(1, 1024));
-  fit->add_option("--loss", fo.loss, "robust loss, scaled to 3 robust sigmas of the residuals")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"huber", "cauchy", "none"}));
+  const std::map<std::string, FitLoss> losses{
+      {"huber", FitLoss::kHuber}, {"cauchy", FitLoss::kCauchy}, {"none", FitLoss::kNone}};
+  fit->add_option("--loss", fo.loss,
+                  "robust loss: huber, cauchy or none, scaled to 3 robust sigmas of the residuals")
+      ->default_str("huber")
+      ->transform(CLI::CheckedTransformer(losses));
   fit->add_flag("--fit-isotropic", fo.fit_isotropic,
                 "also fit the isotropic (Lambert + Blinn-Phong) term");
   fit->add_flag("--fit-second-fiber", fo.fit_second,

@@ -14,14 +14,21 @@
 
 namespace aniso {
 
+// --model: one of the two models, or both with the lower BIC kept.
+enum class FitModel { kLine, kFiber, kAuto };
+// --loss: the robust loss of the final solve, scaled to 3 robust sigmas of the residuals.
+enum class FitLoss { kHuber, kCauchy, kNone };
+const char* fit_model_name(FitModel m);
+const char* fit_loss_name(FitLoss l);
+
 struct FitOptions {
-  std::string model = "line";
+  FitModel model = FitModel::kLine;
   bool fit_isotropic = false;
   bool fit_second = false;
   int subsample = 1;  // use every k-th pixel in x and y
   int max_iterations = 200;
   int threads = 2;
-  std::string loss = "huber";  // huber | cauchy | none; scale from the data (3 robust sigmas)
+  FitLoss loss = FitLoss::kHuber;
   bool progress = true;
   int fiber_order = 8;  // fiber model: Gauss-Legendre order per specular panel
   // Line model without optional terms: 256 pixels per residual block with analytic derivatives

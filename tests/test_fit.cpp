@@ -203,7 +203,7 @@ TEST(FitRobust, HuberLossResistsHotPixels) {
     write_exr(name, img);
   }
   FitOptions plain = quiet();
-  plain.loss = "none";
+  plain.loss = FitLoss::kNone;
   const TruthErrors e_plain = fit_and_compare(dir, so.truth, plain);
   const TruthErrors e_huber = fit_and_compare(dir, so.truth, quiet());
   EXPECT_LT(e_huber.kd_rel, 0.5 * e_plain.kd_rel);
@@ -234,7 +234,7 @@ TEST(FitFiber, FlatSamplesAcrossTopology) {
     const SimOptions so = make_preset("fiber-flat", p);
     simulate_capture(so, dir);
     FitOptions fo = quiet();
-    fo.model = "fiber";
+    fo.model = FitModel::kFiber;
     FitResult r;
     const TruthErrors e = fit_and_compare(dir, so.truth, fo, &r);
     expect_fiber_limits(e);
@@ -250,7 +250,7 @@ TEST(FitFiber, TorusWithTopologyMapRecoversAmplitude) {
   const SimOptions so = make_preset("silk-torus", p);
   simulate_capture(so, dir);
   FitOptions fo = quiet();
-  fo.model = "fiber";
+  fo.model = FitModel::kFiber;
   FitResult r;
   const TruthErrors e = fit_and_compare(dir, so.truth, fo, &r);
   expect_fiber_limits(e);
@@ -266,7 +266,7 @@ TEST(FitFiber, AutoChoosesTheModelThatMadeTheData) {
     const SimOptions so = make_preset(preset, p);
     simulate_capture(so, dir);
     FitOptions fo = quiet();
-    fo.model = "auto";
+    fo.model = FitModel::kAuto;
     const FitResult r = fit_capture(read_capture(dir), fo);
     EXPECT_EQ(r.material.model, so.truth.model) << r.report.model_selection;
     EXPECT_NE(r.report.model_selection.find(std::string("chose ") + model_name(so.truth.model)),
@@ -296,7 +296,7 @@ TEST(FitFiber, SampleTableWithTopologyColumn) {
     t.rows.push_back(r);
   }
   FitOptions fo = quiet();
-  fo.model = "fiber";
+  fo.model = FitModel::kFiber;
   const FitResult r = fit_table(t, fo);
   TruthErrors e;
   std::cout << compare_to_truth(r, truth, &e);
@@ -344,7 +344,7 @@ TEST(FitFiber, PerTexelTopologyMap) {
   const SimOptions so = make_preset("fiber-flat-map", small(6, 64));
   simulate_capture(so, dir);
   FitOptions fo = quiet();
-  fo.model = "fiber";
+  fo.model = FitModel::kFiber;
   fo.topology_texels = 8;
   FitResult r;
   const TruthErrors e = fit_and_compare(dir, read_material(dir + "/truth.json"), fo, &r);
@@ -358,7 +358,7 @@ TEST(FitFiber, PerTexelTopologyMap) {
   EXPECT_NE(back.topology_as<SMapRef>(), nullptr);
   // Asked of a set without uv or with a topology map: a clear error.
   FitOptions line = fo;
-  line.model = "line";
+  line.model = FitModel::kLine;
   EXPECT_THROW(fit_capture(read_capture(dir), line), Error);
 }
 

@@ -1,0 +1,275 @@
+// The fiber model's part of a fit (MODELS.md §4): the line model's core plus the topology, which
+// enters as one s for the whole sample, the amplitude A of a topology map over the per-pixel
+// mathematical topology, the mathematical topology alone (nothing to fit), or an N x N map of s
+// over uv (each pixel's s the bilinear mix of four texel parameters).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "core/texture.h"
+#include "fit/start.h"
+#include "models/fiber_model.h"
+#include "models/params.h"
+
+namespace aniso::fitting {
+
+namespace {
+
+// The fiber model's residual (MODELS.md §4): blocks kd 3, ks 3, log n 1, psi 1, topology 1
+// (s, or the map amplitude A, or a constant dummy).
+struct FiberResidual {
+  FiberResidual(const Observation* o, const ObsLight* l, TopologyMode m, FiberAccuracy a)
+      : obs(o), lights(l), mode(m), acc(a) {}
+
+  template <class T>
+  bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* topo,
+                  T* r) const {
+    const LineParamsT<T> p = fitted_params(kd, ks, logn, psi);
+    T s;
+    switch (mode) {
+      case TopologyMode::kGlobalS:
+        s = topo[0];
+        break;
+      case TopologyMode::kAmplitude:
+        s = topology_with_map(obs->smath, topo[0], obs->mapv);
+        break;
+      default:
+        s = T(obs->smath);
+        break;
+    }
+    pixel_residual(
+        obs, lights,
+        [&](const LocalDir& L, const LocalDir& V, T* f) { fiber_reflectance(p, s, L, V, acc, f); },
+        r);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Observation* o, const ObsLight* l, TopologyMode m,
+                                     FiberAccuracy a) {
+    return new ceres::AutoDiffCostFunction<FiberResidual, 3, 3, 3, 1, 1, 1>(
+        new FiberResidual(o, l, m, a));
+  }
+
+  const Observation* obs;
+  const ObsLight* lights;
+  TopologyMode mode;
+  FiberAccuracy acc;
+};
+
+// The fiber model with a per-texel map of s: the pixel's s is the bilinear mix (wrap-around, glTF
+// uv) of four texel parameters.
+struct FiberTexelResidual {
+  FiberTexelResidual(const Observation* o, const ObsLight* l, const BilinearTaps& t,
+                     FiberAccuracy a)
+      : obs(o), lights(l), taps(t), acc(a) {}
+
+  template <class T>
+  bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* t0, const T* t1,
+                  const T* t2, const T* t3, T* r) const {
+    const LineParamsT<T> p = fitted_params(kd, ks, logn, psi);
+    const T s = taps.weight[0] * t0[0] + taps.weight[1] * t1[0] + taps.weight[2] * t2[0] +
+                taps.weight[3] * t3[0];
+    pixel_residual(
+        obs, lights,
+        [&](const LocalDir& L, const LocalDir& V, T* f) { fiber_reflectance(p, s, L, V, acc, f); },
+        r);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Observation* o, const ObsLight* l, const BilinearTaps& t,
+                                     FiberAccuracy a) {
+    return new ceres::AutoDiffCostFunction<FiberTexelResidual, 3, 3, 3, 1, 1, 1, 1, 1, 1>(
+        new FiberTexelResidual(o, l, t, a));
+  }
+
+  const Observation* obs;
+  const ObsLight* lights;
+  BilinearTaps taps;
+  FiberAccuracy acc;
+};
+
+class FiberFit : public ModelFit {
+ public:
+  FiberFit(const FitOptions& opt, const ObsSet& os) : mode_(os.topology), texels_n_(os.texels) {
+    acc_.order = opt.fiber_order;
+  }
+
+  Model model() const override { return Model::kFiber; }
+  size_t parameters() const override {
+    const size_t n = static_cast<size_t>(texels_n_);
+    return 8 + (mode_ == TopologyMode::kTexels ? n * n : fitted_topology() ? 1 : 0);
+  }
+
+  // From the line grid's (psi, n), a grid over the topology (s in 0.05..0.95, or A in -1..1)
+  // and n around the line value, k_d, k_s solved in closed form at every node.
+  std::string start(const ObsSet& os, bool progress) override {
+    const std::string line = line_grid_start(os, &core, progress);
+    const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
+    std::vector<double> topo_values;
+    if (mode_ == TopologyMode::kGlobalS || mode_ == TopologyMode::kTexels)
+      for (int i = 0; i < 10; ++i) topo_values.push_back(0.05 + 0.1 * i);
+    else if (mode_ == TopologyMode::kAmplitude)
+      for (int i = 0; i <= 8; ++i) topo_values.push_back(-1.0 + 0.25 * i);
+    else
+      topo_values.push_back(0.0);
+    const double c = std::cos(core.psi), sn = std::sin(core.psi), logn0 = core.logn;
+    double best = std::numeric_limits<double>::infinity(), best_t = topo_values[0],
+           best_logn = logn0;
+    double best_kd[3] = {0, 0, 0}, best_ks[3] = {0, 0, 0};
+    for (double t : topo_values)
+      for (double dl : {-0.7, 0.0, 0.7}) {
+        const double n = std::exp(logn0 + dl);
+        double kd[3], ks[3];
+        const double cost = solve_kd_ks(
+            os, subset,
+            [&](const Observation& o, double* dcol, double* scol) {
+              const double s = pixel_s(o, t);
+              const double b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
+              for (uint32_t k = 0; k < o.num_lights; ++k) {
+                const ObsLight& l = os.lights[o.first_light + k];
+                double D, S;
+                fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n,
+                         s, acc_, &D, &S);
+                for (int ch = 0; ch < 3; ++ch) {
+                  dcol[ch] += l.E[ch] * D;
+                  scol[ch] += l.E[ch] * S;
+                }
+              }
+            },
+            kd, ks);
+        if (cost < best) {
+          best = cost;
+          best_t = t;
+          best_logn = std::log(n);
+          std::copy(kd, kd + 3, best_kd);
+          std::copy(ks, ks + 3, best_ks);
+        }
+      }
+    topo_[0] = best_t;
+    if (mode_ == TopologyMode::kTexels)
+      texels_.assign(static_cast<size_t>(texels_n_) * texels_n_, best_t);
+    core.logn = best_logn;
+    set_start_kd_ks(best_kd, best_ks, &core);
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "; fiber: topology %s=%.2f, n=%.0f (%zu x 3 nodes)",
+                  mode_ == TopologyMode::kAmplitude ? "A" : "s", best_t, std::exp(best_logn),
+                  topo_values.size());
+    return line + buf;
+  }
+
+  void add_residuals(ceres::Problem* pb, const ObsSet& os, const std::vector<size_t>& idx,
+                     ceres::LossFunction* loss) override {
+    if (mode_ == TopologyMode::kTexels) {
+      for (size_t i : idx) {
+        const BilinearTaps t = bilinear_wrap(os.obs[i].u, os.obs[i].v, texels_n_, texels_n_);
+        pb->AddResidualBlock(FiberTexelResidual::Create(&os.obs[i], os.lights.data(), t, acc_),
+                             loss, core.kd, core.ks, &core.logn, &core.psi, &texels_[t.index[0]],
+                             &texels_[t.index[1]], &texels_[t.index[2]], &texels_[t.index[3]]);
+      }
+      for (double& t : texels_)
+        if (pb->HasParameterBlock(&t)) set_param_bounds(pb, &t, 0, "topology.s");
+    } else {
+      for (size_t i : idx)
+        pb->AddResidualBlock(FiberResidual::Create(&os.obs[i], os.lights.data(), mode_, acc_),
+                             loss, core.kd, core.ks, &core.logn, &core.psi, topo_);
+      if (fitted_topology())
+        set_param_bounds(pb, topo_, 0, topology_key());
+      else
+        pb->SetParameterBlockConstant(topo_);
+    }
+    set_core_bounds(pb, &core);
+  }
+
+  std::vector<Block> blocks(ceres::Problem* pb) override {
+    std::vector<Block> b;
+    if (mode_ == TopologyMode::kTexels) {
+      for (double& t : texels_)
+        if (pb->HasParameterBlock(&t)) b.push_back({&t, 1, {}});
+    } else if (fitted_topology()) {
+      b.push_back({topo_, 1, {mode_ == TopologyMode::kGlobalS ? "topology.s" : "topology.amplitude"}});
+    }
+    return b;
+  }
+  bool full_correlation() const override { return mode_ != TopologyMode::kTexels; }
+
+  void sigmas(const SigmaOf& sigma, ceres::Problem* pb, FitResult* res) const override {
+    // A topology this uncertain is not measured: flat-looking data, or s near the s = 0 = 1 seam.
+    constexpr double kTopologyUndetermined = 0.25;
+    if (mode_ == TopologyMode::kTexels) {
+      res->s_texels = texels_;
+      res->s_texel_sigma.assign(texels_.size(), -1.0);
+      size_t undetermined = 0;
+      for (size_t i = 0; i < texels_.size(); ++i) {
+        double* t = const_cast<double*>(&texels_[i]);
+        const double sd = pb->HasParameterBlock(t) ? sigma(t, 1)[0] : -1.0;
+        if (std::isfinite(sd) && sd >= 0 && sd <= kTopologyUndetermined)
+          res->s_texel_sigma[i] = sd;
+        else
+          ++undetermined;
+      }
+      if (undetermined)
+        res->undetermined["topology.s_map"] =
+            std::to_string(undetermined) + " of " + std::to_string(texels_.size()) +
+            " texels are not determined (no pixel covers them, or too few do); their "
+            "sigma is written as -1";
+    } else if (fitted_topology()) {
+      const double sd = sigma(topo_, 1)[0];
+      if (sd > kTopologyUndetermined)
+        res->undetermined[topology_key()] =
+            "sigma " + std::to_string(sd) + ": the data barely constrain the topology";
+      else
+        res->sigma[topology_key()] = {sd};
+    }
+  }
+
+  void assemble(const ObsSet& os, FitResult* res) const override {
+    Material& mat = res->material;
+    mat.model = Model::kFiber;
+    switch (mode_) {
+      case TopologyMode::kGlobalS:
+        mat.topology = UniformS{topo_[0]};
+        break;
+      case TopologyMode::kAmplitude:
+        mat.topology = TopologyMapRef{os.topology_map, topo_[0], os.topology_mathematical};
+        break;
+      case TopologyMode::kMathematical:
+        mat.topology = MathematicalS{os.topology_mathematical};
+        res->fixed["topology"] =
+            "taken from the capture's mathematical topology buffer (no map to fit)";
+        break;
+      case TopologyMode::kTexels:
+        mat.topology = SMapRef{};  // the file is named when the material is written
+        res->s_texels_n = texels_n_;
+        break;
+    }
+    res->fixed["isotropic"] = "not fitted (absent; the fiber model has no isotropic term)";
+    res->fixed["second_fiber"] = "not fitted (absent; the fiber model has one fiber direction)";
+  }
+
+ private:
+  bool fitted_topology() const { return mode_ != TopologyMode::kMathematical; }
+  const char* topology_key() const {
+    return mode_ == TopologyMode::kAmplitude ? "topology.amplitude" : "topology.s";
+  }
+  // s at an observation for the topology value t (s or A) of the start grid.
+  double pixel_s(const Observation& o, double t) const {
+    if (mode_ == TopologyMode::kAmplitude) return topology_with_map(o.smath, t, o.mapv);
+    if (mode_ == TopologyMode::kMathematical) return o.smath;
+    return t;
+  }
+
+  const TopologyMode mode_;
+  const int texels_n_;
+  FiberAccuracy acc_;
+  double topo_[1] = {0.5};      // s or the map amplitude A
+  std::vector<double> texels_;  // kTexels: N x N values of s
+};
+
+}  // namespace
+
+std::unique_ptr<ModelFit> make_fiber_fit(const FitOptions& opt, const ObsSet& os) {
+  return std::make_unique<FiberFit>(opt, os);
+}
+
+}  // namespace aniso::fitting

@@ -1,0 +1,110 @@
+// fit/ internal: what one model contributes to a fit. The solver (fit/solve.cpp) knows the four
+// numbers every model shares (k_d, k_s, log n, psi: MODELS.md §3) and asks the model for the
+// rest: its start, its residual blocks and their bounds, its own parameter blocks for the
+// covariance, the coordinates the data leave free, and its part of the material. Adding a model
+// is one more implementation of ModelFit; the solver does not switch on the model.
+#pragma once
+#include <ceres/ceres.h>
+
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fit/observations.h"
+#include "models/line_model.h"
+
+namespace aniso::fitting {
+
+// Below this fraction of the diffuse level (or absolute 1e-4) a specular lobe carries no usable
+// signal: its exponent is not determined.
+constexpr double kKsNegligible = 1e-4;
+
+// The numbers every model shares, as the solver moves them.
+struct Core {
+  double kd[3] = {0.1, 0.1, 0.1}, ks[3] = {0.1, 0.1, 0.1};
+  double logn = std::log(20.0), psi = 0.0;
+};
+
+// One of a model's own parameter blocks in the covariance: its coordinates' names (for the
+// correlation matrix, empty for blocks left out of it).
+struct Block {
+  double* values = nullptr;
+  int size = 0;
+  std::vector<std::string> names;
+};
+
+// sigma of each coordinate of a block (already scaled by the residual variance).
+using SigmaOf = std::function<std::vector<double>(const double* block, int size)>;
+
+class ModelFit {
+ public:
+  virtual ~ModelFit() = default;
+  Core core;
+
+  virtual Model model() const = 0;
+  // Fitted numbers, the core's eight included.
+  virtual size_t parameters() const = 0;
+  // Sets the core and the model's own blocks from a deterministic grid; says which node won.
+  virtual std::string start(const ObsSet& os, bool progress) = 0;
+  // One residual block per observation in idx (loss may be null), the bounds of every block.
+  virtual void add_residuals(ceres::Problem* pb, const ObsSet& os, const std::vector<size_t>& idx,
+                             ceres::LossFunction* loss) = 0;
+  // A faster form with the robust loss done by reweighting (sqrt_w per observation) instead of
+  // by Ceres: chunks of many pixels per block. Models without one return false.
+  virtual bool add_reweighted(ceres::Problem*, const ObsSet&, const std::vector<double>*) {
+    return false;
+  }
+  // The unweighted residual of observation i at the current parameters (for the weights).
+  virtual void residual(const ObsSet&, size_t, double r[3]) const {
+    r[0] = r[1] = r[2] = 0;
+  }
+  // Coordinates the data cannot fix at this solution: held constant in pb, named in res.
+  virtual void hold_undetermined(ceres::Problem*, double /*kd_max*/, FitResult*) {}
+  // The model's own blocks for the covariance, and whether the full correlation is wanted (not
+  // for N^2 texel blocks).
+  virtual std::vector<Block> blocks(ceres::Problem* pb) = 0;
+  virtual bool full_correlation() const { return true; }
+  virtual void sigmas(const SigmaOf& sigma, ceres::Problem* pb, FitResult* res) const = 0;
+  // The model's part of the material (model, topology, optional terms) and the "fixed" notes.
+  virtual void assemble(const ObsSet& os, FitResult* res) const = 0;
+};
+
+std::unique_ptr<ModelFit> make_line_fit(const FitOptions& opt);
+std::unique_ptr<ModelFit> make_fiber_fit(const FitOptions& opt, const ObsSet& os);
+
+// Bounds of k_d, k_s, log n from models/params.h and psi on its half-turn manifold: the blocks
+// every problem shares.
+void set_core_bounds(ceres::Problem* pb, Core* c);
+// Bounds of a one-number block from models/params.h (log-scaled parameters in log).
+void set_param_bounds(ceres::Problem* pb, double* block, int index, const char* key);
+
+// The model parameters from the fitted blocks (k_d, k_s, log n, psi).
+template <class T>
+LineParamsT<T> fitted_params(const T* kd, const T* ks, const T* logn, const T* psi) {
+  using std::exp;
+  LineParamsT<T> p;
+  for (int k = 0; k < 3; ++k) {
+    p.kd[k] = kd[k];
+    p.ks[k] = ks[k];
+  }
+  p.n = exp(logn[0]);
+  p.psi = psi[0];
+  return p;
+}
+
+// residual = known part + sum over the pixel's lights of E * reflectance(L, V) - y.
+template <class T, class Reflectance>
+void pixel_residual(const Observation* obs, const ObsLight* lights, Reflectance reflectance, T* r) {
+  T acc[3] = {T(obs->base[0]), T(obs->base[1]), T(obs->base[2])};
+  for (uint32_t i = 0; i < obs->num_lights; ++i) {
+    const ObsLight& l = lights[obs->first_light + i];
+    T f[3];
+    reflectance(l.L, obs->V, f);
+    for (int k = 0; k < 3; ++k) acc[k] += l.E[k] * f[k];
+  }
+  for (int k = 0; k < 3; ++k) r[k] = acc[k] - obs->y[k];
+}
+
+}  // namespace aniso::fitting

@@ -1,0 +1,233 @@
+#include "fit/observations.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/frame.h"
+#include "core/progress.h"
+#include "io/files.h"
+#include "io/json_util.h"
+#include "io/material_io.h"
+
+namespace aniso::fitting {
+
+namespace {
+
+void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureSet& set,
+                            const Material& known, int stride, ObsSet* os, FitReport* rep) {
+  const int w = d.rgb.width, h = d.rgb.height;
+  for (int y = 0; y < h; y += stride)
+    for (int x = 0; x < w; x += stride) {
+      if (!d.use[static_cast<size_t>(y) * w + x]) continue;
+      SurfacePoint sp;
+      if (!frame_at(d.P, d.N, d.U, x, y, &sp)) {
+        ++rep->nonfinite;
+        continue;
+      }
+      Observation o;
+      o.V = to_local(sp, normalize(d.eye - sp.P));
+      o.first_light = static_cast<uint32_t>(os->lights.size());
+      for (const Light& l : v.lights) {
+        Vec3 L;
+        RGB E;
+        double dist;
+        if (!light_at(l, sp.P, &L, &E, &dist)) continue;
+        ObsLight ol;
+        ol.L = to_local(sp, L);
+        if (!(ol.L.n > 0.0)) continue;
+        for (int k = 0; k < 3; ++k) ol.E[k] = v.exposure * E[k];
+        os->lights.push_back(ol);
+      }
+      o.num_lights = static_cast<uint32_t>(os->lights.size()) - o.first_light;
+      for (int k = 0; k < 3; ++k) {
+        o.y[k] = d.rgb.at(x, y, k);
+        o.base[k] = v.exposure * known.ka[k] * set.ambient[k];
+      }
+      o.smath = d.smath.at(x, y, 0);
+      o.mapv = d.mapv.at(x, y, 0);
+      if (!d.uv.empty()) {
+        o.u = d.uv.at(x, y, 0);
+        o.v = d.uv.at(x, y, 1);
+      }
+      if (o.num_lights == 0) {
+        ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
+        continue;
+      }
+      os->obs.push_back(o);
+    }
+}
+
+// Values far above anything else in the set (hot pixels, a broken writer's 1e30) would steer the
+// closed-form start and the noise estimate before any robust loss can act: a pixel with a value
+// above kImplausible times the 90th percentile of all values is left out and counted (a real
+// highlight is brighter than most pixels, but not 10^4 times brighter than the brightest tenth).
+void drop_implausible(ObsSet* os, FitReport* rep) {
+  if (os->obs.size() < 100) return;
+  std::vector<double> mags;
+  mags.reserve(os->obs.size());
+  for (const auto& o : os->obs)
+    mags.push_back(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}));
+  std::nth_element(mags.begin(), mags.begin() + mags.size() * 9 / 10, mags.end());
+  const double p90 = mags[mags.size() * 9 / 10];
+  constexpr double kImplausible = 1e4;
+  const double limit = kImplausible * std::max(p90, 1e-12);
+  size_t kept = 0;
+  for (const auto& o : os->obs)
+    if (std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)
+      os->obs[kept++] = o;
+  rep->implausible += os->obs.size() - kept;
+  os->obs.resize(kept);
+}
+
+// The fiber model's topology from what the set carries: a map means its amplitude is fitted over
+// the per-pixel mathematical topology (0 where no buffer); a topology buffer alone fixes s; else
+// one s (or, with --topology-map N, an N x N map of s over uv).
+void choose_topology(const CaptureSet& set, const FitOptions& opt, ObsSet* os) {
+  const bool has_map = !set.topology_map.empty();
+  if (has_map) {
+    os->topology = TopologyMode::kAmplitude;
+    os->topology_map = join_path(set.dir, set.topology_map);  // made relative on writing
+  }
+  bool has_buffer = false;
+  for (const auto& v : set.views) has_buffer |= !v.geometry.topology.empty();
+  if (has_buffer) {
+    // The kind of mathematical topology, when the writer recorded it (capture_sim does); "torus"
+    // otherwise (FORMAT.md's name for a per-pixel mathematical topology).
+    os->topology_mathematical = MathTopology::kTorus;
+    if (!set.provenance.empty()) {
+      const auto g = jsonu::json::parse(set.provenance, nullptr, false);
+      if (g.is_object() && g.contains("mathematical_topology") &&
+          g["mathematical_topology"] == "sphere")
+        os->topology_mathematical = MathTopology::kSphere;
+    }
+  }
+  if (has_buffer && !has_map) os->topology = TopologyMode::kMathematical;
+  if (opt.topology_texels <= 0) return;
+  if (opt.topology_texels < 2 || opt.topology_texels > 256)
+    throw Error("fit: --topology-map N needs N in [2, 256]");
+  if (has_map || has_buffer)
+    throw Error(set.file +
+                ": --topology-map fits s per texel, but this set has a topology map or buffer (its "
+                "amplitude is what can be fitted: leave --topology-map out)");
+  for (const auto& v : set.views)
+    if (v.geometry.uv.empty())
+      throw Error(set.file + ": --topology-map needs the \"uv\" buffer in every view's geometry");
+  os->topology = TopologyMode::kTexels;
+  os->texels = opt.topology_texels;
+}
+
+// Second differences of three horizontal neighbours (a - 2b + c cancels the shading's gradient)
+// on every 4th row: enough for a median, little time. Zeros are clipped values.
+void add_neighbour_differences(const ViewData& d, std::vector<double>* diffs) {
+  for (int y = 0; y < d.rgb.height; y += 4)
+    for (int x = 0; x + 2 < d.rgb.width; ++x) {
+      const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
+      if (d.use[p] && d.use[p + 1] && d.use[p + 2])
+        for (int c = 0; c < d.channels; ++c) {
+          const float a = d.rgb.px[3 * p + c], b = d.rgb.px[3 * (p + 1) + c],
+                      e = d.rgb.px[3 * (p + 2) + c];
+          if (a > 0 && b > 0 && e > 0) diffs->push_back(a - 2 * b + e);
+        }
+    }
+}
+
+}  // namespace
+
+ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep_out) {
+  if (opt.subsample < 1) throw Error("fit: --subsample must be at least 1");
+  ObsSet os;
+  FitReport& rep = *rep_out;
+  rep.views = set.views.size();
+  const Material known;  // k_a = 0 unless given: the ambient term is not fitted
+  choose_topology(set, opt, &os);
+  TopologyMap map;
+  if (os.topology == TopologyMode::kAmplitude) map = load_topology_map(os.topology_map);
+  Progress bar("fit: loading views", set.views.size(), opt.progress);
+  size_t grey_views = 0;
+  std::vector<double> neighbour_diffs;
+  for (size_t i = 0; i < set.views.size(); ++i) {
+    const ViewData d =
+        load_view(set, i, os.topology == TopologyMode::kAmplitude ? &map : nullptr);
+    grey_views += d.channels == 1;
+    add_neighbour_differences(d, &neighbour_diffs);
+    rep.masked_out += static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
+    rep.saturated += d.saturated;
+    rep.nonfinite += d.nonfinite;
+    add_pixel_observations(d, set.views[i], set, known, opt.subsample, &os, &rep);
+    bar.advance();
+  }
+  drop_implausible(&os, &rep);
+  // sigma of one pixel: the robust sigma of a - 2b + c, over sqrt(1 + 4 + 1).
+  if (!neighbour_diffs.empty())
+    os.pixel_noise = 1.4826 * median_abs(neighbour_diffs) / std::sqrt(6.0);
+  // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
+  os.grey = grey_views == set.views.size();
+  rep.pixels = os.obs.size();
+  rep.observations = os.obs.size() * (os.grey ? 1 : 3);
+  return os;
+}
+
+ObsSet table_observations(const SampleTable& t, FitReport* rep) {
+  if (t.values == SampleTable::Values::kNone)
+    throw Error("fit: the sample table has no value columns (r,g,b or y)");
+  ObsSet os;
+  os.grey = t.values == SampleTable::Values::kGrey;
+  for (const auto& row : t.rows) {
+    Observation o;
+    o.V = dir_from_angles(row.theta_o, row.phi_o);
+    ObsLight l;
+    l.L = dir_from_angles(row.theta_i, row.phi_i);
+    l.E[0] = l.E[1] = l.E[2] = 1.0;
+    for (int k = 0; k < 3; ++k) {
+      o.y[k] = row.value[k];
+      o.base[k] = 0.0;
+    }
+    if (!(l.L.n > 0.0)) {
+      ++rep->unlit;
+      continue;
+    }
+    o.first_light = static_cast<uint32_t>(os.lights.size());
+    o.num_lights = 1;
+    o.smath = row.s;
+    os.lights.push_back(l);
+    os.obs.push_back(o);
+  }
+  // A table with an s column gives the fiber model's topology per row; otherwise one s is fitted.
+  if (t.has_s) os.topology = TopologyMode::kMathematical;
+  rep->pixels = os.obs.size();
+  rep->observations = os.obs.size() * (os.grey ? 1 : 3);
+  return os;
+}
+
+std::vector<size_t> start_subset(size_t n, size_t count) {
+  std::vector<size_t> idx;
+  if (n <= count) {
+    idx.resize(n);
+    for (size_t i = 0; i < n; ++i) idx[i] = i;
+    return idx;
+  }
+  constexpr double kGolden = 0.6180339887498949;
+  std::vector<uint8_t> taken(n, 0);
+  double x = 0.5;
+  for (size_t k = 0; k < count; ++k) {
+    x += kGolden;
+    x -= std::floor(x);
+    const size_t i = std::min(n - 1, static_cast<size_t>(x * static_cast<double>(n)));
+    if (!taken[i]) {
+      taken[i] = 1;
+      idx.push_back(i);
+    }
+  }
+  std::sort(idx.begin(), idx.end());
+  return idx;
+}
+
+double median_abs(std::vector<double> v) {
+  if (v.empty()) return 0;
+  for (double& x : v) x = std::abs(x);
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace aniso::fitting

@@ -1,0 +1,54 @@
+// fit/ internal: what the solver sees of a capture set or a sample table. One observation per
+// pixel (three channels) with its lights already reduced to local directions and irradiance
+// scales (exposure folded in); lights below the horizon are dropped here, they contribute exactly
+// zero. Not installed for other folders: fit.h is the public face.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/local_dir.h"
+#include "fit/fit.h"
+#include "models/material.h"
+
+namespace aniso::fitting {
+
+struct ObsLight {
+  LocalDir L;
+  double E[3];
+};
+struct Observation {
+  LocalDir V;
+  uint32_t first_light = 0, num_lights = 0;
+  double y[3];                 // measured value
+  double base[3];              // known constant part (ambient times k_a, which is not fitted)
+  double smath = 0, mapv = 0;  // fiber model: mathematical topology and map value at the pixel
+  double u = 0, v = 0;         // texture coordinates (per-texel topology fits)
+};
+// How the fiber model's topology enters: one s for the whole sample, the map amplitude A on top
+// of per-pixel s_math and map values, s_math alone (nothing to fit), or a map of s over uv.
+enum class TopologyMode { kGlobalS, kAmplitude, kMathematical, kTexels };
+struct ObsSet {
+  std::vector<Observation> obs;
+  std::vector<ObsLight> lights;
+  TopologyMode topology = TopologyMode::kGlobalS;
+  int texels = 0;            // kTexels: an N x N map of s over uv
+  std::string topology_map;  // recorded in the result
+  MathTopology topology_mathematical = MathTopology::kNone;
+  bool grey = false;  // a grey table: the three channels repeat one value
+  // Noise of the images themselves, from differences of neighbouring pixels (robust, so edges
+  // and the smooth shading between neighbours hardly count); 0 where there are no images.
+  double pixel_noise = 0;
+};
+
+ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep);
+ObsSet table_observations(const SampleTable& table, FitReport* rep);
+
+// Up to `count` of n observation indices, spread by the golden-ratio sequence rather than a
+// fixed stride: a stride can alias with the layout of the data (10 000 identical views, a
+// stride equal to the view size, gave two distinct pixels and psi 131 deg for 30).
+std::vector<size_t> start_subset(size_t n, size_t count);
+
+double median_abs(std::vector<double> v);
+
+}  // namespace aniso::fitting

@@ -1,0 +1,28 @@
+// fit/ internal: one interface over the solve paths (per-pixel blocks with Ceres' robust loss,
+// or the model's chunked form with the loss by reweighting). The problem is kept for the
+// covariance (fit/uncertainty.cpp).
+#pragma once
+#include <memory>
+#include <vector>
+
+#include "fit/model_fit.h"
+
+namespace aniso::fitting {
+
+struct Solution {
+  std::unique_ptr<ceres::Problem> problem;
+  ceres::Solver::Summary summary;
+  std::vector<double> sqrt_w;  // reweighting weights: the problem's blocks point at them
+  double rss = 0;              // of the final problem's residuals
+  double values = 0;           // measured values: pixels x channels (x 1 for grey)
+};
+
+// Starts the model, solves, and fills the report's start, noise, loss, iterations, RMS, BIC,
+// timings and misfit warning. The model's blocks hold the solution.
+Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* rep);
+
+// sigma, undetermined and the correlation matrix of every fitted number (MODELS.md §6).
+void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, Solution* sol,
+                          FitResult* res);
+
+}  // namespace aniso::fitting
