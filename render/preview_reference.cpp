@@ -1,0 +1,122 @@
+#include "render/preview_reference.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/angles.h"
+#include "core/frame.h"
+#include "core/texture.h"
+#include "io/capture.h"
+#include "models/evaluate.h"
+#include "models/topology.h"
+
+namespace aniso {
+
+namespace {
+
+// The frame of a covered fragment from the geometry pass; false where there is none.
+bool fragment_frame(const GBuffer& g, const PreviewResult& res, int x, int y, SurfacePoint* sp) {
+  if (!res.covered[static_cast<size_t>(y) * g.N.width + x]) return false;
+  const Vec3 N{g.N.at(x, y, 0), g.N.at(x, y, 1), g.N.at(x, y, 2)},
+      T{g.T.at(x, y, 0), g.T.at(x, y, 1), g.T.at(x, y, 2)};
+  return make_frame(Vec3(0, 0, 0), N, T, sp);
+}
+
+// Largest change between neighbouring texels of the combined table.
+double max_texel_step(const BakeTables& tables) {
+  double step = 0;
+  for (int j = 0; j < tables.size; ++j)
+    for (int i = 0; i + 1 < tables.size; ++i)
+      for (int ch = 0; ch < 3; ++ch) {
+        step = std::max(step, double(std::abs(tables.combined.at(i + 1, j, ch) -
+                                              tables.combined.at(i, j, ch))));
+        step = std::max(step, double(std::abs(tables.combined.at(j, i + 1, ch) -
+                                              tables.combined.at(j, i, ch))));
+      }
+  return step;
+}
+
+}  // namespace
+
+void fiber_reference(const Material& m, const PreviewOptions& opt, const Vec3& V,
+                     const BakeTables& tables, const FiberBakeTables& fb, const GBuffer& g,
+                     PreviewResult* res) {
+  const int w = g.N.width, h = g.N.height;
+  res->reference = Image(w, h, 3);
+  TopologyMap map;
+  map.h = opt.topology_map;
+  const bool s_map = m.topology_as<SMapRef>() != nullptr;
+  Material line_only = m;
+  line_only.model = Model::kLine;
+  res->error_bound = opt.light_dirs.size() * fb.max_abs_error + 1e-5;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      SurfacePoint sp;
+      if (!fragment_frame(g, *res, x, y, &sp)) continue;
+      const double u = g.T2.at(x, y, 0), v = g.T2.at(x, y, 1), smath = g.T2.at(x, y, 2);
+      const double mv = s_map           ? sample_first_channel(opt.s_map, u, v)
+                        : map.h.empty() ? 0.0
+                                        : map.sample(u, v);
+      const double s = s_at(m, smath, mv);
+      double exact[3] = {0, 0, 0}, baked[3] = {0, 0, 0};
+      for (const Vec3& ld : opt.light_dirs) {
+        const LocalDir Ll = to_local(sp, normalize(ld)), Vl = to_local(sp, V);
+        LineParamsT<double> p = line_params(m);
+        p.psi = 0;
+        double f[3], gb[3];
+        fiber_reflectance(p, s, Ll, Vl, FiberAccuracy{}, f);
+        fiber_baked_eval(line_only, tables, fb, Ll, Vl, s, gb);
+        for (int ch = 0; ch < 3; ++ch) exact[ch] += f[ch], baked[ch] += gb[ch];
+      }
+      for (int ch = 0; ch < 3; ++ch) {
+        res->reference.at(x, y, ch) = float(exact[ch]);
+        const double got = res->rgb.at(x, y, ch);
+        res->max_abs_diff = std::max(res->max_abs_diff, std::abs(got - exact[ch]));
+        res->max_abs_diff_baked = std::max(res->max_abs_diff_baked, std::abs(got - baked[ch]));
+      }
+    }
+}
+
+void line_reference(const Material& m, const PreviewOptions& opt, const Vec3& V,
+                    const BakeTables& tables, const GBuffer& g, PreviewResult* res) {
+  const int w = g.N.width, h = g.N.height;
+  res->reference = Image(w, h, 3);
+  // The largest texel step times the 8-bit sub-texel weight precision that hardware filtering is
+  // allowed (and llvmpipe uses): what GL_LINEAR may add to the bake's own (measured) error.
+  constexpr double kFilterWeightStep = 1.0 / 256.0, kFloatSlack = 1e-5;
+  // The angle index's acos in single precision: near |x| = 1 an input rounding of 2^-24 moves
+  // acos by up to sqrt(2 * 2^-24) = 3.5e-4 rad, i.e. that many texels times (N - 1) / pi.
+  const bool angle = tables.index == BakeIndex::kAngle;
+  const double acos_texels =
+      angle ? std::sqrt(2.0 * std::ldexp(1.0, -24)) * (tables.size - 1) / M_PI : 0.0;
+  const int lobes = m.second_active() ? 2 : 1;
+  res->error_bound =
+      opt.light_dirs.size() * lobes *
+          (tables.max_abs_error + 2 * max_texel_step(tables) * (kFilterWeightStep + acos_texels)) +
+      kFloatSlack;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      SurfacePoint sp;
+      if (!fragment_frame(g, *res, x, y, &sp)) continue;
+      const Vec3 T2{g.T2.at(x, y, 0), g.T2.at(x, y, 1), g.T2.at(x, y, 2)};
+      // In the frame (U = T) the fiber angle is 0 and the second fiber sits at
+      // atan2(<T2,W>, <T2,T>).
+      Material local = m;
+      local.fiber_angle_deg = 0;
+      local.second_angle_deg = rad_to_deg(std::atan2(dot(T2, sp.W), dot(T2, sp.U)));
+      const Evaluator le(local);
+      double acc[3] = {0, 0, 0};
+      for (const Vec3& ld : opt.light_dirs) {
+        double f[3];
+        le(to_local(sp, normalize(ld)), to_local(sp, V), f);
+        for (int ch = 0; ch < 3; ++ch) acc[ch] += f[ch];
+      }
+      for (int ch = 0; ch < 3; ++ch) {
+        res->reference.at(x, y, ch) = float(acc[ch]);
+        res->max_abs_diff =
+            std::max(res->max_abs_diff, std::abs(double(res->rgb.at(x, y, ch)) - acc[ch]));
+      }
+    }
+}
+
+}  // namespace aniso

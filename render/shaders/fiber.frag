@@ -1,0 +1,53 @@
+#version 330 core
+// The fiber model from its baked form (render/bake.h): the line tables through the paper's
+// texture matrix times the factor tables G(phi_l, phi_v, s) and F(phi_l, phi_v, s, k), with the
+// topology s per fragment from the mathematical topology and the topology map (MODELS.md §4).
+in vec3 vN; in vec3 vT; in vec3 vT2; in vec2 vUV; in float vSmath;
+uniform mat4 uTexMat;
+uniform sampler2D uD;
+uniform sampler2D uS;
+uniform sampler2DArray uG;
+uniform sampler2DArray uF;
+uniform sampler2D uMap;
+uniform int uAngleIndex; uniform float uTexels;
+uniform int uNphi; uniform int uNs; uniform int uNk;
+uniform int uTopo;  // 0: uniform s, 1: s_math, 2: s_math + map, 3: a map of s itself
+uniform float uS0; uniform float uAmp;
+uniform vec3 uL; uniform vec3 uV; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs;
+out vec4 frag;
+const float PI = 3.14159265358979;
+void main() {
+  vec3 N = normalize(vN);
+  vec3 T = normalize(vT - N * dot(N, vT));
+  vec3 B = cross(N, T);
+  float ln = dot(uL, N), vn = dot(uV, N);
+  if (ln <= 0.0 || vn <= 0.0) { frag = vec4(0.0, 0.0, 0.0, 1.0); return; }
+  vec2 st = (uTexMat * vec4(T, 1.0)).xy;
+  if (uAngleIndex == 1) st = (acos(clamp(1.0 - 2.0 * st, -1.0, 1.0)) / PI * (uTexels - 1.0) + 0.5) / uTexels;
+  float Dl = texture(uD, st).r, Sl = texture(uS, st).r;
+  float a = dot(uL, T), b = dot(uV, T), lb = dot(uL, B), vb = dot(uV, B);
+  float sL = length(vec2(lb, ln)), sV = length(vec2(vb, vn));
+  float g0 = sL * sV - a * b;
+  float kk = g0 > 0.0 ? 2.0 * sL * sV / (g0 + 2.0 * sL * sV) : 1.0;
+  float s = uS0;
+  if (uTopo >= 1) s = vSmath;
+  if (uTopo == 3) s = texture(uMap, vUV).r;
+  if (uTopo == 2) {
+    float m = 2.0 * texture(uMap, vUV).r - 1.0;
+    float H = clamp(2.0 * sin(PI / 3.0 * vSmath) + uAmp * m, 0.0, sqrt(3.0));
+    s = asin(0.5 * H) / (PI / 3.0);
+  }
+  vec2 uvphi = ((vec2(atan(lb, ln), atan(vb, vn)) + 0.5 * PI) / PI * float(uNphi - 1) + 0.5) / float(uNphi);
+  float fs = clamp(s, 0.0, 1.0) * float(uNs - 1);
+  int is = min(int(fs), uNs - 2);
+  float ws = fs - float(is);
+  float fk = kk * float(uNk - 1);
+  int ik = min(int(fk), uNk - 2);
+  float wk = fk - float(ik);
+  float G = mix(texture(uG, vec3(uvphi, float(is))).r, texture(uG, vec3(uvphi, float(is + 1))).r, ws);
+  float F0 = mix(texture(uF, vec3(uvphi, float(is * uNk + ik))).r, texture(uF, vec3(uvphi, float(is * uNk + ik + 1))).r, wk);
+  float F1 = mix(texture(uF, vec3(uvphi, float((is + 1) * uNk + ik))).r,
+                 texture(uF, vec3(uvphi, float((is + 1) * uNk + ik + 1))).r, wk);
+  float F = mix(F0, F1, ws);
+  frag = vec4(uE * (uKd * Dl * G + uKs * Sl * F), 1.0);
+}
