@@ -160,10 +160,7 @@ Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g,
   return out;
 }
 
-}  // namespace
-
-SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
-  const auto t0 = std::chrono::steady_clock::now();
+void check_sim_options(const SimOptions& opt) {
   if (opt.rig.empty()) throw Error("capture_sim: the rig has no views");
   if (opt.camera.width < 1 || opt.camera.height < 1)
     throw Error("capture_sim: camera size must be positive");
@@ -178,102 +175,205 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   constexpr double kMaxShotPhotons = 1e12;
   if (opt.sensor.shot_photons > kMaxShotPhotons)
     throw Error("capture_sim: --shot must be at most 1e12 photons");
-  const bool is_obj = lower_ext(opt.shape) == ".obj";
-  const TriMesh mesh = is_obj ? load_obj(opt.shape, opt.fiber_field.empty())
-                              : make_shape(opt.shape, opt.shape_options);
-  const RayScene scene(mesh);
-  const Evaluator eval(opt.truth);
-  SimStats st;
-  st.views = opt.rig.size();
-
-  // Views that share the first view's camera pose share its geometry: traced and written once.
-  bool fixed_camera = true;
-  for (const auto& v : opt.rig)
-    if (v.world_from_camera.m != opt.rig[0].world_from_camera.m) fixed_camera = false;
-
   if (opt.truth.fiber() && opt.truth.topology_as<TopologyMapRef>() && opt.topology_map.empty())
     throw Error("capture_sim: the material uses a topology map but none was given");
   if (opt.truth.fiber() && opt.truth.topology_as<SMapRef>() && opt.s_map.empty())
     throw Error("capture_sim: the material uses a map of s but none was given");
-  // The map as the set will store it (16-bit), so the fit sees exactly what was rendered.
-  TopologyMap map;
-  if (!opt.topology_map.empty()) {
-    map.h = opt.topology_map;
-    for (float& v : map.h.px)
-      v = static_cast<float>(std::round(std::clamp(v, 0.f, 1.f) * 65535.0) / 65535.0);
-  }
-  Image s_map = opt.s_map;  // quantised as stored (16-bit)
-  for (float& v : s_map.px)
+}
+
+// A map as the set stores it (16-bit PNG), so the fit sees exactly what was rendered.
+Image quantised16(Image img) {
+  for (float& v : img.px)
     v = static_cast<float>(std::round(std::clamp(v, 0.f, 1.f) * 65535.0) / 65535.0);
-  // Per-pixel topology s_math (written as the `topology` buffer) and s (used for shading).
-  auto topology_images = [&](const GBuffer& g, Image* smath, Image* s) {
-    *smath = Image(g.P.width, g.P.height, 1, 0.f);
-    *s = Image(g.P.width, g.P.height, 1, static_cast<float>(opt.truth.uniform_s()));
-    for (int y = 0; y < g.P.height; ++y)
-      for (int x = 0; x < g.P.width; ++x) {
-        if (!g.hit[static_cast<size_t>(y) * g.P.width + x]) continue;
-        const float sm = static_cast<float>(mathematical_topology_at(
-            opt.mathematical_topology, pixel_vec3(g.P, x, y), opt.shape_options));
-        smath->at(x, y, 0) = sm;
-        const double u = g.uv.at(x, y, 0), v = g.uv.at(x, y, 1);
-        double mv = map.h.empty() ? 0.0 : map.sample(u, v);
-        if (!s_map.empty()) mv = sample_first_channel(s_map, u, v);
-        s->at(x, y, 0) = static_cast<float>(s_at(opt.truth, sm, mv));
-      }
-  };
-  std::vector<GBuffer> gbuffers;
-  std::vector<Image> smaths, topos;
+  return img;
+}
+
+// What is traced once per camera pose, and every view's noise-free radiance.
+struct Traced {
+  std::vector<GBuffer> g;
+  std::vector<Image> smath, s;  // per pixel: s_math (the `topology` buffer) and s (for shading)
   std::vector<Image> radiance;
-  std::atomic<size_t> shadow_rays{0}, light_evals{0};
-  {
-    Progress bar("capture_sim: tracing and shading", opt.rig.size(), opt.progress);
-    for (size_t i = 0; i < opt.rig.size(); ++i) {
-      if (i == 0 || !fixed_camera || opt.force_retrace) {
-        const auto tt = std::chrono::steady_clock::now();
-        gbuffers.push_back(scene.trace(opt.camera, opt.rig[i].world_from_camera, opt.fiber_field));
-        st.seconds_trace +=
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - tt).count();
-        st.primary_rays += gbuffers.back().rays;
-        smaths.emplace_back();
-        topos.emplace_back();
-        topology_images(gbuffers.back(), &smaths.back(), &topos.back());
-      }
-      const GBuffer& g = gbuffers.back();
-      std::vector<uint8_t> used;
-      const auto ts = std::chrono::steady_clock::now();
-      radiance.push_back(shade_view(eval, opt.truth, g, topos.back(),
-                                    opt.rig[i].world_from_camera.translation(), opt.rig[i].lights,
-                                    opt.ambient, scene, opt.force_shadows, &shadow_rays,
-                                    &light_evals, &used));
-      st.seconds_shade +=
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - ts).count();
-      for (uint8_t u : used) st.lights_culled += u ? 0 : 1;
-      for (uint8_t hit : g.hit) st.shaded_pixels += hit;
-      bar.advance();
+  bool fixed_camera = true;  // every view shares the first view's pose: one geometry
+};
+
+// Per-pixel topology s_math and s of a traced pose; constant images when neither the material
+// nor the set needs them (the line model without a mathematical topology).
+void topology_images(const SimOptions& opt, const TopologyMap& map, const Image& s_map,
+                     const GBuffer& g, Image* smath, Image* s) {
+  *smath = Image(g.P.width, g.P.height, 1, 0.f);
+  *s = Image(g.P.width, g.P.height, 1, static_cast<float>(opt.truth.uniform_s()));
+  if (!opt.truth.fiber() && opt.mathematical_topology == MathTopology::kNone) return;
+  for (int y = 0; y < g.P.height; ++y)
+    for (int x = 0; x < g.P.width; ++x) {
+      if (!g.hit[static_cast<size_t>(y) * g.P.width + x]) continue;
+      const float sm = static_cast<float>(mathematical_topology_at(
+          opt.mathematical_topology, pixel_vec3(g.P, x, y), opt.shape_options));
+      smath->at(x, y, 0) = sm;
+      const double u = g.uv.at(x, y, 0), v = g.uv.at(x, y, 1);
+      double mv = map.h.empty() ? 0.0 : map.sample(u, v);
+      if (!s_map.empty()) mv = sample_first_channel(s_map, u, v);
+      s->at(x, y, 0) = static_cast<float>(s_at(opt.truth, sm, mv));
     }
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+Traced trace_and_shade(const SimOptions& opt, const RayScene& scene, const TopologyMap& map,
+                       const Image& s_map, SimStats* st) {
+  Traced tr;
+  // Views that share the first view's camera pose share its geometry: traced and written once.
+  for (const auto& v : opt.rig)
+    if (v.world_from_camera.m != opt.rig[0].world_from_camera.m) tr.fixed_camera = false;
+  const Evaluator eval(opt.truth);
+  std::atomic<size_t> shadow_rays{0}, light_evals{0};
+  Progress bar("capture_sim: tracing and shading", opt.rig.size(), opt.progress);
+  for (size_t i = 0; i < opt.rig.size(); ++i) {
+    if (i == 0 || !tr.fixed_camera || opt.force_retrace) {
+      const auto tt = std::chrono::steady_clock::now();
+      tr.g.push_back(scene.trace(opt.camera, opt.rig[i].world_from_camera, opt.fiber_field));
+      st->seconds_trace += seconds_since(tt);
+      st->primary_rays += tr.g.back().rays;
+      tr.smath.emplace_back();
+      tr.s.emplace_back();
+      topology_images(opt, map, s_map, tr.g.back(), &tr.smath.back(), &tr.s.back());
+    }
+    const GBuffer& g = tr.g.back();
+    std::vector<uint8_t> used;
+    const auto ts = std::chrono::steady_clock::now();
+    tr.radiance.push_back(shade_view(eval, opt.truth, g, tr.s.back(),
+                                     opt.rig[i].world_from_camera.translation(), opt.rig[i].lights,
+                                     opt.ambient, scene, opt.force_shadows, &shadow_rays,
+                                     &light_evals, &used));
+    st->seconds_shade += seconds_since(ts);
+    for (uint8_t u : used) st->lights_culled += u ? 0 : 1;
+    for (uint8_t hit : g.hit) st->shaded_pixels += hit;
+    bar.advance();
   }
-  st.shadow_rays = shadow_rays;
-  st.light_evals = light_evals;
-  for (const auto& im : radiance)
+  st->shadow_rays = shadow_rays;
+  st->light_evals = light_evals;
+  return tr;
+}
+
+// The geometry buffers of one pose under `dir`, named after `stem`.
+GeometrySpec write_geometry(const std::string& dir, const GBuffer& g, const Image& smath,
+                            const std::string& stem, bool with_topology) {
+  GeometrySpec gs;
+  gs.position = "geometry/" + stem + "_P.exr";
+  gs.normal = "geometry/" + stem + "_N.exr";
+  gs.tangent = "geometry/" + stem + "_U.exr";
+  gs.uv = "geometry/" + stem + "_uv.exr";
+  gs.mask = "geometry/" + stem + "_mask.png";
+  write_exr(join_path(dir, gs.position), g.P);
+  write_exr(join_path(dir, gs.normal), g.N);
+  write_exr(join_path(dir, gs.tangent), g.U);
+  write_exr(join_path(dir, gs.uv), g.uv);
+  Image m(g.P.width, g.P.height, 1);
+  for (size_t p = 0; p < g.hit.size(); ++p) m.px[p] = g.hit[p] ? 1.f : 0.f;
+  write_png(join_path(dir, gs.mask), m, 8);
+  if (with_topology) {
+    gs.topology = "geometry/" + stem + "_topology.exr";
+    write_exr(join_path(dir, gs.topology), smath);
+  }
+  return gs;
+}
+
+// What the sensor records of view i's radiance: exposure, shot and read noise from the view's
+// own generator (seeded from (seed, view): the same set whatever the threading), clipping at
+// saturation, encoding and quantisation.
+struct SensorLevels {
+  double exposure, white, saturation;
+};
+Image sensor_image(const SimOptions& opt, const Image& radiance, const SensorLevels& lv,
+                   size_t view) {
+  std::seed_seq seq{static_cast<uint32_t>(opt.seed), static_cast<uint32_t>(opt.seed >> 32),
+                    static_cast<uint32_t>(view)};
+  std::mt19937_64 rng(seq);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  Image img = radiance;
+  for (float& px : img.px) {
+    double val = lv.exposure * px;
+    if (opt.sensor.shot_photons > 0) {
+      std::poisson_distribution<long long> pois(
+          std::max(val / lv.white * opt.sensor.shot_photons, 0.0));
+      val = static_cast<double>(pois(rng)) * lv.white / opt.sensor.shot_photons;
+    }
+    if (opt.sensor.read_noise > 0) val += opt.sensor.read_noise * lv.white * gauss(rng);
+    if (val > lv.saturation) val = lv.saturation;
+    if (opt.sensor.bits) {
+      val = opt.sensor.encoding == "srgb" ? srgb_encode(val) : std::clamp(val, 0.0, 1.0);
+      const double q = opt.sensor.bits == 8 ? 255.0 : 65535.0;
+      val = std::round(val * q) / q;
+    }
+    px = static_cast<float>(val);
+  }
+  return img;
+}
+
+std::string provenance(const SimOptions& opt, const SimStats& st, double white, bool fixed) {
+  const jsonu::json gen = {{"tool", "aniso capture_sim"},
+                           {"preset", opt.preset},
+                           {"shape", opt.shape},
+                           {"fiber_field", opt.fiber_field},
+                           {"seed", opt.seed},
+                           {"read_noise", opt.sensor.read_noise},
+                           {"shot_photons", opt.sensor.shot_photons},
+                           {"bits", opt.sensor.bits},
+                           {"white_level", white},
+                           {"mathematical_topology", math_topology_name(opt.mathematical_topology)},
+                           {"counters",
+                            {{"primary_rays", st.primary_rays},
+                             {"shadow_rays", st.shadow_rays},
+                             {"shaded_pixels", st.shaded_pixels},
+                             {"light_evaluations", st.light_evals},
+                             {"lights_culled", st.lights_culled},
+                             {"geometry_traced_once", fixed}}}};
+  return gen.dump();
+}
+
+// The set's header: camera, ambient, encoding and the stored value at which the sensor clips.
+CaptureSet set_header(const SimOptions& opt, double saturation) {
+  CaptureSet set;
+  set.camera = opt.camera;
+  set.ambient = opt.ambient;
+  if (opt.sensor.encoding == "srgb") set.color.encoding = ColorSpec::Encoding::kSrgb;
+  if (std::isfinite(saturation)) {
+    // Stored values at or above this are clipped by the sensor and must not be used.
+    set.color.saturation = opt.sensor.encoding == "srgb" ? srgb_encode(saturation) : saturation;
+    set.color.saturation_given = true;
+  }
+  set.truth = "truth.json";
+  return set;
+}
+
+}  // namespace
+
+SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
+  const auto t0 = std::chrono::steady_clock::now();
+  check_sim_options(opt);
+  const bool is_obj = lower_ext(opt.shape) == ".obj";
+  const TriMesh mesh = is_obj ? load_obj(opt.shape, opt.fiber_field.empty())
+                              : make_shape(opt.shape, opt.shape_options);
+  const RayScene scene(mesh);
+  SimStats st;
+  st.views = opt.rig.size();
+  TopologyMap map;
+  if (!opt.topology_map.empty()) map.h = quantised16(opt.topology_map);
+  const Image s_map = quantised16(opt.s_map);
+  const Traced tr = trace_and_shade(opt, scene, map, s_map, &st);
+  for (const auto& im : tr.radiance)
     for (float v : im.px) st.white_level = std::max(st.white_level, static_cast<double>(v));
   if (!(st.white_level > 0))
     throw Error("capture_sim: every pixel is black (no light reaches the visible sample)");
 
   // Integer images: the white level maps to 0.8 so noise has headroom; float keeps exposure 1.
-  const double exposure = opt.sensor.bits ? 0.8 / st.white_level : 1.0;
-  const double white = exposure * st.white_level;
-  const double sat_level = opt.sensor.saturation * white;
-
-  CaptureSet set;
-  set.camera = opt.camera;
-  set.ambient = opt.ambient;
-  if (opt.sensor.encoding == "srgb") set.color.encoding = ColorSpec::Encoding::kSrgb;
-  if (std::isfinite(sat_level)) {
-    // Stored values at or above this are clipped by the sensor and must not be used.
-    set.color.saturation = opt.sensor.encoding == "srgb" ? srgb_encode(sat_level) : sat_level;
-    set.color.saturation_given = true;
-  }
-  set.truth = "truth.json";
+  SensorLevels lv;
+  lv.exposure = opt.sensor.bits ? 0.8 / st.white_level : 1.0;
+  lv.white = lv.exposure * st.white_level;
+  lv.saturation = opt.sensor.saturation * lv.white;
+  CaptureSet set = set_header(opt, lv.saturation);
+  const bool with_topology = opt.mathematical_topology != MathTopology::kNone;
 
   const auto t_write = std::chrono::steady_clock::now();
   write_folder_atomically(out_dir, [&](const std::string& dir) {
@@ -282,27 +382,8 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       write_png(join_path(dir, set.topology_map), map.h, 16);
     }
     if (!s_map.empty()) write_png(join_path(dir, "maps/topology_s.png"), s_map, 16);
-    auto geometry_files = [&](const GBuffer& g, const Image& smath, const std::string& stem) {
-      GeometrySpec gs;
-      gs.position = "geometry/" + stem + "_P.exr";
-      gs.normal = "geometry/" + stem + "_N.exr";
-      gs.tangent = "geometry/" + stem + "_U.exr";
-      gs.uv = "geometry/" + stem + "_uv.exr";
-      gs.mask = "geometry/" + stem + "_mask.png";
-      write_exr(join_path(dir, gs.position), g.P);
-      write_exr(join_path(dir, gs.normal), g.N);
-      write_exr(join_path(dir, gs.tangent), g.U);
-      write_exr(join_path(dir, gs.uv), g.uv);
-      Image m(g.P.width, g.P.height, 1);
-      for (size_t p = 0; p < g.hit.size(); ++p) m.px[p] = g.hit[p] ? 1.f : 0.f;
-      write_png(join_path(dir, gs.mask), m, 8);
-      if (opt.mathematical_topology != MathTopology::kNone) {
-        gs.topology = "geometry/" + stem + "_topology.exr";
-        write_exr(join_path(dir, gs.topology), smath);
-      }
-      return gs;
-    };
-    if (fixed_camera) set.geometry = geometry_files(gbuffers[0], smaths[0], "all");
+    if (tr.fixed_camera)
+      set.geometry = write_geometry(dir, tr.g[0], tr.smath[0], "all", with_topology);
     Progress bar("capture_sim: writing", opt.rig.size(), opt.progress);
     // Views are written in parallel; each has its own seeded generator, so the set is the same.
     set.views.resize(opt.rig.size());
@@ -312,31 +393,11 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       ViewSpec v;
       v.world_from_camera = opt.rig[i].world_from_camera;
       v.lights = opt.rig[i].lights;
-      v.exposure = exposure;
+      v.exposure = lv.exposure;
       v.camera = opt.camera;
-      if (!fixed_camera) v.geometry = geometry_files(gbuffers[i], smaths[i], stem);
-      // One generator per view, seeded from (seed, view): the same set whatever the threading.
-      std::seed_seq seq{static_cast<uint32_t>(opt.seed), static_cast<uint32_t>(opt.seed >> 32),
-                        static_cast<uint32_t>(i)};
-      std::mt19937_64 rng(seq);
-      std::normal_distribution<double> gauss(0.0, 1.0);
-      Image img = radiance[i];
-      for (float& px : img.px) {
-        double val = exposure * px;
-        if (opt.sensor.shot_photons > 0) {
-          std::poisson_distribution<long long> pois(
-              std::max(val / white * opt.sensor.shot_photons, 0.0));
-          val = static_cast<double>(pois(rng)) * white / opt.sensor.shot_photons;
-        }
-        if (opt.sensor.read_noise > 0) val += opt.sensor.read_noise * white * gauss(rng);
-        if (val > sat_level) val = sat_level;
-        if (opt.sensor.bits) {
-          val = opt.sensor.encoding == "srgb" ? srgb_encode(val) : std::clamp(val, 0.0, 1.0);
-          const double q = opt.sensor.bits == 8 ? 255.0 : 65535.0;
-          val = std::round(val * q) / q;
-        }
-        px = static_cast<float>(val);
-      }
+      if (!tr.fixed_camera)
+        v.geometry = write_geometry(dir, tr.g[i], tr.smath[i], stem, with_topology);
+      const Image img = sensor_image(opt, tr.radiance[i], lv, i);
       v.image = std::string("images/") + stem + (opt.sensor.bits ? ".png" : ".exr");
       if (opt.sensor.bits)
         write_png(join_path(dir, v.image), img, opt.sensor.bits);
@@ -351,30 +412,11 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     if (!s_map.empty()) truth_m.topology = SMapRef{"maps/topology_s.png"};
     material_to_json(truth_m, &truth);
     write_json_file(join_path(dir, "truth.json"), truth);
-    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    jsonu::json gen = {{"tool", "aniso capture_sim"},
-                       {"preset", opt.preset},
-                       {"shape", opt.shape},
-                       {"fiber_field", opt.fiber_field},
-                       {"seed", opt.seed},
-                       {"read_noise", opt.sensor.read_noise},
-                       {"shot_photons", opt.sensor.shot_photons},
-                       {"bits", opt.sensor.bits},
-                       {"white_level", white},
-                       {"mathematical_topology", math_topology_name(opt.mathematical_topology)},
-                       {"counters",
-                        {{"primary_rays", st.primary_rays},
-                         {"shadow_rays", st.shadow_rays},
-                         {"shaded_pixels", st.shaded_pixels},
-                         {"light_evaluations", st.light_evals},
-                         {"lights_culled", st.lights_culled},
-                         {"geometry_traced_once", fixed_camera}}}};
-    set.provenance = gen.dump();
+    set.provenance = provenance(opt, st, lv.white, tr.fixed_camera);
     write_capture_json(set, join_path(dir, "capture.json"));
   });
-  st.seconds_write =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_write).count();
-  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  st.seconds_write = seconds_since(t_write);
+  st.seconds = seconds_since(t0);
   return st;
 }
 

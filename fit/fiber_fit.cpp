@@ -129,8 +129,8 @@ class FiberFit : public ModelFit {
               for (uint32_t k = 0; k < o.num_lights; ++k) {
                 const ObsLight& l = os.lights[o.first_light + k];
                 double D, S;
-                fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n,
-                         s, acc_, &D, &S);
+                fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n, s,
+                         acc_, &D, &S);
                 for (int ch = 0; ch < 3; ++ch) {
                   dcol[ch] += l.E[ch] * D;
                   scol[ch] += l.E[ch] * S;
@@ -171,8 +171,8 @@ class FiberFit : public ModelFit {
         if (pb->HasParameterBlock(&t)) set_param_bounds(pb, &t, 0, "topology.s");
     } else {
       for (size_t i : idx)
-        pb->AddResidualBlock(FiberResidual::Create(&os.obs[i], os.lights.data(), mode_, acc_),
-                             loss, core.kd, core.ks, &core.logn, &core.psi, topo_);
+        pb->AddResidualBlock(FiberResidual::Create(&os.obs[i], os.lights.data(), mode_, acc_), loss,
+                             core.kd, core.ks, &core.logn, &core.psi, topo_);
       if (fitted_topology())
         set_param_bounds(pb, topo_, 0, topology_key());
       else
@@ -187,7 +187,8 @@ class FiberFit : public ModelFit {
       for (double& t : texels_)
         if (pb->HasParameterBlock(&t)) b.push_back({&t, 1, {}});
     } else if (fitted_topology()) {
-      b.push_back({topo_, 1, {mode_ == TopologyMode::kGlobalS ? "topology.s" : "topology.amplitude"}});
+      b.push_back(
+          {topo_, 1, {mode_ == TopologyMode::kGlobalS ? "topology.s" : "topology.amplitude"}});
     }
     return b;
   }

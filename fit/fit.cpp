@@ -85,8 +85,8 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
                       const RGB& ka) {
   quiet_library_logs();
   if (opt.model != FitModel::kAuto)
-    return fit_one_model(opt.model == FitModel::kFiber ? Model::kFiber : Model::kLine, os, opt,
-                         rep, ka);
+    return fit_one_model(opt.model == FitModel::kFiber ? Model::kFiber : Model::kLine, os, opt, rep,
+                         ka);
   const bool tty = opt.progress && ::isatty(2);
   if (tty) std::fprintf(stderr, "fit: --model auto: 1/2 the line model\n");
   FitResult rl = fit_one_model(Model::kLine, os, opt, rep, ka);

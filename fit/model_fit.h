@@ -57,9 +57,7 @@ class ModelFit {
     return false;
   }
   // The unweighted residual of observation i at the current parameters (for the weights).
-  virtual void residual(const ObsSet&, size_t, double r[3]) const {
-    r[0] = r[1] = r[2] = 0;
-  }
+  virtual void residual(const ObsSet&, size_t, double r[3]) const { r[0] = r[1] = r[2] = 0; }
   // Coordinates the data cannot fix at this solution: held constant in pb, named in res.
   virtual void hold_undetermined(ceres::Problem*, double /*kd_max*/, FitResult*) {}
   // The model's own blocks for the covariance, and whether the full correlation is wanted (not

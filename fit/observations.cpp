@@ -147,8 +147,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   size_t grey_views = 0;
   std::vector<double> neighbour_diffs;
   for (size_t i = 0; i < set.views.size(); ++i) {
-    const ViewData d =
-        load_view(set, i, os.topology == TopologyMode::kAmplitude ? &map : nullptr);
+    const ViewData d = load_view(set, i, os.topology == TopologyMode::kAmplitude ? &map : nullptr);
     grey_views += d.channels == 1;
     add_neighbour_differences(d, &neighbour_diffs);
     rep.masked_out += static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;

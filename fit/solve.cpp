@@ -179,7 +179,8 @@ void summarize(const ObsSet& os, size_t nparam, Solution* sol, FitReport* rep) {
   rep->rms = std::sqrt(rss / (os.grey ? 3 * m : m));
   rep->rss = rss / (os.grey ? 3 : 1);
   rep->parameters = nparam;
-  rep->bic = m * std::log(std::max(rep->rss, 1e-300) / m) + static_cast<double>(nparam) * std::log(m);
+  rep->bic =
+      m * std::log(std::max(rep->rss, 1e-300) / m) + static_cast<double>(nparam) * std::log(m);
   rep->pixel_noise = os.pixel_noise;
   if (auto w = misfit_warning(os, *rep); !w.empty()) rep->warnings.push_back(w);
 }
@@ -224,7 +225,9 @@ Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* 
   constexpr double kLossScaleFloor = 1e-6;
   rep->loss_scale = std::max(3.0 * rep->noise_sigma, kLossScaleFloor);
   std::unique_ptr<ceres::LossFunction> loss(make_loss(opt.loss, rep->loss_scale));
-  rep->loss = loss ? std::string(fit_loss_name(opt.loss)) + "(" + std::to_string(rep->loss_scale) + ")" : "none";
+  rep->loss =
+      loss ? std::string(fit_loss_name(opt.loss)) + "(" + std::to_string(rep->loss_scale) + ")"
+           : "none";
   if (!solve_reweighted(m, os, opt, loss.get(), &sol)) {
     sol = Solution{};
     std::vector<size_t> all(os.obs.size());

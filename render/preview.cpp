@@ -54,10 +54,22 @@ void ortho_view_proj(const Vec3& V, const Vec3& c, double radius, double aspect,
   right = normalize(right);
   const Vec3 up = cross(V, right);
   const double ext = 1.1 * radius, ex = ext * aspect;
-  const double m[16] = {right.x / ex, right.y / ex, right.z / ex, -dot(right, c) / ex,
-                        up.x / ext,   up.y / ext,   up.z / ext,   -dot(up, c) / ext,
-                        -V.x / (2 * ext), -V.y / (2 * ext), -V.z / (2 * ext), dot(V, c) / (2 * ext),
-                        0, 0, 0, 1};
+  const double m[16] = {right.x / ex,
+                        right.y / ex,
+                        right.z / ex,
+                        -dot(right, c) / ex,
+                        up.x / ext,
+                        up.y / ext,
+                        up.z / ext,
+                        -dot(up, c) / ext,
+                        -V.x / (2 * ext),
+                        -V.y / (2 * ext),
+                        -V.z / (2 * ext),
+                        dot(V, c) / (2 * ext),
+                        0,
+                        0,
+                        0,
+                        1};
   for (int i = 0; i < 16; ++i) out[i] = float(m[i]);
 }
 
@@ -66,9 +78,9 @@ void ortho_view_proj(const Vec3& V, const Vec3& c, double radius, double aspect,
 void texture_matrix(const Vec3& L, const Vec3& V, const BakeTables& t, float out[16]) {
   const bool angle = t.index == BakeIndex::kAngle;
   const double k = angle ? 1.0 : (t.size - 1.0) / t.size, o = angle ? 0.0 : 0.5 / t.size;
-  const double m[16] = {k * L.x / 2, k * L.y / 2, k * L.z / 2, k / 2 + o,
-                        k * V.x / 2, k * V.y / 2, k * V.z / 2, k / 2 + o,
-                        0, 0, 0, 0, 0, 0, 0, 1};
+  const double m[16] = {k * L.x / 2, k * L.y / 2, k * L.z / 2, k / 2 + o, k * V.x / 2, k * V.y / 2,
+                        k * V.z / 2, k / 2 + o,   0,           0,         0,           0,
+                        0,           0,           0,           1};
   for (int i = 0; i < 16; ++i) out[i] = float(m[i]);
 }
 
@@ -102,8 +114,7 @@ void make_lookups(const Material& m, const PreviewOptions& opt, bool fiber, bool
 
 // The fiber pass's own uniforms: its tables and the shader's copy of s_at (models/topology.h),
 // one branch per topology source.
-void set_fiber_uniforms(const gl::Program& p, const Material& m, const Lookups& lk,
-                        const Vec3& V) {
+void set_fiber_uniforms(const gl::Program& p, const Material& m, const Lookups& lk, const Vec3& V) {
   lk.G.bind(2);
   lk.F.bind(3);
   if (!lk.map.empty()) lk.map.bind(4);
@@ -114,10 +125,10 @@ void set_fiber_uniforms(const gl::Program& p, const Material& m, const Lookups& 
   p.set("uNs", lk.fb.ns);
   p.set("uNk", lk.fb.nk);
   const auto* map_ref = m.topology_as<TopologyMapRef>();
-  const int topo = m.topology_as<SMapRef>()          ? 3
-                   : map_ref                         ? 2
+  const int topo = m.topology_as<SMapRef>()         ? 3
+                   : map_ref                        ? 2
                    : m.topology_as<MathematicalS>() ? 1
-                                                     : 0;
+                                                    : 0;
   p.set("uTopo", topo);
   p.set("uS0", float(m.uniform_s()));
   p.set("uAmp", float(map_ref ? map_ref->amplitude : 0.0));
@@ -224,8 +235,7 @@ void check_preview_request(const Material& m, const PreviewOptions& opt, bool fi
   if (const auto* r = m.topology_as<SMapRef>(); r && opt.s_map.empty())
     throw Error("preview: the material uses a map of s (" + r->file + ") but none was loaded");
   if (const auto* r = m.topology_as<TopologyMapRef>(); r && opt.topology_map.empty())
-    throw Error("preview: the material uses a topology map (" + r->file +
-                ") but none was loaded");
+    throw Error("preview: the material uses a topology map (" + r->file + ") but none was loaded");
 }
 
 }  // namespace
@@ -260,8 +270,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   Passes ps;
   ps.fiber = fiber;
   if (paper)
-    ps.aniso = std::make_unique<gl::Program>(shaders::vertex_paper_vert,
-                                             shaders::aniso_paper_frag, "aniso_paper.frag");
+    ps.aniso = std::make_unique<gl::Program>(shaders::vertex_paper_vert, shaders::aniso_paper_frag,
+                                             "aniso_paper.frag");
   else
     ps.aniso = std::make_unique<gl::Program>(
         shaders::vertex_vert,
