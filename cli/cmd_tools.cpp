@@ -28,7 +28,7 @@ Command add_microgeometry(CLI::App& app) {
       ->check(CLI::Range(100, 100000000));
   micro->add_option("--n", a->n, "specular exponent")
       ->capture_default_str()
-      ->check(CLI::Range(1.0, 1e4));
+      ->check(CLI::Range(line_param("n").lo, line_param("n").hi));
   micro->add_option("--seed", a->seed, "seed of the ray jitter")->capture_default_str();
   return {micro, [a] {
             const MicroSweepSummary m = micro_sweep(a->out, a->n, a->rays, a->seed, true);
