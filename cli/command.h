@@ -24,6 +24,7 @@ Command add_synth(CLI::App& app);
 Command add_fit(CLI::App& app);
 Command add_eval(CLI::App& app);
 Command add_bake(CLI::App& app);
+Command add_export(CLI::App& app);
 Command add_preview(CLI::App& app);
 Command add_verify(CLI::App& app);
 Command add_microgeometry(CLI::App& app);

@@ -60,9 +60,10 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "aniso 0.1");
   const std::vector<cli::Command> commands = {
-      cli::add_demo(app),  cli::add_synth(app),   cli::add_fit(app),    cli::add_eval(app),
-      cli::add_bake(app),  cli::add_preview(app), cli::add_verify(app), cli::add_microgeometry(app),
-      cli::add_bench(app), cli::add_params(app)};
+      cli::add_demo(app),    cli::add_synth(app),  cli::add_fit(app),
+      cli::add_eval(app),    cli::add_bake(app),   cli::add_export(app),
+      cli::add_preview(app), cli::add_verify(app), cli::add_microgeometry(app),
+      cli::add_bench(app),   cli::add_params(app)};
 
   if (argc > 1 && argv[1][0] != '-') {
     std::vector<std::string> names;

@@ -22,8 +22,15 @@ for p in "${PKGS[@]}"; do
 done
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install_deps: all ${#PKGS[@]} packages present"
-  exit 0
+else
+  echo "install_deps: installing ${#missing[@]} packages: ${missing[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
-echo "install_deps: installing ${#missing[@]} packages: ${missing[*]}"
-$SUDO apt-get update -qq
-DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+# The independent readers the export is checked with (web/package-lock.json pins them): npm's
+# registry, once; nothing is fetched at build time.
+cd "$(dirname "$0")/.."
+if ! cmp -s web/package-lock.json web/node_modules/.aniso-installed 2>/dev/null; then
+  echo "install_deps: npm ci in web/ (ktx-parse, gltf-validator, three)"
+  (cd web && npm ci --no-audit --no-fund --loglevel=error && cp package-lock.json node_modules/.aniso-installed)
+fi

@@ -1,0 +1,369 @@
+#include "render/export.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+
+#include "core/angles.h"
+#include "core/error.h"
+#include "geometry/mesh.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/json_util.h"
+#include "io/ktx2.h"
+#include "io/material_io.h"
+#include "render/shaders_embedded.h"
+
+namespace aniso {
+
+using jsonu::json;
+
+namespace {
+
+KtxTexture ktx_of(const Image& img, KtxFormat f, const std::string& meaning) {
+  KtxTexture t;
+  t.format = f;
+  t.width = img.width;
+  t.height = img.height;
+  const int c = ktx_channels(f);
+  t.texels.resize(static_cast<size_t>(img.width) * img.height * c);
+  for (size_t p = 0; p < static_cast<size_t>(img.width) * img.height; ++p)
+    for (int k = 0; k < c; ++k)
+      t.texels[p * c + k] = k < img.channels ? img.px[p * img.channels + k] : 1.f;  // alpha 1
+  t.metadata["aniso.meaning"] = meaning;
+  return t;
+}
+
+KtxTexture ktx_array(const std::vector<float>& v, int w, int h, int layers,
+                     const std::string& meaning) {
+  KtxTexture t;
+  t.format = KtxFormat::kR32Float;
+  t.width = w;
+  t.height = h;
+  t.layers = layers;
+  t.texels = v;
+  t.metadata["aniso.meaning"] = meaning;
+  return t;
+}
+
+// The line tables (and the fiber factor tables) as KTX2 and EXR; the entries of export.json.
+json write_tables(const std::string& dir, const Material& m, const ExportOptions& o,
+                  ExportSummary* sum) {
+  sum->line = bake_line(m, o.size, BakeIndex::kAngle);
+  const BakeTables& t = sum->line;
+  json tables = json::object();
+  auto emit = [&](const std::string& stem, const Image& img, KtxFormat f, const char* meaning) {
+    write_ktx2(join_path(dir, "tables/" + stem + ".ktx2"), ktx_of(img, f, meaning));
+    write_exr(join_path(dir, "tables/" + stem + ".exr"), img);
+    tables[stem] = {{"ktx2", "tables/" + stem + ".ktx2"},
+                    {"exr", "tables/" + stem + ".exr"},
+                    {"vk_format", ktx_format_name(f)},
+                    {"size", {img.width, img.height}},
+                    {"meaning", meaning}};
+    sum->files.push_back("tables/" + stem + ".ktx2");
+    sum->files.push_back("tables/" + stem + ".exr");
+  };
+  emit("diffuse", t.diffuse, KtxFormat::kR32Float, "D(a, b) of the line model (grey)");
+  emit("specular", t.specular, KtxFormat::kR32Float, "S(a, b; n) of the line model (grey)");
+  emit("combined", t.combined, KtxFormat::kRGBA16Float,
+       "k_d D + k_s S in RGB, alpha 1 (colours baked in)");
+  if (!m.fiber()) return tables;
+  sum->fiber = true;
+  sum->fiber_tables = bake_fiber(m, t);
+  const FiberBakeTables& fb = sum->fiber_tables;
+  write_ktx2(join_path(dir, "tables/fiber_G.ktx2"),
+             ktx_array(fb.G, fb.nphi, fb.nphi, fb.ns, "fiber factor G(phi_l, phi_v; s)"));
+  write_ktx2(
+      join_path(dir, "tables/fiber_F.ktx2"),
+      ktx_array(fb.F, fb.nphi, fb.nphi, fb.ns * fb.nk, "fiber factor F(phi_l, phi_v; s, k)"));
+  tables["fiber_G"] = {{"ktx2", "tables/fiber_G.ktx2"},
+                       {"vk_format", "VK_FORMAT_R32_SFLOAT"},
+                       {"size", {fb.nphi, fb.nphi}},
+                       {"layers", fb.ns},
+                       {"layer", "is: s = is / (ns - 1)"}};
+  tables["fiber_F"] = {
+      {"ktx2", "tables/fiber_F.ktx2"},
+      {"vk_format", "VK_FORMAT_R32_SFLOAT"},
+      {"size", {fb.nphi, fb.nphi}},
+      {"layers", fb.ns * fb.nk},
+      {"layer", "is * nk + k: s = is / (ns - 1), k = kappa / (1 + kappa) at k / (nk - 1)"}};
+  sum->files.push_back("tables/fiber_G.ktx2");
+  sum->files.push_back("tables/fiber_F.ktx2");
+  return tables;
+}
+
+// The material's maps: the original file copied, and its first channel as R32 KTX2.
+json write_maps(const std::string& dir, const Material& m, ExportSummary* sum) {
+  json maps = json::object();
+  auto carry = [&](const std::string& rel, const char* key, const char* meaning) {
+    const std::string src = join_path(m.base_dir, rel);
+    const std::string name = std::filesystem::path(src).filename().string();
+    const std::string stem = std::filesystem::path(src).stem().string();
+    write_text_file(join_path(dir, "tables/maps/" + name), read_text_file(src));
+    Image img = read_image(src).image;
+    Image first(img.width, img.height, 1);
+    for (size_t p = 0; p < first.px.size(); ++p) first.px[p] = img.px[p * img.channels];
+    write_ktx2(join_path(dir, "tables/maps/" + stem + ".ktx2"),
+               ktx_of(first, KtxFormat::kR32Float, meaning));
+    maps[key] = {{"original", "tables/maps/" + name},
+                 {"ktx2", "tables/maps/" + stem + ".ktx2"},
+                 {"meaning", meaning}};
+    sum->files.push_back("tables/maps/" + name);
+    sum->files.push_back("tables/maps/" + stem + ".ktx2");
+  };
+  if (const auto* r = m.topology_as<TopologyMapRef>())
+    carry(r->file, "topology.map", "topology map h in [0, 1] over uv (m = 2h - 1, MODELS.md §4)");
+  if (const auto* r = m.topology_as<SMapRef>())
+    carry(r->file, "topology.s_map", "the topology s per texel over uv");
+  return maps;
+}
+
+// The sample object: a sphere with unit normals and tangents (xyz unit and orthogonal to the
+// normal, w = +1: bitangent = normal x tangent), uv and indices, packed for one .bin.
+struct SphereBuffers {
+  std::vector<uint8_t> bin;
+  size_t vertices = 0, indices = 0;
+  size_t off_p = 0, off_n = 0, off_t = 0, off_uv = 0, off_i = 0;
+  float pmin[3] = {1e30f, 1e30f, 1e30f}, pmax[3] = {-1e30f, -1e30f, -1e30f};
+};
+
+SphereBuffers sphere_buffers() {
+  const TriMesh mesh = make_shape("sphere");
+  SphereBuffers b;
+  b.vertices = mesh.P.size();
+  b.indices = mesh.tri.size() * 3;
+  std::vector<float> p, n, t, uv;
+  for (size_t i = 0; i < mesh.P.size(); ++i) {
+    const Vec3 N = normalize(mesh.N[i]);
+    Vec3 T = mesh.U[i] - N * dot(N, mesh.U[i]);
+    if (length(T) < 1e-9) T = cross(std::abs(N.z) < 0.9 ? Vec3(0, 0, 1) : Vec3(1, 0, 0), N);
+    T = normalize(T);
+    const Vec3& P = mesh.P[i];
+    const float pf[3] = {float(P.x), float(P.y), float(P.z)};
+    for (int k = 0; k < 3; ++k) {
+      p.push_back(pf[k]);
+      b.pmin[k] = std::min(b.pmin[k], pf[k]);
+      b.pmax[k] = std::max(b.pmax[k], pf[k]);
+    }
+    n.insert(n.end(), {float(N.x), float(N.y), float(N.z)});
+    t.insert(t.end(), {float(T.x), float(T.y), float(T.z), 1.f});
+    uv.insert(uv.end(), {mesh.uv[i][0], mesh.uv[i][1]});
+  }
+  auto append = [&](const void* data, size_t bytes) {
+    const size_t at = b.bin.size();
+    b.bin.resize(at + bytes);
+    std::memcpy(b.bin.data() + at, data, bytes);
+    while (b.bin.size() % 4) b.bin.push_back(0);
+    return at;
+  };
+  b.off_p = append(p.data(), p.size() * 4);
+  b.off_n = append(n.data(), n.size() * 4);
+  b.off_t = append(t.data(), t.size() * 4);
+  b.off_uv = append(uv.data(), uv.size() * 4);
+  std::vector<uint32_t> idx;
+  for (const auto& tri : mesh.tri) idx.insert(idx.end(), tri.begin(), tri.end());
+  b.off_i = append(idx.data(), idx.size() * 4);
+  return b;
+}
+
+json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b,
+                   const json& tables) {
+  constexpr int kFloat = 5126, kUint = 5125, kArray = 34962, kElements = 34963;
+  const size_t nv = b.vertices;
+  json views = json::array(), accessors = json::array();
+  auto add = [&](size_t offset, size_t bytes, int target, int type, size_t count,
+                 const char* shape) {
+    views.push_back(
+        {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", bytes}, {"target", target}});
+    accessors.push_back({{"bufferView", views.size() - 1},
+                         {"componentType", type},
+                         {"count", count},
+                         {"type", shape}});
+    return accessors.size() - 1;
+  };
+  const size_t ap = add(b.off_p, nv * 12, kArray, kFloat, nv, "VEC3");
+  accessors[ap]["min"] = {b.pmin[0], b.pmin[1], b.pmin[2]};
+  accessors[ap]["max"] = {b.pmax[0], b.pmax[1], b.pmax[2]};
+  const size_t an = add(b.off_n, nv * 12, kArray, kFloat, nv, "VEC3");
+  const size_t at = add(b.off_t, nv * 16, kArray, kFloat, nv, "VEC4");
+  const size_t auv = add(b.off_uv, nv * 8, kArray, kFloat, nv, "VEC2");
+  const size_t ai = add(b.off_i, b.indices * 4, kElements, kUint, b.indices, "SCALAR");
+  json material_json;
+  material_to_json(m, &material_json);
+  json mat = {
+      {"name", "aniso"},
+      {"pbrMetallicRoughness",
+       {{"baseColorFactor", {pbr.base_color[0], pbr.base_color[1], pbr.base_color[2], 1.0}},
+        {"metallicFactor", pbr.metallic},
+        {"roughnessFactor", pbr.roughness}}},
+      {"extensions",
+       {{"KHR_materials_anisotropy",
+         {{"anisotropyStrength", pbr.strength}, {"anisotropyRotation", pbr.rotation_rad}}}}},
+      {"extras",
+       {{"aniso",
+         {{"model", model_name(m.model)},
+          {"material", material_json},
+          {"tables", tables},
+          {"fit",
+           {{"lobe_relative_rms", pbr.lobe_rel_rms},
+            {"whole_model_relative_rms", pbr.total_rel_rms},
+            {"mapping", pbr.mapping}}}}}}}};
+  return {{"asset", {{"version", "2.0"}, {"generator", "aniso export"}}},
+          {"extensionsUsed", {"KHR_materials_anisotropy"}},
+          {"scene", 0},
+          {"scenes", {{{"nodes", {0}}}}},
+          {"nodes", {{{"mesh", 0}, {"name", "aniso sample"}}}},
+          {"meshes",
+           {{{"name", "sphere"},
+             {"primitives",
+              {{{"attributes",
+                 {{"POSITION", ap}, {"NORMAL", an}, {"TANGENT", at}, {"TEXCOORD_0", auv}}},
+                {"indices", ai},
+                {"material", 0}}}}}}},
+          {"materials", {mat}},
+          {"buffers", {{{"uri", "sample.bin"}, {"byteLength", b.bin.size()}}}},
+          {"bufferViews", views},
+          {"accessors", accessors}};
+}
+
+}  // namespace
+
+ExportShaders export_shaders(int texels) {
+  char def[64];
+  std::snprintf(def, sizeof def, "#define ANISO_TEXELS %d.0\n", texels);
+  ExportShaders s;
+  s.glsl_lookup = std::string(def) + shaders::aniso_lookup_glsl;
+  s.glsl_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + shaders::aniso_main_frag;
+  s.hlsl_lookup = std::string(def) + shaders::aniso_lookup_hlsli;
+  s.hlsl_pixel = s.hlsl_lookup + "\n" + shaders::aniso_main_hlsl;
+  return s;
+}
+
+namespace {
+
+json conventions(const ExportSummary& s) {
+  return {
+      {"values",
+       "linear radiance factors, not sRGB; KTX2 and EXR hold the same numbers (the "
+       "combined table as half float in KTX2)"},
+      {"line_tables",
+       "x (s) = a = <L,T>, y (t) = b = <V,T>; texel i at the angle acos(-c) = pi i / (N - 1), so "
+       "coordinate = (acos(-c) / pi (N - 1) + 0.5) / N; texel centres on c = -1 and c = 1"},
+      {"row_order",
+       "the first stored row is t = 0 (KTXorientation rd): b = -1; upload as is in "
+       "OpenGL/WebGL/Vulkan/D3D (no flip; Unity's importer flips PNG, not KTX2)"},
+      {"filtering", "bilinear, clamp to edge, no mipmaps"},
+      {"tangent",
+       "T is the mesh tangent (glTF TANGENT, bitangent = normal x tangent * w) turned "
+       "by the fiber angle psi about the normal toward the bitangent"},
+      {"shading", "radiance = E (k_d D + k_s S) <N,L>^+ per light; <N,L> is not baked"},
+      {"not_baked",
+       s.fiber ? "the isotropic and second-fiber terms (fiber model has none); the fiber factor "
+                 "tables multiply D and S (see tables.fiber_*)"
+               : "the isotropic term and the second fiber (evaluate them in the shader if the "
+                 "material has them)"}};
+}
+
+json measured_errors(const ExportSummary& s) {
+  json e = {{"line_tables",
+             {{"against", "direct evaluation of k_d D + k_s S (bilinear lookup)"},
+              {"max_abs", s.line.max_abs_error},
+              {"rms", s.line.rms_error},
+              {"peak_value", s.line.peak_value},
+              {"samples", s.line.samples},
+              {"seed", s.line.seed}}},
+            {"gltf",
+             {{"lobe_relative_rms", s.pbr.lobe_rel_rms},
+              {"whole_model_relative_rms", s.pbr.total_rel_rms},
+              {"other_mapping_relative_rms", s.pbr.other_rel_rms},
+              {"direction_pairs", s.pbr.samples},
+              {"mapping", s.pbr.mapping}}}};
+  if (s.fiber)
+    e["fiber_tables"] = {{"against", "the full fiber model, random L, V, s"},
+                         {"max_abs", s.fiber_tables.max_abs_error},
+                         {"p99", s.fiber_tables.p99_error},
+                         {"rms", s.fiber_tables.rms_error},
+                         {"samples", s.fiber_tables.samples}};
+  return e;
+}
+
+// An export goes only where nothing but an earlier export is (beyond the general output rules).
+void check_export_folder(const std::string& dir) {
+  namespace fs = std::filesystem;
+  check_output_folder(dir);
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec) || fs::is_empty(dir, ec)) return;
+  if (!fs::exists(fs::path(dir) / "export.json") && !force_overwrite())
+    throw Error(dir +
+                ": not empty and not an earlier aniso export (no export.json): choose a new "
+                "folder");
+}
+
+}  // namespace
+
+ExportSummary export_material(const Material& m, const std::string& dir, const ExportOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (o.size < 2 || o.size > 8192) throw Error("export: --size must be between 2 and 8192");
+  check_export_folder(dir);
+  ExportSummary sum;
+  sum.pbr = fit_gltf_pbr(m);
+  write_folder_atomically(dir, [&](const std::string& tmp) {
+    json tables = write_tables(tmp, m, o, &sum);
+    const json maps = write_maps(tmp, m, &sum);
+    const ExportShaders sh = export_shaders(o.size);
+    write_text_file(join_path(tmp, "shaders/aniso_lookup.glsl"), sh.glsl_lookup);
+    write_text_file(join_path(tmp, "shaders/aniso.frag"), sh.glsl_fragment);
+    write_text_file(join_path(tmp, "shaders/aniso_lookup.hlsli"), sh.hlsl_lookup);
+    write_text_file(join_path(tmp, "shaders/aniso_ps.hlsl"), sh.hlsl_pixel);
+    for (const char* f : {"shaders/aniso_lookup.glsl", "shaders/aniso.frag",
+                          "shaders/aniso_lookup.hlsli", "shaders/aniso_ps.hlsl"})
+      sum.files.push_back(f);
+    const SphereBuffers sphere = sphere_buffers();
+    json gtables = json::object();
+    for (const auto& [k, v] : tables.items()) gtables[k] = "../" + v["ktx2"].get<std::string>();
+    const json doc = gltf_document(m, sum.pbr, sphere, gtables);
+    write_text_file(join_path(tmp, "gltf/sample.gltf"), doc.dump(2) + "\n");
+    write_text_file(join_path(tmp, "gltf/sample.bin"),
+                    std::string(sphere.bin.begin(), sphere.bin.end()));
+    sum.files.push_back("gltf/sample.gltf");
+    sum.files.push_back("gltf/sample.bin");
+    json material;
+    material_to_json(m, &material);
+    sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const json j = {{"format", "aniso-export"},
+                    {"version", 1},
+                    {"command", o.command},
+                    {"model", model_name(m.model)},
+                    {"material", material},
+                    {"tables", tables},
+                    {"maps", maps},
+                    {"shaders",
+                     {{"glsl", {"shaders/aniso_lookup.glsl", "shaders/aniso.frag"}},
+                      {"hlsl", {"shaders/aniso_lookup.hlsli", "shaders/aniso_ps.hlsl"}},
+                      {"checked_by",
+                       "glslangValidator (GLSL 330 and HLSL via -D), SPIR-V to MSL "
+                       "by spirv-cross, in the tests"},
+                      {"covers", sum.fiber ? "the line-model lookup (the fiber factor tables are "
+                                             "exported; their shader is not yet)"
+                                           : "the line-model lookup"}}},
+                    {"gltf",
+                     {{"file", "gltf/sample.gltf"},
+                      {"extension", "KHR_materials_anisotropy"},
+                      {"roughness", sum.pbr.roughness},
+                      {"anisotropy_strength", sum.pbr.strength},
+                      {"anisotropy_rotation_rad", sum.pbr.rotation_rad},
+                      {"direction",
+                       "anisotropy direction = psi + 90 deg (roughness grows "
+                       "across the fibers)"}}},
+                    {"conventions", conventions(sum)},
+                    {"errors", measured_errors(sum)},
+                    {"files", sum.files},
+                    {"seconds", sum.seconds}};
+    write_text_file(join_path(tmp, "export.json"), j.dump(2) + "\n");
+  });
+  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return sum;
+}
+
+}  // namespace aniso

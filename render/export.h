@@ -1,0 +1,46 @@
+// `aniso export`: what a game engine, a glTF viewer or a browser loads, in one folder.
+//   tables/   every lookup table the material needs as KTX2 (float, one level, no
+//             supercompression; fiber factor tables as 2D arrays, no side over 8192) and EXR;
+//             the material's maps as KTX2 beside copies of the originals
+//   shaders/  the lookup as GLSL (function file + complete #version 330 fragment shader) and HLSL
+//             (function file + complete pixel shader), line model
+//   gltf/     a sphere with tangents carrying the material as glTF 2.0 metallic-roughness plus
+//             KHR_materials_anisotropy, fitted numerically (render/gltf_lobe.h); the exact model
+//             and the tables under extras
+//   export.json  what was written, the conventions an integrator needs and the measured errors
+#pragma once
+#include <string>
+#include <vector>
+
+#include "models/material.h"
+#include "render/bake.h"
+#include "render/gltf_lobe.h"
+
+namespace aniso {
+
+struct ExportOptions {
+  int size = 256;       // line tables N x N
+  std::string command;  // recorded in export.json
+};
+
+struct ExportSummary {
+  BakeTables line;  // sizes and measured errors (texels dropped)
+  bool fiber = false;
+  FiberBakeTables fiber_tables;
+  GltfPbr pbr;
+  std::vector<std::string> files;  // relative to the export folder
+  double seconds = 0;
+};
+
+// Writes the folder atomically (new, empty, or an earlier export; --force for other aniso
+// outputs is not enough: a folder holding anything but an export is refused).
+ExportSummary export_material(const Material& m, const std::string& dir, const ExportOptions& o);
+
+// The shader sources as exported (the function files with ANISO_TEXELS defined, and the complete
+// shaders that inline them), for the tests and for `aniso export`.
+struct ExportShaders {
+  std::string glsl_lookup, glsl_fragment, hlsl_lookup, hlsl_pixel;
+};
+ExportShaders export_shaders(int texels);
+
+}  // namespace aniso

@@ -1,0 +1,15 @@
+// A complete fragment shader: one directional light, the fiber direction per vertex.
+in vec3 vNormal;
+in vec3 vFiber;  // the mesh tangent rotated by the fiber angle about the normal
+uniform vec3 uLight;     // toward the light, same space as vNormal
+uniform vec3 uView;      // toward the viewer
+uniform vec3 uKd;
+uniform vec3 uKs;
+uniform vec3 uIrradiance;
+out vec4 fragColor;
+
+void main() {
+  vec3 N = normalize(vNormal);
+  fragColor = vec4(anisoRadiance(N, vFiber, normalize(uLight), normalize(uView), uKd, uKs,
+                                 uIrradiance), 1.0);
+}

@@ -1,0 +1,37 @@
+// The material as glTF 2.0 metallic-roughness plus KHR_materials_anisotropy, fitted numerically:
+// the anisotropic GGX lobe (Burley's D, height-correlated Smith visibility, as the extension
+// defines them) whose shape best matches the model's specular lobe k_s S <N,L> over a fixed grid
+// of light and view directions (least squares, scale solved in closed form), and the base colour
+// and metallic that best match the whole model. The remaining errors are measured, not assumed.
+//
+// Directions: glTF's anisotropy direction is the one along which roughness grows. A fiber
+// reflects like a cylinder: its highlight spreads across the fiber, so that direction is psi + 90
+// degrees, and the roughness along the fiber is the base roughness.
+#pragma once
+#include <string>
+
+#include "models/material.h"
+
+namespace aniso {
+
+struct GltfPbr {
+  double roughness = 1, strength = 0;  // roughnessFactor, anisotropyStrength
+  double rotation_rad = 0;             // anisotropyRotation: psi + 90 deg, in [0, pi)
+  double metallic = 1;
+  RGB base_color{1, 1, 1};
+  // Relative RMS errors over the direction grid: the GGX lobe's shape against k_s S <N,L>, and
+  // the whole glTF BRDF against the whole model (both with <N,L>).
+  double lobe_rel_rms = 0, total_rel_rms = 0;
+  double other_rel_rms = 0;  // the total error of the mapping not chosen (metal vs dielectric)
+  std::string mapping;       // what was chosen and why
+  size_t samples = 0;        // (L, V) pairs
+};
+
+GltfPbr fit_gltf_pbr(const Material& m);
+
+// The extension's lobe (D * Vis * <N,L>, F = 1) for unit vectors in the frame (u along the
+// fiber, w across it, n the normal), alpha_t across the fiber and alpha_b along it.
+double ggx_aniso_lobe(double lu, double lw, double ln, double vu, double vw, double vn,
+                      double alpha_t, double alpha_b);
+
+}  // namespace aniso

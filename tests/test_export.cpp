@@ -1,0 +1,211 @@
+// `aniso export` (issue 10): KTX2 read back by an independent reader (npm ktx-parse), shaders
+// compiled by Khronos' glslangValidator and translated by spirv-cross, the glTF checked by the
+// Khronos glTF-Validator, and the folder rules.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/angles.h"
+#include "core/error.h"
+#include "io/files.h"
+#include "io/ktx2.h"
+#include "io/material_io.h"
+#include "render/bake.h"
+#include "render/export.h"
+#include "test_util.h"
+
+namespace aniso {
+namespace {
+
+using test::run_command;
+using test::tmp_dir;
+
+std::string web_dir() { return std::string(ANISO_SOURCE_DIR) + "/web"; }
+
+// Runs a node script of web/ (its packages installed by scripts/install_deps.sh) and parses the
+// JSON it prints.
+nlohmann::json node_json(const std::string& script, const std::string& args, int* status) {
+  const auto r = run_command("cd '" + web_dir() + "' && node " + script + " " + args);
+  *status = r.status;
+  const auto j = nlohmann::json::parse(r.output, nullptr, false);
+  EXPECT_FALSE(j.is_discarded()) << r.output;
+  return j;
+}
+
+Material brushed() {
+  Material m;
+  m.kd = {0.20, 0.15, 0.10};
+  m.ks = {0.60, 0.60, 0.60};
+  m.n = 60;
+  m.fiber_angle_deg = 30;
+  return m;
+}
+
+TEST(KTX2, HalfFloatRoundsToNearestEven) {
+  EXPECT_EQ(float_to_half(1.0f), 0x3C00);
+  EXPECT_EQ(float_to_half(-2.0f), 0xC000);
+  EXPECT_EQ(float_to_half(65504.0f), 0x7BFF);
+  EXPECT_EQ(float_to_half(std::ldexp(1.0f, -24)), 0x0001);  // smallest subnormal
+  EXPECT_EQ(float_to_half(std::ldexp(1.0f, -25)), 0x0000);  // a tie: to even (zero)
+  EXPECT_EQ(float_to_half(std::ldexp(3.0f, -25)), 0x0002);  // 1.5 ulp: to even (2)
+  EXPECT_EQ(float_to_half(1.0f + std::ldexp(1.0f, -11)), 0x3C00);  // tie below: even
+  EXPECT_EQ(float_to_half(1.0f + 3 * std::ldexp(1.0f, -11)), 0x3C02);
+  for (float v : {0.1f, 0.5f, 3.14159f, 1000.f, 1e-5f, -7.25f})
+    EXPECT_NEAR(half_to_float(float_to_half(v)), v, std::abs(v) * std::ldexp(1.0, -11) + 6e-8);
+}
+
+TEST(KTX2, RefusesValuesThatAreNotFiniteOrDoNotFit) {
+  KtxTexture t;
+  t.width = 2;
+  t.height = 1;
+  t.texels = {1.f, NAN};
+  EXPECT_THROW(encode_ktx2(t), Error);
+  t.texels = {1.f};
+  EXPECT_THROW(encode_ktx2(t), Error);  // 1 value for 2 texels
+  t.format = KtxFormat::kRGBA16Float;
+  t.texels = {1.f, 1.f, 1.f, 1.f, 70000.f, 0.f, 0.f, 1.f};
+  EXPECT_THROW(encode_ktx2(t), Error);  // beyond half float
+}
+
+// Our own reader and ktx-parse read the same numbers back: R32 exactly, RGBA16F to half precision.
+TEST(Export, KtxTablesReadBackByAnIndependentReader) {
+  const std::string dir = tmp_dir("out") + "/export";
+  ExportOptions o;
+  o.size = 64;
+  const ExportSummary s = export_material(brushed(), dir, o);
+  const BakeTables t = bake_line(brushed(), 64, BakeIndex::kAngle);
+  const KtxTexture d = read_ktx2(dir + "/tables/diffuse.ktx2");
+  ASSERT_EQ(d.texels.size(), t.diffuse.px.size());
+  for (size_t i = 0; i < d.texels.size(); ++i) ASSERT_EQ(d.texels[i], t.diffuse.px[i]);
+  const KtxTexture c = read_ktx2(dir + "/tables/combined.ktx2");
+  for (size_t p = 0; p < t.combined.px.size() / 3; ++p)
+    for (int k = 0; k < 3; ++k)
+      ASSERT_NEAR(c.texels[4 * p + k], t.combined.px[3 * p + k],
+                  std::abs(t.combined.px[3 * p + k]) * 1e-3 + 1e-7);
+
+  int status = 0;
+  const auto j = node_json("check_ktx2.mjs",
+                           "'" + dir + "/tables/diffuse.ktx2' '" + dir + "/tables/combined.ktx2'",
+                           &status);
+  ASSERT_EQ(status, 0) << j.dump(2);
+  const auto& jd = j[dir + "/tables/diffuse.ktx2"];
+  EXPECT_EQ(jd["vkFormat"], 100);  // VK_FORMAT_R32_SFLOAT
+  EXPECT_EQ(jd["width"], 64);
+  EXPECT_EQ(jd["height"], 64);
+  EXPECT_EQ(jd["levels"], 1);
+  EXPECT_EQ(jd["supercompression"], 0);
+  EXPECT_EQ(jd["dfd"]["colorModel"], 1);        // RGBSDA
+  EXPECT_EQ(jd["dfd"]["transferFunction"], 1);  // linear
+  EXPECT_EQ(jd["dfd"]["bytesPlane0"], 4);
+  EXPECT_EQ(jd["dfd"]["samples"][0]["bitLength"], 31);
+  EXPECT_EQ(jd["dfd"]["samples"][0]["channelType"], 0xC0);  // red, float, signed
+  EXPECT_EQ(jd["keyValue"]["KTXorientation"], "rd");
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(jd["first"][i].get<double>(), t.diffuse.px[i]);
+  const auto& jc = j[dir + "/tables/combined.ktx2"];
+  EXPECT_EQ(jc["vkFormat"], 97);  // VK_FORMAT_R16G16B16A16_SFLOAT
+  EXPECT_EQ(jc["dfd"]["bytesPlane0"], 8);
+  EXPECT_EQ(jc["dfd"]["samples"].size(), 4u);
+  EXPECT_EQ(jc["dfd"]["samples"][3]["channelType"], 0xCF);  // alpha, float, signed
+  EXPECT_EQ(jc["levelBytes"], 64 * 64 * 8);
+  EXPECT_TRUE(jc["finite"].get<bool>());
+  EXPECT_GT(s.files.size(), 8u);
+}
+
+// A fiber material's factor tables go out as 2D arrays, no side over 8192 (a bake's stacked EXR
+// is 64 x 9216), and an independent reader sees the layers.
+TEST(Export, FiberTablesAreArrayTexturesWithinGpuLimits) {
+  Material m = brushed();
+  m.model = Model::kFiber;
+  m.topology = UniformS{0.4};
+  const std::string dir = tmp_dir("out") + "/export";
+  ExportOptions o;
+  o.size = 32;
+  const ExportSummary s = export_material(m, dir, o);
+  ASSERT_TRUE(s.fiber);
+  int status = 0;
+  const auto j = node_json(
+      "check_ktx2.mjs", "'" + dir + "/tables/fiber_G.ktx2' '" + dir + "/tables/fiber_F.ktx2'",
+      &status);
+  ASSERT_EQ(status, 0) << j.dump(2);
+  const auto& g = j[dir + "/tables/fiber_G.ktx2"];
+  const auto& f = j[dir + "/tables/fiber_F.ktx2"];
+  EXPECT_EQ(g["layers"], s.fiber_tables.ns);
+  EXPECT_EQ(f["layers"], s.fiber_tables.ns * s.fiber_tables.nk);
+  for (const auto* x : {&g, &f}) {
+    EXPECT_LE((*x)["width"].get<int>(), 8192);
+    EXPECT_LE((*x)["height"].get<int>(), 8192);
+    EXPECT_TRUE((*x)["finite"].get<bool>());
+  }
+  const auto ej = nlohmann::json::parse(read_text_file(dir + "/export.json"));
+  EXPECT_EQ(ej["model"], "fiber");
+  EXPECT_GT(ej["errors"]["fiber_tables"]["samples"].get<int>(), 0);
+}
+
+// The exported GLSL and HLSL compile with Khronos' reference compiler and translate to Metal.
+TEST(Export, ShadersCompileForOpenGLVulkanDirect3DAndMetal) {
+  const std::string dir = tmp_dir("out") + "/export";
+  export_material(brushed(), dir, ExportOptions{});
+  const std::string sh = dir + "/shaders/";
+  auto r = run_command("glslangValidator '" + sh + "aniso.frag'");
+  EXPECT_EQ(r.status, 0) << r.output;
+  r = run_command("glslangValidator -G --aml --amb -o '" + sh + "gl.spv' '" + sh +
+                  "aniso.frag' && spirv-cross '" + sh + "gl.spv' --msl");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("fragment"), std::string::npos) << r.output;
+  r = run_command("glslangValidator -D -V -S frag -e main -o '" + sh + "ps.spv' '" + sh +
+                  "aniso_ps.hlsl' && spirv-cross '" + sh + "ps.spv' --msl");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("fragment"), std::string::npos) << r.output;
+  // The function files alone, as an engine includes them.
+  r = run_command("cd '" + sh + "' && printf '#version 330 core\\n' > inc.frag && cat " +
+                  "aniso_lookup.glsl >> inc.frag && printf 'out vec4 f; void main() { f = " +
+                  "vec4(anisoRadiance(vec3(0,0,1), vec3(1,0,0), vec3(0,0,1), vec3(0,0,1), " +
+                  "vec3(1), vec3(1), vec3(1)), 1.0); }\\n' >> inc.frag && glslangValidator inc.frag");
+  EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// The glTF passes the Khronos validator with no errors and carries the fitted anisotropy: the
+// direction across the fibers (psi + 90 deg), a strength that is really anisotropic, and the
+// measured lobe error.
+TEST(Export, GltfPassesTheKhronosValidator) {
+  const std::string dir = tmp_dir("out") + "/export";
+  const ExportSummary s = export_material(brushed(), dir, ExportOptions{});
+  int status = 0;
+  const auto j = node_json("validate_gltf.mjs", "'" + dir + "/gltf/sample.gltf'", &status);
+  EXPECT_EQ(status, 0) << j.dump(2);
+  EXPECT_EQ(j["numErrors"], 0) << j.dump(2);
+  const auto g = nlohmann::json::parse(read_text_file(dir + "/gltf/sample.gltf"));
+  const auto& ext = g["materials"][0]["extensions"]["KHR_materials_anisotropy"];
+  EXPECT_NEAR(ext["anisotropyRotation"].get<double>(), deg_to_rad(120.0), 1e-9);
+  EXPECT_GT(ext["anisotropyStrength"].get<double>(), 0.3);
+  EXPECT_EQ(g["materials"][0]["extras"]["aniso"]["model"], "line");
+  // The anisotropic lobe beats the best isotropic one (strength 0) it was chosen over.
+  const GltfPbr pbr = s.pbr;
+  EXPECT_LT(pbr.lobe_rel_rms, 0.6);
+  EXPECT_GE(pbr.total_rel_rms, 0.0);
+  EXPECT_LE(pbr.total_rel_rms, pbr.other_rel_rms);
+}
+
+TEST(Export, RefusesAFolderThatIsNotAnEarlierExport) {
+  const std::string root = tmp_dir("out");
+  const std::string dir = root + "/mine";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/notes.txt") << "mine";
+  EXPECT_THROW(export_material(brushed(), dir, ExportOptions{}), Error);
+  EXPECT_EQ(read_text_file(dir + "/notes.txt"), "mine");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/export.json"));
+  // An earlier export is replaced.
+  const std::string ex = root + "/export";
+  export_material(brushed(), ex, ExportOptions{});
+  ExportOptions o;
+  o.size = 32;
+  const ExportSummary s = export_material(brushed(), ex, o);
+  EXPECT_EQ(read_ktx2(ex + "/tables/diffuse.ktx2").width, 32);
+  EXPECT_EQ(s.line.size, 32);
+}
+
+}  // namespace
+}  // namespace aniso
