@@ -1,4 +1,5 @@
 // aniso preview: a headless OpenGL render of a material on an object.
+#include <cmath>
 #include <cstdio>
 #include <memory>
 
@@ -14,12 +15,43 @@
 namespace aniso::cli {
 
 namespace {
+// A person's default: a dim grey background (linear 0.03, sRGB 48/255) and a fill light from the
+// viewer of irradiance 0.15, so the unlit side keeps its silhouette. --background 0 --fill 0 give
+// the bare render.
+constexpr double kDefaultFill = 0.15;
+
+RGB parse_background(const std::string& s) {
+  double v[3];
+  char extra;
+  if (std::sscanf(s.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &extra) == 3)
+    return {v[0], v[1], v[2]};
+  if (std::sscanf(s.c_str(), "%lf%c", &v[0], &extra) == 1) return {v[0], v[0], v[0]};
+  throw Error("preview: --background must be a linear grey level or r,g,b (got '" + s + "')");
+}
+
+// --turntable N: N views turned about the z axis, side by side.
+Image turntable(const Material& m, PreviewOptions p, int n, PreviewResult* last) {
+  Image sheet(p.width * n, p.height, 3);
+  const Vec3 v0 = p.view_dir;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n, c = std::cos(a), s = std::sin(a);
+    p.view_dir = Vec3(c * v0.x - s * v0.y, s * v0.x + c * v0.y, v0.z);
+    *last = render_preview(m, p);
+    for (int y = 0; y < p.height; ++y)
+      for (int x = 0; x < p.width; ++x)
+        for (int k = 0; k < 3; ++k) sheet.at(i * p.width + x, y, k) = last->rgb.at(x, y, k);
+  }
+  return sheet;
+}
+
 struct PreviewArgs {
   std::string mat, bake, out, shape = "sphere", field, size = "512x512", view, exr, map,
                               index = "angle";
   std::vector<std::string> lights;
   double exposure = 1.0, R = 1.0, r = 0.6;
-  int table = 256;
+  double fill = kDefaultFill;
+  std::string background = "0.03";
+  int table = 256, turntable = 0;
   bool per_vertex = false;
 };
 
@@ -59,9 +91,19 @@ int run(const PreviewArgs& a) {
     p.s_map = read_image(join_path(m.base_dir, t->file)).image;
   p.shape_options.torus_R = a.R;
   p.shape_options.torus_r = a.r;
-  const PreviewResult r = render_preview(m, p);
-  write_png(a.out, encode_srgb(r.rgb, a.exposure), 8);
-  if (!a.exr.empty()) write_exr(a.exr, r.rgb);
+  p.fill = a.fill;
+  p.background = parse_background(a.background);
+  for (double v : p.background)
+    if (!(v >= 0 && v <= 1e6)) throw Error("preview: --background values must be in [0, 1e6]");
+  PreviewResult r;
+  const Image img =
+      a.turntable > 0 ? turntable(m, p, a.turntable, &r) : (r = render_preview(m, p)).rgb;
+  // An .exr output is the linear float image; anything else an 8-bit sRGB PNG.
+  if (lower_ext(a.out) == ".exr")
+    write_exr(a.out, img);
+  else
+    write_png(a.out, encode_srgb(img, a.exposure), 8);
+  if (!a.exr.empty()) write_exr(a.exr, img);
   std::fprintf(stderr,
                "preview: %s, %zu triangles, %d passes, %.2f ms/frame on %s -> %s; baked vs direct "
                "evaluation: max abs difference %.3g (bound %.3g)",
@@ -82,8 +124,20 @@ Command add_preview(CLI::App& app) {
   prev->add_option("--bake", a->bake,
                    "render from a bake folder (what `aniso bake` wrote: its material and tables, "
                    "read back as an engine would)");
-  prev->add_option("--out", a->out, "PNG to write (sRGB, 8-bit; '-' = standard output)")
+  prev->add_option("--out", a->out,
+                   "image to write: .exr = linear float, otherwise an 8-bit sRGB PNG ('-' = "
+                   "standard output)")
       ->required();
+  prev->add_option("--background", a->background,
+                   "linear background: a grey level or r,g,b (0 = black)")
+      ->capture_default_str();
+  prev->add_option("--fill", a->fill,
+                   "irradiance of a fill light from the viewer (0 = none); lights are 1 each")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
+  prev->add_option("--turntable", a->turntable,
+                   "N views turned about z, side by side in one image (a contact sheet)")
+      ->check(CLI::Range(1, 64));
   prev->add_option("--shape", a->shape, "sphere, disc, cylinder, torus, flat, or an .obj file")
       ->capture_default_str();
   prev->add_option("--fiber-field", a->field, "replace dP/du: radial, circular or meridian")

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 
@@ -161,8 +162,14 @@ SphereBuffers sphere_buffers() {
   b.off_n = append(n.data(), n.size() * 4);
   b.off_t = append(t.data(), t.size() * 4);
   b.off_uv = append(uv.data(), uv.size() * 4);
+  // glTF's front faces are counter-clockwise seen from outside: each triangle is ordered so its
+  // geometric normal agrees with the vertex normals.
   std::vector<uint32_t> idx;
-  for (const auto& tri : mesh.tri) idx.insert(idx.end(), tri.begin(), tri.end());
+  for (const auto& tri : mesh.tri) {
+    const Vec3 g = cross(mesh.P[tri[1]] - mesh.P[tri[0]], mesh.P[tri[2]] - mesh.P[tri[0]]);
+    const bool ccw = dot(g, mesh.N[tri[0]] + mesh.N[tri[1]] + mesh.N[tri[2]]) >= 0;
+    idx.insert(idx.end(), {tri[0], ccw ? tri[1] : tri[2], ccw ? tri[2] : tri[1]});
+  }
   b.off_i = append(idx.data(), idx.size() * 4);
   return b;
 }
@@ -225,6 +232,47 @@ json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b
           {"buffers", {{{"uri", "sample.bin"}, {"byteLength", b.bin.size()}}}},
           {"bufferViews", views},
           {"accessors", accessors}};
+}
+
+// The three.js viewer: the page, its module, and three itself (copied so the folder works
+// offline) from ANISO_THREE_DIR (environment) or where scripts/install_deps.sh put it.
+json write_viewer(const std::string& dir, ExportSummary* sum) {
+  namespace fs = std::filesystem;
+  write_text_file(join_path(dir, "three/viewer.html"), shaders::viewer_html);
+  write_text_file(join_path(dir, "three/aniso_viewer.js"), shaders::aniso_viewer_js);
+  sum->files.push_back("three/viewer.html");
+  sum->files.push_back("three/aniso_viewer.js");
+  const char* env = std::getenv("ANISO_THREE_DIR");
+  const std::string three = env && *env ? env : ANISO_THREE_DIR;
+  json j = {{"page", "three/viewer.html"},
+            {"query",
+             "?shape=sphere&view=x,y,z&light=x,y,z&size=WxH[&fill=E&background=g] "
+             "renders the frame of `aniso preview` with the same options; no query: "
+             "an orbit viewer (drag; shift+drag moves the light)"},
+            {"serve",
+             "over http (module scripts do not load from file://), e.g. `python3 -m "
+             "http.server` in the export folder, then open /three/viewer.html"}};
+  bool copied = true;
+  for (const char* f : {"three.module.js", "three.core.js"}) {
+    const std::string src = join_path(three, f);
+    std::error_code ec;
+    if (!fs::is_regular_file(src, ec)) {
+      copied = false;
+      continue;
+    }
+    write_text_file(join_path(dir, std::string("three/") + f), read_text_file(src));
+    sum->files.push_back(std::string("three/") + f);
+  }
+  if (!copied) {
+    const std::string w = "three.js not found in " + three +
+                          " (set ANISO_THREE_DIR to three's build/ folder, or copy "
+                          "three.module.js and three.core.js into three/ yourself)";
+    sum->warnings.push_back(w);
+    j["three"] = w;
+  } else {
+    j["three"] = "three/three.module.js and three.core.js, copied from " + three;
+  }
+  return j;
 }
 
 }  // namespace
@@ -328,6 +376,7 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
                     std::string(sphere.bin.begin(), sphere.bin.end()));
     sum.files.push_back("gltf/sample.gltf");
     sum.files.push_back("gltf/sample.bin");
+    const json viewer = write_viewer(tmp, &sum);
     json material;
     material_to_json(m, &material);
     sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -356,6 +405,8 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
                       {"direction",
                        "anisotropy direction = psi + 90 deg (roughness grows "
                        "across the fibers)"}}},
+                    {"three", viewer},
+                    {"warnings", sum.warnings},
                     {"conventions", conventions(sum)},
                     {"errors", measured_errors(sum)},
                     {"files", sum.files},

@@ -7,6 +7,8 @@
 //   gltf/     a sphere with tangents carrying the material as glTF 2.0 metallic-roughness plus
 //             KHR_materials_anisotropy, fitted numerically (render/gltf_lobe.h); the exact model
 //             and the tables under extras
+//   three/    viewer.html and an ES module that draws the material in three.js from the KTX2
+//             tables (and three itself, copied so the folder works offline)
 //   export.json  what was written, the conventions an integrator needs and the measured errors
 #pragma once
 #include <string>
@@ -28,7 +30,8 @@ struct ExportSummary {
   bool fiber = false;
   FiberBakeTables fiber_tables;
   GltfPbr pbr;
-  std::vector<std::string> files;  // relative to the export folder
+  std::vector<std::string> files;     // relative to the export folder
+  std::vector<std::string> warnings;  // said to the user and recorded in export.json
   double seconds = 0;
 };
 

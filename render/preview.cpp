@@ -143,7 +143,7 @@ struct Passes {
 // One frame: per light, one additive pass per fiber lobe and one for the isotropic term.
 int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, const Lookups& lk,
                const gl::MeshBuffers& mesh, const float view_proj[16], const Vec3& V) {
-  glClearColor(0, 0, 0, 0);
+  glClearColor(float(opt.background[0]), float(opt.background[1]), float(opt.background[2]), 1);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glDisable(GL_BLEND);
   glDepthFunc(GL_LESS);
@@ -159,8 +159,9 @@ int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, c
     ++passes;
   };
   const gl::Program& pa = *ps.aniso;
-  for (const Vec3& ld : opt.light_dirs) {
-    const Vec3 L = normalize(ld);
+  for (const PreviewLight& light : preview_lights(opt)) {
+    const Vec3& L = light.dir;
+    const Vec3 E(light.irradiance, light.irradiance, light.irradiance);
     float texmat[16];
     texture_matrix(L, V, lk.tables, texmat);
     const int lobes = m.second_active() && !opt.plain && !ps.fiber ? 2 : 1;
@@ -175,7 +176,7 @@ int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, c
       pa.set("uD", 0);
       pa.set("uS", 1);
       pa.set("uL", L);
-      pa.set("uE", Vec3(1, 1, 1));
+      pa.set("uE", E);
       pa.set("uKd", m.kd);
       pa.set("uKs", m.ks);
       const double wgt =
@@ -192,7 +193,7 @@ int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, c
       ps.iso->set_matrix("uViewProj", view_proj);
       ps.iso->set("uL", L);
       ps.iso->set("uV", V);
-      ps.iso->set("uE", Vec3(1, 1, 1));
+      ps.iso->set("uE", E);
       ps.iso->set("uKd", m.iso_kd);
       ps.iso->set("uKs", m.iso_ks);
       ps.iso->set("uN", float(m.iso_n));
@@ -208,6 +209,7 @@ GBuffer geometry_pass(const gl::Framebuffer& fb, const gl::MeshBuffers& mesh,
                       const float view_proj[16], bool fiber, PreviewResult* res) {
   const gl::Program p(shaders::vertex_vert, shaders::gbuffer_frag, "gbuffer.frag");
   fb.draw_to(3);
+  glClearColor(0, 0, 0, 0);  // coverage is where a normal was written
   glDisable(GL_BLEND);
   glDepthMask(GL_TRUE);
   glDepthFunc(GL_LESS);
@@ -239,6 +241,13 @@ void check_preview_request(const Material& m, const PreviewOptions& opt, bool fi
 }
 
 }  // namespace
+
+std::vector<PreviewLight> preview_lights(const PreviewOptions& opt) {
+  std::vector<PreviewLight> lights;
+  for (const Vec3& d : opt.light_dirs) lights.push_back({normalize(d), 1.0});
+  if (opt.fill > 0) lights.push_back({normalize(opt.view_dir), opt.fill});
+  return lights;
+}
 
 PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   const bool fiber = m.fiber() && !opt.plain;

@@ -24,8 +24,12 @@ struct PreviewOptions {
   int table_index = 1;  // 1 = angle index (default), 0 = the paper's cosine index (render/bake.h)
   Vec3 view_dir{0.0, -0.8, 0.6};                   // toward the viewer
   std::vector<Vec3> light_dirs{{0.7, -0.2, 0.7}};  // toward each light; irradiance 1 each
-  bool reference = false;  // also evaluate the model directly per pixel (CPU) for comparison
-  bool plain = false;      // a plain textured-and-lit pass instead (for timing comparisons)
+  // A fill light from the viewer's direction with this irradiance (0: none), so the side the
+  // lights miss keeps its silhouette; one more pass, shaded by the same model.
+  double fill = 0;
+  RGB background{0, 0, 0};  // linear radiance where no object is
+  bool reference = false;   // also evaluate the model directly per pixel (CPU) for comparison
+  bool plain = false;       // a plain textured-and-lit pass instead (for timing comparisons)
   // The paper's exact construction: texture coordinates from the texture matrix per vertex
   // (interpolated), the cosine-indexed table. Cheapest; errs where T bends across a triangle.
   bool per_vertex = false;
@@ -53,5 +57,12 @@ struct PreviewResult {
 };
 
 PreviewResult render_preview(const Material& m, const PreviewOptions& opt);
+
+// The lights a preview draws: each of light_dirs with irradiance 1, then the fill light.
+struct PreviewLight {
+  Vec3 dir;  // unit, toward the light
+  double irradiance = 1;
+};
+std::vector<PreviewLight> preview_lights(const PreviewOptions& opt);
 
 }  // namespace aniso

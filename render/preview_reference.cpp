@@ -48,7 +48,10 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Vec3& V
   const bool s_map = m.topology_as<SMapRef>() != nullptr;
   Material line_only = m;
   line_only.model = Model::kLine;
-  res->error_bound = opt.light_dirs.size() * fb.max_abs_error + 1e-5;
+  const std::vector<PreviewLight> lights = preview_lights(opt);
+  double total_e = 0;
+  for (const auto& l : lights) total_e += l.irradiance;
+  res->error_bound = total_e * fb.max_abs_error + 1e-5;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       SurfacePoint sp;
@@ -59,14 +62,15 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Vec3& V
                                         : map.sample(u, v);
       const double s = s_at(m, smath, mv);
       double exact[3] = {0, 0, 0}, baked[3] = {0, 0, 0};
-      for (const Vec3& ld : opt.light_dirs) {
-        const LocalDir Ll = to_local(sp, normalize(ld)), Vl = to_local(sp, V);
+      for (const PreviewLight& light : lights) {
+        const LocalDir Ll = to_local(sp, light.dir), Vl = to_local(sp, V);
         LineParamsT<double> p = line_params(m);
         p.psi = 0;
         double f[3], gb[3];
         fiber_reflectance(p, s, Ll, Vl, FiberAccuracy{}, f);
         fiber_baked_eval(line_only, tables, fb, Ll, Vl, s, gb);
-        for (int ch = 0; ch < 3; ++ch) exact[ch] += f[ch], baked[ch] += gb[ch];
+        for (int ch = 0; ch < 3; ++ch)
+          exact[ch] += light.irradiance * f[ch], baked[ch] += light.irradiance * gb[ch];
       }
       for (int ch = 0; ch < 3; ++ch) {
         res->reference.at(x, y, ch) = float(exact[ch]);
@@ -90,8 +94,11 @@ void line_reference(const Material& m, const PreviewOptions& opt, const Vec3& V,
   const double acos_texels =
       angle ? std::sqrt(2.0 * std::ldexp(1.0, -24)) * (tables.size - 1) / M_PI : 0.0;
   const int lobes = m.second_active() ? 2 : 1;
+  const std::vector<PreviewLight> lights = preview_lights(opt);
+  double total_e = 0;
+  for (const auto& l : lights) total_e += l.irradiance;
   res->error_bound =
-      opt.light_dirs.size() * lobes *
+      total_e * lobes *
           (tables.max_abs_error + 2 * max_texel_step(tables) * (kFilterWeightStep + acos_texels)) +
       kFloatSlack;
   for (int y = 0; y < h; ++y)
@@ -106,10 +113,10 @@ void line_reference(const Material& m, const PreviewOptions& opt, const Vec3& V,
       local.second_angle_deg = rad_to_deg(std::atan2(dot(T2, sp.W), dot(T2, sp.U)));
       const Evaluator le(local);
       double acc[3] = {0, 0, 0};
-      for (const Vec3& ld : opt.light_dirs) {
+      for (const PreviewLight& light : lights) {
         double f[3];
-        le(to_local(sp, normalize(ld)), to_local(sp, V), f);
-        for (int ch = 0; ch < 3; ++ch) acc[ch] += f[ch];
+        le(to_local(sp, light.dir), to_local(sp, V), f);
+        for (int ch = 0; ch < 3; ++ch) acc[ch] += light.irradiance * f[ch];
       }
       for (int ch = 0; ch < 3; ++ch) {
         res->reference.at(x, y, ch) = float(acc[ch]);

@@ -11,6 +11,7 @@
 #include "core/angles.h"
 #include "core/error.h"
 #include "io/files.h"
+#include "io/image_io.h"
 #include "io/ktx2.h"
 #include "io/material_io.h"
 #include "render/bake.h"
@@ -48,9 +49,9 @@ TEST(KTX2, HalfFloatRoundsToNearestEven) {
   EXPECT_EQ(float_to_half(1.0f), 0x3C00);
   EXPECT_EQ(float_to_half(-2.0f), 0xC000);
   EXPECT_EQ(float_to_half(65504.0f), 0x7BFF);
-  EXPECT_EQ(float_to_half(std::ldexp(1.0f, -24)), 0x0001);  // smallest subnormal
-  EXPECT_EQ(float_to_half(std::ldexp(1.0f, -25)), 0x0000);  // a tie: to even (zero)
-  EXPECT_EQ(float_to_half(std::ldexp(3.0f, -25)), 0x0002);  // 1.5 ulp: to even (2)
+  EXPECT_EQ(float_to_half(std::ldexp(1.0f, -24)), 0x0001);         // smallest subnormal
+  EXPECT_EQ(float_to_half(std::ldexp(1.0f, -25)), 0x0000);         // a tie: to even (zero)
+  EXPECT_EQ(float_to_half(std::ldexp(3.0f, -25)), 0x0002);         // 1.5 ulp: to even (2)
   EXPECT_EQ(float_to_half(1.0f + std::ldexp(1.0f, -11)), 0x3C00);  // tie below: even
   EXPECT_EQ(float_to_half(1.0f + 3 * std::ldexp(1.0f, -11)), 0x3C02);
   for (float v : {0.1f, 0.5f, 3.14159f, 1000.f, 1e-5f, -7.25f})
@@ -87,9 +88,9 @@ TEST(Export, KtxTablesReadBackByAnIndependentReader) {
                   std::abs(t.combined.px[3 * p + k]) * 1e-3 + 1e-7);
 
   int status = 0;
-  const auto j = node_json("check_ktx2.mjs",
-                           "'" + dir + "/tables/diffuse.ktx2' '" + dir + "/tables/combined.ktx2'",
-                           &status);
+  const auto j =
+      node_json("check_ktx2.mjs",
+                "'" + dir + "/tables/diffuse.ktx2' '" + dir + "/tables/combined.ktx2'", &status);
   ASSERT_EQ(status, 0) << j.dump(2);
   const auto& jd = j[dir + "/tables/diffuse.ktx2"];
   EXPECT_EQ(jd["vkFormat"], 100);  // VK_FORMAT_R32_SFLOAT
@@ -126,9 +127,9 @@ TEST(Export, FiberTablesAreArrayTexturesWithinGpuLimits) {
   const ExportSummary s = export_material(m, dir, o);
   ASSERT_TRUE(s.fiber);
   int status = 0;
-  const auto j = node_json(
-      "check_ktx2.mjs", "'" + dir + "/tables/fiber_G.ktx2' '" + dir + "/tables/fiber_F.ktx2'",
-      &status);
+  const auto j =
+      node_json("check_ktx2.mjs",
+                "'" + dir + "/tables/fiber_G.ktx2' '" + dir + "/tables/fiber_F.ktx2'", &status);
   ASSERT_EQ(status, 0) << j.dump(2);
   const auto& g = j[dir + "/tables/fiber_G.ktx2"];
   const auto& f = j[dir + "/tables/fiber_F.ktx2"];
@@ -160,10 +161,11 @@ TEST(Export, ShadersCompileForOpenGLVulkanDirect3DAndMetal) {
   EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("fragment"), std::string::npos) << r.output;
   // The function files alone, as an engine includes them.
-  r = run_command("cd '" + sh + "' && printf '#version 330 core\\n' > inc.frag && cat " +
-                  "aniso_lookup.glsl >> inc.frag && printf 'out vec4 f; void main() { f = " +
-                  "vec4(anisoRadiance(vec3(0,0,1), vec3(1,0,0), vec3(0,0,1), vec3(0,0,1), " +
-                  "vec3(1), vec3(1), vec3(1)), 1.0); }\\n' >> inc.frag && glslangValidator inc.frag");
+  r = run_command(
+      "cd '" + sh + "' && printf '#version 330 core\\n' > inc.frag && cat " +
+      "aniso_lookup.glsl >> inc.frag && printf 'out vec4 f; void main() { f = " +
+      "vec4(anisoRadiance(vec3(0,0,1), vec3(1,0,0), vec3(0,0,1), vec3(0,0,1), " +
+      "vec3(1), vec3(1), vec3(1)), 1.0); }\\n' >> inc.frag && glslangValidator inc.frag");
   EXPECT_EQ(r.status, 0) << r.output;
 }
 
@@ -205,6 +207,53 @@ TEST(Export, RefusesAFolderThatIsNotAnEarlierExport) {
   const ExportSummary s = export_material(brushed(), ex, o);
   EXPECT_EQ(read_ktx2(ex + "/tables/diffuse.ktx2").width, 32);
   EXPECT_EQ(s.line.size, 32);
+}
+
+}  // namespace
+}  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// The three.js viewer in headless Chromium (SwiftShader WebGL) renders the frame `aniso preview`
+// renders with the same options: mean absolute difference at most 2 % of full scale.
+TEST(Export, BrowserViewerMatchesThePreview) {
+  const std::string root = test::tmp_dir("out");
+  const std::string dir = root + "/export";
+  write_json_file(root + "/m.json", [] {
+    nlohmann::json j;
+    material_to_json(brushed(), &j);
+    return j;
+  }());
+  ASSERT_EQ(test::run_cli("export " + root + "/m.json --out " + dir).status, 0);
+  const std::string q = "shape=sphere&view=0.3,-0.8,0.5&light=0.6,-0.1,0.8&size=200x160";
+  const auto shot = run_command("'" + web_dir() + "/screenshot.sh' '" + dir + "' '" + q + "' '" +
+                                root + "/web.png' 200 160");
+  ASSERT_EQ(shot.status, 0) << shot.output;
+  ASSERT_NE(shot.output.find("aniso viewer: rendered"), std::string::npos) << shot.output;
+  const auto pv = test::run_cli("preview " + root +
+                                "/m.json --shape sphere --view 0.3,-0.8,0.5 "
+                                "--light 0.6,-0.1,0.8 --size 200x160 --out " +
+                                root + "/pv.png");
+  ASSERT_EQ(pv.status, 0) << pv.output;
+  const Image a = read_image(root + "/web.png").image, b = read_image(root + "/pv.png").image;
+  ASSERT_EQ(a.width, b.width);
+  ASSERT_EQ(a.height, b.height);
+  double sum = 0, lit = 0;
+  size_t n = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x)
+      for (int c = 0; c < 3; ++c) {
+        sum += std::abs(a.at(x, y, c) - b.at(x, y, c));
+        lit += b.at(x, y, c);
+        ++n;
+      }
+  const double mad = sum / n;
+  std::printf(
+      "browser viewer vs aniso preview, 200x160: mean abs difference %.4f of full scale "
+      "(mean value %.3f)\n",
+      mad, lit / n);
+  EXPECT_LE(mad, 0.02);
 }
 
 }  // namespace

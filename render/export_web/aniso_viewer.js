@@ -1,0 +1,203 @@
+// aniso viewer: the exported material in three.js, sampling the exported KTX2 tables in a
+// ShaderMaterial (the same lookup as shaders/aniso_lookup.glsl), on the exported sample sphere.
+//
+// viewer.html?shape=sphere&view=x,y,z&light=x,y,z&size=WxH renders exactly the frame of
+//   aniso preview MATERIAL --shape sphere --view x,y,z --light x,y,z --size WxH
+// (orthographic camera along -view framing the object with 10 % margin, the same background and
+// fill light, sRGB output), so the two can be compared pixel by pixel. Optional: fill=E,
+// background=g or r,g,b (linear), as in `aniso preview`. With no query: an orbit viewer; drag to
+// turn the view, shift+drag to move the light.
+import * as THREE from './three.module.js';
+
+const DEFAULTS = { view: [0, -0.8, 0.6], light: [0.7, -0.2, 0.7], fill: 0.15, background: 0.03 };
+
+function vec(s, fallback) {
+  if (!s) return fallback;
+  const v = s.split(',').map(Number);
+  if (v.length !== 3 || v.some((x) => !Number.isFinite(x))) throw new Error('bad vector ' + s);
+  return v;
+}
+const norm = (v) => { const l = Math.hypot(...v); return v.map((x) => x / l); };
+const srgb = (v) => { v = Math.min(Math.max(v, 0), 1);
+  return v <= 0.0031308 ? 12.92 * v : 1.055 * Math.pow(v, 1 / 2.4) - 0.055; };
+
+// The KTX2 files aniso writes: one level, no supercompression, R32 or RGBA16F (io/ktx2.h).
+async function loadKtx2(url) {
+  const buf = await (await fetch(url)).arrayBuffer();
+  const dv = new DataView(buf);
+  const id = [0xab, 0x4b, 0x54, 0x58, 0x20, 0x32, 0x30, 0xbb, 0x0d, 0x0a, 0x1a, 0x0a];
+  id.forEach((b, i) => { if (dv.getUint8(i) !== b) throw new Error(url + ': not KTX2'); });
+  const vkFormat = dv.getUint32(12, true), w = dv.getUint32(20, true), h = dv.getUint32(24, true);
+  const offset = Number(dv.getBigUint64(80, true)), length = Number(dv.getBigUint64(88, true));
+  if (vkFormat === 100) {  // VK_FORMAT_R32_SFLOAT
+    const data = new Float32Array(buf.slice(offset, offset + length));
+    return { w, h, data, format: THREE.RedFormat, type: THREE.FloatType };
+  }
+  if (vkFormat === 97) {  // VK_FORMAT_R16G16B16A16_SFLOAT
+    const data = new Uint16Array(buf.slice(offset, offset + length));
+    return { w, h, data, format: THREE.RGBAFormat, type: THREE.HalfFloatType };
+  }
+  throw new Error(url + ': vkFormat ' + vkFormat + ' is not one aniso writes');
+}
+
+function tableTexture(t, floatLinear) {
+  let { data, type } = t;
+  if (type === THREE.FloatType && !floatLinear) {  // no linear filtering of float: use half
+    data = Uint16Array.from(data, (v) => THREE.DataUtils.toHalfFloat(v));
+    type = THREE.HalfFloatType;
+  }
+  const tex = new THREE.DataTexture(data, t.w, t.h, t.format, type);
+  tex.minFilter = tex.magFilter = THREE.LinearFilter;
+  tex.wrapS = tex.wrapT = THREE.ClampToEdgeWrapping;
+  tex.generateMipmaps = false;
+  tex.flipY = false;  // the first stored row is t = 0 (export.json: row_order)
+  tex.colorSpace = THREE.NoColorSpace;
+  tex.needsUpdate = true;
+  return tex;
+}
+
+// The sample sphere of gltf/sample.gltf with the fiber direction per vertex:
+// T = U cos(psi) + (N x U) sin(psi), U the glTF tangent.
+async function loadSphere(psiDeg) {
+  const gltf = await (await fetch('../gltf/sample.gltf')).json();
+  const bin = await (await fetch('../gltf/sample.bin')).arrayBuffer();
+  const prim = gltf.meshes[0].primitives[0];
+  const acc = (i, Ctor, n) => { const a = gltf.accessors[i], v = gltf.bufferViews[a.bufferView];
+    return new Ctor(bin, (v.byteOffset || 0) + (a.byteOffset || 0), a.count * n); };
+  const P = acc(prim.attributes.POSITION, Float32Array, 3);
+  const N = acc(prim.attributes.NORMAL, Float32Array, 3);
+  const U = acc(prim.attributes.TANGENT, Float32Array, 4);
+  const idx = acc(prim.indices, Uint32Array, 1);
+  const c = Math.cos(psiDeg * Math.PI / 180), s = Math.sin(psiDeg * Math.PI / 180);
+  const T = new Float32Array(P.length);
+  for (let i = 0; i < P.length / 3; i++) {
+    const n = [N[3 * i], N[3 * i + 1], N[3 * i + 2]], u = [U[4 * i], U[4 * i + 1], U[4 * i + 2]];
+    const w = [n[1] * u[2] - n[2] * u[1], n[2] * u[0] - n[0] * u[2], n[0] * u[1] - n[1] * u[0]];
+    for (let k = 0; k < 3; k++) T[3 * i + k] = u[k] * c + w[k] * s;
+  }
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(P, 3));
+  g.setAttribute('normal', new THREE.BufferAttribute(N, 3));
+  g.setAttribute('fiber', new THREE.BufferAttribute(T, 3));
+  g.setIndex(new THREE.BufferAttribute(idx, 1));
+  g.computeBoundingBox();
+  return g;
+}
+
+const VERTEX = `
+in vec3 fiber;
+out vec3 vN; out vec3 vT;
+void main() {
+  vN = normal; vT = fiber;
+  gl_Position = projectionMatrix * modelViewMatrix * vec4(position, 1.0);
+}`;
+
+const FRAGMENT = `
+precision highp float;
+uniform sampler2D anisoDiffuse;
+uniform sampler2D anisoSpecular;
+uniform float texels;
+uniform vec3 kd; uniform vec3 ks;
+uniform vec3 L0; uniform float E0; uniform vec3 L1; uniform float E1; uniform vec3 V;
+in vec3 vN; in vec3 vT;
+out vec4 fragColor;
+const float PI = 3.14159265358979;
+float coord(float c) { return (acos(clamp(-c, -1.0, 1.0)) / PI * (texels - 1.0) + 0.5) / texels; }
+vec3 radiance(vec3 N, vec3 T, vec3 L, float E) {
+  vec2 st = vec2(coord(dot(L, T)), coord(dot(V, T)));
+  float D = texture(anisoDiffuse, st).r, S = texture(anisoSpecular, st).r;
+  return E * (kd * D + ks * S) * max(dot(N, L), 0.0);
+}
+float enc(float v) { v = clamp(v, 0.0, 1.0);
+  return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
+void main() {
+  vec3 N = normalize(vN);
+  vec3 T = normalize(vT - N * dot(N, vT));
+  vec3 c = radiance(N, T, L0, E0) + radiance(N, T, L1, E1);
+  fragColor = vec4(enc(c.r), enc(c.g), enc(c.b), 1.0);
+}`;
+
+export async function start(q) {
+  const info = await (await fetch('../export.json')).json();
+  const m = info.material;
+  if (info.model !== 'line') throw new Error('the browser viewer draws the line model only (this export is ' + info.model + ')');
+  const shape = q.get('shape') || 'sphere';
+  if (shape !== 'sphere') throw new Error('shape ' + shape + ': the viewer has the sample sphere only');
+  const [W, H] = (q.get('size') || `${innerWidth}x${innerHeight}`).split('x').map(Number);
+  const scripted = q.has('view') || q.has('light') || q.has('size');
+  let view = norm(vec(q.get('view'), DEFAULTS.view));
+  let light = norm(vec(q.get('light'), DEFAULTS.light));
+  const fill = q.has('fill') ? Number(q.get('fill')) : DEFAULTS.fill;
+  const bgs = (q.get('background') || String(DEFAULTS.background)).split(',').map(Number);
+  const bg = bgs.length === 3 ? bgs : [bgs[0], bgs[0], bgs[0]];
+
+  const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
+  renderer.setPixelRatio(1);
+  renderer.setSize(W, H);
+  renderer.outputColorSpace = THREE.LinearSRGBColorSpace;  // the shader encodes sRGB itself
+  renderer.setClearColor(new THREE.Color().setRGB(srgb(bg[0]), srgb(bg[1]), srgb(bg[2]),
+                                                  THREE.LinearSRGBColorSpace), 1);
+  document.body.appendChild(renderer.domElement);
+  const floatLinear = renderer.extensions.has('OES_texture_float_linear');
+
+  const [D, S, geometry] = await Promise.all([
+    loadKtx2('../' + info.tables.diffuse.ktx2), loadKtx2('../' + info.tables.specular.ktx2),
+    loadSphere(m.fiber_angle_deg || 0)]);
+  const uniforms = {
+    anisoDiffuse: { value: tableTexture(D, floatLinear) },
+    anisoSpecular: { value: tableTexture(S, floatLinear) },
+    texels: { value: D.w },
+    kd: { value: new THREE.Vector3(...m.kd) }, ks: { value: new THREE.Vector3(...m.ks) },
+    L0: { value: new THREE.Vector3() }, E0: { value: 1 },
+    L1: { value: new THREE.Vector3() }, E1: { value: fill },
+    V: { value: new THREE.Vector3() },
+  };
+  const material = new THREE.ShaderMaterial({ glslVersion: THREE.GLSL3, vertexShader: VERTEX,
+                                              fragmentShader: FRAGMENT, uniforms });
+  const scene = new THREE.Scene();
+  scene.add(new THREE.Mesh(geometry, material));
+
+  // aniso preview's camera: orthographic, along -view, 1.1 x the object's radius, z up.
+  const center = geometry.boundingBox.getCenter(new THREE.Vector3());
+  const pos = geometry.attributes.position;
+  let radius = 0;
+  for (let i = 0; i < pos.count; i++)
+    radius = Math.max(radius, Math.hypot(pos.getX(i) - center.x, pos.getY(i) - center.y,
+                                         pos.getZ(i) - center.z));
+  const ext = 1.1 * radius, aspect = W / H;
+  const camera = new THREE.OrthographicCamera(-ext * aspect, ext * aspect, ext, -ext, 0.01, 8 * ext);
+  camera.up.set(0, 0, 1);
+
+  function frame() {
+    camera.position.set(center.x + 4 * ext * view[0], center.y + 4 * ext * view[1],
+                        center.z + 4 * ext * view[2]);
+    camera.lookAt(center);
+    uniforms.V.value.set(...view);
+    uniforms.L0.value.set(...light);
+    uniforms.L1.value.set(...view);  // the fill light sits at the viewer
+    renderer.render(scene, camera);
+  }
+  frame();
+  if (scripted) {
+    document.getElementById('info').classList.add('hidden');
+    document.title = 'aniso viewer: rendered';
+    return;
+  }
+  // Orbit: drag turns the view (or, with shift, the light) about z and up/down.
+  let last = null;
+  const turn = (v, dx, dy) => {
+    let az = Math.atan2(v[1], v[0]) - dx * 0.01;
+    let el = Math.asin(Math.max(-1, Math.min(1, v[2]))) + dy * 0.01;
+    el = Math.max(-1.5, Math.min(1.5, el));
+    return [Math.cos(el) * Math.cos(az), Math.cos(el) * Math.sin(az), Math.sin(el)];
+  };
+  renderer.domElement.addEventListener('pointerdown', (e) => { last = [e.clientX, e.clientY]; });
+  addEventListener('pointerup', () => { last = null; });
+  addEventListener('pointermove', (e) => {
+    if (!last) return;
+    const dx = e.clientX - last[0], dy = e.clientY - last[1];
+    last = [e.clientX, e.clientY];
+    if (e.shiftKey) light = turn(light, dx, dy); else view = turn(view, dx, dy);
+    requestAnimationFrame(frame);
+  });
+}
