@@ -29,6 +29,15 @@ RGB parse_background(const std::string& s) {
   throw Error("preview: --background must be a linear grey level or r,g,b (got '" + s + "')");
 }
 
+Vec3 parse_point(const std::string& s) {
+  double v[3];
+  char extra;
+  if (std::sscanf(s.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &extra) != 3 ||
+      !std::isfinite(v[0] + v[1] + v[2]))
+    throw Error("preview: --point-light must be a position x,y,z (got '" + s + "')");
+  return Vec3(v[0], v[1], v[2]);
+}
+
 // --turntable N: N views turned about the z axis, side by side.
 Image turntable(const Material& m, PreviewOptions p, int n, PreviewResult* last) {
   Image sheet(p.width * n, p.height, 3);
@@ -47,7 +56,8 @@ Image turntable(const Material& m, PreviewOptions p, int n, PreviewResult* last)
 struct PreviewArgs {
   std::string mat, bake, out, shape = "sphere", field, size = "512x512", view, exr, map,
                               index = "angle";
-  std::vector<std::string> lights;
+  std::vector<std::string> lights, point_lights;
+  bool perspective = false;
   double exposure = 1.0, R = 1.0, r = 0.6;
   double fill = kDefaultFill;
   std::string background = "0.03";
@@ -92,6 +102,10 @@ int run(const PreviewArgs& a) {
   p.shape_options.torus_R = a.R;
   p.shape_options.torus_r = a.r;
   p.fill = a.fill;
+  p.perspective = a.perspective;
+  for (const auto& l : a.point_lights) p.point_lights.push_back(parse_point(l));
+  // Point lights replace the default directional light unless --light is given too.
+  if (!a.point_lights.empty() && a.lights.empty()) p.light_dirs.clear();
   p.background = parse_background(a.background);
   for (double v : p.background)
     if (!(v >= 0 && v <= 1e6)) throw Error("preview: --background values must be in [0, 1e6]");
@@ -135,6 +149,11 @@ Command add_preview(CLI::App& app) {
                    "irradiance of a fill light from the viewer (0 = none); lights are 1 each")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e6));
+  prev->add_option("--point-light", a->point_lights,
+                   "a point light at x,y,z (irradiance 1 at the object's centre, 1/d^2 around; "
+                   "repeat for more; replaces the default light unless --light is given)");
+  prev->add_flag("--perspective", a->perspective,
+                 "a viewer at a finite distance (30 deg field of view) instead of a distant one");
   prev->add_option("--turntable", a->turntable,
                    "N views turned about z, side by side in one image (a contact sheet)")
       ->check(CLI::Range(1, 64));

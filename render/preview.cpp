@@ -73,6 +73,31 @@ void ortho_view_proj(const Vec3& V, const Vec3& c, double radius, double aspect,
   for (int i = 0; i < 16; ++i) out[i] = float(m[i]);
 }
 
+// A viewer at a finite distance: 30 degree vertical field of view framing a sphere of `radius`
+// (with 10 % margin) about `c`, from the direction V. Row-major; eye returned.
+Vec3 perspective_view_proj(const Vec3& V, const Vec3& c, double radius, double aspect,
+                           float out[16]) {
+  constexpr double kFovY = 30.0;
+  const double half = deg_to_rad(kFovY / 2), ext = 1.1 * radius;
+  const double dist = ext / std::sin(half) / std::min(1.0, aspect);
+  const Vec3 eye = c + V * dist;
+  Vec3 right = cross(Vec3(0, 0, 1), V);
+  if (length(right) < 1e-6) right = Vec3(1, 0, 0);
+  right = normalize(right);
+  const Vec3 up = cross(V, right);
+  const double f = 1.0 / std::tan(half), n = std::max(dist - 2 * ext, 1e-3 * dist),
+               fa = dist + 2 * ext;
+  // Projection times the view matrix (rows right, up, V; eye at the origin).
+  const double a = (fa + n) / (n - fa), b = 2 * fa * n / (n - fa);
+  const Vec3 rows[3] = {right * (f / aspect), up * f, V * a};
+  const double m[16] = {rows[0].x, rows[0].y, rows[0].z, -dot(rows[0], eye),
+                        rows[1].x, rows[1].y, rows[1].z, -dot(rows[1], eye),
+                        rows[2].x, rows[2].y, rows[2].z, -dot(rows[2], eye) + b,
+                        -V.x,      -V.y,      -V.z,      dot(V, eye)};
+  for (int i = 0; i < 16; ++i) out[i] = float(m[i]);
+  return eye;
+}
+
 // The paper's texture matrix: (T, 1) -> ((<L,T> + 1) / 2, (<V,T> + 1) / 2), with the cosine
 // index's texel-centre remap folded in. Row-major.
 void texture_matrix(const Vec3& L, const Vec3& V, const BakeTables& t, float out[16]) {
@@ -141,8 +166,21 @@ struct Passes {
 };
 
 // One frame: per light, one additive pass per fiber lobe and one for the isotropic term.
+// Per-fragment directions (render/shaders: local_directions) for a point light and a finite
+// viewer.
+void set_local_uniforms(const gl::Program& p, const PreviewLight& light, const PreviewCamera& cam) {
+  p.set("uPointLight", light.point ? 1 : 0);
+  p.set("uLightPos", light.pos);
+  p.set("uLightD0", float(light.d0));
+  p.set("uPerspective", cam.perspective ? 1 : 0);
+  p.set("uEye", cam.eye);
+}
+
 int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, const Lookups& lk,
-               const gl::MeshBuffers& mesh, const float view_proj[16], const Vec3& V) {
+               const gl::MeshBuffers& mesh, const PreviewCamera& cam,
+               const std::vector<PreviewLight>& lights) {
+  const float* view_proj = cam.view_proj;
+  const Vec3& V = cam.V;
   glClearColor(float(opt.background[0]), float(opt.background[1]), float(opt.background[2]), 1);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glDisable(GL_BLEND);
@@ -159,7 +197,7 @@ int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, c
     ++passes;
   };
   const gl::Program& pa = *ps.aniso;
-  for (const PreviewLight& light : preview_lights(opt)) {
+  for (const PreviewLight& light : lights) {
     const Vec3& L = light.dir;
     const Vec3 E(light.irradiance, light.irradiance, light.irradiance);
     float texmat[16];
@@ -176,6 +214,8 @@ int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, c
       pa.set("uD", 0);
       pa.set("uS", 1);
       pa.set("uL", L);
+      pa.set("uV", V);
+      set_local_uniforms(pa, light, cam);
       pa.set("uE", E);
       pa.set("uKd", m.kd);
       pa.set("uKs", m.ks);
@@ -193,6 +233,7 @@ int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, c
       ps.iso->set_matrix("uViewProj", view_proj);
       ps.iso->set("uL", L);
       ps.iso->set("uV", V);
+      set_local_uniforms(*ps.iso, light, cam);
       ps.iso->set("uE", E);
       ps.iso->set("uKd", m.iso_kd);
       ps.iso->set("uKs", m.iso_ks);
@@ -207,8 +248,9 @@ int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, c
 // The geometry pass: N, T and T2 (or u, v, s_math) per fragment, and which pixels are covered.
 GBuffer geometry_pass(const gl::Framebuffer& fb, const gl::MeshBuffers& mesh,
                       const float view_proj[16], bool fiber, PreviewResult* res) {
+  constexpr int kTargets = 4;  // N, T, T2 or (u, v, s_math), P
   const gl::Program p(shaders::vertex_vert, shaders::gbuffer_frag, "gbuffer.frag");
-  fb.draw_to(3);
+  fb.draw_to(kTargets);
   glClearColor(0, 0, 0, 0);  // coverage is where a normal was written
   glDisable(GL_BLEND);
   glDepthMask(GL_TRUE);
@@ -219,7 +261,7 @@ GBuffer geometry_pass(const gl::Framebuffer& fb, const gl::MeshBuffers& mesh,
   p.set("uFiber", fiber ? 1 : 0);
   mesh.draw();
   glFinish();
-  GBuffer g{fb.read(0), fb.read(1), fb.read(2)};
+  GBuffer g{fb.read(0), fb.read(1), fb.read(2), fb.read(3)};
   const int w = g.N.width, h = g.N.height;
   res->covered.assign(static_cast<size_t>(w) * h, 0);
   for (int y = 0; y < h; ++y)
@@ -232,7 +274,8 @@ GBuffer geometry_pass(const gl::Framebuffer& fb, const gl::MeshBuffers& mesh,
 void check_preview_request(const Material& m, const PreviewOptions& opt, bool fiber) {
   if (opt.width < 1 || opt.height < 1 || opt.width > 8192 || opt.height > 8192)
     throw Error("preview: --size must be between 1x1 and 8192x8192");
-  if (opt.light_dirs.empty()) throw Error("preview: at least one light is needed");
+  if (opt.light_dirs.empty() && opt.point_lights.empty())
+    throw Error("preview: at least one light is needed");
   if (!fiber) return;
   if (const auto* r = m.topology_as<SMapRef>(); r && opt.s_map.empty())
     throw Error("preview: the material uses a map of s (" + r->file + ") but none was loaded");
@@ -242,10 +285,36 @@ void check_preview_request(const Material& m, const PreviewOptions& opt, bool fi
 
 }  // namespace
 
-std::vector<PreviewLight> preview_lights(const PreviewOptions& opt) {
+void PreviewLight::at(const Vec3& P, Vec3* L, double* E) const {
+  if (!point) {
+    *L = dir;
+    *E = irradiance;
+    return;
+  }
+  const Vec3 d = pos - P;
+  const double r = length(d);
+  *L = d * (1.0 / r);
+  *E = irradiance * d0 * d0 / (r * r);
+}
+
+std::vector<PreviewLight> preview_lights(const PreviewOptions& opt, const Vec3& center) {
   std::vector<PreviewLight> lights;
-  for (const Vec3& d : opt.light_dirs) lights.push_back({normalize(d), 1.0});
-  if (opt.fill > 0) lights.push_back({normalize(opt.view_dir), opt.fill});
+  auto directional = [](const Vec3& d, double e) {
+    PreviewLight l;
+    l.dir = normalize(d);
+    l.irradiance = e;
+    return l;
+  };
+  for (const Vec3& d : opt.light_dirs) lights.push_back(directional(d, 1.0));
+  if (opt.fill > 0) lights.push_back(directional(opt.view_dir, opt.fill));
+  for (const Vec3& p : opt.point_lights) {
+    PreviewLight l;
+    l.point = true;
+    l.pos = p;
+    l.d0 = length(p - center);
+    l.dir = normalize(p - center);
+    lights.push_back(l);
+  }
   return lights;
 }
 
@@ -267,13 +336,22 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   indices.reserve(mesh.tri.size() * 3);
   for (const auto& t : mesh.tri) indices.insert(indices.end(), t.begin(), t.end());
   const gl::MeshBuffers buffers(vbuf, kAttributeSizes, indices);
-  // Three float colour targets (the geometry pass uses all three) and depth.
-  const gl::Framebuffer fb(w, h, 3);
-  const Vec3 V = normalize(opt.view_dir);
-  float view_proj[16];
-  ortho_view_proj(V, mesh.center, radius, double(w) / h, view_proj);
+  // Four float colour targets (the geometry pass uses all of them) and depth.
+  const gl::Framebuffer fb(w, h, 4);
+  PreviewCamera cam;
+  cam.V = normalize(opt.view_dir);
+  cam.perspective = opt.perspective;
+  if (opt.perspective)
+    cam.eye = perspective_view_proj(cam.V, mesh.center, radius, double(w) / h, cam.view_proj);
+  else
+    ortho_view_proj(cam.V, mesh.center, radius, double(w) / h, cam.view_proj);
+  const std::vector<PreviewLight> lights = preview_lights(opt, mesh.center);
 
   const bool paper = opt.per_vertex && !opt.plain && !m.fiber();
+  if (paper && (opt.perspective || !opt.point_lights.empty()))
+    throw Error(
+        "preview: --per-vertex (the paper's construction) needs directional lights and a "
+        "distant viewer: leave out --perspective and --point-light");
   Lookups lk;
   make_lookups(m, opt, fiber, paper, &lk);
   Passes ps;
@@ -292,16 +370,17 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   glEnable(GL_DEPTH_TEST);
   const auto t0 = std::chrono::steady_clock::now();
   for (int frame = 0; frame < std::max(1, opt.repeat); ++frame)
-    res.passes = draw_frame(m, opt, ps, lk, buffers, view_proj, V);
+    res.passes = draw_frame(m, opt, ps, lk, buffers, cam, lights);
   res.seconds_per_frame =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() /
       std::max(1, opt.repeat);
   res.rgb = fb.read(0);
 
   // Coverage and, when asked, the direct evaluation at the same fragments.
-  const GBuffer g = geometry_pass(fb, buffers, view_proj, fiber, &res);
-  if (opt.reference && fiber) fiber_reference(m, opt, V, lk.tables, lk.fb, g, &res);
-  if (opt.reference && !opt.plain && !fiber) line_reference(m, opt, V, lk.tables, g, &res);
+  const GBuffer g = geometry_pass(fb, buffers, cam.view_proj, fiber, &res);
+  if (opt.reference && fiber) fiber_reference(m, opt, cam, lights, lk.tables, lk.fb, g, &res);
+  if (opt.reference && !opt.plain && !fiber)
+    line_reference(m, opt, cam, lights, lk.tables, g, &res);
   return res;
 }
 

@@ -27,6 +27,12 @@ struct PreviewOptions {
   // A fill light from the viewer's direction with this irradiance (0: none), so the side the
   // lights miss keeps its silhouette; one more pass, shaded by the same model.
   double fill = 0;
+  // Point lights at these positions (irradiance 1 at the object's centre, 1/d^2 around it), drawn
+  // after the directional ones; L varies per fragment.
+  std::vector<Vec3> point_lights;
+  // A viewer at a finite distance (30 degree field of view framing the object) instead of the
+  // paper's distant one: V varies per fragment, and a flat sample shows its streak.
+  bool perspective = false;
   RGB background{0, 0, 0};  // linear radiance where no object is
   bool reference = false;   // also evaluate the model directly per pixel (CPU) for comparison
   bool plain = false;       // a plain textured-and-lit pass instead (for timing comparisons)
@@ -58,11 +64,17 @@ struct PreviewResult {
 
 PreviewResult render_preview(const Material& m, const PreviewOptions& opt);
 
-// The lights a preview draws: each of light_dirs with irradiance 1, then the fill light.
+// The lights a preview draws: each of light_dirs with irradiance 1, the fill light, then the
+// point lights (irradiance 1 at `center`).
 struct PreviewLight {
-  Vec3 dir;  // unit, toward the light
+  Vec3 dir;  // unit, toward the light (directional)
   double irradiance = 1;
+  bool point = false;
+  Vec3 pos;       // point light: where it is
+  double d0 = 1;  // point light: distance at which the irradiance is `irradiance`
+  // Direction toward the light and irradiance at P.
+  void at(const Vec3& P, Vec3* L, double* E) const;
 };
-std::vector<PreviewLight> preview_lights(const PreviewOptions& opt);
+std::vector<PreviewLight> preview_lights(const PreviewOptions& opt, const Vec3& center);
 
 }  // namespace aniso

@@ -38,9 +38,9 @@ double max_texel_step(const BakeTables& tables) {
 
 }  // namespace
 
-void fiber_reference(const Material& m, const PreviewOptions& opt, const Vec3& V,
-                     const BakeTables& tables, const FiberBakeTables& fb, const GBuffer& g,
-                     PreviewResult* res) {
+void fiber_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
+                     const std::vector<PreviewLight>& lights, const BakeTables& tables,
+                     const FiberBakeTables& fb, const GBuffer& g, PreviewResult* res) {
   const int w = g.N.width, h = g.N.height;
   res->reference = Image(w, h, 3);
   TopologyMap map;
@@ -48,10 +48,7 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Vec3& V
   const bool s_map = m.topology_as<SMapRef>() != nullptr;
   Material line_only = m;
   line_only.model = Model::kLine;
-  const std::vector<PreviewLight> lights = preview_lights(opt);
-  double total_e = 0;
-  for (const auto& l : lights) total_e += l.irradiance;
-  res->error_bound = total_e * fb.max_abs_error + 1e-5;
+  double max_e = 0;  // the largest total irradiance at a fragment (point lights vary)
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       SurfacePoint sp;
@@ -61,17 +58,23 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Vec3& V
                         : map.h.empty() ? 0.0
                                         : map.sample(u, v);
       const double s = s_at(m, smath, mv);
-      double exact[3] = {0, 0, 0}, baked[3] = {0, 0, 0};
+      double exact[3] = {0, 0, 0}, baked[3] = {0, 0, 0}, esum = 0;
+      const Vec3 P{g.P.at(x, y, 0), g.P.at(x, y, 1), g.P.at(x, y, 2)};
+      const LocalDir Vl = to_local(sp, cam.toward_viewer(P));
       for (const PreviewLight& light : lights) {
-        const LocalDir Ll = to_local(sp, light.dir), Vl = to_local(sp, V);
+        Vec3 Ld;
+        double E;
+        light.at(P, &Ld, &E);
+        const LocalDir Ll = to_local(sp, Ld);
+        esum += E;
         LineParamsT<double> p = line_params(m);
         p.psi = 0;
         double f[3], gb[3];
         fiber_reflectance(p, s, Ll, Vl, FiberAccuracy{}, f);
         fiber_baked_eval(line_only, tables, fb, Ll, Vl, s, gb);
-        for (int ch = 0; ch < 3; ++ch)
-          exact[ch] += light.irradiance * f[ch], baked[ch] += light.irradiance * gb[ch];
+        for (int ch = 0; ch < 3; ++ch) exact[ch] += E * f[ch], baked[ch] += E * gb[ch];
       }
+      max_e = std::max(max_e, esum);
       for (int ch = 0; ch < 3; ++ch) {
         res->reference.at(x, y, ch) = float(exact[ch]);
         const double got = res->rgb.at(x, y, ch);
@@ -79,10 +82,12 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Vec3& V
         res->max_abs_diff_baked = std::max(res->max_abs_diff_baked, std::abs(got - baked[ch]));
       }
     }
+  res->error_bound = max_e * fb.max_abs_error + 1e-5;
 }
 
-void line_reference(const Material& m, const PreviewOptions& opt, const Vec3& V,
-                    const BakeTables& tables, const GBuffer& g, PreviewResult* res) {
+void line_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
+                    const std::vector<PreviewLight>& lights, const BakeTables& tables,
+                    const GBuffer& g, PreviewResult* res) {
   const int w = g.N.width, h = g.N.height;
   res->reference = Image(w, h, 3);
   // The largest texel step times the 8-bit sub-texel weight precision that hardware filtering is
@@ -94,13 +99,9 @@ void line_reference(const Material& m, const PreviewOptions& opt, const Vec3& V,
   const double acos_texels =
       angle ? std::sqrt(2.0 * std::ldexp(1.0, -24)) * (tables.size - 1) / M_PI : 0.0;
   const int lobes = m.second_active() ? 2 : 1;
-  const std::vector<PreviewLight> lights = preview_lights(opt);
-  double total_e = 0;
-  for (const auto& l : lights) total_e += l.irradiance;
-  res->error_bound =
-      total_e * lobes *
-          (tables.max_abs_error + 2 * max_texel_step(tables) * (kFilterWeightStep + acos_texels)) +
-      kFloatSlack;
+  const double unit_bound = lobes * (tables.max_abs_error + 2 * max_texel_step(tables) *
+                                                                (kFilterWeightStep + acos_texels));
+  double max_e = 0;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       SurfacePoint sp;
@@ -112,18 +113,25 @@ void line_reference(const Material& m, const PreviewOptions& opt, const Vec3& V,
       local.fiber_angle_deg = 0;
       local.second_angle_deg = rad_to_deg(std::atan2(dot(T2, sp.W), dot(T2, sp.U)));
       const Evaluator le(local);
-      double acc[3] = {0, 0, 0};
+      double acc[3] = {0, 0, 0}, esum = 0;
+      const Vec3 P{g.P.at(x, y, 0), g.P.at(x, y, 1), g.P.at(x, y, 2)};
+      const LocalDir Vl = to_local(sp, cam.toward_viewer(P));
       for (const PreviewLight& light : lights) {
-        double f[3];
-        le(to_local(sp, light.dir), to_local(sp, V), f);
-        for (int ch = 0; ch < 3; ++ch) acc[ch] += light.irradiance * f[ch];
+        Vec3 Ld;
+        double E, f[3];
+        light.at(P, &Ld, &E);
+        esum += E;
+        le(to_local(sp, Ld), Vl, f);
+        for (int ch = 0; ch < 3; ++ch) acc[ch] += E * f[ch];
       }
+      max_e = std::max(max_e, esum);
       for (int ch = 0; ch < 3; ++ch) {
         res->reference.at(x, y, ch) = float(acc[ch]);
         res->max_abs_diff =
             std::max(res->max_abs_diff, std::abs(double(res->rgb.at(x, y, ch)) - acc[ch]));
       }
     }
+  res->error_bound = max_e * unit_bound + kFloatSlack;
 }
 
 }  // namespace aniso

@@ -11,12 +11,23 @@ namespace aniso {
 
 struct GBuffer {
   Image N, T, T2;  // T2 holds (u, v, s_math) for the fiber model
+  Image P;         // position
 };
 
-void fiber_reference(const Material& m, const PreviewOptions& opt, const Vec3& V,
-                     const BakeTables& tables, const FiberBakeTables& fb, const GBuffer& g,
-                     PreviewResult* res);
-void line_reference(const Material& m, const PreviewOptions& opt, const Vec3& V,
-                    const BakeTables& tables, const GBuffer& g, PreviewResult* res);
+// The viewer: distant (the paper's: V constant) or at `eye` (perspective).
+struct PreviewCamera {
+  Vec3 V;  // toward the viewer, unit
+  bool perspective = false;
+  Vec3 eye;
+  float view_proj[16];
+  Vec3 toward_viewer(const Vec3& P) const { return perspective ? normalize(eye - P) : V; }
+};
+
+void fiber_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
+                     const std::vector<PreviewLight>& lights, const BakeTables& tables,
+                     const FiberBakeTables& fb, const GBuffer& g, PreviewResult* res);
+void line_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
+                    const std::vector<PreviewLight>& lights, const BakeTables& tables,
+                    const GBuffer& g, PreviewResult* res);
 
 }  // namespace aniso

@@ -256,3 +256,67 @@ TEST(Bake, PreviewFromABakeFolderRendersTheTablesWrittenThere) {
 
 }  // namespace
 }  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// A point light and a finite viewer make L and V vary over a flat sample: its highlight is a
+// streak, not a uniform tint. The GPU matches the model per fragment within the stated bound,
+// for the line and the fiber model.
+TEST(Preview, PointLightAndPerspectiveMatchTheModel) {
+  for (bool fiber : {false, true}) {
+    Material m = satin();
+    if (fiber) {
+      m.model = Model::kFiber;
+      m.topology = UniformS{0.3};
+    }
+    PreviewOptions p;
+    p.shape = "flat";
+    p.width = p.height = 96;
+    p.view_dir = Vec3(0, -1, 0.8);
+    p.light_dirs.clear();
+    p.point_lights = {Vec3(0.3, -0.5, 1.2)};
+    p.perspective = true;
+    p.reference = true;
+    const PreviewResult r = render_preview(m, p);
+    size_t covered = 0;
+    float lo = 1e9f, hi = 0;
+    for (size_t i = 0; i < r.covered.size(); ++i)
+      if (r.covered[i]) {
+        ++covered;
+        lo = std::min(lo, r.rgb.px[3 * i]);
+        hi = std::max(hi, r.rgb.px[3 * i]);
+      }
+    std::printf(
+        "%s, point light + perspective: %zu px covered, values %.3g..%.3g, GPU vs model "
+        "max abs %.3g (bound %.3g)\n",
+        fiber ? "fiber" : "line", covered, lo, hi, r.max_abs_diff, r.error_bound);
+    EXPECT_GT(covered, 96u * 96u / 6);
+    EXPECT_GT(hi, 3 * lo + 0.05f);  // a streak across the sample
+    EXPECT_LE(r.max_abs_diff, r.error_bound);
+  }
+}
+
+// The person's default: a background that is not black and a fill light that keeps the side the
+// light misses visible; both off give the bare render.
+TEST(Preview, BackgroundAndFillLight) {
+  PreviewOptions p;
+  p.width = p.height = 64;
+  p.light_dirs = {Vec3(1, 0, 0.2)};  // lights the +x side only
+  p.view_dir = Vec3(0, -1, 0);
+  const PreviewResult bare = render_preview(satin(), p);
+  p.background = {0.03, 0.03, 0.03};
+  p.fill = 0.15;
+  p.reference = true;
+  const PreviewResult lit = render_preview(satin(), p);
+  EXPECT_FLOAT_EQ(lit.rgb.at(0, 0, 0), 0.03f);  // a corner: background
+  EXPECT_FLOAT_EQ(bare.rgb.at(0, 0, 0), 0.0f);
+  const int x = 20, y = 32;  // on the sphere's unlit (-x) side
+  ASSERT_TRUE(lit.covered[y * 64 + x]);
+  EXPECT_EQ(bare.rgb.at(x, y, 0), 0.0f);
+  EXPECT_GT(lit.rgb.at(x, y, 0), 0.01f);
+  EXPECT_LE(lit.max_abs_diff, lit.error_bound);
+}
+
+}  // namespace
+}  // namespace aniso

@@ -16,16 +16,37 @@ uniform float uS0; uniform float uAmp;
 uniform vec3 uL; uniform vec3 uV; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs;
 out vec4 frag;
 const float PI = 3.14159265358979;
+// A point light (uPointLight: at uLightPos, irradiance uE at distance uLightD0, falling off as
+// 1/d^2) and a perspective viewer (uPerspective: at uEye) make L and V vary per fragment.
+in vec3 vP;
+uniform int uPointLight; uniform vec3 uLightPos; uniform float uLightD0;
+uniform int uPerspective; uniform vec3 uEye;
+void local_directions(out vec3 L, out vec3 V, out vec3 E) {
+  L = uL; V = uV; E = uE;
+  if (uPointLight == 1) {
+    vec3 d = uLightPos - vP;
+    float r = length(d);
+    L = d / r;
+    E = uE * (uLightD0 * uLightD0) / (r * r);
+  }
+  if (uPerspective == 1) V = normalize(uEye - vP);
+}
 void main() {
+  vec3 L, V, E;
+  local_directions(L, V, E);
   vec3 N = normalize(vN);
   vec3 T = normalize(vT - N * dot(N, vT));
   vec3 B = cross(N, T);
-  float ln = dot(uL, N), vn = dot(uV, N);
+  float ln = dot(L, N), vn = dot(V, N);
   if (ln <= 0.0 || vn <= 0.0) { frag = vec4(0.0, 0.0, 0.0, 1.0); return; }
   vec2 st = (uTexMat * vec4(T, 1.0)).xy;
+  if (uPointLight == 1 || uPerspective == 1) {  // the texture matrix's job, per fragment
+    st = 0.5 + 0.5 * vec2(dot(L, T), dot(V, T));
+    if (uAngleIndex == 0) st = st * (uTexels - 1.0) / uTexels + 0.5 / uTexels;
+  }
   if (uAngleIndex == 1) st = (acos(clamp(1.0 - 2.0 * st, -1.0, 1.0)) / PI * (uTexels - 1.0) + 0.5) / uTexels;
   float Dl = texture(uD, st).r, Sl = texture(uS, st).r;
-  float a = dot(uL, T), b = dot(uV, T), lb = dot(uL, B), vb = dot(uV, B);
+  float a = dot(L, T), b = dot(V, T), lb = dot(L, B), vb = dot(V, B);
   float sL = length(vec2(lb, ln)), sV = length(vec2(vb, vn));
   float g0 = sL * sV - a * b;
   float kk = g0 > 0.0 ? 2.0 * sL * sV / (g0 + 2.0 * sL * sV) : 1.0;
@@ -49,5 +70,5 @@ void main() {
   float F1 = mix(texture(uF, vec3(uvphi, float((is + 1) * uNk + ik))).r,
                  texture(uF, vec3(uvphi, float((is + 1) * uNk + ik + 1))).r, wk);
   float F = mix(F0, F1, ws);
-  frag = vec4(uE * (uKd * Dl * G + uKs * Sl * F), 1.0);
+  frag = vec4(E * (uKd * Dl * G + uKs * Sl * F), 1.0);
 }
