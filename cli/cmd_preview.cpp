@@ -94,11 +94,7 @@ int run(const PreviewArgs& a) {
     p.baked = &bake.tables;
     if (bake.has_fiber) p.baked_fiber = &bake.fiber;
   }
-  if (const auto* t = m.fiber() ? m.topology_as<TopologyMapRef>() : nullptr)
-    // The map named by the material (relative to the material file), unless given.
-    p.topology_map = load_topology_map(a.map.empty() ? join_path(m.base_dir, t->file) : a.map).h;
-  if (const auto* t = m.fiber() ? m.topology_as<SMapRef>() : nullptr)
-    p.s_map = read_image(join_path(m.base_dir, t->file)).image;
+  load_material_maps(m, a.map, &p);
   p.shape_options.torus_R = a.R;
   p.shape_options.torus_r = a.r;
   p.fill = a.fill;

@@ -9,7 +9,9 @@
 #include "core/vec.h"
 
 namespace aniso {
-struct FitOptions;  // fit/fit.h
+struct FitOptions;      // fit/fit.h
+struct PreviewOptions;  // render/preview.h
+struct Material;        // models/material.h
 }  // namespace aniso
 
 namespace aniso::cli {
@@ -43,6 +45,11 @@ void set_command_line(int argc, char** argv);
 void parse_size(const std::string& s, int* w, int* h);
 // A non-zero direction "x,y,z" for option `opt`.
 Vec3 parse_vec(const std::string& s, const std::string& opt);
+// The fiber model's map the material names (relative to its file), or `map_override`, into the
+// preview's options.
+void load_material_maps(const Material& m, const std::string& map_override, PreviewOptions* p);
+Command add_view(CLI::App& app);
+
 // `--force`: a folder output may replace a folder holding files aniso did not write.
 void add_force_flag(CLI::App* sub);
 

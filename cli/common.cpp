@@ -2,7 +2,10 @@
 
 #include "cli/command.h"
 #include "core/error.h"
+#include "io/capture.h"
 #include "io/files.h"
+#include "io/image_io.h"
+#include "render/preview.h"
 
 namespace aniso::cli {
 
@@ -47,6 +50,15 @@ void add_force_flag(CLI::App* sub) {
   sub->add_flag_callback(
       "--force", [] { set_force_overwrite(true); },
       "replace an output folder even if it holds files aniso did not write (never an input)");
+}
+
+void load_material_maps(const Material& m, const std::string& map_override, PreviewOptions* p) {
+  if (const auto* t = m.fiber() ? m.topology_as<TopologyMapRef>() : nullptr)
+    // The map named by the material (relative to the material file), unless given.
+    p->topology_map =
+        load_topology_map(map_override.empty() ? join_path(m.base_dir, t->file) : map_override).h;
+  if (const auto* t = m.fiber() ? m.topology_as<SMapRef>() : nullptr)
+    p->s_map = read_image(join_path(m.base_dir, t->file)).image;
 }
 
 }  // namespace aniso::cli

@@ -73,9 +73,6 @@ void Context::release() {
   ctx_ = EGL_NO_CONTEXT;
 }
 
-std::string Context::renderer() const {
-  return reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-}
 
 void Context::fail(const std::string& what) {
   const std::string msg =

@@ -21,7 +21,6 @@ class Context {
   ~Context();
   Context(const Context&) = delete;
   Context& operator=(const Context&) = delete;
-  std::string renderer() const;
 
  private:
   [[noreturn]] void fail(const std::string& what);

@@ -329,8 +329,9 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   double radius = 0;
   const std::vector<float> vbuf = vertex_attributes(m, opt, mesh, &radius);
 
-  gl::Context context;
-  res.renderer = context.renderer();
+  std::unique_ptr<gl::Context> context;
+  if (!opt.use_current_context) context = std::make_unique<gl::Context>();
+  res.renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
   const int w = opt.width, h = opt.height;
   std::vector<uint32_t> indices;
   indices.reserve(mesh.tri.size() * 3);

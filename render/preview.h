@@ -40,6 +40,9 @@ struct PreviewOptions {
   // (interpolated), the cosine-indexed table. Cheapest; errs where T bends across a triangle.
   bool per_vertex = false;
   int repeat = 1;  // frames to render (timing)
+  // Render with the OpenGL context current on this thread (an interactive window's) instead of
+  // making a headless one; the result is read back the same way.
+  bool use_current_context = false;
   // Fiber model: the topology map (h in [0, 1], glTF uv) when the material uses one.
   Image topology_map;
   // Or a map of s itself (topology.s_map, what `fit --topology-map N` writes): channel 0 = s.

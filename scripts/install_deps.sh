@@ -8,7 +8,7 @@ PKGS=(build-essential cmake ninja-build pkg-config
       libceres-dev libeigen3-dev libopencv-dev libopenexr-dev libimath-dev libembree-dev libtbb-dev
       libopengl-dev libegl-dev libgl-dev libgl1-mesa-dri libegl-mesa0 libepoxy-dev
       nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
-      glslang-tools spirv-cross chromium)
+      glslang-tools spirv-cross chromium libglfw3-dev libimgui-dev xvfb xauth)
 # Node.js and npm (the export's checks: ktx-parse, gltf-validator, three.js): the machine's own
 # when it has them (Debian's npm conflicts with a newer Node.js), Debian's otherwise.
 command -v npm >/dev/null 2>&1 || PKGS+=(nodejs npm)

@@ -8,6 +8,9 @@
 #include "core/error.h"
 #include "datasets_synth/presets.h"
 #include "io/files.h"
+#include "io/image_io.h"
+#include "io/material_io.h"
+#include "core/color.h"
 #include "models/line_model.h"
 #include "render/bake.h"
 #include "render/preview.h"
@@ -316,6 +319,59 @@ TEST(Preview, BackgroundAndFillLight) {
   EXPECT_EQ(bare.rgb.at(x, y, 0), 0.0f);
   EXPECT_GT(lit.rgb.at(x, y, 0), 0.01f);
   EXPECT_LE(lit.max_abs_diff, lit.error_bound);
+}
+
+}  // namespace
+}  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// `aniso view` under a virtual X server: its window shows exactly what `aniso preview` renders
+// for the same settings (outside the panel), and the error heat-map of tables against the exact
+// model is dark where the tables are good.
+TEST(View, ScreenshotShowsThePreviewAndTheErrorMap) {
+  const std::string dir = test::tmp_dir("view");
+  write_json_file(dir + "/m.json", [] {
+    nlohmann::json j;
+    material_to_json(satin(), &j);
+    return j;
+  }());
+  const std::string xvfb = "xvfb-run -a -s '-screen 0 800x600x24' ";
+  auto r =
+      test::run_command(xvfb + ANISO_BIN + " view " + dir + "/m.json --size 640x480 " +
+                        "--view 0,-0.8,0.6 --light 0.7,-0.2,0.7 --screenshot " + dir + "/v.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("preview " + dir + "/m.json --size 640x480 --view 0,-0.8,0.6 --light " +
+                    "0.7,-0.2,0.7 --out " + dir + "/p.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_command(xvfb + ANISO_BIN + " view " + dir + "/m.json --size 640x480 " +
+                        "--view 0,-0.8,0.6 --light 0.7,-0.2,0.7 --show error --screenshot " + dir +
+                        "/e.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const Image v = read_image(dir + "/v.png").image, p = read_image(dir + "/p.png").image,
+              e = read_image(dir + "/e.png").image;
+  ASSERT_EQ(v.width, 640);
+  ASSERT_EQ(v.height, 480);
+  // The panel covers the top left; compare a part of the sphere below and right of it.
+  double diff = 0, err = 0, lit = 0;
+  size_t n = 0;
+  for (int y = 300; y < 440; ++y)
+    for (int x = 380; x < 540; ++x)
+      for (int c = 0; c < 3; ++c) {
+        diff = std::max(diff, double(std::abs(v.at(x, y, c) - p.at(x, y, c))));
+        err += srgb_decode(e.at(x, y, c)) / 10;  // the map shows |tables - exact| x 10
+        lit += p.at(x, y, c);
+        ++n;
+      }
+  std::printf("view vs preview (below right of the panel): max difference %.4f; error map: "
+              "mean |tables - exact| %.2g (linear)\n",
+              diff, err / n);
+  EXPECT_LE(diff, 2.5 / 255);  // a code of rounding in the view angles' round trip
+  // What the preview states as its bound for these settings (tables + 8-bit filter weights, two
+  // lights): 0.00333.
+  EXPECT_LT(err / n, 0.00333);
+  EXPECT_GT(lit / n, 0.05);
 }
 
 }  // namespace

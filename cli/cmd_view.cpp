@@ -1,0 +1,97 @@
+// aniso view: the interactive window (render/viewer.h).
+#include <filesystem>
+#include <memory>
+
+#include "cli/command.h"
+#include "core/error.h"
+#include "io/files.h"
+#include "io/json_util.h"
+#include "io/material_io.h"
+#include "render/bake.h"
+#include "render/viewer.h"
+
+namespace aniso::cli {
+
+namespace {
+
+struct ViewArgs {
+  std::string input, size = "1024x768", shape = "sphere", field, view, light, screenshot;
+  int frames = 3;
+  std::string show = "tables";
+};
+
+// A material file, a bake folder (its material and tables) or an export folder (its material).
+Material read_view_input(const std::string& in, BakeFolder* bake) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(in, ec)) return read_material(in);
+  if (fs::exists(fs::path(in) / "bake.json")) {
+    *bake = read_bake(in);
+    return bake->material;
+  }
+  const std::string ex = join_path(in, "export.json");
+  if (!fs::exists(ex))
+    throw Error(in +
+                ": a folder to view must hold bake.json (aniso bake) or export.json "
+                "(aniso export)");
+  const auto j = jsonu::parse_file(read_text_file(ex), ex);
+  if (!j.contains("material")) throw Error(ex + ": no \"material\"");
+  return material_from_json(j.at("material"), ex);
+}
+
+}  // namespace
+
+Command add_view(CLI::App& app) {
+  auto a = std::make_shared<ViewArgs>();
+  auto* v = app.add_subcommand(
+      "view",
+      "Interactive window: orbit, move the light, switch shape, terms, tables vs exact, "
+      "error heat-map (needs a display; `xvfb-run -a` without one)");
+  v->add_option("INPUT", a->input, "material file, bake folder or export folder")->required();
+  v->add_option("--size", a->size, "window size WxH")->capture_default_str();
+  v->add_option("--shape", a->shape, "sphere, disc, cylinder, torus or flat")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"sphere", "disc", "cylinder", "torus", "flat"}));
+  v->add_option("--fiber-field", a->field, "replace dP/du: radial, circular or meridian")
+      ->check(CLI::IsMember({"", "radial", "circular", "meridian"}));
+  v->add_option("--view", a->view, "starting direction toward the viewer x,y,z");
+  v->add_option("--light", a->light, "starting direction toward the light x,y,z");
+  v->add_option("--screenshot", a->screenshot,
+                "render, save the window (panel included) as this PNG and exit (scripted use)");
+  v->add_option("--show", a->show,
+                "starting display: tables (as an engine draws them), exact (the model on the "
+                "CPU) or error (|tables - exact| x 10)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"tables", "exact", "error"}));
+  v->add_option("--frames", a->frames, "frames drawn before --screenshot")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
+  return {v, [a] {
+            BakeFolder bake;
+            const Material m = read_view_input(a->input, &bake);
+            ViewerOptions o;
+            PreviewOptions& p = o.preview;
+            parse_size(a->size, &p.width, &p.height);
+            p.shape = a->shape;
+            p.fiber_field = a->field;
+            p.fill = 0.15;
+            p.background = {0.03, 0.03, 0.03};
+            if (!a->view.empty()) p.view_dir = parse_vec(a->view, "--view");
+            if (!a->light.empty()) p.light_dirs = {parse_vec(a->light, "--light")};
+            if (bake.tables.size > 0) {
+              p.baked = &bake.tables;
+              if (bake.has_fiber) p.baked_fiber = &bake.fiber;
+            }
+            load_material_maps(m, "", &p);
+            o.screenshot = a->screenshot;
+            o.screenshot_frames = a->frames;
+            o.show = a->show == "exact" ? 1 : a->show == "error" ? 2 : 0;
+            o.title = "aniso view: " + a->input;
+            if (!o.screenshot.empty()) check_outputs_apart({o.screenshot}, {a->input});
+            run_viewer(m, o);
+            if (!o.screenshot.empty()) std::printf("view: wrote %s\n", o.screenshot.c_str());
+            return 0;
+          }};
+}
+
+}  // namespace aniso::cli
