@@ -5,8 +5,8 @@
 //   aniso preview MATERIAL --shape sphere --view x,y,z --light x,y,z --size WxH
 // (orthographic camera along -view framing the object with 10 % margin, the same background and
 // fill light, sRGB output), so the two can be compared pixel by pixel. Optional: fill=E,
-// background=g or r,g,b (linear), as in `aniso preview`. With no query: an orbit viewer; drag to
-// turn the view, shift+drag to move the light.
+// background=g or r,g,b (linear), as in `aniso preview`; fps=N times N frames (title says).
+// With no query: an orbit viewer; drag to turn the view, shift+drag to move the light.
 import * as THREE from './three.module.js';
 
 const DEFAULTS = { view: [0, -0.8, 0.6], light: [0.7, -0.2, 0.7], fill: 0.15, background: 0.03 };
@@ -117,6 +117,14 @@ void main() {
   fragColor = vec4(enc(c.r), enc(c.g), enc(c.b), 1.0);
 }`;
 
+// For timing against the plainest lit surface (plain=1): Lambert, no tables.
+const FRAGMENT_PLAIN = `
+precision highp float;
+uniform vec3 kd; uniform vec3 L0;
+in vec3 vN; in vec3 vT;
+out vec4 fragColor;
+void main() { fragColor = vec4(kd * max(dot(normalize(vN), L0), 0.0), 1.0); }`;
+
 export async function start(q) {
   const info = await (await fetch('../export.json')).json();
   const m = info.material;
@@ -153,7 +161,8 @@ export async function start(q) {
     V: { value: new THREE.Vector3() },
   };
   const material = new THREE.ShaderMaterial({ glslVersion: THREE.GLSL3, vertexShader: VERTEX,
-                                              fragmentShader: FRAGMENT, uniforms });
+                                              fragmentShader: q.has('plain') ? FRAGMENT_PLAIN : FRAGMENT,
+                                              uniforms });
   const scene = new THREE.Scene();
   scene.add(new THREE.Mesh(geometry, material));
 
@@ -178,6 +187,22 @@ export async function start(q) {
     renderer.render(scene, camera);
   }
   frame();
+  if (q.has('fps')) {  // timing: N frames, each finished (a one-pixel read waits for the GPU)
+    const n = Number(q.get('fps')) || 60, px = new Uint8Array(4), gl = renderer.getContext();
+    const t0 = performance.now();
+    for (let i = 0; i < n; i++) {
+      view = [view[0] * Math.cos(0.01) - view[1] * Math.sin(0.01),
+              view[0] * Math.sin(0.01) + view[1] * Math.cos(0.01), view[2]];
+      frame();
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    }
+    const ms = (performance.now() - t0) / n;
+    console.log(`aniso viewer: fps ${(1000 / ms).toFixed(1)} (${ms.toFixed(2)} ms/frame, ${W}x${H}` +
+                `${q.has('plain') ? ', plain Lambert shader' : ''})`);
+    document.title = `aniso viewer: fps ${(1000 / ms).toFixed(1)} (${ms.toFixed(2)} ms/frame, ` +
+                     `${W}x${H}, ${gl.getParameter(gl.RENDERER)})`;
+    return;
+  }
   if (scripted) {
     document.getElementById('info').classList.add('hidden');
     document.title = 'aniso viewer: rendered';
