@@ -277,7 +277,7 @@ json write_viewer(const std::string& dir, ExportSummary* sum) {
 
 }  // namespace
 
-ExportShaders export_shaders(int texels) {
+ExportShaders export_shaders(int texels, const FiberBakeTables* fiber) {
   char def[64];
   std::snprintf(def, sizeof def, "#define ANISO_TEXELS %d.0\n", texels);
   ExportShaders s;
@@ -285,6 +285,16 @@ ExportShaders export_shaders(int texels) {
   s.glsl_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + shaders::aniso_main_frag;
   s.hlsl_lookup = std::string(def) + shaders::aniso_lookup_hlsli;
   s.hlsl_pixel = s.hlsl_lookup + "\n" + shaders::aniso_main_hlsl;
+  if (!fiber) return s;
+  char fdef[128];
+  std::snprintf(fdef, sizeof fdef, "#define ANISO_NPHI %d\n#define ANISO_NS %d\n#define ANISO_NK %d\n",
+                fiber->nphi, fiber->ns, fiber->nk);
+  s.glsl_fiber = std::string(fdef) + shaders::aniso_fiber_glsl;
+  s.glsl_fiber_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + s.glsl_fiber + "\n" +
+                          shaders::aniso_fiber_main_frag;
+  s.hlsl_fiber = std::string(fdef) + shaders::aniso_fiber_hlsli;
+  s.hlsl_fiber_pixel =
+      s.hlsl_lookup + "\n" + s.hlsl_fiber + "\n" + shaders::aniso_fiber_main_hlsl;
   return s;
 }
 
@@ -359,14 +369,21 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
   write_folder_atomically(dir, [&](const std::string& tmp) {
     json tables = write_tables(tmp, m, o, &sum);
     const json maps = write_maps(tmp, m, &sum);
-    const ExportShaders sh = export_shaders(o.size);
-    write_text_file(join_path(tmp, "shaders/aniso_lookup.glsl"), sh.glsl_lookup);
-    write_text_file(join_path(tmp, "shaders/aniso.frag"), sh.glsl_fragment);
-    write_text_file(join_path(tmp, "shaders/aniso_lookup.hlsli"), sh.hlsl_lookup);
-    write_text_file(join_path(tmp, "shaders/aniso_ps.hlsl"), sh.hlsl_pixel);
-    for (const char* f : {"shaders/aniso_lookup.glsl", "shaders/aniso.frag",
-                          "shaders/aniso_lookup.hlsli", "shaders/aniso_ps.hlsl"})
-      sum.files.push_back(f);
+    const ExportShaders sh = export_shaders(o.size, sum.fiber ? &sum.fiber_tables : nullptr);
+    std::vector<std::pair<std::string, std::string>> files = {
+        {"shaders/aniso_lookup.glsl", sh.glsl_lookup},
+        {"shaders/aniso.frag", sh.glsl_fragment},
+        {"shaders/aniso_lookup.hlsli", sh.hlsl_lookup},
+        {"shaders/aniso_ps.hlsl", sh.hlsl_pixel}};
+    if (sum.fiber)
+      files.insert(files.end(), {{"shaders/aniso_fiber.glsl", sh.glsl_fiber},
+                                 {"shaders/aniso_fiber.frag", sh.glsl_fiber_fragment},
+                                 {"shaders/aniso_fiber.hlsli", sh.hlsl_fiber},
+                                 {"shaders/aniso_fiber_ps.hlsl", sh.hlsl_fiber_pixel}});
+    for (const auto& [name, text] : files) {
+      write_text_file(join_path(tmp, name), text);
+      sum.files.push_back(name);
+    }
     const SphereBuffers sphere = sphere_buffers();
     json gtables = json::object();
     for (const auto& [k, v] : tables.items()) gtables[k] = "../" + v["ktx2"].get<std::string>();
@@ -390,11 +407,17 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
                     {"shaders",
                      {{"glsl", {"shaders/aniso_lookup.glsl", "shaders/aniso.frag"}},
                       {"hlsl", {"shaders/aniso_lookup.hlsli", "shaders/aniso_ps.hlsl"}},
+                      {"fiber", sum.fiber ? json{"shaders/aniso_fiber.glsl",
+                                                 "shaders/aniso_fiber.frag",
+                                                 "shaders/aniso_fiber.hlsli",
+                                                 "shaders/aniso_fiber_ps.hlsl"}
+                                          : json(nullptr)},
                       {"checked_by",
                        "glslangValidator (GLSL 330 and HLSL via -D), SPIR-V to MSL "
                        "by spirv-cross, in the tests"},
-                      {"covers", sum.fiber ? "the line-model lookup (the fiber factor tables are "
-                                             "exported; their shader is not yet)"
+                      {"covers", sum.fiber ? "the line-model lookup and the fiber model's factor "
+                                             "tables (one topology s per call: sample a map of "
+                                             "s or s_math yourself)"
                                            : "the line-model lookup"}}},
                     {"gltf",
                      {{"file", "gltf/sample.gltf"},

@@ -3,7 +3,7 @@
 //             supercompression; fiber factor tables as 2D arrays, no side over 8192) and EXR;
 //             the material's maps as KTX2 beside copies of the originals
 //   shaders/  the lookup as GLSL (function file + complete #version 330 fragment shader) and HLSL
-//             (function file + complete pixel shader), line model
+//             (function file + complete pixel shader); fiber materials also the factor tables
 //   gltf/     a sphere with tangents carrying the material as glTF 2.0 metallic-roughness plus
 //             KHR_materials_anisotropy, fitted numerically (render/gltf_lobe.h); the exact model
 //             and the tables under extras
@@ -43,7 +43,10 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
 // shaders that inline them), for the tests and for `aniso export`.
 struct ExportShaders {
   std::string glsl_lookup, glsl_fragment, hlsl_lookup, hlsl_pixel;
+  // Fiber model: the factor-table functions (after the lookup files) and complete shaders that
+  // use them; empty for the line model.
+  std::string glsl_fiber, glsl_fiber_fragment, hlsl_fiber, hlsl_fiber_pixel;
 };
-ExportShaders export_shaders(int texels);
+ExportShaders export_shaders(int texels, const FiberBakeTables* fiber = nullptr);
 
 }  // namespace aniso

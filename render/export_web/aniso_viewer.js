@@ -28,14 +28,15 @@ async function loadKtx2(url) {
   const id = [0xab, 0x4b, 0x54, 0x58, 0x20, 0x32, 0x30, 0xbb, 0x0d, 0x0a, 0x1a, 0x0a];
   id.forEach((b, i) => { if (dv.getUint8(i) !== b) throw new Error(url + ': not KTX2'); });
   const vkFormat = dv.getUint32(12, true), w = dv.getUint32(20, true), h = dv.getUint32(24, true);
+  const layers = Math.max(dv.getUint32(32, true), 1);
   const offset = Number(dv.getBigUint64(80, true)), length = Number(dv.getBigUint64(88, true));
   if (vkFormat === 100) {  // VK_FORMAT_R32_SFLOAT
     const data = new Float32Array(buf.slice(offset, offset + length));
-    return { w, h, data, format: THREE.RedFormat, type: THREE.FloatType };
+    return { w, h, layers, data, format: THREE.RedFormat, type: THREE.FloatType };
   }
   if (vkFormat === 97) {  // VK_FORMAT_R16G16B16A16_SFLOAT
     const data = new Uint16Array(buf.slice(offset, offset + length));
-    return { w, h, data, format: THREE.RGBAFormat, type: THREE.HalfFloatType };
+    return { w, h, layers, data, format: THREE.RGBAFormat, type: THREE.HalfFloatType };
   }
   throw new Error(url + ': vkFormat ' + vkFormat + ' is not one aniso writes');
 }
@@ -117,6 +118,73 @@ void main() {
   fragColor = vec4(enc(c.r), enc(c.g), enc(c.b), 1.0);
 }`;
 
+// The fiber model: the line tables times the factor tables G and F (shaders/aniso_fiber.glsl),
+// at the material's one topology s.
+const FRAGMENT_FIBER = `
+precision highp float;
+precision highp sampler2DArray;
+uniform sampler2D anisoDiffuse;
+uniform sampler2D anisoSpecular;
+uniform sampler2DArray fiberG;
+uniform sampler2DArray fiberF;
+uniform float texels; uniform int nphi; uniform int ns; uniform int nk; uniform float topologyS;
+uniform vec3 kd; uniform vec3 ks;
+uniform vec3 L0; uniform float E0; uniform vec3 L1; uniform float E1; uniform vec3 V;
+in vec3 vN; in vec3 vT;
+out vec4 fragColor;
+const float PI = 3.14159265358979;
+float coord(float c) { return (acos(clamp(-c, -1.0, 1.0)) / PI * (texels - 1.0) + 0.5) / texels; }
+vec3 radiance(vec3 N, vec3 T, vec3 L, float E) {
+  vec3 B = cross(N, T);
+  float ln = dot(L, N), vn = dot(V, N);
+  if (ln <= 0.0 || vn <= 0.0) return vec3(0.0);
+  float a = dot(L, T), b = dot(V, T), lb = dot(L, B), vb = dot(V, B);
+  vec2 st = vec2(coord(a), coord(b));
+  float Dl = texture(anisoDiffuse, st).r, Sl = texture(anisoSpecular, st).r;
+  float sL = length(vec2(lb, ln)), sV = length(vec2(vb, vn));
+  float g0 = sL * sV - a * b;
+  float kk = g0 > 0.0 ? 2.0 * sL * sV / (g0 + 2.0 * sL * sV) : 1.0;
+  vec2 uv = ((vec2(atan(lb, ln), atan(vb, vn)) + 0.5 * PI) / PI * float(nphi - 1) + 0.5) / float(nphi);
+  float fs = clamp(topologyS, 0.0, 1.0) * float(ns - 1);
+  int is = min(int(fs), ns - 2);
+  float ws = fs - float(is);
+  float fk = kk * float(nk - 1);
+  int ik = min(int(fk), nk - 2);
+  float wk = fk - float(ik);
+  float G = mix(texture(fiberG, vec3(uv, float(is))).r, texture(fiberG, vec3(uv, float(is + 1))).r, ws);
+  float F0 = mix(texture(fiberF, vec3(uv, float(is * nk + ik))).r,
+                 texture(fiberF, vec3(uv, float(is * nk + ik + 1))).r, wk);
+  float F1 = mix(texture(fiberF, vec3(uv, float((is + 1) * nk + ik))).r,
+                 texture(fiberF, vec3(uv, float((is + 1) * nk + ik + 1))).r, wk);
+  return E * (kd * Dl * G + ks * Sl * mix(F0, F1, ws));
+}
+float enc(float v) { v = clamp(v, 0.0, 1.0);
+  return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
+void main() {
+  vec3 N = normalize(vN);
+  vec3 T = normalize(vT - N * dot(N, vT));
+  vec3 c = radiance(N, T, L0, E0) + radiance(N, T, L1, E1);
+  fragColor = vec4(enc(c.r), enc(c.g), enc(c.b), 1.0);
+}`;
+
+function arrayTexture(t, floatLinear) {
+  let { data, type } = t;
+  if (!floatLinear) {
+    data = Uint16Array.from(data, (v) => THREE.DataUtils.toHalfFloat(v));
+    type = THREE.HalfFloatType;
+  }
+  const tex = new THREE.DataArrayTexture(data, t.w, t.h, t.layers);
+  tex.format = THREE.RedFormat;
+  tex.type = type;
+  tex.minFilter = tex.magFilter = THREE.LinearFilter;
+  tex.wrapS = tex.wrapT = THREE.ClampToEdgeWrapping;
+  tex.generateMipmaps = false;
+  tex.flipY = false;
+  tex.colorSpace = THREE.NoColorSpace;
+  tex.needsUpdate = true;
+  return tex;
+}
+
 // For timing against the plainest lit surface (plain=1): Lambert, no tables.
 const FRAGMENT_PLAIN = `
 precision highp float;
@@ -128,7 +196,10 @@ void main() { fragColor = vec4(kd * max(dot(normalize(vN), L0), 0.0), 1.0); }`;
 export async function start(q) {
   const info = await (await fetch('../export.json')).json();
   const m = info.material;
-  if (info.model !== 'line') throw new Error('the browser viewer draws the line model only (this export is ' + info.model + ')');
+  const fiber = info.model === 'fiber';
+  if (fiber && !(m.topology && typeof m.topology.s === 'number'))
+    throw new Error('the browser viewer draws fiber materials with one topology s (this one has a ' +
+                    'map or a mathematical topology: use aniso view)');
   const shape = q.get('shape') || 'sphere';
   if (shape !== 'sphere') throw new Error('shape ' + shape + ': the viewer has the sample sphere only');
   const [W, H] = (q.get('size') || `${innerWidth}x${innerHeight}`).split('x').map(Number);
@@ -151,6 +222,9 @@ export async function start(q) {
   const [D, S, geometry] = await Promise.all([
     loadKtx2('../' + info.tables.diffuse.ktx2), loadKtx2('../' + info.tables.specular.ktx2),
     loadSphere(m.fiber_angle_deg || 0)]);
+  const fiberTables = fiber ? await Promise.all([loadKtx2('../' + info.tables.fiber_G.ktx2),
+                                                 loadKtx2('../' + info.tables.fiber_F.ktx2)])
+                            : null;
   const uniforms = {
     anisoDiffuse: { value: tableTexture(D, floatLinear) },
     anisoSpecular: { value: tableTexture(S, floatLinear) },
@@ -160,8 +234,16 @@ export async function start(q) {
     L1: { value: new THREE.Vector3() }, E1: { value: fill },
     V: { value: new THREE.Vector3() },
   };
+  if (fiber) {
+    const [G, F] = fiberTables;
+    Object.assign(uniforms, {
+      fiberG: { value: arrayTexture(G, floatLinear) }, fiberF: { value: arrayTexture(F, floatLinear) },
+      nphi: { value: G.w }, ns: { value: G.layers }, nk: { value: F.layers / G.layers },
+      topologyS: { value: m.topology.s },
+    });
+  }
   const material = new THREE.ShaderMaterial({ glslVersion: THREE.GLSL3, vertexShader: VERTEX,
-                                              fragmentShader: q.has('plain') ? FRAGMENT_PLAIN : FRAGMENT,
+                                              fragmentShader: q.has('plain') ? FRAGMENT_PLAIN : fiber ? FRAGMENT_FIBER : FRAGMENT,
                                               uniforms });
   const scene = new THREE.Scene();
   scene.add(new THREE.Mesh(geometry, material));
