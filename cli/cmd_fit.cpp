@@ -30,9 +30,9 @@ void print_report(FILE* o, const FitResult& r) {
   std::fprintf(
       o,
       "fit: %d iterations, %s, loss %s, residual RMS %.3g, time %.3f s (load %.3f, start %.3f, "
-      "solve %.3f, covariance %.3f)\n",
+      "solve %.3f, covariance %.3f by %s)\n",
       p.iterations, p.termination.c_str(), p.loss.c_str(), p.rms, p.seconds, p.seconds_load,
-      p.seconds_start, p.seconds_solve, p.seconds_covariance);
+      p.seconds_start, p.seconds_solve, p.seconds_covariance, p.covariance.c_str());
   for (const auto& [k, why] : r.undetermined)
     std::fprintf(o, "fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());
   for (const auto& s : p.model_summaries) std::fprintf(o, "fit: --model auto: %s\n", s.c_str());
@@ -111,6 +111,9 @@ Command add_fit(CLI::App& app) {
                   "fiber model: fit a per-texel map of s, N x N texels over uv (written beside "
                   "--out as an EXR)")
       ->check(CLI::Range(2, 256));
+  fit->add_flag("--ceres-covariance", fo.ceres_covariance,
+                "uncertainty by Ceres' dense SVD of the whole Jacobian (the reference; slower and "
+                "larger) instead of the normal equations accumulated in one pass");
   fit->add_option("--threads", fo.threads, "solver threads")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));

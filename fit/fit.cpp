@@ -63,6 +63,7 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   res.fixed["ka"] = "not fitted: taken as given (the capture's ambient multiplies it)";
   const auto t_cov = Clock::now();
   estimate_uncertainty(m.get(), os, opt, &sol, &res);
+  rep.covariance = res.report.covariance;
   rep.seconds_covariance = since(t_cov);
   rep.seconds += since(t0);
   res.report = rep;

@@ -35,6 +35,9 @@ struct FitOptions {
   // and the robust loss by reweighting (false: one autodiff block per pixel with Ceres' loss).
   bool chunked = true;
   int topology_texels = 0;  // fiber model: fit an N x N map of s over uv (0 = one s)
+  // Covariance by Ceres' dense SVD of the whole Jacobian (the reference) instead of the normal
+  // equations accumulated in one pass (fit/uncertainty.cpp).
+  bool ceres_covariance = false;
 };
 
 struct FitReport {
@@ -47,6 +50,7 @@ struct FitReport {
   double rms = 0, noise_sigma = 0, loss_scale = 0;
   double pixel_noise = 0;  // of the images, from neighbouring pixels (0 for tables)
   std::string termination, loss;
+  std::string covariance;  // how the uncertainty was computed
   size_t residual_evaluations = 0, jacobian_evaluations = 0;
   std::string start;  // the grid node the solve started from
   double rss = 0, bic = 0;

@@ -68,6 +68,7 @@ void write_fit(const std::string& path, const FitResult& r) {
                    {"covariance", p.seconds_covariance}}},
                  {"termination", p.termination},
                  {"loss", p.loss},
+                 {"covariance", p.covariance},
                  {"start", p.start},
                  {"residual_evaluations", p.residual_evaluations},
                  {"rss", p.rss},

@@ -1,9 +1,11 @@
 // Uncertainty of a solution (MODELS.md §6): coordinates the data leave free are held and named,
 // the covariance of the rest comes from Ceres (rank deficiency fails rather than giving a zero
 // variance), scaled by the residual variance; sigmas that say nothing become "undetermined".
+#include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 
 #include "core/angles.h"
 #include "fit/solve.h"
@@ -11,6 +13,197 @@
 namespace aniso::fitting {
 
 namespace {
+
+// The covariance of the fitted blocks in their ambient coordinates (Ceres' convention), from one
+// of two sources below.
+class CovarianceSource {
+ public:
+  virtual ~CovarianceSource() = default;
+  virtual bool block(const double* a, const double* b, double* out) const = 0;
+  virtual bool matrix(const std::vector<const double*>& blocks, double* out) const = 0;
+};
+
+ceres::Covariance::Options ceres_covariance_options(int threads) {
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  co.null_space_rank = 0;  // rank deficiency must fail, never produce a zero variance
+  co.min_reciprocal_condition_number = 1e-14;
+  co.num_threads = std::max(1, threads);
+  return co;
+}
+
+// Ceres' own (dense SVD of the whole Jacobian): the reference, and the path for N^2 texel maps.
+class CeresCovariance : public CovarianceSource {
+ public:
+  explicit CeresCovariance(int threads) : cov_(ceres_covariance_options(threads)) {}
+  bool compute(ceres::Problem* pb, const std::vector<Block>& blocks, bool all_pairs) {
+    if (all_pairs) {
+      std::vector<const double*> list;
+      for (const Block& b : blocks) list.push_back(b.values);
+      return cov_.Compute(list, pb);
+    }
+    std::vector<std::pair<const double*, const double*>> pairs;
+    for (const Block& b : blocks) pairs.push_back({b.values, b.values});
+    return cov_.Compute(pairs, pb);
+  }
+  bool block(const double* a, const double* b, double* out) const override {
+    return cov_.GetCovarianceBlock(a, b, out);
+  }
+  bool matrix(const std::vector<const double*>& blocks, double* out) const override {
+    return cov_.GetCovarianceMatrix(blocks, out);
+  }
+
+ private:
+  ceres::Covariance cov_;
+};
+
+// From the normal equations: J^T J accumulated block by block in one pass over the residuals
+// (robust loss and manifolds applied, as Ceres does), never the Jacobian itself; the rank test on
+// the eigenvalues of the column-scaled J^T J. For problems of a few dozen parameters (every fit
+// without a texel map): O(P^2) memory instead of Ceres' dense Jacobian and SVD.
+class NormalEquations : public CovarianceSource {
+ public:
+  static constexpr int kMaxParameters = 64;
+  // False when the problem is not one this path covers (a free block outside `blocks`, too many
+  // parameters) or the information matrix is rank deficient (`*deficient` tells which).
+  bool compute(ceres::Problem* pb, const std::vector<Block>& blocks, bool* deficient);
+  bool block(const double* a, const double* b, double* out) const override;
+  bool matrix(const std::vector<const double*>& blocks, double* out) const override;
+
+ private:
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  struct Slot {
+    int offset = 0, tangent = 0, ambient = 0;
+    Eigen::MatrixXd plus;  // ambient x tangent: the manifold's Plus Jacobian (or identity)
+  };
+  bool index(ceres::Problem* pb, const std::vector<Block>& blocks);
+  bool accumulate(ceres::Problem* pb, Eigen::MatrixXd* info) const;
+  std::map<const double*, Slot> slots_;
+  int p_ = 0;
+  Eigen::MatrixXd cov_;  // tangent space
+};
+
+// Where each free block sits in the tangent-space parameter vector; false if a free block of the
+// problem is not among `blocks` or there are too many parameters for a dense P x P.
+bool NormalEquations::index(ceres::Problem* pb, const std::vector<Block>& blocks) {
+  for (const Block& b : blocks) {
+    if (pb->IsParameterBlockConstant(b.values)) continue;
+    Slot s;
+    s.offset = p_;
+    s.ambient = pb->ParameterBlockSize(b.values);
+    s.tangent = pb->ParameterBlockTangentSize(b.values);
+    s.plus = Eigen::MatrixXd::Identity(s.ambient, s.tangent);
+    if (const ceres::Manifold* mf = pb->GetManifold(b.values)) {
+      RowMajor j(s.ambient, s.tangent);
+      mf->PlusJacobian(b.values, j.data());
+      s.plus = j;
+    }
+    p_ += s.tangent;
+    slots_[b.values] = s;
+  }
+  std::vector<double*> all;
+  pb->GetParameterBlocks(&all);
+  for (double* x : all)
+    if (!pb->IsParameterBlockConstant(x) && !slots_.count(x)) return false;
+  return p_ > 0 && p_ <= kMaxParameters;
+}
+
+// J^T J over every residual block, each block's Jacobian evaluated once and dropped.
+bool NormalEquations::accumulate(ceres::Problem* pb, Eigen::MatrixXd* info) const {
+  *info = Eigen::MatrixXd::Zero(p_, p_);
+  std::vector<ceres::ResidualBlockId> ids;
+  pb->GetResidualBlocks(&ids);
+  std::vector<double> r;
+  std::vector<std::vector<double>> jac;
+  for (ceres::ResidualBlockId id : ids) {
+    std::vector<double*> params;
+    pb->GetParameterBlocksForResidualBlock(id, &params);
+    const int m = pb->GetCostFunctionForResidualBlock(id)->num_residuals();
+    r.resize(m);
+    jac.resize(params.size());
+    std::vector<double*> jp(params.size(), nullptr);
+    std::vector<const Slot*> sp(params.size(), nullptr);
+    for (size_t k = 0; k < params.size(); ++k) {
+      const auto it = slots_.find(params[k]);
+      if (it == slots_.end()) continue;
+      sp[k] = &it->second;
+      jac[k].resize(static_cast<size_t>(m) * it->second.tangent);
+      jp[k] = jac[k].data();
+    }
+    double cost;
+    if (!pb->EvaluateResidualBlock(id, true, &cost, r.data(), jp.data())) return false;
+    for (size_t a = 0; a < params.size(); ++a)
+      for (size_t b = a; b < params.size(); ++b) {
+        if (!sp[a] || !sp[b]) continue;
+        const Eigen::Map<const RowMajor> ja(jp[a], m, sp[a]->tangent), jb(jp[b], m, sp[b]->tangent);
+        const Eigen::MatrixXd blk = ja.transpose() * jb;
+        info->block(sp[a]->offset, sp[b]->offset, sp[a]->tangent, sp[b]->tangent) += blk;
+        if (params[a] != params[b])
+          info->block(sp[b]->offset, sp[a]->offset, sp[b]->tangent, sp[a]->tangent) +=
+              blk.transpose();
+      }
+  }
+  return true;
+}
+
+bool NormalEquations::compute(ceres::Problem* pb, const std::vector<Block>& blocks,
+                              bool* deficient) {
+  *deficient = false;
+  Eigen::MatrixXd info;
+  if (!index(pb, blocks) || !accumulate(pb, &info)) return false;
+  // Column scaling, then the rank test on the eigenvalues: a ratio below 1e-14 (a singular-value
+  // ratio of 1e-7 in J) is not trusted as information.
+  const Eigen::VectorXd d = info.diagonal();
+  if (!d.allFinite() || !(d.minCoeff() > 0)) {
+    *deficient = true;
+    return false;
+  }
+  const Eigen::VectorXd scale = d.cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd a = scale.asDiagonal() * info * scale.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(a);
+  const Eigen::VectorXd ev = es.eigenvalues();
+  constexpr double kMinEigenRatio = 1e-14;
+  if (!(ev.minCoeff() > kMinEigenRatio * ev.maxCoeff())) {
+    *deficient = true;
+    return false;
+  }
+  const Eigen::MatrixXd inv =
+      es.eigenvectors() * ev.cwiseInverse().asDiagonal() * es.eigenvectors().transpose();
+  cov_ = scale.asDiagonal() * inv * scale.asDiagonal();
+  return true;
+}
+
+bool NormalEquations::block(const double* a, const double* b, double* out) const {
+  const auto ia = slots_.find(a), ib = slots_.find(b);
+  if (ia == slots_.end() || ib == slots_.end()) return false;
+  const Slot &sa = ia->second, &sb = ib->second;
+  Eigen::Map<RowMajor>(out, sa.ambient, sb.ambient) =
+      sa.plus * cov_.block(sa.offset, sb.offset, sa.tangent, sb.tangent) * sb.plus.transpose();
+  return true;
+}
+
+bool NormalEquations::matrix(const std::vector<const double*>& blocks, double* out) const {
+  int n = 0;
+  for (const double* b : blocks) {
+    if (!slots_.count(b)) return false;
+    n += slots_.at(b).ambient;
+  }
+  int row = 0;
+  for (const double* a : blocks) {
+    const int na = slots_.at(a).ambient;
+    int col = 0;
+    for (const double* b : blocks) {
+      const int nb = slots_.at(b).ambient;
+      std::vector<double> c(static_cast<size_t>(na) * nb);
+      block(a, b, c.data());
+      for (int i = 0; i < na; ++i)
+        for (int j = 0; j < nb; ++j) out[(row + i) * n + col + j] = c[i * nb + j];
+      col += nb;
+    }
+    row += na;
+  }
+  return true;
+}
 
 // k_s -> 0 leaves n undetermined: hold log n constant so the covariance of the rest stays
 // meaningful, and report n as undetermined rather than confident. Returns whether n is free.
@@ -31,7 +224,7 @@ bool hold_free_exponent(ModelFit* m, ceres::Problem* pb, FitResult* res) {
 // The full correlation matrix of the fitted numbers (not per-texel maps), in the coordinates the
 // solver uses (log n, psi in radians): how the parameters trade off. Held coordinates of subset
 // manifolds are asked in the ambient space and left at 0 correlation.
-void correlation(const ceres::Covariance& cov, ceres::Problem* pb, const std::vector<Block>& blocks,
+void correlation(const CovarianceSource& cov, ceres::Problem* pb, const std::vector<Block>& blocks,
                  FitResult* res) {
   std::vector<const double*> cb;
   std::vector<std::string>& names = res->correlation_names;
@@ -42,7 +235,7 @@ void correlation(const ceres::Covariance& cov, ceres::Problem* pb, const std::ve
   }
   const size_t k = names.size();
   std::vector<double> c(k * k, 0.0);
-  if (cb.empty() || !cov.GetCovarianceMatrix(cb, c.data())) {
+  if (cb.empty() || !cov.matrix(cb, c.data())) {
     names.clear();
     return;
   }
@@ -105,28 +298,25 @@ void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, 
   if (n_free) blocks.push_back({&c.logn, 1, {"log n"}});
   for (Block& b : m->blocks(pb)) blocks.push_back(std::move(b));
 
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::DENSE_SVD;
-  co.null_space_rank = 0;  // rank deficiency must fail, never produce a zero variance
-  co.min_reciprocal_condition_number = 1e-14;
-  co.num_threads = std::max(1, opt.threads);
-  ceres::Covariance cov(co);
-  bool computed;
-  if (m->full_correlation()) {
-    std::vector<const double*> list;
-    for (const Block& b : blocks) list.push_back(b.values);
-    computed = cov.Compute(list, pb);  // every pair of blocks
-  } else {
-    std::vector<std::pair<const double*, const double*>> pairs;
-    for (const Block& b : blocks) pairs.push_back({b.values, b.values});
-    computed = cov.Compute(pairs, pb);
-  }
-  if (!computed) {
+  // The normal equations where they apply (every fit without a texel map); Ceres' dense SVD
+  // otherwise, or when asked (--ceres-covariance: the reference the tests compare with).
+  NormalEquations normal;
+  CeresCovariance ceres_cov(opt.threads);
+  const CovarianceSource* source = nullptr;
+  bool deficient = false;
+  if (!opt.ceres_covariance && normal.compute(pb, blocks, &deficient))
+    source = &normal;
+  else if ((opt.ceres_covariance || !deficient) &&
+           ceres_cov.compute(pb, blocks, m->full_correlation()))
+    source = &ceres_cov;
+  res->report.covariance = source == &normal ? "normal equations" : "ceres dense SVD";
+  if (!source) {
     res->undetermined["covariance"] =
         "rank deficient: some combination of parameters is not determined by these "
         "observations; no uncertainty is reported rather than a false one";
     return;
   }
+  const CovarianceSource& cov = *source;
   if (m->full_correlation()) correlation(cov, pb, blocks, res);
   // sigma^2 from the residuals (unweighted least squares); a grey set counts each value once,
   // and its three identical channels must not count as three measurements.
@@ -134,7 +324,7 @@ void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, 
   const double s2 = sol->rss / (os.grey ? 3 : 1) / dof * (os.grey ? 3 : 1);
   const SigmaOf sigma = [&](const double* b, int size) {
     std::vector<double> cv(static_cast<size_t>(size) * size);
-    cov.GetCovarianceBlock(b, b, cv.data());
+    cov.block(b, b, cv.data());
     std::vector<double> d(size);
     for (int i = 0; i < size; ++i) d[i] = std::sqrt(std::max(cv[i * size + i], 0.0) * s2);
     return d;

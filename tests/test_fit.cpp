@@ -364,3 +364,62 @@ TEST(FitFiber, PerTexelTopologyMap) {
 
 }  // namespace
 }  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// The normal-equation covariance (one pass, O(P^2) memory) against Ceres' dense SVD of the whole
+// Jacobian on the same solved problems: every sigma and every correlation agree, with the optional
+// terms (a subset manifold where a coordinate is held), per-pixel and chunked problems, and the
+// fiber model.
+TEST(FitPaths, NormalEquationCovarianceMatchesCeres) {
+  struct Case {
+    const char* preset;
+    FitModel model;
+    bool iso, second, chunked;
+  };
+  for (const Case& c : {Case{"brushed-metal", FitModel::kLine, false, false, true},
+                        Case{"brushed-metal", FitModel::kLine, false, false, false},
+                        Case{"woven-cloth", FitModel::kLine, true, true, false},
+                        Case{"fiber-flat", FitModel::kFiber, false, false, false}}) {
+    const std::string dir = test::tmp_dir(std::string("set_") + c.preset);
+    PresetOptions p = small(6, 32);
+    p.noise = 0.01;
+    simulate_capture(make_preset(c.preset, p), dir);
+    const CaptureSet set = read_capture(dir);
+    FitOptions a = quiet();
+    a.model = c.model;
+    a.fit_isotropic = c.iso;
+    a.fit_second = c.second;
+    a.chunked = c.chunked;
+    FitOptions b = a;
+    b.ceres_covariance = true;
+    const FitResult ra = fit_capture(set, a), rb = fit_capture(set, b);
+    EXPECT_EQ(ra.report.covariance, "normal equations") << c.preset;
+    EXPECT_EQ(rb.report.covariance, "ceres dense SVD") << c.preset;
+    ASSERT_EQ(ra.sigma.size(), rb.sigma.size()) << c.preset;
+    EXPECT_EQ(ra.undetermined.size(), rb.undetermined.size()) << c.preset;
+    double worst = 0;
+    for (const auto& [key, sa] : ra.sigma) {
+      ASSERT_TRUE(rb.sigma.count(key)) << key;
+      const auto& sb = rb.sigma.at(key);
+      for (size_t i = 0; i < sa.size(); ++i)
+        worst = std::max(worst, std::abs(sa[i] - sb[i]) / std::max(sb[i], 1e-300));
+    }
+    double worst_corr = 0;
+    ASSERT_EQ(ra.correlation.size(), rb.correlation.size()) << c.preset;
+    for (size_t i = 0; i < ra.correlation.size(); ++i)
+      for (size_t j = 0; j < ra.correlation.size(); ++j)
+        worst_corr = std::max(worst_corr, std::abs(ra.correlation[i][j] - rb.correlation[i][j]));
+    std::printf("%s (%s%s%s): normal equations vs Ceres covariance: sigma rel. diff %.2g, "
+                "correlation diff %.2g; time %.4f s vs %.4f s\n",
+                c.preset, c.model == FitModel::kFiber ? "fiber" : "line", c.iso ? " +iso" : "",
+                c.chunked ? " chunked" : " per pixel", worst, worst_corr,
+                ra.report.seconds_covariance, rb.report.seconds_covariance);
+    EXPECT_LT(worst, 1e-6) << c.preset;
+    EXPECT_LT(worst_corr, 1e-6) << c.preset;
+  }
+}
+
+}  // namespace
+}  // namespace aniso
