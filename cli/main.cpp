@@ -63,7 +63,8 @@ int main(int argc, char** argv) {
       cli::add_demo(app),    cli::add_synth(app),  cli::add_fit(app),
       cli::add_eval(app),    cli::add_bake(app),   cli::add_export(app),
       cli::add_preview(app), cli::add_verify(app), cli::add_microgeometry(app),
-      cli::add_bench(app),   cli::add_params(app), cli::add_view(app)};
+      cli::add_bench(app),   cli::add_params(app), cli::add_view(app),
+      cli::add_board(app)};
 
   if (argc > 1 && argv[1][0] != '-') {
     std::vector<std::string> names;

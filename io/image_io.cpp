@@ -190,7 +190,36 @@ void write_exr(const std::string& path, const Image& img) {
   });
 }
 
+namespace {
+
+uint32_t png_crc(const uint8_t* data, size_t n, uint32_t crc = 0xFFFFFFFFu) {
+  for (size_t i = 0; i < n; ++i) {
+    crc ^= data[i];
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  return crc;
+}
+
+// A pHYs chunk (pixels per metre) right after IHDR, so a printer prints at the intended size.
+void insert_phys(std::vector<uchar>* png, double dpi) {
+  const uint32_t ppm = static_cast<uint32_t>(std::lround(dpi / 0.0254));
+  std::vector<uint8_t> c = {0, 0, 0, 9, 'p', 'H', 'Y', 's'};
+  for (int rep = 0; rep < 2; ++rep)
+    for (int k = 3; k >= 0; --k) c.push_back(static_cast<uint8_t>(ppm >> (8 * k)));
+  c.push_back(1);  // unit: metre
+  const uint32_t crc = png_crc(c.data() + 4, c.size() - 4) ^ 0xFFFFFFFFu;
+  for (int k = 3; k >= 0; --k) c.push_back(static_cast<uint8_t>(crc >> (8 * k)));
+  constexpr size_t kAfterIhdr = 8 + 4 + 4 + 13 + 4;
+  png->insert(png->begin() + kAfterIhdr, c.begin(), c.end());
+}
+
+}  // namespace
+
 void write_png(const std::string& path, const Image& img, int bits) {
+  write_png(path, img, bits, 0);
+}
+
+void write_png(const std::string& path, const Image& img, int bits, double dpi) {
   if (bits != 8 && bits != 16) throw Error(path + ": PNG bit depth must be 8 or 16");
   const int c = img.channels >= 3 ? 3 : 1;
   const double maxv = bits == 8 ? 255.0 : 65535.0;
@@ -208,6 +237,7 @@ void write_png(const std::string& path, const Image& img, int bits) {
       }
   std::vector<uchar> bytes;
   if (!cv::imencode(".png", m, bytes)) throw Error(path + ": cannot encode PNG");
+  if (dpi > 0) insert_phys(&bytes, dpi);
   write_text_file(path, std::string(bytes.begin(), bytes.end()));
 }
 

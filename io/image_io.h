@@ -31,6 +31,8 @@ void write_exr(const std::string& path, const Image& img);
 
 // 8- or 16-bit PNG of values clamped to [0, 1] (already encoded by the caller). Written atomically.
 void write_png(const std::string& path, const Image& img, int bits);
+// ... recording the print resolution (a pHYs chunk), so it prints at the intended size.
+void write_png(const std::string& path, const Image& img, int bits, double dpi);
 
 // Linear radiance times `exposure`, clamped to [0, 1] and sRGB-encoded (for 8-bit previews).
 Image encode_srgb(const Image& linear, double exposure);

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Prints the folder include graph of the library and fails on an arrow that does not point down:
-#   core <- models <- geometry <- io <- {capture_sim, fit, render} <- datasets_synth <- bench <- cli
+#   core <- models <- geometry <- io <- {capture_sim, fit, render, photo} <- datasets_synth <- bench <- cli
 # (a folder may include its own files and any folder of a lower rank; none of the same rank, so
 # there can be no cycle). tests/ and fuzz/ sit on top of everything and are not checked.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-declare -A rank=([core]=0 [models]=1 [geometry]=2 [io]=3 [capture_sim]=4 [fit]=4 [render]=4
+declare -A rank=([core]=0 [models]=1 [geometry]=2 [io]=3 [capture_sim]=4 [fit]=4 [render]=4 [photo]=4
                  [datasets_synth]=5 [bench]=6 [cli]=7)
 bad=0
 declare -A edges=()

@@ -1,0 +1,74 @@
+// aniso board: the printable ChArUco board and a shoot.json to fill in (photo/board.h).
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli/command.h"
+#include "core/error.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/material_io.h"
+#include "photo/board.h"
+
+namespace aniso::cli {
+
+Command add_board(CLI::App& app) {
+  struct Args {
+    std::string out, shoot, squares = "10x8", dictionary = "DICT_5X5_100";
+    double square_mm = 30, marker_mm = 22, dpi = 300;
+  };
+  auto a = std::make_shared<Args>();
+  auto* b = app.add_subcommand(
+      "board",
+      "The printable ChArUco calibration board for a photo shoot, and a shoot.json to "
+      "fill in (then: aniso import shoot.json --out CAPTURE_DIR)");
+  b->add_option("--out", a->out, "board image to write (PNG; print it at 100 % scale)")->required();
+  b->add_option("--shoot", a->shoot,
+                "the shoot.json skeleton (default: shoot.json beside --out; never replaced: an "
+                "existing one is kept unless --force)");
+  b->add_option("--squares", a->squares, "squares across x down (WxH)")->capture_default_str();
+  b->add_option("--square-mm", a->square_mm, "side of a chessboard square, mm")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 1000.0));
+  b->add_option("--marker-mm", a->marker_mm, "side of an ArUco marker inside a white square, mm")
+      ->capture_default_str()
+      ->check(CLI::Range(0.5, 1000.0));
+  b->add_option("--dictionary", a->dictionary, "OpenCV ArUco dictionary")->capture_default_str();
+  b->add_option("--dpi", a->dpi, "print resolution (recorded in the PNG)")
+      ->capture_default_str()
+      ->check(CLI::Range(30.0, 2400.0));
+  add_force_flag(b);
+  return {b, [a] {
+            BoardSpec spec;
+            parse_size(a->squares, &spec.squares_x, &spec.squares_y);
+            spec.square_m = a->square_mm / 1000;
+            spec.marker_m = a->marker_mm / 1000;
+            spec.dictionary = a->dictionary;
+            check_board(spec);
+            const std::string shoot =
+                a->shoot.empty() ? join_path(parent_dir(a->out), "shoot.json") : a->shoot;
+            check_outputs_apart({a->out, shoot}, {});
+            std::error_code ec;
+            if (std::filesystem::exists(shoot, ec) && !force_overwrite())
+              throw Error(shoot +
+                          ": exists (it may hold your measurements); not replaced. "
+                          "Choose another --shoot, or --force");
+            const Image img = render_board(spec, a->dpi);
+            write_png(a->out, img, 8, a->dpi);
+            nlohmann::json j;
+            shoot_skeleton(spec, relative_to(a->out, parent_dir(shoot)), &j);
+            write_json_file(shoot, j);
+            std::printf(
+                "board: %dx%d squares of %.1f mm (markers %.1f mm, %s), %dx%d px at %.0f dpi = "
+                "%.1f x %.1f mm -> %s\n"
+                "board: print at 100 %% scale (no fit-to-page) and measure one square: it must be "
+                "%.1f mm; then fill in %s (sample outline, lamp positions, photos)\n",
+                spec.squares_x, spec.squares_y, a->square_mm, a->marker_mm, spec.dictionary.c_str(),
+                img.width, img.height, a->dpi, spec.squares_x * a->square_mm,
+                spec.squares_y * a->square_mm, a->out.c_str(), a->square_mm, shoot.c_str());
+            return 0;
+          }};
+}
+
+}  // namespace aniso::cli
