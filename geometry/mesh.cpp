@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <sstream>
 
 #include "core/error.h"
@@ -123,19 +124,57 @@ TriMesh make_shape(const std::string& name, const ShapeOptions& opt) {
   return m;
 }
 
-TriMesh load_obj(const std::string& path, bool need_uv) {
-  std::ifstream f(path);
-  if (!f) throw Error(path + ": file not found");
+namespace {
+
+// What an OBJ file holds, as read: positions, texture coordinates (v flipped to glTF's
+// downward), normals and triangles of 1-based corner indices (0 = absent).
+struct ObjCorner {
+  long v = 0, t = 0, n = 0;
+};
+struct ObjData {
   std::vector<Vec3> v, vn;
   std::vector<std::array<float, 2>> vt;
-  TriMesh m;
+  std::vector<std::array<ObjCorner, 3>> faces;
+};
+
+// One face corner "v", "v/t", "v//n" or "v/t/n"; negative indices count back from the end.
+ObjCorner parse_corner(const std::string& tok, const ObjData& d,
+                       const std::function<void(const std::string&)>& fail) {
+  ObjCorner c;
+  long* fields[3] = {&c.v, &c.t, &c.n};
+  size_t start = 0;
+  for (int k = 0; k < 3 && start <= tok.size(); ++k) {
+    const size_t slash = tok.find('/', start);
+    const std::string part =
+        tok.substr(start, slash == std::string::npos ? std::string::npos : slash - start);
+    if (!part.empty()) {
+      try {
+        *fields[k] = std::stol(part);
+      } catch (...) {
+        fail("bad face index '" + tok + "'");
+      }
+    }
+    if (slash == std::string::npos) break;
+    start = slash + 1;
+  }
+  auto fix = [&](long& i, size_t count) {
+    if (i < 0) i = static_cast<long>(count) + i + 1;
+    if (i < 0 || i > static_cast<long>(count)) fail("face index out of range in '" + tok + "'");
+  };
+  fix(c.v, d.v.size());
+  fix(c.t, d.vt.size());
+  fix(c.n, d.vn.size());
+  if (c.v == 0) fail("face corner without a vertex");
+  return c;
+}
+
+ObjData parse_obj(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw Error(path + ": file not found");
+  ObjData d;
   std::string line;
   int lineno = 0;
-  struct Corner {
-    long v, t, n;
-  };
-  std::vector<std::array<Corner, 3>> faces;
-  auto fail = [&](const std::string& msg) {
+  const std::function<void(const std::string&)> fail = [&](const std::string& msg) {
     throw Error(path + ":" + std::to_string(lineno) + ": " + msg);
   };
   while (std::getline(f, line)) {
@@ -146,65 +185,46 @@ TriMesh load_obj(const std::string& path, bool need_uv) {
     if (tag == "v") {
       Vec3 p;
       if (!(ss >> p.x >> p.y >> p.z)) fail("bad vertex");
-      v.push_back(p);
+      d.v.push_back(p);
     } else if (tag == "vt") {
       float a, b;
       if (!(ss >> a >> b)) fail("bad texture coordinate");
-      vt.push_back({a, 1.0f - b});  // OBJ counts v upward; glTF downward
+      d.vt.push_back({a, 1.0f - b});  // OBJ counts v upward; glTF downward
     } else if (tag == "vn") {
       Vec3 p;
       if (!(ss >> p.x >> p.y >> p.z)) fail("bad normal");
-      vn.push_back(normalize(p));
+      d.vn.push_back(normalize(p));
     } else if (tag == "f") {
-      std::vector<Corner> poly;
+      std::vector<ObjCorner> poly;
       std::string tok;
-      while (ss >> tok) {
-        Corner c{0, 0, 0};
-        long* fields[3] = {&c.v, &c.t, &c.n};
-        size_t start = 0;
-        for (int k = 0; k < 3 && start <= tok.size(); ++k) {
-          const size_t slash = tok.find('/', start);
-          const std::string part =
-              tok.substr(start, slash == std::string::npos ? std::string::npos : slash - start);
-          if (!part.empty()) {
-            try {
-              *fields[k] = std::stol(part);
-            } catch (...) {
-              fail("bad face index '" + tok + "'");
-            }
-          }
-          if (slash == std::string::npos) break;
-          start = slash + 1;
-        }
-        auto fix = [&](long& i, size_t count) {
-          if (i < 0) i = static_cast<long>(count) + i + 1;
-          if (i < 0 || i > static_cast<long>(count))
-            fail("face index out of range in '" + tok + "'");
-        };
-        fix(c.v, v.size());
-        fix(c.t, vt.size());
-        fix(c.n, vn.size());
-        if (c.v == 0) fail("face corner without a vertex");
-        poly.push_back(c);
-      }
+      while (ss >> tok) poly.push_back(parse_corner(tok, d, fail));
       if (poly.size() < 3) fail("face with fewer than 3 corners");
-      for (size_t k = 1; k + 1 < poly.size(); ++k) faces.push_back({poly[0], poly[k], poly[k + 1]});
+      for (size_t k = 1; k + 1 < poly.size(); ++k)
+        d.faces.push_back({poly[0], poly[k], poly[k + 1]});
     }
   }
-  if (faces.empty()) throw Error(path + ": no faces");
+  if (d.faces.empty()) throw Error(path + ": no faces");
+  return d;
+}
+
+}  // namespace
+
+TriMesh load_obj(const std::string& path, bool need_uv) {
+  const ObjData d = parse_obj(path);
+  TriMesh m;
   // One output vertex per corner (simple and exact for seams); U accumulated per triangle.
   const std::string uv_hint =
       ": the reference tangent U is dP/du, so every face needs texture coordinates (vt) that "
       "span an area; add them, or give a fiber_field (radial, circular, meridian)";
-  for (const auto& fc : faces) {
+  for (const auto& fc : d.faces) {
     if (need_uv && (!fc[0].t || !fc[1].t || !fc[2].t))
       throw Error(path + ": a face has no texture coordinates" + uv_hint);
     const uint32_t base = static_cast<uint32_t>(m.P.size());
     Vec3 p[3];
     std::array<float, 2> t[3];
     for (int k = 0; k < 3; ++k) {
-      p[k] = v[fc[k].v - 1];
-      t[k] = fc[k].t ? vt[fc[k].t - 1] : std::array<float, 2>{0.f, 0.f};
+      p[k] = d.v[fc[k].v - 1];
+      t[k] = fc[k].t ? d.vt[fc[k].t - 1] : std::array<float, 2>{0.f, 0.f};
     }
     const Vec3 fn = normalize(cross(p[1] - p[0], p[2] - p[0]));
     // dP/du from the UV parallelogram; OBJ-space u is unchanged by the v flip.
@@ -217,7 +237,7 @@ TriMesh load_obj(const std::string& path, bool need_uv) {
     Vec3 dpdu = std::abs(det) > 1e-20 ? (e1 * dv2 - e2 * dv1) / det : any_perpendicular(fn);
     for (int k = 0; k < 3; ++k) {
       m.P.push_back(p[k]);
-      m.N.push_back(fc[k].n ? vn[fc[k].n - 1] : fn);
+      m.N.push_back(fc[k].n ? d.vn[fc[k].n - 1] : fn);
       m.U.push_back(dpdu);
       m.uv.push_back(t[k]);
     }

@@ -42,6 +42,83 @@ bool finite_json(const json& j) {
   return true;
 }
 
+// The optional terms of the line model (MODELS.md §3): isotropic lobe, second fiber.
+void parse_optional_terms(const json& j, const Ctx& root, Material* mp) {
+  Material& m = *mp;
+  if (j.contains("isotropic")) {
+    const Ctx c = root.at("isotropic");
+    const json& b = j["isotropic"];
+    if (!b.is_object()) c.fail("expected an object");
+    jsonu::check_keys(b, {"kd", "ks", "n"}, c);
+    m.has_isotropic = true;
+    if (b.contains("kd")) m.iso_kd = jsonu::rgb(b["kd"], c.at("kd"));
+    if (b.contains("ks")) m.iso_ks = jsonu::rgb(b["ks"], c.at("ks"));
+    check_bounds("isotropic.kd", m.iso_kd, c.at("kd"));
+    check_bounds("isotropic.ks", m.iso_ks, c.at("ks"));
+    m.iso_n = scalar(b, "n", "isotropic.n", 20.0, c);
+  }
+  if (j.contains("second_fiber")) {
+    const Ctx c = root.at("second_fiber");
+    const json& b = j["second_fiber"];
+    if (!b.is_object()) c.fail("expected an object");
+    jsonu::check_keys(b, {"angle_deg", "weight"}, c);
+    m.has_second_fiber = true;
+    m.second_angle_deg =
+        scalar(b, "angle_deg", "second_fiber.angle_deg", m.fiber_angle_deg + 90.0, c);
+    m.second_weight = scalar(b, "weight", "second_fiber.weight", 0.5, c);
+  }
+}
+
+// One topology source (MODELS.md §4), parsed into its type here and nowhere else.
+void parse_topology(const json& j, const Ctx& root, Material* mp) {
+  Material& m = *mp;
+  if (j.contains("topology")) {
+    // One topology source (MODELS.md §4), parsed into its type here and nowhere else.
+    const Ctx c = root.at("topology");
+    const json& b = j["topology"];
+    if (!b.is_object()) c.fail("expected an object");
+    jsonu::check_keys(b, {"s", "map", "amplitude", "mathematical", "s_map", "s_map_texels"}, c);
+    const std::string math = jsonu::str_or(b, "mathematical", "none", c);
+    MathTopology kind = MathTopology::kNone;
+    if (math == "torus")
+      kind = MathTopology::kTorus;
+    else if (math == "sphere")
+      kind = MathTopology::kSphere;
+    else if (math != "none")
+      c.at("mathematical")
+          .fail("unknown value '" + math + "'" + did_you_mean(math, {"torus", "sphere", "none"}) +
+                " (torus, sphere, none)");
+    const int sources = b.contains("s") + b.contains("map") + b.contains("s_map");
+    if (sources > 1) c.fail("give one topology source: \"s\", \"map\" or \"s_map\", not several");
+    if (b.contains("s")) {
+      if (kind != MathTopology::kNone)
+        c.fail("\"s\" is one value for a flat sample; with \"mathematical\": \"" + math +
+               "\" the capture's per-pixel topology applies (leave \"s\" out)");
+      m.topology = UniformS{scalar(b, "s", "topology.s", 0.0, c)};  // bounds: models/params.h
+    } else if (b.contains("map")) {
+      TopologyMapRef t;
+      t.file = jsonu::str(b["map"], c.at("map"));
+      t.amplitude =
+          scalar(b, "amplitude", "topology.amplitude", line_param("topology.amplitude").def, c);
+      t.over = kind;
+      m.topology = t;
+    } else if (b.contains("s_map")) {
+      if (kind != MathTopology::kNone)
+        c.fail("a map of s (\"s_map\") stands alone: no \"mathematical\"");
+      m.topology = SMapRef{jsonu::str(b["s_map"], c.at("s_map"))};
+    } else if (kind != MathTopology::kNone) {
+      m.topology = MathematicalS{kind};
+    } else {
+      c.fail(
+          "needs \"s\", \"s_map\", or \"map\" with \"amplitude\", or \"mathematical\": \"torus\"");
+    }
+    if (b.contains("amplitude") && !b.contains("map"))
+      c.at("amplitude").fail("belongs with \"map\"");
+  } else if (m.fiber()) {
+    root.at("topology").fail("the fiber model needs a topology block");
+  }
+}
+
 }  // namespace
 
 Material material_from_json(const json& j, const std::string& file) {
@@ -78,75 +155,8 @@ Material material_from_json(const json& j, const std::string& file) {
     m.ka = jsonu::rgb(j["ka"], root.at("ka"));
     check_bounds("ka", m.ka, root.at("ka"));
   }
-  if (j.contains("isotropic")) {
-    const Ctx c = root.at("isotropic");
-    const json& b = j["isotropic"];
-    if (!b.is_object()) c.fail("expected an object");
-    jsonu::check_keys(b, {"kd", "ks", "n"}, c);
-    m.has_isotropic = true;
-    if (b.contains("kd")) m.iso_kd = jsonu::rgb(b["kd"], c.at("kd"));
-    if (b.contains("ks")) m.iso_ks = jsonu::rgb(b["ks"], c.at("ks"));
-    check_bounds("isotropic.kd", m.iso_kd, c.at("kd"));
-    check_bounds("isotropic.ks", m.iso_ks, c.at("ks"));
-    m.iso_n = scalar(b, "n", "isotropic.n", 20.0, c);
-  }
-  if (j.contains("second_fiber")) {
-    const Ctx c = root.at("second_fiber");
-    const json& b = j["second_fiber"];
-    if (!b.is_object()) c.fail("expected an object");
-    jsonu::check_keys(b, {"angle_deg", "weight"}, c);
-    m.has_second_fiber = true;
-    m.second_angle_deg =
-        scalar(b, "angle_deg", "second_fiber.angle_deg", m.fiber_angle_deg + 90.0, c);
-    m.second_weight = scalar(b, "weight", "second_fiber.weight", 0.5, c);
-  }
-  if (j.contains("topology")) {
-    // One topology source (MODELS.md §4), parsed into its type here and nowhere else.
-    const Ctx c = root.at("topology");
-    const json& b = j["topology"];
-    if (!b.is_object()) c.fail("expected an object");
-    jsonu::check_keys(b, {"s", "map", "amplitude", "mathematical", "s_map", "s_map_texels"}, c);
-    const std::string math = jsonu::str_or(b, "mathematical", "none", c);
-    MathTopology kind = MathTopology::kNone;
-    if (math == "torus")
-      kind = MathTopology::kTorus;
-    else if (math == "sphere")
-      kind = MathTopology::kSphere;
-    else if (math != "none")
-      c.at("mathematical")
-          .fail("unknown value '" + math + "'" + did_you_mean(math, {"torus", "sphere", "none"}) +
-                " (torus, sphere, none)");
-    const int sources = b.contains("s") + b.contains("map") + b.contains("s_map");
-    if (sources > 1) c.fail("give one topology source: \"s\", \"map\" or \"s_map\", not several");
-    if (b.contains("s")) {
-      if (kind != MathTopology::kNone)
-        c.fail("\"s\" is one value for a flat sample; with \"mathematical\": \"" + math +
-               "\" the capture's per-pixel topology applies (leave \"s\" out)");
-      UniformS u{jsonu::num(b["s"], c.at("s"))};
-      if (u.s < 0 || u.s > 1) c.at("s").fail("must be in [0, 1]");
-      m.topology = u;
-    } else if (b.contains("map")) {
-      TopologyMapRef t;
-      t.file = jsonu::str(b["map"], c.at("map"));
-      t.amplitude = jsonu::num_or(b, "amplitude", 0.25, c);
-      if (std::abs(t.amplitude) > 2) c.at("amplitude").fail("must be in [-2, 2]");
-      t.over = kind;
-      m.topology = t;
-    } else if (b.contains("s_map")) {
-      if (kind != MathTopology::kNone)
-        c.fail("a map of s (\"s_map\") stands alone: no \"mathematical\"");
-      m.topology = SMapRef{jsonu::str(b["s_map"], c.at("s_map"))};
-    } else if (kind != MathTopology::kNone) {
-      m.topology = MathematicalS{kind};
-    } else {
-      c.fail(
-          "needs \"s\", \"s_map\", or \"map\" with \"amplitude\", or \"mathematical\": \"torus\"");
-    }
-    if (b.contains("amplitude") && !b.contains("map"))
-      c.at("amplitude").fail("belongs with \"map\"");
-  } else if (m.fiber()) {
-    root.at("topology").fail("the fiber model needs a topology block");
-  }
+  parse_optional_terms(j, root, &m);
+  parse_topology(j, root, &m);
   return m;
 }
 

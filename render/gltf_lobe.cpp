@@ -1,6 +1,7 @@
 #include "render/gltf_lobe.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -55,6 +56,51 @@ std::vector<double> lobe(const std::vector<Pair>& pairs, double r, double s) {
   return g;
 }
 
+// The base colour and metallic: a metal (base = the specular colour) or a dielectric (base = the
+// Lambert fit of the diffuse term, F0 = 0.04), whichever matches the whole model better. Whole-
+// model error: glTF diffuse (1 - metallic) base / pi <N,L> plus F0 * lobe with
+// F0 = mix(0.04, base, metallic) (Schlick's grazing rise left out).
+void choose_colours(const std::vector<Pair>& pairs, const std::vector<std::array<double, 3>>& full,
+                    const std::vector<double>& ms, const std::vector<double>& g,
+                    const Material& m_in, double scale, GltfPbr* out) {
+  auto total_error = [&](double metallic, const RGB& base) {
+    double rss = 0, mm = 0;
+    for (size_t i = 0; i < pairs.size(); ++i)
+      for (int k = 0; k < 3; ++k) {
+        const double f0 = 0.04 * (1 - metallic) + base[k] * metallic;
+        const double v = (1 - metallic) * base[k] / M_PI * pairs[i].L.n + f0 * g[i];
+        rss += (full[i][k] - v) * (full[i][k] - v);
+        mm += full[i][k] * full[i][k];
+      }
+    return mm > 0 ? std::sqrt(rss / mm) : 0;
+  };
+  RGB metal, dielectric;
+  for (int k = 0; k < 3; ++k) {
+    metal[k] = std::clamp(m_in.ks[k] * scale, 0.0, 1.0);
+    // Lambert albedo that best matches the model's diffuse k_d D <N,L>: base / pi = sum m nl /
+    // sum nl^2 over the grid.
+    double mn = 0, nn = 0;
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      const double d = full[i][k] - m_in.ks[k] * ms[i];  // the model without its lobe
+      mn += d * pairs[i].L.n, nn += pairs[i].L.n * pairs[i].L.n;
+    }
+    dielectric[k] = std::clamp(M_PI * mn / std::max(nn, 1e-300), 0.0, 1.0);
+  }
+  const double e_metal = total_error(1.0, metal), e_diel = total_error(0.0, dielectric);
+  const bool is_metal = e_metal <= e_diel;
+  out->metallic = is_metal ? 1.0 : 0.0;
+  out->base_color = is_metal ? metal : dielectric;
+  out->total_rel_rms = std::min(e_metal, e_diel);
+  out->other_rel_rms = std::max(e_metal, e_diel);
+  char buf[300];
+  std::snprintf(buf, sizeof buf,
+                "%s: whole-model relative RMS %.3f against %.3f for the %s mapping "
+                "(a glTF metal has no diffuse term; a dielectric's specular is F0 = 0.04)",
+                is_metal ? "metal (base colour = specular colour)"
+                         : "dielectric (base colour = Lambert fit of the diffuse term)",
+                out->total_rel_rms, out->other_rel_rms, is_metal ? "dielectric" : "metal");
+  out->mapping = buf;
+}
 }  // namespace
 
 double ggx_aniso_lobe(double lu, double lw, double ln, double vu, double vw, double vn,
@@ -124,45 +170,7 @@ GltfPbr fit_gltf_pbr(const Material& m_in) {
   const std::vector<double> g = lobe(pairs, br, bs);
   fit_scale(ms, g, &scale);
 
-  // Whole-model error of a mapping: glTF diffuse (1 - metallic) base / pi <N,L> plus
-  // F0 * lobe with F0 = mix(0.04, base, metallic) (Schlick's grazing rise left out).
-  auto total_error = [&](double metallic, const RGB& base) {
-    double rss = 0, mm = 0;
-    for (size_t i = 0; i < pairs.size(); ++i)
-      for (int k = 0; k < 3; ++k) {
-        const double f0 = 0.04 * (1 - metallic) + base[k] * metallic;
-        const double v = (1 - metallic) * base[k] / M_PI * pairs[i].L.n + f0 * g[i];
-        rss += (full[i][k] - v) * (full[i][k] - v);
-        mm += full[i][k] * full[i][k];
-      }
-    return mm > 0 ? std::sqrt(rss / mm) : 0;
-  };
-  RGB metal, dielectric;
-  for (int k = 0; k < 3; ++k) {
-    metal[k] = std::clamp(m_in.ks[k] * scale, 0.0, 1.0);
-    // Lambert albedo that best matches the model's diffuse k_d D <N,L>: base / pi = sum m nl /
-    // sum nl^2 over the grid.
-    double mn = 0, nn = 0;
-    for (size_t i = 0; i < pairs.size(); ++i) {
-      const double d = full[i][k] - m_in.ks[k] * ms[i];  // the model without its lobe
-      mn += d * pairs[i].L.n, nn += pairs[i].L.n * pairs[i].L.n;
-    }
-    dielectric[k] = std::clamp(M_PI * mn / std::max(nn, 1e-300), 0.0, 1.0);
-  }
-  const double e_metal = total_error(1.0, metal), e_diel = total_error(0.0, dielectric);
-  const bool is_metal = e_metal <= e_diel;
-  out.metallic = is_metal ? 1.0 : 0.0;
-  out.base_color = is_metal ? metal : dielectric;
-  out.total_rel_rms = std::min(e_metal, e_diel);
-  out.other_rel_rms = std::max(e_metal, e_diel);
-  char buf[300];
-  std::snprintf(buf, sizeof buf,
-                "%s: whole-model relative RMS %.3f against %.3f for the %s mapping "
-                "(a glTF metal has no diffuse term; a dielectric's specular is F0 = 0.04)",
-                is_metal ? "metal (base colour = specular colour)"
-                         : "dielectric (base colour = Lambert fit of the diffuse term)",
-                out.total_rel_rms, out.other_rel_rms, is_metal ? "dielectric" : "metal");
-  out.mapping = buf;
+  choose_colours(pairs, full, ms, g, m_in, scale, &out);
   return out;
 }
 
