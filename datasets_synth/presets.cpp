@@ -74,6 +74,130 @@ Material random_material(uint64_t seed) {
   return m;
 }
 
+namespace {
+
+// Where the camera stands for a preset's object.
+struct Framing {
+  double radius = 1.0, camera_polar = 35.0;
+  bool orbit = false;
+};
+
+// The line-model presets: object, fiber field and material. False for other names.
+bool line_preset(const std::string& name, const PresetOptions& po, SimOptions* o, Framing* fr) {
+  Material& m = o->truth;
+  if (name == "brushed-metal") {
+    o->shape = "flat";
+    fr->radius = std::sqrt(2.0);
+    m.kd = {0.20, 0.15, 0.10};
+    m.ks = {0.60, 0.60, 0.60};
+    m.n = 40.0;
+    m.fiber_angle_deg = 30.0;
+  } else if (name == "satin-ball") {
+    o->shape = "sphere";
+    o->fiber_field = "meridian";
+    fr->camera_polar = 60.0;
+    m.kd = {0.30, 0.04, 0.08};
+    m.ks = {0.45, 0.40, 0.40};
+    m.n = 25.0;
+    m.fiber_angle_deg = 0.0;
+  } else if (name == "cd") {
+    o->shape = "disc";
+    o->fiber_field = "circular";
+    m.kd = {0.05, 0.05, 0.06};
+    m.ks = {0.80, 0.80, 0.80};
+    m.n = 120.0;
+    m.fiber_angle_deg = 0.0;
+  } else if (name == "radial-disc") {
+    o->shape = "disc";
+    o->fiber_field = "radial";
+    m.kd = {0.10, 0.12, 0.15};
+    m.ks = {0.50, 0.50, 0.50};
+    m.n = 60.0;
+    m.fiber_angle_deg = 0.0;
+  } else if (name == "woven-cloth") {
+    o->shape = "flat";
+    fr->radius = std::sqrt(2.0);
+    m.kd = {0.30, 0.10, 0.12};
+    m.ks = {0.35, 0.30, 0.30};
+    m.n = 12.0;
+    m.fiber_angle_deg = 10.0;
+    m.has_second_fiber = true;
+    m.second_angle_deg = 100.0;
+    m.second_weight = 0.65;
+  } else if (name == "random") {
+    o->shape = "flat";
+    fr->radius = std::sqrt(2.0);
+    m = random_material(po.seed);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// The fiber-model presets: object, material and topology source. False for other names.
+bool fiber_preset(const std::string& name, const PresetOptions& po, SimOptions* o, Framing* fr) {
+  Material& m = o->truth;
+  if (name == "silk-torus") {
+    o->shape = "torus";
+    o->shape_options.torus_R = 1.0;
+    o->shape_options.torus_r = 0.6;  // outside 4x longer than inside: fibers climb twice (Hast)
+    fr->radius = 1.6;
+    fr->camera_polar = 40.0;
+    m.model = Model::kFiber;
+    m.kd = {0.30, 0.22, 0.06};
+    m.ks = {0.55, 0.50, 0.35};
+    m.n = 30.0;
+    m.fiber_angle_deg = 90.0;  // wound around the tube: perpendicular to dP/du (toroidal)
+    // The map's file is named by the capture set that stores it (capture_sim).
+    m.topology = TopologyMapRef{"", po.topology_amplitude, MathTopology::kTorus};
+    o->mathematical_topology = MathTopology::kTorus;
+    if (po.topology_map_file.empty()) {
+      o->topology_map = procedural_topology_map(256, po.seed);
+    } else {
+      o->topology_map = read_image(po.topology_map_file).image;
+      if (o->topology_map.channels > 1) {  // first channel only
+        Image first(o->topology_map.width, o->topology_map.height, 1);
+        for (size_t p = 0; p < first.px.size(); ++p)
+          first.px[p] = o->topology_map.px[p * o->topology_map.channels];
+        o->topology_map = first;
+      }
+    }
+  } else if (name == "fiber-flat" || name == "fiber-flat-map") {
+    // One satin material; the topology is one value of s, or a map of s over the sample.
+    o->shape = "flat";
+    fr->radius = std::sqrt(2.0);
+    m.model = Model::kFiber;
+    m.kd = {0.25, 0.18, 0.12};
+    m.ks = {0.50, 0.50, 0.50};
+    m.n = 40.0;
+    m.fiber_angle_deg = 30.0;
+    if (po.topology_s < 0 || po.topology_s > 1)
+      throw Error("synth: --topology-s must be in [0, 1]");
+    m.topology = UniformS{po.topology_s};
+    if (name == "fiber-flat-map") {
+      m.topology = SMapRef{};  // named by the capture set that stores it
+      o->s_map = procedural_topology_map(8, po.seed);
+      for (float& v : o->s_map.px) v = 0.15f + 0.7f * v;
+    }
+  } else if (name == "satin-sphere-fiber") {
+    o->shape = "sphere";
+    o->fiber_field = "meridian";
+    fr->camera_polar = 60.0;
+    m.model = Model::kFiber;
+    m.kd = {0.30, 0.04, 0.08};
+    m.ks = {0.45, 0.40, 0.40};
+    m.n = 25.0;
+    m.fiber_angle_deg = 0.0;
+    m.topology = MathematicalS{MathTopology::kSphere};
+    o->mathematical_topology = MathTopology::kSphere;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 SimOptions make_preset(const std::string& name, const PresetOptions& po) {
   if (po.views < 1) throw Error("synth: --views must be at least 1");
   if (po.width < 8 || po.height < 8 || po.width > 8192 || po.height > 8192)
@@ -90,115 +214,17 @@ SimOptions make_preset(const std::string& name, const PresetOptions& po) {
     throw Error("synth: --saturation must be positive (a fraction of the white level)");
   if (po.saturation > 0) o.sensor.saturation = po.saturation;
   constexpr double kDistance = 4.0;
-  double radius = 1.0, camera_polar = 35.0;
-  bool orbit = false;
-  Material& m = o.truth;
-  if (name == "brushed-metal") {
-    o.shape = "flat";
-    radius = std::sqrt(2.0);
-    m.kd = {0.20, 0.15, 0.10};
-    m.ks = {0.60, 0.60, 0.60};
-    m.n = 40.0;
-    m.fiber_angle_deg = 30.0;
-  } else if (name == "satin-ball") {
-    o.shape = "sphere";
-    o.fiber_field = "meridian";
-    camera_polar = 60.0;
-    m.kd = {0.30, 0.04, 0.08};
-    m.ks = {0.45, 0.40, 0.40};
-    m.n = 25.0;
-    m.fiber_angle_deg = 0.0;
-  } else if (name == "cd") {
-    o.shape = "disc";
-    o.fiber_field = "circular";
-    m.kd = {0.05, 0.05, 0.06};
-    m.ks = {0.80, 0.80, 0.80};
-    m.n = 120.0;
-    m.fiber_angle_deg = 0.0;
-  } else if (name == "radial-disc") {
-    o.shape = "disc";
-    o.fiber_field = "radial";
-    m.kd = {0.10, 0.12, 0.15};
-    m.ks = {0.50, 0.50, 0.50};
-    m.n = 60.0;
-    m.fiber_angle_deg = 0.0;
-  } else if (name == "woven-cloth") {
-    o.shape = "flat";
-    radius = std::sqrt(2.0);
-    m.kd = {0.30, 0.10, 0.12};
-    m.ks = {0.35, 0.30, 0.30};
-    m.n = 12.0;
-    m.fiber_angle_deg = 10.0;
-    m.has_second_fiber = true;
-    m.second_angle_deg = 100.0;
-    m.second_weight = 0.65;
-  } else if (name == "silk-torus") {
-    o.shape = "torus";
-    o.shape_options.torus_R = 1.0;
-    o.shape_options.torus_r = 0.6;  // outside 4x longer than inside: fibers climb twice (Hast)
-    radius = 1.6;
-    camera_polar = 40.0;
-    m.model = Model::kFiber;
-    m.kd = {0.30, 0.22, 0.06};
-    m.ks = {0.55, 0.50, 0.35};
-    m.n = 30.0;
-    m.fiber_angle_deg = 90.0;  // wound around the tube: perpendicular to dP/du (toroidal)
-    // The map's file is named by the capture set that stores it (capture_sim).
-    m.topology = TopologyMapRef{"", po.topology_amplitude, MathTopology::kTorus};
-    o.mathematical_topology = MathTopology::kTorus;
-    if (po.topology_map_file.empty()) {
-      o.topology_map = procedural_topology_map(256, po.seed);
-    } else {
-      o.topology_map = read_image(po.topology_map_file).image;
-      if (o.topology_map.channels > 1) {  // first channel only
-        Image first(o.topology_map.width, o.topology_map.height, 1);
-        for (size_t p = 0; p < first.px.size(); ++p)
-          first.px[p] = o.topology_map.px[p * o.topology_map.channels];
-        o.topology_map = first;
-      }
-    }
-  } else if (name == "fiber-flat" || name == "fiber-flat-map") {
-    // One satin material; the topology is one value of s, or a map of s over the sample.
-    o.shape = "flat";
-    radius = std::sqrt(2.0);
-    m.model = Model::kFiber;
-    m.kd = {0.25, 0.18, 0.12};
-    m.ks = {0.50, 0.50, 0.50};
-    m.n = 40.0;
-    m.fiber_angle_deg = 30.0;
-    if (po.topology_s < 0 || po.topology_s > 1)
-      throw Error("synth: --topology-s must be in [0, 1]");
-    m.topology = UniformS{po.topology_s};
-    if (name == "fiber-flat-map") {
-      m.topology = SMapRef{};  // named by the capture set that stores it
-      o.s_map = procedural_topology_map(8, po.seed);
-      for (float& v : o.s_map.px) v = 0.15f + 0.7f * v;
-    }
-  } else if (name == "satin-sphere-fiber") {
-    o.shape = "sphere";
-    o.fiber_field = "meridian";
-    camera_polar = 60.0;
-    m.model = Model::kFiber;
-    m.kd = {0.30, 0.04, 0.08};
-    m.ks = {0.45, 0.40, 0.40};
-    m.n = 25.0;
-    m.fiber_angle_deg = 0.0;
-    m.topology = MathematicalS{MathTopology::kSphere};
-    o.mathematical_topology = MathTopology::kSphere;
-  } else if (name == "random") {
-    o.shape = "flat";
-    radius = std::sqrt(2.0);
-    m = random_material(po.seed);
-  } else {
+  Framing fr;
+  if (!line_preset(name, po, &o, &fr) && !fiber_preset(name, po, &o, &fr)) {
     std::string list;
     for (const auto& p : preset_list()) list += (list.empty() ? "" : ", ") + p.first;
     throw Error("synth: unknown preset '" + name + "' (" + list + ")");
   }
-  o.camera = frame_camera(po.width, po.height, radius, kDistance);
-  if (po.rig == "orbit" || (po.rig.empty() && orbit))
+  o.camera = frame_camera(po.width, po.height, fr.radius, kDistance);
+  if (po.rig == "orbit" || (po.rig.empty() && fr.orbit))
     o.rig = rig_orbit(po.views, kDistance);
   else if (po.rig.empty() || po.rig == "fixed-camera")
-    o.rig = rig_fixed_camera(po.views, camera_polar, kDistance);
+    o.rig = rig_fixed_camera(po.views, fr.camera_polar, kDistance);
   else if (lower_ext(po.rig) == ".json")
     o.rig = rig_from_file(po.rig);
   else

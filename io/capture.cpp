@@ -136,6 +136,67 @@ Mat4 parse_pose(const json& j, const Ctx& c) {
   return m;
 }
 
+// The "color" block: how integer codes decode to linear values (FORMAT.md).
+ColorSpec parse_color(const json& col, const Ctx& c) {
+  ColorSpec out;
+  if (!col.is_object()) c.fail("expected an object");
+  jsonu::check_keys(col, {"encoding", "black_level", "saturation"}, c);
+  out.encoding_given = col.contains("encoding");
+  if (col.contains("encoding")) {
+    const json& e = col["encoding"];
+    if (e.is_string()) {
+      const std::string name = e.get<std::string>();
+      if (name == "linear")
+        out.encoding = ColorSpec::Encoding::kLinear;
+      else if (name == "srgb")
+        out.encoding = ColorSpec::Encoding::kSrgb;
+      else
+        c.at("encoding").fail("unknown encoding '" + name + "' (linear, srgb, {\"gamma\": g})");
+    } else if (e.is_object() && e.contains("gamma")) {
+      out.encoding = ColorSpec::Encoding::kGamma;
+      out.gamma = jsonu::num(e["gamma"], c.at("encoding").at("gamma"));
+      if (!(out.gamma > 0)) c.at("encoding").at("gamma").fail("must be positive");
+    } else {
+      c.at("encoding").fail("expected \"linear\", \"srgb\" or {\"gamma\": g}");
+    }
+  }
+  out.black_level = jsonu::num_or(col, "black_level", 0.0, c);
+  // Stored integer codes are scaled to [0, 1]: a black level outside it is a mistake.
+  if (out.black_level < 0 || out.black_level >= 1)
+    c.at("black_level").fail("must be in [0, 1) (a fraction of the largest code)");
+  if (col.contains("saturation")) {
+    out.saturation = jsonu::num(col["saturation"], c.at("saturation"));
+    out.saturation_given = true;
+  }
+  return out;
+}
+
+// One entry of "views"; the set's camera and geometry where the view gives none.
+ViewSpec parse_view(const json& v, const Ctx& c, const CaptureSet& s) {
+  if (!v.is_object()) c.fail("expected an object");
+  jsonu::check_keys(
+      v, {"image", "world_from_camera", "exposure", "lights", "camera", "geometry", "source"}, c);
+  ViewSpec vs;
+  vs.image = jsonu::str(jsonu::need(v, "image", c), c.at("image"));
+  vs.world_from_camera =
+      parse_pose(jsonu::need(v, "world_from_camera", c), c.at("world_from_camera"));
+  vs.exposure = jsonu::num_or(v, "exposure", 1.0, c);
+  if (vs.exposure < 0) c.at("exposure").fail("must be non-negative");
+  vs.camera = v.contains("camera") ? parse_camera(v["camera"], c.at("camera")) : s.camera;
+  const json& lights = jsonu::need(v, "lights", c);
+  if (!lights.is_array() || lights.empty()) c.at("lights").fail("a view needs at least one light");
+  for (size_t k = 0; k < lights.size(); ++k)
+    vs.lights.push_back(parse_light(lights[k], c.at("lights").idx(k)));
+  if (v.contains("geometry")) {
+    vs.geometry = parse_geometry(v["geometry"], c.at("geometry"));
+  } else {
+    if (s.geometry.empty())
+      c.fail("no geometry: neither the view nor the set has a \"geometry\" block");
+    vs.geometry = s.geometry;
+  }
+  return vs;
+}
+
 }  // namespace
 
 CaptureSet read_capture(const std::string& path_in) {
@@ -161,39 +222,7 @@ CaptureSet read_capture(const std::string& path_in) {
   s.file = file;
   s.dir = parent_dir(file);
   s.camera = parse_camera(jsonu::need(j, "camera", root), root.at("camera"));
-  if (j.contains("color")) {
-    const Ctx c = root.at("color");
-    const json& col = j["color"];
-    if (!col.is_object()) c.fail("expected an object");
-    jsonu::check_keys(col, {"encoding", "black_level", "saturation"}, c);
-    s.color.encoding_given = col.contains("encoding");
-    if (col.contains("encoding")) {
-      const json& e = col["encoding"];
-      if (e.is_string()) {
-        const std::string name = e.get<std::string>();
-        if (name == "linear")
-          s.color.encoding = ColorSpec::Encoding::kLinear;
-        else if (name == "srgb")
-          s.color.encoding = ColorSpec::Encoding::kSrgb;
-        else
-          c.at("encoding").fail("unknown encoding '" + name + "' (linear, srgb, {\"gamma\": g})");
-      } else if (e.is_object() && e.contains("gamma")) {
-        s.color.encoding = ColorSpec::Encoding::kGamma;
-        s.color.gamma = jsonu::num(e["gamma"], c.at("encoding").at("gamma"));
-        if (!(s.color.gamma > 0)) c.at("encoding").at("gamma").fail("must be positive");
-      } else {
-        c.at("encoding").fail("expected \"linear\", \"srgb\" or {\"gamma\": g}");
-      }
-    }
-    s.color.black_level = jsonu::num_or(col, "black_level", 0.0, c);
-    // Stored integer codes are scaled to [0, 1]: a black level outside it is a mistake.
-    if (s.color.black_level < 0 || s.color.black_level >= 1)
-      c.at("black_level").fail("must be in [0, 1) (a fraction of the largest code)");
-    if (col.contains("saturation")) {
-      s.color.saturation = jsonu::num(col["saturation"], c.at("saturation"));
-      s.color.saturation_given = true;
-    }
-  }
+  if (j.contains("color")) s.color = parse_color(j["color"], root.at("color"));
   if (j.contains("ambient")) s.ambient = jsonu::rgb(j["ambient"], root.at("ambient"));
   if (j.contains("geometry")) s.geometry = parse_geometry(j["geometry"], root.at("geometry"));
   s.truth = jsonu::str_or(j, "truth", "", root);
@@ -203,33 +232,8 @@ CaptureSet read_capture(const std::string& path_in) {
   const json& views = jsonu::need(j, "views", root);
   if (!views.is_array() || views.empty())
     root.at("views").fail("expected a non-empty array of views");
-  for (size_t i = 0; i < views.size(); ++i) {
-    const Ctx c = root.at("views").idx(i);
-    const json& v = views[i];
-    if (!v.is_object()) c.fail("expected an object");
-    jsonu::check_keys(
-        v, {"image", "world_from_camera", "exposure", "lights", "camera", "geometry", "source"}, c);
-    ViewSpec vs;
-    vs.image = jsonu::str(jsonu::need(v, "image", c), c.at("image"));
-    vs.world_from_camera =
-        parse_pose(jsonu::need(v, "world_from_camera", c), c.at("world_from_camera"));
-    vs.exposure = jsonu::num_or(v, "exposure", 1.0, c);
-    if (vs.exposure < 0) c.at("exposure").fail("must be non-negative");
-    vs.camera = v.contains("camera") ? parse_camera(v["camera"], c.at("camera")) : s.camera;
-    const json& lights = jsonu::need(v, "lights", c);
-    if (!lights.is_array() || lights.empty())
-      c.at("lights").fail("a view needs at least one light");
-    for (size_t k = 0; k < lights.size(); ++k)
-      vs.lights.push_back(parse_light(lights[k], c.at("lights").idx(k)));
-    if (v.contains("geometry")) {
-      vs.geometry = parse_geometry(v["geometry"], c.at("geometry"));
-    } else {
-      if (s.geometry.empty())
-        c.fail("no geometry: neither the view nor the set has a \"geometry\" block");
-      vs.geometry = s.geometry;
-    }
-    s.views.push_back(std::move(vs));
-  }
+  for (size_t i = 0; i < views.size(); ++i)
+    s.views.push_back(parse_view(views[i], root.at("views").idx(i), s));
   return s;
 }
 

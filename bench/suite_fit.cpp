@@ -1,0 +1,271 @@
+#include <embree3/rtcore.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <thread>
+
+#include "bench/bench_util.h"
+#include "capture_sim/sim.h"
+#include "core/angles.h"
+#include "core/error.h"
+#include "datasets_synth/presets.h"
+#include "fit/fit.h"
+#include "geometry/embree_device.h"
+#include "geometry/mesh.h"
+#include "io/capture.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/json_util.h"
+#include "io/material_io.h"
+#include "models/evaluate.h"
+#include "models/fiber_model.h"
+#include "models/fiber_reference.h"
+#include "models/line_model.h"
+#include "render/bake.h"
+#include "render/preview.h"
+
+namespace aniso::benchutil {
+
+// ------------------------------------------------------------------------------------------------
+json bench_fit(const std::string& work, bool quick) {
+  json out = json::array();
+  PresetOptions po;
+  po.views = quick ? 6 : 16;
+  po.width = po.height = quick ? 64 : 128;
+  po.noise = 0.01;
+  po.progress = false;
+  const SimOptions so = make_preset("brushed-metal", po);
+  const std::string dir = join_path(work, "fit_line");
+  simulate_capture(so, dir);
+  const CaptureSet set = read_capture(dir);
+  std::vector<int> subs = quick ? std::vector<int>{4, 1} : std::vector<int>{8, 4, 2, 1};
+  for (int sub : subs) {
+    FitOptions fo;
+    fo.progress = false;
+    fo.subsample = sub;
+    const FitResult r = fit_capture(set, fo);
+    const Errs e = errors_of(r.material, so.truth);
+    // SciPy least_squares on the same observations, from the same start.
+    const std::string obs = join_path(work, "obs_" + std::to_string(sub) + ".bin");
+    std::vector<double> start;
+    const size_t rows = export_observations(set, fo, obs, &start);
+    std::string cmd = "/usr/bin/python3 " + std::string(ANISO_SOURCE_DIR) + "/bench/scipy_fit.py " +
+                      obs + " '" + json(start).dump() + "' 2>&1";
+    double scipy_s = NAN, scipy_err = NAN;
+    std::string outtxt;
+    if (FILE* p = popen(cmd.c_str(), "r")) {
+      char buf[4096];
+      size_t n;
+      while ((n = fread(buf, 1, sizeof buf, p)) > 0) outtxt.append(buf, n);
+      pclose(p);
+    }
+    const json sj =
+        json::parse(outtxt.substr(outtxt.find('{') == std::string::npos ? 0 : outtxt.find('{')),
+                    nullptr, false);
+    if (sj.is_object() && sj.contains("x")) {
+      scipy_s = sj["seconds"].get<double>();
+      Material sm = so.truth;
+      const auto x = sj["x"].get<std::vector<double>>();
+      for (int c = 0; c < 3; ++c) sm.kd[c] = x[c], sm.ks[c] = x[3 + c];
+      sm.n = std::exp(x[6]);
+      sm.fiber_angle_deg = wrap_fiber_deg(rad_to_deg(x[7]));
+      scipy_err = errors_of(sm, so.truth).worst();
+    }
+    json e1 = entry("fit", "line fit vs SciPy least_squares, subsample " + std::to_string(sub),
+                    r.report.seconds, scipy_s, "s", e.worst());
+    e1["observations"] = r.report.observations;
+    e1["pixels"] = rows;
+    e1["baseline_error"] = std::isfinite(scipy_err) ? json(scipy_err) : json(nullptr);
+    e1["error_definition"] = "worst of max relative error of kd, ks, n and psi error / 180 deg";
+    e1["ours_breakdown_s"] = {{"load", r.report.seconds_load},
+                              {"start", r.report.seconds_start},
+                              {"solve", r.report.seconds_solve},
+                              {"covariance", r.report.seconds_covariance}};
+    e1["errors"] = {{"kd_rel", e.kd}, {"ks_rel", e.ks}, {"n_rel", e.n}, {"psi_deg", e.psi}};
+    if (!std::isfinite(scipy_s)) e1["baseline_note"] = "SciPy run failed: " + outtxt.substr(0, 300);
+    const bool met = std::isfinite(scipy_s) && scipy_s / r.report.seconds >= 30 &&
+                     e.worst() <= scipy_err * 1.0001 + 1e-9;
+    target(&e1, ">= 30x less wall time than SciPy at equal or better error", met,
+           "SciPy's 2-point Jacobian is vectorised numpy; the ratio is what was measured");
+    e1["us_per_observation"] = 1e6 * r.report.seconds / r.report.observations;
+    out.push_back(e1);
+    // The solver alone (both start from the same grid point with the data in memory).
+    const double ours_solve = r.report.seconds_solve;
+    json e2 =
+        entry("fit", "line solve vs SciPy least_squares solve, subsample " + std::to_string(sub),
+              ours_solve, scipy_s, "s", e.worst());
+    e2["observations"] = r.report.observations;
+    e2["baseline_error"] = e1["baseline_error"];
+    target(&e2, ">= 30x less wall time than SciPy at equal or better error",
+           std::isfinite(scipy_s) && scipy_s / ours_solve >= 30 &&
+               e.worst() <= scipy_err * 1.0001 + 1e-9,
+           "both solvers take a handful of iterations; SciPy's per-iteration cost is vectorised "
+           "numpy, ours is "
+           "Ceres with analytic derivatives: the gap is a small constant, not 30x");
+    out.push_back(e2);
+    std::printf(
+        "bench fit: subsample %d: %zu obs, ours %.3f s total / %.3f s solve (err %.2e), SciPy %.3f "
+        "s solve (err "
+        "%.2e), ratios %.2f / %.2f\n",
+        sub, r.report.observations, r.report.seconds, r.report.seconds_solve, e.worst(), scipy_s,
+        scipy_err, scipy_s / r.report.seconds, scipy_s / r.report.seconds_solve);
+  }
+  // Linearity: time per observation across the sweep.
+  // Peak memory of a full-resolution fit, measured in a child process.
+  {
+    int fds[2];
+    if (pipe(fds) == 0) {
+      const pid_t pid = fork();
+      if (pid == 0) {
+        close(fds[0]);
+        const long before = current_rss_kb();
+        FitOptions fo;
+        fo.progress = false;
+        const FitResult r = fit_capture(set, fo);
+        const long peak = peak_rss_kb();
+        char buf[128];
+        const int n = std::snprintf(buf, sizeof buf, "%ld %ld %zu", before, peak, r.report.pixels);
+        if (write(fds[1], buf, n) < 0) _exit(1);
+        _exit(0);
+      }
+      close(fds[1]);
+      char buf[128] = {0};
+      const ssize_t n = read(fds[0], buf, sizeof buf - 1);
+      close(fds[0]);
+      int status = 0;
+      waitpid(pid, &status, 0);
+      long before = 0, peak = 0;
+      size_t pixels = 0;
+      if (n > 0 && std::sscanf(buf, "%ld %ld %zu", &before, &peak, &pixels) == 3) {
+        // The observations' own size: per pixel the record of the export format (14 float64:
+        // view and light directions, irradiance, the three values, topology).
+        const double own_kb = pixels * 14 * 8 / 1024.0;
+        json e = entry("fit", "peak memory of a full fit over the observations' own size",
+                       (peak - before) / own_kb, NAN, "ratio", NAN);
+        e["peak_kb_above_start"] = peak - before;
+        e["observations_kb"] = own_kb;
+        target(&e, "<= 2x the observations' own size", (peak - before) <= 2 * own_kb,
+               "one Ceres residual block per pixel (cost function, Jacobian storage and "
+               "bookkeeping) and the loaded "
+               "EXR images of every view dominate; batching pixels into larger blocks is the fix");
+        out.push_back(e);
+        std::printf(
+            "bench fit: peak memory %.1f x the observations' own size (%ld kB above start, %.0f kB "
+            "own)\n",
+            (peak - before) / own_kb, peak - before, own_kb);
+      }
+    }
+  }
+  // The fiber model's fit: observations against time and error.
+  {
+    PresetOptions pf = po;
+    pf.noise = 0.0;
+    const SimOptions sf = make_preset("fiber-flat", pf);
+    const std::string fdir = join_path(work, "fit_fiber");
+    simulate_capture(sf, fdir);
+    const CaptureSet fs = read_capture(fdir);
+    for (int sub : quick ? std::vector<int>{4} : std::vector<int>{8, 4, 2, 1}) {
+      FitOptions fo;
+      fo.progress = false;
+      fo.model = FitModel::kFiber;
+      fo.subsample = sub;
+      const FitResult r = fit_capture(fs, fo);
+      const Errs e = errors_of(r.material, sf.truth);
+      json ef = entry("fit", "fiber fit, subsample " + std::to_string(sub), r.report.seconds, NAN,
+                      "s", e.worst());
+      ef["observations"] = r.report.observations;
+      ef["errors"] = {{"kd_rel", e.kd},
+                      {"ks_rel", e.ks},
+                      {"n_rel", e.n},
+                      {"psi_deg", e.psi},
+                      {"s_abs", e.topo}};
+      ef["us_per_observation"] = 1e6 * r.report.seconds / r.report.observations;
+      out.push_back(ef);
+      std::printf("bench fit: fiber subsample %d: %zu obs, %.3f s, worst error %.2e, |ds| %.2e\n",
+                  sub, r.report.observations, r.report.seconds, e.worst(), e.topo);
+    }
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------------------------------------
+json bench_fiber(bool quick) {
+  json out = json::array();
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> g;
+  struct Case {
+    double lb, ln, vb, vn, a, b;
+  };
+  std::vector<Case> cases;
+  const int ncases = quick ? 200 : 2000;
+  for (int i = 0; i < ncases; ++i) {
+    auto unit = [&]() {
+      const double x = g(rng), y = g(rng), z = std::abs(g(rng)),
+                   l = std::sqrt(x * x + y * y + z * z);
+      return std::array<double, 3>{x / l, y / l, z / l};
+    };
+    const auto L = unit(), V = unit();
+    cases.push_back({L[1], L[2], V[1], V[2], L[0], V[0]});
+  }
+  for (double n : {10.0, 100.0, 1000.0}) {
+    std::vector<double> ref(cases.size());
+    for (size_t i = 0; i < cases.size(); ++i) {
+      double D;
+      const Case& c = cases[i];
+      fiber_DS(c.lb, c.ln, c.vb, c.vn, c.a, c.b, n, 0.5, FiberAccuracy{32}, &D, &ref[i]);
+    }
+    // Brute force: time per evaluation and its error at 24000 samples per fiber (a subset).
+    const size_t nb = quick ? 5 : 40;
+    double brute_err = 0;
+    const auto tb = Clock::now();
+    for (size_t i = 0; i < nb; ++i) {
+      const Case& c = cases[i];
+      const auto r = reference::fiber_bruteforce(c.lb, c.ln, c.vb, c.vn, c.a, c.b, n, 0.5, 24000);
+      brute_err = std::max(brute_err, std::abs(r.S - ref[i]) / std::max(ref[i], 1e-3));
+    }
+    const double brute_ns = 1e9 * since(tb) / nb;
+    for (int order : {2, 3, 4, 6, 8, 12, 16}) {
+      double err = 0, sink = 0;
+      const int reps = quick ? 1 : 5;
+      const auto t0 = Clock::now();
+      for (int rep = 0; rep < reps; ++rep)
+        for (size_t i = 0; i < cases.size(); ++i) {
+          const Case& c = cases[i];
+          double D, S;
+          fiber_DS(c.lb, c.ln, c.vb, c.vn, c.a, c.b, n, 0.5, FiberAccuracy{order}, &D, &S);
+          sink += S;
+          if (rep == 0) err = std::max(err, std::abs(S - ref[i]) / std::max(ref[i], 1e-3));
+        }
+      const double ns = 1e9 * since(t0) / (reps * cases.size());
+      json e = entry("fiber",
+                     "fiber model order " + std::to_string(order) + ", n=" + std::to_string(int(n)),
+                     ns, brute_ns, "ns/eval", err);
+      e["error_definition"] =
+          "max |S - S_order32| / max(S_order32, 1e-3) over random directions, s = 0.5";
+      e["baseline_error"] = brute_err;
+      e["baseline"] = brute_ns;
+      e["baseline_note"] = "brute force, 24000 normal samples per fiber, ray-circle tests";
+      target(&e, ">= 100x faster than brute force at relative error <= 1e-4",
+             brute_ns / ns >= 100 && err <= 1e-4,
+             err > 1e-4 ? "this order is below the accuracy target; higher orders meet it" : "");
+      e["checksum"] = sink;
+      out.push_back(e);
+    }
+    std::printf(
+        "bench fiber: n=%g: brute force %.0f us/eval (its error %.1e); see the orders in the "
+        "output\n",
+        n, brute_ns / 1e3, brute_err);
+  }
+  return out;
+}
+
+}  // namespace aniso::benchutil
