@@ -13,7 +13,9 @@ namespace aniso {
 struct TriMesh {
   std::vector<Vec3> P, N, U;                 // per vertex: position, unit normal, tangent dP/du
   std::vector<std::array<float, 2>> uv;      // per vertex (glTF convention: v down)
-  std::vector<std::array<uint32_t, 3>> tri;  // counter-clockwise seen from outside
+  // Winding is not guaranteed (the sphere's grid is clockwise seen from outside); nothing here
+  // culls, and the glTF export orients each triangle by the vertex normals.
+  std::vector<std::array<uint32_t, 3>> tri;
   // False for shapes that cannot shadow themselves (a flat square, a disc, a sphere: convex or
   // planar), so the simulator casts no shadow rays for them.
   bool can_self_shadow = true;
