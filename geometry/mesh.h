@@ -11,8 +11,8 @@
 namespace aniso {
 
 struct TriMesh {
-  std::vector<Vec3> P, N, U;                 // per vertex: position, unit normal, tangent dP/du
-  std::vector<std::array<float, 2>> uv;      // per vertex (glTF convention: v down)
+  std::vector<Vec3> P, N, U;             // per vertex: position, unit normal, tangent dP/du
+  std::vector<std::array<float, 2>> uv;  // per vertex (glTF convention: v down)
   // Winding is not guaranteed (the sphere's grid is clockwise seen from outside); nothing here
   // culls, and the glTF export orients each triangle by the vertex normals.
   std::vector<std::array<uint32_t, 3>> tri;

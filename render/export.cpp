@@ -287,14 +287,14 @@ ExportShaders export_shaders(int texels, const FiberBakeTables* fiber) {
   s.hlsl_pixel = s.hlsl_lookup + "\n" + shaders::aniso_main_hlsl;
   if (!fiber) return s;
   char fdef[128];
-  std::snprintf(fdef, sizeof fdef, "#define ANISO_NPHI %d\n#define ANISO_NS %d\n#define ANISO_NK %d\n",
-                fiber->nphi, fiber->ns, fiber->nk);
+  std::snprintf(fdef, sizeof fdef,
+                "#define ANISO_NPHI %d\n#define ANISO_NS %d\n#define ANISO_NK %d\n", fiber->nphi,
+                fiber->ns, fiber->nk);
   s.glsl_fiber = std::string(fdef) + shaders::aniso_fiber_glsl;
   s.glsl_fiber_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + s.glsl_fiber + "\n" +
                           shaders::aniso_fiber_main_frag;
   s.hlsl_fiber = std::string(fdef) + shaders::aniso_fiber_hlsli;
-  s.hlsl_fiber_pixel =
-      s.hlsl_lookup + "\n" + s.hlsl_fiber + "\n" + shaders::aniso_fiber_main_hlsl;
+  s.hlsl_fiber_pixel = s.hlsl_lookup + "\n" + s.hlsl_fiber + "\n" + shaders::aniso_fiber_main_hlsl;
   return s;
 }
 
@@ -397,43 +397,42 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
     json material;
     material_to_json(m, &material);
     sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const json j = {{"format", "aniso-export"},
-                    {"version", 1},
-                    {"command", o.command},
-                    {"model", model_name(m.model)},
-                    {"material", material},
-                    {"tables", tables},
-                    {"maps", maps},
-                    {"shaders",
-                     {{"glsl", {"shaders/aniso_lookup.glsl", "shaders/aniso.frag"}},
-                      {"hlsl", {"shaders/aniso_lookup.hlsli", "shaders/aniso_ps.hlsl"}},
-                      {"fiber", sum.fiber ? json{"shaders/aniso_fiber.glsl",
-                                                 "shaders/aniso_fiber.frag",
-                                                 "shaders/aniso_fiber.hlsli",
-                                                 "shaders/aniso_fiber_ps.hlsl"}
-                                          : json(nullptr)},
-                      {"checked_by",
-                       "glslangValidator (GLSL 330 and HLSL via -D), SPIR-V to MSL "
-                       "by spirv-cross, in the tests"},
-                      {"covers", sum.fiber ? "the line-model lookup and the fiber model's factor "
-                                             "tables (one topology s per call: sample a map of "
-                                             "s or s_math yourself)"
-                                           : "the line-model lookup"}}},
-                    {"gltf",
-                     {{"file", "gltf/sample.gltf"},
-                      {"extension", "KHR_materials_anisotropy"},
-                      {"roughness", sum.pbr.roughness},
-                      {"anisotropy_strength", sum.pbr.strength},
-                      {"anisotropy_rotation_rad", sum.pbr.rotation_rad},
-                      {"direction",
-                       "anisotropy direction = psi + 90 deg (roughness grows "
-                       "across the fibers)"}}},
-                    {"three", viewer},
-                    {"warnings", sum.warnings},
-                    {"conventions", conventions(sum)},
-                    {"errors", measured_errors(sum)},
-                    {"files", sum.files},
-                    {"seconds", sum.seconds}};
+    const json j = {
+        {"format", "aniso-export"},
+        {"version", 1},
+        {"command", o.command},
+        {"model", model_name(m.model)},
+        {"material", material},
+        {"tables", tables},
+        {"maps", maps},
+        {"shaders",
+         {{"glsl", {"shaders/aniso_lookup.glsl", "shaders/aniso.frag"}},
+          {"hlsl", {"shaders/aniso_lookup.hlsli", "shaders/aniso_ps.hlsl"}},
+          {"fiber", sum.fiber ? json{"shaders/aniso_fiber.glsl", "shaders/aniso_fiber.frag",
+                                     "shaders/aniso_fiber.hlsli", "shaders/aniso_fiber_ps.hlsl"}
+                              : json(nullptr)},
+          {"checked_by",
+           "glslangValidator (GLSL 330 and HLSL via -D), SPIR-V to MSL "
+           "by spirv-cross, in the tests"},
+          {"covers", sum.fiber ? "the line-model lookup and the fiber model's factor "
+                                 "tables (one topology s per call: sample a map of "
+                                 "s or s_math yourself)"
+                               : "the line-model lookup"}}},
+        {"gltf",
+         {{"file", "gltf/sample.gltf"},
+          {"extension", "KHR_materials_anisotropy"},
+          {"roughness", sum.pbr.roughness},
+          {"anisotropy_strength", sum.pbr.strength},
+          {"anisotropy_rotation_rad", sum.pbr.rotation_rad},
+          {"direction",
+           "anisotropy direction = psi + 90 deg (roughness grows "
+           "across the fibers)"}}},
+        {"three", viewer},
+        {"warnings", sum.warnings},
+        {"conventions", conventions(sum)},
+        {"errors", measured_errors(sum)},
+        {"files", sum.files},
+        {"seconds", sum.seconds}};
     write_text_file(join_path(tmp, "export.json"), j.dump(2) + "\n");
   });
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

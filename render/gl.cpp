@@ -73,7 +73,6 @@ void Context::release() {
   ctx_ = EGL_NO_CONTEXT;
 }
 
-
 void Context::fail(const std::string& what) {
   const std::string msg =
       "preview: cannot create a headless OpenGL context (EGL surfaceless, Mesa): " + what +

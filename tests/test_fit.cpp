@@ -411,11 +411,12 @@ TEST(FitPaths, NormalEquationCovarianceMatchesCeres) {
     for (size_t i = 0; i < ra.correlation.size(); ++i)
       for (size_t j = 0; j < ra.correlation.size(); ++j)
         worst_corr = std::max(worst_corr, std::abs(ra.correlation[i][j] - rb.correlation[i][j]));
-    std::printf("%s (%s%s%s): normal equations vs Ceres covariance: sigma rel. diff %.2g, "
-                "correlation diff %.2g; time %.4f s vs %.4f s\n",
-                c.preset, c.model == FitModel::kFiber ? "fiber" : "line", c.iso ? " +iso" : "",
-                c.chunked ? " chunked" : " per pixel", worst, worst_corr,
-                ra.report.seconds_covariance, rb.report.seconds_covariance);
+    std::printf(
+        "%s (%s%s%s): normal equations vs Ceres covariance: sigma rel. diff %.2g, "
+        "correlation diff %.2g; time %.4f s vs %.4f s\n",
+        c.preset, c.model == FitModel::kFiber ? "fiber" : "line", c.iso ? " +iso" : "",
+        c.chunked ? " chunked" : " per pixel", worst, worst_corr, ra.report.seconds_covariance,
+        rb.report.seconds_covariance);
     EXPECT_LT(worst, 1e-6) << c.preset;
     EXPECT_LT(worst_corr, 1e-6) << c.preset;
   }

@@ -34,10 +34,10 @@ TEST(Board, RenderedBoardIsFoundWhereTheBoardFrameSaysItIs) {
       mx += (c.x - ex) / found.size();
       my += (c.y - ey) / found.size();
     }
-    std::printf("%dx%d %s board at %.0f dpi: %d markers, %zu corners, mean offset (%.3f, %.3f) "
-                "px, worst %.3f px from the board frame\n",
-                b.squares_x, b.squares_y, b.dictionary.c_str(), dpi, markers, found.size(), mx, my,
-                worst);
+    std::printf(
+        "%dx%d %s board at %.0f dpi: %d markers, %zu corners, mean offset (%.3f, %.3f) "
+        "px, worst %.3f px from the board frame\n",
+        b.squares_x, b.squares_y, b.dictionary.c_str(), dpi, markers, found.size(), mx, my, worst);
     // Square edges are drawn on whole pixels (11.8 px squares here): up to half a pixel each way.
     EXPECT_LT(worst, 0.75);
     EXPECT_LT(std::hypot(mx, my), 0.3);  // no offset of the frame itself

@@ -5,12 +5,12 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "core/color.h"
 #include "core/error.h"
 #include "datasets_synth/presets.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/material_io.h"
-#include "core/color.h"
 #include "models/line_model.h"
 #include "render/bake.h"
 #include "render/preview.h"
@@ -364,9 +364,10 @@ TEST(View, ScreenshotShowsThePreviewAndTheErrorMap) {
         lit += p.at(x, y, c);
         ++n;
       }
-  std::printf("view vs preview (below right of the panel): max difference %.4f; error map: "
-              "mean |tables - exact| %.2g (linear)\n",
-              diff, err / n);
+  std::printf(
+      "view vs preview (below right of the panel): max difference %.4f; error map: "
+      "mean |tables - exact| %.2g (linear)\n",
+      diff, err / n);
   EXPECT_LE(diff, 2.5 / 255);  // a code of rounding in the view angles' round trip
   // What the preview states as its bound for these settings (tables + 8-bit filter weights, two
   // lights): 0.00333.

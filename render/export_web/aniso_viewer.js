@@ -1,5 +1,5 @@
 // aniso viewer: the exported material in three.js, sampling the exported KTX2 tables in a
-// ShaderMaterial (the same lookup as shaders/aniso_lookup.glsl), on the exported sample sphere.
+// ShaderMaterial built from the exported shaders/*.glsl, on the exported sample sphere.
 //
 // viewer.html?shape=sphere&view=x,y,z&light=x,y,z&size=WxH renders exactly the frame of
 //   aniso preview MATERIAL --shape sphere --view x,y,z --light x,y,z --size WxH
@@ -28,7 +28,7 @@ async function loadKtx2(url) {
   const id = [0xab, 0x4b, 0x54, 0x58, 0x20, 0x32, 0x30, 0xbb, 0x0d, 0x0a, 0x1a, 0x0a];
   id.forEach((b, i) => { if (dv.getUint8(i) !== b) throw new Error(url + ': not KTX2'); });
   const vkFormat = dv.getUint32(12, true), w = dv.getUint32(20, true), h = dv.getUint32(24, true);
-  const layers = Math.max(dv.getUint32(32, true), 1);
+  const layers = dv.getUint32(32, true);  // 0: not an array
   const offset = Number(dv.getBigUint64(80, true)), length = Number(dv.getBigUint64(88, true));
   if (vkFormat === 100) {  // VK_FORMAT_R32_SFLOAT
     const data = new Float32Array(buf.slice(offset, offset + length));
@@ -41,17 +41,23 @@ async function loadKtx2(url) {
   throw new Error(url + ': vkFormat ' + vkFormat + ' is not one aniso writes');
 }
 
+// A lookup table (layers = 0) or a 2D array of them as three.js sees it: linear filter, clamped,
+// no mipmaps, the first stored row at t = 0 (export.json: row_order). Float tables go to half
+// floats where the browser cannot filter float textures.
 function tableTexture(t, floatLinear) {
   let { data, type } = t;
-  if (type === THREE.FloatType && !floatLinear) {  // no linear filtering of float: use half
+  if (type === THREE.FloatType && !floatLinear) {
     data = Uint16Array.from(data, (v) => THREE.DataUtils.toHalfFloat(v));
     type = THREE.HalfFloatType;
   }
-  const tex = new THREE.DataTexture(data, t.w, t.h, t.format, type);
+  const tex = t.layers > 0 ? new THREE.DataArrayTexture(data, t.w, t.h, t.layers)
+                           : new THREE.DataTexture(data, t.w, t.h);
+  tex.format = t.format;
+  tex.type = type;
   tex.minFilter = tex.magFilter = THREE.LinearFilter;
   tex.wrapS = tex.wrapT = THREE.ClampToEdgeWrapping;
   tex.generateMipmaps = false;
-  tex.flipY = false;  // the first stored row is t = 0 (export.json: row_order)
+  tex.flipY = false;
   tex.colorSpace = THREE.NoColorSpace;
   tex.needsUpdate = true;
   return tex;
@@ -93,21 +99,19 @@ void main() {
   gl_Position = projectionMatrix * modelViewMatrix * vec4(position, 1.0);
 }`;
 
-const FRAGMENT = `
-precision highp float;
-uniform sampler2D anisoDiffuse;
-uniform sampler2D anisoSpecular;
-uniform float texels;
-uniform vec3 kd; uniform vec3 ks;
+// The fragment shader: the export's own lookup functions (shaders/aniso_lookup.glsl, and for the
+// fiber model shaders/aniso_fiber.glsl) summed over the light and the fill light, sRGB-encoded.
+const FRAGMENT_MAIN = `
+uniform vec3 kd; uniform vec3 ks; uniform float topologyS;
 uniform vec3 L0; uniform float E0; uniform vec3 L1; uniform float E1; uniform vec3 V;
 in vec3 vN; in vec3 vT;
 out vec4 fragColor;
-const float PI = 3.14159265358979;
-float coord(float c) { return (acos(clamp(-c, -1.0, 1.0)) / PI * (texels - 1.0) + 0.5) / texels; }
 vec3 radiance(vec3 N, vec3 T, vec3 L, float E) {
-  vec2 st = vec2(coord(dot(L, T)), coord(dot(V, T)));
-  float D = texture(anisoDiffuse, st).r, S = texture(anisoSpecular, st).r;
-  return E * (kd * D + ks * S) * max(dot(N, L), 0.0);
+#ifdef ANISO_NPHI
+  return anisoFiberRadiance(N, T, L, V, topologyS, kd, ks, vec3(E));
+#else
+  return anisoRadiance(N, T, L, V, kd, ks, vec3(E));
+#endif
 }
 float enc(float v) { v = clamp(v, 0.0, 1.0);
   return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
@@ -118,71 +122,13 @@ void main() {
   fragColor = vec4(enc(c.r), enc(c.g), enc(c.b), 1.0);
 }`;
 
-// The fiber model: the line tables times the factor tables G and F (shaders/aniso_fiber.glsl),
-// at the material's one topology s.
-const FRAGMENT_FIBER = `
-precision highp float;
-precision highp sampler2DArray;
-uniform sampler2D anisoDiffuse;
-uniform sampler2D anisoSpecular;
-uniform sampler2DArray fiberG;
-uniform sampler2DArray fiberF;
-uniform float texels; uniform int nphi; uniform int ns; uniform int nk; uniform float topologyS;
-uniform vec3 kd; uniform vec3 ks;
-uniform vec3 L0; uniform float E0; uniform vec3 L1; uniform float E1; uniform vec3 V;
-in vec3 vN; in vec3 vT;
-out vec4 fragColor;
-const float PI = 3.14159265358979;
-float coord(float c) { return (acos(clamp(-c, -1.0, 1.0)) / PI * (texels - 1.0) + 0.5) / texels; }
-vec3 radiance(vec3 N, vec3 T, vec3 L, float E) {
-  vec3 B = cross(N, T);
-  float ln = dot(L, N), vn = dot(V, N);
-  if (ln <= 0.0 || vn <= 0.0) return vec3(0.0);
-  float a = dot(L, T), b = dot(V, T), lb = dot(L, B), vb = dot(V, B);
-  vec2 st = vec2(coord(a), coord(b));
-  float Dl = texture(anisoDiffuse, st).r, Sl = texture(anisoSpecular, st).r;
-  float sL = length(vec2(lb, ln)), sV = length(vec2(vb, vn));
-  float g0 = sL * sV - a * b;
-  float kk = g0 > 0.0 ? 2.0 * sL * sV / (g0 + 2.0 * sL * sV) : 1.0;
-  vec2 uv = ((vec2(atan(lb, ln), atan(vb, vn)) + 0.5 * PI) / PI * float(nphi - 1) + 0.5) / float(nphi);
-  float fs = clamp(topologyS, 0.0, 1.0) * float(ns - 1);
-  int is = min(int(fs), ns - 2);
-  float ws = fs - float(is);
-  float fk = kk * float(nk - 1);
-  int ik = min(int(fk), nk - 2);
-  float wk = fk - float(ik);
-  float G = mix(texture(fiberG, vec3(uv, float(is))).r, texture(fiberG, vec3(uv, float(is + 1))).r, ws);
-  float F0 = mix(texture(fiberF, vec3(uv, float(is * nk + ik))).r,
-                 texture(fiberF, vec3(uv, float(is * nk + ik + 1))).r, wk);
-  float F1 = mix(texture(fiberF, vec3(uv, float((is + 1) * nk + ik))).r,
-                 texture(fiberF, vec3(uv, float((is + 1) * nk + ik + 1))).r, wk);
-  return E * (kd * Dl * G + ks * Sl * mix(F0, F1, ws));
-}
-float enc(float v) { v = clamp(v, 0.0, 1.0);
-  return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
-void main() {
-  vec3 N = normalize(vN);
-  vec3 T = normalize(vT - N * dot(N, vT));
-  vec3 c = radiance(N, T, L0, E0) + radiance(N, T, L1, E1);
-  fragColor = vec4(enc(c.r), enc(c.g), enc(c.b), 1.0);
-}`;
-
-function arrayTexture(t, floatLinear) {
-  let { data, type } = t;
-  if (!floatLinear) {
-    data = Uint16Array.from(data, (v) => THREE.DataUtils.toHalfFloat(v));
-    type = THREE.HalfFloatType;
-  }
-  const tex = new THREE.DataArrayTexture(data, t.w, t.h, t.layers);
-  tex.format = THREE.RedFormat;
-  tex.type = type;
-  tex.minFilter = tex.magFilter = THREE.LinearFilter;
-  tex.wrapS = tex.wrapT = THREE.ClampToEdgeWrapping;
-  tex.generateMipmaps = false;
-  tex.flipY = false;
-  tex.colorSpace = THREE.NoColorSpace;
-  tex.needsUpdate = true;
-  return tex;
+async function fragmentShader(info, fiber) {
+  const text = async (f) => (await fetch('../' + f)).text();
+  // The function files: shaders.glsl[0] and, for the fiber model, shaders.fiber[0].
+  const parts = ['precision highp float;\nprecision highp sampler2DArray;\n',
+                 await text(info.shaders.glsl[0])];
+  if (fiber) parts.push(await text(info.shaders.fiber[0]));
+  return parts.join('\n') + FRAGMENT_MAIN;
 }
 
 // For timing against the plainest lit surface (plain=1): Lambert, no tables.
@@ -228,22 +174,19 @@ export async function start(q) {
   const uniforms = {
     anisoDiffuse: { value: tableTexture(D, floatLinear) },
     anisoSpecular: { value: tableTexture(S, floatLinear) },
-    texels: { value: D.w },
+    topologyS: { value: fiber ? m.topology.s : 0 },
     kd: { value: new THREE.Vector3(...m.kd) }, ks: { value: new THREE.Vector3(...m.ks) },
     L0: { value: new THREE.Vector3() }, E0: { value: 1 },
     L1: { value: new THREE.Vector3() }, E1: { value: fill },
     V: { value: new THREE.Vector3() },
   };
   if (fiber) {
-    const [G, F] = fiberTables;
-    Object.assign(uniforms, {
-      fiberG: { value: arrayTexture(G, floatLinear) }, fiberF: { value: arrayTexture(F, floatLinear) },
-      nphi: { value: G.w }, ns: { value: G.layers }, nk: { value: F.layers / G.layers },
-      topologyS: { value: m.topology.s },
-    });
+    uniforms.anisoFiberG = { value: tableTexture(fiberTables[0], floatLinear) };
+    uniforms.anisoFiberF = { value: tableTexture(fiberTables[1], floatLinear) };
   }
   const material = new THREE.ShaderMaterial({ glslVersion: THREE.GLSL3, vertexShader: VERTEX,
-                                              fragmentShader: q.has('plain') ? FRAGMENT_PLAIN : fiber ? FRAGMENT_FIBER : FRAGMENT,
+                                              fragmentShader: q.has('plain') ? FRAGMENT_PLAIN
+                                                                          : await fragmentShader(info, fiber),
                                               uniforms });
   const scene = new THREE.Scene();
   scene.add(new THREE.Mesh(geometry, material));
