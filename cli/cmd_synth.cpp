@@ -9,6 +9,7 @@
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/material_io.h"
+#include "photo/synth_shoot.h"
 
 namespace aniso::cli {
 
@@ -16,8 +17,33 @@ namespace {
 struct SynthArgs {
   std::string preset, out, size = "128x128", truth, compression = "none";
   PresetOptions po;
-  bool list = false;
+  bool list = false, photos = false;
+  CLI::App* app = nullptr;
 };
+
+// --photos: a photo shoot of the preset's material on a ChArUco board (photo/synth_shoot.h).
+int run_photos(const SynthArgs& a) {
+  PhotoShootOptions o;
+  o.truth = a.truth.empty() ? make_preset(a.preset, a.po).truth : read_material(a.truth);
+  o.seed = a.po.seed;
+  if (a.app->count("--size")) parse_size(a.size, &o.width, &o.height);
+  if (a.app->count("--views")) o.photos = a.po.views;
+  if (a.app->count("--noise")) o.read_noise = a.po.noise;
+  if (a.po.bits == 16) o.raw16 = true;
+  check_output_folder(a.out);
+  check_outputs_apart({a.out}, {a.truth});
+  const PhotoShootStats st = simulate_photo_shoot(o, a.out);
+  std::printf(
+      "synth --photos: %s -> %s: %zu photos x %zu exposures, %dx%d %s, seed %llu; %zu primary "
+      "rays, %zu shadow rays, %.1f%% of codes saturated; %.2f s\n"
+      "synth --photos: then: aniso import %s/shoot.json --out CAPTURE_DIR\n",
+      a.preset.c_str(), a.out.c_str(), st.photos, o.bracket.size(), o.width, o.height,
+      o.raw16 ? "16-bit linear" : "8-bit sRGB", static_cast<unsigned long long>(o.seed),
+      st.primary_rays, st.shadow_rays,
+      100.0 * st.saturated_codes / (3.0 * o.width * o.height * st.images), st.seconds,
+      a.out.c_str());
+  return 0;
+}
 
 int run(const SynthArgs& a) {
   if (a.list) {
@@ -27,6 +53,7 @@ int run(const SynthArgs& a) {
   }
   if (a.preset.empty() || a.out.empty())
     throw Error("synth: needs PRESET and OUT_DIR (see --list)");
+  if (a.photos) return run_photos(a);
   PresetOptions po = a.po;
   parse_size(a.size, &po.width, &po.height);
   check_output_folder(a.out);
@@ -56,6 +83,12 @@ Command add_synth(CLI::App& app) {
                     "capture folder to write: new, empty, or an earlier aniso output (replaced "
                     "atomically)");
   synth->add_flag("--list", a->list, "list the presets and exit");
+  synth->add_flag("--photos", a->photos,
+                  "write a photo shoot instead (shoot.json, bracketed photos of the preset's "
+                  "material on a ChArUco board through a distorting lens, truth.json): the input "
+                  "of aniso import. Defaults then: --size 960x720, --views 24 photos, --noise "
+                  "0.002; --bits 16 writes RAW-like 16-bit linear photos");
+  a->app = synth;
   add_force_flag(synth);
   synth
       ->add_option("--noise", po.noise,

@@ -9,6 +9,7 @@
 #include <mutex>
 
 #include "core/error.h"
+#include "core/lens.h"
 #include "geometry/embree_device.h"
 
 namespace aniso {
@@ -85,6 +86,7 @@ GBuffer RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string
   g.hit.assign(static_cast<size_t>(k.width) * k.height, 0);
   const Vec3 eye = pose.translation();
   const TriMesh& m = mesh_;
+  const bool distorted = k.distorted();
   tbb::parallel_for(tbb::blocked_range<int>(0, k.height), [&](const tbb::blocked_range<int>& rows) {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
@@ -97,7 +99,9 @@ GBuffer RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string
         for (int l = 0; l < 8; ++l) {
           const int x = x0 + l;
           valid[l] = x < k.width ? -1 : 0;
-          const Vec3 d = normalize(pose.dir(Vec3((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0)));
+          Vec3 r((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0);
+          if (distorted && !pixel_ray(k, x, y, &r)) valid[l] = 0;  // outside the lens model
+          const Vec3 d = normalize(pose.dir(r));
           dirs[l] = d;
           rh.ray.org_x[l] = static_cast<float>(eye.x);
           rh.ray.org_y[l] = static_cast<float>(eye.y);

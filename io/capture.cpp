@@ -1,6 +1,7 @@
 #include "io/capture.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include "core/color.h"
@@ -17,23 +18,20 @@ namespace aniso {
 using jsonu::Ctx;
 using jsonu::json;
 
-namespace {
-
 Intrinsics parse_camera(const json& j, const Ctx& c) {
   Intrinsics k;
   jsonu::check_keys(j, {"width", "height", "fx", "fy", "cx", "cy", "distortion"}, c);
   if (j.is_object() && j.contains("distortion")) {
-    // OpenCV's k1 k2 p1 p2 k3: this reader casts pinhole rays, so only zeros are understood.
+    // OpenCV's k1 k2 p1 p2 k3 (a shorter list: the rest are zero). Rays cast at a mesh go
+    // through the lens model (core/lens.h); buffers already say where each pixel looks.
     const json& d = j["distortion"];
-    bool zero = d.is_array();
-    if (zero)
-      for (size_t i = 0; i < d.size(); ++i)
-        zero = zero && jsonu::num(d[i], c.at("distortion").idx(i)) == 0;
-    if (!zero)
-      c.at("distortion")
-          .fail(
-              "lens distortion is not applied by this reader (pinhole rays); undistort the images "
-              "first, or give zeros");
+    if (!d.is_array() || d.empty() || d.size() > 5)
+      c.at("distortion").fail("expected 1 to 5 numbers: k1 k2 p1 p2 k3");
+    for (size_t i = 0; i < d.size(); ++i) {
+      k.distortion[i] = jsonu::num(d[i], c.at("distortion").idx(i));
+      if (!std::isfinite(k.distortion[i]) || std::abs(k.distortion[i]) > 100)
+        c.at("distortion").idx(i).fail("must be a finite number of magnitude below 100");
+    }
   }
   const double w = jsonu::num(jsonu::need(j, "width", c), c.at("width"));
   const double h = jsonu::num(jsonu::need(j, "height", c), c.at("height"));
@@ -48,8 +46,6 @@ Intrinsics parse_camera(const json& j, const Ctx& c) {
   if (!(k.fx > 0) || !(k.fy > 0)) c.fail("fx and fy must be positive");
   return k;
 }
-
-}  // namespace
 
 Light parse_light(const json& j, const Ctx& c) {
   Light l;
@@ -90,6 +86,34 @@ Light parse_light(const json& j, const Ctx& c) {
   for (double v : l.intensity)
     if (v < 0) c.fail("negative light intensity");
   return l;
+}
+
+json camera_json(const Intrinsics& k) {
+  json o{{"width", k.width}, {"height", k.height}, {"fx", k.fx},
+         {"fy", k.fy},       {"cx", k.cx},         {"cy", k.cy}};
+  if (k.distorted())
+    o["distortion"] = json(std::vector<double>(k.distortion.begin(), k.distortion.end()));
+  return o;
+}
+
+json light_json(const Light& l) {
+  json jl;
+  if (l.type == Light::Type::kDirectional) {
+    jl = {{"type", "directional"},
+          {"direction", jsonu::to_json(l.direction)},
+          {"irradiance", jsonu::to_json(l.intensity)}};
+  } else {
+    jl = {{"type", l.type == Light::Type::kPoint ? "point" : "spot"},
+          {"position", jsonu::to_json(l.position)},
+          {"intensity", jsonu::to_json(l.intensity)},
+          {"attenuation", jsonu::to_json(l.attenuation)}};
+    if (l.type == Light::Type::kSpot) {
+      jl["direction"] = jsonu::to_json(l.direction);
+      jl["cutoff_deg"] = l.cutoff_deg;
+      jl["exponent"] = l.exponent;
+    }
+  }
+  return jl;
 }
 
 namespace {
@@ -136,6 +160,8 @@ Mat4 parse_pose(const json& j, const Ctx& c) {
   return m;
 }
 
+}  // namespace
+
 // The "color" block: how integer codes decode to linear values (FORMAT.md).
 ColorSpec parse_color(const json& col, const Ctx& c) {
   ColorSpec out;
@@ -171,6 +197,8 @@ ColorSpec parse_color(const json& col, const Ctx& c) {
   return out;
 }
 
+namespace {
+
 // One entry of "views"; the set's camera and geometry where the view gives none.
 ViewSpec parse_view(const json& v, const Ctx& c, const CaptureSet& s) {
   if (!v.is_object()) c.fail("expected an object");
@@ -183,6 +211,16 @@ ViewSpec parse_view(const json& v, const Ctx& c, const CaptureSet& s) {
   vs.exposure = jsonu::num_or(v, "exposure", 1.0, c);
   if (vs.exposure < 0) c.at("exposure").fail("must be non-negative");
   vs.camera = v.contains("camera") ? parse_camera(v["camera"], c.at("camera")) : s.camera;
+  if (v.contains("source")) {
+    const json& src = v["source"];
+    if (src.is_string()) {
+      vs.source.push_back(src.get<std::string>());
+    } else {
+      if (!src.is_array()) c.at("source").fail("expected a file name or an array of them");
+      for (size_t k = 0; k < src.size(); ++k)
+        vs.source.push_back(jsonu::str(src[k], c.at("source").idx(k)));
+    }
+  }
   const json& lights = jsonu::need(v, "lights", c);
   if (!lights.is_array() || lights.empty()) c.at("lights").fail("a view needs at least one light");
   for (size_t k = 0; k < lights.size(); ++k)
@@ -257,9 +295,10 @@ std::vector<std::string> capture_input_files(const CaptureSet& s) {
 }
 
 void write_capture_json(const CaptureSet& s, const std::string& path) {
-  auto cam = [](const Intrinsics& k) {
-    return json{{"width", k.width}, {"height", k.height}, {"fx", k.fx},
-                {"fy", k.fy},       {"cx", k.cx},         {"cy", k.cy}};
+  const auto& cam = camera_json;
+  auto same = [](const Intrinsics& a, const Intrinsics& b) {
+    return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy &&
+           a.cx == b.cx && a.cy == b.cy && a.distortion == b.distortion;
   };
   auto geo = [](const GeometrySpec& g) {
     json o = json::object();
@@ -307,26 +346,10 @@ void write_capture_json(const CaptureSet& s, const std::string& path) {
                       v.world_from_camera(r, 2), v.world_from_camera(r, 3)});
     jv["world_from_camera"] = pose;
     jv["exposure"] = v.exposure;
+    if (!same(v.camera, s.camera)) jv["camera"] = cam(v.camera);
+    if (!v.source.empty()) jv["source"] = v.source;
     json lights = json::array();
-    for (const auto& l : v.lights) {
-      json jl;
-      if (l.type == Light::Type::kDirectional) {
-        jl = {{"type", "directional"},
-              {"direction", jsonu::to_json(l.direction)},
-              {"irradiance", jsonu::to_json(l.intensity)}};
-      } else {
-        jl = {{"type", l.type == Light::Type::kPoint ? "point" : "spot"},
-              {"position", jsonu::to_json(l.position)},
-              {"intensity", jsonu::to_json(l.intensity)},
-              {"attenuation", jsonu::to_json(l.attenuation)}};
-        if (l.type == Light::Type::kSpot) {
-          jl["direction"] = jsonu::to_json(l.direction);
-          jl["cutoff_deg"] = l.cutoff_deg;
-          jl["exponent"] = l.exponent;
-        }
-      }
-      lights.push_back(jl);
-    }
+    for (const auto& l : v.lights) lights.push_back(light_json(l));
     jv["lights"] = lights;
     if (!v.geometry.empty()) jv["geometry"] = geo(v.geometry);
     views.push_back(jv);

@@ -31,6 +31,11 @@ struct ColorSpec {
   bool saturation_given = false;
 };
 
+// An integer image's stored value (scaled to [0, 1]) to linear. Below the black level the value
+// keeps its sign (clipping to 0 would bias dark, noisy pixels upward); the curves are applied
+// odd-symmetrically. EXR images are linear and never pass through here (FORMAT.md).
+double decode_code(double v, const ColorSpec& c);
+
 struct ViewSpec {
   std::string image;
   Mat4 world_from_camera;
@@ -38,6 +43,7 @@ struct ViewSpec {
   std::vector<Light> lights;
   Intrinsics camera;  // the set's camera unless the view overrides it
   GeometrySpec geometry;
+  std::vector<std::string> source;  // the photo files the view came from (aniso import)
 };
 
 struct CaptureSet {

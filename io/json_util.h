@@ -120,6 +120,12 @@ inline json parse_file(const std::string& text, const std::string& file) {
 
 namespace aniso {
 struct Light;
-// One light of FORMAT.md (defined in io/capture.cpp).
+struct ColorSpec;
+struct Intrinsics;
+// One light, a "color" block and a camera of FORMAT.md (defined in io/capture.cpp).
 Light parse_light(const jsonu::json& j, const jsonu::Ctx& c);
+ColorSpec parse_color(const jsonu::json& j, const jsonu::Ctx& c);
+Intrinsics parse_camera(const jsonu::json& j, const jsonu::Ctx& c);
+jsonu::json light_json(const Light& l);
+jsonu::json camera_json(const Intrinsics& k);
 }  // namespace aniso

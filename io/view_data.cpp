@@ -14,12 +14,7 @@
 
 namespace aniso {
 
-namespace {
-
-// An integer image's stored value (scaled to [0, 1]) to linear. Below the black level the value
-// keeps its sign (clipping to 0 would bias dark, noisy pixels upward); the curves are applied
-// odd-symmetrically. EXR images are linear and never pass through here (FORMAT.md).
-double decode(double v, const ColorSpec& c) {
+double decode_code(double v, const ColorSpec& c) {
   v -= c.black_level;
   switch (c.encoding) {
     case ColorSpec::Encoding::kLinear:
@@ -31,6 +26,8 @@ double decode(double v, const ColorSpec& c) {
   }
   return v;
 }
+
+namespace {
 
 Image need_buffer(const std::string& path, int channels, const Intrinsics& k,
                   const std::string& what) {
@@ -156,7 +153,7 @@ void classify_pixels(const CaptureSet& s, const LoadedImage& li, const std::vect
           ok = false;
         else if (r >= sat)
           saturated = true;
-        const double lin = li.bits ? decode(r, s.color) : r;
+        const double lin = li.bits ? decode_code(r, s.color) : r;
         if (!std::isfinite(lin) || std::abs(lin) > std::numeric_limits<float>::max()) ok = false;
         d->rgb.at(x, y, c) = static_cast<float>(lin);
       }

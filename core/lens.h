@@ -1,0 +1,66 @@
+// OpenCV's lens model (k1 k2 p1 p2 k3) on normalized image coordinates: where a pinhole ray
+// (x, y, 1) lands on the sensor, and back. Shared by the photo simulator and `aniso import`, so
+// the two agree on one definition, and by the ray caster; OpenCV's own calls are used where OpenCV
+// solves (calibration, pose).
+#pragma once
+#include <array>
+#include <cmath>
+
+#include "core/camera.h"
+#include "core/vec.h"
+
+namespace aniso {
+
+// Normalized undistorted (x, y) -> normalized distorted.
+inline void distort_normalized(const std::array<double, 5>& d, double x, double y, double* xd,
+                               double* yd) {
+  const double r2 = x * x + y * y;
+  const double radial = 1 + r2 * (d[0] + r2 * (d[1] + r2 * d[4]));
+  *xd = x * radial + 2 * d[2] * x * y + d[3] * (r2 + 2 * x * x);
+  *yd = y * radial + d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y;
+}
+
+// The inverse by fixed-point iteration (as OpenCV's undistortPoints, but iterated to 1e-14).
+// Returns false where it does not converge (far outside the calibrated field).
+inline bool undistort_normalized(const std::array<double, 5>& d, double xd, double yd, double* x,
+                                 double* y) {
+  double u = xd, v = yd;
+  for (int it = 0; it < 100; ++it) {
+    const double r2 = u * u + v * v;
+    const double radial = 1 + r2 * (d[0] + r2 * (d[1] + r2 * d[4]));
+    const double dx = 2 * d[2] * u * v + d[3] * (r2 + 2 * u * u);
+    const double dy = d[2] * (r2 + 2 * v * v) + 2 * d[3] * u * v;
+    if (!(radial > 0.1)) return false;
+    const double nu = (xd - dx) / radial, nv = (yd - dy) / radial;
+    const double step = std::abs(nu - u) + std::abs(nv - v);
+    u = nu;
+    v = nv;
+    if (step < 1e-14) break;
+  }
+  double cx, cy;
+  distort_normalized(d, u, v, &cx, &cy);
+  if (!(std::abs(cx - xd) + std::abs(cy - yd) < 1e-9)) return false;
+  *x = u;
+  *y = v;
+  return true;
+}
+
+// The camera-space ray (x, y, 1) of pixel (px, py) of a possibly distorted image; false where the
+// lens model cannot be inverted.
+inline bool pixel_ray(const Intrinsics& k, double px, double py, Vec3* ray) {
+  double x, y;
+  if (!undistort_normalized(k.distortion, (px - k.cx) / k.fx, (py - k.cy) / k.fy, &x, &y))
+    return false;
+  *ray = {x, y, 1.0};
+  return true;
+}
+
+// Where a camera-space point lands, in pixels (point in front of the camera).
+inline void project_point(const Intrinsics& k, const Vec3& pc, double* px, double* py) {
+  double xd, yd;
+  distort_normalized(k.distortion, pc.x / pc.z, pc.y / pc.z, &xd, &yd);
+  *px = k.cx + k.fx * xd;
+  *py = k.cy + k.fy * yd;
+}
+
+}  // namespace aniso

@@ -1,0 +1,43 @@
+// A simulated photo shoot (aniso synth --photos): a flat sample of a known material lying on a
+// printed ChArUco board on a grey table, photographed by a camera with radial distortion from
+// many positions, each photo lit by one lamp and taken as a bracket of exposures. Ray traced with
+// Embree through the lens model (core/lens.h); the board is box-filtered over each pixel's
+// footprint so its corners land where a real lens would put them. Writes what a person would
+// have: shoot.json (FORMAT.md "Photo shoot") and the photos, plus truth.json and material.json
+// (intrinsics, distortion, every pose, the material) for checking `aniso import`.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "models/material.h"
+#include "photo/board.h"
+
+namespace aniso {
+
+struct PhotoShootOptions {
+  Material truth;
+  BoardSpec board;
+  std::vector<std::array<double, 2>> polygon{{0.09, 0.09}, {0.21, 0.09}, {0.21, 0.15}, {0.09, 0.15}};
+  double height_m = 0.0005;             // the sample is a thin plate on the board
+  std::array<double, 2> tangent{1, 0};  // reference tangent U on the board (unit)
+  int width = 960, height = 720;
+  int photos = 24;
+  std::vector<double> bracket{1.0, 0.25, 0.0625};  // exposures of each photo, relative
+  double read_noise = 0.002;  // Gaussian sigma in linear units of full scale, before encoding
+  bool raw16 = false;         // 16-bit linear PNGs (RAW-like) instead of 8-bit sRGB
+  std::array<double, 5> distortion{-0.08, 0.03, 0, 0, 0};
+  uint64_t seed = 1;
+  bool progress = true;
+};
+
+struct PhotoShootStats {
+  size_t photos = 0, images = 0, primary_rays = 0, shadow_rays = 0, saturated_codes = 0;
+  double seconds = 0;
+};
+
+// Writes the shoot into out_dir (atomically, as every folder output).
+PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::string& out_dir);
+
+}  // namespace aniso
