@@ -50,6 +50,7 @@ Vec3 parse_vec(const std::string& s, const std::string& opt);
 void load_material_maps(const Material& m, const std::string& map_override, PreviewOptions* p);
 Command add_view(CLI::App& app);
 Command add_board(CLI::App& app);
+Command add_import(CLI::App& app);
 
 // `--force`: a folder output may replace a folder holding files aniso did not write.
 void add_force_flag(CLI::App* sub);

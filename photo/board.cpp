@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
-#include <opencv2/aruco/charuco.hpp>
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
 #include "core/text.h"
+#include "photo/charuco_cv.h"
 
 namespace aniso {
 
@@ -46,13 +46,13 @@ const DictName& find_dictionary(const std::string& name) {
               "ArUco dictionaries, e.g. DICT_5X5_100)");
 }
 
-cv::Ptr<cv::aruco::CharucoBoard> make_board(const BoardSpec& b) {
+}  // namespace
+
+cv::Ptr<cv::aruco::CharucoBoard> make_charuco_board(const BoardSpec& b) {
   return cv::aruco::CharucoBoard::create(
       b.squares_x, b.squares_y, static_cast<float>(b.square_m), static_cast<float>(b.marker_m),
       cv::aruco::getPredefinedDictionary(find_dictionary(b.dictionary).id));
 }
-
-}  // namespace
 
 const std::vector<std::string>& aruco_dictionary_names() {
   static const std::vector<std::string> names = [] {
@@ -91,7 +91,7 @@ Image render_board(const BoardSpec& b, double dpi) {
     throw Error("board: " + std::to_string(w) + "x" + std::to_string(h) +
                 " pixels is too large: lower --dpi or the board size");
   cv::Mat m;
-  make_board(b)->draw(cv::Size(w, h), m, 0, 1);
+  make_charuco_board(b)->draw(cv::Size(w, h), m, 0, 1);
   Image img(w, h, 1);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) img.at(x, y, 0) = m.at<uint8_t>(y, x) / 255.f;
@@ -100,7 +100,7 @@ Image render_board(const BoardSpec& b, double dpi) {
 
 std::vector<std::array<double, 2>> board_corners_m(const BoardSpec& b) {
   std::vector<std::array<double, 2>> out;
-  const auto board = make_board(b);  // held: the corners belong to it
+  const auto board = make_charuco_board(b);  // held: the corners belong to it
   for (const auto& p : board->chessboardCorners) out.push_back({p.x, p.y});
   return out;
 }
@@ -112,7 +112,7 @@ std::vector<BoardCorner> detect_board(const Image& grey, const BoardSpec& b, int
     for (int x = 0; x < grey.width; ++x)
       m.at<uint8_t>(y, x) =
           static_cast<uint8_t>(std::lround(255.0 * std::clamp(double(grey.at(x, y, 0)), 0.0, 1.0)));
-  const auto board = make_board(b);
+  const auto board = make_charuco_board(b);
   std::vector<std::vector<cv::Point2f>> corners;
   std::vector<int> ids;
   cv::aruco::detectMarkers(m, board->dictionary, corners, ids);

@@ -1,7 +1,10 @@
 // Photo shoots (issue 9): the printable board and finding it again.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
@@ -12,6 +15,8 @@
 
 namespace aniso {
 namespace {
+
+namespace fs = std::filesystem;
 
 // The printed board is found again by OpenCV's aruco detector: every marker, every inner corner,
 // each where the board frame of FORMAT.md puts it (metres times pixels per metre, OpenCV's pixel
@@ -92,6 +97,114 @@ TEST(Board, CommandWritesBoardAndSkeletonAndKeepsAnExistingShoot) {
   r = test::run_cli("board --out " + dir + "/b3.png --marker-mm 31");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("--marker-mm"), std::string::npos) << r.output;
+}
+
+double rotation_deg(const nlohmann::json& a, const nlohmann::json& b) {
+  double tr = 0;  // trace(Ra^T Rb)
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) tr += a[r][c].get<double>() * b[r][c].get<double>();
+  return std::acos(std::clamp((tr - 1) / 2, -1.0, 1.0)) * 180 / M_PI;
+}
+
+// Issue 9 end to end: the simulator's photo shoot (a brushed-metal plate on the board, a lens with
+// radial distortion, 8-bit sRGB brackets with read noise) is imported with the camera unknown;
+// the calibration, every camera pose and then `aniso fit` on the imported set are checked against
+// the simulator's truth.
+TEST(Import, SimulatedShootCalibratesPosesAndFitsTheMaterial) {
+  const std::string dir = test::tmp_dir("e2e");
+  auto r = test::run_cli("synth --photos brushed-metal " + dir + "/shoot --views 12 --size 800x600");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/cap");
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::printf("%s", r.output.c_str());
+  const auto truth = nlohmann::json::parse(read_text_file(dir + "/shoot/truth.json"));
+  const auto rep = nlohmann::json::parse(read_text_file(dir + "/cap/import_report.json"));
+  const auto cap = nlohmann::json::parse(read_text_file(dir + "/cap/capture.json"));
+  const double fx = rep["camera"]["fx"], fx_true = truth["camera"]["fx"];
+  const double fy = rep["camera"]["fy"];
+  std::printf("focal: fx %.3f fy %.3f, truth %.3f (%.3f %%, %.3f %%)\n", fx, fy, fx_true,
+              100 * (fx / fx_true - 1), 100 * (fy / fx_true - 1));
+  EXPECT_NEAR(fx / fx_true, 1.0, 0.005);
+  EXPECT_NEAR(fy / fx_true, 1.0, 0.005);
+  ASSERT_EQ(rep["views"], 12);
+  double worst_pos = 0, worst_rot = 0;
+  for (const auto& p : rep["photos"]) {
+    ASSERT_TRUE(p["accepted"].get<bool>()) << p.dump();
+    EXPECT_LT(p["rms_px"].get<double>(), 0.5);
+    const auto& t = truth["world_from_camera"][p["photo"].get<size_t>()];
+    const auto& e = cap["views"][p["view"].get<size_t>()]["world_from_camera"];
+    worst_pos = std::max(worst_pos, std::hypot(t[0][3].get<double>() - e[0][3].get<double>(),
+                                               t[1][3].get<double>() - e[1][3].get<double>(),
+                                               t[2][3].get<double>() - e[2][3].get<double>()));
+    worst_rot = std::max(worst_rot, rotation_deg(t, e));
+    EXPECT_EQ(cap["views"][p["view"].get<size_t>()]["source"].size(), 3u);
+    EXPECT_TRUE(fs::exists(dir + "/cap/overlays/" + std::string(3 - std::to_string(p["photo"].get<int>()).size(), '0') +
+                           std::to_string(p["photo"].get<int>()) + ".png"));
+  }
+  std::printf("poses: worst camera position error %.3f mm, worst rotation error %.4f deg\n",
+              1000 * worst_pos, worst_rot);
+  EXPECT_LT(worst_pos, 0.002);
+  EXPECT_LT(worst_rot, 0.2);
+
+  r = test::run_cli("fit " + dir + "/cap --out " + dir + "/fit.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto fit = nlohmann::json::parse(read_text_file(dir + "/fit.json"));
+  const auto mat = nlohmann::json::parse(read_text_file(dir + "/shoot/material.json"));
+  const double dpsi = fit["fiber_angle_deg"].get<double>() - mat["fiber_angle_deg"].get<double>();
+  std::printf("fit on the imported set: psi %+.3f deg off, n %.2f (truth %.1f), kd.r %.4f (%.3f), "
+              "ks.r %.4f (%.3f)\n",
+              dpsi, fit["n"].get<double>(), mat["n"].get<double>(), fit["kd"][0].get<double>(),
+              mat["kd"][0].get<double>(), fit["ks"][0].get<double>(), mat["ks"][0].get<double>());
+  EXPECT_LT(std::abs(dpsi), 0.5);
+  EXPECT_NEAR(fit["n"].get<double>() / mat["n"].get<double>(), 1.0, 0.03);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(fit["kd"][c].get<double>() / mat["kd"][c].get<double>(), 1.0, 0.03);
+    EXPECT_NEAR(fit["ks"][c].get<double>() / mat["ks"][c].get<double>(), 1.0, 0.03);
+  }
+}
+
+// A person's mistakes: each stops the import with a message naming the file and what to do, and
+// writes nothing; a photo without the board is left out with the reason while the rest go on.
+TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
+  const std::string dir = test::tmp_dir("mistakes");
+  const std::string shoot = dir + "/shoot/shoot.json", out = dir + "/cap";
+  auto r = test::run_cli("synth --photos brushed-metal " + dir + "/shoot --views 6 --size 640x480");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string good = read_text_file(shoot);
+  auto expect_refused = [&](const std::string& what, const std::function<void(nlohmann::json&)>& edit) {
+    write_text_file(shoot, good);
+    test::edit_json(shoot, edit);
+    const auto rr = test::run_cli("import " + shoot + " --out " + out + " --no-overlays");
+    EXPECT_EQ(rr.status, 1) << rr.output;
+    EXPECT_NE(rr.output.find(what), std::string::npos) << what << " not in: " << rr.output;
+    EXPECT_FALSE(fs::exists(out)) << rr.output;
+  };
+  expect_refused("photos[1].images[2].file", [](auto& j) { j["photos"][1]["images"][2]["file"] = "photos/nope.png"; });
+  expect_refused("sample.polygon_m[2]", [](auto& j) { j["sample"]["polygon_m"][2] = {0.45, 0.15}; });
+  expect_refused("wrong side of the board", [](auto& j) { j["photos"][0]["lights"][0]["position"][2] = 0.3; });
+  expect_refused("DICT_5X5_100 (", [](auto& j) { j["board"]["dictionary"] = "DICT_4X4_100"; });
+  expect_refused("too few photos to calibrate", [](auto& j) {
+    while (j["photos"].size() > 3) j["photos"].erase(j["photos"].size() - 1);
+  });
+  expect_refused("too little tilt", [](auto& j) {
+    for (int i = 1; i < 6; ++i) j["photos"][i] = j["photos"][0];  // six photos from one place
+  });
+  expect_refused("differ in size", [&](auto& j) {
+    write_png(dir + "/shoot/photos/small.png", Image(320, 240, 3, 0.5f), 8);
+    j["photos"][2]["images"][1]["file"] = "photos/small.png";
+  });
+  // A photo without the board (a grey frame) is left out with its reason; the rest are imported.
+  write_text_file(shoot, good);
+  for (int e = 0; e < 3; ++e)
+    write_png(dir + "/shoot/photos/p04_e" + std::to_string(e) + ".png", Image(640, 480, 3, 0.4f), 8);
+  r = test::run_cli("import " + shoot + " --out " + out);
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("photo 4 (photos/p04_e0.png): LEFT OUT: board not found"), std::string::npos)
+      << r.output;
+  const auto rep = nlohmann::json::parse(read_text_file(out + "/import_report.json"));
+  EXPECT_EQ(rep["views"], 5);
+  EXPECT_FALSE(rep["photos"][4]["accepted"].get<bool>());
+  EXPECT_TRUE(fs::exists(out + "/overlays/004.png"));  // the overlay shows what was (not) found
 }
 
 }  // namespace

@@ -1,0 +1,99 @@
+// aniso import: a photo shoot to a capture set (photo/import.h).
+#include <cstdio>
+#include <memory>
+
+#include "cli/command.h"
+#include "core/error.h"
+#include "io/files.h"
+#include "photo/import.h"
+
+namespace aniso::cli {
+
+namespace {
+
+struct ImportArgs {
+  std::string shoot, out;
+  ImportOptions o;
+  double margin_mm = 3;
+  bool no_overlays = false, quiet = false;
+};
+
+int run(const ImportArgs& a) {
+  const Shoot s = read_shoot(a.shoot);
+  check_output_folder(a.out);
+  std::vector<std::string> inputs{a.shoot};
+  for (const auto& p : s.photos)
+    for (const auto& im : p.images) inputs.push_back(join_path(s.dir, im.file));
+  check_outputs_apart({a.out}, inputs);
+  ImportOptions o = a.o;
+  o.overlays = !a.no_overlays;
+  o.sample_margin_m = a.margin_mm / 1000;
+  const ImportResult r = import_shoot(s, a.out, o);
+  const Intrinsics& k = r.camera;
+  if (r.calibrated)
+    std::printf(
+        "import: camera calibrated from the photos: %dx%d, fx %.2f fy %.2f (sigma %.2f %.2f) px, "
+        "centre (%.2f, %.2f), distortion k1 %.4f k2 %.4f p1 %.5f p2 %.5f (k3 fixed 0), RMS %.3f "
+        "px\n",
+        k.width, k.height, k.fx, k.fy, r.sigma[0], r.sigma[1], k.cx, k.cy, k.distortion[0],
+        k.distortion[1], k.distortion[2], k.distortion[3], r.calibration_rms_px);
+  else
+    std::printf("import: camera given in the shoot: %dx%d, fx %.2f fy %.2f px\n", k.width,
+                k.height, k.fx, k.fy);
+  for (size_t i = 0; i < r.photos.size(); ++i) {
+    const ImportedPhoto& p = r.photos[i];
+    const std::string name = s.photos[i].images[0].file;
+    if (!p.accepted) {
+      std::fprintf(stderr, "import: photo %zu (%s): LEFT OUT: %s\n", i, name.c_str(),
+                   p.reason.c_str());
+      continue;
+    }
+    if (a.quiet) continue;
+    const Vec3 e = p.world_from_camera.translation();
+    std::printf(
+        "import: photo %zu (%s): %d corners (%d at the sample dropped), RMS %.3f px, camera at "
+        "(%.4f, %.4f, %.4f) m, tilt %.1f deg, %zu sample pixels\n",
+        i, name.c_str(), p.corners, p.corners_dropped, p.rms_px, e.x, e.y, e.z, p.tilt_deg,
+        p.sample_pixels);
+  }
+  std::printf(
+      "import: %zu of %zu photos -> %s (%zu views; import_report.json, overlays/); %.2f s "
+      "(merge+detect %.2f, calibrate+pose %.2f, write %.2f)\n"
+      "import: then: aniso fit %s --out material.json\n",
+      r.views, r.photos.size(), a.out.c_str(), r.views, r.seconds, r.seconds_detect,
+      r.seconds_calibrate, r.seconds_write, a.out.c_str());
+  return 0;
+}
+
+}  // namespace
+
+Command add_import(CLI::App& app) {
+  auto a = std::make_shared<ImportArgs>();
+  auto* c = app.add_subcommand(
+      "import",
+      "Turn a photo shoot (shoot.json: photos of a sample on a printed ChArUco board, see "
+      "aniso board) into a capture set: calibrate the camera, solve each photo's pose, merge "
+      "exposure brackets, and write per-pixel geometry of the sample");
+  c->add_option("SHOOT", a->shoot, "shoot.json (FORMAT.md \"Photo shoot\")")->required();
+  c->add_option("--out", a->out,
+                "capture folder to write: new, empty, or an earlier aniso output (replaced "
+                "atomically)")
+      ->required();
+  c->add_option("--max-rms", a->o.max_rms_px,
+                "leave out photos whose board corners reproject worse than this (pixels)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 100.0));
+  c->add_option("--sample-margin-mm", a->margin_mm,
+                "also drop board corners this close to the sample's outline (mm)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1000.0));
+  c->add_option("--min-corners", a->o.min_corners, "fewer board corners found: photo left out")
+      ->capture_default_str()
+      ->check(CLI::Range(4, 10000));
+  c->add_flag("--no-overlays", a->no_overlays, "do not write overlays/NNN.png");
+  c->add_flag("--quiet", a->quiet, "print only the summary and the photos left out");
+  add_force_flag(c);
+  return {c, [a] { return run(*a); }};
+}
+
+}  // namespace aniso::cli

@@ -1,0 +1,465 @@
+#include "photo/import.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "core/angles.h"
+#include "core/error.h"
+#include "core/lens.h"
+#include "core/progress.h"
+#include "io/capture.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/json_util.h"
+#include "io/material_io.h"
+#include "photo/calibrate.h"
+#include "photo/merge.h"
+#include "photo/overlay.h"
+
+namespace aniso {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+std::string photo_name(const Shoot& s, size_t i) {
+  std::string n = "photos[" + std::to_string(i) + "] (" + s.photos[i].images[0].file;
+  if (s.photos[i].images.size() > 1) n += " +" + std::to_string(s.photos[i].images.size() - 1);
+  return n + ")";
+}
+
+// Pass 1 for one photo: merge, find the board, drop the corners the sample may hide.
+struct Detected {
+  std::vector<BoardCorner> corners, dropped;
+  int markers = 0, width = 0, height = 0;
+  size_t saturated = 0;
+};
+Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o) {
+  const MergedPhoto m = merge_bracket(s, i);
+  Detected d;
+  d.width = m.rgb.width;
+  d.height = m.rgb.height;
+  d.saturated = m.saturated_pixels;
+  const auto obj = board_corners_m(s.board);
+  for (const auto& c : detect_board(m.grey, s.board, &d.markers)) {
+    const double x = obj.at(c.id)[0], y = obj.at(c.id)[1];
+    const bool near = inside_polygon(s.polygon, x, y) ||
+                      distance_to_outline(s.polygon, x, y) < o.sample_margin_m;
+    (near ? d.dropped : d.corners).push_back(c);
+  }
+  return d;
+}
+
+// No photo shows a marker of the stated dictionary: say which dictionary does, if any.
+[[noreturn]] void no_markers(const Shoot& s) {
+  const MergedPhoto m = merge_bracket(s, 0);
+  std::string found;
+  for (const auto& name : aruco_dictionary_names()) {
+    BoardSpec b = s.board;
+    b.dictionary = name;
+    int markers = 0;
+    try {
+      detect_board(m.grey, b, &markers);
+    } catch (const Error&) {
+      continue;  // this board size does not fit that dictionary
+    }
+    if (markers >= 4) found += (found.empty() ? "" : ", ") + name + " (" + std::to_string(markers) + ")";
+  }
+  throw Error(s.file + ": board.dictionary: no " + s.board.dictionary +
+              " marker was found in any photo. " +
+              (found.empty() ? "No other dictionary finds markers either: is the board in the "
+                               "photos, in focus and lit?"
+                             : "The first photo shows markers of " + found +
+                                   ": was the board printed with that dictionary?"));
+}
+
+// Tilt of the board against the optical axis, degrees, and the direction it tilts toward.
+double tilt_deg(const Mat4& cfb, double* azimuth) {
+  *azimuth = std::atan2(cfb(1, 2), cfb(0, 2));
+  return rad_to_deg(std::acos(std::min(1.0, std::abs(cfb(2, 2)))));
+}
+
+// Calibration needs the board seen tilted, from more than one side.
+void check_tilt(const Shoot& s, const std::vector<Mat4>& poses) {
+  constexpr double kMinTilt = 10;
+  double cx = 0, cy = 0;
+  int tilted = 0;
+  for (const auto& p : poses) {
+    double az;
+    if (tilt_deg(p, &az) < kMinTilt) continue;
+    ++tilted;
+    cx += std::cos(az);
+    cy += std::sin(az);
+  }
+  const double spread = tilted ? std::hypot(cx, cy) / tilted : 1;
+  if (tilted >= 3 && spread < 0.95) return;
+  throw Error(s.file + ": too little tilt to calibrate the camera: " + std::to_string(tilted) +
+              " of " + std::to_string(poses.size()) + " photos see the board tilted " +
+              std::to_string(static_cast<int>(kMinTilt)) + " degrees or more" +
+              (tilted >= 3 ? ", and all from the same side" : "") +
+              ". Calibration needs at least 3 such photos from different sides (tilt the camera "
+              "15-45 degrees from straight above, walking around the board), or give the camera's "
+              "intrinsics as \"camera\" in the shoot");
+}
+
+// The camera (given, or calibrated from the photos with enough corners; photos that reproject
+// poorly are left out and the calibration repeated once without them) and every usable photo's
+// pose and reprojection error.
+void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const ImportOptions& o,
+                   ImportResult* r) {
+  std::vector<size_t> use;
+  for (size_t i = 0; i < det.size(); ++i) {
+    ImportedPhoto& p = r->photos[i];
+    if (det[i].corners.size() >= static_cast<size_t>(o.min_corners)) {
+      use.push_back(i);
+      continue;
+    }
+    p.reason = "board not found: " + std::to_string(det[i].markers) + " markers, " +
+               std::to_string(det[i].corners.size()) + " corners off the sample (at least " +
+               std::to_string(o.min_corners) + " needed)";
+  }
+  std::vector<Mat4> poses(det.size());
+  if (s.camera_given) {
+    r->camera = s.camera;
+  } else {
+    constexpr size_t kMinPhotos = 4;
+    for (int round = 0; round < 2; ++round) {
+      if (use.size() < kMinPhotos)
+        throw Error(s.file + ": too few photos to calibrate the camera: the board was found in " +
+                    std::to_string(use.size()) + " of " + std::to_string(det.size()) +
+                    " (at least " + std::to_string(kMinPhotos) + " needed; 10-20 photos from "
+                    "different sides, the board tilted 15-45 degrees, calibrate well), or give the "
+                    "camera's intrinsics as \"camera\" in the shoot");
+      std::vector<std::vector<BoardCorner>> views;
+      for (size_t i : use) views.push_back(det[i].corners);
+      const Calibration cal = calibrate_charuco(s.board, views, det[use[0]].width, det[use[0]].height);
+      r->camera = cal.camera;
+      r->calibration_rms_px = cal.rms_px;
+      r->sigma = cal.sigma;
+      std::vector<size_t> keep;
+      for (size_t k = 0; k < use.size(); ++k) {
+        poses[use[k]] = cal.camera_from_board[k];
+        if (cal.view_rms_px[k] <= o.max_rms_px) keep.push_back(use[k]);
+      }
+      if (keep.size() == use.size()) break;
+      use = keep;  // calibrate again without the poor photos (they are judged again below)
+    }
+    std::vector<Mat4> used_poses;
+    for (size_t i : use) used_poses.push_back(poses[i]);
+    check_tilt(s, used_poses);
+    r->calibrated = true;
+  }
+  for (size_t i = 0; i < det.size(); ++i) {
+    ImportedPhoto& p = r->photos[i];
+    if (det[i].corners.size() < static_cast<size_t>(o.min_corners)) continue;
+    if (det[i].width != r->camera.width || det[i].height != r->camera.height) {
+      p.reason = "photo is " + std::to_string(det[i].width) + "x" + std::to_string(det[i].height) +
+                 ", the camera " + std::to_string(r->camera.width) + "x" +
+                 std::to_string(r->camera.height);
+      continue;
+    }
+    if ((s.camera_given || std::find(use.begin(), use.end(), i) == use.end()) &&
+        !board_pose(s.board, det[i].corners, r->camera, &poses[i])) {
+      p.reason = "no board pose found";
+      continue;
+    }
+    double az;
+    p.rms_px = reprojection_rms(s.board, det[i].corners, r->camera, poses[i]);
+    p.tilt_deg = tilt_deg(poses[i], &az);
+    p.world_from_camera = rigid_inverse(poses[i]);
+    p.accepted = p.rms_px <= o.max_rms_px;
+    if (!p.accepted) p.reason = "reprojection RMS " + std::to_string(p.rms_px) + " px > --max-rms";
+  }
+}
+
+// Board point (x, y, -height) -> pixel through the pose and lens; false behind the camera.
+bool to_pixel(const Intrinsics& k, const Mat4& cfb, double x, double y, double z,
+              std::array<double, 2>* px) {
+  const Vec3 pc = cfb.point({x, y, z});
+  if (!(pc.z > 1e-6)) return false;
+  project_point(k, pc, &(*px)[0], &(*px)[1]);
+  return std::isfinite((*px)[0]) && std::isfinite((*px)[1]);
+}
+
+// The sample's outline in a photo, each edge in 16 steps (the lens bends straight edges).
+OverlayMarks::Points sample_outline(const Shoot& s, const Intrinsics& k, const Mat4& cfb) {
+  OverlayMarks::Points out;
+  for (size_t i = 0; i < s.polygon.size(); ++i) {
+    const auto& a = s.polygon[i];
+    const auto& b = s.polygon[(i + 1) % s.polygon.size()];
+    for (int t = 0; t < 16; ++t) {
+      std::array<double, 2> px;
+      const double f = t / 16.0;
+      if (to_pixel(k, cfb, a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), -s.height_m, &px))
+        out.push_back(px);
+    }
+  }
+  return out;
+}
+
+// One view's crop around the sample and its per-pixel geometry on the plane z = -height_m.
+struct ViewGeometry {
+  int x0 = 0, y0 = 0, w = 0, h = 0;
+  Image P, N, U, uv;
+  std::vector<uint8_t> mask;
+  size_t pixels = 0;
+};
+bool view_geometry(const Shoot& s, const Intrinsics& k, const Mat4& wfc,
+                   const OverlayMarks::Points& outline, const std::vector<uint8_t>& saturated,
+                   ViewGeometry* g) {
+  double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
+  for (const auto& p : outline) {
+    xmin = std::min(xmin, p[0]), xmax = std::max(xmax, p[0]);
+    ymin = std::min(ymin, p[1]), ymax = std::max(ymax, p[1]);
+  }
+  g->x0 = std::max(0, static_cast<int>(std::floor(xmin)) - 3);
+  g->y0 = std::max(0, static_cast<int>(std::floor(ymin)) - 3);
+  const int x1 = std::min(k.width - 1, static_cast<int>(std::ceil(xmax)) + 3);
+  const int y1 = std::min(k.height - 1, static_cast<int>(std::ceil(ymax)) + 3);
+  if (outline.empty() || x1 <= g->x0 || y1 <= g->y0) return false;
+  g->w = x1 - g->x0 + 1;
+  g->h = y1 - g->y0 + 1;
+  // Board-plane points of the crop's pixels plus one row and column (for the footprint).
+  const Vec3 eye = wfc.translation();
+  const double z = -s.height_m;
+  std::vector<Vec3> P(static_cast<size_t>(g->w + 1) * (g->h + 1), Vec3(NAN, NAN, NAN));
+  for (int y = 0; y <= g->h; ++y)
+    for (int x = 0; x <= g->w; ++x) {
+      Vec3 r;
+      if (!pixel_ray(k, g->x0 + x, g->y0 + y, &r)) continue;
+      const Vec3 d = wfc.dir(r);
+      if (!(d.z > 0) || !(eye.z < z)) continue;
+      P[static_cast<size_t>(y) * (g->w + 1) + x] = eye + d * ((z - eye.z) / d.z);
+    }
+  double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
+  for (const auto& p : s.polygon)
+    bx0 = std::min(bx0, p[0]), bx1 = std::max(bx1, p[0]), by0 = std::min(by0, p[1]),
+    by1 = std::max(by1, p[1]);
+  g->P = Image(g->w, g->h, 3);
+  g->N = Image(g->w, g->h, 3);
+  g->U = Image(g->w, g->h, 3);
+  g->uv = Image(g->w, g->h, 2);
+  g->mask.assign(static_cast<size_t>(g->w) * g->h, 0);
+  for (int y = 0; y < g->h; ++y)
+    for (int x = 0; x < g->w; ++x) {
+      const Vec3& p = P[static_cast<size_t>(y) * (g->w + 1) + x];
+      const Vec3& px = P[static_cast<size_t>(y) * (g->w + 1) + x + 1];
+      const Vec3& py = P[static_cast<size_t>(y + 1) * (g->w + 1) + x];
+      g->N.at(x, y, 2) = -1;
+      g->U.at(x, y, 0) = static_cast<float>(s.tangent[0]);
+      g->U.at(x, y, 1) = static_cast<float>(s.tangent[1]);
+      if (!std::isfinite(p.x) || !std::isfinite(px.x) || !std::isfinite(py.x)) continue;
+      for (int c = 0; c < 3; ++c) g->P.at(x, y, c) = static_cast<float>(p[c]);
+      g->uv.at(x, y, 0) = static_cast<float>((p.x - bx0) / (bx1 - bx0));
+      g->uv.at(x, y, 1) = static_cast<float>((p.y - by0) / (by1 - by0));
+      // Inside the outline by at least the pixel's footprint: the border pixels mix in the board.
+      const double foot = std::max(length(px - p), length(py - p));
+      const bool in = inside_polygon(s.polygon, p.x, p.y) &&
+                      distance_to_outline(s.polygon, p.x, p.y) >= foot &&
+                      !saturated[static_cast<size_t>(g->y0 + y) * k.width + g->x0 + x];
+      g->mask[static_cast<size_t>(y) * g->w + x] = in;
+      g->pixels += in;
+    }
+  return g->pixels > 0;
+}
+
+Image crop(const Image& im, int x0, int y0, int w, int h) {
+  Image out(w, h, im.channels);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < im.channels; ++c) out.at(x, y, c) = im.at(x0 + x, y0 + y, c);
+  return out;
+}
+
+// Pass 2 for one photo: merge again, write its view (if accepted) and its overlay.
+void write_photo(const Shoot& s, size_t i, const Detected& det, const std::string& dir,
+                 const std::string& out_dir, const ImportOptions& o, ImportResult* r,
+                 ViewSpec* view) {
+  ImportedPhoto& p = r->photos[i];
+  const MergedPhoto m = merge_bracket(s, i);
+  char stem[32];
+  std::snprintf(stem, sizeof stem, "%03zu", i);
+  OverlayMarks marks;
+  for (const auto& c : det.corners) marks.found.push_back({c.x, c.y});
+  for (const auto& c : det.dropped) marks.dropped.push_back({c.x, c.y});
+  marks.label = "photo " + std::to_string(i) + ": " + std::to_string(det.corners.size()) +
+                " corners";
+  if (p.rms_px >= 0) {
+    const Mat4 cfb = rigid_inverse(p.world_from_camera);
+    for (const auto& c : board_corners_m(s.board)) {
+      std::array<double, 2> px;
+      if (to_pixel(r->camera, cfb, c[0], c[1], 0, &px)) marks.reprojected.push_back(px);
+    }
+    marks.outline = sample_outline(s, r->camera, cfb);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, ", RMS %.2f px", p.rms_px);
+    marks.label += buf;
+  }
+  ViewGeometry g;
+  if (p.accepted && !view_geometry(s, r->camera, p.world_from_camera, marks.outline, m.saturated, &g)) {
+    p.accepted = false;
+    p.reason = "the sample is not in view (or every sample pixel is saturated)";
+  }
+  if (p.accepted) {
+    p.sample_pixels = g.pixels;
+    view->image = std::string("images/") + stem + ".exr";
+    view->world_from_camera = p.world_from_camera;
+    view->lights = s.photos[i].lights;
+    view->camera = r->camera;
+    view->camera.width = g.w;
+    view->camera.height = g.h;
+    view->camera.cx -= g.x0;
+    view->camera.cy -= g.y0;
+    GeometrySpec& gs = view->geometry;
+    const std::string base = std::string("geometry/") + stem;
+    gs = {base + "_P.exr", base + "_N.exr", base + "_U.exr", base + "_mask.png", base + "_uv.exr", "", "", ""};
+    write_exr(join_path(dir, view->image), crop(m.rgb, g.x0, g.y0, g.w, g.h));
+    write_exr(join_path(dir, gs.position), g.P);
+    write_exr(join_path(dir, gs.normal), g.N);
+    write_exr(join_path(dir, gs.tangent), g.U);
+    write_exr(join_path(dir, gs.uv), g.uv);
+    Image mask(g.w, g.h, 1);
+    for (size_t k = 0; k < g.mask.size(); ++k) mask.px[k] = g.mask[k];
+    write_png(join_path(dir, gs.mask), mask, 8);
+    for (const auto& im : s.photos[i].images)
+      view->source.push_back(relative_to(join_path(s.dir, im.file), out_dir));
+    marks.mask = g.mask;
+    marks.mask_x0 = g.x0, marks.mask_y0 = g.y0, marks.mask_w = g.w, marks.mask_h = g.h;
+  } else {
+    marks.label += ": LEFT OUT, " + p.reason;
+  }
+  if (o.overlays) write_overlay(join_path(dir, std::string("overlays/") + stem + ".png"), m.grey, marks);
+}
+
+nlohmann::json report_json(const Shoot& s, const ImportResult& r, const ImportOptions& o) {
+  using nlohmann::json;
+  json photos = json::array();
+  for (size_t i = 0; i < r.photos.size(); ++i) {
+    const ImportedPhoto& p = r.photos[i];
+    json jp = {{"photo", i},
+               {"files", p.files},
+               {"markers", p.markers},
+               {"corners", p.corners},
+               {"corners_dropped_at_sample", p.corners_dropped},
+               {"saturated_pixels", p.saturated_pixels},
+               {"accepted", p.accepted}};
+    if (p.rms_px >= 0) {
+      jp["rms_px"] = p.rms_px;
+      jp["tilt_deg"] = p.tilt_deg;
+      jp["camera_position_m"] = jsonu::to_json(p.world_from_camera.translation());
+    }
+    if (p.accepted) {
+      jp["view"] = p.view;
+      jp["sample_pixels"] = p.sample_pixels;
+    } else {
+      jp["left_out_because"] = p.reason;
+    }
+    photos.push_back(jp);
+  }
+  json cal = camera_json(r.camera);
+  cal["source"] = r.calibrated ? "calibrated from the photos (OpenCV calibrateCameraCharuco, k3 fixed at 0)"
+                               : "given in the shoot";
+  if (r.calibrated) {
+    cal["rms_px"] = r.calibration_rms_px;
+    cal["sigma_fx_fy_cx_cy_px"] = r.sigma;
+  }
+  return {{"format", "aniso-import-report"},
+          {"version", 1},
+          {"shoot", s.file},
+          {"camera", cal},
+          {"merge", "own: decoded by color, clipped codes dropped, near-black codes only as a last "
+                    "resort, weighted by exposure (photo/merge.h says why not cv::MergeDebevec)"},
+          {"options",
+           {{"max_rms_px", o.max_rms_px},
+            {"sample_margin_m", o.sample_margin_m},
+            {"min_corners", o.min_corners}}},
+          {"photos", photos},
+          {"views", r.views},
+          {"seconds",
+           {{"detect", r.seconds_detect},
+            {"calibrate", r.seconds_calibrate},
+            {"write", r.seconds_write},
+            {"total", r.seconds}}}};
+}
+
+}  // namespace
+ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const ImportOptions& o) {
+  const auto t0 = Clock::now();
+  ImportResult r;
+  r.photos.resize(s.photos.size());
+  std::vector<Detected> det(s.photos.size());
+  {
+    Progress bar("import: merging and finding the board", s.photos.size(), o.progress);
+    tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
+      det[i] = detect_photo(s, i, o);
+      bar.advance();
+    });
+  }
+  int markers = 0;
+  for (size_t i = 0; i < det.size(); ++i) {
+    ImportedPhoto& p = r.photos[i];
+    for (const auto& im : s.photos[i].images) p.files.push_back(im.file);
+    p.markers = det[i].markers;
+    p.corners = static_cast<int>(det[i].corners.size());
+    p.corners_dropped = static_cast<int>(det[i].dropped.size());
+    p.saturated_pixels = det[i].saturated;
+    markers += det[i].markers;
+    if (s.camera_given && (det[i].width != s.camera.width || det[i].height != s.camera.height))
+      throw Error(s.file + ": " + photo_name(s, i) + " is " + std::to_string(det[i].width) + "x" +
+                  std::to_string(det[i].height) + ", the shoot's camera " +
+                  std::to_string(s.camera.width) + "x" + std::to_string(s.camera.height));
+    if (!s.camera_given && (det[i].width != det[0].width || det[i].height != det[0].height))
+      throw Error(s.file + ": " + photo_name(s, i) + " is " + std::to_string(det[i].width) + "x" +
+                  std::to_string(det[i].height) + ", " + photo_name(s, 0) + " " +
+                  std::to_string(det[0].width) + "x" + std::to_string(det[0].height) +
+                  ": one camera at one setting is calibrated (crop or zoom changes the intrinsics)");
+  }
+  if (markers == 0) no_markers(s);
+  r.seconds_detect = since(t0);
+  const auto tc = Clock::now();
+  solve_cameras(s, det, o, &r);
+  r.seconds_calibrate = since(tc);
+  size_t accepted = 0;
+  for (const auto& p : r.photos) accepted += p.accepted;
+  if (accepted == 0)
+    throw Error(s.file + ": no photo can be used (" + r.photos[0].reason +
+                " in the first); nothing written");
+
+  const auto tw = Clock::now();
+  write_folder_atomically(out_dir, [&](const std::string& dir) {
+    Progress bar("import: writing views", s.photos.size(), o.progress);
+    std::vector<ViewSpec> views(s.photos.size());
+    tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
+      write_photo(s, i, det[i], dir, out_dir, o, &r, &views[i]);
+      bar.advance();
+    });
+    CaptureSet set;
+    set.camera = r.camera;
+    set.color.encoding = ColorSpec::Encoding::kLinear;
+    for (size_t i = 0; i < views.size(); ++i) {
+      if (!r.photos[i].accepted) continue;
+      r.photos[i].view = static_cast<int>(set.views.size());
+      set.views.push_back(views[i]);
+    }
+    r.views = set.views.size();
+    if (set.views.empty()) throw Error(s.file + ": no photo shows the sample; nothing written");
+    set.provenance = nlohmann::json{{"tool", "aniso import"},
+                                    {"shoot", relative_to(s.file, out_dir)},
+                                    {"calibrated", r.calibrated},
+                                    {"report", "import_report.json"}}
+                         .dump();
+    write_capture_json(set, join_path(dir, "capture.json"));
+    r.seconds_write = since(tw);
+    r.seconds = since(t0);
+    write_json_file(join_path(dir, "import_report.json"), report_json(s, r, o));
+  });
+  return r;
+}
+
+}  // namespace aniso

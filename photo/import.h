@@ -1,0 +1,52 @@
+// aniso import: a photo shoot (FORMAT.md "Photo shoot") to a capture set. Every photo's bracket is
+// merged (photo/merge.h) and the board found in it (photo/board.h); board corners on or near the
+// sample are dropped; the camera is calibrated from the photos when the shoot gives none
+// (photo/calibrate.h); each photo's pose comes from the board; and each accepted photo becomes one
+// view: its merged image cropped to the sample, with per-pixel geometry of the sample plane (the
+// ray of each distorted pixel meets z = -height_m). A photo whose board is not found, or whose
+// reprojection error is poor, is left out with the reason, and the rest go on.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/vec.h"
+#include "photo/shoot.h"
+
+namespace aniso {
+
+struct ImportOptions {
+  double max_rms_px = 1.0;        // photos whose corners reproject worse are left out
+  double sample_margin_m = 0.003;  // corners this close to the sample's outline are dropped too
+  int min_corners = 8;            // fewer corners found: the photo is left out
+  bool overlays = true;           // overlays/NNN.png for every photo
+  bool progress = true;
+  bool verbose = true;            // one line per photo on stdout
+};
+
+struct ImportedPhoto {
+  std::vector<std::string> files;
+  int markers = 0, corners = 0, corners_dropped = 0;  // dropped: on or near the sample
+  double rms_px = -1;                                 // -1: no pose
+  double tilt_deg = 0;                                // board normal against the optical axis
+  Mat4 world_from_camera;
+  bool accepted = false;
+  std::string reason;  // why it was left out
+  size_t saturated_pixels = 0, sample_pixels = 0;
+  int view = -1;  // index in the capture set
+};
+
+struct ImportResult {
+  Intrinsics camera;
+  bool calibrated = false;
+  double calibration_rms_px = 0;
+  std::array<double, 4> sigma{};  // fx, fy, cx, cy (calibrated only)
+  std::vector<ImportedPhoto> photos;
+  size_t views = 0;
+  double seconds = 0, seconds_detect = 0, seconds_calibrate = 0, seconds_write = 0;
+};
+
+// Imports the shoot into out_dir (a folder output: written whole or not at all).
+ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const ImportOptions& o);
+
+}  // namespace aniso

@@ -1,0 +1,32 @@
+// One photo's exposure bracket merged into one linear image (aniso import).
+//
+// Our own merge, not cv::MergeDebevec: the camera's response is not estimated but stated by the
+// shoot's `color` (sRGB, gamma or linear, or float EXR), Debevec's merge takes 8-bit images only
+// and a response curve, and the fit must know which pixels were clipped in every exposure so that
+// it leaves them out. Each code is decoded to linear and divided by its exposure; codes at or
+// above the saturation level are dropped, near-black codes (within 2 % of full scale of the black
+// level, where quantisation and noise dominate) are used only when nothing else is left, and the
+// rest are averaged with weight = exposure (the longer exposure has the better signal-to-noise
+// ratio for the same read noise).
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "photo/shoot.h"
+
+namespace aniso {
+
+struct MergedPhoto {
+  Image rgb;                       // linear radiance (pixel = exposure · radiance), 3 channels
+  std::vector<uint8_t> saturated;  // 1 = clipped in every exposure of some channel
+  Image grey;                      // for board detection: tone-mapped luminance in [0, 1]
+  size_t saturated_pixels = 0;
+};
+
+// Reads and merges photo i of the shoot. Throws naming the files when the images of the bracket
+// differ in size or channels, or when integer images come without a stated encoding.
+MergedPhoto merge_bracket(const Shoot& s, size_t i);
+
+}  // namespace aniso
