@@ -104,6 +104,26 @@ bool board_pose(const BoardSpec& b, const std::vector<BoardCorner>& corners, con
   return true;
 }
 
+bool board_homography(const std::vector<BoardCorner>& corners, const BoardSpec& b,
+                      std::array<double, 9>* H) {
+  if (corners.size() < 4) return false;
+  const auto obj = board_corners_m(b);
+  std::vector<cv::Point2f> src, dst;
+  for (const auto& c : corners) {
+    src.emplace_back(static_cast<float>(obj.at(c.id)[0]), static_cast<float>(obj.at(c.id)[1]));
+    dst.emplace_back(static_cast<float>(c.x), static_cast<float>(c.y));
+  }
+  cv::Mat h;
+  try {
+    h = cv::findHomography(src, dst, 0);
+  } catch (const cv::Exception&) {
+    return false;
+  }
+  if (h.empty()) return false;
+  for (int i = 0; i < 9; ++i) (*H)[i] = h.at<double>(i / 3, i % 3);
+  return true;
+}
+
 double reprojection_rms(const BoardSpec& b, const std::vector<BoardCorner>& corners,
                         const Intrinsics& k, const Mat4& camera_from_board) {
   const auto obj = board_corners_m(b);

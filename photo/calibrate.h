@@ -34,6 +34,12 @@ bool board_pose(const BoardSpec& b, const std::vector<BoardCorner>& corners, con
 double reprojection_rms(const BoardSpec& b, const std::vector<BoardCorner>& corners,
                         const Intrinsics& k, const Mat4& camera_from_board);
 
+// Board plane (metres) -> pixels, fitted to the corners found with no lens model (RANSAC-free
+// least squares): where board points land, well enough to crop a photo before calibration.
+// False with fewer than 4 corners.
+bool board_homography(const std::vector<BoardCorner>& corners, const BoardSpec& b,
+                      std::array<double, 9>* H);
+
 // The rigid inverse of a rigid transform.
 Mat4 rigid_inverse(const Mat4& m);
 

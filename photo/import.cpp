@@ -39,7 +39,29 @@ struct Detected {
   std::vector<BoardCorner> corners, dropped;
   int markers = 0, width = 0, height = 0;
   size_t saturated = 0;
+  MergedCrop crop;             // the merged image around the sample's estimated place
+  std::vector<uint8_t> grey;   // the detection image, 8-bit (for the overlay)
 };
+
+// Where the sample lies in a photo before the camera is known: its outline through the board's
+// homography (no lens model), widened by 15 % and 24 pixels for what the lens bends.
+void estimate_crop(const Shoot& s, const MergedPhoto& m, const std::vector<BoardCorner>& all,
+                   MergedCrop* crop) {
+  std::array<double, 9> H;
+  if (!board_homography(all, s.board, &H)) return;
+  double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+  for (const auto& p : s.polygon) {
+    const double w = H[6] * p[0] + H[7] * p[1] + H[8];
+    if (!(w > 0)) return;
+    const double x = (H[0] * p[0] + H[1] * p[1] + H[2]) / w, y = (H[3] * p[0] + H[4] * p[1] + H[5]) / w;
+    x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  }
+  const double pad = 0.15 * std::max(x1 - x0, y1 - y0) + 24;
+  if (!(x1 - x0 < 4.0 * m.rgb.width && y1 - y0 < 4.0 * m.rgb.height)) return;
+  *crop = crop_merged(m, static_cast<int>(x0 - pad), static_cast<int>(y0 - pad),
+                      static_cast<int>(x1 + pad), static_cast<int>(y1 + pad));
+}
+
 Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o) {
   const MergedPhoto m = merge_bracket(s, i);
   Detected d;
@@ -47,12 +69,17 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o) {
   d.height = m.rgb.height;
   d.saturated = m.saturated_pixels;
   const auto obj = board_corners_m(s.board);
-  for (const auto& c : detect_board(m.grey, s.board, &d.markers)) {
+  const std::vector<BoardCorner> all = detect_board(m.grey, s.board, &d.markers);
+  for (const auto& c : all) {
     const double x = obj.at(c.id)[0], y = obj.at(c.id)[1];
     const bool near = inside_polygon(s.polygon, x, y) ||
                       distance_to_outline(s.polygon, x, y) < o.sample_margin_m;
     (near ? d.dropped : d.corners).push_back(c);
   }
+  estimate_crop(s, m, all, &d.crop);
+  d.grey.resize(m.grey.px.size());
+  for (size_t p = 0; p < d.grey.size(); ++p)
+    d.grey[p] = static_cast<uint8_t>(std::lround(255 * std::clamp(m.grey.px[p], 0.f, 1.f)));
   return d;
 }
 
@@ -210,9 +237,8 @@ struct ViewGeometry {
   std::vector<uint8_t> mask;
   size_t pixels = 0;
 };
-bool view_geometry(const Shoot& s, const Intrinsics& k, const Mat4& wfc,
-                   const OverlayMarks::Points& outline, const std::vector<uint8_t>& saturated,
-                   ViewGeometry* g) {
+// The pixels around the sample's outline (3 pixels spare); false if it is not in the photo.
+bool view_box(const Intrinsics& k, const OverlayMarks::Points& outline, ViewGeometry* g) {
   double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
   for (const auto& p : outline) {
     xmin = std::min(xmin, p[0]), xmax = std::max(xmax, p[0]);
@@ -225,6 +251,13 @@ bool view_geometry(const Shoot& s, const Intrinsics& k, const Mat4& wfc,
   if (outline.empty() || x1 <= g->x0 || y1 <= g->y0) return false;
   g->w = x1 - g->x0 + 1;
   g->h = y1 - g->y0 + 1;
+  return true;
+}
+
+// Fills the view's buffers for the box already in g; `mc` (holding the box) says which pixels are
+// saturated.
+bool view_geometry(const Shoot& s, const Intrinsics& k, const Mat4& wfc, const MergedCrop& mc,
+                   ViewGeometry* g) {
   // Board-plane points of the crop's pixels plus one row and column (for the footprint).
   const Vec3 eye = wfc.translation();
   const double z = -s.height_m;
@@ -262,7 +295,7 @@ bool view_geometry(const Shoot& s, const Intrinsics& k, const Mat4& wfc,
       const double foot = std::max(length(px - p), length(py - p));
       const bool in = inside_polygon(s.polygon, p.x, p.y) &&
                       distance_to_outline(s.polygon, p.x, p.y) >= foot &&
-                      !saturated[static_cast<size_t>(g->y0 + y) * k.width + g->x0 + x];
+                      !mc.saturated[static_cast<size_t>(g->y0 - mc.y0 + y) * mc.w + g->x0 - mc.x0 + x];
       g->mask[static_cast<size_t>(y) * g->w + x] = in;
       g->pixels += in;
     }
@@ -277,64 +310,89 @@ Image crop(const Image& im, int x0, int y0, int w, int h) {
   return out;
 }
 
-// Pass 2 for one photo: merge again, write its view (if accepted) and its overlay.
-void write_photo(const Shoot& s, size_t i, const Detected& det, const std::string& dir,
-                 const std::string& out_dir, const ImportOptions& o, ImportResult* r,
-                 ViewSpec* view) {
-  ImportedPhoto& p = r->photos[i];
-  const MergedPhoto m = merge_bracket(s, i);
-  char stem[32];
-  std::snprintf(stem, sizeof stem, "%03zu", i);
+// What the overlay shows of a photo before its view is written: corners found and dropped, and,
+// with a pose, the board and the sample's outline through it.
+OverlayMarks photo_marks(const Shoot& s, size_t i, const Detected& det, const Intrinsics& k,
+                         const ImportedPhoto& p) {
   OverlayMarks marks;
   for (const auto& c : det.corners) marks.found.push_back({c.x, c.y});
   for (const auto& c : det.dropped) marks.dropped.push_back({c.x, c.y});
-  marks.label = "photo " + std::to_string(i) + ": " + std::to_string(det.corners.size()) +
-                " corners";
-  if (p.rms_px >= 0) {
-    const Mat4 cfb = rigid_inverse(p.world_from_camera);
-    for (const auto& c : board_corners_m(s.board)) {
-      std::array<double, 2> px;
-      if (to_pixel(r->camera, cfb, c[0], c[1], 0, &px)) marks.reprojected.push_back(px);
-    }
-    marks.outline = sample_outline(s, r->camera, cfb);
-    char buf[64];
-    std::snprintf(buf, sizeof buf, ", RMS %.2f px", p.rms_px);
-    marks.label += buf;
+  marks.label = "photo " + std::to_string(i) + ": " + std::to_string(det.corners.size()) + " corners";
+  if (p.rms_px < 0) return marks;
+  const Mat4 cfb = rigid_inverse(p.world_from_camera);
+  for (const auto& c : board_corners_m(s.board)) {
+    std::array<double, 2> px;
+    if (to_pixel(k, cfb, c[0], c[1], 0, &px)) marks.reprojected.push_back(px);
   }
+  marks.outline = sample_outline(s, k, cfb);
+  char buf[64];
+  std::snprintf(buf, sizeof buf, ", RMS %.2f px", p.rms_px);
+  marks.label += buf;
+  return marks;
+}
+
+// The view's files: its merged image cropped to the sample, position, normal, tangent, uv, mask.
+void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCrop& mc,
+                const Intrinsics& k, const ImportedPhoto& p, const std::string& dir,
+                const std::string& out_dir, ViewSpec* view) {
+  char stem[32];
+  std::snprintf(stem, sizeof stem, "%03zu", i);
+  view->image = std::string("images/") + stem + ".exr";
+  view->world_from_camera = p.world_from_camera;
+  view->lights = s.photos[i].lights;
+  view->camera = k;
+  view->camera.width = g.w;
+  view->camera.height = g.h;
+  view->camera.cx -= g.x0;
+  view->camera.cy -= g.y0;
+  GeometrySpec& gs = view->geometry;
+  const std::string base = std::string("geometry/") + stem;
+  gs = {base + "_P.exr", base + "_N.exr", base + "_U.exr", base + "_mask.png", base + "_uv.exr", "", "", ""};
+  write_exr(join_path(dir, view->image), crop(mc.rgb, g.x0 - mc.x0, g.y0 - mc.y0, g.w, g.h));
+  write_exr(join_path(dir, gs.position), g.P);
+  write_exr(join_path(dir, gs.normal), g.N);
+  write_exr(join_path(dir, gs.tangent), g.U);
+  write_exr(join_path(dir, gs.uv), g.uv);
+  Image mask(g.w, g.h, 1);
+  for (size_t q = 0; q < g.mask.size(); ++q) mask.px[q] = g.mask[q];
+  write_png(join_path(dir, gs.mask), mask, 8);
+  for (const auto& im : s.photos[i].images)
+    view->source.push_back(relative_to(join_path(s.dir, im.file), out_dir));
+}
+
+// Pass 2 for one photo: its view (if accepted) from the crop kept by pass 1 (the photo is decoded
+// again only if the sample lies outside it), and its overlay.
+void write_photo(const Shoot& s, size_t i, Detected& det, const std::string& dir,
+                 const std::string& out_dir, const ImportOptions& o, ImportResult* r,
+                 ViewSpec* view) {
+  ImportedPhoto& p = r->photos[i];
+  OverlayMarks marks = photo_marks(s, i, det, r->camera, p);
   ViewGeometry g;
-  if (p.accepted && !view_geometry(s, r->camera, p.world_from_camera, marks.outline, m.saturated, &g)) {
+  if (p.accepted && view_box(r->camera, marks.outline, &g)) {
+    if (!det.crop.contains(g.x0, g.y0, g.w, g.h)) {
+      det.crop = crop_merged(merge_bracket(s, i), g.x0, g.y0, g.x0 + g.w - 1, g.y0 + g.h - 1);
+      p.decoded_twice = true;
+    }
+    if (!view_geometry(s, r->camera, p.world_from_camera, det.crop, &g)) p.accepted = false;
+  } else {
     p.accepted = false;
-    p.reason = "the sample is not in view (or every sample pixel is saturated)";
   }
   if (p.accepted) {
     p.sample_pixels = g.pixels;
-    view->image = std::string("images/") + stem + ".exr";
-    view->world_from_camera = p.world_from_camera;
-    view->lights = s.photos[i].lights;
-    view->camera = r->camera;
-    view->camera.width = g.w;
-    view->camera.height = g.h;
-    view->camera.cx -= g.x0;
-    view->camera.cy -= g.y0;
-    GeometrySpec& gs = view->geometry;
-    const std::string base = std::string("geometry/") + stem;
-    gs = {base + "_P.exr", base + "_N.exr", base + "_U.exr", base + "_mask.png", base + "_uv.exr", "", "", ""};
-    write_exr(join_path(dir, view->image), crop(m.rgb, g.x0, g.y0, g.w, g.h));
-    write_exr(join_path(dir, gs.position), g.P);
-    write_exr(join_path(dir, gs.normal), g.N);
-    write_exr(join_path(dir, gs.tangent), g.U);
-    write_exr(join_path(dir, gs.uv), g.uv);
-    Image mask(g.w, g.h, 1);
-    for (size_t k = 0; k < g.mask.size(); ++k) mask.px[k] = g.mask[k];
-    write_png(join_path(dir, gs.mask), mask, 8);
-    for (const auto& im : s.photos[i].images)
-      view->source.push_back(relative_to(join_path(s.dir, im.file), out_dir));
+    write_view(s, i, g, det.crop, r->camera, p, dir, out_dir, view);
     marks.mask = g.mask;
     marks.mask_x0 = g.x0, marks.mask_y0 = g.y0, marks.mask_w = g.w, marks.mask_h = g.h;
   } else {
+    if (p.reason.empty()) p.reason = "the sample is not in view (or every sample pixel is saturated)";
     marks.label += ": LEFT OUT, " + p.reason;
   }
-  if (o.overlays) write_overlay(join_path(dir, std::string("overlays/") + stem + ".png"), m.grey, marks);
+  det.crop = MergedCrop{};
+  if (!o.overlays) return;
+  char name[32];
+  std::snprintf(name, sizeof name, "overlays/%03zu.png", i);
+  Image grey(det.width, det.height, 1);
+  for (size_t q = 0; q < det.grey.size(); ++q) grey.px[q] = det.grey[q] / 255.f;
+  write_overlay(join_path(dir, name), grey, marks);
 }
 
 nlohmann::json report_json(const Shoot& s, const ImportResult& r, const ImportOptions& o) {
@@ -348,6 +406,7 @@ nlohmann::json report_json(const Shoot& s, const ImportResult& r, const ImportOp
                {"corners", p.corners},
                {"corners_dropped_at_sample", p.corners_dropped},
                {"saturated_pixels", p.saturated_pixels},
+               {"decoded_twice", p.decoded_twice},
                {"accepted", p.accepted}};
     if (p.rms_px >= 0) {
       jp["rms_px"] = p.rms_px;

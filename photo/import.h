@@ -33,7 +33,8 @@ struct ImportedPhoto {
   bool accepted = false;
   std::string reason;  // why it was left out
   size_t saturated_pixels = 0, sample_pixels = 0;
-  int view = -1;  // index in the capture set
+  int view = -1;               // index in the capture set
+  bool decoded_twice = false;  // the sample fell outside the region kept from the first pass
 };
 
 struct ImportResult {

@@ -1,5 +1,7 @@
 #include "photo/merge.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -68,13 +70,34 @@ Image detection_image(const Image& rgb, const std::vector<uint8_t>& saturated) {
     std::nth_element(sorted.begin(), nth, sorted.end());
     white = *nth > 0 ? *nth : 1;
   }
+  // sRGB through a table: 4096 levels are finer than the 8-bit image the detector sees.
+  std::vector<float> enc(4097);
+  for (size_t i = 0; i < enc.size(); ++i) enc[i] = static_cast<float>(srgb_encode(i / 4096.0));
   Image grey(w, h, 1);
+  const float scale = static_cast<float>(4096 / white);
   for (size_t p = 0; p < lum.size(); ++p)
-    grey.px[p] = saturated[p] ? 1.f : static_cast<float>(srgb_encode(std::clamp(lum[p] / white, 0.0, 1.0)));
+    grey.px[p] = saturated[p] ? 1.f : enc[static_cast<size_t>(std::clamp(lum[p] * scale, 0.f, 4096.f))];
   return grey;
 }
 
 }  // namespace
+
+MergedCrop crop_merged(const MergedPhoto& m, int x0, int y0, int x1, int y1) {
+  MergedCrop c;
+  c.x0 = std::clamp(x0, 0, m.rgb.width - 1);
+  c.y0 = std::clamp(y0, 0, m.rgb.height - 1);
+  c.w = std::clamp(x1, c.x0, m.rgb.width - 1) - c.x0 + 1;
+  c.h = std::clamp(y1, c.y0, m.rgb.height - 1) - c.y0 + 1;
+  c.rgb = Image(c.w, c.h, 3);
+  c.saturated.resize(static_cast<size_t>(c.w) * c.h);
+  for (int y = 0; y < c.h; ++y)
+    for (int x = 0; x < c.w; ++x) {
+      const size_t src = static_cast<size_t>(c.y0 + y) * m.rgb.width + c.x0 + x;
+      for (int ch = 0; ch < 3; ++ch) c.rgb.at(x, y, ch) = m.rgb.px[3 * src + ch];
+      c.saturated[static_cast<size_t>(y) * c.w + x] = m.saturated[src];
+    }
+  return c;
+}
 
 MergedPhoto merge_bracket(const Shoot& s, size_t i) {
   const std::vector<Shot> shots = read_bracket(s, i);
@@ -82,38 +105,70 @@ MergedPhoto merge_bracket(const Shoot& s, size_t i) {
   MergedPhoto m;
   m.rgb = Image(w, h, 3);
   m.saturated.assign(static_cast<size_t>(w) * h, 0);
-  std::vector<double> sat(shots.size());
-  for (size_t k = 0; k < shots.size(); ++k) sat[k] = saturation_level(s, shots[k].li);
-  for (size_t p = 0; p < m.saturated.size(); ++p)
-    for (int c = 0; c < 3; ++c) {
-      double sum = 0, wsum = 0, dark = NAN, dark_e = 0, clipped = 0;
-      for (size_t k = 0; k < shots.size(); ++k) {
-        const Image& im = shots[k].li.image;
-        const double code = im.px[p * im.channels + (im.channels == 1 ? 0 : c)];
-        const double e = shots[k].exposure;
-        const double lin = shots[k].li.bits ? decode_code(code, s.color) : code;
-        if (code >= sat[k]) {  // clipped: a lower bound only
-          clipped = std::max(clipped, lin / e);
-          continue;
+  // Every stored value of an exposure is one of: used (radiance = linear / exposure), near black,
+  // or clipped. Integer codes are classified once per code value through a table.
+  enum Kind : uint8_t { kUse, kDark, kClipped };
+  struct Code {
+    float radiance;
+    Kind kind;
+  };
+  auto classify = [&](size_t k, double stored) {
+    const Shot& sh = shots[k];
+    const double lin = sh.li.bits ? decode_code(stored, s.color) : stored;
+    const Kind kind = stored >= saturation_level(s, sh.li)                             ? kClipped
+                      : sh.li.bits && stored - s.color.black_level < kNearBlack ? kDark
+                                                                                  : kUse;
+    return Code{static_cast<float>(lin / sh.exposure), kind};
+  };
+  std::vector<std::vector<Code>> table(shots.size());
+  for (size_t k = 0; k < shots.size(); ++k) {
+    if (!shots[k].li.bits) continue;
+    const int q = shots[k].li.bits == 8 ? 255 : 65535;
+    for (int c = 0; c <= q; ++c) table[k].push_back(classify(k, static_cast<double>(c) / q));
+  }
+  // Per exposure: its pixels, channel count, table (or none) and weight, hoisted out of the loop.
+  struct Src {
+    const float* px;
+    int channels;
+    const Code* table;
+    float scale;  // stored value -> table index
+    float e;
+  };
+  std::vector<Src> src;
+  for (size_t k = 0; k < shots.size(); ++k)
+    src.push_back({shots[k].li.image.px.data(), shots[k].li.image.channels,
+                   table[k].empty() ? nullptr : table[k].data(),
+                   static_cast<float>(table[k].size()) - 1, static_cast<float>(shots[k].exposure)});
+  tbb::parallel_for(0, h, [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t p = static_cast<size_t>(y) * w + x;
+      for (int c = 0; c < 3; ++c) {
+        float sum = 0, wsum = 0, dark = 0, dark_e = 0, clipped = 0;
+        for (size_t k = 0; k < src.size(); ++k) {
+          const Src& sr = src[k];
+          const float stored = sr.px[p * sr.channels + (sr.channels == 1 ? 0 : c)];
+          const Code code = sr.table ? sr.table[static_cast<int>(stored * sr.scale + 0.5f)]
+                                     : classify(k, stored);
+          if (code.kind == kUse) {  // weight = exposure
+            sum += sr.e * code.radiance;
+            wsum += sr.e;
+          } else if (code.kind == kDark) {  // kept: the longest exposure's, as a last resort
+            if (sr.e > dark_e) dark = code.radiance, dark_e = sr.e;
+          } else {  // clipped: a lower bound only
+            clipped = std::max(clipped, code.radiance);
+          }
         }
-        if (shots[k].li.bits && code - s.color.black_level < kNearBlack) {
-          if (e > dark_e) dark = lin / e, dark_e = e;  // the longest exposure's dark value
-          continue;
-        }
-        sum += e * (lin / e);
-        wsum += e;
+        float v = clipped;  // a lower bound; the pixel is left out of the fit
+        if (wsum > 0)
+          v = sum / wsum;
+        else if (dark_e > 0)
+          v = dark;
+        else
+          m.saturated[p] = 1;
+        m.rgb.px[3 * p + c] = v;
       }
-      double v;
-      if (wsum > 0) {
-        v = sum / wsum;
-      } else if (dark_e > 0) {
-        v = dark;
-      } else {
-        v = clipped;  // a lower bound; the pixel is left out of the fit
-        m.saturated[p] = 1;
-      }
-      m.rgb.px[3 * p + c] = static_cast<float>(v);
     }
+  });
   for (uint8_t v : m.saturated) m.saturated_pixels += v;
   m.grey = detection_image(m.rgb, m.saturated);
   return m;

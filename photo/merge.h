@@ -25,6 +25,18 @@ struct MergedPhoto {
   size_t saturated_pixels = 0;
 };
 
+// The part of a merged photo kept between the passes of `aniso import` (the sample's estimated
+// region), so that a photo is decoded once.
+struct MergedCrop {
+  int x0 = 0, y0 = 0, w = 0, h = 0;
+  Image rgb;
+  std::vector<uint8_t> saturated;
+  bool contains(int x, int y, int cw, int ch) const {
+    return x >= x0 && y >= y0 && x + cw <= x0 + w && y + ch <= y0 + h;
+  }
+};
+MergedCrop crop_merged(const MergedPhoto& m, int x0, int y0, int x1, int y1);
+
 // Reads and merges photo i of the shoot. Throws naming the files when the images of the bracket
 // differ in size or channels, or when integer images come without a stated encoding.
 MergedPhoto merge_bracket(const Shoot& s, size_t i);
