@@ -59,6 +59,8 @@ int run(const ImportArgs& a) {
   std::printf(
       "import: %zu of %zu photos -> %s (%zu views; import_report.json, overlays/); %.2f s "
       "(merge+detect %.2f, calibrate+pose %.2f, write %.2f)\n"
+      "import: note: the fit's uncertainties will describe the photos' noise only, not the "
+      "calibration above or the lamp positions you measured (taken as exact)\n"
       "import: then: aniso fit %s --out material.json\n",
       r.views, r.photos.size(), a.out.c_str(), r.views, r.seconds, r.seconds_detect,
       r.seconds_calibrate, r.seconds_write, a.out.c_str());
