@@ -17,7 +17,7 @@ namespace {
 struct SynthArgs {
   std::string preset, out, size = "128x128", truth, compression = "none";
   PresetOptions po;
-  bool list = false, photos = false;
+  bool list = false, photos = false, dng = false;
   CLI::App* app = nullptr;
 };
 
@@ -30,6 +30,7 @@ int run_photos(const SynthArgs& a) {
   if (a.app->count("--views")) o.photos = a.po.views;
   if (a.app->count("--noise")) o.read_noise = a.po.noise;
   if (a.po.bits == 16) o.raw16 = true;
+  o.dng = a.dng;
   check_output_folder(a.out);
   check_outputs_apart({a.out}, {a.truth});
   const PhotoShootStats st = simulate_photo_shoot(o, a.out);
@@ -38,7 +39,7 @@ int run_photos(const SynthArgs& a) {
       "rays, %zu shadow rays, %.1f%% of codes saturated; %.2f s\n"
       "synth --photos: then: aniso import %s/shoot.json --out CAPTURE_DIR\n",
       a.preset.c_str(), a.out.c_str(), st.photos, o.bracket.size(), o.width, o.height,
-      o.raw16 ? "16-bit linear" : "8-bit sRGB", static_cast<unsigned long long>(o.seed),
+      o.dng ? "linear DNG" : o.raw16 ? "16-bit linear" : "8-bit sRGB", static_cast<unsigned long long>(o.seed),
       st.primary_rays, st.shadow_rays,
       100.0 * st.saturated_codes / (3.0 * o.width * o.height * st.images), st.seconds,
       a.out.c_str());
@@ -88,6 +89,8 @@ Command add_synth(CLI::App& app) {
                   "material on a ChArUco board through a distorting lens, truth.json): the input "
                   "of aniso import. Defaults then: --size 960x720, --views 24 photos, --noise "
                   "0.002; --bits 16 writes RAW-like 16-bit linear photos");
+  synth->add_flag("--dng", a->dng,
+                  "--photos: write linear DNG files (16-bit, read by aniso import through LibRaw)");
   a->app = synth;
   add_force_flag(synth);
   synth

@@ -41,6 +41,7 @@ struct Detected {
   size_t saturated = 0;
   MergedCrop crop;             // the merged image around the sample's estimated place
   std::vector<uint8_t> grey;   // the detection image, 8-bit (for the overlay)
+  std::vector<RawInfo> raw;    // RAW images: camera and white balance
 };
 
 // Where the sample lies in a photo before the camera is known: its outline through the board's
@@ -68,6 +69,7 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o) {
   d.width = m.rgb.width;
   d.height = m.rgb.height;
   d.saturated = m.saturated_pixels;
+  d.raw = m.raw;
   const auto obj = board_corners_m(s.board);
   const std::vector<BoardCorner> all = detect_board(m.grey, s.board, &d.markers);
   for (const auto& c : all) {
@@ -408,6 +410,14 @@ nlohmann::json report_json(const Shoot& s, const ImportResult& r, const ImportOp
                {"saturated_pixels", p.saturated_pixels},
                {"decoded_twice", p.decoded_twice},
                {"accepted", p.accepted}};
+    if (!p.raw.empty()) {
+      json raw = json::array();
+      for (const auto& ri : p.raw)
+        raw.push_back({{"decoded_by", "LibRaw, linear (gamma 1, no auto-brightness), sRGB primaries"},
+                       {"camera", ri.camera},
+                       {"white_balance_rgbg", ri.white_balance}});
+      jp["raw"] = raw;
+    }
     if (p.rms_px >= 0) {
       jp["rms_px"] = p.rms_px;
       jp["tilt_deg"] = p.tilt_deg;
@@ -472,6 +482,7 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
     p.corners = static_cast<int>(det[i].corners.size());
     p.corners_dropped = static_cast<int>(det[i].dropped.size());
     p.saturated_pixels = det[i].saturated;
+    p.raw = det[i].raw;
     markers += det[i].markers;
     if (s.camera_given && (det[i].width != s.camera.width || det[i].height != s.camera.height))
       throw Error(s.file + ": " + photo_name(s, i) + " is " + std::to_string(det[i].width) + "x" +

@@ -11,6 +11,7 @@
 
 #include "core/camera.h"
 #include "core/vec.h"
+#include "photo/raw.h"
 #include "photo/shoot.h"
 
 namespace aniso {
@@ -34,7 +35,8 @@ struct ImportedPhoto {
   std::string reason;  // why it was left out
   size_t saturated_pixels = 0, sample_pixels = 0;
   int view = -1;               // index in the capture set
-  bool decoded_twice = false;  // the sample fell outside the region kept from the first pass
+  bool decoded_twice = false;
+  std::vector<RawInfo> raw;  // per RAW image of the bracket  // the sample fell outside the region kept from the first pass
 };
 
 struct ImportResult {

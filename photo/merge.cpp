@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "io/files.h"
 #include "io/image_io.h"
+#include "photo/raw.h"
 
 namespace aniso {
 
@@ -20,18 +21,20 @@ struct Shot {
   LoadedImage li;
   double exposure;
   std::string path;
+  bool raw = false;  // decoded linearly by LibRaw: `color` does not apply
 };
 
-std::vector<Shot> read_bracket(const Shoot& s, size_t i) {
+std::vector<Shot> read_bracket(const Shoot& s, size_t i, std::vector<RawInfo>* raw_info) {
   std::vector<Shot> shots;
   for (const auto& im : s.photos[i].images) {
     const std::string path = join_path(s.dir, im.file);
-    const std::string ext = lower_ext(path);
-    if (ext == ".dng" || ext == ".cr2" || ext == ".nef" || ext == ".arw")
-      throw Error(path + ": RAW photos are not decoded by this build (LibRaw is not linked yet); "
-                  "convert them to 16-bit linear TIFF (e.g. `dcraw -4 -T`) and state "
-                  "\"color\": {\"encoding\": \"linear\"} in the shoot");
-    shots.push_back({read_image(path), im.exposure, path});
+    if (is_raw_photo(path)) {
+      RawInfo info;
+      shots.push_back({read_raw(path, &info), im.exposure, path, true});
+      raw_info->push_back(info);
+    } else {
+      shots.push_back({read_image(path), im.exposure, path});
+    }
     const Shot& first = shots.front();
     const Shot& last = shots.back();
     if (last.li.image.width != first.li.image.width ||
@@ -41,7 +44,7 @@ std::vector<Shot> read_bracket(const Shoot& s, size_t i) {
                   std::to_string(first.li.image.height) + ", " + last.path + " is " +
                   std::to_string(last.li.image.width) + "x" + std::to_string(last.li.image.height) +
                   " (one photo = one camera position, exposures only change)");
-    if (last.li.bits && !s.color.encoding_given)
+    if (last.li.bits && !last.raw && !s.color.encoding_given)
       throw Error(s.file + ": color.encoding: " + last.path + " holds integer codes; say how they "
                   "decode: \"srgb\" (camera JPEG/PNG), {\"gamma\": g} or \"linear\" (raw data)");
   }
@@ -49,8 +52,8 @@ std::vector<Shot> read_bracket(const Shoot& s, size_t i) {
 }
 
 // The stored value at and above which a code is clipped.
-double saturation_level(const Shoot& s, const LoadedImage& li) {
-  if (s.color.saturation_given) return s.color.saturation;
+double saturation_level(const Shoot& s, const LoadedImage& li, bool raw) {
+  if (s.color.saturation_given && !raw) return s.color.saturation;
   if (!li.bits) return INFINITY;
   const double q = li.bits == 8 ? 255.0 : 65535.0;
   return 1.0 - 0.5 / q;  // the largest code
@@ -100,9 +103,9 @@ MergedCrop crop_merged(const MergedPhoto& m, int x0, int y0, int x1, int y1) {
 }
 
 MergedPhoto merge_bracket(const Shoot& s, size_t i) {
-  const std::vector<Shot> shots = read_bracket(s, i);
-  const int w = shots[0].li.image.width, h = shots[0].li.image.height;
   MergedPhoto m;
+  const std::vector<Shot> shots = read_bracket(s, i, &m.raw);
+  const int w = shots[0].li.image.width, h = shots[0].li.image.height;
   m.rgb = Image(w, h, 3);
   m.saturated.assign(static_cast<size_t>(w) * h, 0);
   // Every stored value of an exposure is one of: used (radiance = linear / exposure), near black,
@@ -114,10 +117,11 @@ MergedPhoto merge_bracket(const Shoot& s, size_t i) {
   };
   auto classify = [&](size_t k, double stored) {
     const Shot& sh = shots[k];
-    const double lin = sh.li.bits ? decode_code(stored, s.color) : stored;
-    const Kind kind = stored >= saturation_level(s, sh.li)                             ? kClipped
-                      : sh.li.bits && stored - s.color.black_level < kNearBlack ? kDark
-                                                                                  : kUse;
+    const double black = sh.raw ? 0.0 : s.color.black_level;  // LibRaw subtracts its own
+    const double lin = sh.raw ? stored : sh.li.bits ? decode_code(stored, s.color) : stored;
+    const Kind kind = stored >= saturation_level(s, sh.li, sh.raw)    ? kClipped
+                      : sh.li.bits && stored - black < kNearBlack ? kDark
+                                                                   : kUse;
     return Code{static_cast<float>(lin / sh.exposure), kind};
   };
   std::vector<std::vector<Code>> table(shots.size());

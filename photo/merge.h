@@ -1,5 +1,7 @@
 // One photo's exposure bracket merged into one linear image (aniso import).
 //
+// RAW files (photo/raw.h) come decoded linearly by LibRaw; `color` applies to the others only.
+//
 // Our own merge, not cv::MergeDebevec: the camera's response is not estimated but stated by the
 // shoot's `color` (sRGB, gamma or linear, or float EXR), Debevec's merge takes 8-bit images only
 // and a response curve, and the fit must know which pixels were clipped in every exposure so that
@@ -14,6 +16,7 @@
 #include <vector>
 
 #include "core/image.h"
+#include "photo/raw.h"
 #include "photo/shoot.h"
 
 namespace aniso {
@@ -23,6 +26,7 @@ struct MergedPhoto {
   std::vector<uint8_t> saturated;  // 1 = clipped in every exposure of some channel
   Image grey;                      // for board detection: tone-mapped luminance in [0, 1]
   size_t saturated_pixels = 0;
+  std::vector<RawInfo> raw;  // per RAW image of the bracket: camera and white balance
 };
 
 // The part of a merged photo kept between the passes of `aniso import` (the sample's estimated

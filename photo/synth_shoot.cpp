@@ -23,6 +23,7 @@
 #include "io/material_io.h"
 #include "models/evaluate.h"
 #include "models/shade.h"
+#include "photo/raw.h"
 #include "photo/shoot.h"
 
 namespace aniso {
@@ -205,7 +206,8 @@ Image render_photo(const PhotoShootOptions& o, const Intrinsics& k, const RaySce
 // quantisation.
 Image expose(const PhotoShootOptions& o, const Image& radiance, double exposure, int photo,
              int shot, size_t* saturated) {
-  const double q = o.raw16 ? 65535.0 : 255.0;
+  const bool linear = o.raw16 || o.dng;
+  const double q = linear ? 65535.0 : 255.0;
   Image img = radiance;
   std::atomic<size_t> clipped{0};
   tbb::parallel_for(0, img.height, [&](int y) {
@@ -220,7 +222,7 @@ Image expose(const PhotoShootOptions& o, const Image& radiance, double exposure,
       double v = exposure * row[i] + o.read_noise * gauss(rng);
       if (v >= 1.0) ++n;
       v = std::clamp(v, 0.0, 1.0);
-      row[i] = static_cast<float>(std::round((o.raw16 ? v : srgb_encode(v)) * q) / q);
+      row[i] = static_cast<float>(std::round((linear ? v : srgb_encode(v)) * q) / q);
     }
     clipped += n;
   });
@@ -274,7 +276,9 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
   shoot.polygon = o.polygon;
   shoot.height_m = o.height_m;
   shoot.tangent = o.tangent;
-  shoot.color.encoding = o.raw16 ? ColorSpec::Encoding::kLinear : ColorSpec::Encoding::kSrgb;
+  shoot.color.encoding =
+      o.raw16 || o.dng ? ColorSpec::Encoding::kLinear : ColorSpec::Encoding::kSrgb;
+  shoot.color.encoding_given = true;
   std::mt19937_64 rng(o.seed);
   std::vector<PhotoSetup> setups;
   for (int i = 0; i < o.photos; ++i) setups.push_back(photo_setup(o, i, centre, rng));
@@ -289,11 +293,13 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
       photo.lights = {setups[i].lamp};
       for (size_t e = 0; e < o.bracket.size(); ++e) {
         char name[64];
-        std::snprintf(name, sizeof name, "photos/p%02d_e%zu.png", i, e);
+        std::snprintf(name, sizeof name, "photos/p%02d_e%zu.%s", i, e, o.dng ? "dng" : "png");
         const double exposure = base * o.bracket[e];
-        write_png(join_path(dir, name),
-                  expose(o, radiance, exposure, i, static_cast<int>(e), &st.saturated_codes),
-                  o.raw16 ? 16 : 8);
+        const Image img = expose(o, radiance, exposure, i, static_cast<int>(e), &st.saturated_codes);
+        if (o.dng)
+          write_linear_dng(join_path(dir, name), img);
+        else
+          write_png(join_path(dir, name), img, o.raw16 ? 16 : 8);
         photo.images.push_back({name, exposure});
         ++st.images;
       }

@@ -27,6 +27,7 @@ struct PhotoShootOptions {
   std::vector<double> bracket{1.0, 0.25, 0.0625};  // exposures of each photo, relative
   double read_noise = 0.002;  // Gaussian sigma in linear units of full scale, before encoding
   bool raw16 = false;         // 16-bit linear PNGs (RAW-like) instead of 8-bit sRGB
+  bool dng = false;           // ... or linear DNG files (16-bit; read back through LibRaw)
   std::array<double, 5> distortion{-0.08, 0.03, 0, 0, 0};
   uint64_t seed = 1;
   bool progress = true;

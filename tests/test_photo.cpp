@@ -207,5 +207,37 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   EXPECT_TRUE(fs::exists(out + "/overlays/004.png"));  // the overlay shows what was (not) found
 }
 
+// RAW photos: the simulator's shoot written as linear DNG files is decoded by LibRaw (linear, no
+// auto-brightness, camera white balance recorded) to the same radiance as the same shoot written
+// as 16-bit linear PNGs.
+TEST(Import, RawPhotosDecodeLinearlyThroughLibRaw) {
+  const std::string dir = test::tmp_dir("raw");
+  for (const std::string kind : {"dng", "png16"}) {
+    auto r = test::run_cli("synth --photos brushed-metal " + dir + "/" + kind + " --views 6 --size 640x480 " +
+                           (kind == "dng" ? "--dng" : "--bits 16"));
+    ASSERT_EQ(r.status, 0) << r.output;
+    r = test::run_cli("import " + dir + "/" + kind + "/shoot.json --out " + dir + "/cap_" + kind + " --no-overlays");
+    ASSERT_EQ(r.status, 0) << r.output;
+  }
+  EXPECT_TRUE(fs::exists(dir + "/dng/photos/p00_e0.dng"));
+  const auto rep = nlohmann::json::parse(read_text_file(dir + "/cap_dng/import_report.json"));
+  ASSERT_EQ(rep["photos"][0]["raw"].size(), 3u);
+  EXPECT_EQ(rep["photos"][0]["raw"][0]["camera"], "aniso synth");
+  EXPECT_EQ(rep["photos"][0]["raw"][0]["white_balance_rgbg"][0], 1.0);
+  const Image a = read_image(dir + "/cap_dng/images/000.exr").image;
+  const Image b = read_image(dir + "/cap_png16/images/000.exr").image;
+  ASSERT_EQ(a.width, b.width);
+  ASSERT_EQ(a.height, b.height);
+  double worst = 0, mean = 0;
+  for (size_t i = 0; i < a.px.size(); ++i) {
+    worst = std::max(worst, std::abs(double(a.px[i]) - b.px[i]) / std::max(0.05, double(b.px[i])));
+    mean += b.px[i] / a.px.size();
+  }
+  std::printf("DNG through LibRaw against 16-bit PNG: worst relative difference %.2e (mean radiance %.3f)\n",
+              worst, mean);
+  EXPECT_LT(worst, 1e-3);
+  EXPECT_GT(mean, 0.05);
+}
+
 }  // namespace
 }  // namespace aniso
