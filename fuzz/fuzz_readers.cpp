@@ -1,5 +1,5 @@
 // libFuzzer target: every file reader on arbitrary bytes. The first byte picks the reader
-// (capture.json, material, sample table, image, OBJ); the rest is the file. A reader may reject
+// (capture.json, material, sample table, image, OBJ, photo shoot); the rest is the file. A reader may reject
 // the file with aniso::Error; anything else (a crash, another exception, a sanitizer report) is a
 // bug. Build and run: scripts/fuzz.sh. With ANISO_FUZZ_SET naming a real capture folder, its
 // files are copied beside the fuzzed capture.json first, so a mutated capture.json that still
@@ -18,11 +18,12 @@
 #include "io/image_io.h"
 #include "io/material_io.h"
 #include "io/table.h"
+#include "photo/shoot.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
-  static const char* kExt[] = {".json", ".json", ".csv", ".png", ".exr", ".obj"};
-  const int which = data[0] % 6;
+  static const char* kExt[] = {".json", ".json", ".csv", ".png", ".exr", ".obj", ".json"};
+  const int which = data[0] % 7;
   const std::string dir = "/tmp/aniso_fuzz_" + std::to_string(::getpid());
   static bool seeded = false;
   if (!seeded) {
@@ -56,6 +57,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       case 5:
         aniso::load_obj(path);
+        break;
+      case 6:
+        aniso::read_shoot(path);
         break;
     }
   } catch (const aniso::Error&) {

@@ -20,6 +20,9 @@ build-fuzz/aniso synth brushed-metal build-fuzz/seedpng --views 1 --size 8 --bit
 { printf '\x04'; cat build-fuzz/seedset/images/000.exr; } > build-fuzz/corpus_readers/exr_real
 { printf '\x03'; cat build-fuzz/seedpng/images/000.png; } > build-fuzz/corpus_readers/png_real
 { printf '\x01'; cat build-fuzz/seedset/truth.json; } > build-fuzz/corpus_readers/material_real
+rm -rf build-fuzz/seedboard && mkdir -p build-fuzz/seedboard
+build-fuzz/aniso board --out build-fuzz/seedboard/board.png --dpi 30 >/dev/null
+{ printf '\x06'; cat build-fuzz/seedboard/shoot.json; } > build-fuzz/corpus_readers/shoot
 export ANISO_FUZZ_SET="$PWD/build-fuzz/seedset"
 # Seeds: one of each file kind, prefixed with its reader-selector byte.
 printf '\x01{"format":"aniso-material","version":1,"kd":0.2,"ks":0.5,"n":10,"fiber_angle_deg":0}' > build-fuzz/corpus_readers/material
