@@ -21,6 +21,7 @@
 #include "io/json_util.h"
 #include "io/material_io.h"
 #include "models/evaluate.h"
+#include "models/material_maps.h"
 #include "models/shade.h"
 #include "models/topology.h"
 
@@ -145,7 +146,11 @@ Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g,
         SurfacePoint sp;
         if (!frame_at(g.P, g.N, g.U, x, y, &sp)) continue;
         double I[3];
-        shade_point(eval, sp, eye, lights,
+        // A material with maps is evaluated with its values at the pixel's texture coordinates.
+        const Evaluator local = truth.maps.any()
+                                    ? Evaluator(material_at(truth, g.uv.at(x, y, 0), g.uv.at(x, y, 1)))
+                                    : eval;
+        shade_point(local, sp, eye, lights,
                     {truth.ka[0] * ambient[0], truth.ka[1] * ambient[1], truth.ka[2] * ambient[2]},
                     topo.at(x, y, 0), occluded, I, &cnt, &local_used);
         for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(I[c]);
@@ -410,6 +415,17 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     Material truth_m = opt.truth;
     if (auto* t = truth_m.topology_as<TopologyMapRef>()) t->file = set.topology_map;
     if (!s_map.empty()) truth_m.topology = SMapRef{"maps/topology_s.png"};
+    // The truth's maps go with it, as float EXR beside truth.json.
+    MaterialMaps& mp = truth_m.maps;
+    auto put = [&](const std::shared_ptr<const Image>& img, std::string* file, const char* name) {
+      if (!img) return;
+      *file = std::string("maps/truth_") + name + ".exr";
+      write_exr(join_path(dir, *file), *img);
+    };
+    put(mp.kd, &mp.kd_file, "kd");
+    put(mp.ks, &mp.ks_file, "ks");
+    put(mp.n, &mp.n_file, "n");
+    put(mp.fiber, &mp.fiber_file, "fiber");
     material_to_json(truth_m, &truth);
     write_json_file(join_path(dir, "truth.json"), truth);
     set.provenance = provenance(opt, st, lv.white, tr.fixed_camera);

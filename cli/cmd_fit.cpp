@@ -1,8 +1,10 @@
 // aniso fit: a capture set or a sample table in, a material file out.
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 
 #include "cli/command.h"
+#include "core/error.h"
 #include "fit/fit.h"
 #include "io/capture.h"
 #include "io/files.h"
@@ -14,7 +16,7 @@ namespace aniso::cli {
 namespace {
 
 struct FitArgs {
-  std::string in, out, truth;
+  std::string in, out, truth, maps;
   FitOptions fo;
 };
 
@@ -33,6 +35,18 @@ void print_report(FILE* o, const FitResult& r) {
       "solve %.3f, covariance %.3f by %s)\n",
       p.iterations, p.termination.c_str(), p.loss.c_str(), p.rms, p.seconds, p.seconds_load,
       p.seconds_start, p.seconds_solve, p.seconds_covariance, p.covariance.c_str());
+  if (r.maps.w > 0) {
+    size_t det = 0;
+    std::vector<double> sp;
+    for (size_t i = 0; i < r.maps.determined.size(); ++i)
+      if (r.maps.determined[i]) ++det, sp.push_back(r.maps.psi_sigma_deg[i]);
+    std::sort(sp.begin(), sp.end());
+    std::fprintf(o,
+                 "fit: --maps %dx%d: %zu texels solved, %zu determined, median sigma of psi %.3g "
+                 "deg, %.3f s\n",
+                 r.maps.w, r.maps.h, r.maps.fitted, det, sp.empty() ? 0.0 : sp[sp.size() / 2],
+                 r.maps.seconds);
+  }
   for (const auto& [k, why] : r.undetermined)
     std::fprintf(o, "fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());
   for (const auto& s : p.model_summaries) std::fprintf(o, "fit: --model auto: %s\n", s.c_str());
@@ -63,7 +77,12 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
     truth_m = read_material(truth);
     inputs.push_back(truth);
   }
-  check_outputs_apart({out}, inputs);
+  std::vector<std::string> outputs{out};
+  if (fo.maps_w > 0) {
+    if (out == "-") throw Error("fit: --maps writes map files beside the material: give --out a file");
+    for (const auto& f : map_files(out)) outputs.push_back(join_path(parent_dir(out), f));
+  }
+  check_outputs_apart(outputs, inputs);
   const FitResult r = is_table ? fit_table(table, fo) : fit_capture(set, fo);
   // With `--out -` the material goes to standard output: everything said goes to stderr.
   FILE* o = out == "-" ? stderr : stdout;
@@ -120,7 +139,14 @@ Command add_fit(CLI::App& app) {
   fit->add_option("--max-iterations", fo.max_iterations, "solver iterations")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
-  return {fit, [a] { return run_fit(a->in, a->fo, a->out, a->truth); }};
+  fit->add_option("--maps", a->maps,
+                  "line model: also fit per-texel maps of k_d, k_s, n and the fiber direction, WxH "
+                  "texels over the sample's uv (written beside --out as EXR, FORMAT.md \"Material "
+                  "maps\", with per-texel sigma, coverage and a determined mask)");
+  return {fit, [a] {
+            if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
+            return run_fit(a->in, a->fo, a->out, a->truth);
+          }};
 }
 
 }  // namespace aniso::cli

@@ -18,6 +18,9 @@ const std::vector<std::pair<std::string, std::string>>& preset_list() {
       {"radial-disc", "disc with radial fibers (Heidrich & Seidel fig. 1, right)"},
       {"woven-cloth", "flat sample with two perpendicular fiber directions (seed 000 §4)"},
       {"random", "flat sample with a random line-model material drawn from --seed"},
+      {"swirl-plate",
+       "flat sample whose material varies (maps): brushed in circles around its centre, k_d from "
+       "copper on the left to steel on the right (for fit --maps)"},
       {"silk-torus",
        "fiber model: silk wound around a torus (R = 1, r = 0.6), mathematical topology + topology "
        "map "
@@ -77,6 +80,27 @@ Material random_material(uint64_t seed) {
 namespace {
 
 // Where the camera stands for a preset's object.
+// The swirl plate's maps (size x size): psi turns around the centre (circular brushing), k_d goes
+// from copper (u = 0) to steel (u = 1).
+MaterialMaps swirl_maps(int size) {
+  auto fiber = std::make_shared<Image>(size, size, 2);
+  auto kd = std::make_shared<Image>(size, size, 3);
+  const RGB copper{0.30, 0.15, 0.08}, steel{0.10, 0.11, 0.13};
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const double u = (x + 0.5) / size, v = (y + 0.5) / size;
+      const double psi = std::atan2(v - 0.5, u - 0.5) + M_PI / 2;
+      fiber->at(x, y, 0) = static_cast<float>(std::cos(2 * psi));
+      fiber->at(x, y, 1) = static_cast<float>(std::sin(2 * psi));
+      for (int c = 0; c < 3; ++c)
+        kd->at(x, y, c) = static_cast<float>(copper[c] + (steel[c] - copper[c]) * u);
+    }
+  MaterialMaps mp;
+  mp.fiber = fiber;
+  mp.kd = kd;
+  return mp;
+}
+
 struct Framing {
   double radius = 1.0, camera_polar = 35.0;
   bool orbit = false;
@@ -124,6 +148,14 @@ bool line_preset(const std::string& name, const PresetOptions& po, SimOptions* o
     m.has_second_fiber = true;
     m.second_angle_deg = 100.0;
     m.second_weight = 0.65;
+  } else if (name == "swirl-plate") {
+    o->shape = "flat";
+    fr->radius = std::sqrt(2.0);
+    m.kd = {0.20, 0.13, 0.105};  // the maps' means
+    m.ks = {0.60, 0.60, 0.60};
+    m.n = 40.0;
+    m.fiber_angle_deg = 90.0;
+    m.maps = swirl_maps(64);
   } else if (name == "random") {
     o->shape = "flat";
     fr->radius = std::sqrt(2.0);

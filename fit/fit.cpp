@@ -3,6 +3,7 @@
 // numbers every model shares; the uncertainty comes from fit/uncertainty.cpp and the output from
 // fit/report.cpp.
 #include "fit/fit.h"
+#include "fit/maps.h"
 
 #include <unistd.h>
 
@@ -34,6 +35,11 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
     throw Error("fit: --fit-isotropic and --fit-second-fiber are available with --model line only");
   if (os.topology == TopologyMode::kTexels && m.model() != Model::kFiber)
     throw Error("fit: --topology-map fits the fiber model's topology: use it with --model fiber");
+  if (opt.maps_w > 0 && (m.model() != Model::kLine || opt.fit_isotropic || opt.fit_second))
+    throw Error("fit: --maps fits the plain line model per texel: use it with --model line and "
+                "without --fit-isotropic / --fit-second-fiber");
+  if (opt.maps_w > 0 && os.topology == TopologyMode::kTexels)
+    throw Error("fit: --maps and --topology-map do not go together");
   if (os.obs.empty())
     throw Error(
         "fit: no usable observations (empty mask, all pixels saturated, non-finite or unlit)");
@@ -65,6 +71,18 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   estimate_uncertainty(m.get(), os, opt, &sol, &res);
   rep.covariance = res.report.covariance;
   rep.seconds_covariance = since(t_cov);
+  if (opt.maps_w > 0) {
+    res.maps = fit_texel_maps(os, m->core, opt.maps_w, opt.maps_h, opt.progress);
+    size_t determined = 0;
+    for (uint8_t d : res.maps.determined) determined += d;
+    if (determined < res.maps.determined.size())
+      rep.warnings.push_back(
+          "--maps: " + std::to_string(res.maps.determined.size() - determined) + " of " +
+          std::to_string(res.maps.determined.size()) +
+          " texels are not determined by the data (too few pixels, or psi's sigma over 10 deg): "
+          "they hold the global values with the prior's spread as sigma (maps_uncertainty."
+          "determined = 0)");
+  }
   rep.seconds += since(t0);
   res.report = rep;
   return res;

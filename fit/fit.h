@@ -4,6 +4,7 @@
 // isotropic and second-fiber terms when asked. The start comes from a deterministic grid over
 // (psi, n) with k_d, k_s solved in closed form at each node, so it does not depend on luck.
 #pragma once
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -38,6 +39,23 @@ struct FitOptions {
   // Covariance by Ceres' dense SVD of the whole Jacobian (the reference) instead of the normal
   // equations accumulated in one pass (fit/uncertainty.cpp).
   bool ceres_covariance = false;
+  // --maps WxH (line model): after the global fit, per-texel maps of k_d, k_s, n and psi over the
+  // sample's texture coordinates (0 = none).
+  int maps_w = 0, maps_h = 0;
+};
+
+// --maps: every texel's fit (row-major, glTF uv: texel (i, j) covers u in [i/W, (i+1)/W)). Texels
+// the data do not determine hold the global fit's values with sigma = the prior's spread (the
+// width of the parameter's bounds / sqrt 12) and determined = 0.
+struct TexelMaps {
+  int w = 0, h = 0;
+  std::vector<double> kd, ks;        // 3 per texel
+  std::vector<double> n, psi_deg;    // 1 per texel
+  std::vector<double> kd_sigma, ks_sigma, n_sigma, psi_sigma_deg;
+  std::vector<int> pixels;           // observations (pixels) per texel
+  std::vector<uint8_t> determined;   // 1 = fitted and determined by its data
+  size_t fitted = 0;                 // texels with a problem solved
+  double seconds = 0;
 };
 
 struct FitReport {
@@ -62,6 +80,9 @@ struct FitReport {
   std::vector<std::string> model_summaries;  // --model auto: one line per model
 };
 
+// The map files `write_fit` puts beside a material file when the result has maps.
+std::vector<std::string> map_files(const std::string& material_path);
+
 struct FitResult {
   Material material;
   // One standard deviation per fitted number, keyed like the material file (kd, ks, n,
@@ -76,6 +97,7 @@ struct FitResult {
   std::vector<std::vector<double>> correlation;
   // --topology-map N: the N x N texels of s (row-major, glTF uv) and their sigmas (-1:
   // undetermined).
+  TexelMaps maps;  // --maps
   int s_texels_n = 0;
   std::vector<double> s_texels, s_texel_sigma;
 };

@@ -334,6 +334,10 @@ class LineFit : public ModelFit {
 
 }  // namespace
 
+ceres::CostFunction* line_pixel_cost(const Observation* o, const ObsLight* lights) {
+  return new LineResidualAnalytic(o, lights);
+}
+
 std::unique_ptr<ModelFit> make_line_fit(const FitOptions& opt) {
   return std::make_unique<LineFit>(opt);
 }

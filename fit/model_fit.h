@@ -70,6 +70,9 @@ class ModelFit {
 };
 
 std::unique_ptr<ModelFit> make_line_fit(const FitOptions& opt);
+// One pixel's residual of the plain line model with hand-written derivatives; blocks (k_d 3, k_s 3,
+// log n 1, psi 1, two 1-wide blocks to hold constant).
+ceres::CostFunction* line_pixel_cost(const Observation* o, const ObsLight* lights);
 std::unique_ptr<ModelFit> make_fiber_fit(const FitOptions& opt, const ObsSet& os);
 
 // Bounds of k_d, k_s, log n from models/params.h and psi on its half-turn manifold: the blocks

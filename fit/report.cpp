@@ -17,9 +17,61 @@
 
 namespace aniso {
 
+std::vector<std::string> map_files(const std::string& material_path) {
+  const std::string stem = std::filesystem::path(material_path).stem().string();
+  std::vector<std::string> f;
+  for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
+                        "coverage", "determined"})
+    f.push_back(stem + "_" + k + ".exr");
+  return f;
+}
+
+namespace {
+
+// --maps: the maps as FORMAT.md "Material maps" beside the material file, and their keys.
+void write_maps(const std::string& path, const TexelMaps& t, Material* m, jsonu::json* unc) {
+  if (path == "-") throw Error("fit: --maps writes map files beside the material: give --out a file");
+  const std::vector<std::string> f = map_files(path);
+  const std::string dir = parent_dir(path);
+  const size_t N = static_cast<size_t>(t.w) * t.h;
+  auto image = [&](int channels, auto value) {
+    Image img(t.w, t.h, channels);
+    for (size_t i = 0; i < N; ++i)
+      for (int c = 0; c < channels; ++c) img.px[channels * i + c] = static_cast<float>(value(i, c));
+    return img;
+  };
+  const double d2r = M_PI / 90;  // doubled angle, degrees to radians
+  write_exr(join_path(dir, f[0]), image(3, [&](size_t i, int c) { return t.kd[3 * i + c]; }));
+  write_exr(join_path(dir, f[1]), image(3, [&](size_t i, int c) { return t.ks[3 * i + c]; }));
+  write_exr(join_path(dir, f[2]), image(1, [&](size_t i, int) { return t.n[i]; }));
+  write_exr(join_path(dir, f[3]), image(2, [&](size_t i, int c) {
+              return c == 0 ? std::cos(d2r * t.psi_deg[i]) : std::sin(d2r * t.psi_deg[i]);
+            }));
+  write_exr(join_path(dir, f[4]), image(3, [&](size_t i, int c) { return t.kd_sigma[3 * i + c]; }));
+  write_exr(join_path(dir, f[5]), image(3, [&](size_t i, int c) { return t.ks_sigma[3 * i + c]; }));
+  write_exr(join_path(dir, f[6]), image(1, [&](size_t i, int) { return t.n_sigma[i]; }));
+  write_exr(join_path(dir, f[7]), image(1, [&](size_t i, int) { return t.psi_sigma_deg[i]; }));
+  write_exr(join_path(dir, f[8]), image(1, [&](size_t i, int) { return t.pixels[i]; }));
+  write_exr(join_path(dir, f[9]), image(1, [&](size_t i, int) { return t.determined[i]; }));
+  m->maps.kd_file = f[0];
+  m->maps.ks_file = f[1];
+  m->maps.n_file = f[2];
+  m->maps.fiber_file = f[3];
+  (*unc) = {{"kd", f[4]},       {"ks", f[5]},         {"n", f[6]},
+            {"fiber", f[7]},    {"coverage", f[8]},   {"determined", f[9]},
+            {"texels", {t.w, t.h}},
+            {"note", "one standard deviation per texel (fiber: R = sigma of psi in degrees); "
+                     "coverage: pixels per texel; determined = 0: not determined by the data, the "
+                     "global value is kept and sigma is the prior's spread"}};
+}
+
+}  // namespace
+
 void write_fit(const std::string& path, const FitResult& r) {
   jsonu::json j;
   Material m = r.material;
+  jsonu::json maps_unc;
+  if (r.maps.w > 0) write_maps(path, r.maps, &m, &maps_unc);
   std::string s_map_path;
   if (!r.s_texels.empty()) {
     // The map of s beside the material file: R = s, G = its sigma (-1 where undetermined).
@@ -31,6 +83,7 @@ void write_fit(const std::string& path, const FitResult& r) {
   if (auto* t = m.topology_as<TopologyMapRef>(); t && path != "-")
     t->file = relative_to(t->file, parent_dir(path));
   material_to_json(m, &j);
+  if (!maps_unc.is_null()) j["maps_uncertainty"] = maps_unc;
   if (!r.s_texels.empty()) j["topology"]["s_map_texels"] = r.s_texels_n;
   jsonu::json unc = jsonu::json::object();
   for (const auto& [key, v] : r.sigma) {

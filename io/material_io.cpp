@@ -1,9 +1,12 @@
 #include "io/material_io.h"
 
+#include <cmath>
 #include <filesystem>
+#include <memory>
 
 #include "core/angles.h"
 #include "io/files.h"
+#include "io/image_io.h"
 #include "io/json_util.h"
 #include "models/params.h"
 
@@ -119,6 +122,53 @@ void parse_topology(const json& j, const Ctx& root, Material* mp) {
   }
 }
 
+// "maps" (FORMAT.md "Material maps"): the file names here; read_material loads the images.
+void parse_maps(const json& j, const Ctx& root, Material* m) {
+  if (!j.contains("maps")) return;
+  const Ctx c = root.at("maps");
+  const json& b = j["maps"];
+  if (!b.is_object()) c.fail("expected an object");
+  jsonu::check_keys(b, {"kd", "ks", "n", "fiber", "s", "wrap"}, c);
+  MaterialMaps& mp = m->maps;
+  mp.kd_file = jsonu::str_or(b, "kd", "", c);
+  mp.ks_file = jsonu::str_or(b, "ks", "", c);
+  mp.n_file = jsonu::str_or(b, "n", "", c);
+  mp.fiber_file = jsonu::str_or(b, "fiber", "", c);
+  if (b.contains("s")) {
+    if (!m->fiber()) c.at("s").fail("a map of the topology s needs \"model\": \"fiber\"");
+    m->topology = SMapRef{jsonu::str(b["s"], c.at("s"))};
+  }
+  const std::string wrap = jsonu::str_or(b, "wrap", "clamp", c);
+  if (wrap != "clamp" && wrap != "repeat")
+    c.at("wrap").fail("unknown value '" + wrap + "' (clamp, repeat)");
+  mp.repeat = wrap == "repeat";
+}
+
+// Loads one map named in the material: a float image with at least `channels` channels, finite,
+// each value within the parameter's bounds (fiber: a unit-length doubled-angle vector, or near).
+std::shared_ptr<const Image> load_map(const std::string& path, const std::string& rel,
+                                      const std::string& key, int channels, const char* param) {
+  if (rel.empty()) return nullptr;
+  const std::string f = join_path(parent_dir(path), rel);
+  if (!std::filesystem::is_regular_file(f))
+    throw Error(path + ": maps." + key + ": map file not found: " + f +
+                " (paths in a material are relative to the material file)");
+  auto img = std::make_shared<Image>(read_image(f).image);
+  if (img->channels < channels && !(channels == 3 && img->channels == 1))
+    throw Error(path + ": maps." + key + ": " + f + " has " + std::to_string(img->channels) +
+                " channel(s), needs " + std::to_string(channels));
+  for (float v : img->px)
+    if (!std::isfinite(v)) throw Error(path + ": maps." + key + ": " + f + " holds a non-finite value");
+  if (param) {
+    const ParamSpec& p = line_param(param);
+    for (float v : img->px)
+      if (v < p.lo || v > p.hi)
+        throw Error(path + ": maps." + key + ": " + f + ": value " + std::to_string(v) +
+                    " outside [" + std::to_string(p.lo) + ", " + std::to_string(p.hi) + "]");
+  }
+  return img;
+}
+
 }  // namespace
 
 Material material_from_json(const json& j, const std::string& file) {
@@ -132,7 +182,8 @@ Material material_from_json(const json& j, const std::string& file) {
   jsonu::check_keys(
       j,
       {"format", "version", "model", "kd", "ks", "n", "fiber_angle_deg", "ka", "isotropic",
-       "second_fiber", "topology", "uncertainty", "fixed", "undetermined", "report"},
+       "second_fiber", "topology", "uncertainty", "fixed", "undetermined", "report", "maps",
+       "maps_uncertainty"},
       root);
   Material m;
   const std::string model = jsonu::str_or(j, "model", "line", root);
@@ -157,6 +208,7 @@ Material material_from_json(const json& j, const std::string& file) {
   }
   parse_optional_terms(j, root, &m);
   parse_topology(j, root, &m);
+  parse_maps(j, root, &m);
   return m;
 }
 
@@ -173,6 +225,11 @@ Material read_material(const std::string& path) {
   };
   if (const auto* t = m.topology_as<TopologyMapRef>()) need_file(true, t->file, "topology.map");
   if (const auto* t = m.topology_as<SMapRef>()) need_file(true, t->file, "topology.s_map");
+  MaterialMaps& mp = m.maps;
+  mp.kd = load_map(path, mp.kd_file, "kd", 3, "kd");
+  mp.ks = load_map(path, mp.ks_file, "ks", 3, "ks");
+  mp.n = load_map(path, mp.n_file, "n", 1, "n");
+  mp.fiber = load_map(path, mp.fiber_file, "fiber", 2, nullptr);
   return m;
 }
 
@@ -180,6 +237,8 @@ std::vector<std::string> material_input_files(const Material& m, const std::stri
   std::vector<std::string> f{path};
   if (const auto* t = m.topology_as<TopologyMapRef>()) f.push_back(join_path(m.base_dir, t->file));
   if (const auto* t = m.topology_as<SMapRef>()) f.push_back(join_path(m.base_dir, t->file));
+  for (const auto* rel : {&m.maps.kd_file, &m.maps.ks_file, &m.maps.n_file, &m.maps.fiber_file})
+    if (!rel->empty()) f.push_back(join_path(m.base_dir, *rel));
   return f;
 }
 
@@ -208,6 +267,16 @@ void material_to_json(const Material& m, json* out) {
     if (const auto* x = m.topology_as<SMapRef>()) t["s_map"] = x->file;
     t["mathematical"] = math_topology_name(m.mathematical());
     j["topology"] = t;
+  }
+  const MaterialMaps& mp = m.maps;
+  if (!mp.kd_file.empty() || !mp.ks_file.empty() || !mp.n_file.empty() || !mp.fiber_file.empty()) {
+    json maps = json::object();
+    if (!mp.kd_file.empty()) maps["kd"] = mp.kd_file;
+    if (!mp.ks_file.empty()) maps["ks"] = mp.ks_file;
+    if (!mp.n_file.empty()) maps["n"] = mp.n_file;
+    if (!mp.fiber_file.empty()) maps["fiber"] = mp.fiber_file;
+    maps["wrap"] = mp.repeat ? "repeat" : "clamp";
+    j["maps"] = maps;
   }
 }
 

@@ -3,8 +3,11 @@
 // the format does not allow cannot be built. Strings are parsed once, by the file reader.
 #pragma once
 #include <array>
+#include <memory>
 #include <string>
 #include <variant>
+
+#include "core/image.h"
 
 namespace aniso {
 
@@ -33,6 +36,16 @@ struct SMapRef {  // a map of s itself over uv (what `fit --topology-map N` writ
 };
 using Topology = std::variant<UniformS, MathematicalS, TopologyMapRef, SMapRef>;
 
+// Per-texel maps over the sample's texture coordinates (FORMAT.md "Material maps"): each present
+// map replaces its scalar wherever the sample has uv; the scalars hold the mean values. Images
+// are shared (a Material is copied freely). kd, ks: RGB; n: R; fiber: R,G = (cos 2psi, sin 2psi).
+struct MaterialMaps {
+  std::string kd_file, ks_file, n_file, fiber_file;  // as named in the file (relative to it)
+  std::shared_ptr<const Image> kd, ks, n, fiber;
+  bool repeat = false;  // wrap "repeat" (default "clamp")
+  bool any() const { return kd || ks || n || fiber; }
+};
+
 struct Material {
   Model model = Model::kLine;
   RGB kd{0.2, 0.2, 0.2};
@@ -49,6 +62,7 @@ struct Material {
   double second_angle_deg = 90.0;
   double second_weight = 0.5;
   Topology topology;           // the fiber model's; unused by the line model
+  MaterialMaps maps;           // spatially varying k_d, k_s, n, fiber direction (line model)
   std::string base_dir = ".";  // folder of the material file: relative map paths resolve here
 
   bool fiber() const { return model == Model::kFiber; }
