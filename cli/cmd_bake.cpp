@@ -31,6 +31,7 @@ Command add_bake(CLI::App& app) {
       ->check(CLI::IsMember({"angle", "cosine"}));
   return {bake, [a] {
             const Material m = read_material(a->mat);
+            note_material_maps(m, "bake");
             check_outputs_apart({a->out}, material_input_files(m, a->mat));
             check_output_folder(a->out);
             const BakeTables t = bake_line(m, a->size, parse_index(a->index));

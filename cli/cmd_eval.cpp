@@ -23,6 +23,7 @@ Command add_eval(CLI::App& app) {
       ->required();
   return {eval, [a] {
             const Material m = read_material(a->mat);
+            note_material_maps(m, "eval");
             SampleTable t = read_table(a->table);
             check_outputs_apart({a->out}, {a->mat, a->table});
             evaluate_table(m, &t);

@@ -72,6 +72,7 @@ int run(const PreviewArgs& a) {
   BakeFolder bake;
   if (!a.bake.empty()) bake = read_bake(a.bake);
   const Material m = a.bake.empty() ? read_material(a.mat) : bake.material;
+  note_material_maps(m, "preview");
   std::vector<std::string> inputs =
       a.bake.empty() ? material_input_files(m, a.mat) : std::vector<std::string>{a.bake};
   inputs.push_back(a.map);

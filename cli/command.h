@@ -54,5 +54,8 @@ Command add_import(CLI::App& app);
 
 // `--force`: a folder output may replace a folder holding files aniso did not write.
 void add_force_flag(CLI::App* sub);
+// Says on stderr that a material's maps (k_d, k_s, n, fiber over uv) are not used by `what`, which
+// takes the scalar (mean) values instead. Nothing when the material has no maps.
+void note_material_maps(const Material& m, const char* what);
 
 }  // namespace aniso::cli

@@ -46,6 +46,14 @@ Vec3 parse_vec(const std::string& s, const std::string& opt) {
   return v;
 }
 
+void note_material_maps(const Material& m, const char* what) {
+  if (!m.maps.any()) return;
+  std::fprintf(stderr,
+               "%s: NOTE: the material has maps (k_d, k_s, n or the fiber direction over uv); %s "
+               "uses its scalar (mean) values: per-texel maps are not carried here yet\n",
+               what, what);
+}
+
 void add_force_flag(CLI::App* sub) {
   sub->add_flag_callback(
       "--force", [] { set_force_overwrite(true); },

@@ -73,6 +73,18 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   rep.seconds_covariance = since(t_cov);
   if (opt.maps_w > 0) {
     res.maps = fit_texel_maps(os, m->core, opt.maps_w, opt.maps_h, opt.progress);
+    // The misfit check judged the one global parameter set; say what the maps leave.
+    for (auto& w : rep.warnings)
+      if (w.rfind("the model does not describe the data", 0) == 0) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf,
+                      "one parameter set for the whole sample does not describe the data (residual "
+                      "RMS %.3g); with the maps the residual RMS is %.3g (noise of the images %.3g)",
+                      rep.rms, res.maps.rms, os.pixel_noise);
+        w = buf;
+        if (res.maps.rms > 2 * os.pixel_noise && os.pixel_noise > 0)
+          w += ": the maps do not describe the data either (try more texels, or check the set)";
+      }
     size_t determined = 0;
     for (uint8_t d : res.maps.determined) determined += d;
     if (determined < res.maps.determined.size())

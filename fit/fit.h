@@ -55,6 +55,7 @@ struct TexelMaps {
   std::vector<int> pixels;           // observations (pixels) per texel
   std::vector<uint8_t> determined;   // 1 = fitted and determined by its data
   size_t fitted = 0;                 // texels with a problem solved
+  double rms = 0;                    // residual RMS over the solved texels' observations
   double seconds = 0;
 };
 

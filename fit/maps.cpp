@@ -64,6 +64,7 @@ struct TexelResult {
   Core c;
   double sigma[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // kd 3, ks 3, log n, psi
   bool determined = false;
+  double rss = 0, values = 0;
 };
 
 // One texel: solve, then sigmas from J^T J of its own problem.
@@ -95,6 +96,8 @@ TexelResult solve_texel(const ObsSet& os, const std::vector<size_t>& idx, const 
   double cost = 0;
   ceres::CRSMatrix J;
   if (!pb.Evaluate(eo, &cost, nullptr, nullptr, &J) || J.num_cols != 8) return t;
+  t.rss = 2 * cost;
+  t.values = J.num_rows;
   Eigen::Matrix<double, 8, 8> info = Eigen::Matrix<double, 8, 8>::Zero();
   for (int r = 0; r < J.num_rows; ++r)
     for (int a = J.rows[r]; a < J.rows[r + 1]; ++a)
@@ -143,6 +146,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, boo
   m.determined.assign(N, 0);
   Progress bar("fit --maps: texels", N, progress);
   std::atomic<size_t> fitted{0};
+  std::vector<double> rss(N, 0), values(N, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, N, 4), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t < r.end(); ++t) {
       m.pixels[t] = static_cast<int>(bins[t].size());
@@ -150,6 +154,8 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, boo
       res.c = global;
       if (bins[t].size() >= kMinTexelPixels) {
         res = solve_texel(os, bins[t], global);
+        rss[t] = res.rss;
+        values[t] = res.values;
         ++fitted;
       }
       m.determined[t] = res.determined;
@@ -168,6 +174,9 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, boo
     }
   });
   m.fitted = fitted;
+  double sr = 0, sv = 0;
+  for (size_t t = 0; t < N; ++t) sr += rss[t], sv += values[t];
+  m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return m;
 }

@@ -7,6 +7,7 @@
 #include "core/texture.h"
 #include "io/files.h"
 #include "io/image_io.h"
+#include "models/material_maps.h"
 #include "models/shade.h"
 #include "models/topology.h"
 
@@ -31,6 +32,10 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     const ViewData d = load_view(set, i, use_map ? &map : nullptr);
     if (!s_map.empty() && d.uv.empty())
       throw Error(set.file + ": the material's map of s needs the \"uv\" buffer");
+    if (m.maps.any() && d.uv.empty())
+      throw Error(set.file + ": views[" + std::to_string(i) +
+                  "]: the material has maps (k_d, k_s, n or fiber over uv); the view needs the "
+                  "\"uv\" buffer");
     const ViewSpec& v = set.views[i];
     ViewError e;
     double s2 = 0, sy = 0;
@@ -48,7 +53,10 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
                               ? d.mapv.px[p]
                               : sample_first_channel(s_map, d.uv.px[2 * p], d.uv.px[2 * p + 1]);
         const double topo = s_at(m, d.smath.px[p], mv);
-        shade_point(eval, sp, d.eye, v.lights, amb, topo, no_shadows, I, &cnt);
+        // A material with maps: its values at the pixel's texture coordinates.
+        const Evaluator local =
+            m.maps.any() ? Evaluator(material_at(m, d.uv.px[2 * p], d.uv.px[2 * p + 1])) : eval;
+        shade_point(local, sp, d.eye, v.lights, amb, topo, no_shadows, I, &cnt);
         for (int c = 0; c < 3; ++c) {
           const double err = v.exposure * I[c] - d.rgb.at(x, y, c);
           resid.at(x, y, c) = static_cast<float>(err);
