@@ -51,6 +51,7 @@ void load_material_maps(const Material& m, const std::string& map_override, Prev
 Command add_view(CLI::App& app);
 Command add_board(CLI::App& app);
 Command add_import(CLI::App& app);
+Command add_merge(CLI::App& app);
 
 // `--force`: a folder output may replace a folder holding files aniso did not write.
 void add_force_flag(CLI::App* sub);

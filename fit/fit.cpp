@@ -72,7 +72,12 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   rep.covariance = res.report.covariance;
   rep.seconds_covariance = since(t_cov);
   if (opt.maps_w > 0) {
-    res.maps = fit_texel_maps(os, m->core, opt.maps_w, opt.maps_h, opt.progress);
+    int row0 = 0, row1 = opt.maps_h;
+    if (opt.tile_count > 0) {
+      row0 = static_cast<int>(static_cast<long>(opt.maps_h) * opt.tile_index / opt.tile_count);
+      row1 = static_cast<int>(static_cast<long>(opt.maps_h) * (opt.tile_index + 1) / opt.tile_count);
+    }
+    res.maps = fit_texel_maps(os, m->core, opt.maps_w, opt.maps_h, row0, row1, opt.progress);
     // The misfit check judged the one global parameter set; say what the maps leave.
     for (auto& w : rep.warnings)
       if (w.rfind("the model does not describe the data", 0) == 0) {

@@ -42,6 +42,8 @@ struct FitOptions {
   // --maps WxH (line model): after the global fit, per-texel maps of k_d, k_s, n and psi over the
   // sample's texture coordinates (0 = none).
   int maps_w = 0, maps_h = 0;
+  // --tile i/N: fit only texel rows [i*H/N, (i+1)*H/N) of the maps (tile_count 0 = all).
+  int tile_index = 0, tile_count = 0;
 };
 
 // --maps: every texel's fit (row-major, glTF uv: texel (i, j) covers u in [i/W, (i+1)/W)). Texels
@@ -54,6 +56,7 @@ struct TexelMaps {
   std::vector<double> kd_sigma, ks_sigma, n_sigma, psi_sigma_deg;
   std::vector<int> pixels;           // observations (pixels) per texel
   std::vector<uint8_t> determined;   // 1 = fitted and determined by its data
+  int row0 = 0, row1 = 0;            // the texel rows this result holds (a tile: a band of rows)
   size_t fitted = 0;                 // texels with a problem solved
   double rms = 0;                    // residual RMS over the solved texels' observations
   double seconds = 0;
@@ -115,6 +118,13 @@ size_t export_observations(const CaptureSet& set, const FitOptions& opt, const s
 
 // The material file with "uncertainty", "fixed", "undetermined" and "report"; atomic.
 void write_fit(const std::string& path, const FitResult& r);
+
+// --tile: a self-describing tile of a maps fit (format "aniso-maps-tile": the tile, the grid, its
+// rows, the global fit as write_fit writes it, and every texel's numbers, doubles written
+// exactly), and `aniso merge`: tiles covering every row once, of one grid and one global fit,
+// joined into the material and its maps: the same files as an untiled run, bit for bit.
+void write_maps_tile(const std::string& path, const FitResult& r, const FitOptions& opt);
+void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& out);
 
 // A table of every parameter against the truth (value, sigma, error, error/sigma). Also returns
 // the worst relative errors through the optional pointers (for tests).

@@ -122,11 +122,14 @@ TexelResult solve_texel(const ObsSet& os, const std::vector<size_t>& idx, const 
 
 }  // namespace
 
-TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, bool progress) {
+TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, int row0, int row1,
+                         bool progress) {
   const auto t0 = std::chrono::steady_clock::now();
   TexelMaps m;
   m.w = w;
   m.h = h;
+  m.row0 = row0;
+  m.row1 = row1;
   const size_t N = static_cast<size_t>(w) * h;
   std::vector<std::vector<size_t>> bins(N);
   for (size_t i = 0; i < os.obs.size(); ++i) {
@@ -150,6 +153,11 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, boo
   tbb::parallel_for(tbb::blocked_range<size_t>(0, N, 4), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t < r.end(); ++t) {
       m.pixels[t] = static_cast<int>(bins[t].size());
+      const int row = static_cast<int>(t / w);
+      if (row < row0 || row >= row1) {  // another tile's
+        bar.advance();
+        continue;
+      }
       TexelResult res;
       res.c = global;
       if (bins[t].size() >= kMinTexelPixels) {

@@ -4,6 +4,8 @@
 
 namespace aniso::fitting {
 
-TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, bool progress);
+// Fits texel rows [row0, row1) of a w x h grid (the whole grid: 0, h).
+TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, int row0, int row1,
+                         bool progress);
 
 }  // namespace aniso::fitting

@@ -12,6 +12,7 @@
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
+#include "io/json_util.h"
 #include "io/material_io.h"
 #include "models/params.h"
 
@@ -28,8 +29,8 @@ std::vector<std::string> map_files(const std::string& material_path) {
 
 namespace {
 
-// --maps: the maps as FORMAT.md "Material maps" beside the material file, and their keys.
-void write_maps(const std::string& path, const TexelMaps& t, Material* m, jsonu::json* unc) {
+// --maps: the maps as FORMAT.md "Material maps" beside the material file, and their keys in j.
+void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
   if (path == "-") throw Error("fit: --maps writes map files beside the material: give --out a file");
   const std::vector<std::string> f = map_files(path);
   const std::string dir = parent_dir(path);
@@ -53,25 +54,20 @@ void write_maps(const std::string& path, const TexelMaps& t, Material* m, jsonu:
   write_exr(join_path(dir, f[7]), image(1, [&](size_t i, int) { return t.psi_sigma_deg[i]; }));
   write_exr(join_path(dir, f[8]), image(1, [&](size_t i, int) { return t.pixels[i]; }));
   write_exr(join_path(dir, f[9]), image(1, [&](size_t i, int) { return t.determined[i]; }));
-  m->maps.kd_file = f[0];
-  m->maps.ks_file = f[1];
-  m->maps.n_file = f[2];
-  m->maps.fiber_file = f[3];
-  (*unc) = {{"kd", f[4]},       {"ks", f[5]},         {"n", f[6]},
-            {"fiber", f[7]},    {"coverage", f[8]},   {"determined", f[9]},
-            {"texels", {t.w, t.h}},
-            {"note", "one standard deviation per texel (fiber: R = sigma of psi in degrees); "
-                     "coverage: pixels per texel; determined = 0: not determined by the data, the "
-                     "global value is kept and sigma is the prior's spread"}};
+  (*j)["maps"] = {{"kd", f[0]}, {"ks", f[1]}, {"n", f[2]}, {"fiber", f[3]}, {"wrap", "clamp"}};
+  (*j)["maps_uncertainty"] = {
+      {"kd", f[4]},       {"ks", f[5]},       {"n", f[6]},
+      {"fiber", f[7]},    {"coverage", f[8]}, {"determined", f[9]},
+      {"texels", {t.w, t.h}},
+      {"note", "one standard deviation per texel (fiber: R = sigma of psi in degrees); "
+               "coverage: pixels per texel; determined = 0: not determined by the data, the "
+               "global value is kept and sigma is the prior's spread"}};
 }
 
-}  // namespace
-
-void write_fit(const std::string& path, const FitResult& r) {
+// What write_fit writes, maps aside.
+jsonu::json fit_json(const std::string& path, const FitResult& r) {
   jsonu::json j;
   Material m = r.material;
-  jsonu::json maps_unc;
-  if (r.maps.w > 0) write_maps(path, r.maps, &m, &maps_unc);
   std::string s_map_path;
   if (!r.s_texels.empty()) {
     // The map of s beside the material file: R = s, G = its sigma (-1 where undetermined).
@@ -83,7 +79,6 @@ void write_fit(const std::string& path, const FitResult& r) {
   if (auto* t = m.topology_as<TopologyMapRef>(); t && path != "-")
     t->file = relative_to(t->file, parent_dir(path));
   material_to_json(m, &j);
-  if (!maps_unc.is_null()) j["maps_uncertainty"] = maps_unc;
   if (!r.s_texels.empty()) j["topology"]["s_map_texels"] = r.s_texels_n;
   jsonu::json unc = jsonu::json::object();
   for (const auto& [key, v] : r.sigma) {
@@ -144,7 +139,114 @@ void write_fit(const std::string& path, const FitResult& r) {
     }
     write_exr(s_map_path, img);
   }
+  return j;
+}
+
+}  // namespace
+
+void write_fit(const std::string& path, const FitResult& r) {
+  jsonu::json j = fit_json(path, r);
+  if (r.maps.w > 0) add_maps(path, r.maps, &j);
   write_json_file(path, j);
+}
+
+namespace {
+
+// The per-texel arrays of a TexelMaps, rows [row0, row1) of each (per-texel count `k`).
+struct TexelArray {
+  const char* key;
+  int k;
+  std::vector<double> TexelMaps::*d;
+};
+const TexelArray kTexelArrays[] = {
+    {"kd", 3, &TexelMaps::kd},           {"ks", 3, &TexelMaps::ks},
+    {"n", 1, &TexelMaps::n},             {"psi_deg", 1, &TexelMaps::psi_deg},
+    {"kd_sigma", 3, &TexelMaps::kd_sigma}, {"ks_sigma", 3, &TexelMaps::ks_sigma},
+    {"n_sigma", 1, &TexelMaps::n_sigma}, {"psi_sigma_deg", 1, &TexelMaps::psi_sigma_deg}};
+
+}  // namespace
+
+void write_maps_tile(const std::string& path, const FitResult& r, const FitOptions& opt) {
+  const TexelMaps& t = r.maps;
+  const size_t a = static_cast<size_t>(t.row0) * t.w, b = static_cast<size_t>(t.row1) * t.w;
+  jsonu::json values = jsonu::json::object();
+  for (const auto& arr : kTexelArrays) {
+    const std::vector<double>& v = t.*arr.d;
+    values[arr.key] = std::vector<double>(v.begin() + arr.k * a, v.begin() + arr.k * b);
+  }
+  values["pixels"] = std::vector<int>(t.pixels.begin() + a, t.pixels.begin() + b);
+  values["determined"] = std::vector<int>(t.determined.begin() + a, t.determined.begin() + b);
+  const jsonu::json j = {{"format", "aniso-maps-tile"},
+                         {"version", 1},
+                         {"tile", {opt.tile_index, opt.tile_count}},
+                         {"texels", {t.w, t.h}},
+                         {"rows", {t.row0, t.row1}},
+                         {"fitted", t.fitted},
+                         {"seconds", t.seconds},
+                         {"fit", fit_json(path, r)},
+                         {"values", values}};
+  write_json_file(path, j);
+}
+
+void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& out) {
+  if (tiles.empty()) throw Error("merge: no tiles given");
+  TexelMaps m;
+  jsonu::json fit;
+  int count = -1;
+  std::vector<int> seen;
+  for (const auto& path : tiles) try {
+    const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
+    const jsonu::Ctx c{path, ""};
+    if (!j.is_object() || j.value("format", "") != "aniso-maps-tile")
+      c.fail("not a tile of a maps fit (format \"aniso-maps-tile\", from aniso fit --maps --tile)");
+    const int i = j.at("tile").at(0), n = j.at("tile").at(1);
+    const int w = j.at("texels").at(0), h = j.at("texels").at(1);
+    const int r0 = j.at("rows").at(0), r1 = j.at("rows").at(1);
+    if (n < 1 || n > 100000 || w < 1 || h < 1 || w > 16384 || h > 16384)
+      c.fail("tile count or grid size out of range");
+    if (count < 0) {
+      count = n, m.w = w, m.h = h, fit = j["fit"];
+      seen.assign(n, 0);
+      const size_t N = static_cast<size_t>(w) * h;
+      for (const auto& arr : kTexelArrays) (m.*arr.d).assign(arr.k * N, 0.0);
+      m.pixels.assign(N, 0);
+      m.determined.assign(N, 0);
+      m.row0 = 0, m.row1 = h;
+    }
+    if (n != count || w != m.w || h != m.h)
+      c.fail("tile " + std::to_string(i) + "/" + std::to_string(n) + " of a " + std::to_string(w) +
+             "x" + std::to_string(h) + " grid does not belong with " + tiles[0]);
+    for (const char* k : {"kd", "ks", "n", "fiber_angle_deg", "model"})
+      if (j["fit"][k] != fit[k])
+        c.fail("its global fit differs from " + tiles[0] + " (\"" + k +
+               "\"): tiles of one merge must come from the same capture and options");
+    if (i < 0 || i >= n || seen[i]++) c.at("tile").fail("tile index repeated or out of range");
+    if (r0 != static_cast<int>(static_cast<long>(h) * i / n) ||
+        r1 != static_cast<int>(static_cast<long>(h) * (i + 1) / n))
+      c.at("rows").fail("rows do not match tile " + std::to_string(i) + " of " + std::to_string(n));
+    const size_t a = static_cast<size_t>(r0) * w, b = static_cast<size_t>(r1) * w;
+    const jsonu::json& v = j["values"];
+    for (const auto& arr : kTexelArrays) {
+      const auto vals = v.at(arr.key).get<std::vector<double>>();
+      if (vals.size() != arr.k * (b - a)) c.at(std::string("values.") + arr.key).fail("wrong length");
+      std::copy(vals.begin(), vals.end(), (m.*arr.d).begin() + arr.k * a);
+    }
+    const auto px = v.at("pixels").get<std::vector<int>>();
+    const auto det = v.at("determined").get<std::vector<int>>();
+    if (px.size() != b - a || det.size() != b - a) c.at("values").fail("wrong length");
+    std::copy(px.begin(), px.end(), m.pixels.begin() + a);
+    std::copy(det.begin(), det.end(), m.determined.begin() + a);
+    m.fitted += j["fitted"].get<size_t>();
+  } catch (const jsonu::json::exception& e) {
+    throw Error(path + ": not a readable tile: " + e.what());
+  }
+  for (int i = 0; i < count; ++i)
+    if (!seen[i])
+      throw Error("merge: tile " + std::to_string(i) + " of " + std::to_string(count) +
+                  " is missing: give every tile's file");
+  fit["report"]["merged_from_tiles"] = count;
+  add_maps(out, m, &fit);
+  write_json_file(out, fit);
 }
 
 std::string describe_fit(const FitResult& r) {

@@ -491,3 +491,46 @@ TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
 
 }  // namespace
 }  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// --tile i/N and `aniso merge`: three tiles joined give the untiled run's map files byte for byte;
+// a missing or foreign tile is refused.
+TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
+  const std::string dir = test::tmp_dir("tiles");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --out " + dir + "/whole.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::string tiles;
+  for (int i = 0; i < 3; ++i) {
+    const std::string t = dir + "/t" + std::to_string(i) + ".json";
+    r = test::run_cli("fit " + dir + "/set --maps 8x6 --tile " + std::to_string(i) + "/3 --out " + t);
+    ASSERT_EQ(r.status, 0) << r.output;
+    tiles += " " + t;
+  }
+  r = test::run_cli("merge" + tiles + " --out " + dir + "/merged.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
+                        "coverage", "determined"}) {
+    const std::string a = read_text_file(dir + "/whole_" + k + ".exr");
+    const std::string b = read_text_file(dir + "/merged_" + k + ".exr");
+    EXPECT_TRUE(a == b) << k << ": the merged map differs from the untiled one";
+  }
+  const Material m = read_material(dir + "/merged.json");
+  EXPECT_TRUE(m.maps.fiber && m.maps.kd);
+  r = test::run_cli("merge " + dir + "/t0.json " + dir + "/t2.json --out " + dir + "/bad.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("tile 1 of 3 is missing"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.json"));
+  r = test::run_cli("merge" + tiles + " " + dir + "/t1.json --out " + dir + "/bad.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("repeated"), std::string::npos) << r.output;
+  r = test::run_cli("fit " + dir + "/set --tile 0/2 --out " + dir + "/x.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("--maps"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace aniso

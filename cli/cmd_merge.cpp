@@ -1,0 +1,34 @@
+// aniso merge: the tiles of a `fit --maps --tile i/N` run joined into one material with maps.
+#include <cstdio>
+#include <memory>
+
+#include "cli/command.h"
+#include "core/error.h"
+#include "fit/fit.h"
+#include "io/files.h"
+
+namespace aniso::cli {
+
+Command add_merge(CLI::App& app) {
+  struct Args {
+    std::vector<std::string> tiles;
+    std::string out;
+  };
+  auto a = std::make_shared<Args>();
+  auto* c = app.add_subcommand(
+      "merge",
+      "Join the tiles of `aniso fit CAPTURE --maps WxH --tile i/N` (one file per tile) into the "
+      "material and its maps: the same files as one untiled run");
+  c->add_option("TILES", a->tiles, "every tile's file")->required();
+  c->add_option("--out", a->out, "material file to write (its maps go beside it)")->required();
+  return {c, [a] {
+            std::vector<std::string> outputs{a->out};
+            for (const auto& f : map_files(a->out)) outputs.push_back(join_path(parent_dir(a->out), f));
+            check_outputs_apart(outputs, a->tiles);
+            merge_maps_tiles(a->tiles, a->out);
+            std::printf("merge: %zu tiles -> %s (and its maps)\n", a->tiles.size(), a->out.c_str());
+            return 0;
+          }};
+}
+
+}  // namespace aniso::cli
