@@ -520,6 +520,12 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   }
   const Material m = read_material(dir + "/merged.json");
   EXPECT_TRUE(m.maps.fiber && m.maps.kd);
+  // The Slurm job-array script, run here task after task, gives the same maps.
+  r = test::sh("ANISO=\"$A\" " + std::string(ANISO_SOURCE_DIR) + "/scripts/slurm_maps.sh local " +
+               dir + "/set 8x6 3 " + dir + "/slurm");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(read_text_file(dir + "/slurm/material_fiber.exr") ==
+              read_text_file(dir + "/whole_fiber.exr"));
   r = test::run_cli("merge " + dir + "/t0.json " + dir + "/t2.json --out " + dir + "/bad.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("tile 1 of 3 is missing"), std::string::npos) << r.output;
