@@ -174,8 +174,25 @@ SphereBuffers sphere_buffers() {
   return b;
 }
 
+// A material with a fiber map: KHR_materials_anisotropy's anisotropyTexture, RG the direction in
+// the (tangent, bitangent) plane encoded to [0, 1] (across the fibers: psi + 90 deg, as the
+// rotation of the uniform case), B the strength (1: the factor applies). The rotation is then 0.
+Image anisotropy_texture(const Material& m) {
+  const Image& f = *m.maps.fiber;
+  Image out(f.width, f.height, 3);
+  for (int y = 0; y < f.height; ++y)
+    for (int x = 0; x < f.width; ++x) {
+      const double psi = 0.5 * std::atan2(f.at(x, y, 1), f.at(x, y, 0));
+      const double dir = psi + M_PI / 2;
+      out.at(x, y, 0) = static_cast<float>(0.5 + 0.5 * std::cos(dir));
+      out.at(x, y, 1) = static_cast<float>(0.5 + 0.5 * std::sin(dir));
+      out.at(x, y, 2) = 1.f;
+    }
+  return out;
+}
+
 json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b,
-                   const json& tables) {
+                   const json& tables, const std::string& anisotropy_png) {
   constexpr int kFloat = 5126, kUint = 5125, kArray = 34962, kElements = 34963;
   const size_t nv = b.vertices;
   json views = json::array(), accessors = json::array();
@@ -216,7 +233,18 @@ json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b
            {{"lobe_relative_rms", pbr.lobe_rel_rms},
             {"whole_model_relative_rms", pbr.total_rel_rms},
             {"mapping", pbr.mapping}}}}}}}};
-  return {{"asset", {{"version", "2.0"}, {"generator", "aniso export"}}},
+  json doc_extra = json::object();
+  if (!anisotropy_png.empty()) {
+    auto& ext = mat["extensions"]["KHR_materials_anisotropy"];
+    ext["anisotropyRotation"] = 0.0;
+    ext["anisotropyTexture"] = {{"index", 0}};
+    doc_extra["images"] = {{{"uri", anisotropy_png}}};
+    // Linear filtering, clamped at the border (FORMAT.md's default wrap for material maps).
+    doc_extra["samplers"] = {
+        {{"magFilter", 9729}, {"minFilter", 9729}, {"wrapS", 33071}, {"wrapT", 33071}}};
+    doc_extra["textures"] = {{{"sampler", 0}, {"source", 0}}};
+  }
+  json doc = {{"asset", {{"version", "2.0"}, {"generator", "aniso export"}}},
           {"extensionsUsed", {"KHR_materials_anisotropy"}},
           {"scene", 0},
           {"scenes", {{{"nodes", {0}}}}},
@@ -232,6 +260,8 @@ json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b
           {"buffers", {{{"uri", "sample.bin"}, {"byteLength", b.bin.size()}}}},
           {"bufferViews", views},
           {"accessors", accessors}};
+  doc.update(doc_extra);
+  return doc;
 }
 
 // The three.js viewer: the page, its module, and three itself (copied so the folder works
@@ -387,7 +417,13 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
     const SphereBuffers sphere = sphere_buffers();
     json gtables = json::object();
     for (const auto& [k, v] : tables.items()) gtables[k] = "../" + v["ktx2"].get<std::string>();
-    const json doc = gltf_document(m, sum.pbr, sphere, gtables);
+    std::string aniso_png;
+    if (m.maps.fiber) {  // the fiber map as glTF's anisotropyTexture (PNG: what glTF core takes)
+      aniso_png = "sample_anisotropy.png";
+      write_png(join_path(tmp, "gltf/" + aniso_png), anisotropy_texture(m), 8);
+      sum.files.push_back("gltf/" + aniso_png);
+    }
+    const json doc = gltf_document(m, sum.pbr, sphere, gtables, aniso_png);
     write_text_file(join_path(tmp, "gltf/sample.gltf"), doc.dump(2) + "\n");
     write_text_file(join_path(tmp, "gltf/sample.bin"),
                     std::string(sphere.bin.begin(), sphere.bin.end()));
