@@ -16,7 +16,7 @@ namespace aniso::cli {
 namespace {
 
 struct FitArgs {
-  std::string in, out, truth, maps, tile;
+  std::string in, out, truth, maps, tile, maps_solver = "lm";
   FitOptions fo;
 };
 
@@ -151,12 +151,18 @@ Command add_fit(CLI::App& app) {
   fit->add_option("--tile", a->tile,
                   "with --maps: fit only tile i of N (bands of texel rows) and write a tile file "
                   "to --out; `aniso merge` joins the tiles (the same maps as one run, bit for bit)");
+  fit->add_option("--maps-solver", a->maps_solver,
+                  "--maps: lm (a hand-written Levenberg-Marquardt per texel, the default) or "
+                  "ceres (one Ceres problem per texel: the reference, slower)")
+      ->check(CLI::IsMember({"lm", "ceres"}))
+      ->default_str("lm");
   fit->add_option("--maps", a->maps,
                   "line model: also fit per-texel maps of k_d, k_s, n and the fiber direction, WxH "
                   "texels over the sample's uv (written beside --out as EXR, FORMAT.md \"Material "
                   "maps\", with per-texel sigma, coverage and a determined mask)");
   return {fit, [a] {
             if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
+            a->fo.maps_ceres = a->maps_solver == "ceres";
             if (!a->tile.empty()) {
               const auto slash = a->tile.find('/');
               try {

@@ -77,7 +77,8 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
       row0 = static_cast<int>(static_cast<long>(opt.maps_h) * opt.tile_index / opt.tile_count);
       row1 = static_cast<int>(static_cast<long>(opt.maps_h) * (opt.tile_index + 1) / opt.tile_count);
     }
-    res.maps = fit_texel_maps(os, m->core, opt.maps_w, opt.maps_h, row0, row1, opt.progress);
+    res.maps = fit_texel_maps(os, m->core, opt.maps_w, opt.maps_h, row0, row1, opt.maps_ceres,
+                              opt.progress);
     // The misfit check judged the one global parameter set; say what the maps leave.
     for (auto& w : rep.warnings)
       if (w.rfind("the model does not describe the data", 0) == 0) {

@@ -44,6 +44,9 @@ struct FitOptions {
   int maps_w = 0, maps_h = 0;
   // --tile i/N: fit only texel rows [i*H/N, (i+1)*H/N) of the maps (tile_count 0 = all).
   int tile_index = 0, tile_count = 0;
+  // --maps-solver ceres: every texel by Ceres (the fitter of record) instead of the hand-written
+  // Levenberg-Marquardt (same function, bounds and start; the tests compare the two).
+  bool maps_ceres = false;
 };
 
 // --maps: every texel's fit (row-major, glTF uv: texel (i, j) covers u in [i/W, (i+1)/W)). Texels

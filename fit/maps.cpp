@@ -14,6 +14,7 @@
 #include "core/angles.h"
 #include "core/progress.h"
 #include "fit/maps.h"
+#include "fit/line_pixel.h"
 #include "fit/start.h"
 #include "models/params.h"
 
@@ -67,8 +68,32 @@ struct TexelResult {
   double rss = 0, values = 0;
 };
 
-// One texel: solve, then sigmas from J^T J of its own problem.
-TexelResult solve_texel(const ObsSet& os, const std::vector<size_t>& idx, const Core& global) {
+using Mat8 = Eigen::Matrix<double, 8, 8>;
+using Vec8 = Eigen::Matrix<double, 8, 1>;
+
+// sigmas from J^T J (`info`) and the residual sum of squares at the solution: the rank test on
+// the eigenvalues of the column-scaled matrix, then the diagonal of its inverse times s^2.
+void texel_sigmas(const Mat8& info, double rss, double values, TexelResult* t) {
+  t->rss = rss;
+  t->values = values;
+  const double dof = values - 8;
+  if (dof < 1) return;
+  const double s2 = rss / dof;
+  Vec8 scale;
+  for (int k = 0; k < 8; ++k) scale(k) = info(k, k) > 0 ? 1 / std::sqrt(info(k, k)) : 0;
+  const Mat8 scaled = scale.asDiagonal() * info * scale.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Mat8> eig(scaled);
+  const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
+  if (!(scale.minCoeff() > 0) || !(lo > kConditionLimit * hi)) return;
+  const Mat8 cov = scale.asDiagonal() * eig.eigenvectors() *
+                   eig.eigenvalues().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose() *
+                   scale.asDiagonal();
+  for (int k = 0; k < 8; ++k) t->sigma[k] = std::sqrt(std::max(cov(k, k), 0.0) * s2);
+  t->determined = rad_to_deg(t->sigma[7]) < kPsiUndeterminedDeg;
+}
+
+// One texel with Ceres (the fitter of record): solve, then J^T J of its own problem.
+TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& global) {
   TexelResult t;
   t.c = global;
   texel_start(os, idx, &t.c);
@@ -85,45 +110,110 @@ TexelResult solve_texel(const ObsSet& os, const std::vector<size_t>& idx, const 
   set_core_bounds(&pb, &c);
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = 50;
+  so.max_num_iterations = 100;
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
+  // Converged as far as double precision takes it, as the LM path: the reference to compare with.
+  so.function_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-14;
+  so.parameter_tolerance = 1e-12;
   ceres::Solver::Summary sum;
   ceres::Solve(so, &pb, &sum);
-  // J^T J in the tangent space of (kd, ks, log n, psi).
   ceres::Problem::EvaluateOptions eo;
   eo.parameter_blocks = {c.kd, c.ks, &c.logn, &c.psi};
   double cost = 0;
   ceres::CRSMatrix J;
   if (!pb.Evaluate(eo, &cost, nullptr, nullptr, &J) || J.num_cols != 8) return t;
-  t.rss = 2 * cost;
-  t.values = J.num_rows;
-  Eigen::Matrix<double, 8, 8> info = Eigen::Matrix<double, 8, 8>::Zero();
+  Mat8 info = Mat8::Zero();
   for (int r = 0; r < J.num_rows; ++r)
     for (int a = J.rows[r]; a < J.rows[r + 1]; ++a)
       for (int b = J.rows[r]; b < J.rows[r + 1]; ++b)
         info(J.cols[a], J.cols[b]) += J.values[a] * J.values[b];
-  const double dof = static_cast<double>(J.num_rows) - 8;
-  if (dof < 1) return t;
-  const double s2 = 2 * cost / dof;
-  Eigen::Matrix<double, 8, 1> scale;
-  for (int k = 0; k < 8; ++k) scale(k) = info(k, k) > 0 ? 1 / std::sqrt(info(k, k)) : 0;
-  const Eigen::Matrix<double, 8, 8> scaled = scale.asDiagonal() * info * scale.asDiagonal();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 8, 8>> eig(scaled);
-  const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
-  if (!(scale.minCoeff() > 0) || !(lo > kConditionLimit * hi)) return t;
-  const Eigen::Matrix<double, 8, 8> cov =
-      scale.asDiagonal() * eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
-      eig.eigenvectors().transpose() * scale.asDiagonal();
-  for (int k = 0; k < 8; ++k) t.sigma[k] = std::sqrt(std::max(cov(k, k), 0.0) * s2);
-  t.determined = rad_to_deg(t.sigma[7]) < kPsiUndeterminedDeg;
+  texel_sigmas(info, 2 * cost, J.num_rows, &t);
+  return t;
+}
+
+// The texel's parameters as one vector (k_d 3, k_s 3, log n, psi) and back.
+Vec8 pack(const Core& c) {
+  Vec8 x;
+  x << c.kd[0], c.kd[1], c.kd[2], c.ks[0], c.ks[1], c.ks[2], c.logn, c.psi;
+  return x;
+}
+void unpack(const Vec8& x, Core* c) {
+  for (int k = 0; k < 3; ++k) c->kd[k] = x(k), c->ks[k] = x(3 + k);
+  c->logn = x(6);
+  c->psi = x(7);
+}
+
+// Sum of squares, and (info, grad) = (J^T J, J^T r) when asked, in one pass over the texel.
+double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const Vec8& x, Mat8* info,
+                  Vec8* grad) {
+  if (info) info->setZero(), grad->setZero();
+  double rss = 0;
+  const double kd[3] = {x(0), x(1), x(2)}, ks[3] = {x(3), x(4), x(5)};
+  const LinePixelParams p{kd, ks, std::exp(x(6)), std::cos(x(7)), std::sin(x(7))};
+  for (size_t i : idx) {
+    PixelDerivs d;
+    line_pixel_derivs(os.obs[i], os.lights.data(), p, &d);
+    for (int k = 0; k < 3; ++k) {
+      rss += d.r[k] * d.r[k];
+      if (!info) continue;
+      // Row k of J: d k_d[k] at column k, d k_s[k] at 3 + k, d log n at 6, d psi at 7.
+      const int col[4] = {k, 3 + k, 6, 7};
+      const double v[4] = {d.dkd[k], d.dks[k], d.dlogn[k], d.dpsi[k]};
+      for (int a = 0; a < 4; ++a) {
+        (*grad)(col[a]) += v[a] * d.r[k];
+        for (int b = 0; b < 4; ++b) (*info)(col[a], col[b]) += v[a] * v[b];
+      }
+    }
+  }
+  return rss;
+}
+
+// One texel with a hand-written Levenberg-Marquardt (the fast path of --maps): the same
+// function (fit/line_pixel.h), the same bounds (projected) and the same start as the Ceres path;
+// the tests check that both reach the same minimum.
+TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& global) {
+  TexelResult t;
+  t.c = global;
+  texel_start(os, idx, &t.c);
+  Vec8 lo, hi;
+  for (int k = 0; k < 3; ++k) {
+    lo(k) = line_param("kd").lo, hi(k) = line_param("kd").hi;
+    lo(3 + k) = line_param("ks").lo, hi(3 + k) = line_param("ks").hi;
+  }
+  lo(6) = std::log(line_param("n").lo), hi(6) = std::log(line_param("n").hi);
+  lo(7) = -INFINITY, hi(7) = INFINITY;
+  Vec8 x = pack(t.c), grad;
+  Mat8 info;
+  double rss = texel_pass(os, idx, x, &info, &grad), lambda = 1e-3;
+  for (int it = 0; it < 100; ++it) {
+    Mat8 a = info;
+    a.diagonal() += lambda * info.diagonal().cwiseMax(1e-12);
+    const Vec8 step = a.ldlt().solve(-grad);
+    Vec8 xn = (x + step).cwiseMax(lo).cwiseMin(hi);
+    xn(7) = wrap_half_turn(xn(7));
+    const double rn = texel_pass(os, idx, xn, nullptr, nullptr);
+    if (rn < rss) {
+      const bool done = rss - rn <= 1e-12 * rss;
+      x = xn;
+      rss = texel_pass(os, idx, x, &info, &grad);
+      lambda = std::max(lambda / 3, 1e-12);
+      if (done) break;
+    } else {
+      lambda *= 4;
+      if (lambda > 1e12) break;
+    }
+  }
+  unpack(x, &t.c);
+  texel_sigmas(info, rss, 3.0 * idx.size(), &t);
   return t;
 }
 
 }  // namespace
 
 TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, int row0, int row1,
-                         bool progress) {
+                         bool ceres_path, bool progress) {
   const auto t0 = std::chrono::steady_clock::now();
   TexelMaps m;
   m.w = w;
@@ -161,7 +251,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, int
       TexelResult res;
       res.c = global;
       if (bins[t].size() >= kMinTexelPixels) {
-        res = solve_texel(os, bins[t], global);
+        res = ceres_path ? solve_texel_ceres(os, bins[t], global) : solve_texel_lm(os, bins[t], global);
         rss[t] = res.rss;
         values[t] = res.values;
         ++fitted;
