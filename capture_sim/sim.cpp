@@ -147,9 +147,9 @@ Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g,
         if (!frame_at(g.P, g.N, g.U, x, y, &sp)) continue;
         double I[3];
         // A material with maps is evaluated with its values at the pixel's texture coordinates.
-        const Evaluator local = truth.maps.any()
-                                    ? Evaluator(material_at(truth, g.uv.at(x, y, 0), g.uv.at(x, y, 1)))
-                                    : eval;
+        const Evaluator local =
+            truth.maps.any() ? Evaluator(material_at(truth, g.uv.at(x, y, 0), g.uv.at(x, y, 1)))
+                             : eval;
         shade_point(local, sp, eye, lights,
                     {truth.ka[0] * ambient[0], truth.ka[1] * ambient[1], truth.ka[2] * ambient[2]},
                     topo.at(x, y, 0), occluded, I, &cnt, &local_used);
@@ -352,6 +352,27 @@ CaptureSet set_header(const SimOptions& opt, double saturation) {
   return set;
 }
 
+// truth.json, with its maps (float EXR beside it) and the set's topology maps named.
+void write_truth(const std::string& dir, const Material& truth, const std::string& topology_map,
+                 bool s_map) {
+  Material truth_m = truth;
+  if (auto* t = truth_m.topology_as<TopologyMapRef>()) t->file = topology_map;
+  if (s_map) truth_m.topology = SMapRef{"maps/topology_s.png"};
+  MaterialMaps& mp = truth_m.maps;
+  auto put = [&](const std::shared_ptr<const Image>& img, std::string* file, const char* name) {
+    if (!img) return;
+    *file = std::string("maps/truth_") + name + ".exr";
+    write_exr(join_path(dir, *file), *img);
+  };
+  put(mp.kd, &mp.kd_file, "kd");
+  put(mp.ks, &mp.ks_file, "ks");
+  put(mp.n, &mp.n_file, "n");
+  put(mp.fiber, &mp.fiber_file, "fiber");
+  jsonu::json j;
+  material_to_json(truth_m, &j);
+  write_json_file(join_path(dir, "truth.json"), j);
+}
+
 }  // namespace
 
 SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
@@ -411,23 +432,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       set.views[i] = v;
       bar.advance();
     });
-    jsonu::json truth;
-    Material truth_m = opt.truth;
-    if (auto* t = truth_m.topology_as<TopologyMapRef>()) t->file = set.topology_map;
-    if (!s_map.empty()) truth_m.topology = SMapRef{"maps/topology_s.png"};
-    // The truth's maps go with it, as float EXR beside truth.json.
-    MaterialMaps& mp = truth_m.maps;
-    auto put = [&](const std::shared_ptr<const Image>& img, std::string* file, const char* name) {
-      if (!img) return;
-      *file = std::string("maps/truth_") + name + ".exr";
-      write_exr(join_path(dir, *file), *img);
-    };
-    put(mp.kd, &mp.kd_file, "kd");
-    put(mp.ks, &mp.ks_file, "ks");
-    put(mp.n, &mp.n_file, "n");
-    put(mp.fiber, &mp.fiber_file, "fiber");
-    material_to_json(truth_m, &truth);
-    write_json_file(join_path(dir, "truth.json"), truth);
+    write_truth(dir, opt.truth, set.topology_map, !s_map.empty());
     set.provenance = provenance(opt, st, lv.white, tr.fixed_camera);
     write_capture_json(set, join_path(dir, "capture.json"));
   });

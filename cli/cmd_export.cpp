@@ -33,7 +33,9 @@ Command add_export(CLI::App& app) {
   return {
       ex, [a] {
         const Material m = read_material(a->mat);
-            note_material_maps(m, "export (tables, shaders, viewer; its glTF takes the fiber map as anisotropyTexture)");
+        note_material_maps(
+            m,
+            "export (tables, shaders, viewer; its glTF takes the fiber map as anisotropyTexture)");
         check_outputs_apart({a->out}, material_input_files(m, a->mat));
         ExportOptions o;
         o.size = a->size;

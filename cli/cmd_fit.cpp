@@ -78,9 +78,11 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
     inputs.push_back(truth);
   }
   std::vector<std::string> outputs{out};
-  if (fo.tile_count > 0 && fo.maps_w == 0) throw Error("fit: --tile splits a --maps fit: give --maps WxH");
+  if (fo.tile_count > 0 && fo.maps_w == 0)
+    throw Error("fit: --tile splits a --maps fit: give --maps WxH");
   if (fo.maps_w > 0 && fo.tile_count == 0) {
-    if (out == "-") throw Error("fit: --maps writes map files beside the material: give --out a file");
+    if (out == "-")
+      throw Error("fit: --maps writes map files beside the material: give --out a file");
     for (const auto& f : map_files(out)) outputs.push_back(join_path(parent_dir(out), f));
   }
   check_outputs_apart(outputs, inputs);
@@ -89,7 +91,8 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   FILE* o = out == "-" ? stderr : stdout;
   if (fo.tile_count > 0) {
     write_maps_tile(out, r, fo);
-    std::fprintf(o, "fit: tile %d/%d: texel rows %d..%d of %dx%d, %zu texels solved in %.3f s -> %s\n",
+    std::fprintf(o,
+                 "fit: tile %d/%d: texel rows %d..%d of %dx%d, %zu texels solved in %.3f s -> %s\n",
                  fo.tile_index, fo.tile_count, r.maps.row0, r.maps.row1 - 1, r.maps.w, r.maps.h,
                  r.maps.fitted, r.maps.seconds, out.c_str());
     std::fprintf(o, "fit: then: aniso merge TILE.json... --out material.json\n");
@@ -148,9 +151,10 @@ Command add_fit(CLI::App& app) {
   fit->add_option("--max-iterations", fo.max_iterations, "solver iterations")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
-  fit->add_option("--tile", a->tile,
-                  "with --maps: fit only tile i of N (bands of texel rows) and write a tile file "
-                  "to --out; `aniso merge` joins the tiles (the same maps as one run, bit for bit)");
+  fit->add_option(
+      "--tile", a->tile,
+      "with --maps: fit only tile i of N (bands of texel rows) and write a tile file "
+      "to --out; `aniso merge` joins the tiles (the same maps as one run, bit for bit)");
   fit->add_option("--maps-solver", a->maps_solver,
                   "--maps: lm (a hand-written Levenberg-Marquardt per texel, the default) or "
                   "ceres (one Ceres problem per texel: the reference, slower)")
@@ -160,25 +164,25 @@ Command add_fit(CLI::App& app) {
                   "line model: also fit per-texel maps of k_d, k_s, n and the fiber direction, WxH "
                   "texels over the sample's uv (written beside --out as EXR, FORMAT.md \"Material "
                   "maps\", with per-texel sigma, coverage and a determined mask)");
-  return {fit, [a] {
-            if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
-            a->fo.maps_ceres = a->maps_solver == "ceres";
-            if (!a->tile.empty()) {
-              const auto slash = a->tile.find('/');
-              try {
-                if (slash == std::string::npos) throw std::invalid_argument("no /");
-                size_t used = 0;
-                a->fo.tile_index = std::stoi(a->tile.substr(0, slash), &used);
-                a->fo.tile_count = std::stoi(a->tile.substr(slash + 1));
-              } catch (const std::exception&) {
-                throw Error("fit: --tile must be i/N (e.g. 0/4), got '" + a->tile + "'");
-              }
-              if (a->fo.tile_count < 1 || a->fo.tile_index < 0 ||
-                  a->fo.tile_index >= a->fo.tile_count)
-                throw Error("fit: --tile i/N needs 0 <= i < N, got '" + a->tile + "'");
-            }
-            return run_fit(a->in, a->fo, a->out, a->truth);
-          }};
+  return {
+      fit, [a] {
+        if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
+        a->fo.maps_ceres = a->maps_solver == "ceres";
+        if (!a->tile.empty()) {
+          const auto slash = a->tile.find('/');
+          try {
+            if (slash == std::string::npos) throw std::invalid_argument("no /");
+            size_t used = 0;
+            a->fo.tile_index = std::stoi(a->tile.substr(0, slash), &used);
+            a->fo.tile_count = std::stoi(a->tile.substr(slash + 1));
+          } catch (const std::exception&) {
+            throw Error("fit: --tile must be i/N (e.g. 0/4), got '" + a->tile + "'");
+          }
+          if (a->fo.tile_count < 1 || a->fo.tile_index < 0 || a->fo.tile_index >= a->fo.tile_count)
+            throw Error("fit: --tile i/N needs 0 <= i < N, got '" + a->tile + "'");
+        }
+        return run_fit(a->in, a->fo, a->out, a->truth);
+      }};
 }
 
 }  // namespace aniso::cli

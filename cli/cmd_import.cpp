@@ -38,8 +38,8 @@ int run(const ImportArgs& a) {
         k.width, k.height, k.fx, k.fy, r.sigma[0], r.sigma[1], k.cx, k.cy, k.distortion[0],
         k.distortion[1], k.distortion[2], k.distortion[3], r.calibration_rms_px);
   else
-    std::printf("import: camera given in the shoot: %dx%d, fx %.2f fy %.2f px\n", k.width,
-                k.height, k.fx, k.fy);
+    std::printf("import: camera given in the shoot: %dx%d, fx %.2f fy %.2f px\n", k.width, k.height,
+                k.fx, k.fy);
   for (size_t i = 0; i < r.photos.size(); ++i) {
     const ImportedPhoto& p = r.photos[i];
     const std::string name = s.photos[i].images[0].file;

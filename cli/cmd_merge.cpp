@@ -23,7 +23,8 @@ Command add_merge(CLI::App& app) {
   c->add_option("--out", a->out, "material file to write (its maps go beside it)")->required();
   return {c, [a] {
             std::vector<std::string> outputs{a->out};
-            for (const auto& f : map_files(a->out)) outputs.push_back(join_path(parent_dir(a->out), f));
+            for (const auto& f : map_files(a->out))
+              outputs.push_back(join_path(parent_dir(a->out), f));
             check_outputs_apart(outputs, a->tiles);
             merge_maps_tiles(a->tiles, a->out);
             std::printf("merge: %zu tiles -> %s (and its maps)\n", a->tiles.size(), a->out.c_str());

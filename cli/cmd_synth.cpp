@@ -39,8 +39,10 @@ int run_photos(const SynthArgs& a) {
       "rays, %zu shadow rays, %.1f%% of codes saturated; %.2f s\n"
       "synth --photos: then: aniso import %s/shoot.json --out CAPTURE_DIR\n",
       a.preset.c_str(), a.out.c_str(), st.photos, o.bracket.size(), o.width, o.height,
-      o.dng ? "linear DNG" : o.raw16 ? "16-bit linear" : "8-bit sRGB", static_cast<unsigned long long>(o.seed),
-      st.primary_rays, st.shadow_rays,
+      o.dng     ? "linear DNG"
+      : o.raw16 ? "16-bit linear"
+                : "8-bit sRGB",
+      static_cast<unsigned long long>(o.seed), st.primary_rays, st.shadow_rays,
       100.0 * st.saturated_codes / (3.0 * o.width * o.height * st.images), st.seconds,
       a.out.c_str());
   return 0;

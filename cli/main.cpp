@@ -64,7 +64,7 @@ int main(int argc, char** argv) {
       cli::add_eval(app),    cli::add_bake(app),   cli::add_export(app),
       cli::add_preview(app), cli::add_verify(app), cli::add_microgeometry(app),
       cli::add_bench(app),   cli::add_params(app), cli::add_view(app),
-      cli::add_board(app), cli::add_import(app), cli::add_merge(app)};
+      cli::add_board(app),   cli::add_import(app), cli::add_merge(app)};
 
   if (argc > 1 && argv[1][0] != '-') {
     std::vector<std::string> names;

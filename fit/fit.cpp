@@ -3,7 +3,6 @@
 // numbers every model shares; the uncertainty comes from fit/uncertainty.cpp and the output from
 // fit/report.cpp.
 #include "fit/fit.h"
-#include "fit/maps.h"
 
 #include <unistd.h>
 
@@ -13,6 +12,7 @@
 
 #include "core/angles.h"
 #include "core/error.h"
+#include "fit/maps.h"
 #include "fit/solve.h"
 #include "fit/start.h"
 #include "io/files.h"
@@ -36,8 +36,9 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
   if (os.topology == TopologyMode::kTexels && m.model() != Model::kFiber)
     throw Error("fit: --topology-map fits the fiber model's topology: use it with --model fiber");
   if (opt.maps_w > 0 && (m.model() != Model::kLine || opt.fit_isotropic || opt.fit_second))
-    throw Error("fit: --maps fits the plain line model per texel: use it with --model line and "
-                "without --fit-isotropic / --fit-second-fiber");
+    throw Error(
+        "fit: --maps fits the plain line model per texel: use it with --model line and "
+        "without --fit-isotropic / --fit-second-fiber");
   if (opt.maps_w > 0 && os.topology == TopologyMode::kTexels)
     throw Error("fit: --maps and --topology-map do not go together");
   if (os.obs.empty())
@@ -75,7 +76,8 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
     int row0 = 0, row1 = opt.maps_h;
     if (opt.tile_count > 0) {
       row0 = static_cast<int>(static_cast<long>(opt.maps_h) * opt.tile_index / opt.tile_count);
-      row1 = static_cast<int>(static_cast<long>(opt.maps_h) * (opt.tile_index + 1) / opt.tile_count);
+      row1 =
+          static_cast<int>(static_cast<long>(opt.maps_h) * (opt.tile_index + 1) / opt.tile_count);
     }
     res.maps = fit_texel_maps(os, m->core, opt.maps_w, opt.maps_h, row0, row1, opt.maps_ceres,
                               opt.progress);
@@ -83,10 +85,11 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
     for (auto& w : rep.warnings)
       if (w.rfind("the model does not describe the data", 0) == 0) {
         char buf[200];
-        std::snprintf(buf, sizeof buf,
-                      "one parameter set for the whole sample does not describe the data (residual "
-                      "RMS %.3g); with the maps the residual RMS is %.3g (noise of the images %.3g)",
-                      rep.rms, res.maps.rms, os.pixel_noise);
+        std::snprintf(
+            buf, sizeof buf,
+            "one parameter set for the whole sample does not describe the data (residual "
+            "RMS %.3g); with the maps the residual RMS is %.3g (noise of the images %.3g)",
+            rep.rms, res.maps.rms, os.pixel_noise);
         w = buf;
         if (res.maps.rms > 2 * os.pixel_noise && os.pixel_noise > 0)
           w += ": the maps do not describe the data either (try more texels, or check the set)";

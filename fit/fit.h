@@ -54,14 +54,14 @@ struct FitOptions {
 // width of the parameter's bounds / sqrt 12) and determined = 0.
 struct TexelMaps {
   int w = 0, h = 0;
-  std::vector<double> kd, ks;        // 3 per texel
-  std::vector<double> n, psi_deg;    // 1 per texel
+  std::vector<double> kd, ks;      // 3 per texel
+  std::vector<double> n, psi_deg;  // 1 per texel
   std::vector<double> kd_sigma, ks_sigma, n_sigma, psi_sigma_deg;
-  std::vector<int> pixels;           // observations (pixels) per texel
-  std::vector<uint8_t> determined;   // 1 = fitted and determined by its data
-  int row0 = 0, row1 = 0;            // the texel rows this result holds (a tile: a band of rows)
-  size_t fitted = 0;                 // texels with a problem solved
-  double rms = 0;                    // residual RMS over the solved texels' observations
+  std::vector<int> pixels;          // observations (pixels) per texel
+  std::vector<uint8_t> determined;  // 1 = fitted and determined by its data
+  int row0 = 0, row1 = 0;           // the texel rows this result holds (a tile: a band of rows)
+  size_t fitted = 0;                // texels with a problem solved
+  double rms = 0;                   // residual RMS over the solved texels' observations
   double seconds = 0;
 };
 

@@ -12,8 +12,8 @@
 namespace aniso::fitting {
 
 struct PixelDerivs {
-  double r[3];                                  // residual per channel
-  double dkd[3], dks[3], dlogn[3], dpsi[3];      // d r_k / d k_d[k], d k_s[k], d log n, d psi
+  double r[3];                               // residual per channel
+  double dkd[3], dks[3], dlogn[3], dpsi[3];  // d r_k / d k_d[k], d k_s[k], d log n, d psi
 };
 
 // sqrt(1 - a^2) and its derivative, with the chord of models/safe_math.h near |a| = 1.
@@ -77,8 +77,8 @@ inline void line_pixel_derivs(const Observation& o, const ObsLight* lights,
 
 inline void line_pixel_derivs(const Observation& o, const ObsLight* lights, const double kd[3],
                               const double ks[3], double logn, double psi, PixelDerivs* d) {
-  line_pixel_derivs(o, lights, LinePixelParams{kd, ks, std::exp(logn), std::cos(psi), std::sin(psi)},
-                    d);
+  line_pixel_derivs(o, lights,
+                    LinePixelParams{kd, ks, std::exp(logn), std::cos(psi), std::sin(psi)}, d);
 }
 
 }  // namespace aniso::fitting

@@ -4,6 +4,8 @@
 // solved by Ceres (the fitter of record) and given sigmas from its normal equations. A texel
 // whose data do not determine it keeps the global values, marked, with the prior's spread as its
 // sigma: never a confident number it did not earn.
+#include "fit/maps.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -13,7 +15,6 @@
 
 #include "core/angles.h"
 #include "core/progress.h"
-#include "fit/maps.h"
 #include "fit/line_pixel.h"
 #include "fit/start.h"
 #include "models/params.h"
@@ -36,23 +37,9 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, Core* c) {
   const double n = std::exp(c->logn);
   double best = INFINITY;
   for (int ip = 0; ip < 36; ++ip) {
-    const double psi = ip * M_PI / 36, cp = std::cos(psi), sp = std::sin(psi);
+    const double psi = ip * M_PI / 36;
     double kd[3], ks[3];
-    const double cost = solve_kd_ks(
-        os, idx,
-        [&](const Observation& o, double* dcol, double* scol) {
-          const double b = cp * o.V.u + sp * o.V.w;
-          for (uint32_t k = 0; k < o.num_lights; ++k) {
-            const ObsLight& l = os.lights[o.first_light + k];
-            double D, S;
-            line_DS(cp * l.L.u + sp * l.L.w, b, n, &D, &S);
-            for (int ch = 0; ch < 3; ++ch) {
-              dcol[ch] += l.E[ch] * l.L.n * D;
-              scol[ch] += l.E[ch] * l.L.n * S;
-            }
-          }
-        },
-        kd, ks);
+    const double cost = line_node_cost(os, idx, psi, n, kd, ks);
     if (cost < best) {
       best = cost;
       c->psi = psi;
@@ -93,7 +80,8 @@ void texel_sigmas(const Mat8& info, double rss, double values, TexelResult* t) {
 }
 
 // One texel with Ceres (the fitter of record): solve, then J^T J of its own problem.
-TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& global) {
+TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx,
+                              const Core& global) {
   TexelResult t;
   t.c = global;
   texel_start(os, idx, &t.c);
@@ -103,8 +91,8 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, 
   double dummy[2] = {0, 0};
   Core& c = t.c;
   for (size_t i : idx)
-    pb.AddResidualBlock(line_pixel_cost(&os.obs[i], os.lights.data()), nullptr, c.kd, c.ks,
-                        &c.logn, &c.psi, &dummy[0], &dummy[1]);
+    pb.AddResidualBlock(line_pixel_cost(&os.obs[i], os.lights.data()), nullptr, c.kd, c.ks, &c.logn,
+                        &c.psi, &dummy[0], &dummy[1]);
   pb.SetParameterBlockConstant(&dummy[0]);
   pb.SetParameterBlockConstant(&dummy[1]);
   set_core_bounds(&pb, &c);
@@ -251,7 +239,8 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, int
       TexelResult res;
       res.c = global;
       if (bins[t].size() >= kMinTexelPixels) {
-        res = ceres_path ? solve_texel_ceres(os, bins[t], global) : solve_texel_lm(os, bins[t], global);
+        res = ceres_path ? solve_texel_ceres(os, bins[t], global)
+                         : solve_texel_lm(os, bins[t], global);
         rss[t] = res.rss;
         values[t] = res.values;
         ++fitted;

@@ -144,7 +144,8 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   if (opt.maps_w > 0)
     for (size_t i = 0; i < set.views.size(); ++i)
       if (set.views[i].geometry.uv.empty())
-        throw Error(set.file + ": views[" + std::to_string(i) + "]: --maps needs texture "
+        throw Error(set.file + ": views[" + std::to_string(i) +
+                    "]: --maps needs texture "
                     "coordinates: a \"uv\" buffer in every view's geometry");
   TopologyMap map;
   if (os.topology == TopologyMode::kAmplitude) map = load_topology_map(os.topology_map);

@@ -12,7 +12,6 @@
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
-#include "io/json_util.h"
 #include "io/material_io.h"
 #include "models/params.h"
 
@@ -31,7 +30,8 @@ namespace {
 
 // --maps: the maps as FORMAT.md "Material maps" beside the material file, and their keys in j.
 void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
-  if (path == "-") throw Error("fit: --maps writes map files beside the material: give --out a file");
+  if (path == "-")
+    throw Error("fit: --maps writes map files beside the material: give --out a file");
   const std::vector<std::string> f = map_files(path);
   const std::string dir = parent_dir(path);
   const size_t N = static_cast<size_t>(t.w) * t.h;
@@ -56,12 +56,17 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
   write_exr(join_path(dir, f[9]), image(1, [&](size_t i, int) { return t.determined[i]; }));
   (*j)["maps"] = {{"kd", f[0]}, {"ks", f[1]}, {"n", f[2]}, {"fiber", f[3]}, {"wrap", "clamp"}};
   (*j)["maps_uncertainty"] = {
-      {"kd", f[4]},       {"ks", f[5]},       {"n", f[6]},
-      {"fiber", f[7]},    {"coverage", f[8]}, {"determined", f[9]},
+      {"kd", f[4]},
+      {"ks", f[5]},
+      {"n", f[6]},
+      {"fiber", f[7]},
+      {"coverage", f[8]},
+      {"determined", f[9]},
       {"texels", {t.w, t.h}},
-      {"note", "one standard deviation per texel (fiber: R = sigma of psi in degrees); "
-               "coverage: pixels per texel; determined = 0: not determined by the data, the "
-               "global value is kept and sigma is the prior's spread"}};
+      {"note",
+       "one standard deviation per texel (fiber: R = sigma of psi in degrees); "
+       "coverage: pixels per texel; determined = 0: not determined by the data, the "
+       "global value is kept and sigma is the prior's spread"}};
 }
 
 // What write_fit writes, maps aside.
@@ -158,11 +163,14 @@ struct TexelArray {
   int k;
   std::vector<double> TexelMaps::*d;
 };
-const TexelArray kTexelArrays[] = {
-    {"kd", 3, &TexelMaps::kd},           {"ks", 3, &TexelMaps::ks},
-    {"n", 1, &TexelMaps::n},             {"psi_deg", 1, &TexelMaps::psi_deg},
-    {"kd_sigma", 3, &TexelMaps::kd_sigma}, {"ks_sigma", 3, &TexelMaps::ks_sigma},
-    {"n_sigma", 1, &TexelMaps::n_sigma}, {"psi_sigma_deg", 1, &TexelMaps::psi_sigma_deg}};
+const TexelArray kTexelArrays[] = {{"kd", 3, &TexelMaps::kd},
+                                   {"ks", 3, &TexelMaps::ks},
+                                   {"n", 1, &TexelMaps::n},
+                                   {"psi_deg", 1, &TexelMaps::psi_deg},
+                                   {"kd_sigma", 3, &TexelMaps::kd_sigma},
+                                   {"ks_sigma", 3, &TexelMaps::ks_sigma},
+                                   {"n_sigma", 1, &TexelMaps::n_sigma},
+                                   {"psi_sigma_deg", 1, &TexelMaps::psi_sigma_deg}};
 
 }  // namespace
 
@@ -195,51 +203,55 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
   int count = -1;
   std::vector<int> seen;
   for (const auto& path : tiles) try {
-    const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
-    const jsonu::Ctx c{path, ""};
-    if (!j.is_object() || j.value("format", "") != "aniso-maps-tile")
-      c.fail("not a tile of a maps fit (format \"aniso-maps-tile\", from aniso fit --maps --tile)");
-    const int i = j.at("tile").at(0), n = j.at("tile").at(1);
-    const int w = j.at("texels").at(0), h = j.at("texels").at(1);
-    const int r0 = j.at("rows").at(0), r1 = j.at("rows").at(1);
-    if (n < 1 || n > 100000 || w < 1 || h < 1 || w > 16384 || h > 16384)
-      c.fail("tile count or grid size out of range");
-    if (count < 0) {
-      count = n, m.w = w, m.h = h, fit = j["fit"];
-      seen.assign(n, 0);
-      const size_t N = static_cast<size_t>(w) * h;
-      for (const auto& arr : kTexelArrays) (m.*arr.d).assign(arr.k * N, 0.0);
-      m.pixels.assign(N, 0);
-      m.determined.assign(N, 0);
-      m.row0 = 0, m.row1 = h;
+      const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
+      const jsonu::Ctx c{path, ""};
+      if (!j.is_object() || j.value("format", "") != "aniso-maps-tile")
+        c.fail(
+            "not a tile of a maps fit (format \"aniso-maps-tile\", from aniso fit --maps --tile)");
+      const int i = j.at("tile").at(0), n = j.at("tile").at(1);
+      const int w = j.at("texels").at(0), h = j.at("texels").at(1);
+      const int r0 = j.at("rows").at(0), r1 = j.at("rows").at(1);
+      if (n < 1 || n > 100000 || w < 1 || h < 1 || w > 16384 || h > 16384)
+        c.fail("tile count or grid size out of range");
+      if (count < 0) {
+        count = n, m.w = w, m.h = h, fit = j["fit"];
+        seen.assign(n, 0);
+        const size_t N = static_cast<size_t>(w) * h;
+        for (const auto& arr : kTexelArrays) (m.*arr.d).assign(arr.k * N, 0.0);
+        m.pixels.assign(N, 0);
+        m.determined.assign(N, 0);
+        m.row0 = 0, m.row1 = h;
+      }
+      if (n != count || w != m.w || h != m.h)
+        c.fail("tile " + std::to_string(i) + "/" + std::to_string(n) + " of a " +
+               std::to_string(w) + "x" + std::to_string(h) + " grid does not belong with " +
+               tiles[0]);
+      for (const char* k : {"kd", "ks", "n", "fiber_angle_deg", "model"})
+        if (j["fit"][k] != fit[k])
+          c.fail("its global fit differs from " + tiles[0] + " (\"" + k +
+                 "\"): tiles of one merge must come from the same capture and options");
+      if (i < 0 || i >= n || seen[i]++) c.at("tile").fail("tile index repeated or out of range");
+      if (r0 != static_cast<int>(static_cast<long>(h) * i / n) ||
+          r1 != static_cast<int>(static_cast<long>(h) * (i + 1) / n))
+        c.at("rows").fail("rows do not match tile " + std::to_string(i) + " of " +
+                          std::to_string(n));
+      const size_t a = static_cast<size_t>(r0) * w, b = static_cast<size_t>(r1) * w;
+      const jsonu::json& v = j["values"];
+      for (const auto& arr : kTexelArrays) {
+        const auto vals = v.at(arr.key).get<std::vector<double>>();
+        if (vals.size() != arr.k * (b - a))
+          c.at(std::string("values.") + arr.key).fail("wrong length");
+        std::copy(vals.begin(), vals.end(), (m.*arr.d).begin() + arr.k * a);
+      }
+      const auto px = v.at("pixels").get<std::vector<int>>();
+      const auto det = v.at("determined").get<std::vector<int>>();
+      if (px.size() != b - a || det.size() != b - a) c.at("values").fail("wrong length");
+      std::copy(px.begin(), px.end(), m.pixels.begin() + a);
+      std::copy(det.begin(), det.end(), m.determined.begin() + a);
+      m.fitted += j["fitted"].get<size_t>();
+    } catch (const jsonu::json::exception& e) {
+      throw Error(path + ": not a readable tile: " + e.what());
     }
-    if (n != count || w != m.w || h != m.h)
-      c.fail("tile " + std::to_string(i) + "/" + std::to_string(n) + " of a " + std::to_string(w) +
-             "x" + std::to_string(h) + " grid does not belong with " + tiles[0]);
-    for (const char* k : {"kd", "ks", "n", "fiber_angle_deg", "model"})
-      if (j["fit"][k] != fit[k])
-        c.fail("its global fit differs from " + tiles[0] + " (\"" + k +
-               "\"): tiles of one merge must come from the same capture and options");
-    if (i < 0 || i >= n || seen[i]++) c.at("tile").fail("tile index repeated or out of range");
-    if (r0 != static_cast<int>(static_cast<long>(h) * i / n) ||
-        r1 != static_cast<int>(static_cast<long>(h) * (i + 1) / n))
-      c.at("rows").fail("rows do not match tile " + std::to_string(i) + " of " + std::to_string(n));
-    const size_t a = static_cast<size_t>(r0) * w, b = static_cast<size_t>(r1) * w;
-    const jsonu::json& v = j["values"];
-    for (const auto& arr : kTexelArrays) {
-      const auto vals = v.at(arr.key).get<std::vector<double>>();
-      if (vals.size() != arr.k * (b - a)) c.at(std::string("values.") + arr.key).fail("wrong length");
-      std::copy(vals.begin(), vals.end(), (m.*arr.d).begin() + arr.k * a);
-    }
-    const auto px = v.at("pixels").get<std::vector<int>>();
-    const auto det = v.at("determined").get<std::vector<int>>();
-    if (px.size() != b - a || det.size() != b - a) c.at("values").fail("wrong length");
-    std::copy(px.begin(), px.end(), m.pixels.begin() + a);
-    std::copy(det.begin(), det.end(), m.determined.begin() + a);
-    m.fitted += j["fitted"].get<size_t>();
-  } catch (const jsonu::json::exception& e) {
-    throw Error(path + ": not a readable tile: " + e.what());
-  }
   for (int i = 0; i < count; ++i)
     if (!seen[i])
       throw Error("merge: tile " + std::to_string(i) + " of " + std::to_string(count) +

@@ -16,6 +16,26 @@ void set_start_kd_ks(const double kd[3], const double ks[3], Core* c) {
   }
 }
 
+double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, double psi, double n,
+                      double kd[3], double ks[3]) {
+  const double c = std::cos(psi), s = std::sin(psi);
+  return solve_kd_ks(
+      os, subset,
+      [&](const Observation& o, double* dcol, double* scol) {
+        const double b = c * o.V.u + s * o.V.w;
+        for (uint32_t k = 0; k < o.num_lights; ++k) {
+          const ObsLight& l = os.lights[o.first_light + k];
+          double D, S;
+          line_DS(c * l.L.u + s * l.L.w, b, n, &D, &S);
+          for (int ch = 0; ch < 3; ++ch) {
+            dcol[ch] += l.E[ch] * l.L.n * D;
+            scol[ch] += l.E[ch] * l.L.n * S;
+          }
+        }
+      },
+      kd, ks);
+}
+
 std::string line_grid_start(const ObsSet& os, Core* st, bool progress) {
   Progress bar("fit: start grid (psi x n)", 36, progress);
   const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
@@ -23,25 +43,10 @@ std::string line_grid_start(const ObsSet& os, Core* st, bool progress) {
   double best_psi = 0, best_logn = 0, best_kd[3] = {0, 0, 0}, best_ks[3] = {0, 0, 0};
   for (int ip = 0; ip < 36; ++ip, bar.advance()) {
     const double psi = ip * M_PI / 36;
-    const double c = std::cos(psi), s = std::sin(psi);
     for (int in = 1; in <= 12; ++in) {
       const double n = std::pow(2.0, in);
       double kd[3], ks[3];
-      const double cost = solve_kd_ks(
-          os, subset,
-          [&](const Observation& o, double* dcol, double* scol) {
-            const double b = c * o.V.u + s * o.V.w;
-            for (uint32_t k = 0; k < o.num_lights; ++k) {
-              const ObsLight& l = os.lights[o.first_light + k];
-              double D, S;
-              line_DS(c * l.L.u + s * l.L.w, b, n, &D, &S);
-              for (int ch = 0; ch < 3; ++ch) {
-                dcol[ch] += l.E[ch] * l.L.n * D;
-                scol[ch] += l.E[ch] * l.L.n * S;
-              }
-            }
-          },
-          kd, ks);
+      const double cost = line_node_cost(os, subset, psi, n, kd, ks);
       if (cost < best) {
         best = cost;
         best_psi = psi;

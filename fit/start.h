@@ -61,6 +61,11 @@ double solve_kd_ks(const ObsSet& os, const std::vector<size_t>& subset, Cols col
   return cost;
 }
 
+// The line model at one grid node (psi, n): k_d, k_s in closed form over `subset`; the sum of
+// squares.
+double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, double psi, double n,
+                      double kd[3], double ks[3]);
+
 // Keeps the start strictly inside the bounds so the solver can move both ways.
 void set_start_kd_ks(const double kd[3], const double ks[3], Core* c);
 

@@ -1,9 +1,9 @@
 // libFuzzer target: every file reader on arbitrary bytes. The first byte picks the reader
-// (capture.json, material, sample table, image, OBJ, photo shoot); the rest is the file. A reader may reject
-// the file with aniso::Error; anything else (a crash, another exception, a sanitizer report) is a
-// bug. Build and run: scripts/fuzz.sh. With ANISO_FUZZ_SET naming a real capture folder, its
-// files are copied beside the fuzzed capture.json first, so a mutated capture.json that still
-// names them reaches image decoding and the per-pixel checks (the corpus holds that set's
+// (capture.json, material, sample table, image, OBJ, photo shoot); the rest is the file. A reader
+// may reject the file with aniso::Error; anything else (a crash, another exception, a sanitizer
+// report) is a bug. Build and run: scripts/fuzz.sh. With ANISO_FUZZ_SET naming a real capture
+// folder, its files are copied beside the fuzzed capture.json first, so a mutated capture.json that
+// still names them reaches image decoding and the per-pixel checks (the corpus holds that set's
 // capture.json, and real PNG and EXR files).
 #include <unistd.h>
 

@@ -158,7 +158,8 @@ std::shared_ptr<const Image> load_map(const std::string& path, const std::string
     throw Error(path + ": maps." + key + ": " + f + " has " + std::to_string(img->channels) +
                 " channel(s), needs " + std::to_string(channels));
   for (float v : img->px)
-    if (!std::isfinite(v)) throw Error(path + ": maps." + key + ": " + f + " holds a non-finite value");
+    if (!std::isfinite(v))
+      throw Error(path + ": maps." + key + ": " + f + " holds a non-finite value");
   if (param) {
     const ParamSpec& p = line_param(param);
     for (float v : img->px)
@@ -179,12 +180,11 @@ Material material_from_json(const json& j, const std::string& file) {
     root.at("format").fail("expected \"aniso-material\", got \"" + format + "\"");
   const double version = jsonu::num(jsonu::need(j, "version", root), root.at("version"));
   if (version != 1) root.at("version").fail("unsupported version (this reader knows 1)");
-  jsonu::check_keys(
-      j,
-      {"format", "version", "model", "kd", "ks", "n", "fiber_angle_deg", "ka", "isotropic",
-       "second_fiber", "topology", "uncertainty", "fixed", "undetermined", "report", "maps",
-       "maps_uncertainty"},
-      root);
+  jsonu::check_keys(j,
+                    {"format", "version", "model", "kd", "ks", "n", "fiber_angle_deg", "ka",
+                     "isotropic", "second_fiber", "topology", "uncertainty", "fixed",
+                     "undetermined", "report", "maps", "maps_uncertainty"},
+                    root);
   Material m;
   const std::string model = jsonu::str_or(j, "model", "line", root);
   if (model == "line")

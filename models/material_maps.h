@@ -17,8 +17,10 @@ inline double map_lookup(const Image& img, double u, double v, int c, bool repea
     if (repeat) return static_cast<int>(((i % n) + n) % n);
     return static_cast<int>(std::clamp<long>(i, 0, n - 1));
   };
-  const int x0 = idx(static_cast<long>(fx), img.width), x1 = idx(static_cast<long>(fx) + 1, img.width);
-  const int y0 = idx(static_cast<long>(fy), img.height), y1 = idx(static_cast<long>(fy) + 1, img.height);
+  const int x0 = idx(static_cast<long>(fx), img.width),
+            x1 = idx(static_cast<long>(fx) + 1, img.width);
+  const int y0 = idx(static_cast<long>(fy), img.height),
+            y1 = idx(static_cast<long>(fy) + 1, img.height);
   return (1 - tx) * (1 - ty) * img.at(x0, y0, c) + tx * (1 - ty) * img.at(x1, y0, c) +
          (1 - tx) * ty * img.at(x0, y1, c) + tx * ty * img.at(x1, y1, c);
 }

@@ -12,7 +12,8 @@ namespace aniso {
 
 namespace {
 
-void to_cv(const std::vector<BoardCorner>& in, std::vector<cv::Point2f>* pts, std::vector<int>* ids) {
+void to_cv(const std::vector<BoardCorner>& in, std::vector<cv::Point2f>* pts,
+           std::vector<int>* ids) {
   for (const auto& c : in) {
     pts->emplace_back(static_cast<float>(c.x), static_cast<float>(c.y));
     ids->push_back(c.id);
@@ -50,8 +51,9 @@ Mat4 rigid_inverse(const Mat4& m) {
   return out;
 }
 
-Calibration calibrate_charuco(const BoardSpec& b, const std::vector<std::vector<BoardCorner>>& views,
-                              int width, int height) {
+Calibration calibrate_charuco(const BoardSpec& b,
+                              const std::vector<std::vector<BoardCorner>>& views, int width,
+                              int height) {
   const auto board = make_charuco_board(b);
   std::vector<std::vector<cv::Point2f>> pts(views.size());
   std::vector<std::vector<int>> ids(views.size());

@@ -12,18 +12,19 @@
 namespace aniso {
 
 struct Calibration {
-  Intrinsics camera;                  // k3 held at zero (see calibrate_charuco)
-  double rms_px = 0;                  // over every corner of every photo
-  std::array<double, 4> sigma{};      // one standard deviation of fx, fy, cx, cy (pixels)
-  std::vector<double> view_rms_px;    // per photo, in the order given
+  Intrinsics camera;                    // k3 held at zero (see calibrate_charuco)
+  double rms_px = 0;                    // over every corner of every photo
+  std::array<double, 4> sigma{};        // one standard deviation of fx, fy, cx, cy (pixels)
+  std::vector<double> view_rms_px;      // per photo, in the order given
   std::vector<Mat4> camera_from_board;  // per photo
 };
 
 // Intrinsics, distortion k1 k2 p1 p2 (k3 fixed at zero: with tens of photos of a flat board it is
 // poorly determined and trades off against k1, k2) and every photo's pose. Each photo needs at
 // least 6 corners. Throws with OpenCV's message if the solve fails.
-Calibration calibrate_charuco(const BoardSpec& b, const std::vector<std::vector<BoardCorner>>& views,
-                              int width, int height);
+Calibration calibrate_charuco(const BoardSpec& b,
+                              const std::vector<std::vector<BoardCorner>>& views, int width,
+                              int height);
 
 // The board's pose in a photo for a known camera; false when OpenCV finds none.
 bool board_pose(const BoardSpec& b, const std::vector<BoardCorner>& corners, const Intrinsics& k,

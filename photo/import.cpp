@@ -26,7 +26,9 @@ namespace aniso {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 std::string photo_name(const Shoot& s, size_t i) {
   std::string n = "photos[" + std::to_string(i) + "] (" + s.photos[i].images[0].file;
@@ -39,9 +41,9 @@ struct Detected {
   std::vector<BoardCorner> corners, dropped;
   int markers = 0, width = 0, height = 0;
   size_t saturated = 0;
-  MergedCrop crop;             // the merged image around the sample's estimated place
-  std::vector<uint8_t> grey;   // the detection image, 8-bit (for the overlay)
-  std::vector<RawInfo> raw;    // RAW images: camera and white balance
+  MergedCrop crop;            // the merged image around the sample's estimated place
+  std::vector<uint8_t> grey;  // the detection image, 8-bit (for the overlay)
+  std::vector<RawInfo> raw;   // RAW images: camera and white balance
 };
 
 // Where the sample lies in a photo before the camera is known: its outline through the board's
@@ -54,7 +56,8 @@ void estimate_crop(const Shoot& s, const MergedPhoto& m, const std::vector<Board
   for (const auto& p : s.polygon) {
     const double w = H[6] * p[0] + H[7] * p[1] + H[8];
     if (!(w > 0)) return;
-    const double x = (H[0] * p[0] + H[1] * p[1] + H[2]) / w, y = (H[3] * p[0] + H[4] * p[1] + H[5]) / w;
+    const double x = (H[0] * p[0] + H[1] * p[1] + H[2]) / w,
+                 y = (H[3] * p[0] + H[4] * p[1] + H[5]) / w;
     x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
   }
   const double pad = 0.15 * std::max(x1 - x0, y1 - y0) + 24;
@@ -74,8 +77,8 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o) {
   const std::vector<BoardCorner> all = detect_board(m.grey, s.board, &d.markers);
   for (const auto& c : all) {
     const double x = obj.at(c.id)[0], y = obj.at(c.id)[1];
-    const bool near = inside_polygon(s.polygon, x, y) ||
-                      distance_to_outline(s.polygon, x, y) < o.sample_margin_m;
+    const bool near =
+        inside_polygon(s.polygon, x, y) || distance_to_outline(s.polygon, x, y) < o.sample_margin_m;
     (near ? d.dropped : d.corners).push_back(c);
   }
   estimate_crop(s, m, all, &d.crop);
@@ -98,7 +101,8 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o) {
     } catch (const Error&) {
       continue;  // this board size does not fit that dictionary
     }
-    if (markers >= 4) found += (found.empty() ? "" : ", ") + name + " (" + std::to_string(markers) + ")";
+    if (markers >= 4)
+      found += (found.empty() ? "" : ", ") + name + " (" + std::to_string(markers) + ")";
   }
   throw Error(s.file + ": board.dictionary: no " + s.board.dictionary +
               " marker was found in any photo. " +
@@ -162,12 +166,14 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
       if (use.size() < kMinPhotos)
         throw Error(s.file + ": too few photos to calibrate the camera: the board was found in " +
                     std::to_string(use.size()) + " of " + std::to_string(det.size()) +
-                    " (at least " + std::to_string(kMinPhotos) + " needed; 10-20 photos from "
+                    " (at least " + std::to_string(kMinPhotos) +
+                    " needed; 10-20 photos from "
                     "different sides, the board tilted 15-45 degrees, calibrate well), or give the "
                     "camera's intrinsics as \"camera\" in the shoot");
       std::vector<std::vector<BoardCorner>> views;
       for (size_t i : use) views.push_back(det[i].corners);
-      const Calibration cal = calibrate_charuco(s.board, views, det[use[0]].width, det[use[0]].height);
+      const Calibration cal =
+          calibrate_charuco(s.board, views, det[use[0]].width, det[use[0]].height);
       r->camera = cal.camera;
       r->calibration_rms_px = cal.rms_px;
       r->sigma = cal.sigma;
@@ -295,9 +301,9 @@ bool view_geometry(const Shoot& s, const Intrinsics& k, const Mat4& wfc, const M
       g->uv.at(x, y, 1) = static_cast<float>((p.y - by0) / (by1 - by0));
       // Inside the outline by at least the pixel's footprint: the border pixels mix in the board.
       const double foot = std::max(length(px - p), length(py - p));
-      const bool in = inside_polygon(s.polygon, p.x, p.y) &&
-                      distance_to_outline(s.polygon, p.x, p.y) >= foot &&
-                      !mc.saturated[static_cast<size_t>(g->y0 - mc.y0 + y) * mc.w + g->x0 - mc.x0 + x];
+      const bool in =
+          inside_polygon(s.polygon, p.x, p.y) && distance_to_outline(s.polygon, p.x, p.y) >= foot &&
+          !mc.saturated[static_cast<size_t>(g->y0 - mc.y0 + y) * mc.w + g->x0 - mc.x0 + x];
       g->mask[static_cast<size_t>(y) * g->w + x] = in;
       g->pixels += in;
     }
@@ -319,7 +325,8 @@ OverlayMarks photo_marks(const Shoot& s, size_t i, const Detected& det, const In
   OverlayMarks marks;
   for (const auto& c : det.corners) marks.found.push_back({c.x, c.y});
   for (const auto& c : det.dropped) marks.dropped.push_back({c.x, c.y});
-  marks.label = "photo " + std::to_string(i) + ": " + std::to_string(det.corners.size()) + " corners";
+  marks.label =
+      "photo " + std::to_string(i) + ": " + std::to_string(det.corners.size()) + " corners";
   if (p.rms_px < 0) return marks;
   const Mat4 cfb = rigid_inverse(p.world_from_camera);
   for (const auto& c : board_corners_m(s.board)) {
@@ -349,7 +356,14 @@ void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCro
   view->camera.cy -= g.y0;
   GeometrySpec& gs = view->geometry;
   const std::string base = std::string("geometry/") + stem;
-  gs = {base + "_P.exr", base + "_N.exr", base + "_U.exr", base + "_mask.png", base + "_uv.exr", "", "", ""};
+  gs = {base + "_P.exr",
+        base + "_N.exr",
+        base + "_U.exr",
+        base + "_mask.png",
+        base + "_uv.exr",
+        "",
+        "",
+        ""};
   write_exr(join_path(dir, view->image), crop(mc.rgb, g.x0 - mc.x0, g.y0 - mc.y0, g.w, g.h));
   write_exr(join_path(dir, gs.position), g.P);
   write_exr(join_path(dir, gs.normal), g.N);
@@ -385,7 +399,8 @@ void write_photo(const Shoot& s, size_t i, Detected& det, const std::string& dir
     marks.mask = g.mask;
     marks.mask_x0 = g.x0, marks.mask_y0 = g.y0, marks.mask_w = g.w, marks.mask_h = g.h;
   } else {
-    if (p.reason.empty()) p.reason = "the sample is not in view (or every sample pixel is saturated)";
+    if (p.reason.empty())
+      p.reason = "the sample is not in view (or every sample pixel is saturated)";
     marks.label += ": LEFT OUT, " + p.reason;
   }
   det.crop = MergedCrop{};
@@ -397,71 +412,8 @@ void write_photo(const Shoot& s, size_t i, Detected& det, const std::string& dir
   write_overlay(join_path(dir, name), grey, marks);
 }
 
-nlohmann::json report_json(const Shoot& s, const ImportResult& r, const ImportOptions& o) {
-  using nlohmann::json;
-  json photos = json::array();
-  for (size_t i = 0; i < r.photos.size(); ++i) {
-    const ImportedPhoto& p = r.photos[i];
-    json jp = {{"photo", i},
-               {"files", p.files},
-               {"markers", p.markers},
-               {"corners", p.corners},
-               {"corners_dropped_at_sample", p.corners_dropped},
-               {"saturated_pixels", p.saturated_pixels},
-               {"decoded_twice", p.decoded_twice},
-               {"accepted", p.accepted}};
-    if (!p.raw.empty()) {
-      json raw = json::array();
-      for (const auto& ri : p.raw)
-        raw.push_back({{"decoded_by", "LibRaw, linear (gamma 1, no auto-brightness), sRGB primaries"},
-                       {"camera", ri.camera},
-                       {"white_balance_rgbg", ri.white_balance}});
-      jp["raw"] = raw;
-    }
-    if (p.rms_px >= 0) {
-      jp["rms_px"] = p.rms_px;
-      jp["tilt_deg"] = p.tilt_deg;
-      jp["camera_position_m"] = jsonu::to_json(p.world_from_camera.translation());
-    }
-    if (p.accepted) {
-      jp["view"] = p.view;
-      jp["sample_pixels"] = p.sample_pixels;
-    } else {
-      jp["left_out_because"] = p.reason;
-    }
-    photos.push_back(jp);
-  }
-  json cal = camera_json(r.camera);
-  cal["source"] = r.calibrated ? "calibrated from the photos (OpenCV calibrateCameraCharuco, k3 fixed at 0)"
-                               : "given in the shoot";
-  if (r.calibrated) {
-    cal["rms_px"] = r.calibration_rms_px;
-    cal["sigma_fx_fy_cx_cy_px"] = r.sigma;
-  }
-  return {{"format", "aniso-import-report"},
-          {"version", 1},
-          {"shoot", s.file},
-          {"camera", cal},
-          {"merge", "own: decoded by color, clipped codes dropped, near-black codes only as a last "
-                    "resort, weighted by exposure (photo/merge.h says why not cv::MergeDebevec)"},
-          {"options",
-           {{"max_rms_px", o.max_rms_px},
-            {"sample_margin_m", o.sample_margin_m},
-            {"min_corners", o.min_corners}}},
-          {"photos", photos},
-          {"views", r.views},
-          {"caveats",
-           {"lamp positions and intensities are taken from the shoot as exact",
-            "a fit's uncertainties describe the photos' noise, not this calibration or the poses",
-            "the sample is a plane at z = -height_m; a warped or thick sample is not modelled"}},
-          {"seconds",
-           {{"detect", r.seconds_detect},
-            {"calibrate", r.seconds_calibrate},
-            {"write", r.seconds_write},
-            {"total", r.seconds}}}};
-}
-
 }  // namespace
+
 ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const ImportOptions& o) {
   const auto t0 = Clock::now();
   ImportResult r;
@@ -489,10 +441,11 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
                   std::to_string(det[i].height) + ", the shoot's camera " +
                   std::to_string(s.camera.width) + "x" + std::to_string(s.camera.height));
     if (!s.camera_given && (det[i].width != det[0].width || det[i].height != det[0].height))
-      throw Error(s.file + ": " + photo_name(s, i) + " is " + std::to_string(det[i].width) + "x" +
-                  std::to_string(det[i].height) + ", " + photo_name(s, 0) + " " +
-                  std::to_string(det[0].width) + "x" + std::to_string(det[0].height) +
-                  ": one camera at one setting is calibrated (crop or zoom changes the intrinsics)");
+      throw Error(
+          s.file + ": " + photo_name(s, i) + " is " + std::to_string(det[i].width) + "x" +
+          std::to_string(det[i].height) + ", " + photo_name(s, 0) + " " +
+          std::to_string(det[0].width) + "x" + std::to_string(det[0].height) +
+          ": one camera at one setting is calibrated (crop or zoom changes the intrinsics)");
   }
   if (markers == 0) no_markers(s);
   r.seconds_detect = since(t0);
@@ -531,7 +484,7 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
     write_capture_json(set, join_path(dir, "capture.json"));
     r.seconds_write = since(tw);
     r.seconds = since(t0);
-    write_json_file(join_path(dir, "import_report.json"), report_json(s, r, o));
+    write_json_file(join_path(dir, "import_report.json"), import_report_json(s, r, o));
   });
   return r;
 }

@@ -6,6 +6,7 @@
 // ray of each distorted pixel meets z = -height_m). A photo whose board is not found, or whose
 // reprojection error is poor, is left out with the reason, and the rest go on.
 #pragma once
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -17,12 +18,12 @@
 namespace aniso {
 
 struct ImportOptions {
-  double max_rms_px = 1.0;        // photos whose corners reproject worse are left out
+  double max_rms_px = 1.0;         // photos whose corners reproject worse are left out
   double sample_margin_m = 0.003;  // corners this close to the sample's outline are dropped too
-  int min_corners = 8;            // fewer corners found: the photo is left out
-  bool overlays = true;           // overlays/NNN.png for every photo
+  int min_corners = 8;             // fewer corners found: the photo is left out
+  bool overlays = true;            // overlays/NNN.png for every photo
   bool progress = true;
-  bool verbose = true;            // one line per photo on stdout
+  bool verbose = true;  // one line per photo on stdout
 };
 
 struct ImportedPhoto {
@@ -34,9 +35,10 @@ struct ImportedPhoto {
   bool accepted = false;
   std::string reason;  // why it was left out
   size_t saturated_pixels = 0, sample_pixels = 0;
-  int view = -1;               // index in the capture set
+  int view = -1;  // index in the capture set
   bool decoded_twice = false;
-  std::vector<RawInfo> raw;  // per RAW image of the bracket  // the sample fell outside the region kept from the first pass
+  std::vector<RawInfo> raw;  // per RAW image of the bracket  // the sample fell outside the region
+                             // kept from the first pass
 };
 
 struct ImportResult {
@@ -48,6 +50,9 @@ struct ImportResult {
   size_t views = 0;
   double seconds = 0, seconds_detect = 0, seconds_calibrate = 0, seconds_write = 0;
 };
+
+// CAPTURE_DIR/import_report.json's content (photo/import_report.cpp).
+nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const ImportOptions& o);
 
 // Imports the shoot into out_dir (a folder output: written whole or not at all).
 ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const ImportOptions& o);

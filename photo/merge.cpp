@@ -39,13 +39,16 @@ std::vector<Shot> read_bracket(const Shoot& s, size_t i, std::vector<RawInfo>* r
     const Shot& last = shots.back();
     if (last.li.image.width != first.li.image.width ||
         last.li.image.height != first.li.image.height)
-      throw Error(s.file + ": photos[" + std::to_string(i) + "]: the bracket's images differ in "
-                  "size: " + first.path + " is " + std::to_string(first.li.image.width) + "x" +
+      throw Error(s.file + ": photos[" + std::to_string(i) +
+                  "]: the bracket's images differ in "
+                  "size: " +
+                  first.path + " is " + std::to_string(first.li.image.width) + "x" +
                   std::to_string(first.li.image.height) + ", " + last.path + " is " +
                   std::to_string(last.li.image.width) + "x" + std::to_string(last.li.image.height) +
                   " (one photo = one camera position, exposures only change)");
     if (last.li.bits && !last.raw && !s.color.encoding_given)
-      throw Error(s.file + ": color.encoding: " + last.path + " holds integer codes; say how they "
+      throw Error(s.file + ": color.encoding: " + last.path +
+                  " holds integer codes; say how they "
                   "decode: \"srgb\" (camera JPEG/PNG), {\"gamma\": g} or \"linear\" (raw data)");
   }
   return shots;
@@ -79,7 +82,8 @@ Image detection_image(const Image& rgb, const std::vector<uint8_t>& saturated) {
   Image grey(w, h, 1);
   const float scale = static_cast<float>(4096 / white);
   for (size_t p = 0; p < lum.size(); ++p)
-    grey.px[p] = saturated[p] ? 1.f : enc[static_cast<size_t>(std::clamp(lum[p] * scale, 0.f, 4096.f))];
+    grey.px[p] =
+        saturated[p] ? 1.f : enc[static_cast<size_t>(std::clamp(lum[p] * scale, 0.f, 4096.f))];
   return grey;
 }
 
@@ -119,8 +123,8 @@ MergedPhoto merge_bracket(const Shoot& s, size_t i) {
     const Shot& sh = shots[k];
     const double black = sh.raw ? 0.0 : s.color.black_level;  // LibRaw subtracts its own
     const double lin = sh.raw ? stored : sh.li.bits ? decode_code(stored, s.color) : stored;
-    const Kind kind = stored >= saturation_level(s, sh.li, sh.raw)    ? kClipped
-                      : sh.li.bits && stored - black < kNearBlack ? kDark
+    const Kind kind = stored >= saturation_level(s, sh.li, sh.raw) ? kClipped
+                      : sh.li.bits && stored - black < kNearBlack  ? kDark
                                                                    : kUse;
     return Code{static_cast<float>(lin / sh.exposure), kind};
   };
@@ -151,8 +155,8 @@ MergedPhoto merge_bracket(const Shoot& s, size_t i) {
         for (size_t k = 0; k < src.size(); ++k) {
           const Src& sr = src[k];
           const float stored = sr.px[p * sr.channels + (sr.channels == 1 ? 0 : c)];
-          const Code code = sr.table ? sr.table[static_cast<int>(stored * sr.scale + 0.5f)]
-                                     : classify(k, stored);
+          const Code code =
+              sr.table ? sr.table[static_cast<int>(stored * sr.scale + 0.5f)] : classify(k, stored);
           if (code.kind == kUse) {  // weight = exposure
             sum += sr.e * code.radiance;
             wsum += sr.e;

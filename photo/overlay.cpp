@@ -13,7 +13,8 @@ void write_overlay(const std::string& path, const Image& grey, const OverlayMark
   cv::Mat bgr(grey.height, grey.width, CV_8UC3);
   for (int y = 0; y < grey.height; ++y)
     for (int x = 0; x < grey.width; ++x) {
-      const auto g = static_cast<uint8_t>(std::lround(255 * std::clamp(grey.at(x, y, 0), 0.f, 1.f)));
+      const auto g =
+          static_cast<uint8_t>(std::lround(255 * std::clamp(grey.at(x, y, 0), 0.f, 1.f)));
       bgr.at<cv::Vec3b>(y, x) = {g, g, g};
     }
   for (int y = 0; y < m.mask_h; ++y)

@@ -13,10 +13,10 @@ namespace aniso {
 
 struct OverlayMarks {
   using Points = std::vector<std::array<double, 2>>;
-  Points found;        // green circles: corners used
-  Points dropped;      // yellow circles: corners on or near the sample, not used
-  Points reprojected;  // red crosses: every board corner through the solved pose
-  Points outline;      // blue polyline: the sample's outline through the solved pose
+  Points found;               // green circles: corners used
+  Points dropped;             // yellow circles: corners on or near the sample, not used
+  Points reprojected;         // red crosses: every board corner through the solved pose
+  Points outline;             // blue polyline: the sample's outline through the solved pose
   std::vector<uint8_t> mask;  // tinted: the sample pixels of the view (mask_w x mask_h at x0, y0)
   int mask_x0 = 0, mask_y0 = 0, mask_w = 0, mask_h = 0;
   std::string label;

@@ -15,7 +15,8 @@ namespace aniso {
 
 bool is_raw_photo(const std::string& path) {
   const std::string e = lower_ext(path);
-  for (const char* r : {".dng", ".cr2", ".cr3", ".nef", ".arw", ".orf", ".rw2", ".raf", ".pef", ".srw"})
+  for (const char* r :
+       {".dng", ".cr2", ".cr3", ".nef", ".arw", ".orf", ".rw2", ".raf", ".pef", ".srw"})
     if (e == r) return true;
   return false;
 }
@@ -77,7 +78,8 @@ void write_linear_dng(const std::string& path, const Image& img) {
     TIFFSetField(t, TIFFTAG_COMPRESSION, COMPRESSION_NONE);
     TIFFSetField(t, TIFFTAG_PHOTOMETRIC, photometric_linear_raw);
     TIFFSetField(t, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
-    TIFFSetField(t, TIFFTAG_ROWSPERSTRIP, static_cast<uint32_t>(std::max(1, 65536 / (6 * img.width))));
+    TIFFSetField(t, TIFFTAG_ROWSPERSTRIP,
+                 static_cast<uint32_t>(std::max(1, 65536 / (6 * img.width))));
     TIFFSetField(t, TIFFTAG_MAKE, "aniso");
     TIFFSetField(t, TIFFTAG_MODEL, "synth");
     TIFFSetField(t, TIFFTAG_DNGVERSION, version);

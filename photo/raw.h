@@ -15,7 +15,7 @@ namespace aniso {
 bool is_raw_photo(const std::string& path);
 
 struct RawInfo {
-  std::string camera;                   // make and model as LibRaw reads them
+  std::string camera;                     // make and model as LibRaw reads them
   std::array<double, 4> white_balance{};  // the camera's multipliers (R, G, B, G2), as applied
 };
 

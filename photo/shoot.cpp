@@ -16,8 +16,7 @@ bool inside_polygon(const std::vector<std::array<double, 2>>& poly, double x, do
   for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
     const auto& a = poly[i];
     const auto& b = poly[j];
-    if ((a[1] > y) != (b[1] > y) && x < (b[0] - a[0]) * (y - a[1]) / (b[1] - a[1]) + a[0])
-      in = !in;
+    if ((a[1] > y) != (b[1] > y) && x < (b[0] - a[0]) * (y - a[1]) / (b[1] - a[1]) + a[0]) in = !in;
   }
   return in;
 }
@@ -70,7 +69,8 @@ void parse_sample(const json& j, const Ctx& c, Shoot* s) {
     if (x < 0 || y < 0 || x > W || y > H)
       pc.idx(i).fail("(" + std::to_string(x) + ", " + std::to_string(y) +
                      ") m is off the board (0..." + std::to_string(W) + ", 0..." +
-                     std::to_string(H) + " m); board coordinates are metres from its top-left "
+                     std::to_string(H) +
+                     " m); board coordinates are metres from its top-left "
                      "corner, x right, y down");
     s->polygon.push_back({x, y});
   }
@@ -97,9 +97,10 @@ void check_light(const Light& l, const Ctx& c, double height_m) {
     if (!(l.direction.z < 0))
       c.at("direction").fail("points to z >= 0: behind the board (the printed side is -z)");
   } else if (!(l.position.z < -height_m)) {
-    c.at("position").fail("z = " + std::to_string(l.position.z) +
-                          " is on the wrong side of the board: the printed face, camera and "
-                          "lamps are at z < 0 (z points into the board)");
+    c.at("position")
+        .fail("z = " + std::to_string(l.position.z) +
+              " is on the wrong side of the board: the printed face, camera and "
+              "lamps are at z < 0 (z points into the board)");
   }
 }
 
@@ -117,8 +118,7 @@ ShootPhoto parse_photo(const json& j, const Ctx& c, const Shoot& s) {
     if (!(im.exposure > 0)) ic.at("exposure").fail("must be positive");
     const std::string path = join_path(s.dir, im.file);
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec))
-      ic.at("file").fail(path + ": photo not found");
+    if (!std::filesystem::is_regular_file(path, ec)) ic.at("file").fail(path + ": photo not found");
     p.images.push_back(im);
   }
   const json& lights = jsonu::need(j, "lights", c);
@@ -172,21 +172,20 @@ void write_shoot(const Shoot& s, const std::string& path) {
   }
   const json cam = s.camera_given ? camera_json(s.camera) : json(nullptr);
   const char* enc = s.color.encoding == ColorSpec::Encoding::kSrgb ? "srgb" : "linear";
-  const json j = {{"format", "aniso-shoot"},
-                  {"version", 1},
-                  {"board",
-                   {{"type", "charuco"},
-                    {"dictionary", s.board.dictionary},
-                    {"squares", {s.board.squares_x, s.board.squares_y}},
-                    {"square_m", s.board.square_m},
-                    {"marker_m", s.board.marker_m}}},
-                  {"sample",
-                   {{"polygon_m", poly},
-                    {"height_m", s.height_m},
-                    {"tangent", {s.tangent[0], s.tangent[1]}}}},
-                  {"camera", cam},
-                  {"color", {{"encoding", enc}}},
-                  {"photos", photos}};
+  const json j = {
+      {"format", "aniso-shoot"},
+      {"version", 1},
+      {"board",
+       {{"type", "charuco"},
+        {"dictionary", s.board.dictionary},
+        {"squares", {s.board.squares_x, s.board.squares_y}},
+        {"square_m", s.board.square_m},
+        {"marker_m", s.board.marker_m}}},
+      {"sample",
+       {{"polygon_m", poly}, {"height_m", s.height_m}, {"tangent", {s.tangent[0], s.tangent[1]}}}},
+      {"camera", cam},
+      {"color", {{"encoding", enc}}},
+      {"photos", photos}};
   write_text_file(path, j.dump(2) + "\n");
 }
 

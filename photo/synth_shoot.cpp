@@ -95,7 +95,8 @@ class BoardAlbedo {
   size_t idx(int x, int y) const { return static_cast<size_t>(y) * (w_ + 1) + x; }
   // The integral over [0, u] x [0, v], bilinear between the table's integer points.
   double S(double u, double v) const {
-    const int x = std::clamp(static_cast<int>(u), 0, w_ - 1), y = std::clamp(static_cast<int>(v), 0, h_ - 1);
+    const int x = std::clamp(static_cast<int>(u), 0, w_ - 1),
+              y = std::clamp(static_cast<int>(v), 0, h_ - 1);
     const double tx = u - x, ty = v - y;
     return (1 - tx) * (1 - ty) * sat_[idx(x, y)] + tx * (1 - ty) * sat_[idx(x + 1, y)] +
            (1 - tx) * ty * sat_[idx(x, y + 1)] + tx * ty * sat_[idx(x + 1, y + 1)];
@@ -113,18 +114,21 @@ struct PhotoSetup {
 // Camera i of n: 12-42 degrees from the board's normal at golden-angle azimuths, 0.45-0.6 m from
 // the sample's centre, rolled by up to 15 degrees; the lamp near the mirror direction of the
 // camera (so the highlight crosses the sample), 0.5-0.8 m away, irradiance about 1 at the centre.
-PhotoSetup photo_setup(const PhotoShootOptions& o, int i, const Vec3& centre, std::mt19937_64& rng) {
+PhotoSetup photo_setup(const PhotoShootOptions& o, int i, const Vec3& centre,
+                       std::mt19937_64& rng) {
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
   const double f = (i + 0.5) / o.photos;
   const double polar = deg_to_rad(12 + 30 * f), azimuth = i * 2.39996322972865332;
   const double dist = 0.45 + 0.15 * (0.5 + 0.5 * uni(rng));
   const Vec3 eye = centre + Vec3(std::sin(polar) * std::cos(azimuth),
-                                 std::sin(polar) * std::sin(azimuth), -std::cos(polar)) * dist;
+                                 std::sin(polar) * std::sin(azimuth), -std::cos(polar)) *
+                                dist;
   const double roll = deg_to_rad(15 * uni(rng));
   PhotoSetup s;
   const Vec3 target = centre + Vec3(0.01 * uni(rng), 0.01 * uni(rng), 0);
   s.world_from_camera = look_at(eye, target, {std::sin(roll), -std::cos(roll), 0});
-  const double lp = std::clamp(polar + deg_to_rad(12 * uni(rng)), deg_to_rad(5.0), deg_to_rad(70.0));
+  const double lp =
+      std::clamp(polar + deg_to_rad(12 * uni(rng)), deg_to_rad(5.0), deg_to_rad(70.0));
   const double la = azimuth + M_PI + deg_to_rad(35 * uni(rng));
   const double ld = 0.5 + 0.3 * (0.5 + 0.5 * uni(rng));
   s.lamp.type = Light::Type::kPoint;
@@ -171,9 +175,10 @@ Image render_photo(const PhotoShootOptions& o, const Intrinsics& k, const RaySce
         if (!frame_at(g.P, g.N, g.U, x, y, &sp)) continue;
         double I[3];
         if (sp.P.z < -0.5 * o.height_m) {  // the sample's top: nothing above it casts a shadow
-          shade_point(eval, sp, eye, lights, {0, 0, 0}, s,
-                      [](const SurfacePoint&, const Vec3&, double, ShadeCounters*) { return false; },
-                      I, &cnt);
+          shade_point(
+              eval, sp, eye, lights, {0, 0, 0}, s,
+              [](const SurfacePoint&, const Vec3&, double, ShadeCounters*) { return false; }, I,
+              &cnt);
         } else {  // board, paper or table: Lambertian, shadowed by the plate
           double xs[4], ys[4];
           for (int c = 0; c < 4; ++c) {
@@ -181,8 +186,9 @@ Image render_photo(const PhotoShootOptions& o, const Intrinsics& k, const RaySce
             xs[c] = p[0];
             ys[c] = p[1];
           }
-          const double albedo = board.mean(*std::min_element(xs, xs + 4), *std::max_element(xs, xs + 4),
-                                           *std::min_element(ys, ys + 4), *std::max_element(ys, ys + 4));
+          const double albedo =
+              board.mean(*std::min_element(xs, xs + 4), *std::max_element(xs, xs + 4),
+                         *std::min_element(ys, ys + 4), *std::max_element(ys, ys + 4));
           Vec3 L;
           RGB E;
           double dist;
@@ -295,7 +301,8 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
         char name[64];
         std::snprintf(name, sizeof name, "photos/p%02d_e%zu.%s", i, e, o.dng ? "dng" : "png");
         const double exposure = base * o.bracket[e];
-        const Image img = expose(o, radiance, exposure, i, static_cast<int>(e), &st.saturated_codes);
+        const Image img =
+            expose(o, radiance, exposure, i, static_cast<int>(e), &st.saturated_codes);
         if (o.dng)
           write_linear_dng(join_path(dir, name), img);
         else
@@ -311,14 +318,13 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
     nlohmann::json mat;
     material_to_json(o.truth, &mat);
     write_json_file(join_path(dir, "material.json"), mat);
-    write_json_file(join_path(dir, "truth.json"),
-                    {{"format", "aniso-shoot-truth"},
-                     {"version", 1},
-                     {"seed", o.seed},
-                     {"read_noise", o.read_noise},
-                     {"camera", camera_json(k)},
-                     {"world_from_camera", poses},
-                     {"material", "material.json"}});
+    write_json_file(join_path(dir, "truth.json"), {{"format", "aniso-shoot-truth"},
+                                                   {"version", 1},
+                                                   {"seed", o.seed},
+                                                   {"read_noise", o.read_noise},
+                                                   {"camera", camera_json(k)},
+                                                   {"world_from_camera", poses},
+                                                   {"material", "material.json"}});
   });
   st.photos = setups.size();
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

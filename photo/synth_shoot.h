@@ -19,7 +19,8 @@ namespace aniso {
 struct PhotoShootOptions {
   Material truth;
   BoardSpec board;
-  std::vector<std::array<double, 2>> polygon{{0.09, 0.09}, {0.21, 0.09}, {0.21, 0.15}, {0.09, 0.15}};
+  std::vector<std::array<double, 2>> polygon{
+      {0.09, 0.09}, {0.21, 0.09}, {0.21, 0.15}, {0.09, 0.15}};
   double height_m = 0.0005;             // the sample is a thin plate on the board
   std::array<double, 2> tangent{1, 0};  // reference tangent U on the board (unit)
   int width = 960, height = 720;

@@ -245,21 +245,21 @@ json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b
     doc_extra["textures"] = {{{"sampler", 0}, {"source", 0}}};
   }
   json doc = {{"asset", {{"version", "2.0"}, {"generator", "aniso export"}}},
-          {"extensionsUsed", {"KHR_materials_anisotropy"}},
-          {"scene", 0},
-          {"scenes", {{{"nodes", {0}}}}},
-          {"nodes", {{{"mesh", 0}, {"name", "aniso sample"}}}},
-          {"meshes",
-           {{{"name", "sphere"},
-             {"primitives",
-              {{{"attributes",
-                 {{"POSITION", ap}, {"NORMAL", an}, {"TANGENT", at}, {"TEXCOORD_0", auv}}},
-                {"indices", ai},
-                {"material", 0}}}}}}},
-          {"materials", {mat}},
-          {"buffers", {{{"uri", "sample.bin"}, {"byteLength", b.bin.size()}}}},
-          {"bufferViews", views},
-          {"accessors", accessors}};
+              {"extensionsUsed", {"KHR_materials_anisotropy"}},
+              {"scene", 0},
+              {"scenes", {{{"nodes", {0}}}}},
+              {"nodes", {{{"mesh", 0}, {"name", "aniso sample"}}}},
+              {"meshes",
+               {{{"name", "sphere"},
+                 {"primitives",
+                  {{{"attributes",
+                     {{"POSITION", ap}, {"NORMAL", an}, {"TANGENT", at}, {"TEXCOORD_0", auv}}},
+                    {"indices", ai},
+                    {"material", 0}}}}}}},
+              {"materials", {mat}},
+              {"buffers", {{{"uri", "sample.bin"}, {"byteLength", b.bin.size()}}}},
+              {"bufferViews", views},
+              {"accessors", accessors}};
   doc.update(doc_extra);
   return doc;
 }
@@ -390,6 +390,25 @@ void check_export_folder(const std::string& dir) {
 
 }  // namespace
 
+// gltf/: the sample sphere, its material and (with a fiber map) the anisotropy texture.
+void write_gltf(const std::string& tmp, const Material& m, const json& tables, ExportSummary* sum) {
+  const SphereBuffers sphere = sphere_buffers();
+  json gtables = json::object();
+  for (const auto& [k, v] : tables.items()) gtables[k] = "../" + v["ktx2"].get<std::string>();
+  std::string aniso_png;
+  if (m.maps.fiber) {  // the fiber map as glTF's anisotropyTexture (PNG: what glTF core takes)
+    aniso_png = "sample_anisotropy.png";
+    write_png(join_path(tmp, "gltf/" + aniso_png), anisotropy_texture(m), 8);
+    sum->files.push_back("gltf/" + aniso_png);
+  }
+  const json doc = gltf_document(m, sum->pbr, sphere, gtables, aniso_png);
+  write_text_file(join_path(tmp, "gltf/sample.gltf"), doc.dump(2) + "\n");
+  write_text_file(join_path(tmp, "gltf/sample.bin"),
+                  std::string(sphere.bin.begin(), sphere.bin.end()));
+  sum->files.push_back("gltf/sample.gltf");
+  sum->files.push_back("gltf/sample.bin");
+}
+
 ExportSummary export_material(const Material& m, const std::string& dir, const ExportOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   if (o.size < 2 || o.size > 8192) throw Error("export: --size must be between 2 and 8192");
@@ -414,21 +433,7 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
       write_text_file(join_path(tmp, name), text);
       sum.files.push_back(name);
     }
-    const SphereBuffers sphere = sphere_buffers();
-    json gtables = json::object();
-    for (const auto& [k, v] : tables.items()) gtables[k] = "../" + v["ktx2"].get<std::string>();
-    std::string aniso_png;
-    if (m.maps.fiber) {  // the fiber map as glTF's anisotropyTexture (PNG: what glTF core takes)
-      aniso_png = "sample_anisotropy.png";
-      write_png(join_path(tmp, "gltf/" + aniso_png), anisotropy_texture(m), 8);
-      sum.files.push_back("gltf/" + aniso_png);
-    }
-    const json doc = gltf_document(m, sum.pbr, sphere, gtables, aniso_png);
-    write_text_file(join_path(tmp, "gltf/sample.gltf"), doc.dump(2) + "\n");
-    write_text_file(join_path(tmp, "gltf/sample.bin"),
-                    std::string(sphere.bin.begin(), sphere.bin.end()));
-    sum.files.push_back("gltf/sample.gltf");
-    sum.files.push_back("gltf/sample.bin");
+    write_gltf(tmp, m, tables, &sum);
     const json viewer = write_viewer(tmp, &sum);
     json material;
     material_to_json(m, &material);

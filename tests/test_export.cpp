@@ -223,7 +223,8 @@ TEST(Export, FiberMapBecomesTheGltfAnisotropyTexture) {
   const auto& ext = g["materials"][0]["extensions"]["KHR_materials_anisotropy"];
   ASSERT_TRUE(ext.contains("anisotropyTexture")) << ext.dump();
   EXPECT_EQ(ext["anisotropyRotation"].get<double>(), 0.0);
-  const Image tex = read_image(root + "/export/gltf/" + g["images"][0]["uri"].get<std::string>()).image;
+  const Image tex =
+      read_image(root + "/export/gltf/" + g["images"][0]["uri"].get<std::string>()).image;
   const Material m = read_material(root + "/set/truth.json");
   double worst = 0;
   for (int y = 0; y < tex.height; y += 7)

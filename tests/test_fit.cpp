@@ -446,8 +446,10 @@ TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
   ASSERT_TRUE(j.contains("maps_uncertainty")) << j.dump();
   const Material fit = read_material(dir + "/fit/m.json");  // reads the maps back
   ASSERT_TRUE(fit.maps.fiber && fit.maps.kd && fit.maps.ks && fit.maps.n);
-  const Image det = read_image(dir + "/fit/" + j["maps_uncertainty"]["determined"].get<std::string>()).image;
-  const Image sig = read_image(dir + "/fit/" + j["maps_uncertainty"]["fiber"].get<std::string>()).image;
+  const Image det =
+      read_image(dir + "/fit/" + j["maps_uncertainty"]["determined"].get<std::string>()).image;
+  const Image sig =
+      read_image(dir + "/fit/" + j["maps_uncertainty"]["fiber"].get<std::string>()).image;
   std::vector<double> dpsi, dkd, z;
   size_t determined = 0;
   for (int y = 0; y < 16; ++y)
@@ -469,9 +471,10 @@ TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
     std::sort(v.begin(), v.end());
     return v.empty() ? NAN : v[v.size() / 2];
   };
-  std::printf("maps: %zu of 256 texels determined; median |dpsi| %.3f deg (median |dpsi|/sigma %.2f), "
-              "median |dkd.r|/kd.r %.2f %%\n",
-              determined, median(dpsi), median(z), 100 * median(dkd));
+  std::printf(
+      "maps: %zu of 256 texels determined; median |dpsi| %.3f deg (median |dpsi|/sigma %.2f), "
+      "median |dkd.r|/kd.r %.2f %%\n",
+      determined, median(dpsi), median(z), 100 * median(dkd));
   EXPECT_GT(determined, 200u);
   EXPECT_LT(median(dpsi), 1.0);
   EXPECT_LT(median(dkd), 0.03);
@@ -506,7 +509,8 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   std::string tiles;
   for (int i = 0; i < 3; ++i) {
     const std::string t = dir + "/t" + std::to_string(i) + ".json";
-    r = test::run_cli("fit " + dir + "/set --maps 8x6 --tile " + std::to_string(i) + "/3 --out " + t);
+    r = test::run_cli("fit " + dir + "/set --maps 8x6 --tile " + std::to_string(i) + "/3 --out " +
+                      t);
     ASSERT_EQ(r.status, 0) << r.output;
     tiles += " " + t;
   }
@@ -554,7 +558,8 @@ TEST(FitMaps, LevenbergMarquardtReachesCeresMinimumPerTexel) {
     r = test::run_cli("fit " + dir + "/set --maps 8x6 --maps-solver " + solver + " --out " + dir +
                       "/" + solver + ".json");
     ASSERT_EQ(r.status, 0) << r.output;
-    std::printf("%s: %s", solver.c_str(), r.output.substr(r.output.find("fit: --maps")).substr(0, 100).c_str());
+    std::printf("%s: %s", solver.c_str(),
+                r.output.substr(r.output.find("fit: --maps")).substr(0, 100).c_str());
     std::printf("\n");
   }
   auto img = [&](const std::string& solver, const char* key) {
@@ -564,7 +569,8 @@ TEST(FitMaps, LevenbergMarquardtReachesCeresMinimumPerTexel) {
   double worst = 0;
   size_t compared = 0;
   for (const char* key : {"kd", "ks", "n"}) {
-    const Image a = img("lm", key), b = img("ceres", key), s = img("ceres", (std::string(key) + "_sigma").c_str());
+    const Image a = img("lm", key), b = img("ceres", key),
+                s = img("ceres", (std::string(key) + "_sigma").c_str());
     for (size_t i = 0; i < a.px.size(); ++i) {
       if (det.px[i / a.channels] < 0.5) continue;
       worst = std::max(worst, std::abs(double(a.px[i]) - b.px[i]) / s.px[i]);

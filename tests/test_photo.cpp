@@ -112,7 +112,8 @@ double rotation_deg(const nlohmann::json& a, const nlohmann::json& b) {
 // the simulator's truth.
 TEST(Import, SimulatedShootCalibratesPosesAndFitsTheMaterial) {
   const std::string dir = test::tmp_dir("e2e");
-  auto r = test::run_cli("synth --photos brushed-metal " + dir + "/shoot --views 12 --size 800x600");
+  auto r =
+      test::run_cli("synth --photos brushed-metal " + dir + "/shoot --views 12 --size 800x600");
   ASSERT_EQ(r.status, 0) << r.output;
   r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/cap");
   ASSERT_EQ(r.status, 0) << r.output;
@@ -138,7 +139,8 @@ TEST(Import, SimulatedShootCalibratesPosesAndFitsTheMaterial) {
                                                t[2][3].get<double>() - e[2][3].get<double>()));
     worst_rot = std::max(worst_rot, rotation_deg(t, e));
     EXPECT_EQ(cap["views"][p["view"].get<size_t>()]["source"].size(), 3u);
-    EXPECT_TRUE(fs::exists(dir + "/cap/overlays/" + std::string(3 - std::to_string(p["photo"].get<int>()).size(), '0') +
+    EXPECT_TRUE(fs::exists(dir + "/cap/overlays/" +
+                           std::string(3 - std::to_string(p["photo"].get<int>()).size(), '0') +
                            std::to_string(p["photo"].get<int>()) + ".png"));
   }
   std::printf("poses: worst camera position error %.3f mm, worst rotation error %.4f deg\n",
@@ -151,10 +153,11 @@ TEST(Import, SimulatedShootCalibratesPosesAndFitsTheMaterial) {
   const auto fit = nlohmann::json::parse(read_text_file(dir + "/fit.json"));
   const auto mat = nlohmann::json::parse(read_text_file(dir + "/shoot/material.json"));
   const double dpsi = fit["fiber_angle_deg"].get<double>() - mat["fiber_angle_deg"].get<double>();
-  std::printf("fit on the imported set: psi %+.3f deg off, n %.2f (truth %.1f), kd.r %.4f (%.3f), "
-              "ks.r %.4f (%.3f)\n",
-              dpsi, fit["n"].get<double>(), mat["n"].get<double>(), fit["kd"][0].get<double>(),
-              mat["kd"][0].get<double>(), fit["ks"][0].get<double>(), mat["ks"][0].get<double>());
+  std::printf(
+      "fit on the imported set: psi %+.3f deg off, n %.2f (truth %.1f), kd.r %.4f (%.3f), "
+      "ks.r %.4f (%.3f)\n",
+      dpsi, fit["n"].get<double>(), mat["n"].get<double>(), fit["kd"][0].get<double>(),
+      mat["kd"][0].get<double>(), fit["ks"][0].get<double>(), mat["ks"][0].get<double>());
   EXPECT_LT(std::abs(dpsi), 0.5);
   EXPECT_NEAR(fit["n"].get<double>() / mat["n"].get<double>(), 1.0, 0.03);
   for (int c = 0; c < 3; ++c) {
@@ -171,7 +174,8 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   auto r = test::run_cli("synth --photos brushed-metal " + dir + "/shoot --views 6 --size 640x480");
   ASSERT_EQ(r.status, 0) << r.output;
   const std::string good = read_text_file(shoot);
-  auto expect_refused = [&](const std::string& what, const std::function<void(nlohmann::json&)>& edit) {
+  auto expect_refused = [&](const std::string& what,
+                            const std::function<void(nlohmann::json&)>& edit) {
     write_text_file(shoot, good);
     test::edit_json(shoot, edit);
     const auto rr = test::run_cli("import " + shoot + " --out " + out + " --no-overlays");
@@ -179,9 +183,13 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
     EXPECT_NE(rr.output.find(what), std::string::npos) << what << " not in: " << rr.output;
     EXPECT_FALSE(fs::exists(out)) << rr.output;
   };
-  expect_refused("photos[1].images[2].file", [](auto& j) { j["photos"][1]["images"][2]["file"] = "photos/nope.png"; });
-  expect_refused("sample.polygon_m[2]", [](auto& j) { j["sample"]["polygon_m"][2] = {0.45, 0.15}; });
-  expect_refused("wrong side of the board", [](auto& j) { j["photos"][0]["lights"][0]["position"][2] = 0.3; });
+  expect_refused("photos[1].images[2].file",
+                 [](auto& j) { j["photos"][1]["images"][2]["file"] = "photos/nope.png"; });
+  expect_refused("sample.polygon_m[2]", [](auto& j) {
+    j["sample"]["polygon_m"][2] = {0.45, 0.15};
+  });
+  expect_refused("wrong side of the board",
+                 [](auto& j) { j["photos"][0]["lights"][0]["position"][2] = 0.3; });
   expect_refused("DICT_5X5_100 (", [](auto& j) { j["board"]["dictionary"] = "DICT_4X4_100"; });
   expect_refused("too few photos to calibrate", [](auto& j) {
     while (j["photos"].size() > 3) j["photos"].erase(j["photos"].size() - 1);
@@ -196,10 +204,12 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   // A photo without the board (a grey frame) is left out with its reason; the rest are imported.
   write_text_file(shoot, good);
   for (int e = 0; e < 3; ++e)
-    write_png(dir + "/shoot/photos/p04_e" + std::to_string(e) + ".png", Image(640, 480, 3, 0.4f), 8);
+    write_png(dir + "/shoot/photos/p04_e" + std::to_string(e) + ".png", Image(640, 480, 3, 0.4f),
+              8);
   r = test::run_cli("import " + shoot + " --out " + out);
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("photo 4 (photos/p04_e0.png): LEFT OUT: board not found"), std::string::npos)
+  EXPECT_NE(r.output.find("photo 4 (photos/p04_e0.png): LEFT OUT: board not found"),
+            std::string::npos)
       << r.output;
   const auto rep = nlohmann::json::parse(read_text_file(out + "/import_report.json"));
   EXPECT_EQ(rep["views"], 5);
@@ -213,10 +223,11 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
 TEST(Import, RawPhotosDecodeLinearlyThroughLibRaw) {
   const std::string dir = test::tmp_dir("raw");
   for (const std::string kind : {"dng", "png16"}) {
-    auto r = test::run_cli("synth --photos brushed-metal " + dir + "/" + kind + " --views 6 --size 640x480 " +
-                           (kind == "dng" ? "--dng" : "--bits 16"));
+    auto r = test::run_cli("synth --photos brushed-metal " + dir + "/" + kind +
+                           " --views 6 --size 640x480 " + (kind == "dng" ? "--dng" : "--bits 16"));
     ASSERT_EQ(r.status, 0) << r.output;
-    r = test::run_cli("import " + dir + "/" + kind + "/shoot.json --out " + dir + "/cap_" + kind + " --no-overlays");
+    r = test::run_cli("import " + dir + "/" + kind + "/shoot.json --out " + dir + "/cap_" + kind +
+                      " --no-overlays");
     ASSERT_EQ(r.status, 0) << r.output;
   }
   EXPECT_TRUE(fs::exists(dir + "/dng/photos/p00_e0.dng"));
@@ -233,8 +244,10 @@ TEST(Import, RawPhotosDecodeLinearlyThroughLibRaw) {
     worst = std::max(worst, std::abs(double(a.px[i]) - b.px[i]) / std::max(0.05, double(b.px[i])));
     mean += b.px[i] / a.px.size();
   }
-  std::printf("DNG through LibRaw against 16-bit PNG: worst relative difference %.2e (mean radiance %.3f)\n",
-              worst, mean);
+  std::printf(
+      "DNG through LibRaw against 16-bit PNG: worst relative difference %.2e (mean radiance "
+      "%.3f)\n",
+      worst, mean);
   EXPECT_LT(worst, 1e-3);
   EXPECT_GT(mean, 0.05);
 }

@@ -1,0 +1,76 @@
+// import_report.json (photo/import.h): calibration, every photo's result and why one was left out.
+#include <nlohmann/json.hpp>
+
+#include "io/json_util.h"
+#include "photo/import.h"
+
+namespace aniso {
+
+nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const ImportOptions& o) {
+  using nlohmann::json;
+  json photos = json::array();
+  for (size_t i = 0; i < r.photos.size(); ++i) {
+    const ImportedPhoto& p = r.photos[i];
+    json jp = {{"photo", i},
+               {"files", p.files},
+               {"markers", p.markers},
+               {"corners", p.corners},
+               {"corners_dropped_at_sample", p.corners_dropped},
+               {"saturated_pixels", p.saturated_pixels},
+               {"decoded_twice", p.decoded_twice},
+               {"accepted", p.accepted}};
+    if (!p.raw.empty()) {
+      json raw = json::array();
+      for (const auto& ri : p.raw)
+        raw.push_back(
+            {{"decoded_by", "LibRaw, linear (gamma 1, no auto-brightness), sRGB primaries"},
+             {"camera", ri.camera},
+             {"white_balance_rgbg", ri.white_balance}});
+      jp["raw"] = raw;
+    }
+    if (p.rms_px >= 0) {
+      jp["rms_px"] = p.rms_px;
+      jp["tilt_deg"] = p.tilt_deg;
+      jp["camera_position_m"] = jsonu::to_json(p.world_from_camera.translation());
+    }
+    if (p.accepted) {
+      jp["view"] = p.view;
+      jp["sample_pixels"] = p.sample_pixels;
+    } else {
+      jp["left_out_because"] = p.reason;
+    }
+    photos.push_back(jp);
+  }
+  json cal = camera_json(r.camera);
+  cal["source"] = r.calibrated
+                      ? "calibrated from the photos (OpenCV calibrateCameraCharuco, k3 fixed at 0)"
+                      : "given in the shoot";
+  if (r.calibrated) {
+    cal["rms_px"] = r.calibration_rms_px;
+    cal["sigma_fx_fy_cx_cy_px"] = r.sigma;
+  }
+  return {{"format", "aniso-import-report"},
+          {"version", 1},
+          {"shoot", s.file},
+          {"camera", cal},
+          {"merge",
+           "own: decoded by color, clipped codes dropped, near-black codes only as a last "
+           "resort, weighted by exposure (photo/merge.h says why not cv::MergeDebevec)"},
+          {"options",
+           {{"max_rms_px", o.max_rms_px},
+            {"sample_margin_m", o.sample_margin_m},
+            {"min_corners", o.min_corners}}},
+          {"photos", photos},
+          {"views", r.views},
+          {"caveats",
+           {"lamp positions and intensities are taken from the shoot as exact",
+            "a fit's uncertainties describe the photos' noise, not this calibration or the poses",
+            "the sample is a plane at z = -height_m; a warped or thick sample is not modelled"}},
+          {"seconds",
+           {{"detect", r.seconds_detect},
+            {"calibrate", r.seconds_calibrate},
+            {"write", r.seconds_write},
+            {"total", r.seconds}}}};
+}
+
+}  // namespace aniso
