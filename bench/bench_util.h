@@ -7,16 +7,15 @@
 #include <string>
 
 #include "core/angles.h"
+#include "core/timer.h"
 #include "io/json_util.h"
 #include "models/material.h"
 
 namespace aniso::benchutil {
 
 using jsonu::json;
-using Clock = std::chrono::steady_clock;
-inline double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
+using Clock = SteadyClock;
+inline double since(Clock::time_point t) { return seconds_since(t); }
 
 inline json entry(const std::string& suite, const std::string& name, double ours, double baseline,
                   const std::string& unit, double error) {

@@ -15,6 +15,7 @@
 #include "core/frame.h"
 #include "core/progress.h"
 #include "core/texture.h"
+#include "core/timer.h"
 #include "geometry/raycast.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -219,10 +220,6 @@ void topology_images(const SimOptions& opt, const TopologyMap& map, const Image&
       if (!s_map.empty()) mv = sample_first_channel(s_map, u, v);
       s->at(x, y, 0) = static_cast<float>(s_at(opt.truth, sm, mv));
     }
-}
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
 Traced trace_and_shade(const SimOptions& opt, const RayScene& scene, const TopologyMap& map,

@@ -55,6 +55,18 @@ inline bool pixel_ray(const Intrinsics& k, double px, double py, Vec3* ray) {
   return true;
 }
 
+// Where the ray of pixel (px, py) meets the world plane z = plane_z, for a camera on the -z side
+// looking toward +z (a board and the sample on it); false where it does not.
+inline bool pixel_on_plane(const Intrinsics& k, const Mat4& world_from_camera, double px, double py,
+                           double plane_z, Vec3* P) {
+  Vec3 r;
+  if (!pixel_ray(k, px, py, &r)) return false;
+  const Vec3 d = world_from_camera.dir(r), e = world_from_camera.translation();
+  if (!(d.z > 0) || !(e.z < plane_z)) return false;
+  *P = e + d * ((plane_z - e.z) / d.z);
+  return true;
+}
+
 // Where a camera-space point lands, in pixels (point in front of the camera).
 inline void project_point(const Intrinsics& k, const Vec3& pc, double* px, double* py) {
   double xd, yd;

@@ -13,15 +13,25 @@ struct BilinearTaps {
   double weight[4];
 };
 
-inline BilinearTaps bilinear_wrap(double u, double v, int w, int h) {
+// With `repeat` false the border texels are repeated outward (glTF's clamp-to-edge) instead.
+inline BilinearTaps bilinear_taps(double u, double v, int w, int h, bool repeat) {
   const double x = u * w - 0.5, y = v * h - 0.5;
   const double fx = std::floor(x), fy = std::floor(y);
   const double tx = x - fx, ty = y - fy;
-  auto wrap = [](long i, int n) { return static_cast<int>(((i % n) + n) % n); };
+  auto wrap = [repeat](long i, int n) {
+    return repeat ? static_cast<int>(((i % n) + n) % n)
+                  : static_cast<int>(i < 0    ? 0
+                                     : i >= n ? n - 1
+                                              : i);
+  };
   const int x0 = wrap(static_cast<long>(fx), w), x1 = wrap(static_cast<long>(fx) + 1, w);
   const int y0 = wrap(static_cast<long>(fy), h), y1 = wrap(static_cast<long>(fy) + 1, h);
   return {{y0 * w + x0, y0 * w + x1, y1 * w + x0, y1 * w + x1},
           {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty}};
+}
+
+inline BilinearTaps bilinear_wrap(double u, double v, int w, int h) {
+  return bilinear_taps(u, v, w, h, true);
 }
 
 // The first channel of `img` at (u, v), bilinear with wrap-around.

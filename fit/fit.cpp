@@ -12,6 +12,7 @@
 
 #include "core/angles.h"
 #include "core/error.h"
+#include "core/timer.h"
 #include "fit/maps.h"
 #include "fit/solve.h"
 #include "fit/start.h"
@@ -23,10 +24,7 @@ using namespace fitting;
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
+using Clock = SteadyClock;
 
 // Refuses what cannot be fitted before any work: options that do not go together, no data, more
 // parameters than values.
@@ -71,7 +69,7 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   const auto t_cov = Clock::now();
   estimate_uncertainty(m.get(), os, opt, &sol, &res);
   rep.covariance = res.report.covariance;
-  rep.seconds_covariance = since(t_cov);
+  rep.seconds_covariance = seconds_since(t_cov);
   if (opt.maps_w > 0) {
     int row0 = 0, row1 = opt.maps_h;
     if (opt.tile_count > 0) {
@@ -104,7 +102,7 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
           "they hold the global values with the prior's spread as sigma (maps_uncertainty."
           "determined = 0)");
   }
-  rep.seconds += since(t0);
+  rep.seconds += seconds_since(t0);
   res.report = rep;
   return res;
 }
@@ -213,9 +211,9 @@ FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
   const auto t0 = Clock::now();
   FitReport rep;
   const ObsSet os = capture_observations(set, opt, &rep);
-  rep.seconds_load = since(t0);
+  rep.seconds_load = seconds_since(t0);
   FitResult r = solve_model(os, opt, rep, {0, 0, 0});
-  r.report.seconds = since(t0);
+  r.report.seconds = seconds_since(t0);
   return r;
 }
 
@@ -224,7 +222,7 @@ FitResult fit_table(const SampleTable& t, const FitOptions& opt) {
   FitReport rep;
   const ObsSet os = table_observations(t, &rep);
   FitResult r = solve_model(os, opt, rep, {0, 0, 0});
-  r.report.seconds = since(t0);
+  r.report.seconds = seconds_since(t0);
   return r;
 }
 

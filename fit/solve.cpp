@@ -13,6 +13,7 @@
 
 #include "core/angles.h"
 #include "core/error.h"
+#include "core/timer.h"
 #include "fit/start.h"
 #include "models/params.h"
 
@@ -20,10 +21,7 @@ namespace aniso::fitting {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
+using Clock = SteadyClock;
 
 // psi lives on the circle of period pi (the model is unchanged under T -> -T, MODELS.md §1).
 class HalfTurnManifold : public ceres::Manifold {
@@ -216,7 +214,7 @@ Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* 
     pb->Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &r, nullptr, nullptr);
     rep->noise_sigma = 1.4826 * median_abs(r);  // robust sigma (MAD) of the residuals
   }
-  rep->seconds_start = since(t_start);
+  rep->seconds_start = seconds_since(t_start);
 
   // Stage 2: all observations with the robust loss, scaled to 3 robust sigmas (outliers beyond
   // it, e.g. specks or unmodelled glints, count linearly instead of quadratically). A floor keeps
@@ -238,7 +236,7 @@ Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* 
   }
   if (opt.progress && ::isatty(2)) std::fprintf(stderr, "\r%70s\r", "");  // the iteration line
   summarize(os, m->parameters(), &sol, rep);
-  rep->seconds_solve = since(t_solve);
+  rep->seconds_solve = seconds_since(t_solve);
   return sol;
 }
 

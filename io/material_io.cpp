@@ -144,15 +144,22 @@ void parse_maps(const json& j, const Ctx& root, Material* m) {
   mp.repeat = wrap == "repeat";
 }
 
+// A map the material names must be there: say so now, naming the material and the key. Returns
+// its path.
+std::string need_map_file(const std::string& path, const std::string& rel, const std::string& key) {
+  const std::string f = join_path(parent_dir(path), rel);
+  if (!std::filesystem::is_regular_file(f))
+    throw Error(path + ": " + key + ": map file not found: " + f +
+                " (paths in a material are relative to the material file)");
+  return f;
+}
+
 // Loads one map named in the material: a float image with at least `channels` channels, finite,
 // each value within the parameter's bounds (fiber: a unit-length doubled-angle vector, or near).
 std::shared_ptr<const Image> load_map(const std::string& path, const std::string& rel,
                                       const std::string& key, int channels, const char* param) {
   if (rel.empty()) return nullptr;
-  const std::string f = join_path(parent_dir(path), rel);
-  if (!std::filesystem::is_regular_file(f))
-    throw Error(path + ": maps." + key + ": map file not found: " + f +
-                " (paths in a material are relative to the material file)");
+  const std::string f = need_map_file(path, rel, "maps." + key);
   auto img = std::make_shared<Image>(read_image(f).image);
   if (img->channels < channels && !(channels == 3 && img->channels == 1))
     throw Error(path + ": maps." + key + ": " + f + " has " + std::to_string(img->channels) +
@@ -215,16 +222,8 @@ Material material_from_json(const json& j, const std::string& file) {
 Material read_material(const std::string& path) {
   Material m = material_from_json(jsonu::parse_file(read_text_file(path), path), path);
   m.base_dir = parent_dir(path);
-  // A map the material names must be there: say so now, naming the material and the key.
-  auto need_file = [&](bool has, const std::string& rel, const char* key) {
-    if (!has) return;
-    const std::string f = join_path(m.base_dir, rel);
-    if (!std::filesystem::is_regular_file(f))
-      throw Error(path + ": " + key + ": map file not found: " + f +
-                  " (paths in a material are relative to the material file)");
-  };
-  if (const auto* t = m.topology_as<TopologyMapRef>()) need_file(true, t->file, "topology.map");
-  if (const auto* t = m.topology_as<SMapRef>()) need_file(true, t->file, "topology.s_map");
+  if (const auto* t = m.topology_as<TopologyMapRef>()) need_map_file(path, t->file, "topology.map");
+  if (const auto* t = m.topology_as<SMapRef>()) need_map_file(path, t->file, "topology.s_map");
   MaterialMaps& mp = m.maps;
   mp.kd = load_map(path, mp.kd_file, "kd", 3, "kd");
   mp.ks = load_map(path, mp.ks_file, "ks", 3, "ks");

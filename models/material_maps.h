@@ -2,27 +2,20 @@
 // centre at ((i + 1/2)/W, (j + 1/2)/H); lookups are bilinear, clamped at the border or repeated.
 // The fiber map holds the doubled angle, so directions equal modulo 180 degrees interpolate right.
 #pragma once
-#include <algorithm>
 #include <cmath>
 
+#include "core/texture.h"
 #include "models/material.h"
 
 namespace aniso {
 
-// Bilinear lookup of channel c of `img` at (u, v).
+// Bilinear lookup of channel c of `img` at (u, v) (core/texture.h's taps).
 inline double map_lookup(const Image& img, double u, double v, int c, bool repeat) {
-  const double x = u * img.width - 0.5, y = v * img.height - 0.5;
-  const double fx = std::floor(x), fy = std::floor(y), tx = x - fx, ty = y - fy;
-  auto idx = [&](long i, int n) {
-    if (repeat) return static_cast<int>(((i % n) + n) % n);
-    return static_cast<int>(std::clamp<long>(i, 0, n - 1));
-  };
-  const int x0 = idx(static_cast<long>(fx), img.width),
-            x1 = idx(static_cast<long>(fx) + 1, img.width);
-  const int y0 = idx(static_cast<long>(fy), img.height),
-            y1 = idx(static_cast<long>(fy) + 1, img.height);
-  return (1 - tx) * (1 - ty) * img.at(x0, y0, c) + tx * (1 - ty) * img.at(x1, y0, c) +
-         (1 - tx) * ty * img.at(x0, y1, c) + tx * ty * img.at(x1, y1, c);
+  const BilinearTaps t = bilinear_taps(u, v, img.width, img.height, repeat);
+  double s = 0;
+  for (int k = 0; k < 4; ++k)
+    s += t.weight[k] * img.px[static_cast<size_t>(t.index[k]) * img.channels + c];
+  return s;
 }
 
 // The material with every map sampled at (u, v); without maps, the material itself.

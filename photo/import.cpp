@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/lens.h"
 #include "core/progress.h"
+#include "core/timer.h"
 #include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -25,10 +26,7 @@ namespace aniso {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
+using Clock = SteadyClock;
 
 std::string photo_name(const Shoot& s, size_t i) {
   std::string n = "photos[" + std::to_string(i) + "] (" + s.photos[i].images[0].file;
@@ -267,17 +265,11 @@ bool view_box(const Intrinsics& k, const OverlayMarks::Points& outline, ViewGeom
 bool view_geometry(const Shoot& s, const Intrinsics& k, const Mat4& wfc, const MergedCrop& mc,
                    ViewGeometry* g) {
   // Board-plane points of the crop's pixels plus one row and column (for the footprint).
-  const Vec3 eye = wfc.translation();
-  const double z = -s.height_m;
   std::vector<Vec3> P(static_cast<size_t>(g->w + 1) * (g->h + 1), Vec3(NAN, NAN, NAN));
   for (int y = 0; y <= g->h; ++y)
-    for (int x = 0; x <= g->w; ++x) {
-      Vec3 r;
-      if (!pixel_ray(k, g->x0 + x, g->y0 + y, &r)) continue;
-      const Vec3 d = wfc.dir(r);
-      if (!(d.z > 0) || !(eye.z < z)) continue;
-      P[static_cast<size_t>(y) * (g->w + 1) + x] = eye + d * ((z - eye.z) / d.z);
-    }
+    for (int x = 0; x <= g->w; ++x)
+      pixel_on_plane(k, wfc, g->x0 + x, g->y0 + y, -s.height_m,
+                     &P[static_cast<size_t>(y) * (g->w + 1) + x]);
   double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
   for (const auto& p : s.polygon)
     bx0 = std::min(bx0, p[0]), bx1 = std::max(bx1, p[0]), by0 = std::min(by0, p[1]),
@@ -448,10 +440,10 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
           ": one camera at one setting is calibrated (crop or zoom changes the intrinsics)");
   }
   if (markers == 0) no_markers(s);
-  r.seconds_detect = since(t0);
+  r.seconds_detect = seconds_since(t0);
   const auto tc = Clock::now();
   solve_cameras(s, det, o, &r);
-  r.seconds_calibrate = since(tc);
+  r.seconds_calibrate = seconds_since(tc);
   size_t accepted = 0;
   for (const auto& p : r.photos) accepted += p.accepted;
   if (accepted == 0)
@@ -482,8 +474,8 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
                                     {"report", "import_report.json"}}
                          .dump();
     write_capture_json(set, join_path(dir, "capture.json"));
-    r.seconds_write = since(tw);
-    r.seconds = since(t0);
+    r.seconds_write = seconds_since(tw);
+    r.seconds = seconds_since(t0);
     write_json_file(join_path(dir, "import_report.json"), import_report_json(s, r, o));
   });
   return r;

@@ -119,13 +119,15 @@ MergedPhoto merge_bracket(const Shoot& s, size_t i) {
     float radiance;
     Kind kind;
   };
+  std::vector<double> sat(shots.size());  // per exposure, once (float images classify per pixel)
+  for (size_t k = 0; k < shots.size(); ++k) sat[k] = saturation_level(s, shots[k].li, shots[k].raw);
   auto classify = [&](size_t k, double stored) {
     const Shot& sh = shots[k];
     const double black = sh.raw ? 0.0 : s.color.black_level;  // LibRaw subtracts its own
     const double lin = sh.raw ? stored : sh.li.bits ? decode_code(stored, s.color) : stored;
-    const Kind kind = stored >= saturation_level(s, sh.li, sh.raw) ? kClipped
-                      : sh.li.bits && stored - black < kNearBlack  ? kDark
-                                                                   : kUse;
+    const Kind kind = stored >= sat[k]                            ? kClipped
+                      : sh.li.bits && stored - black < kNearBlack ? kDark
+                                                                  : kUse;
     return Code{static_cast<float>(lin / sh.exposure), kind};
   };
   std::vector<std::vector<Code>> table(shots.size());

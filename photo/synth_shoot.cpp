@@ -140,12 +140,9 @@ PhotoSetup photo_setup(const PhotoShootOptions& o, int i, const Vec3& centre,
 
 // Where the ray of pixel corner (x, y) meets the board plane z = 0 (board x, y); NaN if never.
 std::array<double, 2> corner_on_board(const Intrinsics& k, const Mat4& pose, double x, double y) {
-  Vec3 r;
-  if (!pixel_ray(k, x, y, &r)) return {NAN, NAN};
-  const Vec3 d = pose.dir(r), e = pose.translation();
-  if (!(d.z > 0)) return {NAN, NAN};
-  const double t = -e.z / d.z;
-  return {e.x + t * d.x, e.y + t * d.y};
+  Vec3 P;
+  if (!pixel_on_plane(k, pose, x, y, 0.0, &P)) return {NAN, NAN};
+  return {P.x, P.y};
 }
 
 // Linear radiance of one photo (exposure 1).
