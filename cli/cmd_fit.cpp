@@ -16,7 +16,7 @@ namespace aniso::cli {
 namespace {
 
 struct FitArgs {
-  std::string in, out, truth, maps, tile, maps_solver = "lm";
+  std::string in, out, truth, maps, tile, maps_solver = "lm", solver = "fused";
   FitOptions fo;
 };
 
@@ -31,10 +31,10 @@ void print_report(FILE* o, const FitResult& r) {
   std::fprintf(o, "fit: start %s\n", p.start.c_str());
   std::fprintf(
       o,
-      "fit: %d iterations, %s, loss %s, residual RMS %.3g, time %.3f s (load %.3f, start %.3f, "
-      "solve %.3f, covariance %.3f by %s)\n",
-      p.iterations, p.termination.c_str(), p.loss.c_str(), p.rms, p.seconds, p.seconds_load,
-      p.seconds_start, p.seconds_solve, p.seconds_covariance, p.covariance.c_str());
+      "fit: %d iterations (%s), %s, loss %s, residual RMS %.3g, time %.3f s (load %.3f, start "
+      "%.3f, solve %.3f, covariance %.3f by %s)\n",
+      p.iterations, p.solver.c_str(), p.termination.c_str(), p.loss.c_str(), p.rms, p.seconds,
+      p.seconds_load, p.seconds_start, p.seconds_solve, p.seconds_covariance, p.covariance.c_str());
   if (r.maps.w > 0) {
     size_t det = 0;
     std::vector<double> sp;
@@ -145,6 +145,12 @@ Command add_fit(CLI::App& app) {
   fit->add_flag("--ceres-covariance", fo.ceres_covariance,
                 "uncertainty by Ceres' dense SVD of the whole Jacobian (the reference; slower and "
                 "larger) instead of the normal equations accumulated in one pass");
+  fit->add_option("--solver", a->solver,
+                  "line model: fused (one pass over the observations per Levenberg-Marquardt "
+                  "step, the default) or ceres (the fitter of record, the reference the tests "
+                  "compare with; also what every other model and optional term uses)")
+      ->check(CLI::IsMember({"fused", "ceres"}))
+      ->default_str("fused");
   fit->add_option("--threads", fo.threads, "solver threads")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
@@ -168,6 +174,7 @@ Command add_fit(CLI::App& app) {
       fit, [a] {
         if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
         a->fo.maps_ceres = a->maps_solver == "ceres";
+        a->fo.ceres_solver = a->solver == "ceres";
         if (!a->tile.empty()) {
           const auto slash = a->tile.find('/');
           try {

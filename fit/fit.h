@@ -39,6 +39,10 @@ struct FitOptions {
   // Covariance by Ceres' dense SVD of the whole Jacobian (the reference) instead of the normal
   // equations accumulated in one pass (fit/uncertainty.cpp).
   bool ceres_covariance = false;
+  // --solver ceres: the plain line model's global fit by Ceres (the fitter of record, IRLS over
+  // 256-pixel blocks) instead of the fused Levenberg-Marquardt (fit/line_lm.h; the tests compare
+  // the two).
+  bool ceres_solver = false;
   // --maps WxH (line model): after the global fit, per-texel maps of k_d, k_s, n and psi over the
   // sample's texture coordinates (0 = none).
   int maps_w = 0, maps_h = 0;
@@ -76,6 +80,7 @@ struct FitReport {
   double pixel_noise = 0;  // of the images, from neighbouring pixels (0 for tables)
   std::string termination, loss;
   std::string covariance;  // how the uncertainty was computed
+  std::string solver;      // which solver found the minimum ("fused LM" or "ceres")
   size_t residual_evaluations = 0, jacobian_evaluations = 0;
   std::string start;  // the grid node the solve started from
   double rss = 0, bic = 0;

@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "core/angles.h"
+#include "fit/line_lm.h"
 #include "fit/line_pixel.h"
 #include "fit/start.h"
 #include "models/params.h"
@@ -181,6 +182,13 @@ class LineFit : public ModelFit {
                            nullptr, core.kd, core.ks, &core.logn, &core.psi);
     }
     set_core_bounds(pb, &core);
+    return true;
+  }
+
+  bool solve_fused(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
+                   const FitOptions& opt, FusedSolve* out) override {
+    if (iso_ || second_ || !chunked_ || opt.ceres_solver || opt.ceres_covariance) return false;
+    line_lm_solve(os, subset, loss, scale, opt.max_iterations, opt.threads, &core, out);
     return true;
   }
 

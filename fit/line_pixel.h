@@ -57,9 +57,10 @@ inline void line_pixel_derivs(const Observation& o, const ObsLight* lights,
     const double x = sL * sV - a * b;
     double S = 0, dS_dx = 0, dS_dlogn = 0;
     if (x > 0) {
-      S = std::exp(n * std::log(x));
+      const double lx = std::log(x);
+      S = std::exp(n * lx);
       dS_dx = n * S / x;
-      dS_dlogn = S * n * std::log(x);
+      dS_dlogn = S * n * lx;
     }
     const double dx_dpsi = (dsL * sV - b) * da + (sL * dsV - a) * db;
     const double dD_dpsi = dsL * da;

@@ -35,6 +35,16 @@ struct Block {
   std::vector<std::string> names;
 };
 
+// What a model's own fused solver (fit/line_lm.h) hands back.
+struct FusedSolve {
+  double info[64] = {};  // J^T W J at the solution, order k_d 3, k_s 3, log n, psi (row-major)
+  double rss = 0;        // sum of w |r|^2 at the solution: the reweighted problem's residuals
+  double cost = 0;       // sum of rho(|r|^2)
+  int iterations = 0;    // accepted steps
+  int passes = 0;        // passes over the observations
+  bool converged = false;
+};
+
 // sigma of each coordinate of a block (already scaled by the residual variance).
 using SigmaOf = std::function<std::vector<double>(const double* block, int size)>;
 
@@ -54,6 +64,13 @@ class ModelFit {
   // A faster form with the robust loss done by reweighting (sqrt_w per observation) instead of
   // by Ceres: chunks of many pixels per block. Models without one return false.
   virtual bool add_reweighted(ceres::Problem*, const ObsSet&, const std::vector<double>*) {
+    return false;
+  }
+  // The whole solve of a stage by the model's own fused solver (fit/line_lm.h), from `core`, over
+  // `subset` (null: every observation): false where the model has none or the options ask for
+  // Ceres, and then nothing is changed.
+  virtual bool solve_fused(const ObsSet&, const std::vector<size_t>*, FitLoss, double /*scale*/,
+                           const FitOptions&, FusedSolve*) {
     return false;
   }
   // The unweighted residual of observation i at the current parameters (for the weights).

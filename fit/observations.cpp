@@ -152,8 +152,10 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   Progress bar("fit: loading views", set.views.size(), opt.progress);
   size_t grey_views = 0;
   std::vector<double> neighbour_diffs;
+  GeometryCache geometry;
   for (size_t i = 0; i < set.views.size(); ++i) {
-    const ViewData d = load_view(set, i, os.topology == TopologyMode::kAmplitude ? &map : nullptr);
+    const ViewData d =
+        load_view(set, i, os.topology == TopologyMode::kAmplitude ? &map : nullptr, &geometry);
     grey_views += d.channels == 1;
     add_neighbour_differences(d, &neighbour_diffs);
     rep.masked_out += static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;

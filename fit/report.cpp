@@ -122,6 +122,7 @@ jsonu::json fit_json(const std::string& path, const FitResult& r) {
                  {"termination", p.termination},
                  {"loss", p.loss},
                  {"covariance", p.covariance},
+                 {"solver", p.solver},
                  {"start", p.start},
                  {"residual_evaluations", p.residual_evaluations},
                  {"rss", p.rss},

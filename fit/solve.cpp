@@ -159,21 +159,25 @@ bool solve_reweighted(ModelFit* m, const ObsSet& os, const FitOptions& opt,
 }
 
 // The residual statistics of the solution: RMS, RSS, BIC (Gaussian residuals, for --model
-// auto), and whether the model describes the data.
+// auto), and whether the model describes the data. sol->rss is already known after a fused solve.
 void summarize(const ObsSet& os, size_t nparam, Solution* sol, FitReport* rep) {
-  const ceres::Solver::Summary& sum = sol->summary;
-  rep->iterations = static_cast<int>(sum.iterations.size()) - 1;
-  rep->termination = ceres::TerminationTypeToString(sum.termination_type);
-  rep->residual_evaluations = sum.num_residual_evaluations;
-  rep->jacobian_evaluations = sum.num_jacobian_evaluations;
-  if (sum.termination_type == ceres::FAILURE) throw Error("fit: the solver failed: " + sum.message);
-  std::vector<double> r;
-  sol->problem->Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &r, nullptr, nullptr);
-  double rss = 0;
-  for (double x : r) rss += x * x;
-  sol->rss = rss;
+  if (sol->problem) {
+    const ceres::Solver::Summary& sum = sol->summary;
+    rep->iterations = static_cast<int>(sum.iterations.size()) - 1;
+    rep->termination = ceres::TerminationTypeToString(sum.termination_type);
+    rep->residual_evaluations = sum.num_residual_evaluations;
+    rep->jacobian_evaluations = sum.num_jacobian_evaluations;
+    if (sum.termination_type == ceres::FAILURE)
+      throw Error("fit: the solver failed: " + sum.message);
+    std::vector<double> r;
+    sol->problem->Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &r, nullptr, nullptr);
+    double rss = 0;
+    for (double x : r) rss += x * x;
+    sol->rss = rss;
+  }
   sol->values = static_cast<double>(os.obs.size()) * (os.grey ? 1 : 3);
   const double m = sol->values;
+  const double rss = sol->rss;
   rep->rms = std::sqrt(rss / (os.grey ? 3 * m : m));
   rep->rss = rss / (os.grey ? 3 : 1);
   rep->parameters = nparam;
@@ -181,6 +185,36 @@ void summarize(const ObsSet& os, size_t nparam, Solution* sol, FitReport* rep) {
       m * std::log(std::max(rep->rss, 1e-300) / m) + static_cast<double>(nparam) * std::log(m);
   rep->pixel_noise = os.pixel_noise;
   if (auto w = misfit_warning(os, *rep); !w.empty()) rep->warnings.push_back(w);
+}
+
+// Stage 1 by Ceres: plain least squares on the start subset; its residuals.
+std::vector<double> settle_with_ceres(ModelFit* m, const ObsSet& os,
+                                      const std::vector<size_t>& subset, const FitOptions& opt) {
+  auto pb = new_problem();
+  m->add_residuals(pb.get(), os, subset, nullptr);
+  ceres::Solver::Summary s1;
+  ceres::Solve(solver_options(opt), pb.get(), &s1);
+  std::vector<double> r;
+  pb->Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &r, nullptr, nullptr);
+  return r;
+}
+
+// Stage 2 by the model's fused solver; false (nothing changed) where it has none.
+bool solve_fused(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* rep,
+                 Solution* sol) {
+  FusedSolve f;
+  if (!m->solve_fused(os, nullptr, opt.loss, rep->loss_scale, opt, &f)) return false;
+  sol->information.assign(f.info, f.info + 64);
+  sol->rss = f.rss;
+  rep->iterations = f.iterations;
+  rep->termination = f.converged ? "CONVERGENCE" : "NO_CONVERGENCE";
+  rep->residual_evaluations = rep->jacobian_evaluations = static_cast<size_t>(f.passes);
+  rep->solver = "fused LM";
+  if (!f.converged)
+    rep->warnings.push_back("the solver stopped after --max-iterations " +
+                            std::to_string(opt.max_iterations) +
+                            " steps before converging: the numbers may not be the minimum");
+  return true;
 }
 
 }  // namespace
@@ -206,12 +240,15 @@ Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* 
   rep->start = m->start(os, opt.progress);
   // Stage 1: plain least squares on the start subset to settle near the optimum and measure noise.
   {
-    auto pb = new_problem();
-    m->add_residuals(pb.get(), os, start_subset(os.obs.size(), kMaxStartObs), nullptr);
-    ceres::Solver::Summary s1;
-    ceres::Solve(solver_options(opt), pb.get(), &s1);
+    const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
+    FusedSolve f;
     std::vector<double> r;
-    pb->Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &r, nullptr, nullptr);
+    if (m->solve_fused(os, &subset, FitLoss::kNone, 0, opt, &f)) {
+      r.resize(3 * subset.size());
+      for (size_t j = 0; j < subset.size(); ++j) m->residual(os, subset[j], &r[3 * j]);
+    } else {
+      r = settle_with_ceres(m, os, subset, opt);
+    }
     rep->noise_sigma = 1.4826 * median_abs(r);  // robust sigma (MAD) of the residuals
   }
   rep->seconds_start = seconds_since(t_start);
@@ -226,7 +263,10 @@ Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* 
   rep->loss =
       loss ? std::string(fit_loss_name(opt.loss)) + "(" + std::to_string(rep->loss_scale) + ")"
            : "none";
-  if (!solve_reweighted(m, os, opt, loss.get(), &sol)) {
+  rep->solver = "ceres";
+  if (solve_fused(m, os, opt, rep, &sol)) {
+    // found by the model's own solver
+  } else if (!solve_reweighted(m, os, opt, loss.get(), &sol)) {
     sol = Solution{};
     std::vector<size_t> all(os.obs.size());
     for (size_t i = 0; i < all.size(); ++i) all[i] = i;

@@ -10,7 +10,10 @@
 namespace aniso::fitting {
 
 struct Solution {
+  // The Ceres problem at the solution; null when the model's fused solver found it, which hands
+  // J^T W J at the solution instead (`information`, 8 x 8 row-major: k_d, k_s, log n, psi).
   std::unique_ptr<ceres::Problem> problem;
+  std::vector<double> information;
   ceres::Solver::Summary summary;
   std::vector<double> sqrt_w;  // reweighting weights: the problem's blocks point at them
   double rss = 0;              // of the final problem's residuals

@@ -1,11 +1,14 @@
 #include "fit/start.h"
 
+#include <tbb/parallel_for.h>
+
 #include <cmath>
 #include <cstdio>
 #include <limits>
 
 #include "core/angles.h"
 #include "core/progress.h"
+#include "models/safe_math.h"
 
 namespace aniso::fitting {
 
@@ -36,26 +39,89 @@ double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, doubl
       kd, ks);
 }
 
+double KdKsSums::solve(double kd[3], double ks[3]) const {
+  double cost = 0;
+  for (int ch = 0; ch < 3; ++ch) {
+    auto sse = [&](double a, double b) {
+      return yy[ch] - 2 * a * dy[ch] - 2 * b * sy[ch] + a * a * dd[ch] + 2 * a * b * ds[ch] +
+             b * b * ss[ch];
+    };
+    double ba = 0, bb = 0, bc = sse(0, 0);
+    const double det = dd[ch] * ss[ch] - ds[ch] * ds[ch];
+    if (det > 1e-300) {
+      const double a = (dy[ch] * ss[ch] - sy[ch] * ds[ch]) / det,
+                   b = (sy[ch] * dd[ch] - dy[ch] * ds[ch]) / det;
+      if (a >= 0 && b >= 0 && sse(a, b) < bc) ba = a, bb = b, bc = sse(a, b);
+    }
+    if (dd[ch] > 0) {
+      const double a = std::max(dy[ch] / dd[ch], 0.0);
+      if (sse(a, 0) < bc) ba = a, bb = 0, bc = sse(a, 0);
+    }
+    if (ss[ch] > 0) {
+      const double b = std::max(sy[ch] / ss[ch], 0.0);
+      if (sse(0, b) < bc) ba = 0, bb = b, bc = sse(0, b);
+    }
+    kd[ch] = ba;
+    ks[ch] = bb;
+    cost += bc;
+  }
+  return cost;
+}
+
+namespace {
+
+constexpr int kGridPsi = 36, kGridN = 12;  // psi in 5 degree steps; n = 2^1 .. 2^12
+
+// Every n of the grid at one psi in one pass: the lobe x^n for n = 2, 4, ..., 4096 by repeated
+// squaring of x = sin_L sin_V - cos_L cos_V (each node's value is exactly pos_pow(x, n) up to
+// rounding), the sums of each node's k_d, k_s problem.
+void grid_column(const ObsSet& os, const std::vector<size_t>& subset, double psi,
+                 KdKsSums sums[kGridN]) {
+  const double c = std::cos(psi), s = std::sin(psi);
+  for (size_t i : subset) {
+    const Observation& o = os.obs[i];
+    const double b = clamp_unit(c * o.V.u + s * o.V.w), sV = sin_from_cos(b);
+    double dcol[3] = {0, 0, 0}, scol[kGridN][3] = {};
+    for (uint32_t k = 0; k < o.num_lights; ++k) {
+      const ObsLight& l = os.lights[o.first_light + k];
+      const double a = clamp_unit(c * l.L.u + s * l.L.w), sL = sin_from_cos(a);
+      double w[3];
+      for (int ch = 0; ch < 3; ++ch) w[ch] = l.E[ch] * l.L.n, dcol[ch] += w[ch] * sL;
+      double p = std::max(sL * sV - a * b, 0.0);
+      for (int in = 0; in < kGridN; ++in) {
+        p *= p;
+        for (int ch = 0; ch < 3; ++ch) scol[in][ch] += w[ch] * p;
+      }
+    }
+    const double y[3] = {o.y[0] - o.base[0], o.y[1] - o.base[1], o.y[2] - o.base[2]};
+    for (int in = 0; in < kGridN; ++in) sums[in].add(dcol, scol[in], y);
+  }
+}
+
+}  // namespace
+
 std::string line_grid_start(const ObsSet& os, Core* st, bool progress) {
-  Progress bar("fit: start grid (psi x n)", 36, progress);
+  Progress bar("fit: start grid (psi x n)", kGridPsi, progress);
   const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
+  std::vector<KdKsSums> sums(kGridPsi * kGridN);
+  tbb::parallel_for(0, kGridPsi, [&](int ip) {
+    grid_column(os, subset, ip * M_PI / kGridPsi, &sums[ip * kGridN]);
+    bar.advance();
+  });
   double best = std::numeric_limits<double>::infinity();
   double best_psi = 0, best_logn = 0, best_kd[3] = {0, 0, 0}, best_ks[3] = {0, 0, 0};
-  for (int ip = 0; ip < 36; ++ip, bar.advance()) {
-    const double psi = ip * M_PI / 36;
-    for (int in = 1; in <= 12; ++in) {
-      const double n = std::pow(2.0, in);
+  for (int ip = 0; ip < kGridPsi; ++ip)
+    for (int in = 0; in < kGridN; ++in) {
       double kd[3], ks[3];
-      const double cost = line_node_cost(os, subset, psi, n, kd, ks);
+      const double cost = sums[ip * kGridN + in].solve(kd, ks);
       if (cost < best) {
         best = cost;
-        best_psi = psi;
-        best_logn = std::log(n);
+        best_psi = ip * M_PI / kGridPsi;
+        best_logn = (in + 1) * std::log(2.0);
         std::copy(kd, kd + 3, best_kd);
         std::copy(ks, ks + 3, best_ks);
       }
     }
-  }
   st->psi = best_psi;
   st->logn = best_logn;
   set_start_kd_ks(best_kd, best_ks, st);

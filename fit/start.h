@@ -12,53 +12,39 @@ namespace aniso::fitting {
 constexpr size_t kMaxStartObs = 4000;  // the start and stage 1 use at most this many pixels
 
 // At fixed (psi, n[, topology]) the model is linear in k_d and k_s: per channel, the 2x2
-// non-negative least-squares problem on the columns cols(o) -> (diffuse, specular) is solved in
-// closed form (unconstrained, k_d only, k_s only; best non-negative). Returns the sum of squares.
+// non-negative least-squares problem on the columns (diffuse, specular) is solved in closed form
+// (unconstrained, k_d only, k_s only; best non-negative). The sums of its normal equations:
+struct KdKsSums {
+  double dd[3] = {0, 0, 0}, ds[3] = {0, 0, 0}, ss[3] = {0, 0, 0}, dy[3] = {0, 0, 0},
+         sy[3] = {0, 0, 0}, yy[3] = {0, 0, 0};
+  // One observation: its diffuse and specular columns and its value less the known part.
+  void add(const double dcol[3], const double scol[3], const double y[3]) {
+    for (int ch = 0; ch < 3; ++ch) {
+      dd[ch] += dcol[ch] * dcol[ch];
+      ds[ch] += dcol[ch] * scol[ch];
+      ss[ch] += scol[ch] * scol[ch];
+      dy[ch] += dcol[ch] * y[ch];
+      sy[ch] += scol[ch] * y[ch];
+      yy[ch] += y[ch] * y[ch];
+    }
+  }
+  // The best non-negative k_d, k_s; returns the sum of squares.
+  double solve(double kd[3], double ks[3]) const;
+};
+
+// The same over `subset`, with the columns from cols(o) -> (diffuse, specular).
 template <class Cols>
 double solve_kd_ks(const ObsSet& os, const std::vector<size_t>& subset, Cols cols, double kd[3],
                    double ks[3]) {
-  double dd[3] = {0, 0, 0}, ds[3] = {0, 0, 0}, ss[3] = {0, 0, 0}, dy[3] = {0, 0, 0},
-         sy[3] = {0, 0, 0}, yy[3] = {0, 0, 0};
+  KdKsSums sums;
   for (size_t i : subset) {
     const Observation& o = os.obs[i];
     double dcol[3] = {0, 0, 0}, scol[3] = {0, 0, 0};
     cols(o, dcol, scol);
-    for (int ch = 0; ch < 3; ++ch) {
-      const double y = o.y[ch] - o.base[ch];
-      dd[ch] += dcol[ch] * dcol[ch];
-      ds[ch] += dcol[ch] * scol[ch];
-      ss[ch] += scol[ch] * scol[ch];
-      dy[ch] += dcol[ch] * y;
-      sy[ch] += scol[ch] * y;
-      yy[ch] += y * y;
-    }
+    const double y[3] = {o.y[0] - o.base[0], o.y[1] - o.base[1], o.y[2] - o.base[2]};
+    sums.add(dcol, scol, y);
   }
-  double cost = 0;
-  for (int ch = 0; ch < 3; ++ch) {
-    auto sse = [&](double a, double b) {
-      return yy[ch] - 2 * a * dy[ch] - 2 * b * sy[ch] + a * a * dd[ch] + 2 * a * b * ds[ch] +
-             b * b * ss[ch];
-    };
-    double ba = 0, bb = 0, bc = sse(0, 0);
-    const double det = dd[ch] * ss[ch] - ds[ch] * ds[ch];
-    if (det > 1e-300) {
-      const double a = (dy[ch] * ss[ch] - sy[ch] * ds[ch]) / det,
-                   b = (sy[ch] * dd[ch] - dy[ch] * ds[ch]) / det;
-      if (a >= 0 && b >= 0 && sse(a, b) < bc) ba = a, bb = b, bc = sse(a, b);
-    }
-    if (dd[ch] > 0) {
-      const double a = std::max(dy[ch] / dd[ch], 0.0);
-      if (sse(a, 0) < bc) ba = a, bb = 0, bc = sse(a, 0);
-    }
-    if (ss[ch] > 0) {
-      const double b = std::max(sy[ch] / ss[ch], 0.0);
-      if (sse(0, b) < bc) ba = 0, bb = b, bc = sse(0, b);
-    }
-    kd[ch] = ba;
-    ks[ch] = bb;
-    cost += bc;
-  }
-  return cost;
+  return sums.solve(kd, ks);
 }
 
 // The line model at one grid node (psi, n): k_d, k_s in closed form over `subset`; the sum of

@@ -67,6 +67,11 @@ class NormalEquations : public CovarianceSource {
   // False when the problem is not one this path covers (a free block outside `blocks`, too many
   // parameters) or the information matrix is rank deficient (`*deficient` tells which).
   bool compute(ceres::Problem* pb, const std::vector<Block>& blocks, bool* deficient);
+  // The same from J^T J already summed by the solver (`info` over `order`, whose blocks are
+  // contiguous in it): the fused solve's, with pb holding only the parameter blocks.
+  bool compute_given(ceres::Problem* pb, const std::vector<Block>& blocks,
+                     const std::vector<double>& info, const std::vector<const double*>& order,
+                     bool* deficient);
   bool block(const double* a, const double* b, double* out) const override;
   bool matrix(const std::vector<const double*>& blocks, double* out) const override;
 
@@ -78,6 +83,7 @@ class NormalEquations : public CovarianceSource {
   };
   bool index(ceres::Problem* pb, const std::vector<Block>& blocks);
   bool accumulate(ceres::Problem* pb, Eigen::MatrixXd* info) const;
+  bool invert(const Eigen::MatrixXd& info, bool* deficient);
   std::map<const double*, Slot> slots_;
   int p_ = 0;
   Eigen::MatrixXd cov_;  // tangent space
@@ -151,6 +157,31 @@ bool NormalEquations::compute(ceres::Problem* pb, const std::vector<Block>& bloc
   *deficient = false;
   Eigen::MatrixXd info;
   if (!index(pb, blocks) || !accumulate(pb, &info)) return false;
+  return invert(info, deficient);
+}
+
+bool NormalEquations::compute_given(ceres::Problem* pb, const std::vector<Block>& blocks,
+                                    const std::vector<double>& given,
+                                    const std::vector<const double*>& order, bool* deficient) {
+  *deficient = false;
+  if (!index(pb, blocks)) return false;
+  std::map<const double*, int> at;  // where each block starts in `given`
+  int n = 0;
+  for (const double* b : order) at[b] = n, n += pb->ParameterBlockSize(b);
+  if (given.size() != static_cast<size_t>(n) * n) return false;
+  Eigen::MatrixXd info(p_, p_);
+  for (const auto& [a, sa] : slots_)
+    for (const auto& [b, sb] : slots_) {
+      if (!at.count(a) || !at.count(b) || sa.tangent != sa.ambient || sb.tangent != sb.ambient)
+        return false;
+      for (int i = 0; i < sa.tangent; ++i)
+        for (int j = 0; j < sb.tangent; ++j)
+          info(sa.offset + i, sb.offset + j) = given[(at[a] + i) * n + at[b] + j];
+    }
+  return invert(info, deficient);
+}
+
+bool NormalEquations::invert(const Eigen::MatrixXd& info, bool* deficient) {
   // Column scaling, then the rank test on the eigenvalues: a ratio below 1e-14 (a singular-value
   // ratio of 1e-7 in J) is not trusted as information.
   const Eigen::VectorXd d = info.diagonal();
@@ -289,9 +320,16 @@ void drop_nonfinite_sigmas(FitResult* res) {
 
 void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, Solution* sol,
                           FitResult* res) {
+  Core& c = m->core;
+  if (!sol->problem) {
+    // A fused solve: a problem of the parameter blocks alone, for what is held and what is free.
+    ceres::Problem::Options po;
+    sol->problem = std::make_unique<ceres::Problem>(po);
+    for (double* b : {c.kd, c.ks}) sol->problem->AddParameterBlock(b, 3);
+    for (double* b : {&c.logn, &c.psi}) sol->problem->AddParameterBlock(b, 1);
+  }
   ceres::Problem* pb = sol->problem.get();
   const bool n_free = hold_free_exponent(m, pb, res);
-  Core& c = m->core;
   std::vector<Block> blocks = {{c.kd, 3, {"kd.r", "kd.g", "kd.b"}},
                                {c.ks, 3, {"ks.r", "ks.g", "ks.b"}},
                                {&c.psi, 1, {"fiber_angle"}}};
@@ -304,9 +342,12 @@ void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, 
   CeresCovariance ceres_cov(opt.threads);
   const CovarianceSource* source = nullptr;
   bool deficient = false;
-  if (!opt.ceres_covariance && normal.compute(pb, blocks, &deficient))
+  const bool given = !sol->information.empty();
+  if (given ? normal.compute_given(pb, blocks, sol->information, {c.kd, c.ks, &c.logn, &c.psi},
+                                   &deficient)
+            : !opt.ceres_covariance && normal.compute(pb, blocks, &deficient))
     source = &normal;
-  else if ((opt.ceres_covariance || !deficient) &&
+  else if (!given && (opt.ceres_covariance || !deficient) &&
            ceres_cov.compute(pb, blocks, m->full_correlation()))
     source = &ceres_cov;
   res->report.covariance = source == &normal ? "normal equations" : "ceres dense SVD";

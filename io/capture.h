@@ -91,9 +91,18 @@ struct TopologyMap {
 };
 TopologyMap load_topology_map(const std::string& path);
 
+// The geometry buffers of the last view loaded: views that name the same buffer files (a fixed
+// camera, one geometry for every light) decode them once.
+struct GeometryCache {
+  std::string key;  // the buffer paths and the camera's size
+  Image P, N, U, smath, mapv, uv;
+  std::vector<uint8_t> mask;
+};
+
 // Loads view i; per-pixel geometry comes from its buffers or by casting rays at its mesh.
 // `map` (the set's topology map, loaded once by the caller) fills ViewData::mapv from the uv
-// buffer.
-ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nullptr);
+// buffer. With `cache`, buffers the previous view also named are not decoded again.
+ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nullptr,
+                   GeometryCache* cache = nullptr);
 
 }  // namespace aniso

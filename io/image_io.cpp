@@ -12,12 +12,11 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "core/color.h"
 #include "core/error.h"
 #include "io/files.h"
+#include "io/image_codecs.h"
 
 namespace aniso {
 
@@ -34,23 +33,6 @@ void check_declared_size(const std::string& path, long long w, long long h, int 
   if (expect_w > 0 && (w != expect_w || h != expect_h))
     throw Error(path + ": is " + std::to_string(w) + "x" + std::to_string(h) + ", expected " +
                 std::to_string(expect_w) + "x" + std::to_string(expect_h));
-}
-
-// A PNG's size from its IHDR chunk (bytes 16-23, big-endian), or false if not a PNG.
-bool png_size(const std::string& path, long long* w, long long* h) {
-  unsigned char b[24];
-  FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return false;
-  const size_t n = std::fread(b, 1, sizeof b, f);
-  std::fclose(f);
-  static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (n < 24 || std::memcmp(b, sig, 8) != 0) return false;
-  auto be = [&](int o) {
-    return (static_cast<long long>(b[o]) << 24) | (b[o + 1] << 16) | (b[o + 2] << 8) | b[o + 3];
-  };
-  *w = be(16);
-  *h = be(20);
-  return true;
 }
 
 Image read_exr(const std::string& path, int expect_w, int expect_h) {
@@ -115,51 +97,20 @@ LoadedImage read_image(const std::string& path, int expect_w, int expect_h) {
     out.image = read_exr(path, expect_w, expect_h);
     return out;
   }
-  long long pw = 0, ph = 0;
-  if (png_size(path, &pw, &ph)) check_declared_size(path, pw, ph, expect_w, expect_h);
-  cv::Mat m;
-  try {
-    m = cv::imread(path, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw Error(path + ": cannot decode image: " + e.what());
-  }
-  if (m.empty()) throw Error(path + ": cannot decode image (not PNG/TIFF/JPEG/EXR?)");
-  double scale = 1.0;
-  switch (m.depth()) {
-    case CV_8U:
-      out.bits = 8;
-      scale = 1.0 / 255.0;
+  const SizeCheck check = [&](long long w, long long h) {
+    check_declared_size(path, w, h, expect_w, expect_h);
+  };
+  switch (sniff_image(path)) {
+    case ImageKind::kPng:
+      return decode_png(path, check);
+    case ImageKind::kJpeg:
+      return decode_jpeg(path, check);
+    case ImageKind::kTiff:
+      return decode_tiff(path, check);
+    case ImageKind::kOther:
       break;
-    case CV_16U:
-      out.bits = 16;
-      scale = 1.0 / 65535.0;
-      break;
-    case CV_32F:
-    case CV_64F:
-      out.bits = 0;
-      break;
-    default:
-      throw Error(path + ": unsupported pixel depth");
   }
-  const int c_in = m.channels();
-  const int c_out = c_in >= 3 ? 3 : 1;
-  cv::Mat f;
-  m.convertTo(f, CV_MAKETYPE(CV_32F, c_in), scale);
-  Image img(f.cols, f.rows, c_out);
-  for (int y = 0; y < f.rows; ++y) {
-    const float* row = f.ptr<float>(y);
-    for (int x = 0; x < f.cols; ++x) {
-      if (c_out == 1) {
-        img.at(x, y, 0) = row[x * c_in];
-      } else {  // OpenCV stores BGR(A)
-        img.at(x, y, 0) = row[x * c_in + 2];
-        img.at(x, y, 1) = row[x * c_in + 1];
-        img.at(x, y, 2) = row[x * c_in + 0];
-      }
-    }
-  }
-  out.image = std::move(img);
-  return out;
+  throw Error(path + ": cannot decode image (not PNG/TIFF/JPEG/EXR?)");
 }
 
 void write_exr(const std::string& path, const Image& img) {
@@ -190,55 +141,13 @@ void write_exr(const std::string& path, const Image& img) {
   });
 }
 
-namespace {
-
-uint32_t png_crc(const uint8_t* data, size_t n, uint32_t crc = 0xFFFFFFFFu) {
-  for (size_t i = 0; i < n; ++i) {
-    crc ^= data[i];
-    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-  }
-  return crc;
-}
-
-// A pHYs chunk (pixels per metre) right after IHDR, so a printer prints at the intended size.
-void insert_phys(std::vector<uchar>* png, double dpi) {
-  const uint32_t ppm = static_cast<uint32_t>(std::lround(dpi / 0.0254));
-  std::vector<uint8_t> c = {0, 0, 0, 9, 'p', 'H', 'Y', 's'};
-  for (int rep = 0; rep < 2; ++rep)
-    for (int k = 3; k >= 0; --k) c.push_back(static_cast<uint8_t>(ppm >> (8 * k)));
-  c.push_back(1);  // unit: metre
-  const uint32_t crc = png_crc(c.data() + 4, c.size() - 4) ^ 0xFFFFFFFFu;
-  for (int k = 3; k >= 0; --k) c.push_back(static_cast<uint8_t>(crc >> (8 * k)));
-  constexpr size_t kAfterIhdr = 8 + 4 + 4 + 13 + 4;
-  png->insert(png->begin() + kAfterIhdr, c.begin(), c.end());
-}
-
-}  // namespace
-
 void write_png(const std::string& path, const Image& img, int bits) {
   write_png(path, img, bits, 0);
 }
 
 void write_png(const std::string& path, const Image& img, int bits, double dpi) {
   if (bits != 8 && bits != 16) throw Error(path + ": PNG bit depth must be 8 or 16");
-  const int c = img.channels >= 3 ? 3 : 1;
-  const double maxv = bits == 8 ? 255.0 : 65535.0;
-  cv::Mat m(img.height, img.width, CV_MAKETYPE(bits == 8 ? CV_8U : CV_16U, c));
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x)
-      for (int k = 0; k < c; ++k) {
-        float v = img.at(x, y, c == 3 ? 2 - k : 0);  // RGB -> BGR
-        if (!std::isfinite(v)) throw Error(path + ": refusing to write a non-finite value");
-        const double q = std::round(std::clamp(static_cast<double>(v), 0.0, 1.0) * maxv);
-        if (bits == 8)
-          m.ptr<uint8_t>(y)[x * c + k] = static_cast<uint8_t>(q);
-        else
-          m.ptr<uint16_t>(y)[x * c + k] = static_cast<uint16_t>(q);
-      }
-  std::vector<uchar> bytes;
-  if (!cv::imencode(".png", m, bytes)) throw Error(path + ": cannot encode PNG");
-  if (dpi > 0) insert_phys(&bytes, dpi);
-  write_text_file(path, std::string(bytes.begin(), bytes.end()));
+  write_text_file(path, encode_png(path, img, bits, dpi));
 }
 
 Image encode_srgb(const Image& linear, double exposure) {

@@ -1,4 +1,5 @@
-// Image files: OpenEXR (half or float) through OpenEXR; PNG/TIFF/JPEG through OpenCV.
+// Image files: OpenEXR (half or float) through OpenEXR; PNG/TIFF/JPEG through libpng, libjpeg and
+// libtiff (io/image_codecs.h).
 // Reading returns the stored values: EXR as they are, integer images scaled to [0, 1] with no
 // colour decoding (the capture reader applies `color.encoding`). Channels come back as R,G,B
 // (or one grey channel, or R,G for two-channel buffers); alpha is dropped.

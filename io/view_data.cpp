@@ -176,7 +176,7 @@ void classify_pixels(const CaptureSet& s, const LoadedImage& li, const std::vect
 
 }  // namespace
 
-ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
+ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, GeometryCache* cache) {
   const ViewSpec& v = s.views.at(i);
   const Intrinsics& k = v.camera;
   const std::string ctx = s.file + ": views[" + std::to_string(i) + "]";
@@ -196,10 +196,20 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map) {
       throw Error(ctx + ".geometry.mesh: " + e.what());
     }
   } else {
-    try {
-      read_geometry_buffers(s, v, map, &d, &mask);
-    } catch (const Error& e) {
-      throw Error(ctx + ".geometry: " + e.what());
+    const std::string key = g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
+                            g.topology + '\n' + g.uv + '\n' + std::to_string(k.width) + 'x' +
+                            std::to_string(k.height);
+    if (cache && cache->key == key) {
+      d.P = cache->P, d.N = cache->N, d.U = cache->U;
+      d.smath = cache->smath, d.mapv = cache->mapv, d.uv = cache->uv;
+      mask = cache->mask;
+    } else {
+      try {
+        read_geometry_buffers(s, v, map, &d, &mask);
+      } catch (const Error& e) {
+        throw Error(ctx + ".geometry: " + e.what());
+      }
+      if (cache) *cache = GeometryCache{key, d.P, d.N, d.U, d.smath, d.mapv, d.uv, mask};
     }
   }
   classify_pixels(s, li, mask, &d);

@@ -28,8 +28,9 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
   Image s_map;  // a per-texel map of s (what `fit --topology-map` writes), R channel
   if (const auto* s = m.fiber() ? m.topology_as<SMapRef>() : nullptr)
     s_map = read_image(join_path(m.base_dir, s->file)).image;
+  GeometryCache geometry;
   for (size_t i = 0; i < set.views.size(); ++i) {
-    const ViewData d = load_view(set, i, use_map ? &map : nullptr);
+    const ViewData d = load_view(set, i, use_map ? &map : nullptr, &geometry);
     if (!s_map.empty() && d.uv.empty())
       throw Error(set.file + ": the material's map of s needs the \"uv\" buffer");
     if (m.maps.any() && d.uv.empty())

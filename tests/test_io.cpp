@@ -1,6 +1,12 @@
 // File formats (FORMAT.md): images, capture sets, materials and sample tables round-trip; the
 // readers decode what others may write (PNG with sRGB, OBJ meshes).
 #include <gtest/gtest.h>
+#include <tiffio.h>
+
+#include <cstdio>
+// clang-format off
+#include <jpeglib.h>  // after cstdio: it needs FILE
+// clang-format on
 
 #include <cmath>
 #include <filesystem>
@@ -38,6 +44,102 @@ TEST(ImageIO, Png16RoundTripWithinHalfAStep) {
   const LoadedImage b = read_image(dir + "/a.png");
   EXPECT_EQ(b.bits, 16);
   for (size_t i = 0; i < a.px.size(); ++i) EXPECT_NEAR(a.px[i], b.image.px[i], 0.5 / 65535 + 1e-7);
+}
+
+// JPEG and TIFF as their own libraries write them (not ours), read back through io/image_codecs:
+// 8- and 16-bit and float TIFF exact, JPEG within its quantisation, grey and RGB, and a truncated
+// file named in the message.
+TEST(ImageIO, JpegAndTiffFromTheirOwnLibrariesDecode) {
+  const std::string dir = test::tmp_dir("codecs");
+  const int w = 19, h = 7;
+  auto code = [](int x, int y, int c) { return (x * 37 + y * 11 + c * 5) % 256; };
+  for (int bits : {8, 16, 32}) {
+    const std::string path = dir + "/t" + std::to_string(bits) + ".tif";
+    TIFF* t = TIFFOpen(path.c_str(), "w");
+    ASSERT_NE(t, nullptr);
+    TIFFSetField(t, TIFFTAG_IMAGEWIDTH, w);
+    TIFFSetField(t, TIFFTAG_IMAGELENGTH, h);
+    TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, 3);
+    TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, bits);
+    TIFFSetField(t, TIFFTAG_SAMPLEFORMAT, bits == 32 ? SAMPLEFORMAT_IEEEFP : SAMPLEFORMAT_UINT);
+    TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_RGB);
+    TIFFSetField(t, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
+    TIFFSetField(t, TIFFTAG_COMPRESSION, COMPRESSION_LZW);
+    std::vector<unsigned char> row(static_cast<size_t>(w) * 3 * (bits / 8));
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const size_t i = static_cast<size_t>(x) * 3 + c;
+          if (bits == 8) row[i] = static_cast<unsigned char>(code(x, y, c));
+          if (bits == 16) reinterpret_cast<uint16_t*>(row.data())[i] = code(x, y, c) * 257;
+          if (bits == 32) reinterpret_cast<float*>(row.data())[i] = code(x, y, c) * 0.5f;
+        }
+      ASSERT_EQ(TIFFWriteScanline(t, row.data(), y, 0), 1);
+    }
+    TIFFClose(t);
+    const LoadedImage li = read_image(path, w, h);
+    EXPECT_EQ(li.bits, bits == 32 ? 0 : bits);
+    ASSERT_EQ(li.image.channels, 3);
+    double worst = 0;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const double want = bits == 32 ? code(x, y, c) * 0.5 : code(x, y, c) / 255.0;
+          worst = std::max(worst, std::abs(li.image.at(x, y, c) - want));
+        }
+    EXPECT_LT(worst, 1e-6) << path;
+  }
+  for (int channels : {1, 3}) {
+    const std::string path = dir + "/j" + std::to_string(channels) + ".jpg";
+    jpeg_compress_struct ci;
+    jpeg_error_mgr err;
+    ci.err = jpeg_std_error(&err);
+    jpeg_create_compress(&ci);
+    FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    jpeg_stdio_dest(&ci, f);
+    ci.image_width = w;
+    ci.image_height = h;
+    ci.input_components = channels;
+    ci.in_color_space = channels == 3 ? JCS_RGB : JCS_GRAYSCALE;
+    jpeg_set_defaults(&ci);
+    jpeg_set_quality(&ci, 100, TRUE);
+    jpeg_start_compress(&ci, TRUE);
+    std::vector<unsigned char> row(static_cast<size_t>(w) * channels);
+    while (ci.next_scanline < ci.image_height) {
+      const int y = static_cast<int>(ci.next_scanline);
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < channels; ++c) row[x * channels + c] = 100 + x * 3 + c * 20 + y;
+      JSAMPROW p = row.data();
+      jpeg_write_scanlines(&ci, &p, 1);
+    }
+    jpeg_finish_compress(&ci);
+    jpeg_destroy_compress(&ci);
+    std::fclose(f);
+    const LoadedImage li = read_image(path, w, h);
+    EXPECT_EQ(li.bits, 8);
+    ASSERT_EQ(li.image.channels, channels);
+    double worst = 0;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < channels; ++c)
+          worst =
+              std::max(worst, std::abs(li.image.at(x, y, c) * 255.0 - (100 + x * 3 + c * 20 + y)));
+    EXPECT_LE(worst, 4) << path << ": codes off by more than JPEG's quality-100 rounding";
+  }
+  // A JPEG cut short: the decoder's own message, the file named.
+  const std::string cut = dir + "/cut.jpg";
+  {
+    std::ifstream in(dir + "/j3.jpg", std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(cut, std::ios::binary) << bytes.substr(0, 40);
+  }
+  try {
+    read_image(cut);
+    ADD_FAILURE() << "a truncated JPEG was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(cut), std::string::npos) << e.what();
+  }
 }
 
 TEST(ImageIO, RefusesNonFiniteValues) {

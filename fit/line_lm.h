@@ -1,0 +1,21 @@
+// fit/ internal: the plain line model's global solve without Ceres' per-block machinery: a
+// hand-written Levenberg-Marquardt whose every iteration is one fused pass over the observations
+// (residual, robust weight, J^T W J and J^T W r together, fit/line_pixel.h's derivatives), spread
+// over threads in fixed chunks so the sums, and so the answer, do not depend on the scheduling.
+// The robust loss enters by its weights rho'(|r|^2) at the current point (iteratively reweighted
+// least squares inside LM): the fixed point is the minimum of sum rho(|r|^2), the function Ceres
+// minimises with the same loss (the tests compare the two solvers). Ceres stays the fitter of
+// record: `--solver ceres` and every other model or optional term go through it.
+#pragma once
+#include <vector>
+
+#include "fit/model_fit.h"
+
+namespace aniso::fitting {
+
+// Solves from `c` (updated in place) over the observations in `subset` (null: all), at most
+// `max_iterations` steps on `threads` threads.
+void line_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
+                   int max_iterations, int threads, Core* c, FusedSolve* out);
+
+}  // namespace aniso::fitting
