@@ -65,6 +65,7 @@ inline Errs errors_of(const Material& m, const Material& t) {
 }
 
 nlohmann::json bench_fit(const std::string& work, bool quick);
+nlohmann::json bench_fit_process(const std::string& work, bool quick);
 nlohmann::json bench_fiber(bool quick);
 
 }  // namespace aniso::benchutil

@@ -338,6 +338,7 @@ void run_bench(const std::string& suite, const std::string& out_path, const std:
     for (const auto& e : a) entries.push_back(e);
   };
   const auto t0 = Clock::now();
+  if (suite == "fit" || suite == "all") add(bench_fit_process(work_dir, quick));
   if (suite == "fit" || suite == "all") add(bench_fit(work_dir, quick));
   if (suite == "fiber" || suite == "all") add(bench_fiber(quick));
   if (suite == "bake" || suite == "all") add(bench_bake(quick));

@@ -1,5 +1,8 @@
 #include "fit/observations.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -132,6 +135,37 @@ void add_neighbour_differences(const ViewData& d, std::vector<double>* diffs) {
     }
 }
 
+// One view's records, made on a worker thread and appended in view order.
+struct ViewPart {
+  ObsSet os;
+  FitReport rep;
+  std::vector<double> diffs;
+  bool grey = false;
+};
+
+// Appends a view's records. Before the first, room for as many again for every view still to
+// come: one allocation where every view sees the sample alike (a fixed camera), instead of a
+// vector doubling its way up and copying everything each time (twice the records' memory at the
+// copy, and most of the load time on large sets).
+void append_view(ViewPart* p, size_t views_left, ObsSet* os, FitReport* rep,
+                 std::vector<double>* diffs) {
+  auto grow = [](auto* v, size_t want) {
+    if (v->capacity() < want) v->reserve(std::max(want, v->capacity() + v->capacity() / 2));
+  };
+  grow(&os->obs, os->obs.size() + p->os.obs.size() * views_left);
+  grow(&os->lights, os->lights.size() + p->os.lights.size() * views_left);
+  const auto offset = static_cast<uint32_t>(os->lights.size());
+  for (Observation& o : p->os.obs) o.first_light += offset;
+  os->obs.insert(os->obs.end(), p->os.obs.begin(), p->os.obs.end());
+  os->lights.insert(os->lights.end(), p->os.lights.begin(), p->os.lights.end());
+  diffs->insert(diffs->end(), p->diffs.begin(), p->diffs.end());
+  rep->masked_out += p->rep.masked_out;
+  rep->saturated += p->rep.saturated;
+  rep->nonfinite += p->rep.nonfinite;
+  rep->unlit += p->rep.unlit;
+  *p = ViewPart{};
+}
+
 }  // namespace
 
 ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep_out) {
@@ -152,17 +186,31 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   Progress bar("fit: loading views", set.views.size(), opt.progress);
   size_t grey_views = 0;
   std::vector<double> neighbour_diffs;
-  GeometryCache geometry;
-  for (size_t i = 0; i < set.views.size(); ++i) {
-    const ViewData d =
-        load_view(set, i, os.topology == TopologyMode::kAmplitude ? &map : nullptr, &geometry);
-    grey_views += d.channels == 1;
-    add_neighbour_differences(d, &neighbour_diffs);
-    rep.masked_out += static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
-    rep.saturated += d.saturated;
-    rep.nonfinite += d.nonfinite;
-    add_pixel_observations(d, set.views[i], set, known, opt.subsample, &os, &rep);
-    bar.advance();
+  // Views are decoded and reduced a few at a time on the solver's threads, appended in order.
+  const size_t batch = 2 * static_cast<size_t>(std::max(1, opt.threads)), n = set.views.size();
+  std::vector<GeometryCache> geometry(batch);  // one per slot of a batch
+  std::vector<ViewPart> parts(batch);
+  tbb::task_arena arena(std::max(1, opt.threads));
+  for (size_t b0 = 0; b0 < n; b0 += batch) {
+    const size_t b1 = std::min(n, b0 + batch);
+    arena.execute([&] {
+      tbb::parallel_for(b0, b1, [&](size_t i) {
+        ViewPart& p = parts[i - b0];
+        const ViewData d = load_view(
+            set, i, os.topology == TopologyMode::kAmplitude ? &map : nullptr, &geometry[i - b0]);
+        p.grey = d.channels == 1;
+        add_neighbour_differences(d, &p.diffs);
+        p.rep.masked_out = static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
+        p.rep.saturated = d.saturated;
+        p.rep.nonfinite = d.nonfinite;
+        add_pixel_observations(d, set.views[i], set, known, opt.subsample, &p.os, &p.rep);
+        bar.advance();
+      });
+    });
+    for (size_t i = b0; i < b1; ++i) {
+      grey_views += parts[i - b0].grey;
+      append_view(&parts[i - b0], n - i, &os, &rep, &neighbour_diffs);
+    }
   }
   drop_implausible(&os, &rep);
   // sigma of one pixel: the robust sigma of a - 2b + c, over sqrt(1 + 4 + 1).
