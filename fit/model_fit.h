@@ -120,9 +120,9 @@ void pixel_residual(const Observation* obs, const ObsLight* lights, Reflectance 
     const ObsLight& l = lights[obs->first_light + i];
     T f[3];
     reflectance(l.L, obs->V, f);
-    for (int k = 0; k < 3; ++k) acc[k] += l.E[k] * f[k];
+    for (int k = 0; k < 3; ++k) acc[k] += double(l.E[k]) * f[k];
   }
-  for (int k = 0; k < 3; ++k) r[k] = acc[k] - obs->y[k];
+  for (int k = 0; k < 3; ++k) r[k] = acc[k] - double(obs->y[k]);
 }
 
 }  // namespace aniso::fitting

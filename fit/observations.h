@@ -13,17 +13,21 @@
 
 namespace aniso::fitting {
 
+// Directions in double (the lobe's x^n with n in the thousands magnifies their rounding); what
+// comes from images (values, topology, uv: float buffers) and irradiance in float, which holds
+// them exactly or to the images' own precision: 72 + 40 bytes per pixel and light, the size of
+// the 14-double record BENCHMARKS.md counts the memory against.
 struct ObsLight {
   LocalDir L;
-  double E[3];
+  float E[3];  // irradiance times exposure, per channel
 };
 struct Observation {
   LocalDir V;
   uint32_t first_light = 0, num_lights = 0;
-  double y[3];                 // measured value
-  double base[3];              // known constant part (ambient times k_a, which is not fitted)
-  double smath = 0, mapv = 0;  // fiber model: mathematical topology and map value at the pixel
-  double u = 0, v = 0;         // texture coordinates (per-texel topology fits)
+  float y[3];                 // measured value
+  float base[3];              // known constant part (ambient times k_a, which is not fitted)
+  float smath = 0, mapv = 0;  // fiber model: mathematical topology and map value at the pixel
+  float u = 0, v = 0;         // texture coordinates (per-texel topology fits)
 };
 // How the fiber model's topology enters: one s for the whole sample, the map amplitude A on top
 // of per-pixel s_math and map values, s_math alone (nothing to fit), or a map of s over uv.
