@@ -16,9 +16,6 @@ namespace aniso::fitting {
 
 namespace {
 
-using Mat8 = Eigen::Matrix<double, 8, 8>;
-using Vec8 = Eigen::Matrix<double, 8, 1>;
-
 // rho(s) and rho'(s) of s = |r|^2, as Ceres defines its losses (HuberLoss, CauchyLoss).
 struct Loss {
   FitLoss kind;
@@ -116,8 +113,8 @@ Vec8 pack(const Core& c) {
   return x;
 }
 
-// The largest step coordinate in units of that coordinate's standard error at the current
-// point (H^-1 s^2): below kStepInSigma the solution will not move by anything that matters.
+}  // namespace
+
 double step_in_sigmas(const Mat8& H, const Vec8& step, double rss, double values) {
   const double s2 = rss / std::max(1.0, values - 8);
   const Eigen::LDLT<Mat8> ldlt(H);
@@ -131,11 +128,8 @@ double step_in_sigmas(const Mat8& H, const Vec8& step, double rss, double values
   return worst;
 }
 
-}  // namespace
-
 void line_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss_kind,
                    double scale, int max_iterations, int threads, Core* c, FusedSolve* out) {
-  constexpr double kStepInSigma = 1e-3;  // converged: no coordinate would move by 1e-3 sigma
   constexpr double kRelativeDecrease = 1e-14;
   constexpr double kLambdaMax = 1e12;
   tbb::task_arena arena(std::max(1, threads));

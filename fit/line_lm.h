@@ -7,11 +7,23 @@
 // minimises with the same loss (the tests compare the two solvers). Ceres stays the fitter of
 // record: `--solver ceres` and every other model or optional term go through it.
 #pragma once
+#include <Eigen/Core>
 #include <vector>
 
 #include "fit/model_fit.h"
 
 namespace aniso::fitting {
+
+using Mat8 = Eigen::Matrix<double, 8, 8>;
+using Vec8 = Eigen::Matrix<double, 8, 1>;
+
+// Converged: no coordinate of the next step would move by this much of its standard error.
+constexpr double kStepInSigma = 1e-3;
+
+// The largest coordinate of `step` in units of that coordinate's standard error at the current
+// point (H^-1 s^2 with s^2 = rss / (values - 8); H = J^T J): below kStepInSigma the solution
+// will not move by anything that matters.
+double step_in_sigmas(const Mat8& H, const Vec8& step, double rss, double values);
 
 // Solves from `c` (updated in place) over the observations in `subset` (null: all), at most
 // `max_iterations` steps on `threads` threads.

@@ -15,6 +15,7 @@
 
 #include "core/angles.h"
 #include "core/progress.h"
+#include "fit/line_lm.h"
 #include "fit/line_pixel.h"
 #include "fit/start.h"
 #include "models/params.h"
@@ -54,9 +55,6 @@ struct TexelResult {
   bool determined = false;
   double rss = 0, values = 0;
 };
-
-using Mat8 = Eigen::Matrix<double, 8, 8>;
-using Vec8 = Eigen::Matrix<double, 8, 1>;
 
 // sigmas from J^T J (`info`) and the residual sum of squares at the solution: the rank test on
 // the eigenvalues of the column-scaled matrix, then the diagonal of its inverse times s^2.
@@ -179,6 +177,8 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
     Mat8 a = info;
     a.diagonal() += lambda * info.diagonal().cwiseMax(1e-12);
     const Vec8 step = a.ldlt().solve(-grad);
+    // The same stopping rule as the global fused solve: a step under 1e-3 sigma is not taken.
+    if (step_in_sigmas(info, step, rss, 3.0 * idx.size()) < kStepInSigma) break;
     Vec8 xn = (x + step).cwiseMax(lo).cwiseMin(hi);
     xn(7) = wrap_half_turn(xn(7));
     const double rn = texel_pass(os, idx, xn, nullptr, nullptr);

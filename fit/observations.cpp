@@ -67,7 +67,7 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
 // highlight is brighter than most pixels, but not 10^4 times brighter than the brightest tenth).
 void drop_implausible(ObsSet* os, FitReport* rep) {
   if (os->obs.size() < 100) return;
-  std::vector<double> mags;
+  std::vector<float> mags;
   mags.reserve(os->obs.size());
   for (const auto& o : os->obs)
     mags.push_back(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}));
@@ -122,7 +122,7 @@ void choose_topology(const CaptureSet& set, const FitOptions& opt, ObsSet* os) {
 
 // Second differences of three horizontal neighbours (a - 2b + c cancels the shading's gradient)
 // on every 4th row: enough for a median, little time. Zeros are clipped values.
-void add_neighbour_differences(const ViewData& d, std::vector<double>* diffs) {
+void add_neighbour_differences(const ViewData& d, std::vector<float>* diffs) {
   for (int y = 0; y < d.rgb.height; y += 4)
     for (int x = 0; x + 2 < d.rgb.width; ++x) {
       const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
@@ -139,7 +139,7 @@ void add_neighbour_differences(const ViewData& d, std::vector<double>* diffs) {
 struct ViewPart {
   ObsSet os;
   FitReport rep;
-  std::vector<double> diffs;
+  std::vector<float> diffs;
   bool grey = false;
 };
 
@@ -148,7 +148,7 @@ struct ViewPart {
 // vector doubling its way up and copying everything each time (twice the records' memory at the
 // copy, and most of the load time on large sets).
 void append_view(ViewPart* p, size_t views_left, ObsSet* os, FitReport* rep,
-                 std::vector<double>* diffs) {
+                 std::vector<float>* diffs) {
   auto grow = [](auto* v, size_t want) {
     if (v->capacity() < want) v->reserve(std::max(want, v->capacity() + v->capacity() / 2));
   };
@@ -185,7 +185,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   if (os.topology == TopologyMode::kAmplitude) map = load_topology_map(os.topology_map);
   Progress bar("fit: loading views", set.views.size(), opt.progress);
   size_t grey_views = 0;
-  std::vector<double> neighbour_diffs;
+  std::vector<float> neighbour_diffs;  // float: these are differences of float pixels
   // Views are decoded and reduced a few at a time on the solver's threads, appended in order.
   const size_t batch = 2 * static_cast<size_t>(std::max(1, opt.threads)), n = set.views.size();
   std::vector<GeometryCache> geometry(batch);  // one per slot of a batch
@@ -214,8 +214,12 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   }
   drop_implausible(&os, &rep);
   // sigma of one pixel: the robust sigma of a - 2b + c, over sqrt(1 + 4 + 1).
-  if (!neighbour_diffs.empty())
-    os.pixel_noise = 1.4826 * median_abs(neighbour_diffs) / std::sqrt(6.0);
+  if (!neighbour_diffs.empty()) {
+    for (float& v : neighbour_diffs) v = std::abs(v);
+    const auto mid = neighbour_diffs.begin() + neighbour_diffs.size() / 2;
+    std::nth_element(neighbour_diffs.begin(), mid, neighbour_diffs.end());
+    os.pixel_noise = 1.4826 * *mid / std::sqrt(6.0);
+  }
   // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
   os.grey = grey_views == set.views.size();
   rep.pixels = os.obs.size();
