@@ -1,6 +1,12 @@
 // aniso fit: a capture set or a sample table in, a material file out.
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <memory>
 
 #include "cli/command.h"
@@ -17,6 +23,7 @@ namespace {
 
 struct FitArgs {
   std::string in, out, truth, maps, tile, maps_solver = "lm", solver = "fused";
+  bool mpi = false;
   FitOptions fo;
 };
 
@@ -53,6 +60,95 @@ void print_report(FILE* o, const FitResult& r) {
   if (!p.model_selection.empty())
     std::fprintf(o, "fit: --model auto: %s\n", p.model_selection.c_str());
   for (const auto& w : p.warnings) std::fprintf(o, "fit: WARNING: %s\n", w.c_str());
+}
+
+bool g_mpi_rank = false;  // run_fit is one rank's tile of `fit --mpi`: no "then merge" hint
+
+// `fit --mpi` in the plain binary: the same command line, run by `aniso-mpi` beside it.
+[[noreturn]] void hand_over_to_mpi_build() {
+  std::error_code ec;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  const std::string mpi_build = (self.parent_path() / "aniso-mpi").string();
+  if (ec || ::access(mpi_build.c_str(), X_OK) != 0)
+    throw Error(
+        "fit --mpi: this aniso was built without MPI (no aniso-mpi beside it): install "
+        "openmpi-bin and libopenmpi-dev (scripts/install_deps.sh does) and configure with "
+        "-DANISO_MPI=ON (scripts/build.sh does)");
+  std::vector<std::string> words = command_words();
+  std::vector<char*> argv;
+  for (auto& w : words) argv.push_back(w.data());
+  argv.push_back(nullptr);
+  std::fflush(nullptr);
+  ::execv(mpi_build.c_str(), argv.data());
+  throw Error("fit --mpi: cannot start " + mpi_build + ": " + std::strerror(errno));
+}
+
+// A private temporary folder, removed when this goes out of scope.
+struct TempDir {
+  std::string path;
+  TempDir() {
+    std::string t = (std::filesystem::temp_directory_path() / "aniso-mpi-XXXXXX").string();
+    if (!::mkdtemp(t.data())) throw Error("fit --mpi: cannot make a temporary folder in " + t);
+    path = t;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
+// Every rank fits tile rank/size into its own temporary folder and sends the tile's bytes to
+// rank 0, which writes them beside each other and merges them into --out. A rank that fails
+// sends its message instead; rank 0 names it and nothing is written.
+int run_fit_mpi(FitArgs& a) {
+  const MpiWorld* world = mpi_world();
+  if (!world) hand_over_to_mpi_build();
+  if (a.fo.maps_w == 0)
+    throw Error("fit --mpi: the ranks split the texels of a --maps fit: give --maps WxH");
+  if (!a.tile.empty()) throw Error("fit --mpi: the ranks are the tiles: leave --tile out");
+  if (a.out == "-")
+    throw Error("fit --mpi: --maps writes map files beside the material: give --out a file");
+  // The merged output must not replace an input: checked by every rank before any work.
+  std::vector<std::string> outputs{a.out};
+  for (const auto& f : map_files(a.out)) outputs.push_back(join_path(parent_dir(a.out), f));
+  if (lower_ext(a.in) != ".csv") {
+    const CaptureSet set = read_capture(a.in);
+    check_outputs_apart(outputs, capture_input_files(set));
+  }
+  if (world->rank != 0) {
+    if (!std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
+    a.fo.progress = false;
+  }
+  g_mpi_rank = true;
+  FitOptions fo = a.fo;
+  fo.tile_index = world->rank;
+  fo.tile_count = world->size;
+  bool ok = true;
+  std::string bytes;
+  try {
+    const TempDir tmp;
+    const std::string tile = tmp.path + "/tile.json";
+    run_fit(a.in, fo, tile, a.truth);
+    bytes = read_text_file(tile);
+  } catch (const Error& e) {
+    ok = false;
+    bytes = e.what();
+  }
+  const auto all = world->gather(ok, bytes);
+  if (world->rank != 0) return ok ? 0 : 1;
+  for (size_t r = 0; r < all.size(); ++r)
+    if (!all[r].first) throw Error("fit --mpi: rank " + std::to_string(r) + ": " + all[r].second);
+  const TempDir tmp;
+  std::vector<std::string> tiles;
+  for (size_t r = 0; r < all.size(); ++r) {
+    tiles.push_back(tmp.path + "/tile" + std::to_string(r) + ".json");
+    write_text_file(tiles.back(), all[r].second);
+  }
+  check_outputs_apart(outputs, tiles);
+  merge_maps_tiles(tiles, a.out);
+  std::printf("fit --mpi: %zu ranks, one tile each, merged -> %s (and its maps)\n", all.size(),
+              a.out.c_str());
+  return 0;
 }
 
 }  // namespace
@@ -95,7 +191,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
                  "fit: tile %d/%d: texel rows %d..%d of %dx%d, %zu texels solved in %.3f s -> %s\n",
                  fo.tile_index, fo.tile_count, r.maps.row0, r.maps.row1 - 1, r.maps.w, r.maps.h,
                  r.maps.fitted, r.maps.seconds, out.c_str());
-    std::fprintf(o, "fit: then: aniso merge TILE.json... --out material.json\n");
+    if (!g_mpi_rank) std::fprintf(o, "fit: then: aniso merge TILE.json... --out material.json\n");
     return 0;
   }
   write_fit(out, r);
@@ -166,6 +262,10 @@ Command add_fit(CLI::App& app) {
                   "ceres (one Ceres problem per texel: the reference, slower)")
       ->check(CLI::IsMember({"lm", "ceres"}))
       ->default_str("lm");
+  fit->add_flag("--mpi", a->mpi,
+                "with --maps, under mpirun: every rank fits one tile of the texels (rank i of N "
+                "is tile i/N) and rank 0 merges them into --out (the same files as one run). "
+                "E.g. mpirun -np 4 aniso fit CAPTURE --maps 256x256 --mpi --out m.json");
   fit->add_option("--maps", a->maps,
                   "line model: also fit per-texel maps of k_d, k_s, n and the fiber direction, WxH "
                   "texels over the sample's uv (written beside --out as EXR, FORMAT.md \"Material "
@@ -188,6 +288,7 @@ Command add_fit(CLI::App& app) {
           if (a->fo.tile_count < 1 || a->fo.tile_index < 0 || a->fo.tile_index >= a->fo.tile_count)
             throw Error("fit: --tile i/N needs 0 <= i < N, got '" + a->tile + "'");
         }
+        if (a->mpi) return run_fit_mpi(*a);
         return run_fit(a->in, a->fo, a->out, a->truth);
       }};
 }

@@ -37,9 +37,20 @@ Command add_params(CLI::App& app);
 int run_fit(const std::string& input, const FitOptions& fo, const std::string& out,
             const std::string& truth_path);
 
-// The whole command line, recorded in outputs that say how they were made.
+// The whole command line, recorded in outputs that say how they were made, and its words.
 const std::string& command_line();
+const std::vector<std::string>& command_words();
 void set_command_line(int argc, char** argv);
+
+// MPI where this binary has it (`aniso-mpi`, built with -DANISO_MPI=ON; cli/mpi_world.cpp):
+// the world's rank and size, and a gather of every rank's (ok, bytes) at rank 0 (in rank order;
+// an empty list on the other ranks). Null in the plain `aniso` (cli/mpi_none.cpp).
+struct MpiWorld {
+  int rank = 0, size = 1;
+  std::function<std::vector<std::pair<bool, std::string>>(bool ok, const std::string& bytes)>
+      gather;
+};
+const MpiWorld* mpi_world();
 
 // `--size WxH` or `--size N`.
 void parse_size(const std::string& s, int* w, int* h);

@@ -11,12 +11,15 @@ namespace aniso::cli {
 
 namespace {
 std::string g_command_line;
-}
+std::vector<std::string> g_command_words;
+}  // namespace
 
 const std::string& command_line() { return g_command_line; }
+const std::vector<std::string>& command_words() { return g_command_words; }
 
 void set_command_line(int argc, char** argv) {
   g_command_line.clear();
+  g_command_words.assign(argv, argv + argc);
   for (int i = 0; i < argc; ++i) g_command_line += (i ? " " : "") + std::string(argv[i]);
 }
 

@@ -5,7 +5,7 @@ set -euo pipefail
 SUDO=""
 if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
 PKGS=(build-essential cmake ninja-build pkg-config
-      libceres-dev libeigen3-dev libopencv-dev libraw-dev libtiff-dev libpng-dev libjpeg-dev libopenexr-dev libimath-dev libembree-dev libtbb-dev
+      libceres-dev libeigen3-dev libopencv-dev libraw-dev libtiff-dev libpng-dev libjpeg-dev openmpi-bin libopenmpi-dev libopenexr-dev libimath-dev libembree-dev libtbb-dev
       libopengl-dev libegl-dev libgl-dev libgl1-mesa-dri libegl-mesa0 libepoxy-dev
       nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
       glslang-tools spirv-cross chromium libglfw3-dev libimgui-dev xvfb xauth)

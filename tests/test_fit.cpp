@@ -567,6 +567,37 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
 namespace aniso {
 namespace {
 
+// `aniso fit --maps --mpi` under `mpirun -np 2` (Open MPI on loopback): rank i fits tile i/2,
+// rank 0 merges; the map files equal an untiled run's byte for byte. The plain binary hands over
+// to aniso-mpi; without MPI the option says how to get it.
+TEST(FitMaps, MpiRanksFitTheTilesAndRankZeroMerges) {
+#ifndef ANISO_MPI_BIN
+  GTEST_SKIP() << "built without -DANISO_MPI=ON (scripts/build.sh turns it on)";
+#else
+  const std::string dir = test::tmp_dir("mpi");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --out " + dir + "/whole.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // As root, mpirun needs to be told; two ranks on two cores may oversubscribe.
+  const std::string mpirun =
+      "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl=self,tcp "
+      "OMPI_MCA_btl_tcp_if_include=lo OMPI_MCA_oob_tcp_if_include=lo mpirun --oversubscribe -np 2 ";
+  r = test::sh(mpirun + "\"$A\" fit " + dir + "/set --maps 8x6 --mpi --out " + dir + "/mpi.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("fit --mpi: 2 ranks"), std::string::npos) << r.output;
+  for (const char* k : {"kd", "ks", "n", "fiber", "fiber_sigma", "coverage", "determined"})
+    EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
+                read_text_file(dir + "/mpi_" + k + ".exr"))
+        << k << ": the MPI run's map differs from the untiled one";
+  // A mistake is said once, by rank 0, and nothing is written.
+  r = test::sh(mpirun + "\"$A\" fit " + dir + "/set --mpi --out " + dir + "/bad.json");
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("give --maps"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.json"));
+#endif
+}
+
 // The fast path of --maps (a hand-written Levenberg-Marquardt per texel) against Ceres, the
 // fitter of record, on the same texels: the same minimum within a tenth of sigma everywhere.
 TEST(FitMaps, LevenbergMarquardtReachesCeresMinimumPerTexel) {
