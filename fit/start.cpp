@@ -19,20 +19,21 @@ void set_start_kd_ks(const double kd[3], const double ks[3], Core* c) {
   }
 }
 
-double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, double psi, double n,
+double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, double psi, int log2n,
                       double kd[3], double ks[3]) {
   const double c = std::cos(psi), s = std::sin(psi);
   return solve_kd_ks(
       os, subset,
       [&](const Observation& o, double* dcol, double* scol) {
-        const double b = c * o.V.u + s * o.V.w;
+        const double b = clamp_unit(c * o.V.u + s * o.V.w), sV = sin_from_cos(b);
         for (uint32_t k = 0; k < o.num_lights; ++k) {
           const ObsLight& l = os.lights[o.first_light + k];
-          double D, S;
-          line_DS(c * l.L.u + s * l.L.w, b, n, &D, &S);
+          const double a = clamp_unit(c * l.L.u + s * l.L.w), sL = sin_from_cos(a);
+          double p = std::max(sL * sV - a * b, 0.0);  // x^n by squaring: no exp, no log
+          for (int i = 0; i < log2n; ++i) p *= p;
           for (int ch = 0; ch < 3; ++ch) {
-            dcol[ch] += l.E[ch] * l.L.n * D;
-            scol[ch] += l.E[ch] * l.L.n * S;
+            dcol[ch] += l.E[ch] * l.L.n * sL;
+            scol[ch] += l.E[ch] * l.L.n * p;
           }
         }
       },

@@ -47,9 +47,9 @@ double solve_kd_ks(const ObsSet& os, const std::vector<size_t>& subset, Cols col
   return sums.solve(kd, ks);
 }
 
-// The line model at one grid node (psi, n): k_d, k_s in closed form over `subset`; the sum of
-// squares.
-double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, double psi, double n,
+// The line model at one grid node (psi, n = 2^log2n, x^n by squaring): k_d, k_s in closed form
+// over `subset`; the sum of squares.
+double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, double psi, int log2n,
                       double kd[3], double ks[3]);
 
 // Keeps the start strictly inside the bounds so the solver can move both ways.

@@ -14,14 +14,21 @@ Vec3 any_perpendicular(const Vec3& N) {
   return normalize(a - N * dot(a, N));
 }
 
-Vec3 fiber_field_tangent(const std::string& field, const Vec3& P, const Vec3& N, const Vec3& U,
+FiberField parse_fiber_field(const std::string& field) {
+  if (field == "radial") return FiberField::kRadial;
+  if (field == "circular") return FiberField::kCircular;
+  if (field == "meridian") return FiberField::kMeridian;
+  return FiberField::kMesh;
+}
+
+Vec3 fiber_field_tangent(FiberField field, const Vec3& P, const Vec3& N, const Vec3& U,
                          const Vec3& center, const Vec3& axis) {
   Vec3 t = U;
-  if (field == "radial" || field == "circular") {
+  if (field == FiberField::kRadial || field == FiberField::kCircular) {
     const Vec3 r = P - center;
     const Vec3 radial = r - axis * dot(r, axis);
-    t = field == "radial" ? radial : cross(axis, radial);
-  } else if (field == "meridian") {
+    t = field == FiberField::kRadial ? radial : cross(axis, radial);
+  } else if (field == FiberField::kMeridian) {
     t = axis;  // toward the pole, projected below
   }
   t = t - N * dot(t, N);

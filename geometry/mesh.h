@@ -41,9 +41,17 @@ const std::vector<std::string>& shape_names();
 // coordinates are degenerate, is an error: U, and so psi, would be measured from no axis.
 TriMesh load_obj(const std::string& path, bool need_uv = true);
 
-// The reference tangent U at point P with normal N for a named fiber field ("" keeps `U`).
-Vec3 fiber_field_tangent(const std::string& field, const Vec3& P, const Vec3& N, const Vec3& U,
+// The named fiber fields ("" keeps the mesh's U), parsed once rather than compared per pixel.
+enum class FiberField { kMesh, kRadial, kCircular, kMeridian };
+FiberField parse_fiber_field(const std::string& field);
+
+// The reference tangent U at point P with normal N for a fiber field.
+Vec3 fiber_field_tangent(FiberField field, const Vec3& P, const Vec3& N, const Vec3& U,
                          const Vec3& center, const Vec3& axis);
+inline Vec3 fiber_field_tangent(const std::string& field, const Vec3& P, const Vec3& N,
+                                const Vec3& U, const Vec3& center, const Vec3& axis) {
+  return fiber_field_tangent(parse_fiber_field(field), P, N, U, center, axis);
+}
 
 // Any unit vector perpendicular to N, chosen deterministically (fallback for degenerate U).
 Vec3 any_perpendicular(const Vec3& N);

@@ -87,6 +87,7 @@ GBuffer RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string
   const Vec3 eye = pose.translation();
   const TriMesh& m = mesh_;
   const bool distorted = k.distorted();
+  const FiberField field_kind = parse_fiber_field(field);
   tbb::parallel_for(tbb::blocked_range<int>(0, k.height), [&](const tbb::blocked_range<int>& rows) {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
@@ -129,7 +130,7 @@ GBuffer RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string
           Vec3 N = normalize(m.N[t[0]] * b0 + m.N[t[1]] * b1 + m.N[t[2]] * b2);
           if (dot(N, dirs[l]) >= 0.0) continue;  // back side: not a sample pixel
           Vec3 U = m.U[t[0]] * b0 + m.U[t[1]] * b1 + m.U[t[2]] * b2;
-          U = fiber_field_tangent(field, P, N, U, m.center, m.axis);
+          U = fiber_field_tangent(field_kind, P, N, U, m.center, m.axis);
           const size_t p = static_cast<size_t>(y) * k.width + x;
           g.hit[p] = 1;
           for (int c = 0; c < 3; ++c) {
