@@ -62,6 +62,21 @@ void print_report(FILE* o, const FitResult& r) {
   for (const auto& w : p.warnings) std::fprintf(o, "fit: WARNING: %s\n", w.c_str());
 }
 
+// --tile i/N into the options.
+void parse_tile(const std::string& tile, FitOptions* fo) {
+  const auto slash = tile.find('/');
+  try {
+    if (slash == std::string::npos) throw std::invalid_argument("no /");
+    size_t used = 0;
+    fo->tile_index = std::stoi(tile.substr(0, slash), &used);
+    fo->tile_count = std::stoi(tile.substr(slash + 1));
+  } catch (const std::exception&) {
+    throw Error("fit: --tile must be i/N (e.g. 0/4), got '" + tile + "'");
+  }
+  if (fo->tile_count < 1 || fo->tile_index < 0 || fo->tile_index >= fo->tile_count)
+    throw Error("fit: --tile i/N needs 0 <= i < N, got '" + tile + "'");
+}
+
 bool g_mpi_rank = false;  // run_fit is one rank's tile of `fit --mpi`: no "then merge" hint
 
 // `fit --mpi` in the plain binary: the same command line, run by `aniso-mpi` beside it.
@@ -270,27 +285,14 @@ Command add_fit(CLI::App& app) {
                   "line model: also fit per-texel maps of k_d, k_s, n and the fiber direction, WxH "
                   "texels over the sample's uv (written beside --out as EXR, FORMAT.md \"Material "
                   "maps\", with per-texel sigma, coverage and a determined mask)");
-  return {
-      fit, [a] {
-        if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
-        a->fo.maps_ceres = a->maps_solver == "ceres";
-        a->fo.ceres_solver = a->solver == "ceres";
-        if (!a->tile.empty()) {
-          const auto slash = a->tile.find('/');
-          try {
-            if (slash == std::string::npos) throw std::invalid_argument("no /");
-            size_t used = 0;
-            a->fo.tile_index = std::stoi(a->tile.substr(0, slash), &used);
-            a->fo.tile_count = std::stoi(a->tile.substr(slash + 1));
-          } catch (const std::exception&) {
-            throw Error("fit: --tile must be i/N (e.g. 0/4), got '" + a->tile + "'");
-          }
-          if (a->fo.tile_count < 1 || a->fo.tile_index < 0 || a->fo.tile_index >= a->fo.tile_count)
-            throw Error("fit: --tile i/N needs 0 <= i < N, got '" + a->tile + "'");
-        }
-        if (a->mpi) return run_fit_mpi(*a);
-        return run_fit(a->in, a->fo, a->out, a->truth);
-      }};
+  return {fit, [a] {
+            if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
+            a->fo.maps_ceres = a->maps_solver == "ceres";
+            a->fo.ceres_solver = a->solver == "ceres";
+            if (!a->tile.empty()) parse_tile(a->tile, &a->fo);
+            if (a->mpi) return run_fit_mpi(*a);
+            return run_fit(a->in, a->fo, a->out, a->truth);
+          }};
 }
 
 }  // namespace aniso::cli

@@ -107,13 +107,28 @@ Sums pass(const ObsSet& os, const std::vector<size_t>* subset, const Vec8& x, co
   return s;
 }
 
-Vec8 pack(const Core& c) {
+}  // namespace
+
+Vec8 pack_core(const Core& c) {
   Vec8 x;
   x << c.kd[0], c.kd[1], c.kd[2], c.ks[0], c.ks[1], c.ks[2], c.logn, c.psi;
   return x;
 }
 
-}  // namespace
+void unpack_core(const Vec8& x, Core* c) {
+  for (int k = 0; k < 3; ++k) c->kd[k] = x(k), c->ks[k] = x(3 + k);
+  c->logn = x(6);
+  c->psi = x(7);
+}
+
+void core_bounds(Vec8* lo, Vec8* hi) {
+  for (int k = 0; k < 3; ++k) {
+    (*lo)(k) = line_param("kd").lo, (*hi)(k) = line_param("kd").hi;
+    (*lo)(3 + k) = line_param("ks").lo, (*hi)(3 + k) = line_param("ks").hi;
+  }
+  (*lo)(6) = std::log(line_param("n").lo), (*hi)(6) = std::log(line_param("n").hi);
+  (*lo)(7) = -INFINITY, (*hi)(7) = INFINITY;
+}
 
 double step_in_sigmas(const Mat8& H, const Vec8& step, double rss, double values) {
   const double s2 = rss / std::max(1.0, values - 8);
@@ -136,13 +151,8 @@ void line_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss 
   const Loss loss{loss_kind, scale};
   const double values = 3.0 * static_cast<double>(subset ? subset->size() : os.obs.size());
   Vec8 lo, hi;
-  for (int k = 0; k < 3; ++k) {
-    lo(k) = line_param("kd").lo, hi(k) = line_param("kd").hi;
-    lo(3 + k) = line_param("ks").lo, hi(3 + k) = line_param("ks").hi;
-  }
-  lo(6) = std::log(line_param("n").lo), hi(6) = std::log(line_param("n").hi);
-  lo(7) = -INFINITY, hi(7) = INFINITY;
-  Vec8 x = pack(*c).cwiseMax(lo).cwiseMin(hi);
+  core_bounds(&lo, &hi);
+  Vec8 x = pack_core(*c).cwiseMax(lo).cwiseMin(hi);
   Sums cur = pass(os, subset, x, loss, true, &arena);
   out->passes = 1;
   double lambda = 1e-4;
@@ -178,9 +188,7 @@ void line_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss 
       }
     }
   }
-  for (int k = 0; k < 3; ++k) c->kd[k] = x(k), c->ks[k] = x(3 + k);
-  c->logn = x(6);
-  c->psi = x(7);
+  unpack_core(x, c);
   Eigen::Map<Eigen::Matrix<double, 8, 8, Eigen::RowMajor>>(out->info) = cur.H;
   out->rss = cur.rss;
   out->cost = cur.cost;

@@ -17,6 +17,12 @@ namespace aniso::fitting {
 using Mat8 = Eigen::Matrix<double, 8, 8>;
 using Vec8 = Eigen::Matrix<double, 8, 1>;
 
+// The eight core numbers as one vector (k_d 3, k_s 3, log n, psi) and back, and their bounds
+// (models/params.h; psi free, wrapped by the solvers).
+Vec8 pack_core(const Core& c);
+void unpack_core(const Vec8& x, Core* c);
+void core_bounds(Vec8* lo, Vec8* hi);
+
 // Converged: no coordinate of the next step would move by this much of its standard error.
 constexpr double kStepInSigma = 1e-3;
 

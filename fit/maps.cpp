@@ -121,18 +121,6 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx,
   return t;
 }
 
-// The texel's parameters as one vector (k_d 3, k_s 3, log n, psi) and back.
-Vec8 pack(const Core& c) {
-  Vec8 x;
-  x << c.kd[0], c.kd[1], c.kd[2], c.ks[0], c.ks[1], c.ks[2], c.logn, c.psi;
-  return x;
-}
-void unpack(const Vec8& x, Core* c) {
-  for (int k = 0; k < 3; ++k) c->kd[k] = x(k), c->ks[k] = x(3 + k);
-  c->logn = x(6);
-  c->psi = x(7);
-}
-
 // Sum of squares, and (info, grad) = (J^T J, J^T r) when asked, in one pass over the texel.
 double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const Vec8& x, Mat8* info,
                   Vec8* grad) {
@@ -166,13 +154,8 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   t.c = global;
   texel_start(os, idx, &t.c);
   Vec8 lo, hi;
-  for (int k = 0; k < 3; ++k) {
-    lo(k) = line_param("kd").lo, hi(k) = line_param("kd").hi;
-    lo(3 + k) = line_param("ks").lo, hi(3 + k) = line_param("ks").hi;
-  }
-  lo(6) = std::log(line_param("n").lo), hi(6) = std::log(line_param("n").hi);
-  lo(7) = -INFINITY, hi(7) = INFINITY;
-  Vec8 x = pack(t.c), grad;
+  core_bounds(&lo, &hi);
+  Vec8 x = pack_core(t.c), grad;
   Mat8 info;
   double rss = texel_pass(os, idx, x, &info, &grad), lambda = 1e-3;
   for (int it = 0; it < 100; ++it) {
@@ -195,7 +178,7 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
       if (lambda > 1e12) break;
     }
   }
-  unpack(x, &t.c);
+  unpack_core(x, &t.c);
   texel_sigmas(info, rss, 3.0 * idx.size(), &t);
   return t;
 }

@@ -46,11 +46,10 @@ TEST(ImageIO, Png16RoundTripWithinHalfAStep) {
   for (size_t i = 0; i < a.px.size(); ++i) EXPECT_NEAR(a.px[i], b.image.px[i], 0.5 / 65535 + 1e-7);
 }
 
-// JPEG and TIFF as their own libraries write them (not ours), read back through io/image_codecs:
-// 8- and 16-bit and float TIFF exact, JPEG within its quantisation, grey and RGB, and a truncated
-// file named in the message.
-TEST(ImageIO, JpegAndTiffFromTheirOwnLibrariesDecode) {
-  const std::string dir = test::tmp_dir("codecs");
+// TIFF as libtiff writes it (not ours), read back through io/image_codecs: 8- and 16-bit and
+// float, LZW-compressed, exact.
+TEST(ImageIO, TiffFromLibtiffDecodesExactly) {
+  const std::string dir = test::tmp_dir("tiff");
   const int w = 19, h = 7;
   auto code = [](int x, int y, int c) { return (x * 37 + y * 11 + c * 5) % 256; };
   for (int bits : {8, 16, 32}) {
@@ -89,6 +88,13 @@ TEST(ImageIO, JpegAndTiffFromTheirOwnLibrariesDecode) {
         }
     EXPECT_LT(worst, 1e-6) << path;
   }
+}
+
+// JPEG as libjpeg writes it, grey and RGB, within its quantisation; a truncated file is named in
+// the message.
+TEST(ImageIO, JpegFromLibjpegDecodes) {
+  const std::string dir = test::tmp_dir("jpeg");
+  const int w = 19, h = 7;
   for (int channels : {1, 3}) {
     const std::string path = dir + "/j" + std::to_string(channels) + ".jpg";
     jpeg_compress_struct ci;
