@@ -196,14 +196,15 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
-        const ViewData d = load_view(
-            set, i, os.topology == TopologyMode::kAmplitude ? &map : nullptr, &geometry[i - b0]);
+        ViewData d = load_view(set, i, os.topology == TopologyMode::kAmplitude ? &map : nullptr,
+                               &geometry[i - b0]);
         p.grey = d.channels == 1;
         add_neighbour_differences(d, &p.diffs);
         p.rep.masked_out = static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
         p.rep.saturated = d.saturated;
         p.rep.nonfinite = d.nonfinite;
         add_pixel_observations(d, set.views[i], set, known, opt.subsample, &p.os, &p.rep);
+        give_back_geometry(&d, &geometry[i - b0]);
         bar.advance();
       });
     });

@@ -92,11 +92,13 @@ struct TopologyMap {
 TopologyMap load_topology_map(const std::string& path);
 
 // The geometry buffers of the last view loaded: views that name the same buffer files (a fixed
-// camera, one geometry for every light) decode them once.
+// camera, one geometry for every light) decode them once. The buffers are lent to the next view
+// that names them (moved, not copied) and come back with give_back_geometry.
 struct GeometryCache {
   std::string key;  // the buffer paths and the camera's size
   Image P, N, U, smath, mapv, uv;
   std::vector<uint8_t> mask;
+  bool held = false;  // the buffers are here (not lent out)
 };
 
 // Loads view i; per-pixel geometry comes from its buffers or by casting rays at its mesh.
@@ -104,5 +106,7 @@ struct GeometryCache {
 // buffer. With `cache`, buffers the previous view also named are not decoded again.
 ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nullptr,
                    GeometryCache* cache = nullptr);
+// A loaded view's geometry back into the cache it was lent from (or kept there, the first time).
+void give_back_geometry(ViewData* d, GeometryCache* cache);
 
 }  // namespace aniso

@@ -185,9 +185,15 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
   const LoadedImage li = read_view_image(s, v, ctx);
   d.channels = li.image.channels;
   std::vector<uint8_t> mask(static_cast<size_t>(k.width) * k.height, 1);
-  d.smath = Image(k.width, k.height, 1, 0.f);
-  d.mapv = Image(k.width, k.height, 1, 0.f);
   const GeometrySpec& g = v.geometry;
+  const std::string key = g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
+                          g.topology + '\n' + g.uv + '\n' + std::to_string(k.width) + 'x' +
+                          std::to_string(k.height);
+  const bool cached = g.mesh.empty() && cache && cache->held && cache->key == key;
+  if (!cached) {
+    d.smath = Image(k.width, k.height, 1, 0.f);
+    d.mapv = Image(k.width, k.height, 1, 0.f);
+  }
   if (!g.mesh.empty()) {
     try {
       trace_mesh_gbuffer(join_path(s.dir, g.mesh), g.fiber_field, k, v.world_from_camera, &d.P,
@@ -196,24 +202,33 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
       throw Error(ctx + ".geometry.mesh: " + e.what());
     }
   } else {
-    const std::string key = g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
-                            g.topology + '\n' + g.uv + '\n' + std::to_string(k.width) + 'x' +
-                            std::to_string(k.height);
-    if (cache && cache->key == key) {
-      d.P = cache->P, d.N = cache->N, d.U = cache->U;
-      d.smath = cache->smath, d.mapv = cache->mapv, d.uv = cache->uv;
+    if (cached) {  // lent, not copied: give_back_geometry returns them
+      d.P = std::move(cache->P), d.N = std::move(cache->N), d.U = std::move(cache->U);
+      d.smath = std::move(cache->smath), d.mapv = std::move(cache->mapv);
+      d.uv = std::move(cache->uv);
       mask = cache->mask;
+      cache->held = false;
     } else {
       try {
         read_geometry_buffers(s, v, map, &d, &mask);
       } catch (const Error& e) {
         throw Error(ctx + ".geometry: " + e.what());
       }
-      if (cache) *cache = GeometryCache{key, d.P, d.N, d.U, d.smath, d.mapv, d.uv, mask};
+      if (cache)
+        *cache =
+            GeometryCache{key, Image(), Image(), Image(), Image(), Image(), Image(), mask, false};
     }
   }
   classify_pixels(s, li, mask, &d);
   return d;
+}
+
+void give_back_geometry(ViewData* d, GeometryCache* cache) {
+  if (cache->key.empty() || cache->held) return;
+  cache->P = std::move(d->P), cache->N = std::move(d->N), cache->U = std::move(d->U);
+  cache->smath = std::move(d->smath), cache->mapv = std::move(d->mapv);
+  cache->uv = std::move(d->uv);
+  cache->held = true;
 }
 
 }  // namespace aniso

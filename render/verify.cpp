@@ -30,7 +30,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     s_map = read_image(join_path(m.base_dir, s->file)).image;
   GeometryCache geometry;
   for (size_t i = 0; i < set.views.size(); ++i) {
-    const ViewData d = load_view(set, i, use_map ? &map : nullptr, &geometry);
+    ViewData d = load_view(set, i, use_map ? &map : nullptr, &geometry);
     if (!s_map.empty() && d.uv.empty())
       throw Error(set.file + ": the material's map of s needs the \"uv\" buffer");
     if (m.maps.any() && d.uv.empty())
@@ -76,6 +76,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     sumy += sy;
     res.overall.pixels += e.pixels;
     res.overall.max_abs = std::max(res.overall.max_abs, e.max_abs);
+    give_back_geometry(&d, &geometry);
   }
   if (!residual_dir.empty())  // one folder output, swapped in whole (io/files.h)
     write_folder_atomically(residual_dir, [&](const std::string& dir) {
