@@ -48,8 +48,6 @@ bool explain_unknown_option(const CLI::App* sub, int argc, char** argv) {
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  // OpenCV checks decoded sizes against this (our own readers check PNG and EXR headers).
-  ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", std::to_string(kMaxImagePixels).c_str(), 0);
   cli::set_command_line(argc, argv);
   CLI::App app{
       "aniso: measure and fit anisotropic materials (line-lighting model of Banks / Heidrich & "
