@@ -53,6 +53,9 @@ void print_report(FILE* o, const FitResult& r) {
                  "deg, %.3f s\n",
                  r.maps.w, r.maps.h, r.maps.fitted, det, sp.empty() ? 0.0 : sp[sp.size() / 2],
                  r.maps.seconds);
+    if (r.maps.smooth > 0)
+      std::fprintf(o, "fit: --smooth %g: %d Jacobi sweeps (sigma from each texel's data alone)\n",
+                   r.maps.smooth, r.maps.sweeps);
   }
   for (const auto& [k, why] : r.undetermined)
     std::fprintf(o, "fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());
@@ -191,6 +194,8 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   std::vector<std::string> outputs{out};
   if (fo.tile_count > 0 && fo.maps_w == 0)
     throw Error("fit: --tile splits a --maps fit: give --maps WxH");
+  if (fo.maps_smooth > 0 && fo.maps_w == 0)
+    throw Error("fit: --smooth couples the texels of a --maps fit: give --maps WxH");
   if (fo.maps_w > 0 && fo.tile_count == 0) {
     if (out == "-")
       throw Error("fit: --maps writes map files beside the material: give --out a file");
@@ -277,6 +282,16 @@ Command add_fit(CLI::App& app) {
                   "ceres (one Ceres problem per texel: the reference, slower)")
       ->check(CLI::IsMember({"lm", "ceres"}))
       ->default_str("lm");
+  fit->add_option("--smooth", fo.maps_smooth,
+                  "--maps: pull every texel toward its 4 neighbours with weight lambda, in units "
+                  "of the texel's own data (1: a neighbour one sigma away weighs as much as "
+                  "moving one sigma off the texel's own best fit; 0: every texel alone)")
+      ->check(CLI::Range(0.0, 1e6));
+  fit->add_option("--smooth-sweeps", fo.maps_sweeps,
+                  "--smooth: Jacobi sweeps over the grid (each texel sees its neighbours' values "
+                  "of the sweep before; a pull reaches this many texels)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
   fit->add_flag("--mpi", a->mpi,
                 "with --maps, under mpirun: every rank fits one tile of the texels (rank i of N "
                 "is tile i/N) and rank 0 merges them into --out (the same files as one run). "

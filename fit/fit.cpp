@@ -77,8 +77,13 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
       row1 =
           static_cast<int>(static_cast<long>(opt.maps_h) * (opt.tile_index + 1) / opt.tile_count);
     }
-    res.maps = fit_texel_maps(os, m->core, opt.maps_w, opt.maps_h, row0, row1, opt.maps_ceres,
-                              opt.progress);
+    TexelMapOptions to;
+    to.w = opt.maps_w, to.h = opt.maps_h, to.row0 = row0, to.row1 = row1;
+    to.ceres = opt.maps_ceres;
+    to.smooth = opt.maps_smooth;
+    to.sweeps = opt.maps_sweeps;
+    to.progress = opt.progress;
+    res.maps = fit_texel_maps(os, m->core, to);
     // The misfit check judged the one global parameter set; say what the maps leave.
     for (auto& w : rep.warnings)
       if (w.rfind("the model does not describe the data", 0) == 0) {

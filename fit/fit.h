@@ -51,6 +51,9 @@ struct FitOptions {
   // --maps-solver ceres: every texel by Ceres (the fitter of record) instead of the hand-written
   // Levenberg-Marquardt (same function, bounds and start; the tests compare the two).
   bool maps_ceres = false;
+  // --smooth lambda / --smooth-sweeps K: couple each texel to its 4 neighbours (fit/maps.h).
+  double maps_smooth = 0;
+  int maps_sweeps = 10;
 };
 
 // --maps: every texel's fit (row-major, glTF uv: texel (i, j) covers u in [i/W, (i+1)/W)). Texels
@@ -64,6 +67,8 @@ struct TexelMaps {
   std::vector<int> pixels;          // observations (pixels) per texel
   std::vector<uint8_t> determined;  // 1 = fitted and determined by its data
   int row0 = 0, row1 = 0;           // the texel rows this result holds (a tile: a band of rows)
+  double smooth = 0;                // --smooth lambda (0: every texel alone)
+  int sweeps = 0;                   // its Jacobi sweeps
   size_t fitted = 0;                // texels with a problem solved
   double rms = 0;                   // residual RMS over the solved texels' observations
   double seconds = 0;

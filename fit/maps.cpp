@@ -9,6 +9,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <ceres/normal_prior.h>
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
@@ -58,6 +60,33 @@ struct TexelResult {
   double rss = 0, values = 0;
 };
 
+// --smooth: a quadratic pull of x toward b with weights w (diagonal), added to the texel's sum
+// of squares; psi's difference taken modulo a half turn.
+struct TexelPrior {
+  Vec8 w = Vec8::Zero(), b = Vec8::Zero();
+};
+
+// The pull on psi for Ceres: sqrt(w) times the difference modulo a half turn (psi lives on
+// Ceres' half-turn manifold, so it may wrap past the target).
+class PsiPrior : public ceres::SizedCostFunction<1, 1> {
+ public:
+  PsiPrior(double sqrt_w, double target) : sqrt_w_(sqrt_w), target_(target) {}
+  bool Evaluate(double const* const* p, double* r, double** jac) const override {
+    r[0] = sqrt_w_ * std::remainder(p[0][0] - target_, M_PI);
+    if (jac && jac[0]) jac[0][0] = sqrt_w_;
+    return true;
+  }
+
+ private:
+  double sqrt_w_, target_;
+};
+
+Vec8 prior_diff(const TexelPrior& p, const Vec8& x) {
+  Vec8 d = x - p.b;
+  d(7) = std::remainder(d(7), M_PI);
+  return d;
+}
+
 // sigmas from J^T J (`info`) and the residual sum of squares at the solution: the rank test on
 // the eigenvalues of the column-scaled matrix, then the diagonal of its inverse times s^2.
 void texel_sigmas(const Mat8& info, double rss, double values, TexelResult* t) {
@@ -80,19 +109,31 @@ void texel_sigmas(const Mat8& info, double rss, double values, TexelResult* t) {
 }
 
 // One texel with Ceres (the fitter of record): solve, then J^T J of its own problem.
-TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx,
-                              const Core& global) {
+TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
+                              const TexelPrior* prior) {
   TexelResult t;
-  t.c = global;
-  texel_start(os, idx, &t.c);
+  t.c = from;
+  if (!prior) texel_start(os, idx, &t.c);
   ceres::Problem::Options po;
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem pb(po);
   double dummy[2] = {0, 0};
   Core& c = t.c;
+  std::vector<ceres::ResidualBlockId> data;
   for (size_t i : idx)
-    pb.AddResidualBlock(line_pixel_cost(&os.obs[i], os.lights.data()), nullptr, c.kd, c.ks, &c.logn,
-                        &c.psi, &dummy[0], &dummy[1]);
+    data.push_back(pb.AddResidualBlock(line_pixel_cost(&os.obs[i], os.lights.data()), nullptr, c.kd,
+                                       c.ks, &c.logn, &c.psi, &dummy[0], &dummy[1]));
+  if (prior) {  // the pull toward the neighbours
+    const std::pair<double*, int> blocks[3] = {{c.kd, 0}, {c.ks, 3}, {&c.logn, 6}};
+    for (const auto& [block, at] : blocks) {
+      const int size = at < 6 ? 3 : 1;
+      const Eigen::VectorXd w = prior->w.segment(at, size).cwiseSqrt();
+      pb.AddResidualBlock(
+          new ceres::NormalPrior(w.asDiagonal().toDenseMatrix(), prior->b.segment(at, size)),
+          nullptr, block);
+    }
+    pb.AddResidualBlock(new PsiPrior(std::sqrt(prior->w(7)), prior->b(7)), nullptr, &c.psi);
+  }
   pb.SetParameterBlockConstant(&dummy[0]);
   pb.SetParameterBlockConstant(&dummy[1]);
   set_core_bounds(&pb, &c);
@@ -109,6 +150,7 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx,
   ceres::Solve(so, &pb, &sum);
   ceres::Problem::EvaluateOptions eo;
   eo.parameter_blocks = {c.kd, c.ks, &c.logn, &c.psi};
+  eo.residual_blocks = data;  // sigma from the texel's own data
   double cost = 0;
   ceres::CRSMatrix J;
   if (!pb.Evaluate(eo, &cost, nullptr, nullptr, &J) || J.num_cols != 8) return t;
@@ -149,28 +191,46 @@ double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const Vec8& 
 // One texel with a hand-written Levenberg-Marquardt (the fast path of --maps): the same
 // function (fit/line_pixel.h), the same bounds (projected) and the same start as the Ceres path;
 // the tests check that both reach the same minimum.
-TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& global) {
+TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
+                           const TexelPrior* prior) {
   TexelResult t;
-  t.c = global;
-  texel_start(os, idx, &t.c);
+  t.c = from;
+  if (!prior) texel_start(os, idx, &t.c);
   Vec8 lo, hi;
   core_bounds(&lo, &hi);
-  Vec8 x = pack_core(t.c), grad;
-  Mat8 info;
-  double rss = texel_pass(os, idx, x, &info, &grad), lambda = 1e-3;
+  // The data's sum of squares with J^T J, J^T r; and the same with the prior added (the objective).
+  Mat8 info, h;
+  Vec8 grad, g;
+  double rss = 0, total = 0;
+  auto evaluate = [&](const Vec8& at, bool derivatives) {
+    double r = texel_pass(os, idx, at, derivatives ? &info : nullptr, &grad);
+    if (derivatives) h = info, g = grad;
+    if (!prior) return r;
+    const Vec8 d = prior_diff(*prior, at);
+    if (derivatives) {
+      h.diagonal() += prior->w;
+      g += prior->w.cwiseProduct(d);
+    }
+    return r + prior->w.dot(d.cwiseProduct(d));
+  };
+  Vec8 x = pack_core(t.c);
+  total = evaluate(x, true);
+  rss = total - (prior ? prior->w.dot(prior_diff(*prior, x).cwiseAbs2()) : 0);
+  double lambda = 1e-3;
   for (int it = 0; it < 100; ++it) {
-    Mat8 a = info;
-    a.diagonal() += lambda * info.diagonal().cwiseMax(1e-12);
-    const Vec8 step = a.ldlt().solve(-grad);
+    Mat8 a = h;
+    a.diagonal() += lambda * h.diagonal().cwiseMax(1e-12);
+    const Vec8 step = a.ldlt().solve(-g);
     // The same stopping rule as the global fused solve: a step under 1e-3 sigma is not taken.
-    if (step_in_sigmas(info, step, rss, 3.0 * idx.size()) < kStepInSigma) break;
+    if (step_in_sigmas(h, step, total, 3.0 * idx.size()) < kStepInSigma) break;
     Vec8 xn = (x + step).cwiseMax(lo).cwiseMin(hi);
     xn(7) = wrap_half_turn(xn(7));
-    const double rn = texel_pass(os, idx, xn, nullptr, nullptr);
-    if (rn < rss) {
-      const bool done = rss - rn <= 1e-12 * rss;
+    const double rn = evaluate(xn, false);
+    if (rn < total) {
+      const bool done = total - rn <= 1e-12 * total;
       x = xn;
-      rss = texel_pass(os, idx, x, &info, &grad);
+      total = evaluate(x, true);
+      rss = total - (prior ? prior->w.dot(prior_diff(*prior, x).cwiseAbs2()) : 0);
       lambda = std::max(lambda / 3, 1e-12);
       if (done) break;
     } else {
@@ -183,22 +243,83 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   return t;
 }
 
+// The prior of texel t for the next sweep: its 4 neighbours' values of this sweep (those the data
+// determined), weights lambda x neighbours / (H^-1)_kk from the texel's first, unpulled fit.
+bool smoothing_prior(const std::vector<TexelResult>& now, const std::vector<TexelResult>& first,
+                     int w, int h, size_t t, double lambda, TexelPrior* p) {
+  const int x = static_cast<int>(t % w), y = static_cast<int>(t / w);
+  const Vec8 self = pack_core(now[t].c);
+  Vec8 sum = Vec8::Zero();
+  int count = 0;
+  const int dx[4] = {-1, 1, 0, 0}, dy[4] = {0, 0, -1, 1};
+  for (int k = 0; k < 4; ++k) {
+    const int nx = x + dx[k], ny = y + dy[k];
+    if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+    const TexelResult& nb = now[static_cast<size_t>(ny) * w + nx];
+    if (!nb.determined) continue;
+    Vec8 v = pack_core(nb.c);
+    v(7) = self(7) + std::remainder(v(7) - self(7), M_PI);
+    sum += v;
+    ++count;
+  }
+  if (count == 0) return false;
+  p->b = sum / count;
+  const double s2 = first[t].rss / std::max(first[t].values - 8, 1.0);
+  for (int k = 0; k < 8; ++k)
+    p->w(k) = lambda * count * s2 / std::max(first[t].sigma[k] * first[t].sigma[k], 1e-300);
+  return true;
+}
+
 }  // namespace
 
-TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, int row0, int row1,
-                         bool ceres_path, bool progress) {
+TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
+  const int w = o.w, h = o.h;
   TexelMaps m;
   m.w = w;
   m.h = h;
-  m.row0 = row0;
-  m.row1 = row1;
+  m.row0 = o.row0;
+  m.row1 = o.row1;
+  const bool smooth = o.smooth > 0;
+  m.smooth = smooth ? o.smooth : 0;
+  m.sweeps = smooth ? o.sweeps : 0;
   const size_t N = static_cast<size_t>(w) * h;
   std::vector<std::vector<size_t>> bins(N);
   for (size_t i = 0; i < os.obs.size(); ++i) {
     const double u = os.obs[i].u, v = os.obs[i].v;
     if (!(u >= 0 && u < 1 && v >= 0 && v < 1)) continue;
     bins[static_cast<size_t>(v * h) * w + static_cast<size_t>(u * w)].push_back(i);
+  }
+  // Smoothing: a tile also fits `sweeps` rows beyond its band; after that many sweeps the error
+  // of the missing rows beyond has moved in by as many rows and stops short of the band.
+  const int band0 = smooth ? std::max(0, o.row0 - o.sweeps) : o.row0;
+  const int band1 = smooth ? std::min(h, o.row1 + o.sweeps) : o.row1;
+  const size_t t_begin = static_cast<size_t>(band0) * w, t_end = static_cast<size_t>(band1) * w;
+  Progress bar("fit --maps: texels", (t_end - t_begin) * (1 + m.sweeps), o.progress);
+  auto solve = [&](size_t t, const Core& from, const TexelPrior* prior) {
+    return o.ceres ? solve_texel_ceres(os, bins[t], from, prior)
+                   : solve_texel_lm(os, bins[t], from, prior);
+  };
+  std::vector<TexelResult> first(N);  // every texel alone
+  for (auto& r : first) r.c = global;
+  tbb::parallel_for(tbb::blocked_range<size_t>(t_begin, t_end, 4),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t t = r.begin(); t < r.end(); ++t, bar.advance())
+                        if (bins[t].size() >= kMinTexelPixels) first[t] = solve(t, global, nullptr);
+                    });
+  std::vector<TexelResult> now = first;
+  for (int sweep = 0; sweep < m.sweeps; ++sweep) {
+    std::vector<TexelResult> next = now;
+    tbb::parallel_for(tbb::blocked_range<size_t>(t_begin, t_end, 4),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        for (size_t t = r.begin(); t < r.end(); ++t, bar.advance()) {
+                          TexelPrior prior;
+                          if (first[t].determined &&
+                              smoothing_prior(now, first, w, h, t, o.smooth, &prior))
+                            next[t] = solve(t, now[t].c, &prior);
+                        }
+                      });
+    now.swap(next);
   }
   m.kd.assign(3 * N, 0);
   m.ks.assign(3 * N, 0);
@@ -210,44 +331,26 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, int w, int h, int
   m.psi_sigma_deg.assign(N, 0);
   m.pixels.assign(N, 0);
   m.determined.assign(N, 0);
-  Progress bar("fit --maps: texels", N, progress);
-  std::atomic<size_t> fitted{0};
-  std::vector<double> rss(N, 0), values(N, 0);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, N, 4), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t t = r.begin(); t < r.end(); ++t) {
-      m.pixels[t] = static_cast<int>(bins[t].size());
-      const int row = static_cast<int>(t / w);
-      if (row < row0 || row >= row1) {  // another tile's
-        bar.advance();
-        continue;
-      }
-      TexelResult res;
-      res.c = global;
-      if (bins[t].size() >= kMinTexelPixels) {
-        res = ceres_path ? solve_texel_ceres(os, bins[t], global)
-                         : solve_texel_lm(os, bins[t], global);
-        rss[t] = res.rss;
-        values[t] = res.values;
-        ++fitted;
-      }
-      m.determined[t] = res.determined;
-      const Core& c = res.determined ? res.c : global;
-      for (int k = 0; k < 3; ++k) {
-        m.kd[3 * t + k] = c.kd[k];
-        m.ks[3 * t + k] = c.ks[k];
-        m.kd_sigma[3 * t + k] = res.determined ? res.sigma[k] : prior_sigma("kd");
-        m.ks_sigma[3 * t + k] = res.determined ? res.sigma[3 + k] : prior_sigma("ks");
-      }
-      m.n[t] = std::exp(c.logn);
-      m.n_sigma[t] = res.determined ? m.n[t] * res.sigma[6] : prior_sigma("n");
-      m.psi_deg[t] = wrap_fiber_deg(rad_to_deg(c.psi));
-      m.psi_sigma_deg[t] = res.determined ? rad_to_deg(res.sigma[7]) : 180 / std::sqrt(12.0);
-      bar.advance();
-    }
-  });
-  m.fitted = fitted;
   double sr = 0, sv = 0;
-  for (size_t t = 0; t < N; ++t) sr += rss[t], sv += values[t];
+  for (size_t t = 0; t < N; ++t) {
+    m.pixels[t] = static_cast<int>(bins[t].size());
+    const int row = static_cast<int>(t / w);
+    if (row < o.row0 || row >= o.row1) continue;  // another tile's
+    const TexelResult& res = now[t];
+    if (bins[t].size() >= kMinTexelPixels) ++m.fitted, sr += res.rss, sv += res.values;
+    m.determined[t] = res.determined;
+    const Core& c = res.determined ? res.c : global;
+    for (int k = 0; k < 3; ++k) {
+      m.kd[3 * t + k] = c.kd[k];
+      m.ks[3 * t + k] = c.ks[k];
+      m.kd_sigma[3 * t + k] = res.determined ? res.sigma[k] : prior_sigma("kd");
+      m.ks_sigma[3 * t + k] = res.determined ? res.sigma[3 + k] : prior_sigma("ks");
+    }
+    m.n[t] = std::exp(c.logn);
+    m.n_sigma[t] = res.determined ? m.n[t] * res.sigma[6] : prior_sigma("n");
+    m.psi_deg[t] = wrap_fiber_deg(rad_to_deg(c.psi));
+    m.psi_sigma_deg[t] = res.determined ? rad_to_deg(res.sigma[7]) : 180 / std::sqrt(12.0);
+  }
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return m;

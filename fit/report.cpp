@@ -67,6 +67,13 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
        "one standard deviation per texel (fiber: R = sigma of psi in degrees); "
        "coverage: pixels per texel; determined = 0: not determined by the data, the "
        "global value is kept and sigma is the prior's spread"}};
+  if (t.smooth > 0)
+    (*j)["maps_uncertainty"]["smooth"] = {
+        {"lambda", t.smooth},
+        {"sweeps", t.sweeps},
+        {"note",
+         "each texel pulled toward its 4 neighbours; sigma is from the texel's own data alone "
+         "(the pull would make it smaller: these are an upper bound)"}};
 }
 
 // What write_fit writes, maps aside.
@@ -190,6 +197,7 @@ void write_maps_tile(const std::string& path, const FitResult& r, const FitOptio
                          {"tile", {opt.tile_index, opt.tile_count}},
                          {"texels", {t.w, t.h}},
                          {"rows", {t.row0, t.row1}},
+                         {"smooth", {t.smooth, t.sweeps}},
                          {"fitted", t.fitted},
                          {"seconds", t.seconds},
                          {"fit", fit_json(path, r)},
@@ -214,8 +222,11 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       const int r0 = j.at("rows").at(0), r1 = j.at("rows").at(1);
       if (n < 1 || n > 100000 || w < 1 || h < 1 || w > 16384 || h > 16384)
         c.fail("tile count or grid size out of range");
+      const double smooth = j.value("smooth", jsonu::json::array({0.0, 0})).at(0);
+      const int sweeps = j.value("smooth", jsonu::json::array({0.0, 0})).at(1);
       if (count < 0) {
         count = n, m.w = w, m.h = h, fit = j["fit"];
+        m.smooth = smooth, m.sweeps = sweeps;
         seen.assign(n, 0);
         const size_t N = static_cast<size_t>(w) * h;
         for (const auto& arr : kTexelArrays) (m.*arr.d).assign(arr.k * N, 0.0);
@@ -227,6 +238,8 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
         c.fail("tile " + std::to_string(i) + "/" + std::to_string(n) + " of a " +
                std::to_string(w) + "x" + std::to_string(h) + " grid does not belong with " +
                tiles[0]);
+      if (smooth != m.smooth || sweeps != m.sweeps)
+        c.at("smooth").fail("tiles of one merge must share --smooth and --smooth-sweeps");
       for (const char* k : {"kd", "ks", "n", "fiber_angle_deg", "model"})
         if (j["fit"][k] != fit[k])
           c.fail("its global fit differs from " + tiles[0] + " (\"" + k +
