@@ -21,6 +21,12 @@ const std::vector<std::pair<std::string, std::string>>& preset_list() {
       {"swirl-plate",
        "flat sample whose material varies (maps): brushed in circles around its centre, k_d from "
        "copper on the left to steel on the right (for fit --maps)"},
+      {"woven-patch",
+       "flat sample woven in a checker of warp and weft blocks (maps): warp along u, red, n = 30; "
+       "weft along v, blue, n = 12 (for fit --maps)"},
+      {"cd-maps",
+       "disc with circular grooves whose material varies with the radius (maps): a clear hub, "
+       "the mirror-like data area, a plastic rim (for fit --maps)"},
       {"silk-torus",
        "fiber model: silk wound around a torus (R = 1, r = 0.6), mathematical topology + topology "
        "map "
@@ -101,6 +107,52 @@ MaterialMaps swirl_maps(int size) {
   return mp;
 }
 
+// The woven patch's maps (size x size): a 4 x 4 checker of warp blocks (psi 0, along u) and weft
+// blocks (psi 90), each with its own yarn colour and sharpness.
+MaterialMaps woven_maps(int size) {
+  auto fiber = std::make_shared<Image>(size, size, 2);
+  auto kd = std::make_shared<Image>(size, size, 3);
+  auto n = std::make_shared<Image>(size, size, 1);
+  const RGB warp{0.35, 0.10, 0.10}, weft{0.10, 0.12, 0.30};
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const bool is_warp = ((4 * x / size) + (4 * y / size)) % 2 == 0;
+      fiber->at(x, y, 0) = is_warp ? 1.0f : -1.0f;  // doubled angle: 0 or 180 degrees
+      fiber->at(x, y, 1) = 0.0f;
+      for (int c = 0; c < 3; ++c) kd->at(x, y, c) = static_cast<float>((is_warp ? warp : weft)[c]);
+      n->at(x, y, 0) = is_warp ? 30.0f : 12.0f;
+    }
+  MaterialMaps mp;
+  mp.fiber = fiber;
+  mp.kd = kd;
+  mp.n = n;
+  return mp;
+}
+
+// A CD's maps over the disc's uv (size x size), by the radius r = 2 |uv - 1/2|: the clear hub
+// (r < 0.3: grey, dull), the data area (0.3..0.95: dark, mirror-like, n = 120) and the rim.
+// The grooves follow the disc's circular tangent (psi = 0 everywhere: no fiber map).
+MaterialMaps cd_maps(int size) {
+  auto kd = std::make_shared<Image>(size, size, 3);
+  auto ks = std::make_shared<Image>(size, size, 1);
+  auto n = std::make_shared<Image>(size, size, 1);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const double r = 2 * std::hypot((x + 0.5) / size - 0.5, (y + 0.5) / size - 0.5);
+      const int zone = r < 0.3 ? 0 : r < 0.95 ? 1 : 2;
+      const RGB kds[3] = {{0.25, 0.25, 0.27}, {0.04, 0.04, 0.05}, {0.12, 0.12, 0.14}};
+      const double kss[3] = {0.15, 0.80, 0.35}, ns[3] = {6, 120, 15};
+      for (int c = 0; c < 3; ++c) kd->at(x, y, c) = static_cast<float>(kds[zone][c]);
+      ks->at(x, y, 0) = static_cast<float>(kss[zone]);
+      n->at(x, y, 0) = static_cast<float>(ns[zone]);
+    }
+  MaterialMaps mp;
+  mp.kd = kd;
+  mp.ks = ks;
+  mp.n = n;
+  return mp;
+}
+
 struct Framing {
   double radius = 1.0, camera_polar = 35.0;
   bool orbit = false;
@@ -156,6 +208,22 @@ bool line_preset(const std::string& name, const PresetOptions& po, SimOptions* o
     m.n = 40.0;
     m.fiber_angle_deg = 90.0;
     m.maps = swirl_maps(64);
+  } else if (name == "woven-patch") {
+    o->shape = "flat";
+    fr->radius = std::sqrt(2.0);
+    m.kd = {0.225, 0.11, 0.20};  // the maps' means
+    m.ks = {0.40, 0.40, 0.40};
+    m.n = 21.0;
+    m.fiber_angle_deg = 0.0;
+    m.maps = woven_maps(64);
+  } else if (name == "cd-maps") {
+    o->shape = "disc";
+    o->fiber_field = "circular";
+    m.kd = {0.05, 0.05, 0.06};
+    m.ks = {0.80, 0.80, 0.80};
+    m.n = 120.0;
+    m.fiber_angle_deg = 0.0;
+    m.maps = cd_maps(64);
   } else if (name == "random") {
     o->shape = "flat";
     fr->radius = std::sqrt(2.0);

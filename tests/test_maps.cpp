@@ -22,6 +22,7 @@ namespace {
 struct MapErrors {
   size_t determined = 0;
   double dpsi = NAN, z = NAN, dkd = NAN;  // medians: |dpsi| deg, |dpsi| / sigma, |dkd.r| / kd.r
+  double dn = NAN;                        // median |dn| / n
 };
 
 double median(std::vector<double> v) {
@@ -29,9 +30,11 @@ double median(std::vector<double> v) {
   return v.empty() ? NAN : v[v.size() / 2];
 }
 
-// The fitted maps of `fit_json` against the truth at every determined texel's centre (the
-// swirl's centre, where psi turns by 90 degrees within a texel, left out of psi).
-MapErrors map_errors(const std::string& truth_json, const std::string& fit_json) {
+// The fitted maps of `fit_json` against the truth at every determined texel's centre whose
+// distance r from the sample's centre (in uv) is in [r_lo, r_hi) (the swirl's centre, where psi
+// turns by 90 degrees within a texel, is left out of psi).
+MapErrors map_errors(const std::string& truth_json, const std::string& fit_json, double r_lo = 0,
+                     double r_hi = 1) {
   const Material truth = read_material(truth_json);
   const auto j = nlohmann::json::parse(read_text_file(fit_json));
   EXPECT_TRUE(j.contains("maps_uncertainty")) << j.dump();
@@ -42,23 +45,25 @@ MapErrors map_errors(const std::string& truth_json, const std::string& fit_json)
       read_image(join_path(dir, j["maps_uncertainty"]["determined"].get<std::string>())).image;
   const Image sig =
       read_image(join_path(dir, j["maps_uncertainty"]["fiber"].get<std::string>())).image;
-  std::vector<double> dpsi, dkd, z;
+  std::vector<double> dpsi, dkd, z, dn;
   MapErrors e;
   for (int y = 0; y < det.height; ++y)
     for (int x = 0; x < det.width; ++x) {
-      if (det.at(x, y, 0) < 0.5) continue;
-      ++e.determined;
       const double u = (x + 0.5) / det.width, v = (y + 0.5) / det.height;
+      const double r = std::hypot(u - 0.5, v - 0.5);
+      if (det.at(x, y, 0) < 0.5 || r < r_lo || r >= r_hi) continue;
+      ++e.determined;
       const Material t = material_at(truth, u, v), f = material_at(fit, u, v);
       double d = std::abs(f.fiber_angle_deg - t.fiber_angle_deg);
       d = std::min(d, 180 - d);
-      if (std::hypot(u - 0.5, v - 0.5) > 0.1) {
+      if (r > 0.1) {
         dpsi.push_back(d);
         z.push_back(d / std::max(sig.at(x, y, 0), 1e-6f));
       }
       dkd.push_back(std::abs(f.kd[0] / t.kd[0] - 1));
+      dn.push_back(std::abs(f.n / t.n - 1));
     }
-  e.dpsi = median(dpsi), e.z = median(z), e.dkd = median(dkd);
+  e.dpsi = median(dpsi), e.z = median(z), e.dkd = median(dkd), e.dn = median(dn);
   return e;
 }
 
@@ -91,6 +96,42 @@ TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
   all >> pixels >> rms;
   std::printf("verify with the fitted maps: residual RMS %.4f over %.0f pixels\n", rms, pixels);
   EXPECT_LT(rms, 0.025);
+}
+
+// The other presets with maps (issue 11): a woven patch (a checker of warp and weft blocks that
+// differ in direction, colour and n) and a CD on a disc (hub, data area and rim differ in k_d, k_s
+// and n; psi along the circular grooves), each with 1 % noise, against their truth.
+TEST(FitMaps, WovenPatchAndCdMapsMatchTheirTruth) {
+  const std::string dir = test::tmp_dir("woven_cd");
+  for (const std::string preset : {"woven-patch", "cd-maps"}) {
+    auto r = test::run_cli("synth " + preset + " " + dir + "/" + preset +
+                           " --noise 0.01 --size 128x128");
+    ASSERT_EQ(r.status, 0) << r.output;
+    r = test::run_cli("fit " + dir + "/" + preset + " --maps 16x16 --out " + dir + "/" + preset +
+                      "_fit.json");
+    ASSERT_EQ(r.status, 0) << r.output;
+  }
+  const MapErrors w =
+      map_errors(dir + "/woven-patch/truth.json", dir + "/woven-patch_fit.json");
+  std::printf("woven-patch: %zu determined, median |dpsi| %.3f deg, |dkd|/kd %.2f %%, |dn|/n %.2f %%\n",
+              w.determined, w.dpsi, 100 * w.dkd, 100 * w.dn);
+  EXPECT_GT(w.determined, 240u);
+  EXPECT_LT(w.dpsi, 1.0);
+  EXPECT_LT(w.dkd, 0.03);
+  EXPECT_LT(w.dn, 0.05);
+  // The CD's data area (r in uv 0.2..0.42: the zones' radii 0.15 and 0.475, a texel's half
+  // diagonal inside) and its hub.
+  const MapErrors data =
+      map_errors(dir + "/cd-maps/truth.json", dir + "/cd-maps_fit.json", 0.2, 0.42);
+  const MapErrors hub = map_errors(dir + "/cd-maps/truth.json", dir + "/cd-maps_fit.json", 0, 0.1);
+  std::printf("cd-maps data area: %zu determined, median |dpsi| %.3f deg, |dn|/n %.2f %%; hub: %zu "
+              "determined, |dkd|/kd %.2f %%\n",
+              data.determined, data.dpsi, 100 * data.dn, hub.determined, 100 * hub.dkd);
+  EXPECT_GT(data.determined, 60u);
+  EXPECT_LT(data.dpsi, 1.0);
+  EXPECT_LT(data.dn, 0.05);
+  EXPECT_GT(hub.determined, 4u);
+  EXPECT_LT(hub.dkd, 0.03);
 }
 
 // --smooth (issue 11): on a noisy plate (5 % noise, 32 x 32 texels) the pull toward the
