@@ -2,12 +2,16 @@
 // enters as one s for the whole sample, the amplitude A of a topology map over the per-pixel
 // mathematical topology, the mathematical topology alone (nothing to fit), or an N x N map of s
 // over uv (each pixel's s the bilinear mix of four texel parameters).
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 
 #include "core/texture.h"
+#include "fit/fiber_lm.h"
+#include "fit/fiber_order.h"
 #include "fit/start.h"
 #include "models/fiber_model.h"
 #include "models/params.h"
@@ -102,7 +106,9 @@ class FiberFit : public ModelFit {
   }
 
   // From the line grid's (psi, n), a grid over the topology (s in 0.05..0.95, or A in -1..1)
-  // and n around the line value, k_d, k_s solved in closed form at every node.
+  // and n around the line value, k_d, k_s solved in closed form at every node (the nodes in
+  // parallel, each alone: the same start on any number of threads; the specular integral at
+  // order 4, plenty to rank nodes). Then the quadrature order (fiber_order).
   std::string start(const ObsSet& os, bool progress) override {
     const std::string line = line_grid_start(os, &core, progress);
     const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
@@ -114,48 +120,48 @@ class FiberFit : public ModelFit {
     else
       topo_values.push_back(0.0);
     const double c = std::cos(core.psi), sn = std::sin(core.psi), logn0 = core.logn;
-    double best = std::numeric_limits<double>::infinity(), best_t = topo_values[0],
-           best_logn = logn0;
-    double best_kd[3] = {0, 0, 0}, best_ks[3] = {0, 0, 0};
-    for (double t : topo_values)
-      for (double dl : {-0.7, 0.0, 0.7}) {
-        const double n = std::exp(logn0 + dl);
-        double kd[3], ks[3];
-        const double cost = solve_kd_ks(
-            os, subset,
-            [&](const Observation& o, double* dcol, double* scol) {
-              const double s = pixel_s(o, t);
-              const double b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
-              for (uint32_t k = 0; k < o.num_lights; ++k) {
-                const ObsLight& l = os.lights[o.first_light + k];
-                double D, S;
-                fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n, s,
-                         acc_, &D, &S);
-                for (int ch = 0; ch < 3; ++ch) {
-                  dcol[ch] += l.E[ch] * D;
-                  scol[ch] += l.E[ch] * S;
-                }
+    const double dlogn[3] = {-0.7, 0.0, 0.7};
+    struct Node {
+      double cost, kd[3], ks[3];
+    };
+    std::vector<Node> nodes(3 * topo_values.size());
+    FiberAccuracy grid_acc;
+    grid_acc.order = std::min(4, acc_.order > 0 ? acc_.order : 4);
+    tbb::parallel_for(size_t(0), nodes.size(), [&](size_t k) {
+      const double t = topo_values[k / 3], n = std::exp(logn0 + dlogn[k % 3]);
+      Node& node = nodes[k];
+      node.cost = solve_kd_ks(
+          os, subset,
+          [&](const Observation& o, double* dcol, double* scol) {
+            const double s = pixel_s(o, t);
+            const double b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
+            for (uint32_t q = 0; q < o.num_lights; ++q) {
+              const ObsLight& l = os.lights[o.first_light + q];
+              double D, S;
+              fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n, s,
+                       grid_acc, &D, &S);
+              for (int ch = 0; ch < 3; ++ch) {
+                dcol[ch] += l.E[ch] * D;
+                scol[ch] += l.E[ch] * S;
               }
-            },
-            kd, ks);
-        if (cost < best) {
-          best = cost;
-          best_t = t;
-          best_logn = std::log(n);
-          std::copy(kd, kd + 3, best_kd);
-          std::copy(ks, ks + 3, best_ks);
-        }
-      }
+            }
+          },
+          node.kd, node.ks);
+    });
+    size_t best = 0;
+    for (size_t k = 1; k < nodes.size(); ++k)
+      if (nodes[k].cost < nodes[best].cost) best = k;
+    const double best_t = topo_values[best / 3];
     topo_[0] = best_t;
     if (mode_ == TopologyMode::kTexels)
       texels_.assign(static_cast<size_t>(texels_n_) * texels_n_, best_t);
-    core.logn = best_logn;
-    set_start_kd_ks(best_kd, best_ks, &core);
-    char buf[200];
+    core.logn = logn0 + dlogn[best % 3];
+    set_start_kd_ks(nodes[best].kd, nodes[best].ks, &core);
+    char buf[300];
     std::snprintf(buf, sizeof buf, "; fiber: topology %s=%.2f, n=%.0f (%zu x 3 nodes)",
-                  mode_ == TopologyMode::kAmplitude ? "A" : "s", best_t, std::exp(best_logn),
+                  mode_ == TopologyMode::kAmplitude ? "A" : "s", best_t, std::exp(core.logn),
                   topo_values.size());
-    return line + buf;
+    return line + buf + choose_order(os, subset);
   }
 
   void add_residuals(ceres::Problem* pb, const ObsSet& os, const std::vector<size_t>& idx,
@@ -179,6 +185,22 @@ class FiberFit : public ModelFit {
         pb->SetParameterBlockConstant(topo_);
     }
     set_core_bounds(pb, &core);
+  }
+
+  // The fused solve (fit/fiber_lm.h) for every topology but a texel map, unless Ceres is asked.
+  bool solve_fused(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
+                   const FitOptions& opt, FusedSolve* out) override {
+    if (mode_ == TopologyMode::kTexels || opt.ceres_solver || opt.ceres_covariance) return false;
+    fiber_lm_solve(os, subset, loss, scale, opt.max_iterations, opt.threads, mode_, acc_, &core,
+                   topo_, out);
+    out->order = {{core.kd, 3}, {core.ks, 3}, {&core.logn, 1}, {&core.psi, 1}};
+    if (fitted_topology()) out->order.push_back({topo_, 1});
+    return true;
+  }
+
+  void residual(const ObsSet& os, size_t i, double r[3]) const override {
+    const FiberResidual f(&os.obs[i], os.lights.data(), mode_, acc_);
+    f(core.kd, core.ks, &core.logn, &core.psi, topo_, r);
   }
 
   std::vector<Block> blocks(ceres::Problem* pb) override {
@@ -253,6 +275,16 @@ class FiberFit : public ModelFit {
   const char* topology_key() const {
     return mode_ == TopologyMode::kAmplitude ? "topology.amplitude" : "topology.s";
   }
+  // --fiber-order, or (0) the smallest order whose quadrature error cannot move the fit
+  // (fit/fiber_order.h); the start's note says which and why.
+  std::string choose_order(const ObsSet& os, const std::vector<size_t>& subset) {
+    if (acc_.order > 0) return "; quadrature order " + std::to_string(acc_.order) + " (as given)";
+    const FiberOrderChoice ch = choose_fiber_order(
+        os, subset, core, [&](const Observation& o) { return pixel_s(o, topo_[0]); });
+    acc_.order = ch.order;
+    return ch.note;
+  }
+
   // s at an observation for the topology value t (s or A) of the start grid.
   double pixel_s(const Observation& o, double t) const {
     if (mode_ == TopologyMode::kAmplitude) return topology_with_map(o.smath, t, o.mapv);

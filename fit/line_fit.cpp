@@ -189,6 +189,7 @@ class LineFit : public ModelFit {
                    const FitOptions& opt, FusedSolve* out) override {
     if (iso_ || second_ || !chunked_ || opt.ceres_solver || opt.ceres_covariance) return false;
     line_lm_solve(os, subset, loss, scale, opt.max_iterations, opt.threads, &core, out);
+    out->order = {{core.kd, 3}, {core.ks, 3}, {&core.logn, 1}, {&core.psi, 1}};
     return true;
   }
 

@@ -7,24 +7,21 @@
 // minimises with the same loss (the tests compare the two solvers). Ceres stays the fitter of
 // record: `--solver ceres` and every other model or optional term go through it.
 #pragma once
-#include <Eigen/Core>
 #include <vector>
 
+#include "fit/fused_lm.h"
 #include "fit/model_fit.h"
 
 namespace aniso::fitting {
 
-using Mat8 = Eigen::Matrix<double, 8, 8>;
-using Vec8 = Eigen::Matrix<double, 8, 1>;
+using Mat8 = MatP<8>;
+using Vec8 = VecP<8>;
 
 // The eight core numbers as one vector (k_d 3, k_s 3, log n, psi) and back, and their bounds
 // (models/params.h; psi free, wrapped by the solvers).
 Vec8 pack_core(const Core& c);
 void unpack_core(const Vec8& x, Core* c);
 void core_bounds(Vec8* lo, Vec8* hi);
-
-// Converged: no coordinate of the next step would move by this much of its standard error.
-constexpr double kStepInSigma = 1e-3;
 
 // The largest coordinate of `step` in units of that coordinate's standard error at the current
 // point (H^-1 s^2 with s^2 = rss / (values - 8); H = J^T J): below kStepInSigma the solution

@@ -204,7 +204,8 @@ bool solve_fused(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport
                  Solution* sol) {
   FusedSolve f;
   if (!m->solve_fused(os, nullptr, opt.loss, rep->loss_scale, opt, &f)) return false;
-  sol->information.assign(f.info, f.info + 64);
+  sol->information = f.info;
+  sol->information_order = f.order;
   sol->rss = f.rss;
   rep->iterations = f.iterations;
   rep->termination = f.converged ? "CONVERGENCE" : "NO_CONVERGENCE";

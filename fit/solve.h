@@ -11,9 +11,11 @@ namespace aniso::fitting {
 
 struct Solution {
   // The Ceres problem at the solution; null when the model's fused solver found it, which hands
-  // J^T W J at the solution instead (`information`, 8 x 8 row-major: k_d, k_s, log n, psi).
+  // J^T W J at the solution instead (`information`, row-major over the blocks of
+  // `information_order`: k_d, k_s, log n, psi and the model's own).
   std::unique_ptr<ceres::Problem> problem;
   std::vector<double> information;
+  std::vector<std::pair<double*, int>> information_order;
   ceres::Solver::Summary summary;
   std::vector<double> sqrt_w;  // reweighting weights: the problem's blocks point at them
   double rss = 0;              // of the final problem's residuals

@@ -325,8 +325,7 @@ void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, 
     // A fused solve: a problem of the parameter blocks alone, for what is held and what is free.
     ceres::Problem::Options po;
     sol->problem = std::make_unique<ceres::Problem>(po);
-    for (double* b : {c.kd, c.ks}) sol->problem->AddParameterBlock(b, 3);
-    for (double* b : {&c.logn, &c.psi}) sol->problem->AddParameterBlock(b, 1);
+    for (const auto& [b, size] : sol->information_order) sol->problem->AddParameterBlock(b, size);
   }
   ceres::Problem* pb = sol->problem.get();
   const bool n_free = hold_free_exponent(m, pb, res);
@@ -343,8 +342,9 @@ void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, 
   const CovarianceSource* source = nullptr;
   bool deficient = false;
   const bool given = !sol->information.empty();
-  if (given ? normal.compute_given(pb, blocks, sol->information, {c.kd, c.ks, &c.logn, &c.psi},
-                                   &deficient)
+  std::vector<const double*> order;
+  for (const auto& b : sol->information_order) order.push_back(b.first);
+  if (given ? normal.compute_given(pb, blocks, sol->information, order, &deficient)
             : !opt.ceres_covariance && normal.compute(pb, blocks, &deficient))
     source = &normal;
   else if (!given && (opt.ceres_covariance || !deficient) &&

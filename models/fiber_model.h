@@ -241,11 +241,17 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
           if (!(next > edge)) continue;
           const T e1 = tmin(next, shi);
           const T half = 0.5 * (e1 - edge), mid = 0.5 * (e1 + edge);
+          // At p = mid + t: cos 2(p - phi_h) and cos(p - phi_v) by the angle sums from the
+          // panel's centre, so a node costs one sine and cosine of t (not two cosines).
+          const T ca = cos(2.0 * (mid - phi_h)), sa = sin(2.0 * (mid - phi_h));
+          const T cb = cos(mid - phi_v), sb = sin(mid - phi_v);
           for (int q = 0; q < gr.order; ++q) {
-            const T p = mid + half * gr.x[q];
-            const T g = sLsV * cos(2.0 * (p - phi_h)) - ab;
+            const T t = half * gr.x[q];
+            const T ct = cos(t), st = sin(t);
+            const T g = sLsV * (ca * (1.0 - 2.0 * st * st) - sa * (2.0 * st * ct)) - ab;
             if (g > T(0.0))
-              ssum += half * gr.w[q] * exp(n * log(relative_to_peak ? g / g0 : g)) * cos(p - phi_v);
+              ssum += half * gr.w[q] * exp(n * log(relative_to_peak ? g / g0 : g)) *
+                      (cb * ct - sb * st);
           }
           edge = e1;
           if (!(edge < shi)) break;

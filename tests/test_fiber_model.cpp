@@ -276,3 +276,81 @@ TEST(FiberModel, ExtremelyGrazingViewStaysWithinBounds) {
 
 }  // namespace
 }  // namespace aniso
+
+#include "capture_sim/sim.h"
+#include "datasets_synth/presets.h"
+#include "fit/fit.h"
+#include "io/capture.h"
+#include "test_util.h"
+
+namespace aniso {
+namespace {
+
+// The fiber model's fused solve (fit/fiber_lm.h: Jets of size 3 through the quadrature) against
+// Ceres (the fitter of record, Jets of size 9), at the same quadrature order, on a flat sample
+// (the topology s) and a torus with a topology map (its amplitude A): the same minimum within a
+// tenth of sigma, the same sigmas within 5 %. Then the order chosen from the noise against
+// order 16: the fit moves by at most 0.05 sigma.
+TEST(FitFiber, FusedSolverAndCeresReachTheSameMinimum) {
+  for (const std::string preset : {"fiber-flat", "silk-torus"}) {
+    PresetOptions p;
+    p.views = 8;
+    p.width = p.height = 64;
+    p.noise = 0.01;
+    p.topology_s = 0.3;
+    p.topology_amplitude = 0.3;
+    p.progress = false;
+    const std::string dir = test::tmp_dir("fiber_paths_" + preset);
+    simulate_capture(make_preset(preset, p), dir);
+    const CaptureSet set = read_capture(dir);
+    FitOptions fused;
+    fused.progress = false;
+    fused.model = FitModel::kFiber;
+    fused.fiber_order = 8;
+    FitOptions ceres = fused, automatic = fused, reference = fused;
+    ceres.ceres_solver = true;
+    automatic.fiber_order = 0;
+    reference.fiber_order = 16;
+    const FitResult ra = fit_capture(set, fused), rb = fit_capture(set, ceres);
+    EXPECT_EQ(ra.report.solver, "fused LM");
+    EXPECT_EQ(rb.report.solver, "ceres");
+    const std::string topo = preset == "fiber-flat" ? "topology.s" : "topology.amplitude";
+    auto topology = [&](const FitResult& r) {
+      if (const auto* u = r.material.topology_as<UniformS>()) return u->s;
+      return r.material.topology_as<TopologyMapRef>()->amplitude;
+    };
+    // Every fitted number of a against b, in b's sigma; the sigmas against each other.
+    auto worst = [&](const FitResult& a, const FitResult& b, bool sigmas) {
+      double w = 0;
+      auto near = [&](double x, double y, double sx, double sy) {
+        w = std::max(w, std::abs(x - y) / sy);
+        if (sigmas) {
+          EXPECT_NEAR(sx, sy, 0.05 * sy) << preset;
+        }
+      };
+      for (int k = 0; k < 3; ++k) {
+        near(a.material.kd[k], b.material.kd[k], a.sigma.at("kd")[k], b.sigma.at("kd")[k]);
+        near(a.material.ks[k], b.material.ks[k], a.sigma.at("ks")[k], b.sigma.at("ks")[k]);
+      }
+      near(a.material.n, b.material.n, a.sigma.at("n")[0], b.sigma.at("n")[0]);
+      near(a.material.fiber_angle_deg, b.material.fiber_angle_deg,
+           a.sigma.at("fiber_angle_deg")[0], b.sigma.at("fiber_angle_deg")[0]);
+      near(topology(a), topology(b), a.sigma.at(topo)[0], b.sigma.at(topo)[0]);
+      return w;
+    };
+    const double fused_vs_ceres = worst(ra, rb, true);
+    const FitResult rc = fit_capture(set, automatic), rd = fit_capture(set, reference);
+    const double order_shift = worst(rc, rd, false);
+    std::printf(
+        "%s: fused LM vs Ceres (order 8) worst %.4f sigma, solve %.3f s vs %.3f s; chosen order "
+        "vs order 16 worst %.4f sigma (%s)\n",
+        preset.c_str(), fused_vs_ceres, ra.report.seconds_solve, rb.report.seconds_solve,
+        order_shift, rc.report.start.substr(rc.report.start.find("quadrature")).c_str());
+    EXPECT_LT(fused_vs_ceres, 0.1) << preset;
+    EXPECT_LT(order_shift, 0.05) << preset;
+    EXPECT_NE(rc.report.start.find("quadrature order"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace aniso

@@ -1,0 +1,70 @@
+#include "fit/fiber_order.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include "models/fiber_model.h"
+
+namespace aniso::fitting {
+
+FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>& subset,
+                                    const Core& c,
+                                    const std::function<double(const Observation&)>& s_of) {
+  constexpr int kReference = 16, kSample = 400;
+  constexpr int kOrders[] = {3, 4, 6, 8, 12};
+  constexpr int kCount = sizeof kOrders / sizeof kOrders[0];
+  constexpr double kShare = 0.01;  // of noise / sqrt(N): the largest shift allowed, in sigma
+  FiberOrderChoice ch;
+  if (!(os.pixel_noise > 0) || subset.empty()) {
+    ch.note = "; quadrature order 8 (no noise estimate of the images: the default)";
+    return ch;
+  }
+  const double values = 3.0 * static_cast<double>(os.obs.size());
+  const double tolerance = kShare * os.pixel_noise / std::sqrt(values);
+  const double cp = std::cos(c.psi), sp = std::sin(c.psi), n = std::exp(c.logn);
+  double sq[kCount] = {};
+  size_t counted = 0;
+  const size_t step = std::max<size_t>(1, subset.size() / kSample);
+  for (size_t j = 0; j < subset.size(); j += step) {
+    const Observation& o = os.obs[subset[j]];
+    const double s = s_of(o);
+    const double b = cp * o.V.u + sp * o.V.w, vb = cp * o.V.w - sp * o.V.u;
+    double f[kCount + 1][3] = {};
+    for (uint32_t q = 0; q < o.num_lights; ++q) {
+      const ObsLight& l = os.lights[o.first_light + q];
+      for (int k = 0; k <= kCount; ++k) {
+        FiberAccuracy acc;
+        acc.order = k < kCount ? kOrders[k] : kReference;
+        double D, S;
+        fiber_DS(cp * l.L.w - sp * l.L.u, l.L.n, vb, o.V.n, cp * l.L.u + sp * l.L.w, b, n, s, acc,
+                 &D, &S);
+        for (int ch3 = 0; ch3 < 3; ++ch3) f[k][ch3] += l.E[ch3] * (c.kd[ch3] * D + c.ks[ch3] * S);
+      }
+    }
+    for (int k = 0; k < kCount; ++k)
+      for (int ch3 = 0; ch3 < 3; ++ch3) {
+        const double e = f[k][ch3] - f[kCount][ch3];
+        sq[k] += e * e;
+      }
+    counted += 3;
+  }
+  ch.order = kReference;
+  ch.rms_error = 0;
+  for (int k = 0; k < kCount; ++k) {
+    const double rms = std::sqrt(sq[k] / static_cast<double>(counted));
+    if (rms <= tolerance) {
+      ch.order = kOrders[k];
+      ch.rms_error = rms;
+      break;
+    }
+  }
+  char buf[240];
+  std::snprintf(buf, sizeof buf,
+                "; quadrature order %d (its error %.2g RMS per value against order %d, under "
+                "%.0f %% of noise %.3g / sqrt(%.0f values))",
+                ch.order, ch.rms_error, kReference, 100 * kShare, os.pixel_noise, values);
+  ch.note = buf;
+  return ch;
+}
+
+}  // namespace aniso::fitting

@@ -1,0 +1,198 @@
+// fit/ internal: the fused Levenberg-Marquardt shared by the models that have one (the plain line
+// model, fit/line_lm.cpp; the fiber model, fit/fiber_lm.cpp). Every iteration is one pass over
+// the observations that sums the robust cost, J^T W J and J^T W r together; the pass runs on TBB in
+// fixed chunks summed in order, so the answer does not depend on the scheduling. The parameter
+// vector is the core (k_d 3, k_s 3, log n, psi) and P - 8 of the model's own numbers; a channel's
+// Jacobian row is nonzero at k_d[k], k_s[k] and the P - 6 shared columns (log n, psi, ...).
+// The robust loss enters by its weights rho'(|r|^2) at the current point (iteratively reweighted
+// least squares inside LM): its fixed point is the minimum Ceres finds with the same loss.
+#pragma once
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "core/angles.h"
+#include "fit/fit.h"
+#include "fit/model_fit.h"
+
+namespace aniso::fitting {
+
+template <int P>
+using MatP = Eigen::Matrix<double, P, P>;
+template <int P>
+using VecP = Eigen::Matrix<double, P, 1>;
+
+// rho(s) and rho'(s) of s = |r|^2, as Ceres defines its losses (HuberLoss, CauchyLoss).
+struct RobustLoss {
+  FitLoss kind;
+  double a;
+  void eval(double s, double* rho, double* w) const {
+    switch (kind) {
+      case FitLoss::kHuber:
+        if (s > a * a) {
+          const double r = std::sqrt(s);
+          *rho = 2 * a * r - a * a;
+          *w = a / r;
+          return;
+        }
+        break;
+      case FitLoss::kCauchy: {
+        const double c = 1 / (a * a);
+        *rho = a * a * std::log1p(s * c);
+        *w = 1 / (1 + s * c);
+        return;
+      }
+      case FitLoss::kNone:
+        break;
+    }
+    *rho = s;
+    *w = 1;
+  }
+};
+
+template <int P>
+struct FusedSums {
+  MatP<P> H = MatP<P>::Zero();  // J^T W J (upper triangle until the pass ends)
+  VecP<P> g = VecP<P>::Zero();  // J^T W r
+  double cost = 0, rss = 0;
+  bool finite = true;
+};
+
+// One observation's residual r[3] and Jacobian rows (d k_d[k], d k_s[k], shared[k][0 .. P-7]).
+template <int P>
+struct ObsRow {
+  double r[3], dkd[3], dks[3], shared[3][P - 6];
+};
+
+template <int P>
+void add_observation(const ObsRow<P>& d, const RobustLoss& loss, bool jac, FusedSums<P>* s) {
+  const double r2 = d.r[0] * d.r[0] + d.r[1] * d.r[1] + d.r[2] * d.r[2];
+  double rho, w;
+  loss.eval(r2, &rho, &w);
+  s->cost += rho;
+  s->rss += w * r2;
+  if (!jac) return;
+  constexpr int kNz = P - 4;
+  for (int k = 0; k < 3; ++k) {
+    int col[kNz];
+    double v[kNz];
+    col[0] = k, v[0] = d.dkd[k];
+    col[1] = 3 + k, v[1] = d.dks[k];
+    for (int j = 0; j < P - 6; ++j) col[2 + j] = 6 + j, v[2 + j] = d.shared[k][j];
+    for (int a = 0; a < kNz; ++a) {
+      const double wv = w * v[a];
+      s->g(col[a]) += wv * d.r[k];
+      for (int b = a; b < kNz; ++b) s->H(col[a], col[b]) += wv * v[b];
+    }
+  }
+}
+
+// Observations per chunk of a pass: each chunk sums alone, the chunks are added in order.
+constexpr size_t kFusedChunk = 4096;
+
+// One pass over n observations: `row(j, &d)` gives observation j's residual and rows.
+template <int P, class Row>
+FusedSums<P> fused_pass(size_t n, const RobustLoss& loss, bool jac, tbb::task_arena* arena,
+                        const Row& row) {
+  const size_t chunks = (n + kFusedChunk - 1) / kFusedChunk;
+  std::vector<FusedSums<P>> part(chunks);
+  arena->execute([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        for (size_t c = r.begin(); c < r.end(); ++c) {
+                          const size_t end = std::min(n, (c + 1) * kFusedChunk);
+                          ObsRow<P> d;
+                          for (size_t j = c * kFusedChunk; j < end; ++j) {
+                            row(j, &d);
+                            add_observation(d, loss, jac, &part[c]);
+                          }
+                        }
+                      });
+  });
+  FusedSums<P> s;
+  for (const FusedSums<P>& q : part) {
+    s.cost += q.cost;
+    s.rss += q.rss;
+    if (!jac) continue;
+    s.H += q.H;
+    s.g += q.g;
+  }
+  s.H = s.H.template selfadjointView<Eigen::Upper>();
+  s.finite = std::isfinite(s.cost) && (!jac || (s.H.allFinite() && s.g.allFinite()));
+  return s;
+}
+
+// The largest coordinate of `step` in units of that coordinate's standard error at the current
+// point (H^-1 s^2 with s^2 = rss / (values - P)).
+template <int P>
+double step_in_sigmas_p(const MatP<P>& H, const VecP<P>& step, double rss, double values) {
+  const double s2 = rss / std::max(1.0, values - P);
+  const Eigen::LDLT<MatP<P>> ldlt(H);
+  double worst = 0;
+  for (int k = 0; k < P; ++k) {
+    VecP<P> e = VecP<P>::Zero();
+    e(k) = 1;
+    const double var = ldlt.solve(e)(k) * s2;
+    if (var > 0 && std::isfinite(var)) worst = std::max(worst, std::abs(step(k)) / std::sqrt(var));
+  }
+  return worst;
+}
+
+// Converged: no coordinate of the next step would move by this much of its standard error.
+constexpr double kStepInSigma = 1e-3;
+
+// The Levenberg-Marquardt loop from *x (updated) within [lo, hi] (psi, coordinate 7, wrapped):
+// `pass(x, jac)` returns the sums at x. *cur ends as the sums at the solution.
+template <int P, class Pass>
+void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double values,
+              int max_iterations, VecP<P>* x, FusedSums<P>* cur, FusedSolve* out) {
+  constexpr double kRelativeDecrease = 1e-14;
+  constexpr double kLambdaMax = 1e12;
+  *x = x->cwiseMax(lo).cwiseMin(hi);
+  *cur = pass(*x, true);
+  out->passes = 1;
+  double lambda = 1e-4;
+  for (int it = 0; it < max_iterations && cur->finite; ++it) {
+    MatP<P> a = cur->H;
+    a.diagonal() += lambda * cur->H.diagonal().cwiseMax(1e-300);
+    const VecP<P> step = a.ldlt().solve(-cur->g);
+    VecP<P> xn = (*x + step).cwiseMax(lo).cwiseMin(hi);
+    xn(7) = wrap_half_turn(xn(7));
+    // A step too small to matter is not taken (nor evaluated: at this size the cost's change is
+    // rounding, and a rejected step would only raise lambda).
+    if (step_in_sigmas_p<P>(cur->H, step, cur->rss, values) < kStepInSigma) {
+      out->converged = true;
+      break;
+    }
+    FusedSums<P> next = pass(xn, true);
+    ++out->passes;
+    if (next.finite && next.cost < cur->cost) {
+      const bool small_decrease = cur->cost - next.cost <= kRelativeDecrease * cur->cost;
+      *x = xn;
+      *cur = next;
+      ++out->iterations;
+      lambda = std::max(lambda / 10, 1e-12);
+      if (small_decrease) {
+        out->converged = true;
+        break;
+      }
+    } else {
+      lambda *= 10;
+      if (lambda > kLambdaMax) {
+        out->converged = true;  // no step lowers the cost: a minimum to the precision of doubles
+        break;
+      }
+    }
+  }
+  out->info.resize(static_cast<size_t>(P) * P);
+  Eigen::Map<Eigen::Matrix<double, P, P, Eigen::RowMajor>>(out->info.data()) = cur->H;
+  out->rss = cur->rss;
+  out->cost = cur->cost;
+}
+
+}  // namespace aniso::fitting
