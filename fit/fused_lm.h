@@ -146,6 +146,23 @@ double step_in_sigmas_p(const MatP<P>& H, const VecP<P>& step, double rss, doubl
 // Converged: no coordinate of the next step would move by this much of its standard error.
 constexpr double kStepInSigma = 1e-3;
 
+// Where Gauss-Newton converges only linearly (a model that does not describe the data, or the
+// robust weights still moving), consecutive steps point the same way and shrink by a steady ratio
+// r: the rest of that geometric series, step / (1 - r), is tried first, and kept only if it
+// lowers the cost (else the plain step is taken). Direction and ratio in the metric of diag(H).
+template <int P>
+bool extrapolate(const MatP<P>& H, const VecP<P>& step, const VecP<P>& prev, VecP<P>* trial) {
+  constexpr double kSameDirection = 0.98, kMaxRatio = 0.95, kMinRatio = 0.05;
+  const VecP<P> d = H.diagonal().cwiseMax(1e-300).cwiseSqrt();
+  const VecP<P> a = d.cwiseProduct(step), b = d.cwiseProduct(prev);
+  const double na = a.norm(), nb = b.norm();
+  if (!(na > 0 && nb > 0)) return false;
+  const double r = na / nb;
+  if (a.dot(b) < kSameDirection * na * nb || r > kMaxRatio || r < kMinRatio) return false;
+  *trial = step / (1 - r);
+  return true;
+}
+
 // The Levenberg-Marquardt loop from *x (updated) within [lo, hi] (psi, coordinate 7, wrapped):
 // `pass(x, jac)` returns the sums at x. *cur ends as the sums at the solution.
 template <int P, class Pass>
@@ -157,21 +174,38 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
   *cur = pass(*x, true);
   out->passes = 1;
   double lambda = 1e-4;
+  VecP<P> prev = VecP<P>::Zero();  // the last plain step taken
+  auto to = [&](const VecP<P>& s) {
+    VecP<P> xn = (*x + s).cwiseMax(lo).cwiseMin(hi);
+    xn(7) = wrap_half_turn(xn(7));
+    return xn;
+  };
   for (int it = 0; it < max_iterations && cur->finite; ++it) {
     MatP<P> a = cur->H;
     a.diagonal() += lambda * cur->H.diagonal().cwiseMax(1e-300);
     const VecP<P> step = a.ldlt().solve(-cur->g);
-    VecP<P> xn = (*x + step).cwiseMax(lo).cwiseMin(hi);
-    xn(7) = wrap_half_turn(xn(7));
     // A step too small to matter is not taken (nor evaluated: at this size the cost's change is
     // rounding, and a rejected step would only raise lambda).
     if (step_in_sigmas_p<P>(cur->H, step, cur->rss, values) < kStepInSigma) {
       out->converged = true;
       break;
     }
-    FusedSums<P> next = pass(xn, true);
-    ++out->passes;
+    VecP<P> trial, xn = to(step);
+    FusedSums<P> next;
+    if (extrapolate<P>(cur->H, step, prev, &trial)) {
+      const VecP<P> xt = to(trial);
+      next = pass(xt, true);
+      ++out->passes;
+      if (next.finite && next.cost < cur->cost)
+        xn = xt;
+      else
+        next = pass(xn, true), ++out->passes;
+    } else {
+      next = pass(xn, true);
+      ++out->passes;
+    }
     if (next.finite && next.cost < cur->cost) {
+      prev = step;
       const bool small_decrease = cur->cost - next.cost <= kRelativeDecrease * cur->cost;
       *x = xn;
       *cur = next;
@@ -182,6 +216,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
         break;
       }
     } else {
+      prev.setZero();
       lambda *= 10;
       if (lambda > kLambdaMax) {
         out->converged = true;  // no step lowers the cost: a minimum to the precision of doubles
