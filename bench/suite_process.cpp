@@ -1,7 +1,7 @@
 // `aniso bench fit`: the whole `aniso fit` process on the sets issue 11 names, bm16 (16 views of
 // 128², brushed metal, 1 % noise) and bm64 (64 views of 256²): wall time and peak memory of the
 // fused solver against Ceres (--solver ceres) in the same run, each a child process started the
-// way a user starts it, the median of three runs.
+// way a user starts it, the median of three runs. Then the fiber model, fused against Ceres.
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -61,6 +61,63 @@ Run median_of_three(const std::vector<std::string>& args) {
   Run m = runs[1];
   for (const Run& r : runs) m.ok &= r.ok, m.max_rss_kb = std::max(m.max_rss_kb, r.max_rss_kb);
   return m;
+}
+
+// The largest |a - b| / sigma_b over the fitted numbers of two material files.
+double sigma_difference(const std::string& a_path, const std::string& b_path) {
+  const auto a = jsonu::json::parse(read_text_file(a_path), nullptr, false);
+  const auto b = jsonu::json::parse(read_text_file(b_path), nullptr, false);
+  if (!a.is_object() || !b.is_object() || !b.contains("uncertainty")) return NAN;
+  const auto& u = b["uncertainty"];
+  double worst = 0;
+  auto cmp = [&](const jsonu::json& x, const jsonu::json& y, const jsonu::json& s) {
+    if (x.is_number() && y.is_number() && s.is_number() && s.get<double>() > 0)
+      worst = std::max(worst, std::abs(x.get<double>() - y.get<double>()) / s.get<double>());
+  };
+  for (const char* k : {"kd", "ks"})
+    for (int c = 0; c < 3; ++c) cmp(a[k][c], b[k][c], u[k][c]);
+  for (const char* k : {"n", "fiber_angle_deg"}) cmp(a[k], b[k], u[k]);
+  if (u.contains("topology"))
+    for (const auto& [k, s] : u["topology"].items()) cmp(a["topology"][k], b["topology"][k], s);
+  return worst;
+}
+
+// The fiber model (issue 11: "the slow one"): `aniso fit --model M` on a preset, fused (median
+// of three) against --solver ceres (one run: it takes minutes), and how far apart they land.
+json fiber_entry(const std::string& work, bool quick, const char* preset, const char* model) {
+  PresetOptions po;
+  po.views = quick ? 4 : 16;
+  po.width = po.height = quick ? 64 : 128;
+  po.noise = 0.01;
+  po.topology_s = 0.4;
+  po.progress = false;
+  const std::string stem = join_path(work, std::string(preset) + "_" + model);
+  const std::string dir = stem + "_set";
+  simulate_capture(make_preset(preset, po), dir);
+  const std::vector<std::string> args = {"fit", dir, "--model", model, "--out"};
+  auto with = [&](std::vector<std::string> a, const std::string& out, const char* solver) {
+    a.push_back(out);
+    a.insert(a.end(), {"--solver", solver});
+    return a;
+  };
+  const Run fused = median_of_three(with(args, stem + "_fused.json", "fused"));
+  const Run ceres = run_self(with(args, stem + "_ceres.json", "ceres"));
+  const double diff = fused.ok && ceres.ok
+                          ? sigma_difference(stem + "_fused.json", stem + "_ceres.json")
+                          : NAN;
+  json e = entry("fit",
+                 std::string("whole process: aniso fit --model ") + model + " on " + preset + " (" +
+                     std::to_string(po.views) + " views of " + std::to_string(po.width) +
+                     "^2), fused LM vs --solver ceres (one run)",
+                 fused.seconds, ceres.seconds, "s", NAN);
+  e["largest_difference_sigma"] = std::isfinite(diff) ? json(diff) : json(nullptr);
+  if (!quick)
+    target(&e, ">= 10x faster than Ceres at the same answer (within 0.1 sigma)",
+           fused.ok && ceres.ok && ceres.seconds >= 10 * fused.seconds && diff < 0.1,
+           "see BENCHMARKS.md: the fiber model");
+  std::printf("bench fit: --model %s on %s: fused %.3f s, ceres %.3f s (%.1fx), %.4f sigma apart\n",
+              model, preset, fused.seconds, ceres.seconds, ceres.seconds / fused.seconds, diff);
+  return e;
 }
 
 }  // namespace
@@ -130,6 +187,9 @@ json bench_fit_process(const std::string& work, bool quick) {
         start.seconds, start.max_rss_kb, err[0], err[1],
         own_kb > 0 ? (runs[0].max_rss_kb - start.max_rss_kb) / own_kb : NAN);
   }
+  out.push_back(fiber_entry(work, quick, "fiber-flat", "fiber"));
+  out.push_back(fiber_entry(work, quick, "brushed-metal", "fiber"));
+  out.push_back(fiber_entry(work, quick, "brushed-metal", "auto"));
   return out;
 }
 

@@ -198,6 +198,9 @@ class FiberFit : public ModelFit {
     return true;
   }
 
+  double topology_value() const override { return topo_[0]; }
+  int quadrature_order() const override { return acc_.order; }
+
   void residual(const ObsSet& os, size_t i, double r[3]) const override {
     const FiberResidual f(&os.obs[i], os.lights.data(), mode_, acc_);
     f(core.kd, core.ks, &core.logn, &core.psi, topo_, r);

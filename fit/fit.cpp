@@ -33,10 +33,15 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
     throw Error("fit: --fit-isotropic and --fit-second-fiber are available with --model line only");
   if (os.topology == TopologyMode::kTexels && m.model() != Model::kFiber)
     throw Error("fit: --topology-map fits the fiber model's topology: use it with --model fiber");
-  if (opt.maps_w > 0 && (m.model() != Model::kLine || opt.fit_isotropic || opt.fit_second))
+  if (opt.maps_w > 0 && (opt.model == FitModel::kAuto || opt.fit_isotropic || opt.fit_second))
     throw Error(
-        "fit: --maps fits the plain line model per texel: use it with --model line and "
-        "without --fit-isotropic / --fit-second-fiber");
+        "fit: --maps fits the plain line model or the fiber model per texel: use it with --model "
+        "line or fiber and without --fit-isotropic / --fit-second-fiber");
+  if (opt.maps_w > 0 && m.model() == Model::kFiber &&
+      (os.topology == TopologyMode::kAmplitude || opt.maps_smooth > 0 || opt.maps_ceres))
+    throw Error(
+        "fit: --maps with the fiber model fits s per texel on a flat sample (one s) or a "
+        "mathematical topology, without --smooth and --maps-solver ceres (not written yet)");
   if (opt.maps_w > 0 && os.topology == TopologyMode::kTexels)
     throw Error("fit: --maps and --topology-map do not go together");
   if (os.obs.empty())
@@ -83,6 +88,8 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
     to.smooth = opt.maps_smooth;
     to.sweeps = opt.maps_sweeps;
     to.progress = opt.progress;
+    to.fiber_order = m->quadrature_order();
+    to.s = m->topology_value();
     res.maps = fit_texel_maps(os, m->core, to);
     // The misfit check judged the one global parameter set; say what the maps leave.
     for (auto& w : rep.warnings)

@@ -65,6 +65,7 @@ struct TexelMaps {
   std::vector<double> kd, ks;      // 3 per texel
   std::vector<double> n, psi_deg;  // 1 per texel
   std::vector<double> kd_sigma, ks_sigma, n_sigma, psi_sigma_deg;
+  std::vector<double> s, s_sigma;   // the fiber model's topology s per texel (else empty)
   std::vector<int> pixels;          // observations (pixels) per texel
   std::vector<uint8_t> determined;  // 1 = fitted and determined by its data
   int row0 = 0, row1 = 0;           // the texel rows this result holds (a tile: a band of rows)

@@ -18,6 +18,7 @@
 
 #include "core/angles.h"
 #include "core/progress.h"
+#include "fit/fiber_lm.h"
 #include "fit/line_lm.h"
 #include "fit/line_pixel.h"
 #include "fit/start.h"
@@ -30,6 +31,7 @@ namespace {
 constexpr size_t kMinTexelPixels = 12;      // fewer: not even tried
 constexpr double kPsiUndeterminedDeg = 10;  // sigma of psi above this: the direction is not known
 constexpr double kConditionLimit = 1e-12;   // smallest / largest eigenvalue, column-scaled
+constexpr double kTopologyUndetermined = 0.25;  // sigma of s above this: s is not known
 
 double prior_sigma(const char* key) {
   const ParamSpec& p = line_param(key);
@@ -55,7 +57,8 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, Core* c) {
 
 struct TexelResult {
   Core c;
-  double sigma[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // kd 3, ks 3, log n, psi
+  double s = 0;                                   // the fiber model's topology
+  double sigma[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};  // kd 3, ks 3, log n, psi (, s)
   bool determined = false;
   double rss = 0, values = 0;
 };
@@ -89,23 +92,25 @@ Vec8 prior_diff(const TexelPrior& p, const Vec8& x) {
 
 // sigmas from J^T J (`info`) and the residual sum of squares at the solution: the rank test on
 // the eigenvalues of the column-scaled matrix, then the diagonal of its inverse times s^2.
-void texel_sigmas(const Mat8& info, double rss, double values, TexelResult* t) {
+void texel_sigmas(const Eigen::MatrixXd& info, double rss, double values, TexelResult* t) {
   t->rss = rss;
   t->values = values;
-  const double dof = values - 8;
+  const int P = static_cast<int>(info.rows());
+  const double dof = values - P;
   if (dof < 1) return;
   const double s2 = rss / dof;
-  Vec8 scale;
-  for (int k = 0; k < 8; ++k) scale(k) = info(k, k) > 0 ? 1 / std::sqrt(info(k, k)) : 0;
-  const Mat8 scaled = scale.asDiagonal() * info * scale.asDiagonal();
-  Eigen::SelfAdjointEigenSolver<Mat8> eig(scaled);
+  Eigen::VectorXd scale(P);
+  for (int k = 0; k < P; ++k) scale(k) = info(k, k) > 0 ? 1 / std::sqrt(info(k, k)) : 0;
+  const Eigen::MatrixXd scaled = scale.asDiagonal() * info * scale.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
   const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
   if (!(scale.minCoeff() > 0) || !(lo > kConditionLimit * hi)) return;
-  const Mat8 cov = scale.asDiagonal() * eig.eigenvectors() *
-                   eig.eigenvalues().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose() *
-                   scale.asDiagonal();
-  for (int k = 0; k < 8; ++k) t->sigma[k] = std::sqrt(std::max(cov(k, k), 0.0) * s2);
-  t->determined = rad_to_deg(t->sigma[7]) < kPsiUndeterminedDeg;
+  const Eigen::MatrixXd cov = scale.asDiagonal() * eig.eigenvectors() *
+                              eig.eigenvalues().cwiseInverse().asDiagonal() *
+                              eig.eigenvectors().transpose() * scale.asDiagonal();
+  for (int k = 0; k < P; ++k) t->sigma[k] = std::sqrt(std::max(cov(k, k), 0.0) * s2);
+  t->determined = rad_to_deg(t->sigma[7]) < kPsiUndeterminedDeg &&
+                  (P < 9 || t->sigma[8] < kTopologyUndetermined);
 }
 
 // One texel with Ceres (the fitter of record): solve, then J^T J of its own problem.
@@ -243,6 +248,27 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   return t;
 }
 
+// One texel of the fiber model: psi from the line model's texel grid (the direction looks the
+// same to both), k_d, k_s, n and s from the global fit, then the fiber model's fused solve
+// (fit/fiber_lm.h: the global fit's solver, checked against Ceres there) on the texel alone.
+TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx, const Core& global,
+                              const TexelMapOptions& o) {
+  TexelResult t;
+  t.c = global;
+  t.s = o.s;
+  Core line = global;
+  texel_start(os, idx, &line);
+  t.c.psi = line.psi;
+  FiberAccuracy acc;
+  acc.order = o.fiber_order;
+  FusedSolve fs;
+  fiber_lm_solve(os, &idx, FitLoss::kNone, 0, 100, 1, os.topology, acc, &t.c, &t.s, &fs);
+  const int P = os.topology == TopologyMode::kMathematical ? 8 : 9;
+  const Eigen::MatrixXd info = Eigen::Map<const Eigen::MatrixXd>(fs.info.data(), P, P);
+  texel_sigmas(info, fs.rss, 3.0 * idx.size(), &t);
+  return t;
+}
+
 // The prior of texel t for the next sweep: its 4 neighbours' values of this sweep (those the data
 // determined), weights lambda x neighbours / (H^-1)_kk from the texel's first, unpulled fit.
 bool smoothing_prior(const std::vector<TexelResult>& now, const std::vector<TexelResult>& first,
@@ -297,9 +323,11 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   const size_t t_begin = static_cast<size_t>(band0) * w, t_end = static_cast<size_t>(band1) * w;
   Progress bar("fit --maps: texels", (t_end - t_begin) * (1 + m.sweeps), o.progress);
   auto solve = [&](size_t t, const Core& from, const TexelPrior* prior) {
+    if (o.fiber_order > 0) return solve_texel_fiber(os, bins[t], from, o);
     return o.ceres ? solve_texel_ceres(os, bins[t], from, prior)
                    : solve_texel_lm(os, bins[t], from, prior);
   };
+  const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
   std::vector<TexelResult> first(N);  // every texel alone
   for (auto& r : first) r.c = global;
   tbb::parallel_for(tbb::blocked_range<size_t>(t_begin, t_end, 4),
@@ -331,6 +359,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   m.psi_sigma_deg.assign(N, 0);
   m.pixels.assign(N, 0);
   m.determined.assign(N, 0);
+  if (fit_s) m.s.assign(N, 0), m.s_sigma.assign(N, 0);
   double sr = 0, sv = 0;
   for (size_t t = 0; t < N; ++t) {
     m.pixels[t] = static_cast<int>(bins[t].size());
@@ -350,6 +379,10 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
     m.n_sigma[t] = res.determined ? m.n[t] * res.sigma[6] : prior_sigma("n");
     m.psi_deg[t] = wrap_fiber_deg(rad_to_deg(c.psi));
     m.psi_sigma_deg[t] = res.determined ? rad_to_deg(res.sigma[7]) : 180 / std::sqrt(12.0);
+    if (fit_s) {
+      m.s[t] = res.determined ? res.s : o.s;
+      m.s_sigma[t] = res.determined ? res.sigma[8] : prior_sigma("topology.s");
+    }
   }
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

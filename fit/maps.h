@@ -15,6 +15,10 @@ struct TexelMapOptions {
   double smooth = 0;
   int sweeps = 10;
   bool progress = false;
+  // The fiber model (fiber_order > 0: its quadrature order): every texel also fits s (a flat
+  // sample's one topology value, `s` from the global fit) unless the topology is mathematical.
+  int fiber_order = 0;
+  double s = 0;
 };
 
 // Fits texel rows [row0, row1) of a w x h grid, each texel by a hand-written

@@ -21,7 +21,7 @@ std::vector<std::string> map_files(const std::string& material_path) {
   const std::string stem = std::filesystem::path(material_path).stem().string();
   std::vector<std::string> f;
   for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
-                        "coverage", "determined"})
+                        "coverage", "determined", "s", "s_sigma"})
     f.push_back(stem + "_" + k + ".exr");
   return f;
 }
@@ -67,6 +67,12 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
        "one standard deviation per texel (fiber: R = sigma of psi in degrees); "
        "coverage: pixels per texel; determined = 0: not determined by the data, the "
        "global value is kept and sigma is the prior's spread"}};
+  if (!t.s.empty()) {  // the fiber model's topology per texel (FORMAT.md: maps.s, channel R)
+    write_exr(join_path(dir, f[10]), image(1, [&](size_t i, int) { return t.s[i]; }));
+    write_exr(join_path(dir, f[11]), image(1, [&](size_t i, int) { return t.s_sigma[i]; }));
+    (*j)["maps"]["s"] = f[10];
+    (*j)["maps_uncertainty"]["s"] = f[11];
+  }
   if (t.smooth > 0)
     (*j)["maps_uncertainty"]["smooth"] = {
         {"lambda", t.smooth},
@@ -178,7 +184,9 @@ const TexelArray kTexelArrays[] = {{"kd", 3, &TexelMaps::kd},
                                    {"kd_sigma", 3, &TexelMaps::kd_sigma},
                                    {"ks_sigma", 3, &TexelMaps::ks_sigma},
                                    {"n_sigma", 1, &TexelMaps::n_sigma},
-                                   {"psi_sigma_deg", 1, &TexelMaps::psi_sigma_deg}};
+                                   {"psi_sigma_deg", 1, &TexelMaps::psi_sigma_deg},
+                                   {"s", 1, &TexelMaps::s},  // the fiber model's (or empty)
+                                   {"s_sigma", 1, &TexelMaps::s_sigma}};
 
 }  // namespace
 
@@ -188,7 +196,8 @@ void write_maps_tile(const std::string& path, const FitResult& r, const FitOptio
   jsonu::json values = jsonu::json::object();
   for (const auto& arr : kTexelArrays) {
     const std::vector<double>& v = t.*arr.d;
-    values[arr.key] = std::vector<double>(v.begin() + arr.k * a, v.begin() + arr.k * b);
+    if (!v.empty())
+      values[arr.key] = std::vector<double>(v.begin() + arr.k * a, v.begin() + arr.k * b);
   }
   values["pixels"] = std::vector<int>(t.pixels.begin() + a, t.pixels.begin() + b);
   values["determined"] = std::vector<int>(t.determined.begin() + a, t.determined.begin() + b);
@@ -229,7 +238,8 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
         m.smooth = smooth, m.sweeps = sweeps;
         seen.assign(n, 0);
         const size_t N = static_cast<size_t>(w) * h;
-        for (const auto& arr : kTexelArrays) (m.*arr.d).assign(arr.k * N, 0.0);
+        for (const auto& arr : kTexelArrays)
+          if (j["values"].contains(arr.key)) (m.*arr.d).assign(arr.k * N, 0.0);
         m.pixels.assign(N, 0);
         m.determined.assign(N, 0);
         m.row0 = 0, m.row1 = h;
@@ -252,6 +262,7 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       const size_t a = static_cast<size_t>(r0) * w, b = static_cast<size_t>(r1) * w;
       const jsonu::json& v = j["values"];
       for (const auto& arr : kTexelArrays) {
+        if ((m.*arr.d).empty()) continue;  // s, s_sigma of a line-model fit
         const auto vals = v.at(arr.key).get<std::vector<double>>();
         if (vals.size() != arr.k * (b - a))
           c.at(std::string("values.") + arr.key).fail("wrong length");
