@@ -102,9 +102,8 @@ json fiber_entry(const std::string& work, bool quick, const char* preset, const 
   };
   const Run fused = median_of_three(with(args, stem + "_fused.json", "fused"));
   const Run ceres = run_self(with(args, stem + "_ceres.json", "ceres"));
-  const double diff = fused.ok && ceres.ok
-                          ? sigma_difference(stem + "_fused.json", stem + "_ceres.json")
-                          : NAN;
+  const double diff =
+      fused.ok && ceres.ok ? sigma_difference(stem + "_fused.json", stem + "_ceres.json") : NAN;
   json e = entry("fit",
                  std::string("whole process: aniso fit --model ") + model + " on " + preset + " (" +
                      std::to_string(po.views) + " views of " + std::to_string(po.width) +

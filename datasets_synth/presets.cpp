@@ -85,148 +85,136 @@ Material random_material(uint64_t seed) {
 
 namespace {
 
-// Where the camera stands for a preset's object.
-// The swirl plate's maps (size x size): psi turns around the centre (circular brushing), k_d goes
-// from copper (u = 0) to steel (u = 1).
-MaterialMaps swirl_maps(int size) {
-  auto fiber = std::make_shared<Image>(size, size, 2);
-  auto kd = std::make_shared<Image>(size, size, 3);
-  const RGB copper{0.30, 0.15, 0.08}, steel{0.10, 0.11, 0.13};
-  for (int y = 0; y < size; ++y)
-    for (int x = 0; x < size; ++x) {
-      const double u = (x + 0.5) / size, v = (y + 0.5) / size;
-      const double psi = std::atan2(v - 0.5, u - 0.5) + M_PI / 2;
-      fiber->at(x, y, 0) = static_cast<float>(std::cos(2 * psi));
-      fiber->at(x, y, 1) = static_cast<float>(std::sin(2 * psi));
-      for (int c = 0; c < 3; ++c)
-        kd->at(x, y, c) = static_cast<float>(copper[c] + (steel[c] - copper[c]) * u);
-    }
-  MaterialMaps mp;
-  mp.fiber = fiber;
-  mp.kd = kd;
-  return mp;
-}
+// One texel of a preset's maps: the material at its centre.
+struct TexelTruth {
+  double psi = 0;  // radians
+  RGB kd{0, 0, 0};
+  double ks = 0, n = 0;
+};
+struct WhichMaps {
+  bool fiber, kd, ks, n;
+};
 
-// The woven patch's maps (size x size): a 4 x 4 checker of warp blocks (psi 0, along u) and weft
-// blocks (psi 90), each with its own yarn colour and sharpness.
-MaterialMaps woven_maps(int size) {
+// A preset's maps (size x size), each that `which` names, from `at(u, v)` at the texel centres.
+template <class At>
+MaterialMaps preset_maps(int size, WhichMaps which, At at) {
   auto fiber = std::make_shared<Image>(size, size, 2);
-  auto kd = std::make_shared<Image>(size, size, 3);
-  auto n = std::make_shared<Image>(size, size, 1);
-  const RGB warp{0.35, 0.10, 0.10}, weft{0.10, 0.12, 0.30};
-  for (int y = 0; y < size; ++y)
-    for (int x = 0; x < size; ++x) {
-      const bool is_warp = ((4 * x / size) + (4 * y / size)) % 2 == 0;
-      fiber->at(x, y, 0) = is_warp ? 1.0f : -1.0f;  // doubled angle: 0 or 180 degrees
-      fiber->at(x, y, 1) = 0.0f;
-      for (int c = 0; c < 3; ++c) kd->at(x, y, c) = static_cast<float>((is_warp ? warp : weft)[c]);
-      n->at(x, y, 0) = is_warp ? 30.0f : 12.0f;
-    }
-  MaterialMaps mp;
-  mp.fiber = fiber;
-  mp.kd = kd;
-  mp.n = n;
-  return mp;
-}
-
-// A CD's maps over the disc's uv (size x size), by the radius r = 2 |uv - 1/2|: the clear hub
-// (r < 0.3: grey, dull), the data area (0.3..0.95: dark, mirror-like, n = 120) and the rim.
-// The grooves follow the disc's circular tangent (psi = 0 everywhere: no fiber map).
-MaterialMaps cd_maps(int size) {
   auto kd = std::make_shared<Image>(size, size, 3);
   auto ks = std::make_shared<Image>(size, size, 1);
   auto n = std::make_shared<Image>(size, size, 1);
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x) {
-      const double r = 2 * std::hypot((x + 0.5) / size - 0.5, (y + 0.5) / size - 0.5);
-      const int zone = r < 0.3 ? 0 : r < 0.95 ? 1 : 2;
-      const RGB kds[3] = {{0.25, 0.25, 0.27}, {0.04, 0.04, 0.05}, {0.12, 0.12, 0.14}};
-      const double kss[3] = {0.15, 0.80, 0.35}, ns[3] = {6, 120, 15};
-      for (int c = 0; c < 3; ++c) kd->at(x, y, c) = static_cast<float>(kds[zone][c]);
-      ks->at(x, y, 0) = static_cast<float>(kss[zone]);
-      n->at(x, y, 0) = static_cast<float>(ns[zone]);
+      const TexelTruth t = at((x + 0.5) / size, (y + 0.5) / size);
+      fiber->at(x, y, 0) = static_cast<float>(std::cos(2 * t.psi));  // the doubled angle
+      fiber->at(x, y, 1) = static_cast<float>(std::sin(2 * t.psi));
+      for (int c = 0; c < 3; ++c) kd->at(x, y, c) = static_cast<float>(t.kd[c]);
+      ks->at(x, y, 0) = static_cast<float>(t.ks);
+      n->at(x, y, 0) = static_cast<float>(t.n);
     }
   MaterialMaps mp;
-  mp.kd = kd;
-  mp.ks = ks;
-  mp.n = n;
+  if (which.fiber) mp.fiber = fiber;
+  if (which.kd) mp.kd = kd;
+  if (which.ks) mp.ks = ks;
+  if (which.n) mp.n = n;
   return mp;
 }
 
+// The swirl plate's maps: psi turns around the centre (circular brushing), k_d goes from copper
+// (u = 0) to steel (u = 1).
+MaterialMaps swirl_maps(int size) {
+  return preset_maps(size, {true, true, false, false}, [](double u, double v) {
+    const RGB copper{0.30, 0.15, 0.08}, steel{0.10, 0.11, 0.13};
+    TexelTruth t;
+    t.psi = std::atan2(v - 0.5, u - 0.5) + M_PI / 2;
+    for (int c = 0; c < 3; ++c) t.kd[c] = copper[c] + (steel[c] - copper[c]) * u;
+    return t;
+  });
+}
+
+// The woven patch's maps: a 4 x 4 checker of warp blocks (psi 0, along u) and weft blocks
+// (psi 90), each with its own yarn colour and sharpness.
+MaterialMaps woven_maps(int size) {
+  return preset_maps(size, {true, true, false, true}, [](double u, double v) {
+    const bool warp = (static_cast<int>(4 * u) + static_cast<int>(4 * v)) % 2 == 0;
+    TexelTruth t;
+    t.psi = warp ? 0 : M_PI / 2;
+    t.kd = warp ? RGB{0.35, 0.10, 0.10} : RGB{0.10, 0.12, 0.30};
+    t.n = warp ? 30 : 12;
+    return t;
+  });
+}
+
+// A CD's maps over the disc's uv, by the radius r = 2 |uv - 1/2|: the clear hub (r < 0.3: grey,
+// dull), the data area (0.3..0.95: dark, mirror-like, n = 120) and the rim. The grooves follow
+// the disc's circular tangent (psi = 0 everywhere: no fiber map).
+MaterialMaps cd_maps(int size) {
+  return preset_maps(size, {false, true, true, true}, [](double u, double v) {
+    const double r = 2 * std::hypot(u - 0.5, v - 0.5);
+    const int zone = r < 0.3 ? 0 : r < 0.95 ? 1 : 2;
+    const RGB kds[3] = {{0.25, 0.25, 0.27}, {0.04, 0.04, 0.05}, {0.12, 0.12, 0.14}};
+    const double kss[3] = {0.15, 0.80, 0.35}, ns[3] = {6, 120, 15};
+    TexelTruth t;
+    t.kd = kds[zone];
+    t.ks = kss[zone];
+    t.n = ns[zone];
+    return t;
+  });
+}
+
+// Where the camera stands for a preset's object.
 struct Framing {
   double radius = 1.0, camera_polar = 35.0;
   bool orbit = false;
 };
 
+// A line-model material, and the flat sample most presets show.
+void line_material(Material* m, RGB kd, RGB ks, double n, double psi_deg) {
+  m->kd = kd;
+  m->ks = ks;
+  m->n = n;
+  m->fiber_angle_deg = psi_deg;
+}
+void flat_sample(SimOptions* o, Framing* fr) {
+  o->shape = "flat";
+  fr->radius = std::sqrt(2.0);
+}
+
 // The line-model presets: object, fiber field and material. False for other names.
 bool line_preset(const std::string& name, const PresetOptions& po, SimOptions* o, Framing* fr) {
   Material& m = o->truth;
   if (name == "brushed-metal") {
-    o->shape = "flat";
-    fr->radius = std::sqrt(2.0);
-    m.kd = {0.20, 0.15, 0.10};
-    m.ks = {0.60, 0.60, 0.60};
-    m.n = 40.0;
-    m.fiber_angle_deg = 30.0;
+    flat_sample(o, fr);
+    line_material(&m, {0.20, 0.15, 0.10}, {0.60, 0.60, 0.60}, 40.0, 30.0);
   } else if (name == "satin-ball") {
     o->shape = "sphere";
     o->fiber_field = "meridian";
     fr->camera_polar = 60.0;
-    m.kd = {0.30, 0.04, 0.08};
-    m.ks = {0.45, 0.40, 0.40};
-    m.n = 25.0;
-    m.fiber_angle_deg = 0.0;
-  } else if (name == "cd") {
+    line_material(&m, {0.30, 0.04, 0.08}, {0.45, 0.40, 0.40}, 25.0, 0.0);
+  } else if (name == "cd" || name == "cd-maps") {
     o->shape = "disc";
     o->fiber_field = "circular";
-    m.kd = {0.05, 0.05, 0.06};
-    m.ks = {0.80, 0.80, 0.80};
-    m.n = 120.0;
-    m.fiber_angle_deg = 0.0;
+    line_material(&m, {0.05, 0.05, 0.06}, {0.80, 0.80, 0.80}, 120.0, 0.0);
+    if (name == "cd-maps") m.maps = cd_maps(64);
   } else if (name == "radial-disc") {
     o->shape = "disc";
     o->fiber_field = "radial";
-    m.kd = {0.10, 0.12, 0.15};
-    m.ks = {0.50, 0.50, 0.50};
-    m.n = 60.0;
-    m.fiber_angle_deg = 0.0;
+    line_material(&m, {0.10, 0.12, 0.15}, {0.50, 0.50, 0.50}, 60.0, 0.0);
   } else if (name == "woven-cloth") {
-    o->shape = "flat";
-    fr->radius = std::sqrt(2.0);
-    m.kd = {0.30, 0.10, 0.12};
-    m.ks = {0.35, 0.30, 0.30};
-    m.n = 12.0;
-    m.fiber_angle_deg = 10.0;
+    flat_sample(o, fr);
+    line_material(&m, {0.30, 0.10, 0.12}, {0.35, 0.30, 0.30}, 12.0, 10.0);
     m.has_second_fiber = true;
     m.second_angle_deg = 100.0;
     m.second_weight = 0.65;
   } else if (name == "swirl-plate") {
-    o->shape = "flat";
-    fr->radius = std::sqrt(2.0);
-    m.kd = {0.20, 0.13, 0.105};  // the maps' means
-    m.ks = {0.60, 0.60, 0.60};
-    m.n = 40.0;
-    m.fiber_angle_deg = 90.0;
+    flat_sample(o, fr);
+    line_material(&m, {0.20, 0.13, 0.105}, {0.60, 0.60, 0.60}, 40.0, 90.0);  // the maps' means
     m.maps = swirl_maps(64);
   } else if (name == "woven-patch") {
-    o->shape = "flat";
-    fr->radius = std::sqrt(2.0);
-    m.kd = {0.225, 0.11, 0.20};  // the maps' means
-    m.ks = {0.40, 0.40, 0.40};
-    m.n = 21.0;
-    m.fiber_angle_deg = 0.0;
+    flat_sample(o, fr);
+    line_material(&m, {0.225, 0.11, 0.20}, {0.40, 0.40, 0.40}, 21.0, 0.0);  // the maps' means
     m.maps = woven_maps(64);
-  } else if (name == "cd-maps") {
-    o->shape = "disc";
-    o->fiber_field = "circular";
-    m.kd = {0.05, 0.05, 0.06};
-    m.ks = {0.80, 0.80, 0.80};
-    m.n = 120.0;
-    m.fiber_angle_deg = 0.0;
-    m.maps = cd_maps(64);
   } else if (name == "random") {
-    o->shape = "flat";
-    fr->radius = std::sqrt(2.0);
+    flat_sample(o, fr);
     m = random_material(po.seed);
   } else {
     return false;

@@ -77,8 +77,8 @@ void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss
   hi.template head<8>() = hi8;
   x.template head<8>() = pack_core(*c);
   if constexpr (P == 9) {
-    const ParamSpec& t = line_param(mode == TopologyMode::kAmplitude ? "topology.amplitude"
-                                                                     : "topology.s");
+    const ParamSpec& t =
+        line_param(mode == TopologyMode::kAmplitude ? "topology.amplitude" : "topology.s");
     lo(8) = t.lo, hi(8) = t.hi, x(8) = *topo;
   }
   const double values = 3.0 * static_cast<double>(subset ? subset->size() : os.obs.size());

@@ -31,7 +31,8 @@ struct FitOptions {
   int threads = 2;
   FitLoss loss = FitLoss::kHuber;
   bool progress = true;
-  // fiber model: Gauss-Legendre order per specular panel (0: chosen from the noise, fit/fiber_order.h)
+  // fiber model: Gauss-Legendre order per specular panel (0: chosen from the noise,
+  // fit/fiber_order.h)
   int fiber_order = 0;
   // Line model without optional terms: 256 pixels per residual block with analytic derivatives
   // and the robust loss by reweighting (false: one autodiff block per pixel with Ceres' loss).

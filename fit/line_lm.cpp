@@ -71,8 +71,8 @@ void line_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss 
   core_bounds(&lo, &hi);
   Vec8 x = pack_core(*c);
   FusedSums<8> cur;
-  fused_lm<8>([&](const Vec8& at, bool jac) { return pass(os, subset, at, loss, jac, &arena); },
-              lo, hi, values, max_iterations, &x, &cur, out);
+  fused_lm<8>([&](const Vec8& at, bool jac) { return pass(os, subset, at, loss, jac, &arena); }, lo,
+              hi, values, max_iterations, &x, &cur, out);
   unpack_core(x, c);
 }
 

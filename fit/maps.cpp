@@ -6,10 +6,9 @@
 // sigma: never a confident number it did not earn.
 #include "fit/maps.h"
 
+#include <ceres/normal_prior.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-
-#include <ceres/normal_prior.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -342,15 +341,14 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   std::vector<TexelResult> now = first;
   for (int sweep = 0; sweep < m.sweeps; ++sweep) {
     std::vector<TexelResult> next = now;
-    tbb::parallel_for(tbb::blocked_range<size_t>(t_begin, t_end, 4),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                        for (size_t t = r.begin(); t < r.end(); ++t, bar.advance()) {
-                          TexelPrior prior;
-                          if (first[t].determined &&
-                              smoothing_prior(now, first, w, h, t, o.smooth, &prior))
-                            next[t] = solve(t, now[t].c, &prior);
-                        }
-                      });
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(t_begin, t_end, 4), [&](const tbb::blocked_range<size_t>& r) {
+          for (size_t t = r.begin(); t < r.end(); ++t, bar.advance()) {
+            TexelPrior prior;
+            if (first[t].determined && smoothing_prior(now, first, w, h, t, o.smooth, &prior))
+              next[t] = solve(t, now[t].c, &prior);
+          }
+        });
     now.swap(next);
   }
   m.kd.assign(3 * N, 0);

@@ -40,10 +40,10 @@ struct FusedSolve {
   std::vector<double> info;  // J^T W J at the solution over `order` (row-major)
   // The parameter blocks of `info` (pointer, size): k_d 3, k_s 3, log n, psi and the model's own.
   std::vector<std::pair<double*, int>> order;
-  double rss = 0;        // sum of w |r|^2 at the solution: the reweighted problem's residuals
-  double cost = 0;       // sum of rho(|r|^2)
-  int iterations = 0;    // accepted steps
-  int passes = 0;        // passes over the observations
+  double rss = 0;      // sum of w |r|^2 at the solution: the reweighted problem's residuals
+  double cost = 0;     // sum of rho(|r|^2)
+  int iterations = 0;  // accepted steps
+  int passes = 0;      // passes over the observations
   bool converged = false;
 };
 

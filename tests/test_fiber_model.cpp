@@ -333,8 +333,8 @@ TEST(FitFiber, FusedSolverAndCeresReachTheSameMinimum) {
         near(a.material.ks[k], b.material.ks[k], a.sigma.at("ks")[k], b.sigma.at("ks")[k]);
       }
       near(a.material.n, b.material.n, a.sigma.at("n")[0], b.sigma.at("n")[0]);
-      near(a.material.fiber_angle_deg, b.material.fiber_angle_deg,
-           a.sigma.at("fiber_angle_deg")[0], b.sigma.at("fiber_angle_deg")[0]);
+      near(a.material.fiber_angle_deg, b.material.fiber_angle_deg, a.sigma.at("fiber_angle_deg")[0],
+           b.sigma.at("fiber_angle_deg")[0]);
       near(topology(a), topology(b), a.sigma.at(topo)[0], b.sigma.at(topo)[0]);
       return w;
     };

@@ -8,12 +8,12 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/texture.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/material_io.h"
-#include "core/texture.h"
 #include "models/material_maps.h"
 #include "test_util.h"
 
@@ -68,15 +68,23 @@ MapErrors map_errors(const std::string& truth_json, const std::string& fit_json,
   return e;
 }
 
+// `aniso synth SYNTH DIR/set`, then `aniso fit DIR/set FIT --out OUT`; the fit's output.
+std::string synth_and_fit(const std::string& dir, const std::string& synth, const std::string& fit,
+                          const std::string& out) {
+  auto r = test::run_cli("synth " + synth + " " + dir + "/set");
+  EXPECT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set " + fit + " --out " + out);
+  EXPECT_EQ(r.status, 0) << r.output;
+  return r.output;
+}
+
 // --maps (issue 11): a plate whose brushing turns in circles and whose k_d changes across it,
 // rendered with 1 % noise; every texel's psi and k_d against the truth maps at the texel centre.
 TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
   const std::string dir = test::tmp_dir("swirl");
-  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 128x128");
-  ASSERT_EQ(r.status, 0) << r.output;
-  r = test::run_cli("fit " + dir + "/set --maps 16x16 --out " + dir + "/fit/m.json");
-  ASSERT_EQ(r.status, 0) << r.output;
-  std::printf("%s", r.output.substr(0, r.output.find("fit: wrote")).c_str());
+  const std::string out = synth_and_fit(dir, "swirl-plate --noise 0.01 --size 128x128",
+                                        "--maps 16x16", dir + "/fit/m.json");
+  std::printf("%s", out.substr(0, out.find("fit: wrote")).c_str());
   const MapErrors e = map_errors(dir + "/set/truth.json", dir + "/fit/m.json");
   std::printf(
       "maps: %zu of 256 texels determined; median |dpsi| %.3f deg (median |dpsi|/sigma %.2f), "
@@ -88,7 +96,7 @@ TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
   EXPECT_LT(e.z, 3.0);  // the sigmas are not wildly overconfident
   // `aniso verify` renders with the maps: residual RMS near the noise (0.01); the global fit alone
   // left 0.11.
-  r = test::run_cli("verify " + dir + "/set " + dir + "/fit/m.json");
+  auto r = test::run_cli("verify " + dir + "/set " + dir + "/fit/m.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto at = r.output.find("\nall ");
   ASSERT_NE(at, std::string::npos) << r.output;
@@ -112,10 +120,10 @@ TEST(FitMaps, WovenPatchAndCdMapsMatchTheirTruth) {
                       "_fit.json");
     ASSERT_EQ(r.status, 0) << r.output;
   }
-  const MapErrors w =
-      map_errors(dir + "/woven-patch/truth.json", dir + "/woven-patch_fit.json");
-  std::printf("woven-patch: %zu determined, median |dpsi| %.3f deg, |dkd|/kd %.2f %%, |dn|/n %.2f %%\n",
-              w.determined, w.dpsi, 100 * w.dkd, 100 * w.dn);
+  const MapErrors w = map_errors(dir + "/woven-patch/truth.json", dir + "/woven-patch_fit.json");
+  std::printf(
+      "woven-patch: %zu determined, median |dpsi| %.3f deg, |dkd|/kd %.2f %%, |dn|/n %.2f %%\n",
+      w.determined, w.dpsi, 100 * w.dkd, 100 * w.dn);
   EXPECT_GT(w.determined, 240u);
   EXPECT_LT(w.dpsi, 1.0);
   EXPECT_LT(w.dkd, 0.03);
@@ -125,9 +133,10 @@ TEST(FitMaps, WovenPatchAndCdMapsMatchTheirTruth) {
   const MapErrors data =
       map_errors(dir + "/cd-maps/truth.json", dir + "/cd-maps_fit.json", 0.2, 0.42);
   const MapErrors hub = map_errors(dir + "/cd-maps/truth.json", dir + "/cd-maps_fit.json", 0, 0.1);
-  std::printf("cd-maps data area: %zu determined, median |dpsi| %.3f deg, |dn|/n %.2f %%; hub: %zu "
-              "determined, |dkd|/kd %.2f %%\n",
-              data.determined, data.dpsi, 100 * data.dn, hub.determined, 100 * hub.dkd);
+  std::printf(
+      "cd-maps data area: %zu determined, median |dpsi| %.3f deg, |dn|/n %.2f %%; hub: %zu "
+      "determined, |dkd|/kd %.2f %%\n",
+      data.determined, data.dpsi, 100 * data.dn, hub.determined, 100 * hub.dkd);
   EXPECT_GT(data.determined, 60u);
   EXPECT_LT(data.dpsi, 1.0);
   EXPECT_LT(data.dn, 0.05);
@@ -141,11 +150,9 @@ TEST(FitMaps, WovenPatchAndCdMapsMatchTheirTruth) {
 // with maps.s.
 TEST(FitMaps, FiberModelMapsRecoverTheTopologyPerTexel) {
   const std::string dir = test::tmp_dir("fiber_maps");
-  auto r = test::run_cli("synth fiber-flat-map " + dir + "/set --noise 0.01 --size 96x96 --views 12");
-  ASSERT_EQ(r.status, 0) << r.output;
-  r = test::run_cli("fit " + dir + "/set --model fiber --maps 16x16 --out " + dir + "/m.json");
-  ASSERT_EQ(r.status, 0) << r.output;
-  std::printf("%s", r.output.substr(r.output.find("fit: --maps")).substr(0, 200).c_str());
+  const std::string out = synth_and_fit(dir, "fiber-flat-map --noise 0.01 --size 96x96 --views 12",
+                                        "--model fiber --maps 16x16", dir + "/m.json");
+  std::printf("%s", out.substr(out.find("fit: --maps")).substr(0, 200).c_str());
   const auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
   ASSERT_TRUE(j["maps"].contains("s")) << j["maps"].dump();
   ASSERT_TRUE(j["maps_uncertainty"].contains("s"));
@@ -164,9 +171,10 @@ TEST(FitMaps, FiberModelMapsRecoverTheTopologyPerTexel) {
       d_global.push_back(std::abs(global - t));
       z.push_back(d_map.back() / std::max(sig.at(x, y, 0), 1e-6f));
     }
-  std::printf("fiber maps: %zu of 256 texels determined; median |ds| %.4f per texel vs %.4f for the "
-              "global s (%.3f); median |ds|/sigma %.2f\n",
-              d_map.size(), median(d_map), median(d_global), global, median(z));
+  std::printf(
+      "fiber maps: %zu of 256 texels determined; median |ds| %.4f per texel vs %.4f for the "
+      "global s (%.3f); median |ds|/sigma %.2f\n",
+      d_map.size(), median(d_map), median(d_global), global, median(z));
   EXPECT_GT(d_map.size(), 230u);
   EXPECT_LT(median(d_map), 0.02);
   EXPECT_LT(median(d_map), 0.3 * median(d_global));
@@ -174,7 +182,8 @@ TEST(FitMaps, FiberModelMapsRecoverTheTopologyPerTexel) {
   EXPECT_EQ(back.model, Model::kFiber);
   EXPECT_NE(back.topology_as<SMapRef>(), nullptr);
   EXPECT_TRUE(back.maps.fiber && back.maps.kd);
-  r = test::run_cli("fit " + dir + "/set --model auto --maps 16x16 --out " + dir + "/bad.json");
+  auto r =
+      test::run_cli("fit " + dir + "/set --model auto --maps 16x16 --out " + dir + "/bad.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("--model"), std::string::npos) << r.output;
 }
@@ -193,9 +202,9 @@ TEST(FitMaps, SmoothingBringsNoisyTexelsCloserToTheTruth) {
                       out);
     ASSERT_EQ(r.status, 0) << r.output;
     e[k] = map_errors(dir + "/set/truth.json", out);
-    std::printf("%s: %zu determined, median |dpsi| %.3f deg (|dpsi|/sigma %.2f), |dkd|/kd %.2f %%\n",
-                k ? "--smooth 1" : "alone     ", e[k].determined, e[k].dpsi, e[k].z,
-                100 * e[k].dkd);
+    std::printf(
+        "%s: %zu determined, median |dpsi| %.3f deg (|dpsi|/sigma %.2f), |dkd|/kd %.2f %%\n",
+        k ? "--smooth 1" : "alone     ", e[k].determined, e[k].dpsi, e[k].z, 100 * e[k].dkd);
   }
   EXPECT_LT(e[1].dpsi, 0.85 * e[0].dpsi);
   EXPECT_LT(e[1].dkd, 0.85 * e[0].dkd);
@@ -222,8 +231,8 @@ TEST(FitMaps, SmoothingBringsNoisyTexelsCloserToTheTruth) {
         << k << ": the merged smoothed map differs from the untiled one";
   r = test::run_cli("fit " + dir + "/set --maps 8x6 --tile 0/3 --out " + dir + "/plain0.json");
   ASSERT_EQ(r.status, 0) << r.output;
-  r = test::run_cli("merge " + dir + "/plain0.json " + dir + "/t1.json " + dir +
-                    "/t2.json --out " + dir + "/bad.json");
+  r = test::run_cli("merge " + dir + "/plain0.json " + dir + "/t1.json " + dir + "/t2.json --out " +
+                    dir + "/bad.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("--smooth"), std::string::npos) << r.output;
   r = test::run_cli("fit " + dir + "/set --smooth 1 --out " + dir + "/x.json");
