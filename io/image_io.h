@@ -27,6 +27,10 @@ LoadedImage read_image(const std::string& path, int expect_w = 0, int expect_h =
 // "none". Throws on another name.
 void set_exr_compression(const std::string& name);
 
+// The bytes of an uncompressed float EXR (scanline, channels R[,G[,B]]), written by hand: what
+// write_exr writes with compression "none".
+std::string encode_exr_uncompressed(const Image& img);
+
 // Float EXR with channels R[,G[,B]] (1, 2 or 3 channels). Written atomically.
 void write_exr(const std::string& path, const Image& img);
 
