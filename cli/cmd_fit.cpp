@@ -262,9 +262,10 @@ Command add_fit(CLI::App& app) {
                 "uncertainty by Ceres' dense SVD of the whole Jacobian (the reference; slower and "
                 "larger) instead of the normal equations accumulated in one pass");
   fit->add_option("--solver", a->solver,
-                  "line model: fused (one pass over the observations per Levenberg-Marquardt "
-                  "step, the default) or ceres (the fitter of record, the reference the tests "
-                  "compare with; also what every other model and optional term uses)")
+                  "line and fiber models: fused (one pass over the observations per "
+                  "Levenberg-Marquardt step, the default) or ceres (the fitter of record, the "
+                  "reference the tests compare with; also what the optional terms and a texel "
+                  "map of s use)")
       ->check(CLI::IsMember({"fused", "ceres"}))
       ->default_str("fused");
   fit->add_option("--threads", fo.threads, "solver threads")
@@ -303,9 +304,10 @@ Command add_fit(CLI::App& app) {
                 "is tile i/N) and rank 0 merges them into --out (the same files as one run). "
                 "E.g. mpirun -np 4 aniso fit CAPTURE --maps 256x256 --mpi --out m.json");
   fit->add_option("--maps", a->maps,
-                  "line model: also fit per-texel maps of k_d, k_s, n and the fiber direction, WxH "
-                  "texels over the sample's uv (written beside --out as EXR, FORMAT.md \"Material "
-                  "maps\", with per-texel sigma, coverage and a determined mask)");
+                  "also fit per-texel maps of k_d, k_s, n and the fiber direction (and, with "
+                  "--model fiber on a flat sample, the topology s), WxH texels over the sample's "
+                  "uv (written beside --out as EXR, FORMAT.md \"Material maps\", with per-texel "
+                  "sigma, coverage and a determined mask)");
   return {fit, [a] {
             if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
             a->fo.maps_ceres = a->maps_solver == "ceres";
