@@ -224,6 +224,39 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   return 0;
 }
 
+// The options of --maps (per-texel maps, their solver, smoothing, tiles and MPI ranks).
+void add_maps_options(CLI::App* fit, FitArgs* a) {
+  FitOptions& fo = a->fo;
+  fit->add_option(
+      "--tile", a->tile,
+      "with --maps: fit only tile i of N (bands of texel rows) and write a tile file "
+      "to --out; `aniso merge` joins the tiles (the same maps as one run, bit for bit)");
+  fit->add_option("--maps-solver", a->maps_solver,
+                  "--maps: lm (a hand-written Levenberg-Marquardt per texel, the default) or "
+                  "ceres (one Ceres problem per texel: the reference, slower)")
+      ->check(CLI::IsMember({"lm", "ceres"}))
+      ->default_str("lm");
+  fit->add_option("--smooth", fo.maps_smooth,
+                  "--maps: pull every texel toward its 4 neighbours with weight lambda, in units "
+                  "of the texel's own data (1: a neighbour one sigma away weighs as much as "
+                  "moving one sigma off the texel's own best fit; 0: every texel alone)")
+      ->check(CLI::Range(0.0, 1e6));
+  fit->add_option("--smooth-sweeps", fo.maps_sweeps,
+                  "--smooth: Jacobi sweeps over the grid (each texel sees its neighbours' values "
+                  "of the sweep before; a pull reaches this many texels)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
+  fit->add_flag("--mpi", a->mpi,
+                "with --maps, under mpirun: every rank fits one tile of the texels (rank i of N "
+                "is tile i/N) and rank 0 merges them into --out (the same files as one run). "
+                "E.g. mpirun -np 4 aniso fit CAPTURE --maps 256x256 --mpi --out m.json");
+  fit->add_option("--maps", a->maps,
+                  "also fit per-texel maps of k_d, k_s, n and the fiber direction (and, with "
+                  "--model fiber on a flat sample, the topology s), WxH texels over the sample's "
+                  "uv (written beside --out as EXR, FORMAT.md \"Material maps\", with per-texel "
+                  "sigma, coverage and a determined mask)");
+}
+
 Command add_fit(CLI::App& app) {
   auto a = std::make_shared<FitArgs>();
   auto* fit =
@@ -280,34 +313,7 @@ Command add_fit(CLI::App& app) {
   fit->add_option("--max-iterations", fo.max_iterations, "solver iterations")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
-  fit->add_option(
-      "--tile", a->tile,
-      "with --maps: fit only tile i of N (bands of texel rows) and write a tile file "
-      "to --out; `aniso merge` joins the tiles (the same maps as one run, bit for bit)");
-  fit->add_option("--maps-solver", a->maps_solver,
-                  "--maps: lm (a hand-written Levenberg-Marquardt per texel, the default) or "
-                  "ceres (one Ceres problem per texel: the reference, slower)")
-      ->check(CLI::IsMember({"lm", "ceres"}))
-      ->default_str("lm");
-  fit->add_option("--smooth", fo.maps_smooth,
-                  "--maps: pull every texel toward its 4 neighbours with weight lambda, in units "
-                  "of the texel's own data (1: a neighbour one sigma away weighs as much as "
-                  "moving one sigma off the texel's own best fit; 0: every texel alone)")
-      ->check(CLI::Range(0.0, 1e6));
-  fit->add_option("--smooth-sweeps", fo.maps_sweeps,
-                  "--smooth: Jacobi sweeps over the grid (each texel sees its neighbours' values "
-                  "of the sweep before; a pull reaches this many texels)")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 1000));
-  fit->add_flag("--mpi", a->mpi,
-                "with --maps, under mpirun: every rank fits one tile of the texels (rank i of N "
-                "is tile i/N) and rank 0 merges them into --out (the same files as one run). "
-                "E.g. mpirun -np 4 aniso fit CAPTURE --maps 256x256 --mpi --out m.json");
-  fit->add_option("--maps", a->maps,
-                  "also fit per-texel maps of k_d, k_s, n and the fiber direction (and, with "
-                  "--model fiber on a flat sample, the topology s), WxH texels over the sample's "
-                  "uv (written beside --out as EXR, FORMAT.md \"Material maps\", with per-texel "
-                  "sigma, coverage and a determined mask)");
+  add_maps_options(fit, a.get());
   return {fit, [a] {
             if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
             a->fo.maps_ceres = a->maps_solver == "ceres";

@@ -272,6 +272,27 @@ TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx, 
   return t;
 }
 
+// Texel t of the maps from its result: a texel the data did not determine keeps the global
+// values (`global`, `s`) with the prior's spread as sigma.
+void put_texel(const TexelResult& res, size_t t, const Core& global, double s, TexelMaps* m) {
+  m->determined[t] = res.determined;
+  const Core& c = res.determined ? res.c : global;
+  for (int k = 0; k < 3; ++k) {
+    m->kd[3 * t + k] = c.kd[k];
+    m->ks[3 * t + k] = c.ks[k];
+    m->kd_sigma[3 * t + k] = res.determined ? res.sigma[k] : prior_sigma("kd");
+    m->ks_sigma[3 * t + k] = res.determined ? res.sigma[3 + k] : prior_sigma("ks");
+  }
+  m->n[t] = std::exp(c.logn);
+  m->n_sigma[t] = res.determined ? m->n[t] * res.sigma[6] : prior_sigma("n");
+  m->psi_deg[t] = wrap_fiber_deg(rad_to_deg(c.psi));
+  m->psi_sigma_deg[t] = res.determined ? rad_to_deg(res.sigma[7]) : 180 / std::sqrt(12.0);
+  if (!m->s.empty()) {
+    m->s[t] = res.determined ? res.s : s;
+    m->s_sigma[t] = res.determined ? res.sigma[8] : prior_sigma("topology.s");
+  }
+}
+
 // The prior of texel t for the next sweep: its 4 neighbours' values of this sweep (those the data
 // determined), weights lambda x neighbours / (H^-1)_kk from the texel's first, unpulled fit.
 bool smoothing_prior(const std::vector<TexelResult>& now, const std::vector<TexelResult>& first,
@@ -369,22 +390,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
     if (row < o.row0 || row >= o.row1) continue;  // another tile's
     const TexelResult& res = now[t];
     if (bins[t].size() >= kMinTexelPixels) ++m.fitted, sr += res.rss, sv += res.values;
-    m.determined[t] = res.determined;
-    const Core& c = res.determined ? res.c : global;
-    for (int k = 0; k < 3; ++k) {
-      m.kd[3 * t + k] = c.kd[k];
-      m.ks[3 * t + k] = c.ks[k];
-      m.kd_sigma[3 * t + k] = res.determined ? res.sigma[k] : prior_sigma("kd");
-      m.ks_sigma[3 * t + k] = res.determined ? res.sigma[3 + k] : prior_sigma("ks");
-    }
-    m.n[t] = std::exp(c.logn);
-    m.n_sigma[t] = res.determined ? m.n[t] * res.sigma[6] : prior_sigma("n");
-    m.psi_deg[t] = wrap_fiber_deg(rad_to_deg(c.psi));
-    m.psi_sigma_deg[t] = res.determined ? rad_to_deg(res.sigma[7]) : 180 / std::sqrt(12.0);
-    if (fit_s) {
-      m.s[t] = res.determined ? res.s : o.s;
-      m.s_sigma[t] = res.determined ? res.sigma[8] : prior_sigma("topology.s");
-    }
+    put_texel(res, t, global, o.s, &m);
   }
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

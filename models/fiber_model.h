@@ -171,6 +171,50 @@ IntervalList<T, 6> unhidden_arcs(const T& dx, const T& dy, const T& phi_d, const
 
 }  // namespace fiber_detail
 
+namespace fiber_detail {
+
+// The specular lobe of fiber_DS: peak phi_h, the view's angle, width sigma, <R,V> =
+// sLsV cos 2(phi - phi_h) - ab with peak g0, exponent n.
+template <class T>
+struct Lobe {
+  const T &phi_h, &phi_v, &sigma, &sLsV, &ab, &n, &g0;
+  bool relative_to_peak;
+};
+
+// Adds the lobe's integral over [slo, shi] to *ssum: Gauss-Legendre on panels split at
+// multiples of sigma around the peak.
+template <class T>
+void add_lobe_integral(const Lobe<T>& l, const T& slo, const T& shi, const GaussRule& gr, T* ssum) {
+  using std::cos;
+  using std::exp;
+  using std::log;
+  using std::sin;
+  static constexpr double kSplits[] = {-10, -5, -2.5, -1, 0, 1, 2.5, 5, 10};  // in sigmas
+  T edge = slo;
+  for (int k = 0; k <= 9; ++k) {
+    const T next = k < 9 ? l.phi_h + kSplits[k] * l.sigma : shi;
+    if (!(next > edge)) continue;
+    const T e1 = tmin(next, shi);
+    const T half = 0.5 * (e1 - edge), mid = 0.5 * (e1 + edge);
+    // At p = mid + t: cos 2(p - phi_h) and cos(p - phi_v) by the angle sums from the panel's
+    // centre, so a node costs one sine and cosine of t (not two cosines).
+    const T ca = cos(2.0 * (mid - l.phi_h)), sa = sin(2.0 * (mid - l.phi_h));
+    const T cb = cos(mid - l.phi_v), sb = sin(mid - l.phi_v);
+    for (int q = 0; q < gr.order; ++q) {
+      const T t = half * gr.x[q];
+      const T ct = cos(t), st = sin(t);
+      const T g = l.sLsV * (ca * (1.0 - 2.0 * st * st) - sa * (2.0 * st * ct)) - l.ab;
+      if (g > T(0.0))
+        *ssum += half * gr.w[q] * exp(l.n * log(l.relative_to_peak ? g / l.g0 : g)) *
+                 (cb * ct - sb * st);
+    }
+    edge = e1;
+    if (!(edge < shi)) break;
+  }
+}
+
+}  // namespace fiber_detail
+
 // D and S of MODELS.md §4 for one fiber direction. Inputs are the components of L and V along
 // B and N (lb, ln, vb, vn), the cosines a = <L,T>, b = <V,T>, the exponent and the topology s.
 // With `relative_to_peak`, S comes back divided by the line model's S_line = (s_L s_V - ab)^n
@@ -219,7 +263,6 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
     sigma = sqrt(g0 / (4.0 * n * sLsV));
   }
   const GaussRule& gr = gauss_legendre(acc.order);
-  static constexpr double kSplits[] = {-10, -5, -2.5, -1, 0, 1, 2.5, 5, 10};  // in sigmas
   T dsum = T(0.0), ssum = T(0.0);
   const T cx[2] = {T(0.0), P * 0.5}, cy[2] = {T(0.0), H};
   for (int f = 0; f < 2; ++f) {
@@ -235,27 +278,8 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
         if (!spec) continue;
         const T slo = tmax(lo, phi_h - xmax), shi = tmin(hi, phi_h + xmax);
         if (!(slo < shi)) continue;
-        T edge = slo;
-        for (int k = 0; k <= 9; ++k) {
-          const T next = k < 9 ? phi_h + kSplits[k] * sigma : shi;
-          if (!(next > edge)) continue;
-          const T e1 = tmin(next, shi);
-          const T half = 0.5 * (e1 - edge), mid = 0.5 * (e1 + edge);
-          // At p = mid + t: cos 2(p - phi_h) and cos(p - phi_v) by the angle sums from the
-          // panel's centre, so a node costs one sine and cosine of t (not two cosines).
-          const T ca = cos(2.0 * (mid - phi_h)), sa = sin(2.0 * (mid - phi_h));
-          const T cb = cos(mid - phi_v), sb = sin(mid - phi_v);
-          for (int q = 0; q < gr.order; ++q) {
-            const T t = half * gr.x[q];
-            const T ct = cos(t), st = sin(t);
-            const T g = sLsV * (ca * (1.0 - 2.0 * st * st) - sa * (2.0 * st * ct)) - ab;
-            if (g > T(0.0))
-              ssum += half * gr.w[q] * exp(n * log(relative_to_peak ? g / g0 : g)) *
-                      (cb * ct - sb * st);
-          }
-          edge = e1;
-          if (!(edge < shi)) break;
-        }
+        const fiber_detail::Lobe<T> lobe{phi_h, phi_v, sigma, sLsV, ab, n, g0, relative_to_peak};
+        fiber_detail::add_lobe_integral(lobe, slo, shi, gr, &ssum);
       }
   }
   if (!(W > T(0.0))) return;
