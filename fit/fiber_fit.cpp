@@ -133,18 +133,7 @@ class FiberFit : public ModelFit {
       node.cost = solve_kd_ks(
           os, subset,
           [&](const Observation& o, double* dcol, double* scol) {
-            const double s = pixel_s(o, t);
-            const double b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
-            for (uint32_t q = 0; q < o.num_lights; ++q) {
-              const ObsLight& l = os.lights[o.first_light + q];
-              double D, S;
-              fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n, s,
-                       grid_acc, &D, &S);
-              for (int ch = 0; ch < 3; ++ch) {
-                dcol[ch] += l.E[ch] * D;
-                scol[ch] += l.E[ch] * S;
-              }
-            }
+            fiber_columns(os, o, c, sn, n, pixel_s(o, t), grid_acc, dcol, scol);
           },
           node.kd, node.ks);
     });

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "models/fiber_model.h"
+#include "fit/fiber_lm.h"
 
 namespace aniso::fitting {
 
@@ -28,18 +28,13 @@ FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>&
   for (size_t j = 0; j < subset.size(); j += step) {
     const Observation& o = os.obs[subset[j]];
     const double s = s_of(o);
-    const double b = cp * o.V.u + sp * o.V.w, vb = cp * o.V.w - sp * o.V.u;
-    double f[kCount + 1][3] = {};
-    for (uint32_t q = 0; q < o.num_lights; ++q) {
-      const ObsLight& l = os.lights[o.first_light + q];
-      for (int k = 0; k <= kCount; ++k) {
-        FiberAccuracy acc;
-        acc.order = k < kCount ? kOrders[k] : kReference;
-        double D, S;
-        fiber_DS(cp * l.L.w - sp * l.L.u, l.L.n, vb, o.V.n, cp * l.L.u + sp * l.L.w, b, n, s, acc,
-                 &D, &S);
-        for (int ch3 = 0; ch3 < 3; ++ch3) f[k][ch3] += l.E[ch3] * (c.kd[ch3] * D + c.ks[ch3] * S);
-      }
+    double f[kCount + 1][3];
+    for (int k = 0; k <= kCount; ++k) {
+      FiberAccuracy acc;
+      acc.order = k < kCount ? kOrders[k] : kReference;
+      double dcol[3] = {0, 0, 0}, scol[3] = {0, 0, 0};
+      fiber_columns(os, o, cp, sp, n, s, acc, dcol, scol);
+      for (int ch3 = 0; ch3 < 3; ++ch3) f[k][ch3] = c.kd[ch3] * dcol[ch3] + c.ks[ch3] * scol[ch3];
     }
     for (int k = 0; k < kCount; ++k)
       for (int ch3 = 0; ch3 < 3; ++ch3) {

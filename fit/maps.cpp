@@ -206,13 +206,14 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   if (!prior) texel_start(os, idx, &t.c);
   Vec8 lo, hi;
   core_bounds(&lo, &hi);
-  // The data's sum of squares with J^T J, J^T r; and the same with the prior added (the objective).
+  // The data's sum of squares with J^T J, J^T r (at the last point evaluated with derivatives);
+  // and the same with the prior added (the objective).
   Mat8 info, h;
   Vec8 grad, g;
   double rss = 0, total = 0;
   auto evaluate = [&](const Vec8& at, bool derivatives) {
     double r = texel_pass(os, idx, at, derivatives ? &info : nullptr, &grad);
-    if (derivatives) h = info, g = grad;
+    if (derivatives) h = info, g = grad, rss = r;
     if (!prior) return r;
     const Vec8 d = prior_diff(*prior, at);
     if (derivatives) {
@@ -223,7 +224,6 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   };
   Vec8 x = pack_core(t.c);
   total = evaluate(x, true);
-  rss = total - (prior ? prior->w.dot(prior_diff(*prior, x).cwiseAbs2()) : 0);
   double lambda = 1e-3;
   for (int it = 0; it < 100; ++it) {
     Mat8 a = h;
@@ -238,7 +238,6 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
       const bool done = total - rn <= 1e-12 * total;
       x = xn;
       total = evaluate(x, true);
-      rss = total - (prior ? prior->w.dot(prior_diff(*prior, x).cwiseAbs2()) : 0);
       lambda = std::max(lambda / 3, 1e-12);
       if (done) break;
     } else {
