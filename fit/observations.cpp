@@ -163,7 +163,11 @@ void append_view(ViewPart* p, size_t views_left, ObsSet* os, FitReport* rep,
   rep->saturated += p->rep.saturated;
   rep->nonfinite += p->rep.nonfinite;
   rep->unlit += p->rep.unlit;
-  *p = ViewPart{};
+  // Emptied, keeping their memory for the next view in this slot (no fresh pages per view).
+  p->os.obs.clear();
+  p->os.lights.clear();
+  p->diffs.clear();
+  p->rep = FitReport{};
 }
 
 }  // namespace
@@ -203,6 +207,9 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
         p.rep.masked_out = static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
         p.rep.saturated = d.saturated;
         p.rep.nonfinite = d.nonfinite;
+        const size_t s2 = static_cast<size_t>(opt.subsample) * opt.subsample;
+        p.os.obs.reserve(d.mask_pixels / s2 + d.rgb.width + d.rgb.height);
+        p.os.lights.reserve(p.os.obs.capacity() * set.views[i].lights.size());
         add_pixel_observations(d, set.views[i], set, known, opt.subsample, &p.os, &p.rep);
         give_back_geometry(&d, &geometry[i - b0]);
         bar.advance();

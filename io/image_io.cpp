@@ -37,7 +37,9 @@ void check_declared_size(const std::string& path, long long w, long long h, int 
                 std::to_string(expect_w) + "x" + std::to_string(expect_h));
 }
 
-Image read_exr(const std::string& path, int expect_w, int expect_h) {
+Image read_exr(const std::string& path, int expect_w, int expect_h);
+
+Image read_exr_openexr(const std::string& path, int expect_w, int expect_h) {
   try {
     Imf::InputFile file(path.c_str());
     const Imath::Box2i dw = file.header().dataWindow();
@@ -71,6 +73,141 @@ Image read_exr(const std::string& path, int expect_w, int expect_h) {
   } catch (const std::exception& e) {
     throw Error(path + ": cannot read EXR: " + e.what());
   }
+}
+
+// Little-endian reads at a checked position of an EXR's bytes (false when past the end).
+struct ByteReader {
+  const std::string& b;
+  size_t at = 0;
+  template <class T>
+  bool get(T* v) {
+    if (at > b.size() || b.size() - at < sizeof(T)) return false;
+    std::memcpy(v, b.data() + at, sizeof(T));
+    at += sizeof(T);
+    return true;
+  }
+  bool cstr(std::string* s) {
+    const size_t end = b.find('\0', at);
+    if (end == std::string::npos) return false;
+    s->assign(b, at, end - at);
+    at = end + 1;
+    return true;
+  }
+};
+
+struct RawChannel {
+  std::string name;
+  int32_t type = 0, xs = 0, ys = 0;
+};
+
+// The header of a single-part scanline EXR: its channels, compression and data window; false on
+// anything else (tiles, deep data, several parts, a malformed attribute).
+bool parse_exr_header(ByteReader* r, std::vector<RawChannel>* ch, int* compression,
+                      int32_t box[4]) {
+  int32_t magic = 0, version = 0;
+  if (!r->get(&magic) || magic != 20000630 || !r->get(&version)) return false;
+  if ((version & 0xff) != 2 || (version & (0x200 | 0x800 | 0x1000))) return false;
+  bool have_channels = false, have_box = false;
+  *compression = -1;
+  for (;;) {
+    std::string name, type;
+    int32_t size = 0;
+    if (!r->cstr(&name)) return false;
+    if (name.empty()) break;
+    if (!r->cstr(&type) || !r->get(&size) || size < 0 || r->b.size() - r->at < size_t(size))
+      return false;
+    const size_t end = r->at + static_cast<size_t>(size);
+    if (name == "channels" && type == "chlist") {
+      for (;;) {
+        RawChannel c;
+        int32_t linear = 0;
+        if (!r->cstr(&c.name) || r->at > end) return false;
+        if (c.name.empty()) break;
+        if (!r->get(&c.type) || !r->get(&linear) || !r->get(&c.xs) || !r->get(&c.ys)) return false;
+        ch->push_back(c);
+      }
+      have_channels = r->at == end;
+    } else if (name == "compression" && size == 1) {
+      *compression = static_cast<unsigned char>(r->b[r->at]);
+    } else if (name == "dataWindow" && type == "box2i" && size == 16) {
+      for (int k = 0; k < 4; ++k) r->get(&box[k]);
+      have_box = true;
+    }
+    r->at = end;
+  }
+  return have_channels && have_box && *compression >= 0;
+}
+
+}  // namespace
+
+bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, int expect_w,
+                             int expect_h, Image* out) {
+  ByteReader r{bytes};
+  std::vector<RawChannel> ch;
+  int compression = -1;
+  int32_t box[4] = {0, 0, 0, 0};
+  if (!parse_exr_header(&r, &ch, &compression, box) || compression != 0) return false;
+  for (const RawChannel& c : ch)
+    if (c.type != 2 || c.xs != 1 || c.ys != 1) return false;  // FLOAT, full resolution only
+  const long long w = static_cast<long long>(box[2]) - box[0] + 1,
+                  h = static_cast<long long>(box[3]) - box[1] + 1;
+  check_declared_size(path, w, h, expect_w, expect_h);
+  // The channels read_exr_openexr picks (R[, G[, B]] or Y), each its place in the file's list.
+  auto find = [&](const char* n) {
+    for (size_t k = 0; k < ch.size(); ++k)
+      if (ch[k].name == n) return static_cast<int>(k);
+    return -1;
+  };
+  std::vector<int> pick;
+  if (find("R") >= 0) {
+    pick.push_back(find("R"));
+    if (find("G") >= 0) {
+      pick.push_back(find("G"));
+      if (find("B") >= 0) pick.push_back(find("B"));
+    } else if (find("B") >= 0) {
+      return false;  // R and B without G: the OpenEXR path says so
+    }
+  } else if (find("Y") >= 0) {
+    pick.push_back(find("Y"));
+  } else {
+    return false;
+  }
+  const size_t line = static_cast<size_t>(w) * ch.size() * sizeof(float);
+  Image img(static_cast<int>(w), static_cast<int>(h), static_cast<int>(pick.size()));
+  std::vector<uint8_t> seen(static_cast<size_t>(h), 0);
+  for (long long k = 0; k < h; ++k) {
+    uint64_t offset = 0;
+    int32_t y = 0, size = 0;
+    if (!r.get(&offset) || offset > bytes.size()) return false;
+    ByteReader block{bytes, static_cast<size_t>(offset)};
+    if (!block.get(&y) || !block.get(&size) || static_cast<size_t>(size) != line ||
+        bytes.size() - block.at < line || y < box[1] || y > box[3] || seen[y - box[1]]++)
+      return false;
+    const char* src = bytes.data() + block.at;
+    float* dst = img.px.data() + static_cast<size_t>(y - box[1]) * w * pick.size();
+    for (size_t c = 0; c < pick.size(); ++c)
+      for (long long x = 0; x < w; ++x)
+        std::memcpy(dst + x * pick.size() + c,
+                    src + (static_cast<size_t>(pick[c]) * w + x) * sizeof(float), sizeof(float));
+  }
+  *out = std::move(img);
+  return true;
+}
+
+namespace {
+
+// Uncompressed float EXRs (what synth writes by default) at memory speed; everything else, and
+// anything our reader does not follow, through OpenEXR.
+Image read_exr(const std::string& path, int expect_w, int expect_h) {
+  constexpr size_t kMaxDirect = size_t(1) << 30;
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec && size < kMaxDirect) {
+    Image img;
+    if (decode_exr_uncompressed(read_text_file(path, kMaxDirect), path, expect_w, expect_h, &img))
+      return img;
+  }
+  return read_exr_openexr(path, expect_w, expect_h);
 }
 
 std::atomic<int> g_compression{static_cast<int>(Imf::ZIP_COMPRESSION)};

@@ -31,6 +31,13 @@ void set_exr_compression(const std::string& name);
 // write_exr writes with compression "none".
 std::string encode_exr_uncompressed(const Image& img);
 
+// Decodes the bytes of an uncompressed single-part scanline EXR whose channels are all 32-bit
+// float into *out (channels as read_image gives them); false for anything else (compressed, half,
+// tiled, several parts, a malformed offset or block), which read_image hands to OpenEXR. Throws
+// only on a declared size outside the limits or not the expected one.
+bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, int expect_w,
+                             int expect_h, Image* out);
+
 // Float EXR with channels R[,G[,B]] (1, 2 or 3 channels). Written atomically.
 void write_exr(const std::string& path, const Image& img);
 
