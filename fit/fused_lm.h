@@ -69,48 +69,68 @@ struct ObsRow {
   double r[3], dkd[3], dks[3], shared[3][P - 6];
 };
 
+// A chunk's sums while it runs: per channel k, the upper triangle of J^T W J and J^T W r over that
+// channel's nonzero columns (k_d[k], k_s[k], the shared ones) at fixed places, so the per-pixel
+// update is straight-line code; scattered into the P x P sums once per chunk.
 template <int P>
-void add_observation(const ObsRow<P>& d, const RobustLoss& loss, bool jac, FusedSums<P>* s) {
-  const double r2 = d.r[0] * d.r[0] + d.r[1] * d.r[1] + d.r[2] * d.r[2];
-  double rho, w;
-  loss.eval(r2, &rho, &w);
-  s->cost += rho;
-  s->rss += w * r2;
-  if (!jac) return;
-  constexpr int kNz = P - 4;
-  for (int k = 0; k < 3; ++k) {
-    int col[kNz];
-    double v[kNz];
-    col[0] = k, v[0] = d.dkd[k];
-    col[1] = 3 + k, v[1] = d.dks[k];
-    for (int j = 0; j < P - 6; ++j) col[2 + j] = 6 + j, v[2 + j] = d.shared[k][j];
-    for (int a = 0; a < kNz; ++a) {
-      const double wv = w * v[a];
-      s->g(col[a]) += wv * d.r[k];
-      for (int b = a; b < kNz; ++b) s->H(col[a], col[b]) += wv * v[b];
+struct ChannelSums {
+  static constexpr int kNz = P - 4, kTri = kNz * (kNz + 1) / 2;
+  double h[3][kTri] = {}, g[3][kNz] = {};
+  double cost = 0, rss = 0;
+
+  void add(const ObsRow<P>& d, const RobustLoss& loss, bool jac) {
+    const double r2 = d.r[0] * d.r[0] + d.r[1] * d.r[1] + d.r[2] * d.r[2];
+    double rho, w;
+    loss.eval(r2, &rho, &w);
+    cost += rho;
+    rss += w * r2;
+    if (!jac) return;
+    for (int k = 0; k < 3; ++k) {
+      double v[kNz];
+      v[0] = d.dkd[k], v[1] = d.dks[k];
+      for (int j = 0; j < P - 6; ++j) v[2 + j] = d.shared[k][j];
+      int t = 0;
+      for (int a = 0; a < kNz; ++a) {
+        const double wv = w * v[a];
+        g[k][a] += wv * d.r[k];
+        for (int b = a; b < kNz; ++b) h[k][t++] += wv * v[b];
+      }
     }
   }
-}
+
+  // Adds these sums to s (H's upper triangle).
+  void scatter(FusedSums<P>* s) const {
+    s->cost += cost;
+    s->rss += rss;
+    for (int k = 0; k < 3; ++k) {
+      int col[kNz];
+      col[0] = k, col[1] = 3 + k;
+      for (int j = 0; j < P - 6; ++j) col[2 + j] = 6 + j;
+      int t = 0;
+      for (int a = 0; a < kNz; ++a) {
+        s->g(col[a]) += g[k][a];
+        for (int b = a; b < kNz; ++b) s->H(col[a], col[b]) += h[k][t++];
+      }
+    }
+  }
+};
 
 // Observations per chunk of a pass: each chunk sums alone, the chunks are added in order.
 constexpr size_t kFusedChunk = 4096;
 
-// One pass over n observations: `row(j, &d)` gives observation j's residual and rows.
-template <int P, class Row>
-FusedSums<P> fused_pass(size_t n, const RobustLoss& loss, bool jac, tbb::task_arena* arena,
-                        const Row& row) {
+// One pass over n observations in fixed chunks: `chunk(begin, end, &sums)` adds observations
+// [begin, end) to a chunk's sums.
+template <int P, class Chunk>
+FusedSums<P> fused_pass_chunks(size_t n, bool jac, tbb::task_arena* arena, const Chunk& chunk) {
   const size_t chunks = (n + kFusedChunk - 1) / kFusedChunk;
   std::vector<FusedSums<P>> part(chunks);
   arena->execute([&] {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1),
                       [&](const tbb::blocked_range<size_t>& r) {
                         for (size_t c = r.begin(); c < r.end(); ++c) {
-                          const size_t end = std::min(n, (c + 1) * kFusedChunk);
-                          ObsRow<P> d;
-                          for (size_t j = c * kFusedChunk; j < end; ++j) {
-                            row(j, &d);
-                            add_observation(d, loss, jac, &part[c]);
-                          }
+                          ChannelSums<P> sums;
+                          chunk(c * kFusedChunk, std::min(n, (c + 1) * kFusedChunk), &sums);
+                          sums.scatter(&part[c]);
                         }
                       });
   });
@@ -125,6 +145,19 @@ FusedSums<P> fused_pass(size_t n, const RobustLoss& loss, bool jac, tbb::task_ar
   s.H = s.H.template selfadjointView<Eigen::Upper>();
   s.finite = std::isfinite(s.cost) && (!jac || (s.H.allFinite() && s.g.allFinite()));
   return s;
+}
+
+// One pass over n observations: `row(j, &d)` gives observation j's residual and rows.
+template <int P, class Row>
+FusedSums<P> fused_pass(size_t n, const RobustLoss& loss, bool jac, tbb::task_arena* arena,
+                        const Row& row) {
+  return fused_pass_chunks<P>(n, jac, arena, [&](size_t begin, size_t end, ChannelSums<P>* s) {
+    ObsRow<P> d;
+    for (size_t j = begin; j < end; ++j) {
+      row(j, &d);
+      s->add(d, loss, jac);
+    }
+  });
 }
 
 // The largest coordinate of `step` in units of that coordinate's standard error at the current

@@ -1,0 +1,221 @@
+#include "fit/line_simd.h"
+
+#include <atomic>
+#include <cmath>
+#include <cstring>
+
+namespace aniso::fitting {
+
+namespace {
+
+// GCC's vector types: four doubles (one AVX2 register) and four 64-bit integers; a cast between
+// the two reinterprets the bits. Everything that touches them is compiled for AVX2 and FMA only.
+typedef double v4d __attribute__((vector_size(32)));
+typedef long long v4i __attribute__((vector_size(32)));
+#define ANISO_AVX2 __attribute__((target("avx2,fma")))
+#define ANISO_AVX2_INLINE __attribute__((target("avx2,fma"), always_inline)) inline
+
+ANISO_AVX2_INLINE v4d splat(double x) { return v4d{x, x, x, x}; }
+ANISO_AVX2_INLINE v4d select(v4i m, v4d a, v4d b) { return m ? a : b; }
+ANISO_AVX2_INLINE v4d vmax(v4d a, v4d b) { return select(a > b, a, b); }
+ANISO_AVX2_INLINE v4d vmin(v4d a, v4d b) { return select(a < b, a, b); }
+ANISO_AVX2_INLINE v4d vsqrt(v4d a) { return __builtin_ia32_sqrtpd256(a); }
+
+// exp(t): t = k ln 2 + r, |r| <= ln 2 / 2, e^r by its Taylor series to r^13 (truncation below
+// 5e-18), times 2^k built in the exponent bits. 0 below -708 (where 2^k would be subnormal).
+ANISO_AVX2_INLINE v4d vexp(v4d t) {
+  const v4d magic = splat(6755399441055744.0);  // 1.5 * 2^52: adding it rounds to an integer
+  const v4d tc = vmin(vmax(t, splat(-708.0)), splat(709.0));
+  const v4d kd = (tc * splat(1.4426950408889634) + magic) - magic;
+  // ln 2 in two parts (fdlibm's): k * kLn2Hi is exact for |k| < 2^20.
+  const v4d r =
+      (tc - kd * splat(6.93147180369123816490e-01)) - kd * splat(1.90821492927058770002e-10);
+  static constexpr double kInvFact[] = {1.0 / 6227020800.0,
+                                        1.0 / 479001600.0,
+                                        1.0 / 39916800.0,
+                                        1.0 / 3628800.0,
+                                        1.0 / 362880.0,
+                                        1.0 / 40320.0,
+                                        1.0 / 5040.0,
+                                        1.0 / 720.0,
+                                        1.0 / 120.0,
+                                        1.0 / 24.0,
+                                        1.0 / 6.0,
+                                        0.5,
+                                        1.0,
+                                        1.0};
+  v4d p = splat(kInvFact[0]);
+  for (int j = 1; j < 14; ++j) p = p * r + splat(kInvFact[j]);
+  const v4i k = (v4i)(kd + magic) - (v4i)magic;
+  const v4d scale = (v4d)((k + 1023) << 52);
+  return select(t < splat(-708.0), splat(0.0), p * scale);
+}
+
+// log(x), x > 0 (subnormals are taken as the smallest normal): x = m 2^e with m in
+// [sqrt(1/2), sqrt(2)), log m = 2 atanh(s), s = (m - 1) / (m + 1), |s| <= 0.1716, by its series
+// to s^23 (truncation below 1e-17).
+ANISO_AVX2_INLINE v4d vlog(v4d x) {
+  x = vmax(x, splat(2.2250738585072014e-308));
+  const v4i bits = (v4i)x;
+  const v4i e0 = ((bits >> 52) & 0x7ff) - 1023;
+  v4d m = (v4d)((bits & 0x000fffffffffffffLL) | 0x3ff0000000000000LL);
+  const v4i big = m > splat(1.4142135623730951);
+  m = select(big, m * splat(0.5), m);
+  const v4i e = e0 - big;  // big is -1 where m was halved
+  // int64 to double through the exponent bits (e + 1024 is in [1, 2048]).
+  const v4d ed =
+      ((v4d)((e + 1024) | 0x4330000000000000LL) - splat(4503599627370496.0)) - splat(1024.0);
+  // log m = f - (f^2/2 - s (f^2/2 + R)), R = 2 s^2/3 + 2 s^4/5 + ...: the exact f first, the
+  // small corrections after (fdlibm's order, which keeps the rounding near one ulp).
+  const v4d f = m - splat(1.0);
+  const v4d s = f / (splat(2.0) + f), z = s * s, hfsq = splat(0.5) * f * f;
+  v4d R = splat(2.0 / 23);
+  for (int j = 21; j >= 3; j -= 2) R = R * z + splat(2.0 / j);
+  R = R * z;
+  const v4d hi = ed * splat(6.93147180369123816490e-01), lo = ed * splat(1.90821492927058770002e-10);
+  return hi - ((hfsq - (s * (hfsq + R) + lo)) - f);
+}
+
+// sqrt(1 - a^2) and its derivative, as sin_and_derivative (fit/line_pixel.h) lane by lane.
+ANISO_AVX2_INLINE void vsin(v4d a, v4d* s, v4d* ds) {
+  const v4d x = splat(1.0) - a * a;
+  const double chord = 1 / std::sqrt(kSqrtChordEps);
+  const v4d root = vsqrt(vmax(x, splat(kSqrtChordEps)));
+  const v4i zero = x <= splat(0.0), near = x < splat(kSqrtChordEps);
+  *s = select(zero, splat(0.0), select(near, x * splat(chord), root));
+  *ds = select(zero, splat(0.0), select(near, splat(-2.0 * chord) * a, -a / root));
+}
+
+ANISO_AVX2_INLINE double hsum(v4d v) { return (v[0] + v[1]) + (v[2] + v[3]); }
+
+// Per-lane sums of a chunk (the layout of ChannelSums<8>, four lanes each).
+struct LaneSums {
+  v4d h[3][10], g[3][4], cost, rss;
+};
+
+// The four observations' values, lane by lane.
+struct Lanes {
+  v4d Vu, Vw, Lu, Lw, Ln, E[3], y[3], base[3], mask;
+};
+
+ANISO_AVX2_INLINE v4d load4(const double* p) {
+  v4d v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+ANISO_AVX2_INLINE void gather(const ObsSet& os, const size_t* idx, size_t count, Lanes* q) {
+  double t[15][4];
+  for (int i = 0; i < 4; ++i) {
+    const Observation& o = os.obs[idx[static_cast<size_t>(i) < count ? i : 0]];
+    const ObsLight& l = os.lights[o.first_light];
+    const double row[15] = {
+        o.V.u,  o.V.w,     l.L.u,     l.L.w,     l.L.n,
+        l.E[0], l.E[1],    l.E[2],    o.y[0],    o.y[1],
+        o.y[2], o.base[0], o.base[1], o.base[2], static_cast<size_t>(i) < count ? 1.0 : 0.0};
+    for (int k = 0; k < 15; ++k) t[k][i] = row[k];
+  }
+  q->Vu = load4(t[0]), q->Vw = load4(t[1]), q->Lu = load4(t[2]), q->Lw = load4(t[3]);
+  q->Ln = load4(t[4]);
+  for (int k = 0; k < 3; ++k)
+    q->E[k] = load4(t[5 + k]), q->y[k] = load4(t[8 + k]), q->base[k] = load4(t[11 + k]);
+  q->mask = load4(t[14]);
+}
+
+ANISO_AVX2 void group(const Lanes& q, const LinePixelParams& p, const RobustLoss& loss, bool jac,
+                      LaneSums* acc) {
+  const v4d c = splat(p.c), sn = splat(p.sn), n = splat(p.n);
+  const v4d one = splat(1.0), minus = splat(-1.0);
+  const v4d b = vmin(vmax(c * q.Vu + sn * q.Vw, minus), one), db = c * q.Vw - sn * q.Vu;
+  const v4d a = vmin(vmax(c * q.Lu + sn * q.Lw, minus), one), da = c * q.Lw - sn * q.Lu;
+  v4d sV, dsV, sL, dsL;
+  vsin(b, &sV, &dsV);
+  vsin(a, &sL, &dsL);
+  const v4d x = sL * sV - a * b;
+  const v4i lit = x > splat(0.0);
+  const v4d lx = vlog(select(lit, x, one));
+  const v4d S = select(lit, vexp(n * lx), splat(0.0));
+  const v4d dS_dx = select(lit, n * S / select(lit, x, one), splat(0.0));
+  const v4d dS_dlogn = S * n * lx;
+  const v4d dx_dpsi = (dsL * sV - b) * da + (sL * dsV - a) * db;
+  const v4d dD_dpsi = dsL * da;
+  v4d r[3], v[3][4];
+  for (int k = 0; k < 3; ++k) {
+    const v4d w = q.E[k] * q.Ln, kd = splat(p.kd[k]), ks = splat(p.ks[k]);
+    r[k] = (q.base[k] + w * (kd * sL + ks * S)) - q.y[k];
+    v[k][0] = w * sL;
+    v[k][1] = w * S;
+    v[k][2] = w * ks * dS_dlogn;
+    v[k][3] = w * (kd * dD_dpsi + ks * dS_dx * dx_dpsi);
+  }
+  const v4d r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+  v4d rho = r2, wt = one;
+  if (loss.kind == FitLoss::kHuber) {
+    const v4d A = splat(loss.a), out = vsqrt(vmax(r2, splat(1e-300)));
+    const v4i far = r2 > A * A;
+    rho = select(far, splat(2 * loss.a) * out - A * A, r2);
+    wt = select(far, A / out, one);
+  }
+  wt *= q.mask;
+  acc->cost += rho * q.mask;
+  acc->rss += wt * r2;
+  if (!jac) return;
+  for (int k = 0; k < 3; ++k) {
+    int t = 0;
+    for (int i = 0; i < 4; ++i) {
+      const v4d wv = wt * v[k][i];
+      acc->g[k][i] += wv * r[k];
+      for (int j = i; j < 4; ++j) acc->h[k][t++] += wv * v[k][j];
+    }
+  }
+}
+
+ANISO_AVX2 void pass_avx2(const ObsSet& os, const size_t* idx, size_t count,
+                          const LinePixelParams& p, const RobustLoss& loss, bool jac,
+                          ChannelSums<8>* sums) {
+  LaneSums acc;
+  std::memset(&acc, 0, sizeof acc);
+  Lanes q;
+  for (size_t i = 0; i < count; i += 4) {
+    gather(os, idx + i, count - i, &q);
+    group(q, p, loss, jac, &acc);
+  }
+  sums->cost += hsum(acc.cost);
+  sums->rss += hsum(acc.rss);
+  for (int k = 0; k < 3; ++k) {
+    for (int t = 0; t < 10; ++t) sums->h[k][t] += hsum(acc.h[k][t]);
+    for (int i = 0; i < 4; ++i) sums->g[k][i] += hsum(acc.g[k][i]);
+  }
+}
+
+ANISO_AVX2 void exp_log_avx2(const double in[4], double exp_out[4], double log_out[4]) {
+  v4d x;
+  std::memcpy(&x, in, sizeof x);
+  const v4d e = vexp(x), l = vlog(x);
+  std::memcpy(exp_out, &e, sizeof e);
+  std::memcpy(log_out, &l, sizeof l);
+}
+
+std::atomic<bool> g_simd_on{true};
+
+bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return has;
+}
+
+}  // namespace
+
+bool line_simd_enabled() { return g_simd_on.load() && cpu_has_avx2(); }
+
+void set_line_simd(bool on) { g_simd_on = on; }
+
+void line_pass_simd(const ObsSet& os, const size_t* idx, size_t count, const LinePixelParams& p,
+                    const RobustLoss& loss, bool jac, ChannelSums<8>* sums) {
+  pass_avx2(os, idx, count, p, loss, jac, sums);
+}
+
+void simd_exp_log(const double in[4], double exp_out[4], double log_out[4]) {
+  exp_log_avx2(in, exp_out, log_out);
+}
+
+}  // namespace aniso::fitting

@@ -1,0 +1,29 @@
+// fit/ internal: the plain line model's fused pass four pixels at a time (AVX2 and FMA, chosen at
+// run time; the scalar line_pixel_derivs everywhere else). The same function as
+// fit/line_pixel.h, lane by lane: the transcendental parts (log and exp of the lobe, square roots)
+// in 4-wide double precision with our own exp and log (within 2 ulp of libm's, tested), the
+// robust weights for no loss and Huber's (Cauchy's stays scalar). Sums are per lane, added lane
+// by lane at the end of a chunk: a fixed order, so a pass does not depend on the threads.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#include "fit/fused_lm.h"
+#include "fit/line_pixel.h"
+
+namespace aniso::fitting {
+
+// This CPU has AVX2 and FMA, and the 4-lane pass is not switched off (set_line_simd, for tests
+// that compare it with the scalar pass).
+bool line_simd_enabled();
+void set_line_simd(bool on);
+
+// Adds observations idx[0 .. count), each with exactly one light, to *sums.
+void line_pass_simd(const ObsSet& os, const size_t* idx, size_t count, const LinePixelParams& p,
+                    const RobustLoss& loss, bool jac, ChannelSums<8>* sums);
+
+// The kernel's exp and log on four values at once, for the accuracy test (x > 0 for log; exp of
+// a value below -708 is 0).
+void simd_exp_log(const double in[4], double exp_out[4], double log_out[4]);
+
+}  // namespace aniso::fitting
