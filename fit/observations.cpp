@@ -1,10 +1,14 @@
 #include "fit/observations.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 #include "core/error.h"
 #include "core/frame.h"
@@ -17,8 +21,26 @@ namespace aniso::fitting {
 
 namespace {
 
+// Where a view's records go: obs and lights at these places of the set's arrays (room for every
+// usable pixel of the stride grid), the lights numbered from light_base.
+struct RecordSlot {
+  Observation* obs;
+  ObsLight* lights;
+  uint32_t light_base;
+  size_t num_obs = 0, num_lights = 0;  // written
+};
+
+// The usable pixels on the stride grid: the most records a view can give.
+size_t usable_on_grid(const ViewData& d, int stride) {
+  size_t n = 0;
+  for (int y = 0; y < d.rgb.height; y += stride)
+    for (int x = 0; x < d.rgb.width; x += stride)
+      n += d.use[static_cast<size_t>(y) * d.rgb.width + x];
+  return n;
+}
+
 void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureSet& set,
-                            const Material& known, int stride, ObsSet* os, FitReport* rep) {
+                            const Material& known, int stride, RecordSlot* out, FitReport* rep) {
   const int w = d.rgb.width, h = d.rgb.height;
   for (int y = 0; y < h; y += stride)
     for (int x = 0; x < w; x += stride) {
@@ -30,7 +52,8 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
       }
       Observation o;
       o.V = to_local(sp, normalize(d.eye - sp.P));
-      o.first_light = static_cast<uint32_t>(os->lights.size());
+      o.first_light = out->light_base + static_cast<uint32_t>(out->num_lights);
+      size_t lit = 0;
       for (const Light& l : v.lights) {
         Vec3 L;
         RGB E;
@@ -40,9 +63,9 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
         ol.L = to_local(sp, L);
         if (!(ol.L.n > 0.0)) continue;
         for (int k = 0; k < 3; ++k) ol.E[k] = v.exposure * E[k];
-        os->lights.push_back(ol);
+        out->lights[out->num_lights + lit++] = ol;
       }
-      o.num_lights = static_cast<uint32_t>(os->lights.size()) - o.first_light;
+      o.num_lights = static_cast<uint32_t>(lit);
       for (int k = 0; k < 3; ++k) {
         o.y[k] = d.rgb.at(x, y, k);
         o.base[k] = v.exposure * known.ka[k] * set.ambient[k];
@@ -57,7 +80,8 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
         ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
         continue;
       }
-      os->obs.push_back(o);
+      out->num_lights += lit;
+      out->obs[out->num_obs++] = o;
     }
 }
 
@@ -135,39 +159,53 @@ void add_neighbour_differences(const ViewData& d, std::vector<float>* diffs) {
     }
 }
 
-// One view's records, made on a worker thread and appended in view order.
+// One view of a batch: its decoded data until its records are written, and what it reports.
 struct ViewPart {
-  ObsSet os;
+  ViewData d;
   FitReport rep;
   std::vector<float> diffs;
-  bool grey = false;
+  size_t bound = 0;  // usable pixels on the stride grid
+  RecordSlot slot{nullptr, nullptr, 0};
 };
 
-// Appends a view's records. Before the first, room for as many again for every view still to
-// come: one allocation where every view sees the sample alike (a fixed camera), instead of a
-// vector doubling its way up and copying everything each time (twice the records' memory at the
-// copy, and most of the load time on large sets).
-void append_view(ViewPart* p, size_t views_left, ObsSet* os, FitReport* rep,
-                 std::vector<float>* diffs) {
-  auto grow = [](auto* v, size_t want) {
-    if (v->capacity() < want) v->reserve(std::max(want, v->capacity() + v->capacity() / 2));
-  };
-  grow(&os->obs, os->obs.size() + p->os.obs.size() * views_left);
-  grow(&os->lights, os->lights.size() + p->os.lights.size() * views_left);
-  const auto offset = static_cast<uint32_t>(os->lights.size());
-  for (Observation& o : p->os.obs) o.first_light += offset;
-  os->obs.insert(os->obs.end(), p->os.obs.begin(), p->os.obs.end());
-  os->lights.insert(os->lights.end(), p->os.lights.begin(), p->os.lights.end());
-  diffs->insert(diffs->end(), p->diffs.begin(), p->diffs.end());
-  rep->masked_out += p->rep.masked_out;
-  rep->saturated += p->rep.saturated;
-  rep->nonfinite += p->rep.nonfinite;
-  rep->unlit += p->rep.unlit;
-  // Emptied, keeping their memory for the next view in this slot (no fresh pages per view).
-  p->os.obs.clear();
-  p->os.lights.clear();
-  p->diffs.clear();
-  p->rep = FitReport{};
+// Grows an array by `more` unwritten records; before the first batch, room for as many again for
+// every batch still to come (one allocation where every view sees the sample alike).
+template <class V>
+size_t grow_by(V* v, size_t more, size_t batches_left) {
+  const size_t at = v->size();
+  if (v->capacity() < at + more)
+    v->reserve(std::max(at + more * batches_left, v->capacity() + v->capacity() / 2));
+  v->resize(at + more);
+  return at;
+}
+
+// Closes the gaps a batch's views left in their slots (pixels without a frame or a light) and
+// trims the arrays to what was written; the reports are added up in view order.
+void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_start, ObsSet* os,
+                FitReport* rep, std::vector<float>* diffs) {
+  size_t o_end = obs_start, l_end = light_start;
+  for (ViewPart& p : *parts) {
+    const size_t o_at = static_cast<size_t>(p.slot.obs - os->obs.data());
+    const size_t l_at = p.slot.light_base;
+    if (l_at != l_end) {
+      const auto shift = static_cast<uint32_t>(l_at - l_end);
+      std::memmove(os->lights.data() + l_end, os->lights.data() + l_at,
+                   p.slot.num_lights * sizeof(ObsLight));
+      for (size_t j = 0; j < p.slot.num_obs; ++j) p.slot.obs[j].first_light -= shift;
+    }
+    if (o_at != o_end)
+      std::memmove(os->obs.data() + o_end, p.slot.obs, p.slot.num_obs * sizeof(Observation));
+    o_end += p.slot.num_obs;
+    l_end += p.slot.num_lights;
+    diffs->insert(diffs->end(), p.diffs.begin(), p.diffs.end());
+    rep->masked_out += p.rep.masked_out;
+    rep->saturated += p.rep.saturated;
+    rep->nonfinite += p.rep.nonfinite;
+    rep->unlit += p.rep.unlit;
+    p = ViewPart{};
+  }
+  os->obs.resize(o_end);
+  os->lights.resize(l_end);
 }
 
 }  // namespace
@@ -188,46 +226,69 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   TopologyMap map;
   if (os.topology == TopologyMode::kAmplitude) map = load_topology_map(os.topology_map);
   Progress bar("fit: loading views", set.views.size(), opt.progress);
-  size_t grey_views = 0;
+  std::atomic<size_t> grey_views{0};
   std::vector<float> neighbour_diffs;  // float: these are differences of float pixels
-  // Views are decoded and reduced a few at a time on the solver's threads, appended in order.
+  // Views are decoded a few at a time on the solver's threads; then the batch's room is made in
+  // the set's arrays and each view's thread writes its records in place (no copy, and the new
+  // pages are touched on both cores), the gaps closed in view order.
   const size_t batch = 2 * static_cast<size_t>(std::max(1, opt.threads)), n = set.views.size();
   std::vector<GeometryCache> geometry(batch);  // one per slot of a batch
-  std::vector<ViewPart> parts(batch);
   tbb::task_arena arena(std::max(1, opt.threads));
+  const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &map : nullptr;
   for (size_t b0 = 0; b0 < n; b0 += batch) {
     const size_t b1 = std::min(n, b0 + batch);
+    std::vector<ViewPart> parts(b1 - b0);
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
-        ViewData d = load_view(set, i, os.topology == TopologyMode::kAmplitude ? &map : nullptr,
-                               &geometry[i - b0]);
-        p.grey = d.channels == 1;
-        add_neighbour_differences(d, &p.diffs);
-        p.rep.masked_out = static_cast<size_t>(d.rgb.width) * d.rgb.height - d.mask_pixels;
-        p.rep.saturated = d.saturated;
-        p.rep.nonfinite = d.nonfinite;
-        const size_t s2 = static_cast<size_t>(opt.subsample) * opt.subsample;
-        p.os.obs.reserve(d.mask_pixels / s2 + d.rgb.width + d.rgb.height);
-        p.os.lights.reserve(p.os.obs.capacity() * set.views[i].lights.size());
-        add_pixel_observations(d, set.views[i], set, known, opt.subsample, &p.os, &p.rep);
-        give_back_geometry(&d, &geometry[i - b0]);
+        p.d = load_view(set, i, tmap, &geometry[i - b0]);
+        grey_views += p.d.channels == 1;
+        add_neighbour_differences(p.d, &p.diffs);
+        p.rep.masked_out = static_cast<size_t>(p.d.rgb.width) * p.d.rgb.height - p.d.mask_pixels;
+        p.rep.saturated = p.d.saturated;
+        p.rep.nonfinite = p.d.nonfinite;
+        p.bound = usable_on_grid(p.d, opt.subsample);
+      });
+    });
+    size_t more_obs = 0, more_lights = 0;
+    for (size_t i = b0; i < b1; ++i) {
+      more_obs += parts[i - b0].bound;
+      more_lights += parts[i - b0].bound * set.views[i].lights.size();
+    }
+    const size_t batches_left = (n - b0 + batch - 1) / batch;
+    const size_t obs_start = grow_by(&os.obs, more_obs, batches_left);
+    const size_t light_start = grow_by(&os.lights, more_lights, batches_left);
+    if (os.lights.size() > std::numeric_limits<uint32_t>::max())
+      throw Error(set.file + ": more than 2^32 pixel lights; fit with --subsample");
+    size_t o_at = obs_start, l_at = light_start;
+    for (size_t i = b0; i < b1; ++i) {
+      ViewPart& p = parts[i - b0];
+      p.slot =
+          RecordSlot{os.obs.data() + o_at, os.lights.data() + l_at, static_cast<uint32_t>(l_at)};
+      o_at += p.bound;
+      l_at += p.bound * set.views[i].lights.size();
+    }
+    arena.execute([&] {
+      tbb::parallel_for(b0, b1, [&](size_t i) {
+        ViewPart& p = parts[i - b0];
+        add_pixel_observations(p.d, set.views[i], set, known, opt.subsample, &p.slot, &p.rep);
+        give_back_geometry(&p.d, &geometry[i - b0]);
+        p.d = ViewData{};
         bar.advance();
       });
     });
-    for (size_t i = b0; i < b1; ++i) {
-      grey_views += parts[i - b0].grey;
-      append_view(&parts[i - b0], n - i, &os, &rep, &neighbour_diffs);
-    }
+    close_gaps(&parts, obs_start, light_start, &os, &rep, &neighbour_diffs);
   }
-  drop_implausible(&os, &rep);
-  // sigma of one pixel: the robust sigma of a - 2b + c, over sqrt(1 + 4 + 1).
-  if (!neighbour_diffs.empty()) {
-    for (float& v : neighbour_diffs) v = std::abs(v);
-    const auto mid = neighbour_diffs.begin() + neighbour_diffs.size() / 2;
-    std::nth_element(neighbour_diffs.begin(), mid, neighbour_diffs.end());
-    os.pixel_noise = 1.4826 * *mid / std::sqrt(6.0);
-  }
+  // The implausible values and the noise estimate are independent: side by side.
+  tbb::parallel_invoke([&] { drop_implausible(&os, &rep); },
+                       [&] {
+                         // sigma of one pixel: the robust sigma of a - 2b + c, over sqrt(1+4+1).
+                         if (neighbour_diffs.empty()) return;
+                         for (float& v : neighbour_diffs) v = std::abs(v);
+                         const auto mid = neighbour_diffs.begin() + neighbour_diffs.size() / 2;
+                         std::nth_element(neighbour_diffs.begin(), mid, neighbour_diffs.end());
+                         os.pixel_noise = 1.4826 * *mid / std::sqrt(6.0);
+                       });
   // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
   os.grey = grey_views == set.views.size();
   rep.pixels = os.obs.size();

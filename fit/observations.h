@@ -4,7 +4,9 @@
 // zero. Not installed for other folders: fit.h is the public face.
 #pragma once
 #include <cstdint>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/local_dir.h"
@@ -32,9 +34,27 @@ struct Observation {
 // How the fiber model's topology enters: one s for the whole sample, the map amplitude A on top
 // of per-pixel s_math and map values, s_math alone (nothing to fit), or a map of s over uv.
 enum class TopologyMode { kGlobalS, kAmplitude, kMathematical, kTexels };
+// std::allocator, except that resize() leaves new records unwritten: the loader grows the arrays
+// by a batch of views and the views' threads write their records in place.
+template <class T>
+struct RecordAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = RecordAllocator<U>;
+  };
+  RecordAllocator() = default;
+  template <class U>
+  RecordAllocator(const RecordAllocator<U>&) noexcept {}
+  template <class U>
+  void construct(U*) noexcept {}
+  template <class U, class... A>
+  void construct(U* p, A&&... a) {
+    ::new (static_cast<void*>(p)) U(std::forward<A>(a)...);
+  }
+};
 struct ObsSet {
-  std::vector<Observation> obs;
-  std::vector<ObsLight> lights;
+  std::vector<Observation, RecordAllocator<Observation>> obs;
+  std::vector<ObsLight, RecordAllocator<ObsLight>> lights;
   TopologyMode topology = TopologyMode::kGlobalS;
   int texels = 0;            // kTexels: an N x N map of s over uv
   std::string topology_map;  // recorded in the result

@@ -67,7 +67,13 @@ TEST(FitRecovery, NoiseFreeCurvedObjectsWithFiberFields) {
     const std::string dir = test::tmp_dir(preset);
     const SimOptions so = make_preset(preset, small());
     simulate_capture(so, dir);
-    expect_noise_free_limits(fit_and_compare(dir, so.truth));
+    FitResult r;
+    expect_noise_free_limits(fit_and_compare(dir, so.truth, quiet(), &r));
+    // The sphere's far side is unlit in some views: the loader closes those gaps in its arrays
+    // (fit/observations.cpp), and a record paired with another pixel's light would not fit.
+    if (std::string(preset) == "satin-ball") {
+      EXPECT_GT(r.report.unlit, 1000u);
+    }
   }
 }
 
