@@ -15,22 +15,17 @@
 
 namespace aniso::fitting {
 
-namespace {
-
-// One pass at x: the robust cost and, with `jac`, J^T W J and J^T W r (W at x).
-FusedSums<8> pass(const ObsSet& os, const std::vector<size_t>* subset, const Vec8& x,
-                  const RobustLoss& loss, bool jac, tbb::task_arena* arena) {
-  const double kd[3] = {x(0), x(1), x(2)}, ks[3] = {x(3), x(4), x(5)};
-  const LinePixelParams p{kd, ks, std::exp(x(6)), std::cos(x(7)), std::sin(x(7))};
-  const size_t n = subset ? subset->size() : os.obs.size();
+void line_chunk(const ObsSet& os, const size_t* idx, size_t begin, size_t end,
+                const LinePixelParams& p, const RobustLoss& loss, bool jac, ChannelSums<8>* s) {
   // Pixels with one light go four at a time where the CPU can (fit/line_simd.h); the rest, and
   // Cauchy's loss, one at a time.
   const bool simd = line_simd_enabled() && loss.kind != FitLoss::kCauchy;
-  return fused_pass_chunks<8>(n, jac, arena, [&](size_t begin, size_t end, ChannelSums<8>* s) {
-    size_t ids[kFusedChunk], m = 0;
-    ObsRow<8> row;
-    for (size_t j = begin; j < end; ++j) {
-      const size_t i = subset ? (*subset)[j] : j;
+  size_t ids[kFusedChunk];
+  ObsRow<8> row;
+  for (size_t b = begin; b < end; b += kFusedChunk) {
+    size_t m = 0;
+    for (size_t j = b; j < std::min(end, b + kFusedChunk); ++j) {
+      const size_t i = idx ? idx[j] : j;
       if (simd && os.obs[i].num_lights == 1) {
         ids[m++] = i;
         continue;
@@ -47,6 +42,19 @@ FusedSums<8> pass(const ObsSet& os, const std::vector<size_t>* subset, const Vec
       s->add(row, loss, jac);
     }
     if (m) line_pass_simd(os, ids, m, p, loss, jac, s);
+  }
+}
+
+namespace {
+
+// One pass at x: the robust cost and, with `jac`, J^T W J and J^T W r (W at x).
+FusedSums<8> pass(const ObsSet& os, const std::vector<size_t>* subset, const Vec8& x,
+                  const RobustLoss& loss, bool jac, tbb::task_arena* arena) {
+  const double kd[3] = {x(0), x(1), x(2)}, ks[3] = {x(3), x(4), x(5)};
+  const LinePixelParams p{kd, ks, std::exp(x(6)), std::cos(x(7)), std::sin(x(7))};
+  const size_t n = subset ? subset->size() : os.obs.size();
+  return fused_pass_chunks<8>(n, jac, arena, [&](size_t begin, size_t end, ChannelSums<8>* s) {
+    line_chunk(os, subset ? subset->data() : nullptr, begin, end, p, loss, jac, s);
   });
 }
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "fit/fused_lm.h"
+#include "fit/line_pixel.h"
 #include "fit/model_fit.h"
 
 namespace aniso::fitting {
@@ -27,6 +28,11 @@ void core_bounds(Vec8* lo, Vec8* hi);
 // point (H^-1 s^2 with s^2 = rss / (values - 8); H = J^T J): below kStepInSigma the solution
 // will not move by anything that matters.
 double step_in_sigmas(const Mat8& H, const Vec8& step, double rss, double values);
+
+// Adds observations idx[begin .. end) (idx null: begin .. end themselves) at p to *s: robust cost,
+// and with `jac` the channels' J^T W J and J^T W r. The one loop of every line-model pass.
+void line_chunk(const ObsSet& os, const size_t* idx, size_t begin, size_t end,
+                const LinePixelParams& p, const RobustLoss& loss, bool jac, ChannelSums<8>* s);
 
 // Solves from `c` (updated in place) over the observations in `subset` (null: all), at most
 // `max_iterations` steps on `threads` threads.

@@ -174,26 +174,17 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, 
 // Sum of squares, and (info, grad) = (J^T J, J^T r) when asked, in one pass over the texel.
 double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const Vec8& x, Mat8* info,
                   Vec8* grad) {
-  if (info) info->setZero(), grad->setZero();
-  double rss = 0;
   const double kd[3] = {x(0), x(1), x(2)}, ks[3] = {x(3), x(4), x(5)};
   const LinePixelParams p{kd, ks, std::exp(x(6)), std::cos(x(7)), std::sin(x(7))};
-  for (size_t i : idx) {
-    PixelDerivs d;
-    line_pixel_derivs(os.obs[i], os.lights.data(), p, &d);
-    for (int k = 0; k < 3; ++k) {
-      rss += d.r[k] * d.r[k];
-      if (!info) continue;
-      // Row k of J: d k_d[k] at column k, d k_s[k] at 3 + k, d log n at 6, d psi at 7.
-      const int col[4] = {k, 3 + k, 6, 7};
-      const double v[4] = {d.dkd[k], d.dks[k], d.dlogn[k], d.dpsi[k]};
-      for (int a = 0; a < 4; ++a) {
-        (*grad)(col[a]) += v[a] * d.r[k];
-        for (int b = 0; b < 4; ++b) (*info)(col[a], col[b]) += v[a] * v[b];
-      }
-    }
+  ChannelSums<8> s;
+  line_chunk(os, idx.data(), 0, idx.size(), p, RobustLoss{FitLoss::kNone, 0}, info != nullptr, &s);
+  if (info) {
+    FusedSums<8> f;
+    s.scatter(&f);
+    *info = f.H.selfadjointView<Eigen::Upper>();
+    *grad = f.g;
   }
-  return rss;
+  return s.cost;
 }
 
 // One texel with a hand-written Levenberg-Marquardt (the fast path of --maps): the same
