@@ -150,7 +150,7 @@ TEST(FitMaps, WovenPatchAndCdMapsMatchTheirTruth) {
 // with maps.s.
 TEST(FitMaps, FiberModelMapsRecoverTheTopologyPerTexel) {
   const std::string dir = test::tmp_dir("fiber_maps");
-  const std::string out = synth_and_fit(dir, "fiber-flat-map --noise 0.01 --size 96x96 --views 12",
+  const std::string out = synth_and_fit(dir, "fiber-flat-map --noise 0.01 --size 80x80 --views 12",
                                         "--model fiber --maps 16x16", dir + "/m.json");
   std::printf("%s", out.substr(out.find("fit: --maps")).substr(0, 200).c_str());
   const auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
