@@ -208,6 +208,39 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
   os->lights.resize(l_end);
 }
 
+// Room in the set's arrays for a batch of views from view b0 on (each view's usable pixels and as
+// many lights each), and each view's slot in it; *obs_start, *light_start: where the batch begins.
+void make_room(const CaptureSet& set, size_t b0, size_t batches_left, std::vector<ViewPart>* parts,
+               ObsSet* os, size_t* obs_start, size_t* light_start) {
+  size_t more_obs = 0, more_lights = 0;
+  for (size_t k = 0; k < parts->size(); ++k) {
+    more_obs += (*parts)[k].bound;
+    more_lights += (*parts)[k].bound * set.views[b0 + k].lights.size();
+  }
+  *obs_start = grow_by(&os->obs, more_obs, batches_left);
+  *light_start = grow_by(&os->lights, more_lights, batches_left);
+  if (os->lights.size() > std::numeric_limits<uint32_t>::max())
+    throw Error(set.file + ": more than 2^32 pixel lights; fit with --subsample");
+  size_t o_at = *obs_start, l_at = *light_start;
+  for (size_t k = 0; k < parts->size(); ++k) {
+    ViewPart& p = (*parts)[k];
+    p.slot =
+        RecordSlot{os->obs.data() + o_at, os->lights.data() + l_at, static_cast<uint32_t>(l_at)};
+    o_at += p.bound;
+    l_at += p.bound * set.views[b0 + k].lights.size();
+  }
+}
+
+// sigma of one pixel: the robust sigma of the differences a - 2b + c, over sqrt(1 + 4 + 1); 0
+// without any.
+double pixel_noise(std::vector<float>* diffs) {
+  if (diffs->empty()) return 0;
+  for (float& v : *diffs) v = std::abs(v);
+  const auto mid = diffs->begin() + diffs->size() / 2;
+  std::nth_element(diffs->begin(), mid, diffs->end());
+  return 1.4826 * *mid / std::sqrt(6.0);
+}
+
 }  // namespace
 
 ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep_out) {
@@ -250,24 +283,8 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
         p.bound = usable_on_grid(p.d, opt.subsample);
       });
     });
-    size_t more_obs = 0, more_lights = 0;
-    for (size_t i = b0; i < b1; ++i) {
-      more_obs += parts[i - b0].bound;
-      more_lights += parts[i - b0].bound * set.views[i].lights.size();
-    }
-    const size_t batches_left = (n - b0 + batch - 1) / batch;
-    const size_t obs_start = grow_by(&os.obs, more_obs, batches_left);
-    const size_t light_start = grow_by(&os.lights, more_lights, batches_left);
-    if (os.lights.size() > std::numeric_limits<uint32_t>::max())
-      throw Error(set.file + ": more than 2^32 pixel lights; fit with --subsample");
-    size_t o_at = obs_start, l_at = light_start;
-    for (size_t i = b0; i < b1; ++i) {
-      ViewPart& p = parts[i - b0];
-      p.slot =
-          RecordSlot{os.obs.data() + o_at, os.lights.data() + l_at, static_cast<uint32_t>(l_at)};
-      o_at += p.bound;
-      l_at += p.bound * set.views[i].lights.size();
-    }
+    size_t obs_start, light_start;
+    make_room(set, b0, (n - b0 + batch - 1) / batch, &parts, &os, &obs_start, &light_start);
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
@@ -281,14 +298,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   }
   // The implausible values and the noise estimate are independent: side by side.
   tbb::parallel_invoke([&] { drop_implausible(&os, &rep); },
-                       [&] {
-                         // sigma of one pixel: the robust sigma of a - 2b + c, over sqrt(1+4+1).
-                         if (neighbour_diffs.empty()) return;
-                         for (float& v : neighbour_diffs) v = std::abs(v);
-                         const auto mid = neighbour_diffs.begin() + neighbour_diffs.size() / 2;
-                         std::nth_element(neighbour_diffs.begin(), mid, neighbour_diffs.end());
-                         os.pixel_noise = 1.4826 * *mid / std::sqrt(6.0);
-                       });
+                       [&] { os.pixel_noise = pixel_noise(&neighbour_diffs); });
   // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
   os.grey = grey_views == set.views.size();
   rep.pixels = os.obs.size();
