@@ -39,13 +39,27 @@ struct FiberPass {
   // One pixel: r_k and its rows, as fiber_reflectance (models/fiber_model.h) computes it.
   void row(const Observation& o, const double kd[3], const double ks[3], const J3& n, const J3& c,
            const J3& sn, const J3& s, ObsRow<P>* d) const {
-    J3 dcol[3] = {J3(0.0), J3(0.0), J3(0.0)}, scol[3] = {J3(0.0), J3(0.0), J3(0.0)};
-    fiber_columns(os, o, c, sn, n, s, acc, dcol, scol);
+    const LocalDir& V = o.V;
     for (int k = 0; k < 3; ++k) {
-      d->r[k] = o.base[k] - double(o.y[k]) + kd[k] * dcol[k].a + ks[k] * scol[k].a;
-      d->dkd[k] = dcol[k].a;
-      d->dks[k] = scol[k].a;
-      for (int j = 0; j < P - 6; ++j) d->shared[k][j] = kd[k] * dcol[k].v[j] + ks[k] * scol[k].v[j];
+      d->r[k] = o.base[k] - double(o.y[k]);
+      d->dkd[k] = d->dks[k] = 0;
+      for (int j = 0; j < P - 6; ++j) d->shared[k][j] = 0;
+    }
+    if (V.n < -kHorizonRounding) return;
+    const J3 b = c * V.u + sn * V.w, vb = c * V.w - sn * V.u;
+    for (uint32_t i = 0; i < o.num_lights; ++i) {
+      const ObsLight& l = os.lights[o.first_light + i];
+      if (l.L.n < -kHorizonRounding) continue;
+      J3 D, S;
+      fiber_DS(c * l.L.w - sn * l.L.u, J3(l.L.n), vb, J3(V.n), c * l.L.u + sn * l.L.w, b, n, s, acc,
+               &D, &S);
+      for (int k = 0; k < 3; ++k) {
+        const double E = l.E[k];
+        d->r[k] += E * (kd[k] * D.a + ks[k] * S.a);
+        d->dkd[k] += E * D.a;
+        d->dks[k] += E * S.a;
+        for (int j = 0; j < P - 6; ++j) d->shared[k][j] += E * (kd[k] * D.v[j] + ks[k] * S.v[j]);
+      }
     }
   }
 };

@@ -13,23 +13,18 @@
 namespace aniso::fitting {
 
 // The pixel's D and S summed over its lights with their irradiance, per channel (dcol, scol: the
-// columns that k_d and k_s multiply; added to), at psi (cos c, sin sn), exponent n and topology
-// s, as fiber_reflectance (models/fiber_model.h) has them: nothing from below the horizon. T is
-// double, or a Jet where the fused solve wants derivatives.
-template <class T>
-void fiber_columns(const ObsSet& os, const Observation& o, const T& c, const T& sn, const T& n,
-                   const T& s, const FiberAccuracy& acc, T dcol[3], T scol[3]) {
-  if (o.V.n < -kHorizonRounding) return;
-  const T b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
+// columns that k_d and k_s multiply), at psi (cos c, sin sn), exponent n and topology s.
+inline void fiber_columns(const ObsSet& os, const Observation& o, double c, double sn, double n,
+                          double s, const FiberAccuracy& acc, double dcol[3], double scol[3]) {
+  const double b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
   for (uint32_t q = 0; q < o.num_lights; ++q) {
     const ObsLight& l = os.lights[o.first_light + q];
-    if (l.L.n < -kHorizonRounding) continue;
-    T D, S;
-    fiber_DS(c * l.L.w - sn * l.L.u, T(l.L.n), vb, T(o.V.n), c * l.L.u + sn * l.L.w, b, n, s, acc,
-             &D, &S);
+    double D, S;
+    fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n, s, acc, &D,
+             &S);
     for (int ch = 0; ch < 3; ++ch) {
-      dcol[ch] += double(l.E[ch]) * D;
-      scol[ch] += double(l.E[ch]) * S;
+      dcol[ch] += l.E[ch] * D;
+      scol[ch] += l.E[ch] * S;
     }
   }
 }
