@@ -72,7 +72,8 @@ ANISO_AVX2_INLINE v4d vlog(v4d x) {
   v4d R = splat(2.0 / 23);
   for (int j = 21; j >= 3; j -= 2) R = R * z + splat(2.0 / j);
   R = R * z;
-  const v4d hi = ed * splat(6.93147180369123816490e-01), lo = ed * splat(1.90821492927058770002e-10);
+  const v4d hi = ed * splat(6.93147180369123816490e-01),
+            lo = ed * splat(1.90821492927058770002e-10);
   return hi - ((hfsq - (s * (hfsq + R) + lo)) - f);
 }
 
