@@ -142,6 +142,7 @@ jsonu::json fit_json(const std::string& path, const FitResult& r) {
                  {"bic", p.bic},
                  {"parameters", p.parameters},
                  {"jacobian_evaluations", p.jacobian_evaluations}};
+  if (!p.pass.empty()) j["report"]["pass"] = p.pass;
   if (!p.model_selection.empty()) j["report"]["model_selection"] = p.model_selection;
   if (!p.warnings.empty()) j["report"]["warnings"] = p.warnings;
   if (!r.correlation.empty())
