@@ -146,9 +146,10 @@ class FiberFit : public ModelFit {
     std::vector<Node> by_topology;
     for (double t : topo_values) by_topology.push_back(Node{t, logn0, 0, {}, {}});
     Node best = solve_nodes(&by_topology);
-    std::vector<Node> by_n = {best, Node{best.t, logn0 - 0.7, 0, {}, {}},
+    std::vector<Node> by_n = {Node{best.t, logn0 - 0.7, 0, {}, {}},
                               Node{best.t, logn0 + 0.7, 0, {}, {}}};
-    best = solve_nodes(&by_n);
+    const Node other = solve_nodes(&by_n);
+    if (other.cost < best.cost) best = other;
     const double best_t = best.t;
     topo_[0] = best_t;
     if (mode_ == TopologyMode::kTexels)

@@ -138,17 +138,24 @@ bool parse_exr_header(ByteReader* r, std::vector<RawChannel>* ch, int* compressi
   return have_channels && have_box && *compression >= 0;
 }
 
+// The header of what decode_exr_uncompressed reads: no compression, every channel 32-bit float
+// at full resolution.
+bool uncompressed_float_header(ByteReader* r, std::vector<RawChannel>* ch, int32_t box[4]) {
+  int compression = -1;
+  if (!parse_exr_header(r, ch, &compression, box) || compression != 0) return false;
+  for (const RawChannel& c : *ch)
+    if (c.type != 2 || c.xs != 1 || c.ys != 1) return false;
+  return true;
+}
+
 }  // namespace
 
 bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, int expect_w,
                              int expect_h, Image* out) {
   ByteReader r{bytes};
   std::vector<RawChannel> ch;
-  int compression = -1;
   int32_t box[4] = {0, 0, 0, 0};
-  if (!parse_exr_header(&r, &ch, &compression, box) || compression != 0) return false;
-  for (const RawChannel& c : ch)
-    if (c.type != 2 || c.xs != 1 || c.ys != 1) return false;  // FLOAT, full resolution only
+  if (!uncompressed_float_header(&r, &ch, box)) return false;
   const long long w = static_cast<long long>(box[2]) - box[0] + 1,
                   h = static_cast<long long>(box[3]) - box[1] + 1;
   check_declared_size(path, w, h, expect_w, expect_h);
@@ -196,13 +203,28 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
 
 namespace {
 
+// The file's first `n` bytes (fewer if it is shorter; empty if it cannot be read).
+std::string read_prefix(const std::string& path, size_t n) {
+  std::string out(n, '\0');
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return {};
+  out.resize(std::fread(out.data(), 1, n, f));
+  std::fclose(f);
+  return out;
+}
+
 // Uncompressed float EXRs (what synth writes by default) at memory speed; everything else, and
-// anything our reader does not follow, through OpenEXR.
+// anything our reader does not follow, through OpenEXR. The header is looked at first, so a
+// compressed file is read once (by OpenEXR), not twice.
 Image read_exr(const std::string& path, int expect_w, int expect_h) {
-  constexpr size_t kMaxDirect = size_t(1) << 30;
+  constexpr size_t kHeaderBytes = 64 << 10, kMaxDirect = size_t(1) << 30;
   std::error_code ec;
   const auto size = std::filesystem::file_size(path, ec);
-  if (!ec && size < kMaxDirect) {
+  const std::string head = !ec && size < kMaxDirect ? read_prefix(path, kHeaderBytes) : "";
+  ByteReader r{head};
+  std::vector<RawChannel> ch;
+  int32_t box[4];
+  if (!head.empty() && uncompressed_float_header(&r, &ch, box)) {
     Image img;
     if (decode_exr_uncompressed(read_text_file(path, kMaxDirect), path, expect_w, expect_h, &img))
       return img;
