@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -14,6 +15,7 @@
 #include "fit/fit.h"
 #include "io/capture.h"
 #include "io/files.h"
+#include "io/json_util.h"
 #include "io/material_io.h"
 #include "io/table.h"
 
@@ -22,7 +24,7 @@ namespace aniso::cli {
 namespace {
 
 struct FitArgs {
-  std::string in, out, truth, maps, tile, maps_solver = "lm", solver = "fused";
+  std::string in, out, truth, maps, tile, global, maps_solver = "lm", solver = "fused";
   bool mpi = false;
   FitOptions fo;
 };
@@ -35,13 +37,18 @@ void print_report(FILE* o, const FitResult& r) {
       "%zu non-finite, %zu unlit, %zu implausible\n",
       p.observations, p.pixels, p.views, p.masked_out, p.saturated, p.nonfinite, p.unlit,
       p.implausible);
-  std::fprintf(o, "fit: start %s\n", p.start.c_str());
-  std::fprintf(
-      o,
-      "fit: %d iterations (%s), %s, loss %s, residual RMS %.3g, time %.3f s (load %.3f, start "
-      "%.3f, solve %.3f, covariance %.3f by %s)\n",
-      p.iterations, p.solver.c_str(), p.termination.c_str(), p.loss.c_str(), p.rms, p.seconds,
-      p.seconds_load, p.seconds_start, p.seconds_solve, p.seconds_covariance, p.covariance.c_str());
+  if (!p.start.empty()) std::fprintf(o, "fit: start %s\n", p.start.c_str());
+  if (!p.global_from.empty())
+    std::fprintf(o, "fit: global fit from %s (--global: not fitted here); load %.3f s\n",
+                 p.global_from.c_str(), p.seconds_load);
+  else
+    std::fprintf(
+        o,
+        "fit: %d iterations (%s), %s, loss %s, residual RMS %.3g, time %.3f s (load %.3f, start "
+        "%.3f, solve %.3f, covariance %.3f by %s)\n",
+        p.iterations, p.solver.c_str(), p.termination.c_str(), p.loss.c_str(), p.rms, p.seconds,
+        p.seconds_load, p.seconds_start, p.seconds_solve, p.seconds_covariance,
+        p.covariance.c_str());
   if (r.maps.w > 0) {
     size_t det = 0;
     std::vector<double> sp;
@@ -78,6 +85,30 @@ void parse_tile(const std::string& tile, FitOptions* fo) {
   }
   if (fo->tile_count < 1 || fo->tile_index < 0 || fo->tile_index >= fo->tile_count)
     throw Error("fit: --tile i/N needs 0 <= i < N, got '" + tile + "'");
+}
+
+// --global FILE: the material and the sigmas its fit recorded ("uncertainty": a number or an
+// array per key; null where undetermined).
+void read_global(const std::string& path, FitOptions* fo) {
+  fo->global = read_material(path);
+  fo->has_global = true;
+  fo->global_file = path;
+  const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
+  if (j.contains("report") && j["report"].is_object() && j["report"].contains("fiber_order") &&
+      j["report"]["fiber_order"].is_number_integer()) {
+    const int order = j["report"]["fiber_order"];
+    if (order >= 1 && order <= 16) fo->global_fiber_order = order;
+  }
+  if (!j.contains("uncertainty") || !j["uncertainty"].is_object()) return;
+  for (const auto& [key, v] : j["uncertainty"].items()) {
+    std::vector<double> s;
+    if (v.is_number()) s.push_back(v.get<double>());
+    if (v.is_array())
+      for (const auto& x : v)
+        if (x.is_number()) s.push_back(x.get<double>());
+    if (!s.empty() && std::all_of(s.begin(), s.end(), [](double x) { return std::isfinite(x); }))
+      fo->global_sigma[key] = s;
+  }
 }
 
 bool g_mpi_rank = false;  // run_fit is one rank's tile of `fit --mpi`: no "then merge" hint
@@ -186,6 +217,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
     for (const auto& f : capture_input_files(set)) inputs.push_back(f);
     if (truth.empty() && !set.truth.empty()) truth = join_path(set.dir, set.truth);
   }
+  if (fo.has_global) inputs.push_back(fo.global_file);
   Material truth_m;
   if (!truth.empty()) {
     truth_m = read_material(truth);
@@ -208,9 +240,11 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   if (fo.tile_count > 0) {
     write_maps_tile(out, r, fo);
     std::fprintf(o,
-                 "fit: tile %d/%d: texel rows %d..%d of %dx%d, %zu texels solved in %.3f s -> %s\n",
+                 "fit: tile %d/%d: texel rows %d..%d of %dx%d, %zu texels solved in %.3f s, from "
+                 "%zu pixels (%zu in other tiles' rows left out; load %.3f s) -> %s\n",
                  fo.tile_index, fo.tile_count, r.maps.row0, r.maps.row1 - 1, r.maps.w, r.maps.h,
-                 r.maps.fitted, r.maps.seconds, out.c_str());
+                 r.maps.fitted, r.maps.seconds, r.report.pixels, r.report.outside_tile,
+                 r.report.seconds_load, out.c_str());
     if (!g_mpi_rank) std::fprintf(o, "fit: then: aniso merge TILE.json... --out material.json\n");
     return 0;
   }
@@ -246,6 +280,12 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
                   "of the sweep before; a pull reaches this many texels)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000));
+  fit->add_option("--global", a->global,
+                  "--maps: take the global fit (every texel's start, and the values of texels the "
+                  "data do not determine) from this material, an earlier `aniso fit` of the same "
+                  "capture (a --subsample of it will do), instead of fitting it; with --tile the "
+                  "tile then keeps only the pixels whose uv falls in its rows: its memory is its "
+                  "share of the sample");
   fit->add_flag("--mpi", a->mpi,
                 "with --maps, under mpirun: every rank fits one tile of the texels (rank i of N "
                 "is tile i/N) and rank 0 merges them into --out (the same files as one run). "
@@ -314,11 +354,16 @@ Command add_fit(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
   add_maps_options(fit, a.get());
-  return {fit, [a] {
+  return {fit, [a, fit] {
             if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
             a->fo.maps_ceres = a->maps_solver == "ceres";
             a->fo.ceres_solver = a->solver == "ceres";
             if (!a->tile.empty()) parse_tile(a->tile, &a->fo);
+            if (!a->global.empty()) {
+              read_global(a->global, &a->fo);
+              if (fit->get_option("--model")->count() == 0)
+                a->fo.model = a->fo.global.fiber() ? FitModel::kFiber : FitModel::kLine;
+            }
             if (a->mpi) return run_fit_mpi(*a);
             return run_fit(a->in, a->fo, a->out, a->truth);
           }};

@@ -52,6 +52,42 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
                 std::to_string(m.parameters()) + " parameters");
 }
 
+// --maps after the global fit `global` (the fiber model's quadrature order and s with it); the
+// misfit warning and the count of undetermined texels go to the report.
+void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global, int fiber_order,
+                    double s, FitReport* rep, FitResult* res) {
+  TexelMapOptions to;
+  to.w = opt.maps_w, to.h = opt.maps_h, to.rows = tile_rows(opt);
+  to.ceres = opt.maps_ceres;
+  to.smooth = opt.maps_smooth;
+  to.sweeps = opt.maps_sweeps;
+  to.progress = opt.progress;
+  to.fiber_order = fiber_order;
+  to.s = s;
+  res->maps = fit_texel_maps(os, global, to);
+  // The misfit check judged the one global parameter set; say what the maps leave.
+  for (auto& w : rep->warnings)
+    if (w.rfind("the model does not describe the data", 0) == 0) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "one parameter set for the whole sample does not describe the data (residual "
+                    "RMS %.3g); with the maps the residual RMS is %.3g (noise of the images %.3g)",
+                    rep->rms, res->maps.rms, os.pixel_noise);
+      w = buf;
+      if (res->maps.rms > 2 * os.pixel_noise && os.pixel_noise > 0)
+        w += ": the maps do not describe the data either (try more texels, or check the set)";
+    }
+  size_t determined = 0;
+  for (uint8_t d : res->maps.determined) determined += d;
+  if (determined < res->maps.determined.size())
+    rep->warnings.push_back(
+        "--maps: " + std::to_string(res->maps.determined.size() - determined) + " of " +
+        std::to_string(res->maps.determined.size()) +
+        " texels are not determined by the data (too few pixels, or psi's sigma over 10 deg): "
+        "they hold the global values with the prior's spread as sigma (maps_uncertainty."
+        "determined = 0)");
+}
+
 FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, FitReport rep,
                         const RGB& ka) {
   std::unique_ptr<ModelFit> m =
@@ -75,45 +111,42 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   estimate_uncertainty(m.get(), os, opt, &sol, &res);
   rep.covariance = res.report.covariance;
   rep.seconds_covariance = seconds_since(t_cov);
-  if (opt.maps_w > 0) {
-    int row0 = 0, row1 = opt.maps_h;
-    if (opt.tile_count > 0) {
-      row0 = static_cast<int>(static_cast<long>(opt.maps_h) * opt.tile_index / opt.tile_count);
-      row1 =
-          static_cast<int>(static_cast<long>(opt.maps_h) * (opt.tile_index + 1) / opt.tile_count);
-    }
-    TexelMapOptions to;
-    to.w = opt.maps_w, to.h = opt.maps_h, to.row0 = row0, to.row1 = row1;
-    to.ceres = opt.maps_ceres;
-    to.smooth = opt.maps_smooth;
-    to.sweeps = opt.maps_sweeps;
-    to.progress = opt.progress;
-    to.fiber_order = m->quadrature_order();
-    to.s = m->topology_value();
-    res.maps = fit_texel_maps(os, m->core, to);
-    // The misfit check judged the one global parameter set; say what the maps leave.
-    for (auto& w : rep.warnings)
-      if (w.rfind("the model does not describe the data", 0) == 0) {
-        char buf[200];
-        std::snprintf(
-            buf, sizeof buf,
-            "one parameter set for the whole sample does not describe the data (residual "
-            "RMS %.3g); with the maps the residual RMS is %.3g (noise of the images %.3g)",
-            rep.rms, res.maps.rms, os.pixel_noise);
-        w = buf;
-        if (res.maps.rms > 2 * os.pixel_noise && os.pixel_noise > 0)
-          w += ": the maps do not describe the data either (try more texels, or check the set)";
-      }
-    size_t determined = 0;
-    for (uint8_t d : res.maps.determined) determined += d;
-    if (determined < res.maps.determined.size())
-      rep.warnings.push_back(
-          "--maps: " + std::to_string(res.maps.determined.size() - determined) + " of " +
-          std::to_string(res.maps.determined.size()) +
-          " texels are not determined by the data (too few pixels, or psi's sigma over 10 deg): "
-          "they hold the global values with the prior's spread as sigma (maps_uncertainty."
-          "determined = 0)");
+  rep.fiber_order = m->quadrature_order();
+  if (opt.maps_w > 0)
+    add_texel_maps(os, opt, m->core, rep.fiber_order, m->topology_value(), &rep, &res);
+  rep.seconds += seconds_since(t0);
+  res.report = rep;
+  return res;
+}
+
+// --global: the global fit read from an earlier run's material; only the maps are fitted here
+// (the fiber model's quadrature order: --fiber-order, else the one that fit chose from the whole
+// set's noise, else 8: it is not chosen again from a tile's share of the data).
+FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& opt,
+                               FitReport rep) {
+  std::unique_ptr<ModelFit> m =
+      model == Model::kFiber ? make_fiber_fit(opt, os) : make_line_fit(opt);
+  check_fit_request(os, opt, *m);
+  const auto t0 = Clock::now();
+  FitResult res;
+  res.material = opt.global;
+  res.material.maps = MaterialMaps{};
+  const Material& g = res.material;
+  Core c;
+  for (int k = 0; k < 3; ++k) c.kd[k] = g.kd[k], c.ks[k] = g.ks[k];
+  c.logn = std::log(g.n);
+  c.psi = deg_to_rad(g.fiber_angle_deg);
+  res.sigma = opt.global_sigma;
+  res.fixed["global_fit"] = "from " + opt.global_file + " (--global), not fitted here";
+  rep.global_from = opt.global_file;
+  rep.solver = "none";
+  if (model == Model::kFiber) {
+    rep.fiber_order = opt.fiber_order > 0 ? opt.fiber_order : opt.global_fiber_order;
+    std::string why = opt.fiber_order > 0 ? "as given" : "the global fit's";
+    if (rep.fiber_order <= 0) rep.fiber_order = 8, why = "the default: --fiber-order sets it";
+    rep.start = "texels: quadrature order " + std::to_string(rep.fiber_order) + " (" + why + ")";
   }
+  add_texel_maps(os, opt, c, rep.fiber_order, g.uniform_s(), &rep, &res);
   rep.seconds += seconds_since(t0);
   res.report = rep;
   return res;
@@ -134,6 +167,21 @@ void quiet_library_logs() {
 FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& rep,
                       const RGB& ka) {
   quiet_library_logs();
+  if (opt.has_global) {
+    const Model given = opt.global.model;
+    if (opt.maps_w == 0)
+      throw Error("fit: --global hands a --maps fit its global fit: give --maps WxH");
+    if (opt.model == FitModel::kAuto || (opt.model == FitModel::kFiber) != (given == Model::kFiber))
+      throw Error("fit: --global " + opt.global_file + " is a " + model_name(given) +
+                  " model fit: --maps fits the same model (give --model " + model_name(given) +
+                  ", or leave --model out)");
+    if (opt.global.isotropic_active() || opt.global.second_active() ||
+        opt.global.topology_as<TopologyMapRef>())
+      throw Error("fit: --global " + opt.global_file +
+                  ": it has an isotropic term, a second fiber or a topology map; --maps fits the "
+                  "plain line model or the fiber model with one s");
+    return maps_on_given_global(given, os, opt, rep);
+  }
   if (opt.model != FitModel::kAuto)
     return fit_one_model(opt.model == FitModel::kFiber ? Model::kFiber : Model::kLine, os, opt, rep,
                          ka);

@@ -56,6 +56,15 @@ struct FitOptions {
   // --smooth lambda / --smooth-sweeps K: couple each texel to its 4 neighbours (fit/maps.h).
   double maps_smooth = 0;
   int maps_sweeps = 10;
+  // --global MATERIAL: the global fit (every texel's start, and the values of the texels the data
+  // do not determine) taken from an earlier fit instead of fitted here. With --tile, the tile then
+  // keeps only the observations whose uv falls in its rows (and its --smooth band): a tile's
+  // memory is its share of the sample, not the whole set.
+  bool has_global = false;
+  Material global;
+  std::string global_file;
+  std::map<std::string, std::vector<double>> global_sigma;  // as its file recorded them
+  int global_fiber_order = 0;  // the quadrature order its fit chose (report.fiber_order)
 };
 
 // --maps: every texel's fit (row-major, glTF uv: texel (i, j) covers u in [i/W, (i+1)/W)). Texels
@@ -69,18 +78,21 @@ struct TexelMaps {
   std::vector<double> s, s_sigma;   // the fiber model's topology s per texel (else empty)
   std::vector<int> pixels;          // observations (pixels) per texel
   std::vector<uint8_t> determined;  // 1 = fitted and determined by its data
-  int row0 = 0, row1 = 0;           // the texel rows this result holds (a tile: a band of rows)
-  double smooth = 0;                // --smooth lambda (0: every texel alone)
-  int sweeps = 0;                   // its Jacobi sweeps
-  size_t fitted = 0;                // texels with a problem solved
-  double rms = 0;                   // residual RMS over the solved texels' observations
+  // The texel rows this result holds (a tile: a band of rows): every per-texel array above holds
+  // these rows only, from texel row0 * w on.
+  int row0 = 0, row1 = 0;
+  double smooth = 0;  // --smooth lambda (0: every texel alone)
+  int sweeps = 0;     // its Jacobi sweeps
+  size_t fitted = 0;  // texels with a problem solved
+  double rms = 0;     // residual RMS over the solved texels' observations
   double seconds = 0;
 };
 
 struct FitReport {
   size_t views = 0, pixels = 0, observations = 0;  // observations = pixels x channels
   size_t masked_out = 0, saturated = 0, nonfinite = 0, unlit = 0;
-  size_t implausible = 0;  // values above 1e4 x the 90th percentile: left out
+  size_t implausible = 0;   // values above 1e4 x the 90th percentile: left out
+  size_t outside_tile = 0;  // --global with --tile: pixels whose uv falls in another tile's rows
   int iterations = 0;
   double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0,
          seconds_covariance = 0;
@@ -93,7 +105,9 @@ struct FitReport {
   // two agree to ~1e-6 sigma, so a fit is reproduced exactly on a machine with the same pass.
   std::string pass;
   size_t residual_evaluations = 0, jacobian_evaluations = 0;
-  std::string start;  // the grid node the solve started from
+  std::string start;        // the grid node the solve started from
+  std::string global_from;  // --global: the material the global fit was taken from
+  int fiber_order = 0;      // the fiber model's quadrature order (0: the line model)
   double rss = 0, bic = 0;
   size_t parameters = 0;
   std::string model_selection;  // --model auto: the comparison and why

@@ -283,19 +283,24 @@ void put_texel(const TexelResult& res, size_t t, const Core& global, double s, T
   }
 }
 
-// The prior of texel t for the next sweep: its 4 neighbours' values of this sweep (those the data
+// The rows of the grid a tile holds: entry b is texel (b % w, row0 + b / w).
+struct BandGrid {
+  int w, row0, row1;
+};
+
+// The prior of entry b for the next sweep: its 4 neighbours' values of this sweep (those the data
 // determined), weights lambda x neighbours / (H^-1)_kk from the texel's first, unpulled fit.
 bool smoothing_prior(const std::vector<TexelResult>& now, const std::vector<TexelResult>& first,
-                     int w, int h, size_t t, double lambda, TexelPrior* p) {
-  const int x = static_cast<int>(t % w), y = static_cast<int>(t / w);
-  const Vec8 self = pack_core(now[t].c);
+                     const BandGrid& g, size_t b, double lambda, TexelPrior* p) {
+  const int x = static_cast<int>(b % g.w), y = g.row0 + static_cast<int>(b / g.w);
+  const Vec8 self = pack_core(now[b].c);
   Vec8 sum = Vec8::Zero();
   int count = 0;
   const int dx[4] = {-1, 1, 0, 0}, dy[4] = {0, 0, -1, 1};
   for (int k = 0; k < 4; ++k) {
     const int nx = x + dx[k], ny = y + dy[k];
-    if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
-    const TexelResult& nb = now[static_cast<size_t>(ny) * w + nx];
+    if (nx < 0 || ny < g.row0 || nx >= g.w || ny >= g.row1) continue;
+    const TexelResult& nb = now[static_cast<size_t>(ny - g.row0) * g.w + nx];
     if (!nb.determined) continue;
     Vec8 v = pack_core(nb.c);
     v(7) = self(7) + std::remainder(v(7) - self(7), M_PI);
@@ -304,10 +309,38 @@ bool smoothing_prior(const std::vector<TexelResult>& now, const std::vector<Texe
   }
   if (count == 0) return false;
   p->b = sum / count;
-  const double s2 = first[t].rss / std::max(first[t].values - 8, 1.0);
+  const double s2 = first[b].rss / std::max(first[b].values - 8, 1.0);
   for (int k = 0; k < 8; ++k)
-    p->w(k) = lambda * count * s2 / std::max(first[t].sigma[k] * first[t].sigma[k], 1e-300);
+    p->w(k) = lambda * count * s2 / std::max(first[b].sigma[k] * first[b].sigma[k], 1e-300);
   return true;
+}
+
+}  // namespace
+
+TileRows tile_rows(const FitOptions& opt) {
+  TileRows r{0, opt.maps_h, 0, opt.maps_h};
+  if (opt.tile_count > 0) {
+    const long h = opt.maps_h;
+    r.row0 = static_cast<int>(h * opt.tile_index / opt.tile_count);
+    r.row1 = static_cast<int>(h * (opt.tile_index + 1) / opt.tile_count);
+  }
+  // Smoothing: a tile also fits `sweeps` rows beyond its band; after that many sweeps the error
+  // of the missing rows beyond has moved in by as many rows and stops short of the band.
+  const int reach = opt.maps_smooth > 0 ? opt.maps_sweeps : 0;
+  r.band0 = std::max(0, r.row0 - reach);
+  r.band1 = std::min(opt.maps_h, r.row1 + reach);
+  return r;
+}
+
+namespace {
+
+// The result's arrays for rows [row0, row1) of the grid.
+void size_maps(size_t texels, bool fit_s, TexelMaps* m) {
+  for (auto* v : {&m->kd, &m->ks, &m->kd_sigma, &m->ks_sigma}) v->assign(3 * texels, 0);
+  for (auto* v : {&m->n, &m->psi_deg, &m->n_sigma, &m->psi_sigma_deg}) v->assign(texels, 0);
+  if (fit_s) m->s.assign(texels, 0), m->s_sigma.assign(texels, 0);
+  m->pixels.assign(texels, 0);
+  m->determined.assign(texels, 0);
 }
 
 }  // namespace
@@ -318,69 +351,56 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   TexelMaps m;
   m.w = w;
   m.h = h;
-  m.row0 = o.row0;
-  m.row1 = o.row1;
+  m.row0 = o.rows.row0;
+  m.row1 = o.rows.row1;
   const bool smooth = o.smooth > 0;
   m.smooth = smooth ? o.smooth : 0;
   m.sweeps = smooth ? o.sweeps : 0;
-  const size_t N = static_cast<size_t>(w) * h;
-  std::vector<std::vector<size_t>> bins(N);
-  for (size_t i = 0; i < os.obs.size(); ++i) {
-    const double u = os.obs[i].u, v = os.obs[i].v;
-    if (!(u >= 0 && u < 1 && v >= 0 && v < 1)) continue;
-    bins[static_cast<size_t>(v * h) * w + static_cast<size_t>(u * w)].push_back(i);
-  }
-  // Smoothing: a tile also fits `sweeps` rows beyond its band; after that many sweeps the error
-  // of the missing rows beyond has moved in by as many rows and stops short of the band.
-  const int band0 = smooth ? std::max(0, o.row0 - o.sweeps) : o.row0;
-  const int band1 = smooth ? std::min(h, o.row1 + o.sweeps) : o.row1;
+  // Only the rows fitted are held: texel t of the grid is entry t - t_begin below.
+  const int band0 = o.rows.band0, band1 = o.rows.band1;
   const size_t t_begin = static_cast<size_t>(band0) * w, t_end = static_cast<size_t>(band1) * w;
-  Progress bar("fit --maps: texels", (t_end - t_begin) * (1 + m.sweeps), o.progress);
-  auto solve = [&](size_t t, const Core& from, const TexelPrior* prior) {
-    if (o.fiber_order > 0) return solve_texel_fiber(os, bins[t], from, o);
-    return o.ceres ? solve_texel_ceres(os, bins[t], from, prior)
-                   : solve_texel_lm(os, bins[t], from, prior);
+  const size_t B = t_end - t_begin;
+  std::vector<std::vector<size_t>> bins(B);
+  for (size_t i = 0; i < os.obs.size(); ++i) {
+    const long t = texel_of(os.obs[i].u, os.obs[i].v, w, h);
+    if (t >= static_cast<long>(t_begin) && t < static_cast<long>(t_end))
+      bins[t - t_begin].push_back(i);
+  }
+  Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
+  auto solve = [&](size_t b, const Core& from, const TexelPrior* prior) {
+    if (o.fiber_order > 0) return solve_texel_fiber(os, bins[b], from, o);
+    return o.ceres ? solve_texel_ceres(os, bins[b], from, prior)
+                   : solve_texel_lm(os, bins[b], from, prior);
   };
-  const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
-  std::vector<TexelResult> first(N);  // every texel alone
+  std::vector<TexelResult> first(B);  // every texel alone
   for (auto& r : first) r.c = global;
-  tbb::parallel_for(tbb::blocked_range<size_t>(t_begin, t_end, 4),
-                    [&](const tbb::blocked_range<size_t>& r) {
-                      for (size_t t = r.begin(); t < r.end(); ++t, bar.advance())
-                        if (bins[t].size() >= kMinTexelPixels) first[t] = solve(t, global, nullptr);
-                    });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, B, 4), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b < r.end(); ++b, bar.advance())
+      if (bins[b].size() >= kMinTexelPixels) first[b] = solve(b, global, nullptr);
+  });
   std::vector<TexelResult> now = first;
+  const BandGrid grid{w, band0, band1};
   for (int sweep = 0; sweep < m.sweeps; ++sweep) {
     std::vector<TexelResult> next = now;
     tbb::parallel_for(
-        tbb::blocked_range<size_t>(t_begin, t_end, 4), [&](const tbb::blocked_range<size_t>& r) {
-          for (size_t t = r.begin(); t < r.end(); ++t, bar.advance()) {
+        tbb::blocked_range<size_t>(0, B, 4), [&](const tbb::blocked_range<size_t>& r) {
+          for (size_t b = r.begin(); b < r.end(); ++b, bar.advance()) {
             TexelPrior prior;
-            if (first[t].determined && smoothing_prior(now, first, w, h, t, o.smooth, &prior))
-              next[t] = solve(t, now[t].c, &prior);
+            if (first[b].determined && smoothing_prior(now, first, grid, b, o.smooth, &prior))
+              next[b] = solve(b, now[b].c, &prior);
           }
         });
     now.swap(next);
   }
-  m.kd.assign(3 * N, 0);
-  m.ks.assign(3 * N, 0);
-  m.kd_sigma.assign(3 * N, 0);
-  m.ks_sigma.assign(3 * N, 0);
-  m.n.assign(N, 0);
-  m.psi_deg.assign(N, 0);
-  m.n_sigma.assign(N, 0);
-  m.psi_sigma_deg.assign(N, 0);
-  m.pixels.assign(N, 0);
-  m.determined.assign(N, 0);
-  if (fit_s) m.s.assign(N, 0), m.s_sigma.assign(N, 0);
+  const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
+  const size_t a = static_cast<size_t>(m.row0) * w - t_begin;
+  size_maps(static_cast<size_t>(m.row1 - m.row0) * w, fit_s, &m);
   double sr = 0, sv = 0;
-  for (size_t t = 0; t < N; ++t) {
-    m.pixels[t] = static_cast<int>(bins[t].size());
-    const int row = static_cast<int>(t / w);
-    if (row < o.row0 || row >= o.row1) continue;  // another tile's
-    const TexelResult& res = now[t];
-    if (bins[t].size() >= kMinTexelPixels) ++m.fitted, sr += res.rss, sv += res.values;
-    put_texel(res, t, global, o.s, &m);
+  for (size_t t = 0; t < m.pixels.size(); ++t) {
+    const size_t b = a + t;
+    m.pixels[t] = static_cast<int>(bins[b].size());
+    if (bins[b].size() >= kMinTexelPixels) ++m.fitted, sr += now[b].rss, sv += now[b].values;
+    put_texel(now[b], t, global, o.s, &m);
   }
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -4,9 +4,24 @@
 
 namespace aniso::fitting {
 
+// The texel of (u, v) on a w x h grid (row-major; texel (i, j) covers u in [i/w, (i+1)/w)), or -1
+// where uv lies outside [0, 1)^2. The one rule that bins observations and bands tiles.
+inline long texel_of(double u, double v, int w, int h) {
+  if (!(u >= 0 && u < 1 && v >= 0 && v < 1)) return -1;
+  return static_cast<long>(v * h) * w + static_cast<long>(u * w);
+}
+
+// The texel rows of --tile i/N: [row0, row1) are the tile's, [band0, band1) are fitted (with
+// --smooth, `sweeps` rows beyond its own on either side: a pull reaches that far).
+struct TileRows {
+  int row0 = 0, row1 = 0, band0 = 0, band1 = 0;
+};
+TileRows tile_rows(const FitOptions& opt);
+
 struct TexelMapOptions {
-  int w = 0, h = 0, row0 = 0, row1 = 0;  // the grid, and the rows to fit (all: 0, h)
-  bool ceres = false;                    // every texel by Ceres (the reference) instead of LM
+  int w = 0, h = 0;    // the grid
+  TileRows rows;       // the rows to fit and to hold (tile_rows)
+  bool ceres = false;  // every texel by Ceres (the reference) instead of LM
   // --smooth: each texel's parameters pulled toward its 4 neighbours' with weight lambda (in units
   // of the texel's own data: 1 = a neighbour one sigma away costs as much as moving one sigma off
   // the texel's best fit), by `sweeps` Jacobi sweeps (a texel sees its neighbours' values of the
@@ -21,8 +36,8 @@ struct TexelMapOptions {
   double s = 0;
 };
 
-// Fits texel rows [row0, row1) of a w x h grid, each texel by a hand-written
-// Levenberg-Marquardt, or by Ceres (the reference).
+// Fits texel rows [rows.band0, rows.band1) of a w x h grid and returns rows [row0, row1), each
+// texel by a hand-written Levenberg-Marquardt, or by Ceres (the reference).
 TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOptions& o);
 
 }  // namespace aniso::fitting

@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/frame.h"
 #include "core/progress.h"
+#include "fit/maps.h"
 #include "io/files.h"
 #include "io/json_util.h"
 #include "io/material_io.h"
@@ -30,21 +31,49 @@ struct RecordSlot {
   size_t num_obs = 0, num_lights = 0;  // written
 };
 
-// The usable pixels on the stride grid: the most records a view can give.
-size_t usable_on_grid(const ViewData& d, int stride) {
+// --global with --tile: the texels [t0, t1) of a w x h grid whose observations the tile keeps
+// (its rows and its --smooth band); every pixel where the band is off.
+struct UvBand {
+  bool on = false;
+  int w = 0, h = 0;
+  long t0 = 0, t1 = 0;
+  bool keeps(const ViewData& d, int x, int y) const {
+    if (!on) return true;
+    const long t = texel_of(d.uv.at(x, y, 0), d.uv.at(x, y, 1), w, h);
+    return t >= t0 && t < t1;
+  }
+};
+
+UvBand uv_band(const FitOptions& opt) {
+  UvBand b;
+  if (!opt.has_global || opt.tile_count == 0 || opt.maps_w == 0) return b;
+  const TileRows r = tile_rows(opt);
+  b.on = true;
+  b.w = opt.maps_w, b.h = opt.maps_h;
+  b.t0 = static_cast<long>(r.band0) * b.w, b.t1 = static_cast<long>(r.band1) * b.w;
+  return b;
+}
+
+// The usable pixels on the stride grid (in the tile's band): the most records a view can give.
+size_t usable_on_grid(const ViewData& d, int stride, const UvBand& band) {
   size_t n = 0;
   for (int y = 0; y < d.rgb.height; y += stride)
     for (int x = 0; x < d.rgb.width; x += stride)
-      n += d.use[static_cast<size_t>(y) * d.rgb.width + x];
+      n += d.use[static_cast<size_t>(y) * d.rgb.width + x] && band.keeps(d, x, y);
   return n;
 }
 
 void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureSet& set,
-                            const Material& known, int stride, RecordSlot* out, FitReport* rep) {
+                            const Material& known, int stride, const UvBand& band, RecordSlot* out,
+                            FitReport* rep) {
   const int w = d.rgb.width, h = d.rgb.height;
   for (int y = 0; y < h; y += stride)
     for (int x = 0; x < w; x += stride) {
       if (!d.use[static_cast<size_t>(y) * w + x]) continue;
+      if (!band.keeps(d, x, y)) {
+        ++rep->outside_tile;
+        continue;
+      }
       SurfacePoint sp;
       if (!frame_at(d.P, d.N, d.U, x, y, &sp)) {
         ++rep->nonfinite;
@@ -202,6 +231,7 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
     rep->saturated += p.rep.saturated;
     rep->nonfinite += p.rep.nonfinite;
     rep->unlit += p.rep.unlit;
+    rep->outside_tile += p.rep.outside_tile;
     p = ViewPart{};
   }
   os->obs.resize(o_end);
@@ -268,6 +298,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   std::vector<GeometryCache> geometry(batch);  // one per slot of a batch
   tbb::task_arena arena(std::max(1, opt.threads));
   const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &map : nullptr;
+  const UvBand band = uv_band(opt);
   for (size_t b0 = 0; b0 < n; b0 += batch) {
     const size_t b1 = std::min(n, b0 + batch);
     std::vector<ViewPart> parts(b1 - b0);
@@ -280,7 +311,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
         p.rep.masked_out = static_cast<size_t>(p.d.rgb.width) * p.d.rgb.height - p.d.mask_pixels;
         p.rep.saturated = p.d.saturated;
         p.rep.nonfinite = p.d.nonfinite;
-        p.bound = usable_on_grid(p.d, opt.subsample);
+        p.bound = usable_on_grid(p.d, opt.subsample, band);
       });
     });
     size_t obs_start, light_start;
@@ -288,7 +319,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
-        add_pixel_observations(p.d, set.views[i], set, known, opt.subsample, &p.slot, &p.rep);
+        add_pixel_observations(p.d, set.views[i], set, known, opt.subsample, band, &p.slot, &p.rep);
         give_back_geometry(&p.d, &geometry[i - b0]);
         p.d = ViewData{};
         bar.advance();

@@ -143,6 +143,9 @@ jsonu::json fit_json(const std::string& path, const FitResult& r) {
                  {"parameters", p.parameters},
                  {"jacobian_evaluations", p.jacobian_evaluations}};
   if (!p.pass.empty()) j["report"]["pass"] = p.pass;
+  if (!p.global_from.empty()) j["report"]["global_from"] = p.global_from;
+  if (p.fiber_order > 0) j["report"]["fiber_order"] = p.fiber_order;
+  if (p.outside_tile > 0) j["report"]["skipped"]["outside_tile"] = p.outside_tile;
   if (!p.model_selection.empty()) j["report"]["model_selection"] = p.model_selection;
   if (!p.warnings.empty()) j["report"]["warnings"] = p.warnings;
   if (!r.correlation.empty())
@@ -172,7 +175,7 @@ void write_fit(const std::string& path, const FitResult& r) {
 
 namespace {
 
-// The per-texel arrays of a TexelMaps, rows [row0, row1) of each (per-texel count `k`).
+// The per-texel arrays of a TexelMaps (per-texel count `k`).
 struct TexelArray {
   const char* key;
   int k;
@@ -192,16 +195,12 @@ const TexelArray kTexelArrays[] = {{"kd", 3, &TexelMaps::kd},
 }  // namespace
 
 void write_maps_tile(const std::string& path, const FitResult& r, const FitOptions& opt) {
-  const TexelMaps& t = r.maps;
-  const size_t a = static_cast<size_t>(t.row0) * t.w, b = static_cast<size_t>(t.row1) * t.w;
+  const TexelMaps& t = r.maps;  // its arrays hold the tile's rows
   jsonu::json values = jsonu::json::object();
-  for (const auto& arr : kTexelArrays) {
-    const std::vector<double>& v = t.*arr.d;
-    if (!v.empty())
-      values[arr.key] = std::vector<double>(v.begin() + arr.k * a, v.begin() + arr.k * b);
-  }
-  values["pixels"] = std::vector<int>(t.pixels.begin() + a, t.pixels.begin() + b);
-  values["determined"] = std::vector<int>(t.determined.begin() + a, t.determined.begin() + b);
+  for (const auto& arr : kTexelArrays)
+    if (!(t.*arr.d).empty()) values[arr.key] = t.*arr.d;
+  values["pixels"] = t.pixels;
+  values["determined"] = std::vector<int>(t.determined.begin(), t.determined.end());
   const jsonu::json j = {{"format", "aniso-maps-tile"},
                          {"version", 1},
                          {"tile", {opt.tile_index, opt.tile_count}},

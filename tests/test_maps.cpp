@@ -247,7 +247,7 @@ namespace aniso {
 namespace {
 
 // --tile i/N and `aniso merge`: three tiles joined give the untiled run's map files byte for byte;
-// a missing or foreign tile is refused.
+// a missing or foreign tile is refused. (The Slurm script: FitMaps.TilesGivenTheGlobalFit...)
 TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   const std::string dir = test::tmp_dir("tiles");
   auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
@@ -272,12 +272,6 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   }
   const Material m = read_material(dir + "/merged.json");
   EXPECT_TRUE(m.maps.fiber && m.maps.kd);
-  // The Slurm job-array script, run here task after task, gives the same maps.
-  r = test::sh("ANISO=\"$A\" " + std::string(ANISO_SOURCE_DIR) + "/scripts/slurm_maps.sh local " +
-               dir + "/set 8x6 3 " + dir + "/slurm");
-  ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_TRUE(read_text_file(dir + "/slurm/material_fiber.exr") ==
-              read_text_file(dir + "/whole_fiber.exr"));
   r = test::run_cli("merge " + dir + "/t0.json " + dir + "/t2.json --out " + dir + "/bad.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("tile 1 of 3 is missing"), std::string::npos) << r.output;
@@ -288,6 +282,93 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   r = test::run_cli("fit " + dir + "/set --tile 0/2 --out " + dir + "/x.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("--maps"), std::string::npos) << r.output;
+}
+
+// --global with --tile: the global fit comes from an earlier run (here on a subsample) and each
+// tile keeps only the pixels whose uv falls in its rows and its --smooth band: its records are its
+// share of the sample, and the merge still equals an untiled run with that global fit, byte for
+// byte. --global without --maps, or of the other model, is refused.
+TEST(FitMaps, TilesGivenTheGlobalFitKeepOnlyTheirRows) {
+  const std::string dir = test::tmp_dir("global");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --subsample 2 --out " + dir + "/global.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string maps = " --maps 8x6 --global " + dir + "/global.json";
+  r = test::run_cli("fit " + dir + "/set" + maps + " --smooth 1 --smooth-sweeps 1 --out " + dir +
+                    "/whole.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("global fit from"), std::string::npos) << r.output;
+  auto report = [](const std::string& f, bool tile) {
+    const auto j = nlohmann::json::parse(read_text_file(f));
+    return tile ? j["fit"]["report"] : j["report"];
+  };
+  const size_t total = report(dir + "/whole.json", false)["pixels"];
+  std::string tiles;
+  for (int i = 0; i < 3; ++i) {
+    const std::string t = dir + "/t" + std::to_string(i) + ".json";
+    r = test::run_cli("fit " + dir + "/set" + maps + " --smooth 1 --smooth-sweeps 1 --tile " +
+                      std::to_string(i) + "/3 --out " + t);
+    ASSERT_EQ(r.status, 0) << r.output;
+    const auto rep = report(t, true);
+    const size_t kept = rep["pixels"], outside = rep["skipped"]["outside_tile"];
+    std::printf("tile %d/3 (with its smoothing band): %zu of %zu pixels\n", i, kept, total);
+    EXPECT_LT(kept, total * 3 / 4);
+    EXPECT_EQ(kept + outside, total);
+    tiles += " " + t;
+  }
+  r = test::run_cli("merge" + tiles + " --out " + dir + "/merged.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* k :
+       {"kd", "ks", "n", "fiber", "kd_sigma", "fiber_sigma", "coverage", "determined"})
+    EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
+                read_text_file(dir + "/merged_" + k + ".exr"))
+        << k << ": the merged map differs from the untiled one";
+  EXPECT_EQ(read_material(dir + "/merged.json").kd, read_material(dir + "/global.json").kd);
+  // The Slurm script (a global fit, a job array of tiles from it, a merge), run here job after
+  // job, gives the same maps.
+  r = test::sh("ANISO=\"$A\" GLOBAL_SUBSAMPLE=2 FIT_OPTIONS='--smooth 1 --smooth-sweeps 1' " +
+               std::string(ANISO_SOURCE_DIR) + "/scripts/slurm_maps.sh local " + dir +
+               "/set 8x6 3 " + dir + "/slurm");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(read_text_file(dir + "/slurm/material_fiber.exr") ==
+              read_text_file(dir + "/whole_fiber.exr"));
+  // Without smoothing the tiles' rows do not overlap: their pixels add up to the whole set's.
+  size_t sum = 0;
+  for (int i = 0; i < 2; ++i) {
+    const std::string t = dir + "/p" + std::to_string(i) + ".json";
+    r = test::run_cli("fit " + dir + "/set" + maps + " --tile " + std::to_string(i) + "/2 --out " +
+                      t);
+    ASSERT_EQ(r.status, 0) << r.output;
+    sum += report(t, true)["pixels"].get<size_t>();
+  }
+  EXPECT_EQ(sum, total);
+  // The fiber model: its tiles take the global fit's s and quadrature order, and merge alike.
+  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 4 --out " + dir + "/gf.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string fmaps = " --maps 2x2 --subsample 2 --global " + dir + "/gf.json";
+  r = test::run_cli("fit " + dir + "/set" + fmaps + " --out " + dir + "/fw.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("(the global fit's)"), std::string::npos) << r.output;
+  for (int i = 0; i < 2; ++i) {
+    r = test::run_cli("fit " + dir + "/set" + fmaps + " --tile " + std::to_string(i) + "/2 --out " +
+                      dir + "/f" + std::to_string(i) + ".json");
+    ASSERT_EQ(r.status, 0) << r.output;
+  }
+  r = test::run_cli("merge " + dir + "/f0.json " + dir + "/f1.json --out " + dir + "/fm.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* k : {"fiber", "s", "s_sigma"})
+    EXPECT_TRUE(read_text_file(dir + "/fw_" + k + ".exr") ==
+                read_text_file(dir + "/fm_" + k + ".exr"))
+        << k << ": the merged fiber-model map differs from the untiled one";
+  r = test::run_cli("fit " + dir + "/set --global " + dir + "/global.json --out " + dir +
+                    "/x.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("give --maps"), std::string::npos) << r.output;
+  r = test::run_cli("fit " + dir + "/set" + maps + " --model fiber --out " + dir + "/x.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("is a line model fit"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/x.json"));
 }
 
 }  // namespace
