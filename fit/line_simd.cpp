@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "fit/start.h"
+
 namespace aniso::fitting {
 
 namespace {
@@ -189,6 +191,52 @@ ANISO_AVX2 void pass_avx2(const ObsSet& os, const size_t* idx, size_t count,
   }
 }
 
+// Four start nodes at once, psi in the lanes (n = 2^log2n, x^n by squaring): line_node_cost's
+// columns and sums (fit/start.cpp) lane by lane, over observations with any number of lights.
+ANISO_AVX2 void nodes_avx2(const ObsSet& os, const size_t* idx, size_t count, const double psi[4],
+                           int log2n, KdKsSums out[4]) {
+  v4d c, sn;
+  for (int i = 0; i < 4; ++i) c[i] = std::cos(psi[i]), sn[i] = std::sin(psi[i]);
+  const v4d one = splat(1.0), minus = splat(-1.0), zero = splat(0.0);
+  v4d dd[3], ds[3], ss[3], dy[3], sy[3];
+  double yy[3] = {0, 0, 0};
+  for (int k = 0; k < 3; ++k) dd[k] = ds[k] = ss[k] = dy[k] = sy[k] = zero;
+  for (size_t j = 0; j < count; ++j) {
+    const Observation& o = os.obs[idx[j]];
+    const v4d b = vmin(vmax(c * o.V.u + sn * o.V.w, minus), one);
+    v4d sV, unused;
+    vsin(b, &sV, &unused);
+    v4d dcol[3] = {zero, zero, zero}, scol[3] = {zero, zero, zero};
+    for (uint32_t k = 0; k < o.num_lights; ++k) {
+      const ObsLight& l = os.lights[o.first_light + k];
+      const v4d a = vmin(vmax(c * l.L.u + sn * l.L.w, minus), one);
+      v4d sL;
+      vsin(a, &sL, &unused);
+      v4d x = vmax(sL * sV - a * b, zero);
+      for (int i = 0; i < log2n; ++i) x *= x;
+      for (int ch = 0; ch < 3; ++ch) {
+        const v4d w = splat(l.E[ch] * l.L.n);
+        dcol[ch] += w * sL;
+        scol[ch] += w * x;
+      }
+    }
+    for (int ch = 0; ch < 3; ++ch) {
+      const double y = o.y[ch] - o.base[ch];
+      dd[ch] += dcol[ch] * dcol[ch];
+      ds[ch] += dcol[ch] * scol[ch];
+      ss[ch] += scol[ch] * scol[ch];
+      dy[ch] += dcol[ch] * splat(y);
+      sy[ch] += scol[ch] * splat(y);
+      yy[ch] += y * y;
+    }
+  }
+  for (int i = 0; i < 4; ++i)
+    for (int ch = 0; ch < 3; ++ch) {
+      out[i].dd[ch] = dd[ch][i], out[i].ds[ch] = ds[ch][i], out[i].ss[ch] = ss[ch][i];
+      out[i].dy[ch] = dy[ch][i], out[i].sy[ch] = sy[ch][i], out[i].yy[ch] = yy[ch];
+    }
+}
+
 ANISO_AVX2 void exp_log_avx2(const double in[4], double exp_out[4], double log_out[4]) {
   v4d x;
   std::memcpy(&x, in, sizeof x);
@@ -213,6 +261,11 @@ void set_line_simd(bool on) { g_simd_on = on; }
 void line_pass_simd(const ObsSet& os, const size_t* idx, size_t count, const LinePixelParams& p,
                     const RobustLoss& loss, bool jac, ChannelSums<8>* sums) {
   pass_avx2(os, idx, count, p, loss, jac, sums);
+}
+
+void line_nodes_simd(const ObsSet& os, const size_t* idx, size_t count, const double psi[4],
+                     int log2n, KdKsSums out[4]) {
+  nodes_avx2(os, idx, count, psi, log2n, out);
 }
 
 void simd_exp_log(const double in[4], double exp_out[4], double log_out[4]) {

@@ -22,6 +22,12 @@ void set_line_simd(bool on);
 void line_pass_simd(const ObsSet& os, const size_t* idx, size_t count, const LinePixelParams& p,
                     const RobustLoss& loss, bool jac, ChannelSums<8>* sums);
 
+struct KdKsSums;
+// Four nodes of the start's grid (fit/start.h, line_node_cost) at once, psi[i] in lane i, over
+// observations idx[0 .. count): each node's k_d, k_s sums in out[i].
+void line_nodes_simd(const ObsSet& os, const size_t* idx, size_t count, const double psi[4],
+                     int log2n, KdKsSums out[4]);
+
 // The kernel's exp and log on four values at once, for the accuracy test (x > 0 for log; exp of
 // a value below -708 is 0).
 void simd_exp_log(const double in[4], double exp_out[4], double log_out[4]);

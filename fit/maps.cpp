@@ -42,20 +42,25 @@ double prior_sigma(const char* key) {
 void texel_start(const ObsSet& os, const std::vector<size_t>& idx, Core* c) {
   const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
   double best = INFINITY;
-  auto node = [&](double psi) {
-    double kd[3], ks[3];
-    const double cost = line_node_cost(os, idx, psi, log2n, kd, ks);
-    if (cost < best) {
-      best = cost;
-      c->psi = psi;
-      set_start_kd_ks(kd, ks, c);
-    }
+  auto take = [&](const double* psi, int count) {
+    NodeFit fit[12];
+    line_nodes_cost(os, idx, psi, count, log2n, fit);
+    for (int k = 0; k < count; ++k)
+      if (fit[k].cost < best) {
+        best = fit[k].cost;
+        c->psi = psi[k];
+        set_start_kd_ks(fit[k].kd, fit[k].ks, c);
+      }
   };
   // Every 15 degrees, then 5 and 10 degrees either side of the best: 16 nodes where a 5-degree
   // grid takes 36 (the LM goes on from there).
-  for (int ip = 0; ip < 12; ++ip) node(ip * M_PI / 12);
-  const double coarse = c->psi;
-  for (int k : {-2, -1, 1, 2}) node(wrap_half_turn(coarse + k * M_PI / 36));
+  double coarse[12];
+  for (int ip = 0; ip < 12; ++ip) coarse[ip] = ip * M_PI / 12;
+  take(coarse, 12);
+  double fine[4];
+  for (int k = 0; k < 4; ++k)
+    fine[k] = wrap_half_turn(c->psi + (k < 2 ? k - 2 : k - 1) * M_PI / 36);
+  take(fine, 4);
 }
 
 struct TexelResult {
@@ -197,38 +202,41 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   if (!prior) texel_start(os, idx, &t.c);
   Vec8 lo, hi;
   core_bounds(&lo, &hi);
-  // The data's sum of squares with J^T J, J^T r (at the last point evaluated with derivatives);
-  // and the same with the prior added (the objective).
-  Mat8 info, h;
-  Vec8 grad, g;
-  double rss = 0, total = 0;
-  auto evaluate = [&](const Vec8& at, bool derivatives) {
-    double r = texel_pass(os, idx, at, derivatives ? &info : nullptr, &grad);
-    if (derivatives) h = info, g = grad, rss = r;
-    if (!prior) return r;
+  // At a point: the data's sum of squares with J^T J, J^T r, and the same with the prior added
+  // (the objective). A trial point is evaluated with its derivatives at once: most steps are
+  // taken, and a second pass at the same point would cost more than the derivatives of the few
+  // that are not.
+  struct Eval {
+    Mat8 info, h;
+    Vec8 grad, g;
+    double rss = 0, total = 0;
+  };
+  auto evaluate = [&](const Vec8& at, Eval* e) {
+    e->rss = texel_pass(os, idx, at, &e->info, &e->grad);
+    e->h = e->info, e->g = e->grad, e->total = e->rss;
+    if (!prior) return;
     const Vec8 d = prior_diff(*prior, at);
-    if (derivatives) {
-      h.diagonal() += prior->w;
-      g += prior->w.cwiseProduct(d);
-    }
-    return r + prior->w.dot(d.cwiseProduct(d));
+    e->h.diagonal() += prior->w;
+    e->g += prior->w.cwiseProduct(d);
+    e->total += prior->w.dot(d.cwiseProduct(d));
   };
   Vec8 x = pack_core(t.c);
-  total = evaluate(x, true);
+  Eval cur, trial;
+  evaluate(x, &cur);
   double lambda = 1e-3;
   for (int it = 0; it < 100; ++it) {
-    Mat8 a = h;
-    a.diagonal() += lambda * h.diagonal().cwiseMax(1e-12);
-    const Vec8 step = a.ldlt().solve(-g);
+    Mat8 a = cur.h;
+    a.diagonal() += lambda * cur.h.diagonal().cwiseMax(1e-12);
+    const Vec8 step = a.ldlt().solve(-cur.g);
     // The same stopping rule as the global fused solve: a step under 1e-3 sigma is not taken.
-    if (step_in_sigmas(h, step, total, 3.0 * idx.size()) < kStepInSigma) break;
+    if (step_in_sigmas(cur.h, step, cur.total, 3.0 * idx.size()) < kStepInSigma) break;
     Vec8 xn = (x + step).cwiseMax(lo).cwiseMin(hi);
     xn(7) = wrap_half_turn(xn(7));
-    const double rn = evaluate(xn, false);
-    if (rn < total) {
-      const bool done = total - rn <= 1e-12 * total;
+    evaluate(xn, &trial);
+    if (trial.total < cur.total) {
+      const bool done = cur.total - trial.total <= 1e-12 * cur.total;
       x = xn;
-      total = evaluate(x, true);
+      cur = trial;
       lambda = std::max(lambda / 3, 1e-12);
       if (done) break;
     } else {
@@ -237,7 +245,7 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
     }
   }
   unpack_core(x, &t.c);
-  texel_sigmas(info, rss, 3.0 * idx.size(), &t);
+  texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t);
   return t;
 }
 

@@ -8,6 +8,7 @@
 
 #include "core/angles.h"
 #include "core/progress.h"
+#include "fit/line_simd.h"
 #include "models/safe_math.h"
 
 namespace aniso::fitting {
@@ -38,6 +39,19 @@ double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, doubl
         }
       },
       kd, ks);
+}
+
+void line_nodes_cost(const ObsSet& os, const std::vector<size_t>& subset, const double* psi,
+                     int count, int log2n, NodeFit* out) {
+  int i = 0;
+  if (line_simd_enabled())
+    for (; i + 4 <= count; i += 4) {
+      KdKsSums sums[4];
+      line_nodes_simd(os, subset.data(), subset.size(), psi + i, log2n, sums);
+      for (int k = 0; k < 4; ++k) out[i + k].cost = sums[k].solve(out[i + k].kd, out[i + k].ks);
+    }
+  for (; i < count; ++i)
+    out[i].cost = line_node_cost(os, subset, psi[i], log2n, out[i].kd, out[i].ks);
 }
 
 double KdKsSums::solve(double kd[3], double ks[3]) const {

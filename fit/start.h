@@ -52,6 +52,14 @@ double solve_kd_ks(const ObsSet& os, const std::vector<size_t>& subset, Cols col
 double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, double psi, int log2n,
                       double kd[3], double ks[3]);
 
+// The same at `count` values of psi: four at a time where the CPU has AVX2 and FMA
+// (fit/line_simd.h; the same sums up to FMA's rounding), else node by node.
+struct NodeFit {
+  double cost = 0, kd[3] = {0, 0, 0}, ks[3] = {0, 0, 0};
+};
+void line_nodes_cost(const ObsSet& os, const std::vector<size_t>& subset, const double* psi,
+                     int count, int log2n, NodeFit* out);
+
 // Keeps the start strictly inside the bounds so the solver can move both ways.
 void set_start_kd_ks(const double kd[3], const double ks[3], Core* c);
 

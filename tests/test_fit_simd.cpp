@@ -10,6 +10,7 @@
 
 #include "fit/line_lm.h"
 #include "fit/line_simd.h"
+#include "fit/start.h"
 
 namespace aniso::fitting {
 namespace {
@@ -52,7 +53,8 @@ TEST(FitPaths, VectorExpAndLogWithinTwoUlpOfLibm) {
 // (1e-11 relative). With views a hair from the fiber (|b| = 1 - 1e-13, the chord of
 // models/safe_math.h) x = 1 - b^2 cancels to 1e-13, where the lanes' fused multiply-add and the
 // scalar pass round differently in x's fourth digit: 1e-9 there.
-void compare_passes(bool chord) {
+// 1001 random pixels with `lights` lights each; with `chord`, every 7th view at |b| ~ 1.
+ObsSet random_set(bool chord, int lights) {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> u(-1, 1);
   ObsSet os;
@@ -67,15 +69,22 @@ void compare_passes(bool chord) {
     if (chord && i % 7 == 0)
       o.V = LocalDir{std::cos(0.5), std::sin(0.5) * (1 - 1e-13), 1e-7};  // |b| ~ 1
     o.first_light = static_cast<uint32_t>(os.lights.size());
-    o.num_lights = 1;
+    o.num_lights = lights;
     for (int k = 0; k < 3; ++k) o.y[k] = static_cast<float>(0.3 + 0.2 * u(rng) + (i % 50 == 0));
     for (int k = 0; k < 3; ++k) o.base[k] = 0.01f * k;
-    ObsLight l;
-    l.L = dir(0.01);
-    for (int k = 0; k < 3; ++k) l.E[k] = static_cast<float>(1 + 0.1 * k);
-    os.lights.push_back(l);
+    for (int j = 0; j < lights; ++j) {
+      ObsLight l;
+      l.L = dir(0.01);
+      for (int k = 0; k < 3; ++k) l.E[k] = static_cast<float>(1 + 0.1 * k);
+      os.lights.push_back(l);
+    }
     os.obs.push_back(o);
   }
+  return os;
+}
+
+void compare_passes(bool chord) {
+  const ObsSet os = random_set(chord, 1);
   const double kd[3] = {0.2, 0.3, 0.1}, ks[3] = {0.5, 0.4, 0.6};
   const double psi = 0.5;
   for (double n : {1.0, 40.0, 5000.0})
@@ -105,6 +114,33 @@ TEST(FitPaths, FourLanePassSumsAsTheScalarPass) {
   if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
   compare_passes(false);
   compare_passes(true);
+}
+
+// The start's nodes (fit/start.h) four psi at a time against one at a time: the same k_d, k_s
+// and cost to rounding, with one and three lights per pixel, n from 2 to 4096, six nodes (four in
+// lanes, two alone).
+TEST(FitPaths, FourStartNodesAtOnceAsOneByOne) {
+  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  for (int lights : {1, 3}) {
+    const ObsSet os = random_set(false, lights);
+    std::vector<size_t> idx;
+    for (size_t i = 0; i < os.obs.size(); i += 2) idx.push_back(i);
+    const double psi[6] = {0, 0.3, 1.2, 2.0, 2.9, 3.1};
+    for (int log2n : {1, 5, 12}) {
+      NodeFit lanes[6], alone[6];
+      line_nodes_cost(os, idx, psi, 6, log2n, lanes);
+      set_line_simd(false);
+      line_nodes_cost(os, idx, psi, 6, log2n, alone);
+      set_line_simd(true);
+      for (int k = 0; k < 6; ++k) {
+        EXPECT_NEAR(lanes[k].cost, alone[k].cost, 1e-11 * alone[k].cost) << log2n << " " << k;
+        for (int ch = 0; ch < 3; ++ch) {
+          EXPECT_NEAR(lanes[k].kd[ch], alone[k].kd[ch], 1e-10 * (1e-3 + alone[k].kd[ch]));
+          EXPECT_NEAR(lanes[k].ks[ch], alone[k].ks[ch], 1e-10 * (1e-3 + alone[k].ks[ch]));
+        }
+      }
+    }
+  }
 }
 
 }  // namespace
