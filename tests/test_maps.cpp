@@ -333,31 +333,45 @@ TEST(FitMaps, TilesGivenTheGlobalFitKeepOnlyTheirRows) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_TRUE(read_text_file(dir + "/slurm/material_fiber.exr") ==
               read_text_file(dir + "/whole_fiber.exr"));
-  // Without smoothing the tiles' rows do not overlap: their pixels add up to the whole set's.
+  // Without smoothing the tiles' rows do not overlap: their pixels add up to the whole set's. And
+  // from the full global fit's file the tiles reproduce the plain untiled run byte for byte.
+  r = test::run_cli("fit " + dir + "/set --out " + dir + "/full.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --out " + dir + "/plain.json");
+  ASSERT_EQ(r.status, 0) << r.output;
   size_t sum = 0;
   for (int i = 0; i < 2; ++i) {
     const std::string t = dir + "/p" + std::to_string(i) + ".json";
-    r = test::run_cli("fit " + dir + "/set" + maps + " --tile " + std::to_string(i) + "/2 --out " +
-                      t);
+    r = test::run_cli("fit " + dir + "/set --maps 8x6 --global " + dir + "/full.json --tile " +
+                      std::to_string(i) + "/2 --out " + t);
     ASSERT_EQ(r.status, 0) << r.output;
     sum += report(t, true)["pixels"].get<size_t>();
   }
   EXPECT_EQ(sum, total);
-  // The fiber model: its tiles take the global fit's s and quadrature order, and merge alike.
-  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 4 --out " + dir + "/gf.json");
+  r = test::run_cli("merge " + dir + "/p0.json " + dir + "/p1.json --out " + dir + "/pm.json");
   ASSERT_EQ(r.status, 0) << r.output;
-  const std::string fmaps = " --maps 2x2 --subsample 2 --global " + dir + "/gf.json";
-  r = test::run_cli("fit " + dir + "/set" + fmaps + " --out " + dir + "/fw.json");
+  for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "fiber_sigma", "determined"})
+    EXPECT_TRUE(read_text_file(dir + "/plain_" + k + ".exr") ==
+                read_text_file(dir + "/pm_" + k + ".exr"))
+        << k << ": tiles from the full global fit differ from the plain untiled run";
+  // The fiber model: its tiles take the global fit's s and quadrature order (each texel starts
+  // from its k_d, k_s, n and s) and reproduce the plain untiled run byte for byte.
+  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 2 --out " + dir + "/gf.json");
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("(the global fit's)"), std::string::npos) << r.output;
+  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 2 --maps 2x2 --out " + dir +
+                    "/fw.json");
+  ASSERT_EQ(r.status, 0) << r.output;
   for (int i = 0; i < 2; ++i) {
-    r = test::run_cli("fit " + dir + "/set" + fmaps + " --tile " + std::to_string(i) + "/2 --out " +
-                      dir + "/f" + std::to_string(i) + ".json");
+    r = test::run_cli("fit " + dir + "/set --maps 2x2 --subsample 2 --global " + dir +
+                      "/gf.json --tile " + std::to_string(i) + "/2 --out " + dir + "/f" +
+                      std::to_string(i) + ".json");
     ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("texel rows"), std::string::npos) << r.output;
   }
   r = test::run_cli("merge " + dir + "/f0.json " + dir + "/f1.json --out " + dir + "/fm.json");
   ASSERT_EQ(r.status, 0) << r.output;
-  for (const char* k : {"fiber", "s", "s_sigma"})
+  EXPECT_NE(read_text_file(dir + "/f0.json").find("(the global fit's)"), std::string::npos);
+  for (const char* k : {"kd", "n", "fiber", "s", "s_sigma"})
     EXPECT_TRUE(read_text_file(dir + "/fw_" + k + ".exr") ==
                 read_text_file(dir + "/fm_" + k + ".exr"))
         << k << ": the merged fiber-model map differs from the untiled one";
