@@ -146,6 +146,46 @@ struct TempDir {
   }
 };
 
+// `fit --mpi` without --global: rank 0 fits the global parameters once (as `aniso fit` without
+// --maps) and every rank takes them as --global, so each keeps only the pixels of its own rows.
+// False on the other ranks when rank 0 failed (rank 0 throws its message).
+bool share_global_fit(const std::string& in, const MpiWorld* world, FitOptions* fo) {
+  if (fo->model == FitModel::kAuto)
+    throw Error(
+        "fit --mpi: --maps fits the plain line model or the fiber model per texel: give "
+        "--model line or fiber");
+  bool ok = true;
+  std::string bytes;
+  if (world->rank == 0) try {
+      const TempDir tmp;
+      FitOptions g = *fo;
+      g.maps_w = g.maps_h = 0;
+      g.maps_smooth = 0;
+      g.tile_index = g.tile_count = 0;
+      const std::string path = tmp.path + "/global.json";
+      const FitResult r = fit_capture(read_capture(in), g);
+      write_fit(path, r);
+      bytes = read_text_file(path);
+      std::printf(
+          "fit --mpi: rank 0 fitted the global parameters (%d iterations, residual RMS %.3g, "
+          "%.3f s); every rank fits its tile from them, keeping only the pixels of its rows\n",
+          r.report.iterations, r.report.rms, r.report.seconds);
+    } catch (const Error& e) {
+      ok = false;
+      bytes = e.what();
+    }
+  const auto [global_ok, global] = world->broadcast(ok, bytes);
+  if (!global_ok) {
+    if (world->rank == 0) throw Error("fit --mpi: the global fit: " + global);
+    return false;
+  }
+  const TempDir tmp;
+  write_text_file(tmp.path + "/global.json", global);
+  read_global(tmp.path + "/global.json", fo);
+  fo->global_file = "rank 0's global fit (fit --mpi)";
+  return true;
+}
+
 // Every rank fits tile rank/size into its own temporary folder and sends the tile's bytes to
 // rank 0, which writes them beside each other and merges them into --out. A rank that fails
 // sends its message instead; rank 0 names it and nothing is written.
@@ -170,6 +210,7 @@ int run_fit_mpi(FitArgs& a) {
   }
   g_mpi_rank = true;
   FitOptions fo = a.fo;
+  if (!fo.has_global && !share_global_fit(a.in, world, &fo)) return 1;
   fo.tile_index = world->rank;
   fo.tile_count = world->size;
   bool ok = true;

@@ -49,6 +49,8 @@ struct MpiWorld {
   int rank = 0, size = 1;
   std::function<std::vector<std::pair<bool, std::string>>(bool ok, const std::string& bytes)>
       gather;
+  // Rank 0's (ok, bytes) on every rank (the arguments of the other ranks are ignored).
+  std::function<std::pair<bool, std::string>(bool ok, const std::string& bytes)> broadcast;
 };
 const MpiWorld* mpi_world();
 

@@ -40,6 +40,18 @@ std::vector<std::pair<bool, std::string>> gather(bool ok, const std::string& byt
   return out;
 }
 
+std::pair<bool, std::string> broadcast(bool ok, const std::string& bytes) {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  if (rank == 0 && bytes.size() > static_cast<size_t>(INT32_MAX))
+    throw Error("fit --mpi: " + std::to_string(bytes.size()) + " bytes to broadcast (over 2 GB)");
+  int head[2] = {ok ? 1 : 0, static_cast<int>(bytes.size())};
+  MPI_Bcast(head, 2, MPI_INT, 0, MPI_COMM_WORLD);
+  std::string out = rank == 0 ? bytes : std::string(static_cast<size_t>(head[1]), '\0');
+  MPI_Bcast(out.data(), head[1], MPI_CHAR, 0, MPI_COMM_WORLD);
+  return {head[0] != 0, out};
+}
+
 void finalize() {
   int done = 0;
   MPI_Finalized(&done);
@@ -57,6 +69,7 @@ const MpiWorld* mpi_world() {
     MPI_Comm_rank(MPI_COMM_WORLD, &w.rank);
     MPI_Comm_size(MPI_COMM_WORLD, &w.size);
     w.gather = gather;
+    w.broadcast = broadcast;
     return w;
   }();
   return &world;

@@ -137,7 +137,7 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
   c.logn = std::log(g.n);
   c.psi = deg_to_rad(g.fiber_angle_deg);
   res.sigma = opt.global_sigma;
-  res.fixed["global_fit"] = "from " + opt.global_file + " (--global), not fitted here";
+  res.fixed["global_fit"] = "from " + opt.global_file + ", not fitted with the maps";
   rep.global_from = opt.global_file;
   rep.solver = "none";
   if (model == Model::kFiber) {

@@ -391,9 +391,10 @@ TEST(FitMaps, TilesGivenTheGlobalFitKeepOnlyTheirRows) {
 namespace aniso {
 namespace {
 
-// `aniso fit --maps --mpi` under `mpirun -np 2` (Open MPI on loopback): rank i fits tile i/2,
-// rank 0 merges; the map files equal an untiled run's byte for byte. The plain binary hands over
-// to aniso-mpi; without MPI the option says how to get it.
+// `aniso fit --maps --mpi` under `mpirun -np 2` (Open MPI on loopback): rank 0 fits the global
+// parameters and hands them to every rank, rank i fits tile i/2 from them, rank 0 merges; the map
+// files equal an untiled run's byte for byte. The plain binary hands over to aniso-mpi; without MPI
+// the option says how to get it.
 TEST(FitMaps, MpiRanksFitTheTilesAndRankZeroMerges) {
 #ifndef ANISO_MPI_BIN
   GTEST_SKIP() << "built without -DANISO_MPI=ON (scripts/build.sh turns it on)";
@@ -410,6 +411,11 @@ TEST(FitMaps, MpiRanksFitTheTilesAndRankZeroMerges) {
   r = test::sh(mpirun + "\"$A\" fit " + dir + "/set --maps 8x6 --mpi --out " + dir + "/mpi.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("fit --mpi: 2 ranks"), std::string::npos) << r.output;
+  // Rank 0 fitted the global parameters once; each rank kept only the pixels of its rows.
+  EXPECT_NE(r.output.find("rank 0 fitted the global parameters"), std::string::npos) << r.output;
+  EXPECT_EQ(nlohmann::json::parse(read_text_file(dir + "/mpi.json"))["report"]["global_from"],
+            "rank 0's global fit (fit --mpi)");
+  EXPECT_EQ(r.output.find(" (0 in other tiles' rows left out"), std::string::npos) << r.output;
   for (const char* k : {"kd", "ks", "n", "fiber", "fiber_sigma", "coverage", "determined"})
     EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
                 read_text_file(dir + "/mpi_" + k + ".exr"))
