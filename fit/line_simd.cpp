@@ -237,6 +237,61 @@ ANISO_AVX2 void nodes_avx2(const ObsSet& os, const size_t* idx, size_t count, co
     }
 }
 
+// Four columns of the start's grid at once, psi in the lanes: for every pixel the lobe x^n for
+// n = 2, 4, ..., 2^N by repeated squaring (grid_column in fit/start.cpp, lane by lane).
+template <int N>
+ANISO_AVX2 void grid_avx2(const ObsSet& os, const double psi[4], KdKsSums out[4][N]) {
+  v4d c, sn;
+  for (int i = 0; i < 4; ++i) c[i] = std::cos(psi[i]), sn[i] = std::sin(psi[i]);
+  const v4d one = splat(1.0), minus = splat(-1.0), zero = splat(0.0);
+  v4d dd[3], dy[3], ds[3 * N], ss[3 * N], sy[3 * N];
+  double yy[3] = {0, 0, 0};
+  for (int k = 0; k < 3; ++k) dd[k] = dy[k] = zero;
+  for (int k = 0; k < 3 * N; ++k) ds[k] = ss[k] = sy[k] = zero;
+  for (const Observation& o : os.obs) {
+    const v4d b = vmin(vmax(c * o.V.u + sn * o.V.w, minus), one);
+    v4d sV, unused;
+    vsin(b, &sV, &unused);
+    v4d dcol[3] = {zero, zero, zero}, scol[3 * N];
+    for (int k = 0; k < 3 * N; ++k) scol[k] = zero;
+    for (uint32_t k = 0; k < o.num_lights; ++k) {
+      const ObsLight& l = os.lights[o.first_light + k];
+      const v4d a = vmin(vmax(c * l.L.u + sn * l.L.w, minus), one);
+      v4d sL;
+      vsin(a, &sL, &unused);
+      v4d w[3];
+      for (int ch = 0; ch < 3; ++ch) w[ch] = splat(l.E[ch] * l.L.n), dcol[ch] += w[ch] * sL;
+      v4d p = vmax(sL * sV - a * b, zero);
+      for (int in = 0; in < N; ++in) {
+        p *= p;
+        for (int ch = 0; ch < 3; ++ch) scol[3 * in + ch] += w[ch] * p;
+      }
+    }
+    v4d y[3];
+    for (int ch = 0; ch < 3; ++ch) {
+      const double yc = o.y[ch] - o.base[ch];
+      y[ch] = splat(yc);
+      dd[ch] += dcol[ch] * dcol[ch];
+      dy[ch] += dcol[ch] * y[ch];
+      yy[ch] += yc * yc;
+    }
+    for (int in = 0; in < N; ++in)
+      for (int ch = 0; ch < 3; ++ch) {
+        const v4d v = scol[3 * in + ch];
+        ds[3 * in + ch] += dcol[ch] * v;
+        ss[3 * in + ch] += v * v;
+        sy[3 * in + ch] += v * y[ch];
+      }
+  }
+  for (int i = 0; i < 4; ++i)
+    for (int in = 0; in < N; ++in)
+      for (int ch = 0; ch < 3; ++ch) {
+        KdKsSums& t = out[i][in];
+        t.dd[ch] = dd[ch][i], t.dy[ch] = dy[ch][i], t.yy[ch] = yy[ch];
+        t.ds[ch] = ds[3 * in + ch][i], t.ss[ch] = ss[3 * in + ch][i], t.sy[ch] = sy[3 * in + ch][i];
+      }
+}
+
 ANISO_AVX2 void exp_log_avx2(const double in[4], double exp_out[4], double log_out[4]) {
   v4d x;
   std::memcpy(&x, in, sizeof x);
@@ -266,6 +321,10 @@ void line_pass_simd(const ObsSet& os, const size_t* idx, size_t count, const Lin
 void line_nodes_simd(const ObsSet& os, const size_t* idx, size_t count, const double psi[4],
                      int log2n, KdKsSums out[4]) {
   nodes_avx2(os, idx, count, psi, log2n, out);
+}
+
+void line_grid_simd(const ObsSet& os, const double psi[4], KdKsSums out[4][kLineGridN]) {
+  grid_avx2<kLineGridN>(os, psi, out);
 }
 
 void simd_exp_log(const double in[4], double exp_out[4], double log_out[4]) {

@@ -28,6 +28,11 @@ struct KdKsSums;
 void line_nodes_simd(const ObsSet& os, const size_t* idx, size_t count, const double psi[4],
                      int log2n, KdKsSums out[4]);
 
+// Four columns of the start's grid over (psi, n) at once (fit/start.cpp), psi[i] in lane i, over
+// every observation of `os`: the sums of node (psi[i], n = 2^(k+1)) in out[i][k].
+constexpr int kLineGridN = 12;
+void line_grid_simd(const ObsSet& os, const double psi[4], KdKsSums out[4][kLineGridN]);
+
 // The kernel's exp and log on four values at once, for the accuracy test (x > 0 for log; exp of
 // a value below -708 is 0).
 void simd_exp_log(const double in[4], double exp_out[4], double log_out[4]);

@@ -85,7 +85,7 @@ double KdKsSums::solve(double kd[3], double ks[3]) const {
 
 namespace {
 
-constexpr int kGridPsi = 36, kGridN = 12;  // psi in 5 degree steps; n = 2^1 .. 2^12
+constexpr int kGridPsi = 36, kGridN = kLineGridN;  // psi in 5 degree steps; n = 2^1 .. 2^12
 
 // Every n of the grid at one psi in one pass: the lobe x^n for n = 2, 4, ..., 4096 by repeated
 // squaring of x = sin_L sin_V - cos_L cos_V (each node's value is exactly pos_pow(x, n) up to
@@ -153,9 +153,22 @@ std::string line_grid_start(const ObsSet& os, Core* st, bool progress) {
   const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
   const ObsSet some = compact(os, subset);
   std::vector<KdKsSums> sums(kGridPsi * kGridN);
-  tbb::parallel_for(0, kGridPsi, [&](int ip) {
-    grid_column(some, ip * M_PI / kGridPsi, &sums[ip * kGridN]);
-    bar.advance();
+  // Four columns at a time where the CPU has AVX2 and FMA (the same sums up to FMA's rounding).
+  const bool simd = line_simd_enabled();
+  tbb::parallel_for(0, simd ? kGridPsi / 4 : kGridPsi, [&](int task) {
+    if (simd) {
+      const double psi[4] = {4 * task * M_PI / kGridPsi, (4 * task + 1) * M_PI / kGridPsi,
+                             (4 * task + 2) * M_PI / kGridPsi, (4 * task + 3) * M_PI / kGridPsi};
+      KdKsSums out[4][kGridN];
+      line_grid_simd(some, psi, out);
+      for (int i = 0; i < 4; ++i) {
+        std::copy(out[i], out[i] + kGridN, &sums[(4 * task + i) * kGridN]);
+        bar.advance();
+      }
+    } else {
+      grid_column(some, task * M_PI / kGridPsi, &sums[task * kGridN]);
+      bar.advance();
+    }
   });
   double best = std::numeric_limits<double>::infinity();
   double best_psi = 0, best_logn = 0, best_kd[3] = {0, 0, 0}, best_ks[3] = {0, 0, 0};

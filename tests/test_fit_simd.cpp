@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <string>
 
 #include "fit/line_lm.h"
 #include "fit/line_simd.h"
@@ -139,6 +140,27 @@ TEST(FitPaths, FourStartNodesAtOnceAsOneByOne) {
           EXPECT_NEAR(lanes[k].ks[ch], alone[k].ks[ch], 1e-10 * (1e-3 + alone[k].ks[ch]));
         }
       }
+    }
+  }
+}
+
+// The start's grid over (psi, n) four columns at a time against one: the same node, k_d, k_s
+// and n on a set with one and three lights per pixel.
+TEST(FitPaths, FourGridColumnsAtOnceAsOneByOne) {
+  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  for (int lights : {1, 3}) {
+    const ObsSet os = random_set(false, lights);
+    Core lanes, alone;
+    const std::string a = line_grid_start(os, &lanes);
+    set_line_simd(false);
+    const std::string b = line_grid_start(os, &alone);
+    set_line_simd(true);
+    EXPECT_EQ(a, b);
+    EXPECT_EQ(lanes.psi, alone.psi);
+    EXPECT_EQ(lanes.logn, alone.logn);
+    for (int ch = 0; ch < 3; ++ch) {
+      EXPECT_NEAR(lanes.kd[ch], alone.kd[ch], 1e-10 * (1e-3 + alone.kd[ch]));
+      EXPECT_NEAR(lanes.ks[ch], alone.ks[ch], 1e-10 * (1e-3 + alone.ks[ch]));
     }
   }
 }
