@@ -94,10 +94,14 @@ void read_global(const std::string& path, FitOptions* fo) {
   fo->has_global = true;
   fo->global_file = path;
   const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
-  if (j.contains("report") && j["report"].is_object() && j["report"].contains("fiber_order") &&
-      j["report"]["fiber_order"].is_number_integer()) {
-    const int order = j["report"]["fiber_order"];
+  const jsonu::json rep = j.value("report", jsonu::json::object());
+  if (rep.is_object()) {
+    const int order = rep.value("fiber_order", 0);
     if (order >= 1 && order <= 16) fo->global_fiber_order = order;
+    fo->global_views = rep.value("views", size_t(0));
+    fo->global_rms = rep.value("residual_rms", 0.0);
+    for (const auto& w : rep.value("warnings", jsonu::json::array()))
+      if (w.is_string()) fo->global_warnings.push_back(w);
   }
   if (!j.contains("uncertainty") || !j["uncertainty"].is_object()) return;
   for (const auto& [key, v] : j["uncertainty"].items()) {

@@ -140,6 +140,12 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
   res.fixed["global_fit"] = "from " + opt.global_file + ", not fitted with the maps";
   rep.global_from = opt.global_file;
   rep.solver = "none";
+  rep.rms = opt.global_rms;
+  for (const auto& w : opt.global_warnings) rep.warnings.push_back(w);
+  if (opt.global_views > 0 && opt.global_views != rep.views)
+    rep.warnings.push_back("--global " + opt.global_file + " was fitted on " +
+                           std::to_string(opt.global_views) + " views; this capture has " +
+                           std::to_string(rep.views) + ": is it a fit of the same capture?");
   if (model == Model::kFiber) {
     rep.fiber_order = opt.fiber_order > 0 ? opt.fiber_order : opt.global_fiber_order;
     std::string why = opt.fiber_order > 0 ? "as given" : "the global fit's";

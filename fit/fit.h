@@ -65,6 +65,10 @@ struct FitOptions {
   std::string global_file;
   std::map<std::string, std::vector<double>> global_sigma;  // as its file recorded them
   int global_fiber_order = 0;  // the quadrature order its fit chose (report.fiber_order)
+  // Its report's views, residual RMS and warnings (carried into this result's report).
+  size_t global_views = 0;
+  double global_rms = 0;
+  std::vector<std::string> global_warnings;
 };
 
 // --maps: every texel's fit (row-major, glTF uv: texel (i, j) covers u in [i/W, (i+1)/W)). Texels

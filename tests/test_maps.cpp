@@ -379,6 +379,15 @@ TEST(FitMaps, TilesGivenTheGlobalFitKeepOnlyTheirRows) {
                     "/x.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("give --maps"), std::string::npos) << r.output;
+  // A global fit of another capture (here: a file that says 99 views) is named in a warning.
+  auto other = nlohmann::json::parse(read_text_file(dir + "/global.json"));
+  other["report"]["views"] = 99;
+  write_text_file(dir + "/other.json", other.dump());
+  r = test::run_cli("fit " + dir + "/set --maps 4x4 --global " + dir + "/other.json --out " + dir +
+                    "/o.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("was fitted on 99 views; this capture has 8"), std::string::npos)
+      << r.output;
   r = test::run_cli("fit " + dir + "/set" + maps + " --model fiber --out " + dir + "/x.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("is a line model fit"), std::string::npos) << r.output;
