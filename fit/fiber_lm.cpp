@@ -64,10 +64,25 @@ struct FiberPass {
   }
 };
 
+// The pull's cost at x, and (with `s`) its terms added to the sums of a pass.
+template <int P>
+double add_pull(const FiberPull& pull, const VecP<P>& x, FusedSums<P>* s) {
+  double cost = 0;
+  for (int k = 0; k < P; ++k) {
+    const double d = k == 7 ? std::remainder(x(k) - pull.b[k], M_PI) : x(k) - pull.b[k];
+    cost += pull.w[k] * d * d;
+    if (!s) continue;
+    s->H(k, k) += pull.w[k];
+    s->g(k) += pull.w[k] * d;
+  }
+  if (s) s->cost += cost, s->rss += cost;
+  return cost;
+}
+
 template <int P>
 void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss& loss,
            int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc, Core* c,
-           double* topo, FusedSolve* out) {
+           double* topo, FusedSolve* out, const FiberPull* pull) {
   tbb::task_arena arena(std::max(1, threads));
   const FiberPass<P> pass{os, subset, mode, acc};
   VecP<P> lo, hi, x;
@@ -83,8 +98,16 @@ void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss
   }
   const double values = 3.0 * static_cast<double>(subset ? subset->size() : os.obs.size());
   FusedSums<P> cur;
-  fused_lm<P>([&](const VecP<P>& at, bool jac) { return pass(at, loss, jac, &arena); }, lo, hi,
-              values, max_iterations, &x, &cur, out);
+  auto evaluate = [&](const VecP<P>& at, bool jac) {
+    FusedSums<P> s = pass(at, loss, jac, &arena);
+    if (pull) add_pull<P>(*pull, at, &s);
+    return s;
+  };
+  fused_lm<P>(evaluate, lo, hi, values, max_iterations, &x, &cur, out);
+  if (pull) {  // the data's own J^T J and sum of squares at the solution
+    out->rss -= add_pull<P>(*pull, x, nullptr);
+    for (int k = 0; k < P; ++k) out->info[static_cast<size_t>(k) * (P + 1)] -= pull->w[k];
+  }
   unpack_core(x.template head<8>(), c);
   if constexpr (P == 9) *topo = x(8);
 }
@@ -93,12 +116,12 @@ void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss
 
 void fiber_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
                     int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc,
-                    Core* c, double* topo, FusedSolve* out) {
+                    Core* c, double* topo, FusedSolve* out, const FiberPull* pull) {
   const RobustLoss l{loss, scale};
   if (mode == TopologyMode::kMathematical)
-    solve<8>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out);
+    solve<8>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out, pull);
   else
-    solve<9>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out);
+    solve<9>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out, pull);
 }
 
 }  // namespace aniso::fitting

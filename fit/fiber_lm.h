@@ -29,10 +29,17 @@ inline void fiber_columns(const ObsSet& os, const Observation& o, double c, doub
   }
 }
 
+// A quadratic pull of the solve's numbers (k_d 3, k_s 3, log n, psi, the topology) toward b with
+// weights w, psi's difference taken modulo a half turn: --smooth for the fiber model's texels.
+struct FiberPull {
+  double w[9] = {}, b[9] = {};
+};
+
 // Solves from `c` and `*topo` (updated; the topology is fitted unless `mode` is mathematical)
-// over `subset` (null: all observations).
+// over `subset` (null: all observations). With `pull`, its terms join the cost of every step;
+// out->info and out->rss are then still the data's own (the pull taken out at the solution).
 void fiber_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
                     int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc,
-                    Core* c, double* topo, FusedSolve* out);
+                    Core* c, double* topo, FusedSolve* out, const FiberPull* pull = nullptr);
 
 }  // namespace aniso::fitting

@@ -38,10 +38,10 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
         "fit: --maps fits the plain line model or the fiber model per texel: use it with --model "
         "line or fiber and without --fit-isotropic / --fit-second-fiber");
   if (opt.maps_w > 0 && m.model() == Model::kFiber &&
-      (os.topology == TopologyMode::kAmplitude || opt.maps_smooth > 0 || opt.maps_ceres))
+      (os.topology == TopologyMode::kAmplitude || opt.maps_ceres))
     throw Error(
         "fit: --maps with the fiber model fits s per texel on a flat sample (one s) or a "
-        "mathematical topology, without --smooth and --maps-solver ceres (not written yet)");
+        "mathematical topology, without --maps-solver ceres (not written yet)");
   if (opt.maps_w > 0 && os.topology == TopologyMode::kTexels)
     throw Error("fit: --maps and --topology-map do not go together");
   if (os.obs.empty())

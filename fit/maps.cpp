@@ -75,6 +75,7 @@ struct TexelResult {
 // of squares; psi's difference taken modulo a half turn.
 struct TexelPrior {
   Vec8 w = Vec8::Zero(), b = Vec8::Zero();
+  double ws = 0, bs = 0;  // the fiber model's topology s (where fitted)
 };
 
 // The pull on psi for Ceres: sqrt(w) times the difference modulo a half turn (psi lives on
@@ -252,18 +253,27 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
 // One texel of the fiber model: psi from the line model's texel grid (the direction looks the
 // same to both), k_d, k_s, n and s from the global fit, then the fiber model's fused solve
 // (fit/fiber_lm.h: the global fit's solver, checked against Ceres there) on the texel alone.
-TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx, const Core& global,
-                              const TexelMapOptions& o) {
+TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
+                              const TexelResult& from, const TexelMapOptions& o,
+                              const TexelPrior* prior) {
   TexelResult t;
-  t.c = global;
-  t.s = o.s;
-  Core line = global;
-  texel_start(os, idx, &line);
-  t.c.psi = line.psi;
+  t.c = from.c;
+  t.s = from.s;
+  if (!prior) {
+    Core line = from.c;
+    texel_start(os, idx, &line);
+    t.c.psi = line.psi;
+  }
   FiberAccuracy acc;
   acc.order = o.fiber_order;
   FusedSolve fs;
-  fiber_lm_solve(os, &idx, FitLoss::kNone, 0, 100, 1, os.topology, acc, &t.c, &t.s, &fs);
+  FiberPull pull;
+  if (prior) {
+    for (int k = 0; k < 8; ++k) pull.w[k] = prior->w(k), pull.b[k] = prior->b(k);
+    pull.w[8] = prior->ws, pull.b[8] = prior->bs;
+  }
+  fiber_lm_solve(os, &idx, FitLoss::kNone, 0, 100, 1, os.topology, acc, &t.c, &t.s, &fs,
+                 prior ? &pull : nullptr);
   const int P = os.topology == TopologyMode::kMathematical ? 8 : 9;
   const Eigen::MatrixXd info = Eigen::Map<const Eigen::MatrixXd>(fs.info.data(), P, P);
   texel_sigmas(info, fs.rss, 3.0 * idx.size(), &t);
@@ -297,12 +307,14 @@ struct BandGrid {
 };
 
 // The prior of entry b for the next sweep: its 4 neighbours' values of this sweep (those the data
-// determined), weights lambda x neighbours / (H^-1)_kk from the texel's first, unpulled fit.
+// determined; with `with_s` their s too), weights lambda x neighbours / (H^-1)_kk from the
+// texel's first, unpulled fit.
 bool smoothing_prior(const std::vector<TexelResult>& now, const std::vector<TexelResult>& first,
-                     const BandGrid& g, size_t b, double lambda, TexelPrior* p) {
+                     const BandGrid& g, size_t b, double lambda, bool with_s, TexelPrior* p) {
   const int x = static_cast<int>(b % g.w), y = g.row0 + static_cast<int>(b / g.w);
   const Vec8 self = pack_core(now[b].c);
   Vec8 sum = Vec8::Zero();
+  double sum_s = 0;
   int count = 0;
   const int dx[4] = {-1, 1, 0, 0}, dy[4] = {0, 0, -1, 1};
   for (int k = 0; k < 4; ++k) {
@@ -313,13 +325,15 @@ bool smoothing_prior(const std::vector<TexelResult>& now, const std::vector<Texe
     Vec8 v = pack_core(nb.c);
     v(7) = self(7) + std::remainder(v(7) - self(7), M_PI);
     sum += v;
+    sum_s += nb.s;
     ++count;
   }
   if (count == 0) return false;
   p->b = sum / count;
   const double s2 = first[b].rss / std::max(first[b].values - 8, 1.0);
-  for (int k = 0; k < 8; ++k)
-    p->w(k) = lambda * count * s2 / std::max(first[b].sigma[k] * first[b].sigma[k], 1e-300);
+  auto weight = [&](double sigma) { return lambda * count * s2 / std::max(sigma * sigma, 1e-300); };
+  for (int k = 0; k < 8; ++k) p->w(k) = weight(first[b].sigma[k]);
+  if (with_s) p->bs = sum_s / count, p->ws = weight(first[b].sigma[8]);
   return true;
 }
 
@@ -375,32 +389,35 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
       bins[t - t_begin].push_back(i);
   }
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
-  auto solve = [&](size_t b, const Core& from, const TexelPrior* prior) {
-    if (o.fiber_order > 0) return solve_texel_fiber(os, bins[b], from, o);
-    return o.ceres ? solve_texel_ceres(os, bins[b], from, prior)
-                   : solve_texel_lm(os, bins[b], from, prior);
+  auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
+    if (o.fiber_order > 0) return solve_texel_fiber(os, bins[b], from, o, prior);
+    return o.ceres ? solve_texel_ceres(os, bins[b], from.c, prior)
+                   : solve_texel_lm(os, bins[b], from.c, prior);
   };
-  std::vector<TexelResult> first(B);  // every texel alone
-  for (auto& r : first) r.c = global;
+  TexelResult start;  // the global fit
+  start.c = global;
+  start.s = o.s;
+  std::vector<TexelResult> first(B, start);  // every texel alone
   tbb::parallel_for(tbb::blocked_range<size_t>(0, B, 4), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t b = r.begin(); b < r.end(); ++b, bar.advance())
-      if (bins[b].size() >= kMinTexelPixels) first[b] = solve(b, global, nullptr);
+      if (bins[b].size() >= kMinTexelPixels) first[b] = solve(b, start, nullptr);
   });
+  const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
   std::vector<TexelResult> now = first;
   const BandGrid grid{w, band0, band1};
   for (int sweep = 0; sweep < m.sweeps; ++sweep) {
     std::vector<TexelResult> next = now;
-    tbb::parallel_for(
-        tbb::blocked_range<size_t>(0, B, 4), [&](const tbb::blocked_range<size_t>& r) {
-          for (size_t b = r.begin(); b < r.end(); ++b, bar.advance()) {
-            TexelPrior prior;
-            if (first[b].determined && smoothing_prior(now, first, grid, b, o.smooth, &prior))
-              next[b] = solve(b, now[b].c, &prior);
-          }
-        });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, B, 4),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        for (size_t b = r.begin(); b < r.end(); ++b, bar.advance()) {
+                          TexelPrior prior;
+                          if (first[b].determined &&
+                              smoothing_prior(now, first, grid, b, o.smooth, fit_s, &prior))
+                            next[b] = solve(b, now[b], &prior);
+                        }
+                      });
     now.swap(next);
   }
-  const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
   const size_t a = static_cast<size_t>(m.row0) * w - t_begin;
   size_maps(static_cast<size_t>(m.row1 - m.row0) * w, fit_s, &m);
   double sr = 0, sv = 0;
