@@ -1,0 +1,221 @@
+// fit --maps past one machine (issue 11): tiles (`--tile i/N`, `aniso merge`), tiles from a given
+// global fit that keep only their rows (`--global`), the Slurm script and MPI ranks, each against
+// one untiled run byte for byte.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "io/files.h"
+#include "io/material_io.h"
+#include "test_util.h"
+
+namespace aniso {
+namespace {
+
+// --tile i/N and `aniso merge`: three tiles joined give the untiled run's map files byte for byte;
+// a missing or foreign tile is refused. (The Slurm script: FitMaps.TilesGivenTheGlobalFit...)
+TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
+  const std::string dir = test::tmp_dir("tiles");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --out " + dir + "/whole.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::string tiles;
+  for (int i = 0; i < 3; ++i) {
+    const std::string t = dir + "/t" + std::to_string(i) + ".json";
+    r = test::run_cli("fit " + dir + "/set --maps 8x6 --tile " + std::to_string(i) + "/3 --out " +
+                      t);
+    ASSERT_EQ(r.status, 0) << r.output;
+    tiles += " " + t;
+  }
+  r = test::run_cli("merge" + tiles + " --out " + dir + "/merged.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
+                        "coverage", "determined"}) {
+    const std::string a = read_text_file(dir + "/whole_" + k + ".exr");
+    const std::string b = read_text_file(dir + "/merged_" + k + ".exr");
+    EXPECT_TRUE(a == b) << k << ": the merged map differs from the untiled one";
+  }
+  const Material m = read_material(dir + "/merged.json");
+  EXPECT_TRUE(m.maps.fiber && m.maps.kd);
+  r = test::run_cli("merge " + dir + "/t0.json " + dir + "/t2.json --out " + dir + "/bad.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("tile 1 of 3 is missing"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.json"));
+  r = test::run_cli("merge" + tiles + " " + dir + "/t1.json --out " + dir + "/bad.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("repeated"), std::string::npos) << r.output;
+  r = test::run_cli("fit " + dir + "/set --tile 0/2 --out " + dir + "/x.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("--maps"), std::string::npos) << r.output;
+}
+
+// --global with --tile: the global fit comes from an earlier run (here on a subsample) and each
+// tile keeps only the pixels whose uv falls in its rows and its --smooth band: its records are its
+// share of the sample, and the merge still equals an untiled run with that global fit, byte for
+// byte; the Slurm script does the same. --global without --maps, or of the other model, is
+// refused, and one of another capture named in a warning.
+TEST(FitMaps, TilesGivenTheGlobalFitKeepOnlyTheirRows) {
+  const std::string dir = test::tmp_dir("global");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --subsample 2 --out " + dir + "/global.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string maps = " --maps 8x6 --global " + dir + "/global.json";
+  r = test::run_cli("fit " + dir + "/set" + maps + " --smooth 1 --smooth-sweeps 1 --out " + dir +
+                    "/whole.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("global fit from"), std::string::npos) << r.output;
+  auto report = [](const std::string& f, bool tile) {
+    const auto j = nlohmann::json::parse(read_text_file(f));
+    return tile ? j["fit"]["report"] : j["report"];
+  };
+  const size_t total = report(dir + "/whole.json", false)["pixels"];
+  std::string tiles;
+  for (int i = 0; i < 3; ++i) {
+    const std::string t = dir + "/t" + std::to_string(i) + ".json";
+    r = test::run_cli("fit " + dir + "/set" + maps + " --smooth 1 --smooth-sweeps 1 --tile " +
+                      std::to_string(i) + "/3 --out " + t);
+    ASSERT_EQ(r.status, 0) << r.output;
+    const auto rep = report(t, true);
+    const size_t kept = rep["pixels"], outside = rep["skipped"]["outside_tile"];
+    std::printf("tile %d/3 (with its smoothing band): %zu of %zu pixels\n", i, kept, total);
+    EXPECT_LT(kept, total * 3 / 4);
+    EXPECT_EQ(kept + outside, total);
+    tiles += " " + t;
+  }
+  r = test::run_cli("merge" + tiles + " --out " + dir + "/merged.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* k :
+       {"kd", "ks", "n", "fiber", "kd_sigma", "fiber_sigma", "coverage", "determined"})
+    EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
+                read_text_file(dir + "/merged_" + k + ".exr"))
+        << k << ": the merged map differs from the untiled one";
+  EXPECT_EQ(read_material(dir + "/merged.json").kd, read_material(dir + "/global.json").kd);
+  // The Slurm script (a global fit, a job array of tiles from it, a merge), run here job after
+  // job, gives the same maps.
+  r = test::sh("ANISO=\"$A\" GLOBAL_SUBSAMPLE=2 FIT_OPTIONS='--smooth 1 --smooth-sweeps 1' " +
+               std::string(ANISO_SOURCE_DIR) + "/scripts/slurm_maps.sh local " + dir +
+               "/set 8x6 3 " + dir + "/slurm");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(read_text_file(dir + "/slurm/material_fiber.exr") ==
+              read_text_file(dir + "/whole_fiber.exr"));
+  r = test::run_cli("fit " + dir + "/set --global " + dir + "/global.json --out " + dir +
+                    "/x.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("give --maps"), std::string::npos) << r.output;
+  // A global fit of another capture (here: a file that says 99 views) is named in a warning.
+  auto other = nlohmann::json::parse(read_text_file(dir + "/global.json"));
+  other["report"]["views"] = 99;
+  write_text_file(dir + "/other.json", other.dump());
+  r = test::run_cli("fit " + dir + "/set --maps 4x4 --global " + dir + "/other.json --out " + dir +
+                    "/o.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("was fitted on 99 views; this capture has 8"), std::string::npos)
+      << r.output;
+  r = test::run_cli("fit " + dir + "/set" + maps + " --model fiber --out " + dir + "/x.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("is a line model fit"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/x.json"));
+}
+
+// Without smoothing the tiles' rows do not overlap: their pixels add up to the whole set's; from
+// the full global fit's file (line model, and fiber model with its s and quadrature order) the
+// tiles reproduce the plain untiled run byte for byte.
+TEST(FitMaps, TilesFromAFullGlobalFitReproduceThePlainRun) {
+  const std::string dir = test::tmp_dir("global_full");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  auto report = [](const std::string& f) {
+    return nlohmann::json::parse(read_text_file(f))["fit"]["report"];
+  };
+  r = test::run_cli("fit " + dir + "/set --out " + dir + "/full.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --out " + dir + "/plain.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const size_t total =
+      nlohmann::json::parse(read_text_file(dir + "/plain.json"))["report"]["pixels"];
+  size_t sum = 0;
+  for (int i = 0; i < 2; ++i) {
+    const std::string t = dir + "/p" + std::to_string(i) + ".json";
+    r = test::run_cli("fit " + dir + "/set --maps 8x6 --global " + dir + "/full.json --tile " +
+                      std::to_string(i) + "/2 --out " + t);
+    ASSERT_EQ(r.status, 0) << r.output;
+    sum += report(t)["pixels"].get<size_t>();
+  }
+  EXPECT_EQ(sum, total);
+  r = test::run_cli("merge " + dir + "/p0.json " + dir + "/p1.json --out " + dir + "/pm.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "fiber_sigma", "determined"})
+    EXPECT_TRUE(read_text_file(dir + "/plain_" + k + ".exr") ==
+                read_text_file(dir + "/pm_" + k + ".exr"))
+        << k << ": tiles from the full global fit differ from the plain untiled run";
+  // The fiber model: its tiles take the global fit's s and quadrature order (each texel starts
+  // from its k_d, k_s, n and s) and reproduce the plain untiled run byte for byte.
+  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 2 --out " + dir + "/gf.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 2 --maps 2x2 --out " + dir +
+                    "/fw.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (int i = 0; i < 2; ++i) {
+    r = test::run_cli("fit " + dir + "/set --maps 2x2 --subsample 2 --global " + dir +
+                      "/gf.json --tile " + std::to_string(i) + "/2 --out " + dir + "/f" +
+                      std::to_string(i) + ".json");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("texel rows"), std::string::npos) << r.output;
+  }
+  r = test::run_cli("merge " + dir + "/f0.json " + dir + "/f1.json --out " + dir + "/fm.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(read_text_file(dir + "/f0.json").find("(the global fit's)"), std::string::npos);
+  for (const char* k : {"kd", "n", "fiber", "s", "s_sigma"})
+    EXPECT_TRUE(read_text_file(dir + "/fw_" + k + ".exr") ==
+                read_text_file(dir + "/fm_" + k + ".exr"))
+        << k << ": the merged fiber-model map differs from the untiled one";
+}
+
+}  // namespace
+}  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// `aniso fit --maps --mpi` under `mpirun -np 2` (Open MPI on loopback): rank 0 fits the global
+// parameters and hands them to every rank, rank i fits tile i/2 from them, rank 0 merges; the map
+// files equal an untiled run's byte for byte. The plain binary hands over to aniso-mpi; without MPI
+// the option says how to get it.
+TEST(FitMaps, MpiRanksFitTheTilesAndRankZeroMerges) {
+#ifndef ANISO_MPI_BIN
+  GTEST_SKIP() << "built without -DANISO_MPI=ON (scripts/build.sh turns it on)";
+#else
+  const std::string dir = test::tmp_dir("mpi");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --out " + dir + "/whole.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // As root, mpirun needs to be told; two ranks on two cores may oversubscribe.
+  const std::string mpirun =
+      "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl=self,tcp "
+      "OMPI_MCA_btl_tcp_if_include=lo OMPI_MCA_oob_tcp_if_include=lo mpirun --oversubscribe -np 2 ";
+  r = test::sh(mpirun + "\"$A\" fit " + dir + "/set --maps 8x6 --mpi --out " + dir + "/mpi.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("fit --mpi: 2 ranks"), std::string::npos) << r.output;
+  // Rank 0 fitted the global parameters once; each rank kept only the pixels of its rows.
+  EXPECT_NE(r.output.find("rank 0 fitted the global parameters"), std::string::npos) << r.output;
+  EXPECT_EQ(nlohmann::json::parse(read_text_file(dir + "/mpi.json"))["report"]["global_from"],
+            "rank 0's global fit (fit --mpi)");
+  EXPECT_EQ(r.output.find(" (0 in other tiles' rows left out"), std::string::npos) << r.output;
+  for (const char* k : {"kd", "ks", "n", "fiber", "fiber_sigma", "coverage", "determined"})
+    EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
+                read_text_file(dir + "/mpi_" + k + ".exr"))
+        << k << ": the MPI run's map differs from the untiled one";
+  // A mistake is said once, by rank 0, and nothing is written.
+  r = test::sh(mpirun + "\"$A\" fit " + dir + "/set --mpi --out " + dir + "/bad.json");
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("give --maps"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.json"));
+#endif
+}
+
+}  // namespace
+}  // namespace aniso
