@@ -82,6 +82,46 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
          "(the pull would make it smaller: these are an upper bound)"}};
 }
 
+// The report's part of a material file: what the fit saw, how it went, where the time went.
+jsonu::json report_json(const FitReport& p) {
+  jsonu::json j = {{"residual_rms", p.rms},
+                   {"noise_sigma_robust", p.noise_sigma},
+                   {"pixel_noise", p.pixel_noise},
+                   {"observations", p.observations},
+                   {"pixels", p.pixels},
+                   {"views", p.views},
+                   {"skipped",
+                    {{"masked_out", p.masked_out},
+                     {"saturated", p.saturated},
+                     {"nonfinite", p.nonfinite},
+                     {"unlit", p.unlit},
+                     {"implausible", p.implausible}}},
+                   {"iterations", p.iterations},
+                   {"time_s", p.seconds},
+                   {"time_breakdown_s",
+                    {{"load", p.seconds_load},
+                     {"start", p.seconds_start},
+                     {"solve", p.seconds_solve},
+                     {"covariance", p.seconds_covariance}}},
+                   {"termination", p.termination},
+                   {"loss", p.loss},
+                   {"covariance", p.covariance},
+                   {"solver", p.solver},
+                   {"start", p.start},
+                   {"residual_evaluations", p.residual_evaluations},
+                   {"rss", p.rss},
+                   {"bic", p.bic},
+                   {"parameters", p.parameters},
+                   {"jacobian_evaluations", p.jacobian_evaluations}};
+  if (!p.pass.empty()) j["pass"] = p.pass;
+  if (!p.global_from.empty()) j["global_from"] = p.global_from;
+  if (p.fiber_order > 0) j["fiber_order"] = p.fiber_order;
+  if (p.outside_tile > 0) j["skipped"]["outside_tile"] = p.outside_tile;
+  if (!p.model_selection.empty()) j["model_selection"] = p.model_selection;
+  if (!p.warnings.empty()) j["warnings"] = p.warnings;
+  return j;
+}
+
 // What write_fit writes, maps aside.
 jsonu::json fit_json(const std::string& path, const FitResult& r) {
   jsonu::json j;
@@ -112,42 +152,7 @@ jsonu::json fit_json(const std::string& path, const FitResult& r) {
   j["uncertainty"] = unc;
   j["fixed"] = r.fixed;
   if (!r.undetermined.empty()) j["undetermined"] = r.undetermined;
-  const FitReport& p = r.report;
-  j["report"] = {{"residual_rms", p.rms},
-                 {"noise_sigma_robust", p.noise_sigma},
-                 {"pixel_noise", p.pixel_noise},
-                 {"observations", p.observations},
-                 {"pixels", p.pixels},
-                 {"views", p.views},
-                 {"skipped",
-                  {{"masked_out", p.masked_out},
-                   {"saturated", p.saturated},
-                   {"nonfinite", p.nonfinite},
-                   {"unlit", p.unlit},
-                   {"implausible", p.implausible}}},
-                 {"iterations", p.iterations},
-                 {"time_s", p.seconds},
-                 {"time_breakdown_s",
-                  {{"load", p.seconds_load},
-                   {"start", p.seconds_start},
-                   {"solve", p.seconds_solve},
-                   {"covariance", p.seconds_covariance}}},
-                 {"termination", p.termination},
-                 {"loss", p.loss},
-                 {"covariance", p.covariance},
-                 {"solver", p.solver},
-                 {"start", p.start},
-                 {"residual_evaluations", p.residual_evaluations},
-                 {"rss", p.rss},
-                 {"bic", p.bic},
-                 {"parameters", p.parameters},
-                 {"jacobian_evaluations", p.jacobian_evaluations}};
-  if (!p.pass.empty()) j["report"]["pass"] = p.pass;
-  if (!p.global_from.empty()) j["report"]["global_from"] = p.global_from;
-  if (p.fiber_order > 0) j["report"]["fiber_order"] = p.fiber_order;
-  if (p.outside_tile > 0) j["report"]["skipped"]["outside_tile"] = p.outside_tile;
-  if (!p.model_selection.empty()) j["report"]["model_selection"] = p.model_selection;
-  if (!p.warnings.empty()) j["report"]["warnings"] = p.warnings;
+  j["report"] = report_json(r.report);
   if (!r.correlation.empty())
     j["report"]["correlation"] = {{"parameters", r.correlation_names},
                                   {"matrix", r.correlation},
