@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <string>
 #include <vector>
 
 #include "bench/bench_util.h"
@@ -28,10 +30,21 @@ struct Run {
   bool ok = false;
 };
 
-// This binary with `args`, its wall time and peak resident memory (getrusage of the child).
+// The `aniso` a user runs: the lean one beside this binary (cli/commands_lean.cpp), else this one.
+const std::string& aniso_binary() {
+  static const std::string path = [] {
+    std::error_code ec;
+    const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
+    const std::string lean = (self.parent_path() / "aniso").string();
+    return !ec && ::access(lean.c_str(), X_OK) == 0 ? lean : std::string("/proc/self/exe");
+  }();
+  return path;
+}
+
+// `aniso` with `args`, its wall time and peak resident memory (getrusage of the child).
 Run run_self(const std::vector<std::string>& args) {
   std::vector<char*> argv;
-  static std::string self = "/proc/self/exe";
+  std::string self = aniso_binary();
   argv.push_back(self.data());
   std::vector<std::string> copy = args;
   for (auto& a : copy) argv.push_back(a.data());
@@ -41,7 +54,7 @@ Run run_self(const std::vector<std::string>& args) {
   if (pid == 0) {
     if (!std::freopen("/dev/null", "w", stdout) || !std::freopen("/dev/null", "w", stderr))
       _exit(126);
-    execv("/proc/self/exe", argv.data());
+    execv(self.c_str(), argv.data());
     _exit(127);
   }
   Run r;

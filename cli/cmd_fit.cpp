@@ -119,21 +119,10 @@ bool g_mpi_rank = false;  // run_fit is one rank's tile of `fit --mpi`: no "then
 
 // `fit --mpi` in the plain binary: the same command line, run by `aniso-mpi` beside it.
 [[noreturn]] void hand_over_to_mpi_build() {
-  std::error_code ec;
-  const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
-  const std::string mpi_build = (self.parent_path() / "aniso-mpi").string();
-  if (ec || ::access(mpi_build.c_str(), X_OK) != 0)
-    throw Error(
-        "fit --mpi: this aniso was built without MPI (no aniso-mpi beside it): install "
-        "openmpi-bin and libopenmpi-dev (scripts/install_deps.sh does) and configure with "
-        "-DANISO_MPI=ON (scripts/build.sh does)");
-  std::vector<std::string> words = command_words();
-  std::vector<char*> argv;
-  for (auto& w : words) argv.push_back(w.data());
-  argv.push_back(nullptr);
-  std::fflush(nullptr);
-  ::execv(mpi_build.c_str(), argv.data());
-  throw Error("fit --mpi: cannot start " + mpi_build + ": " + std::strerror(errno));
+  run_beside("aniso-mpi",
+             "fit --mpi: this aniso was built without MPI (no aniso-mpi beside it): install "
+             "openmpi-bin and libopenmpi-dev (scripts/install_deps.sh does) and configure with "
+             "-DANISO_MPI=ON (scripts/build.sh does)");
 }
 
 // A private temporary folder, removed when this goes out of scope.

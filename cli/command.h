@@ -33,6 +33,17 @@ Command add_microgeometry(CLI::App& app);
 Command add_bench(CLI::App& app);
 Command add_params(CLI::App& app);
 
+// The commands this binary runs: every one (`aniso-full`, `aniso-mpi`: cli/commands_full.cpp), or
+// the fit and its neighbours (`aniso`: cli/commands_lean.cpp), which hands every other command
+// line to `aniso-full` beside it, so that a fit does not load the preview's and the photo
+// import's libraries (OpenCV, OpenGL, GLFW, LibRaw: ~8 ms of every process's start).
+std::vector<Command> register_commands(CLI::App& app);
+// False where this binary hands the command line to `aniso-full` (the lean `aniso` only).
+bool runs_here(int argc, char** argv);
+// Runs `name` from this binary's folder with the same command line (execv; never returns), or
+// throws an Error that says `missing` when it is not there.
+[[noreturn]] void run_beside(const std::string& name, const std::string& missing);
+
 // `aniso fit` as a function (the demo runs it too): reads every input, fits, writes, prints.
 int run_fit(const std::string& input, const FitOptions& fo, const std::string& out,
             const std::string& truth_path);

@@ -1,4 +1,9 @@
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
 
 #include "cli/command.h"
 #include "core/error.h"
@@ -21,6 +26,20 @@ void set_command_line(int argc, char** argv) {
   g_command_line.clear();
   g_command_words.assign(argv, argv + argc);
   for (int i = 0; i < argc; ++i) g_command_line += (i ? " " : "") + std::string(argv[i]);
+}
+
+void run_beside(const std::string& name, const std::string& missing) {
+  std::error_code ec;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  const std::string path = (self.parent_path() / name).string();
+  if (ec || ::access(path.c_str(), X_OK) != 0) throw Error(missing);
+  std::vector<std::string> words = command_words();
+  std::vector<char*> argv;
+  for (auto& w : words) argv.push_back(w.data());
+  argv.push_back(nullptr);
+  std::fflush(nullptr);
+  ::execv(path.c_str(), argv.data());
+  throw Error("cannot start " + path + ": " + std::strerror(errno));
 }
 
 void parse_size(const std::string& s, int* w, int* h) {

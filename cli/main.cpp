@@ -49,6 +49,14 @@ bool explain_unknown_option(const CLI::App* sub, int argc, char** argv) {
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   cli::set_command_line(argc, argv);
+  if (!cli::runs_here(argc, argv)) try {
+      cli::run_beside("aniso-full",
+                      "aniso: this command needs aniso-full beside this aniso (scripts/build.sh "
+                      "builds both)");
+    } catch (const Error& e) {
+      std::fprintf(stderr, "%s\n", e.what());
+      return 1;
+    }
   CLI::App app{
       "aniso: measure and fit anisotropic materials (line-lighting model of Banks / Heidrich & "
       "Seidel; fiber model of Poulin & Fournier with Hast's topology).\n"
@@ -57,12 +65,7 @@ int main(int argc, char** argv) {
       "aniso"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "aniso 0.1");
-  const std::vector<cli::Command> commands = {
-      cli::add_demo(app),    cli::add_synth(app),  cli::add_fit(app),
-      cli::add_eval(app),    cli::add_bake(app),   cli::add_export(app),
-      cli::add_preview(app), cli::add_verify(app), cli::add_microgeometry(app),
-      cli::add_bench(app),   cli::add_params(app), cli::add_view(app),
-      cli::add_board(app),   cli::add_import(app), cli::add_merge(app)};
+  const std::vector<cli::Command> commands = cli::register_commands(app);
 
   if (argc > 1 && argv[1][0] != '-') {
     std::vector<std::string> names;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Configures and builds aniso in ./build (Release, Ninja, all cores, with aniso-mpi). Extra args go
-# to cmake.
+# Configures and builds aniso (and aniso-full, aniso-mpi beside it) in ./build (Release, Ninja,
+# all cores). Extra args go to cmake.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DANISO_MPI=ON "$@"
