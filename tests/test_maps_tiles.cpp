@@ -153,13 +153,13 @@ TEST(FitMaps, TilesFromAFullGlobalFitReproduceThePlainRun) {
         << k << ": tiles from the full global fit differ from the plain untiled run";
   // The fiber model: its tiles take the global fit's s and quadrature order (each texel starts
   // from its k_d, k_s, n and s) and reproduce the plain untiled run byte for byte.
-  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 2 --out " + dir + "/gf.json");
+  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 4 --out " + dir + "/gf.json");
   ASSERT_EQ(r.status, 0) << r.output;
-  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 2 --maps 2x2 --out " + dir +
+  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 4 --maps 2x2 --out " + dir +
                     "/fw.json");
   ASSERT_EQ(r.status, 0) << r.output;
   for (int i = 0; i < 2; ++i) {
-    r = test::run_cli("fit " + dir + "/set --maps 2x2 --subsample 2 --global " + dir +
+    r = test::run_cli("fit " + dir + "/set --maps 2x2 --subsample 4 --global " + dir +
                       "/gf.json --tile " + std::to_string(i) + "/2 --out " + dir + "/f" +
                       std::to_string(i) + ".json");
     ASSERT_EQ(r.status, 0) << r.output;
