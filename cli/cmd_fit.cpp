@@ -2,11 +2,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <memory>
 
@@ -90,10 +88,12 @@ void parse_tile(const std::string& tile, FitOptions* fo) {
 // --global FILE: the material and the sigmas its fit recorded ("uncertainty": a number or an
 // array per key; null where undetermined).
 void read_global(const std::string& path, FitOptions* fo) {
-  fo->global = read_material(path);
+  const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
+  // Read once; its maps (of an earlier --maps fit) are not loaded: only the global values count.
+  fo->global = material_from_json(j, path);
+  fo->global.base_dir = parent_dir(path);
   fo->has_global = true;
   fo->global_file = path;
-  const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
   const jsonu::json rep = j.value("report", jsonu::json::object());
   if (rep.is_object()) {
     const int order = rep.value("fiber_order", 0);
