@@ -2,6 +2,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 
 #include <atomic>
 #include <chrono>
@@ -194,20 +195,18 @@ Image quantised16(Image img) {
   return img;
 }
 
-// What is traced once per camera pose, and every view's noise-free radiance.
-struct Traced {
-  std::vector<GBuffer> g;
-  std::vector<Image> smath, s;  // per pixel: s_math (the `topology` buffer) and s (for shading)
-  std::vector<Image> radiance;
-  bool fixed_camera = true;  // every view shares the first view's pose: one geometry
-};
+// An image of w x h x c filled with `v`, reusing its memory when it has one of that size.
+void refill(Image* img, int w, int h, int c, float v) {
+  img->width = w, img->height = h, img->channels = c;
+  img->px.assign(static_cast<size_t>(w) * h * c, v);
+}
 
 // Per-pixel topology s_math and s of a traced pose; constant images when neither the material
 // nor the set needs them (the line model without a mathematical topology).
 void topology_images(const SimOptions& opt, const TopologyMap& map, const Image& s_map,
                      const GBuffer& g, Image* smath, Image* s) {
-  *smath = Image(g.P.width, g.P.height, 1, 0.f);
-  *s = Image(g.P.width, g.P.height, 1, static_cast<float>(opt.truth.uniform_s()));
+  refill(smath, g.P.width, g.P.height, 1, 0.f);
+  refill(s, g.P.width, g.P.height, 1, static_cast<float>(opt.truth.uniform_s()));
   if (!opt.truth.fiber() && opt.mathematical_topology == MathTopology::kNone) return;
   for (int y = 0; y < g.P.height; ++y)
     for (int x = 0; x < g.P.width; ++x) {
@@ -220,42 +219,6 @@ void topology_images(const SimOptions& opt, const TopologyMap& map, const Image&
       if (!s_map.empty()) mv = sample_first_channel(s_map, u, v);
       s->at(x, y, 0) = static_cast<float>(s_at(opt.truth, sm, mv));
     }
-}
-
-Traced trace_and_shade(const SimOptions& opt, const RayScene& scene, const TopologyMap& map,
-                       const Image& s_map, SimStats* st) {
-  Traced tr;
-  // Views that share the first view's camera pose share its geometry: traced and written once.
-  for (const auto& v : opt.rig)
-    if (v.world_from_camera.m != opt.rig[0].world_from_camera.m) tr.fixed_camera = false;
-  const Evaluator eval(opt.truth);
-  std::atomic<size_t> shadow_rays{0}, light_evals{0};
-  Progress bar("capture_sim: tracing and shading", opt.rig.size(), opt.progress);
-  for (size_t i = 0; i < opt.rig.size(); ++i) {
-    if (i == 0 || !tr.fixed_camera || opt.force_retrace) {
-      const auto tt = std::chrono::steady_clock::now();
-      tr.g.push_back(scene.trace(opt.camera, opt.rig[i].world_from_camera, opt.fiber_field));
-      st->seconds_trace += seconds_since(tt);
-      st->primary_rays += tr.g.back().rays;
-      tr.smath.emplace_back();
-      tr.s.emplace_back();
-      topology_images(opt, map, s_map, tr.g.back(), &tr.smath.back(), &tr.s.back());
-    }
-    const GBuffer& g = tr.g.back();
-    std::vector<uint8_t> used;
-    const auto ts = std::chrono::steady_clock::now();
-    tr.radiance.push_back(shade_view(eval, opt.truth, g, tr.s.back(),
-                                     opt.rig[i].world_from_camera.translation(), opt.rig[i].lights,
-                                     opt.ambient, scene, opt.force_shadows, &shadow_rays,
-                                     &light_evals, &used));
-    st->seconds_shade += seconds_since(ts);
-    for (uint8_t u : used) st->lights_culled += u ? 0 : 1;
-    for (uint8_t hit : g.hit) st->shaded_pixels += hit;
-    bar.advance();
-  }
-  st->shadow_rays = shadow_rays;
-  st->light_evals = light_evals;
-  return tr;
 }
 
 // The geometry buffers of one pose under `dir`, named after `stem`.
@@ -279,6 +242,80 @@ GeometrySpec write_geometry(const std::string& dir, const GBuffer& g, const Imag
     write_exr(join_path(dir, gs.topology), smath);
   }
   return gs;
+}
+
+// What is traced per camera pose, and every view's noise-free radiance. Two sets of geometry
+// buffers: one is written to disk in the background while the next pose is traced into the other.
+struct Traced {
+  GBuffer g[2];
+  Image smath[2], s[2];  // per pixel: s_math (the `topology` buffer) and s (for shading)
+  std::vector<Image> radiance;
+  std::vector<GeometrySpec> geometry;  // per view (moving camera) or one for all (fixed)
+  bool fixed_camera = true;            // every view shares the first view's pose: one geometry
+};
+
+// Traces every pose and shades every view. The geometry of each pose is written under `dir` as
+// soon as it is traced (a fixed camera's once, as "all"), in the background, and its buffers are
+// reused: only the radiance of every view stays (the white level needs all of them).
+void trace_and_shade(const SimOptions& opt, const RayScene& scene, const TopologyMap& map,
+                     const Image& s_map, const std::string& dir, Traced* tr, SimStats* st) {
+  for (const auto& v : opt.rig)
+    if (v.world_from_camera.m != opt.rig[0].world_from_camera.m) tr->fixed_camera = false;
+  const bool with_topology = opt.mathematical_topology != MathTopology::kNone;
+  tr->geometry.resize(tr->fixed_camera ? 1 : opt.rig.size());
+  const Evaluator eval(opt.truth);
+  std::atomic<size_t> shadow_rays{0}, light_evals{0};
+  Progress bar("capture_sim: tracing and shading", opt.rig.size(), opt.progress);
+  tbb::task_group writer;  // at most one pose's geometry in flight
+  auto wait_writer = [&] {
+    const auto tw = std::chrono::steady_clock::now();
+    writer.wait();
+    st->seconds_write += seconds_since(tw);
+  };
+  try {
+    int b = 0;
+    for (size_t i = 0; i < opt.rig.size(); ++i) {
+      const bool traced = i == 0 || !tr->fixed_camera || opt.force_retrace;
+      if (traced) {
+        b = tr->fixed_camera ? (i == 0 ? 0 : 1) : static_cast<int>(i % 2);
+        const auto tt = std::chrono::steady_clock::now();
+        scene.trace(opt.camera, opt.rig[i].world_from_camera, opt.fiber_field, &tr->g[b]);
+        st->seconds_trace += seconds_since(tt);
+        st->primary_rays += tr->g[b].rays;
+        topology_images(opt, map, s_map, tr->g[b], &tr->smath[b], &tr->s[b]);
+      }
+      const GBuffer& g = tr->g[b];
+      if (traced && (i == 0 || !tr->fixed_camera)) {
+        wait_writer();  // the other buffers' pose is on disk
+        char stem[32];
+        std::snprintf(stem, sizeof stem, "%03zu", i);
+        const std::string name = tr->fixed_camera ? "all" : stem;
+        GeometrySpec* spec = &tr->geometry[tr->fixed_camera ? 0 : i];
+        writer.run([&dir, &g, smath = &tr->smath[b], name, spec, with_topology] {
+          *spec = write_geometry(dir, g, *smath, name, with_topology);
+        });
+      }
+      std::vector<uint8_t> used;
+      const auto ts = std::chrono::steady_clock::now();
+      tr->radiance.push_back(shade_view(eval, opt.truth, g, tr->s[b],
+                                        opt.rig[i].world_from_camera.translation(),
+                                        opt.rig[i].lights, opt.ambient, scene, opt.force_shadows,
+                                        &shadow_rays, &light_evals, &used));
+      st->seconds_shade += seconds_since(ts);
+      for (uint8_t u : used) st->lights_culled += u ? 0 : 1;
+      for (uint8_t hit : g.hit) st->shaded_pixels += hit;
+      bar.advance();
+    }
+    wait_writer();
+  } catch (...) {
+    try {
+      writer.wait();  // its buffers go with `tr`: let it finish first
+    } catch (...) {
+    }
+    throw;
+  }
+  st->shadow_rays = shadow_rays;
+  st->light_evals = light_evals;
 }
 
 // What the sensor records of view i's radiance: exposure, shot and read noise from the view's
@@ -384,29 +421,27 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   TopologyMap map;
   if (!opt.topology_map.empty()) map.h = quantised16(opt.topology_map);
   const Image s_map = quantised16(opt.s_map);
-  const Traced tr = trace_and_shade(opt, scene, map, s_map, &st);
-  for (const auto& im : tr.radiance)
-    for (float v : im.px) st.white_level = std::max(st.white_level, static_cast<double>(v));
-  if (!(st.white_level > 0))
-    throw Error("capture_sim: every pixel is black (no light reaches the visible sample)");
 
-  // Integer images: the white level maps to 0.8 so noise has headroom; float keeps exposure 1.
-  SensorLevels lv;
-  lv.exposure = opt.sensor.bits ? 0.8 / st.white_level : 1.0;
-  lv.white = lv.exposure * st.white_level;
-  lv.saturation = opt.sensor.saturation * lv.white;
-  CaptureSet set = set_header(opt, lv.saturation);
-  const bool with_topology = opt.mathematical_topology != MathTopology::kNone;
-
-  const auto t_write = std::chrono::steady_clock::now();
   write_folder_atomically(out_dir, [&](const std::string& dir) {
+    Traced tr;
+    trace_and_shade(opt, scene, map, s_map, dir, &tr, &st);
+    const auto t_write = std::chrono::steady_clock::now();
+    for (const auto& im : tr.radiance)
+      for (float v : im.px) st.white_level = std::max(st.white_level, static_cast<double>(v));
+    if (!(st.white_level > 0))
+      throw Error("capture_sim: every pixel is black (no light reaches the visible sample)");
+    // Integer images: the white level maps to 0.8 so noise has headroom; float keeps exposure 1.
+    SensorLevels lv;
+    lv.exposure = opt.sensor.bits ? 0.8 / st.white_level : 1.0;
+    lv.white = lv.exposure * st.white_level;
+    lv.saturation = opt.sensor.saturation * lv.white;
+    CaptureSet set = set_header(opt, lv.saturation);
     if (!map.h.empty()) {
       set.topology_map = "maps/topology.png";
       write_png(join_path(dir, set.topology_map), map.h, 16);
     }
     if (!s_map.empty()) write_png(join_path(dir, "maps/topology_s.png"), s_map, 16);
-    if (tr.fixed_camera)
-      set.geometry = write_geometry(dir, tr.g[0], tr.smath[0], "all", with_topology);
+    if (tr.fixed_camera) set.geometry = tr.geometry[0];
     Progress bar("capture_sim: writing", opt.rig.size(), opt.progress);
     // Views are written in parallel; each has its own seeded generator, so the set is the same.
     set.views.resize(opt.rig.size());
@@ -418,8 +453,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       v.lights = opt.rig[i].lights;
       v.exposure = lv.exposure;
       v.camera = opt.camera;
-      if (!tr.fixed_camera)
-        v.geometry = write_geometry(dir, tr.g[i], tr.smath[i], stem, with_topology);
+      if (!tr.fixed_camera) v.geometry = tr.geometry[i];
       const Image img = sensor_image(opt, tr.radiance[i], lv, i);
       v.image = std::string("images/") + stem + (opt.sensor.bits ? ".png" : ".exr");
       if (opt.sensor.bits)
@@ -432,8 +466,8 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     write_truth(dir, opt.truth, set.topology_map, !s_map.empty());
     set.provenance = provenance(opt, st, lv.white, tr.fixed_camera);
     write_capture_json(set, join_path(dir, "capture.json"));
+    st.seconds_write += seconds_since(t_write);
   });
-  st.seconds_write = seconds_since(t_write);
   st.seconds = seconds_since(t0);
   return st;
 }

@@ -4,6 +4,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -77,13 +78,31 @@ bool RayScene::occluded(const Vec3& org, const Vec3& dir, double tfar) const {
   return ray.tfar < 0.f;
 }
 
+namespace {
+
+// Resizes an image to w x h x c, keeping its allocation when the size matches (every pixel is
+// written by the trace, so nothing needs clearing).
+void fit_image(Image* img, int w, int h, int c) {
+  if (img->width == w && img->height == h && img->channels == c) return;
+  *img = Image(w, h, c);
+}
+
+}  // namespace
+
 GBuffer RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string& field) const {
   GBuffer g;
-  g.P = Image(k.width, k.height, 3);
-  g.N = Image(k.width, k.height, 3);
-  g.U = Image(k.width, k.height, 3);
-  g.uv = Image(k.width, k.height, 2);
-  g.hit.assign(static_cast<size_t>(k.width) * k.height, 0);
+  trace(k, pose, field, &g);
+  return g;
+}
+
+void RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string& field,
+                     GBuffer* out) const {
+  GBuffer& g = *out;
+  fit_image(&g.P, k.width, k.height, 3);
+  fit_image(&g.N, k.width, k.height, 3);
+  fit_image(&g.U, k.width, k.height, 3);
+  fit_image(&g.uv, k.width, k.height, 2);
+  g.hit.resize(static_cast<size_t>(k.width) * k.height);
   const Vec3 eye = pose.translation();
   const TriMesh& m = mesh_;
   const bool distorted = k.distorted();
@@ -120,32 +139,38 @@ GBuffer RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string
           rh.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
         }
         rtcIntersect8(valid, impl_->scene, &ctx, &rh);
-        for (int l = 0; l < 8; ++l) {
+        for (int l = 0; l < 8 && x0 + l < k.width; ++l) {
           const int x = x0 + l;
+          const size_t p = static_cast<size_t>(y) * k.width + x;
+          float* P = &g.P.px[3 * p];
+          float* N = &g.N.px[3 * p];
+          float* U = &g.U.px[3 * p];
+          float* uv = &g.uv.px[2 * p];
+          g.hit[p] = 0;
+          std::fill(P, P + 3, 0.f), std::fill(N, N + 3, 0.f), std::fill(U, U + 3, 0.f);
+          uv[0] = uv[1] = 0.f;
           if (!valid[l] || rh.hit.geomID[l] == RTC_INVALID_GEOMETRY_ID) continue;
           const auto& t = m.tri[rh.hit.primID[l]];
           const double b1 = rh.hit.u[l], b2 = rh.hit.v[l], b0 = 1.0 - b1 - b2;
           // Position from the ray (exact on the triangle), attributes interpolated.
-          const Vec3 P = eye + dirs[l] * static_cast<double>(rh.ray.tfar[l]);
-          Vec3 N = normalize(m.N[t[0]] * b0 + m.N[t[1]] * b1 + m.N[t[2]] * b2);
-          if (dot(N, dirs[l]) >= 0.0) continue;  // back side: not a sample pixel
-          Vec3 U = m.U[t[0]] * b0 + m.U[t[1]] * b1 + m.U[t[2]] * b2;
-          U = fiber_field_tangent(field_kind, P, N, U, m.center, m.axis);
-          const size_t p = static_cast<size_t>(y) * k.width + x;
+          const Vec3 Pw = eye + dirs[l] * static_cast<double>(rh.ray.tfar[l]);
+          const Vec3 Nw = normalize(m.N[t[0]] * b0 + m.N[t[1]] * b1 + m.N[t[2]] * b2);
+          if (dot(Nw, dirs[l]) >= 0.0) continue;  // back side: not a sample pixel
+          Vec3 Uw = m.U[t[0]] * b0 + m.U[t[1]] * b1 + m.U[t[2]] * b2;
+          Uw = fiber_field_tangent(field_kind, Pw, Nw, Uw, m.center, m.axis);
           g.hit[p] = 1;
           for (int c = 0; c < 3; ++c) {
-            g.P.at(x, y, c) = static_cast<float>(P[c]);
-            g.N.at(x, y, c) = static_cast<float>(N[c]);
-            g.U.at(x, y, c) = static_cast<float>(U[c]);
+            P[c] = static_cast<float>(Pw[c]);
+            N[c] = static_cast<float>(Nw[c]);
+            U[c] = static_cast<float>(Uw[c]);
           }
           for (int c = 0; c < 2; ++c)
-            g.uv.at(x, y, c) =
+            uv[c] =
                 static_cast<float>(m.uv[t[0]][c] * b0 + m.uv[t[1]][c] * b1 + m.uv[t[2]][c] * b2);
         }
       }
   });
   g.rays = static_cast<size_t>(k.width) * k.height;
-  return g;
 }
 
 void trace_mesh_gbuffer(const std::string& obj_path, const std::string& field, const Intrinsics& k,

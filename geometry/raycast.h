@@ -30,6 +30,10 @@ class RayScene {
   // `fiber_field` replaces dP/du where given. Multithreaded over rows.
   GBuffer trace(const Intrinsics& k, const Mat4& world_from_camera,
                 const std::string& fiber_field) const;
+  // The same into `g`, whose buffers are kept when they already have the camera's size (every
+  // pixel is written: a view after another reuses the memory without clearing it).
+  void trace(const Intrinsics& k, const Mat4& world_from_camera, const std::string& fiber_field,
+             GBuffer* g) const;
   // True if the segment org + t dir, t in (0, tfar), hits the mesh.
   bool occluded(const Vec3& org, const Vec3& dir, double tfar) const;
   const TriMesh& mesh() const { return mesh_; }
