@@ -303,6 +303,11 @@ class FiberFit : public ModelFit {
 
 }  // namespace
 
+ceres::CostFunction* fiber_pixel_cost(const Observation* o, const ObsLight* lights,
+                                      TopologyMode mode, const FiberAccuracy& acc) {
+  return FiberResidual::Create(o, lights, mode, acc);
+}
+
 std::unique_ptr<ModelFit> make_fiber_fit(const FitOptions& opt, const ObsSet& os) {
   return std::make_unique<FiberFit>(opt, os);
 }

@@ -37,11 +37,10 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
     throw Error(
         "fit: --maps fits the plain line model or the fiber model per texel: use it with --model "
         "line or fiber and without --fit-isotropic / --fit-second-fiber");
-  if (opt.maps_w > 0 && m.model() == Model::kFiber &&
-      (os.topology == TopologyMode::kAmplitude || opt.maps_ceres))
+  if (opt.maps_w > 0 && m.model() == Model::kFiber && os.topology == TopologyMode::kAmplitude)
     throw Error(
         "fit: --maps with the fiber model fits s per texel on a flat sample (one s) or a "
-        "mathematical topology, without --maps-solver ceres (not written yet)");
+        "mathematical topology; a topology map's amplitude per texel is not written yet");
   if (opt.maps_w > 0 && os.topology == TopologyMode::kTexels)
     throw Error("fit: --maps and --topology-map do not go together");
   if (os.obs.empty())

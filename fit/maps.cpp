@@ -122,6 +122,82 @@ void texel_sigmas(const Eigen::MatrixXd& info, double rss, double values, TexelR
                   (P < 9 || t->sigma[8] < kTopologyUndetermined);
 }
 
+// The pull toward the neighbours as Ceres terms: NormalPriors on k_d, k_s, log n, PsiPrior on psi.
+void add_prior(const TexelPrior& prior, ceres::Problem* pb, Core* c) {
+  const std::pair<double*, int> blocks[3] = {{c->kd, 0}, {c->ks, 3}, {&c->logn, 6}};
+  for (const auto& [block, at] : blocks) {
+    const int size = at < 6 ? 3 : 1;
+    const Eigen::VectorXd w = prior.w.segment(at, size).cwiseSqrt();
+    pb->AddResidualBlock(
+        new ceres::NormalPrior(w.asDiagonal().toDenseMatrix(), prior.b.segment(at, size)), nullptr,
+        block);
+  }
+  pb->AddResidualBlock(new PsiPrior(std::sqrt(prior.w(7)), prior.b(7)), nullptr, &c->psi);
+}
+
+// Solves the texel's problem to double precision, then its sigmas from J^T J of the `data`
+// residuals alone (not the pull) over `blocks` (one column each, in order).
+void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlockId>& data,
+                      const std::vector<double*>& blocks, TexelResult* t) {
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = 100;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  // Converged as far as double precision takes it, as the LM path: the reference to compare with.
+  so.function_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-14;
+  so.parameter_tolerance = 1e-12;
+  ceres::Solver::Summary sum;
+  ceres::Solve(so, pb, &sum);
+  ceres::Problem::EvaluateOptions eo;
+  eo.parameter_blocks = blocks;
+  eo.residual_blocks = data;  // sigma from the texel's own data
+  double cost = 0;
+  ceres::CRSMatrix J;
+  int P = 0;
+  for (double* b : blocks) P += pb->ParameterBlockSize(b);
+  if (!pb->Evaluate(eo, &cost, nullptr, nullptr, &J) || J.num_cols != P) return;
+  Eigen::MatrixXd info = Eigen::MatrixXd::Zero(P, P);
+  for (int r = 0; r < J.num_rows; ++r)
+    for (int a = J.rows[r]; a < J.rows[r + 1]; ++a)
+      for (int b = J.rows[r]; b < J.rows[r + 1]; ++b)
+        info(J.cols[a], J.cols[b]) += J.values[a] * J.values[b];
+  texel_sigmas(info, 2 * cost, J.num_rows, t);
+}
+
+// The fiber model's texel start: psi from the line model's texel grid (the direction looks the
+// same to both), n from `from`, then s over a grid (s varies over the sample: started from the
+// global s alone, texels far from it stopped in other minima, differently for the fused solver
+// and Ceres) with k_d, k_s in closed form at every node; with a pull, `from` as it is.
+TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
+                              const TexelResult& from, const TexelMapOptions& o,
+                              const TexelPrior* prior) {
+  TexelResult t;
+  t.c = from.c;
+  t.s = from.s;
+  if (prior) return t;
+  Core line = from.c;
+  texel_start(os, idx, &line);
+  t.c.psi = line.psi;
+  if (os.topology == TopologyMode::kMathematical) return t;  // s is not fitted
+  FiberAccuracy acc;
+  acc.order = std::min(4, o.fiber_order);  // plenty to rank nodes, as the global start
+  const double c = std::cos(t.c.psi), sn = std::sin(t.c.psi), n = std::exp(t.c.logn);
+  double best = INFINITY;
+  for (const double s : {from.s, 0.1, 0.3, 0.5, 0.7, 0.9}) {
+    double kd[3], ks[3];
+    const double cost = solve_kd_ks(
+        os, idx,
+        [&](const Observation& ob, double* dcol, double* scol) {
+          fiber_columns(os, ob, c, sn, n, s, acc, dcol, scol);
+        },
+        kd, ks);
+    if (cost < best) best = cost, t.s = s, set_start_kd_ks(kd, ks, &t.c);
+  }
+  return t;
+}
+
 // One texel with Ceres (the fitter of record): solve, then J^T J of its own problem.
 TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
                               const TexelPrior* prior) {
@@ -137,43 +213,47 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, 
   for (size_t i : idx)
     data.push_back(pb.AddResidualBlock(line_pixel_cost(&os.obs[i], os.lights.data()), nullptr, c.kd,
                                        c.ks, &c.logn, &c.psi, &dummy[0], &dummy[1]));
-  if (prior) {  // the pull toward the neighbours
-    const std::pair<double*, int> blocks[3] = {{c.kd, 0}, {c.ks, 3}, {&c.logn, 6}};
-    for (const auto& [block, at] : blocks) {
-      const int size = at < 6 ? 3 : 1;
-      const Eigen::VectorXd w = prior->w.segment(at, size).cwiseSqrt();
-      pb.AddResidualBlock(
-          new ceres::NormalPrior(w.asDiagonal().toDenseMatrix(), prior->b.segment(at, size)),
-          nullptr, block);
-    }
-    pb.AddResidualBlock(new PsiPrior(std::sqrt(prior->w(7)), prior->b(7)), nullptr, &c.psi);
-  }
+  if (prior) add_prior(*prior, &pb, &c);
   pb.SetParameterBlockConstant(&dummy[0]);
   pb.SetParameterBlockConstant(&dummy[1]);
   set_core_bounds(&pb, &c);
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = 100;
-  so.num_threads = 1;
-  so.logging_type = ceres::SILENT;
-  // Converged as far as double precision takes it, as the LM path: the reference to compare with.
-  so.function_tolerance = 1e-12;
-  so.gradient_tolerance = 1e-14;
-  so.parameter_tolerance = 1e-12;
-  ceres::Solver::Summary sum;
-  ceres::Solve(so, &pb, &sum);
-  ceres::Problem::EvaluateOptions eo;
-  eo.parameter_blocks = {c.kd, c.ks, &c.logn, &c.psi};
-  eo.residual_blocks = data;  // sigma from the texel's own data
-  double cost = 0;
-  ceres::CRSMatrix J;
-  if (!pb.Evaluate(eo, &cost, nullptr, nullptr, &J) || J.num_cols != 8) return t;
-  Mat8 info = Mat8::Zero();
-  for (int r = 0; r < J.num_rows; ++r)
-    for (int a = J.rows[r]; a < J.rows[r + 1]; ++a)
-      for (int b = J.rows[r]; b < J.rows[r + 1]; ++b)
-        info(J.cols[a], J.cols[b]) += J.values[a] * J.values[b];
-  texel_sigmas(info, 2 * cost, J.num_rows, &t);
+  solve_and_sigmas(&pb, data, {c.kd, c.ks, &c.logn, &c.psi}, &t);
+  return t;
+}
+
+// The same for the fiber model: solve_texel_fiber's start (fiber_texel_start), the autodiff
+// residual of the global fit's Ceres path (fiber_pixel_cost), s bounded as there (fixed under a
+// mathematical topology), the pull on s as one more NormalPrior.
+TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>& idx,
+                                    const TexelResult& from, const TexelMapOptions& o,
+                                    const TexelPrior* prior) {
+  TexelResult t = fiber_texel_start(os, idx, from, o, prior);
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem pb(po);
+  Core& c = t.c;
+  FiberAccuracy acc;
+  acc.order = o.fiber_order;
+  std::vector<ceres::ResidualBlockId> data;
+  for (size_t i : idx)
+    data.push_back(
+        pb.AddResidualBlock(fiber_pixel_cost(&os.obs[i], os.lights.data(), os.topology, acc),
+                            nullptr, c.kd, c.ks, &c.logn, &c.psi, &t.s));
+  const bool fit_s = os.topology != TopologyMode::kMathematical;
+  if (prior) add_prior(*prior, &pb, &c);
+  if (prior && fit_s && prior->ws > 0)
+    pb.AddResidualBlock(
+        new ceres::NormalPrior(Eigen::MatrixXd::Constant(1, 1, std::sqrt(prior->ws)),
+                               Eigen::VectorXd::Constant(1, prior->bs)),
+        nullptr, &t.s);
+  set_core_bounds(&pb, &c);
+  if (fit_s)
+    set_param_bounds(&pb, &t.s, 0, "topology.s");
+  else
+    pb.SetParameterBlockConstant(&t.s);
+  std::vector<double*> blocks = {c.kd, c.ks, &c.logn, &c.psi};
+  if (fit_s) blocks.push_back(&t.s);
+  solve_and_sigmas(&pb, data, blocks, &t);
   return t;
 }
 
@@ -250,20 +330,12 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   return t;
 }
 
-// One texel of the fiber model: psi from the line model's texel grid (the direction looks the
-// same to both), k_d, k_s, n and s from the global fit, then the fiber model's fused solve
+// One texel of the fiber model: fiber_texel_start, then the fiber model's fused solve
 // (fit/fiber_lm.h: the global fit's solver, checked against Ceres there) on the texel alone.
 TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
                               const TexelResult& from, const TexelMapOptions& o,
                               const TexelPrior* prior) {
-  TexelResult t;
-  t.c = from.c;
-  t.s = from.s;
-  if (!prior) {
-    Core line = from.c;
-    texel_start(os, idx, &line);
-    t.c.psi = line.psi;
-  }
+  TexelResult t = fiber_texel_start(os, idx, from, o, prior);
   FiberAccuracy acc;
   acc.order = o.fiber_order;
   FusedSolve fs;
@@ -390,7 +462,9 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   }
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
   auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
-    if (o.fiber_order > 0) return solve_texel_fiber(os, bins[b], from, o, prior);
+    if (o.fiber_order > 0)
+      return o.ceres ? solve_texel_fiber_ceres(os, bins[b], from, o, prior)
+                     : solve_texel_fiber(os, bins[b], from, o, prior);
     return o.ceres ? solve_texel_ceres(os, bins[b], from.c, prior)
                    : solve_texel_lm(os, bins[b], from.c, prior);
   };

@@ -15,6 +15,10 @@
 #include "fit/observations.h"
 #include "models/line_model.h"
 
+namespace aniso {
+struct FiberAccuracy;  // models/fiber_model.h
+}  // namespace aniso
+
 namespace aniso::fitting {
 
 // Below this fraction of the diffuse level (or absolute 1e-4) a specular lobe carries no usable
@@ -96,6 +100,10 @@ std::unique_ptr<ModelFit> make_line_fit(const FitOptions& opt);
 // log n 1, psi 1, two 1-wide blocks to hold constant).
 ceres::CostFunction* line_pixel_cost(const Observation* o, const ObsLight* lights);
 std::unique_ptr<ModelFit> make_fiber_fit(const FitOptions& opt, const ObsSet& os);
+// One pixel's residual of the fiber model by autodiff (Ceres' reference for the fused solver);
+// blocks (k_d 3, k_s 3, log n 1, psi 1, topology 1: s, A, or a constant under kMathematical).
+ceres::CostFunction* fiber_pixel_cost(const Observation* o, const ObsLight* lights,
+                                      TopologyMode mode, const FiberAccuracy& acc);
 
 // Bounds of k_d, k_s, log n from models/params.h and psi on its half-turn manifold: the blocks
 // every problem shares.

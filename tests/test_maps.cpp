@@ -283,14 +283,15 @@ TEST(FitMaps, SmoothingBringsNoisyTexelsCloserToTheTruth) {
 namespace aniso {
 namespace {
 
-// The fast path of --maps (a hand-written Levenberg-Marquardt per texel) against Ceres, the
-// fitter of record, on the same texels, alone and with --smooth (Ceres with the same pull as a
-// NormalPrior): the same minimum within a tenth of sigma everywhere.
+// The fast path of --maps (a hand-written Levenberg-Marquardt per texel; the fused fiber solver
+// per texel) against Ceres, the fitter of record, on the same texels, alone and with --smooth
+// (Ceres with the same pull as a NormalPrior): the same minimum within a tenth of sigma
+// everywhere. `options` names the maps' size.
 double worst_lm_against_ceres(const std::string& dir, const std::string& options,
                               size_t* compared) {
   for (const std::string solver : {"lm", "ceres"}) {
-    const auto r = test::run_cli("fit " + dir + "/set --maps 8x6 " + options + " --maps-solver " +
-                                 solver + " --out " + dir + "/" + solver + ".json");
+    const auto r = test::run_cli("fit " + dir + "/set " + options + " --maps-solver " + solver +
+                                 " --out " + dir + "/" + solver + ".json");
     EXPECT_EQ(r.status, 0) << r.output;
     std::printf("%s %s: %s\n", solver.c_str(), options.c_str(),
                 r.output.substr(r.output.find("fit: --maps")).substr(0, 100).c_str());
@@ -301,8 +302,10 @@ double worst_lm_against_ceres(const std::string& dir, const std::string& options
   const Image det = img("ceres", "determined");
   double worst = 0;
   *compared = 0;
-  for (const char* key : {"kd", "ks", "n"}) {
-    const Image a = img("lm", key), b = img("ceres", key),
+  std::vector<std::string> keys = {"kd", "ks", "n"};
+  if (std::filesystem::exists(dir + "/ceres_s.exr")) keys.push_back("s");  // the fiber model's
+  for (const std::string& key : keys) {
+    const Image a = img("lm", key.c_str()), b = img("ceres", key.c_str()),
                 s = img("ceres", (std::string(key) + "_sigma").c_str());
     for (size_t i = 0; i < a.px.size(); ++i) {
       if (det.px[i / a.channels] < 0.5) continue;
@@ -329,10 +332,25 @@ TEST(FitMaps, LevenbergMarquardtReachesCeresMinimumPerTexel) {
   const std::string dir = test::tmp_dir("lm");
   auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
   ASSERT_EQ(r.status, 0) << r.output;
-  for (const std::string options : {"", "--smooth 1 --smooth-sweeps 3"}) {
+  for (const std::string options : {"--maps 8x6", "--maps 8x6 --smooth 1 --smooth-sweeps 3"}) {
     size_t compared = 0;
     EXPECT_LT(worst_lm_against_ceres(dir, options, &compared), 0.1) << options;
     EXPECT_GT(compared, 300u);
+  }
+}
+
+// The fiber model's texels: the fused solver against one Ceres problem per texel (autodiff
+// through the quadrature), s included, alone and smoothed.
+TEST(FitMaps, FusedFiberTexelsReachCeresMinimum) {
+  const std::string dir = test::tmp_dir("fiber_lm");
+  auto r =
+      test::run_cli("synth fiber-flat-map " + dir + "/set --noise 0.01 --size 40x40 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const std::string options :
+       {"--model fiber --maps 6x6", "--model fiber --maps 6x6 --smooth 0.3 --smooth-sweeps 2"}) {
+    size_t compared = 0;
+    EXPECT_LT(worst_lm_against_ceres(dir, options, &compared), 0.1) << options;
+    EXPECT_GT(compared, 6u * 6 * 9 * 3 / 4);  // kd 3, ks 3, n, s and psi per texel
   }
 }
 
