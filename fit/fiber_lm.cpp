@@ -49,10 +49,10 @@ struct FiberPass {
     const J3 b = c * V.u + sn * V.w, vb = c * V.w - sn * V.u;
     for (uint32_t i = 0; i < o.num_lights; ++i) {
       const ObsLight& l = os.lights[o.first_light + i];
-      if (l.L.n < -kHorizonRounding) continue;
+      const LocalDir L = l.L;
+      if (L.n < -kHorizonRounding) continue;
       J3 D, S;
-      fiber_DS(c * l.L.w - sn * l.L.u, J3(l.L.n), vb, J3(V.n), c * l.L.u + sn * l.L.w, b, n, s, acc,
-               &D, &S);
+      fiber_DS(c * L.w - sn * L.u, J3(L.n), vb, J3(V.n), c * L.u + sn * L.w, b, n, s, acc, &D, &S);
       for (int k = 0; k < 3; ++k) {
         const double E = l.E[k];
         d->r[k] += E * (kd[k] * D.a + ks[k] * S.a);

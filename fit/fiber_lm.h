@@ -19,9 +19,9 @@ inline void fiber_columns(const ObsSet& os, const Observation& o, double c, doub
   const double b = c * o.V.u + sn * o.V.w, vb = c * o.V.w - sn * o.V.u;
   for (uint32_t q = 0; q < o.num_lights; ++q) {
     const ObsLight& l = os.lights[o.first_light + q];
+    const LocalDir L = l.L;
     double D, S;
-    fiber_DS(c * l.L.w - sn * l.L.u, l.L.n, vb, o.V.n, c * l.L.u + sn * l.L.w, b, n, s, acc, &D,
-             &S);
+    fiber_DS(c * L.w - sn * L.u, L.n, vb, double(o.V.n), c * L.u + sn * L.w, b, n, s, acc, &D, &S);
     for (int ch = 0; ch < 3; ++ch) {
       dcol[ch] += l.E[ch] * D;
       scol[ch] += l.E[ch] * S;

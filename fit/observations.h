@@ -15,22 +15,31 @@
 
 namespace aniso::fitting {
 
-// Directions in double (the lobe's x^n with n in the thousands magnifies their rounding); what
-// comes from images (values, topology, uv: float buffers) and irradiance in float, which holds
-// them exactly or to the images' own precision: 72 + 40 bytes per pixel and light, the size of
-// the 14-double record BENCHMARKS.md counts the memory against.
+// A record holds everything in float: directions (a unit direction to float's 6e-8; the lobe's
+// x^n moves by n times that, 6e-5 relative at n = 1000, far below any image's noise, and the
+// models read them as double), values from images, irradiance: 60 + 24 bytes per pixel and light,
+// 0.75 of the 14-double record BENCHMARKS.md counts the memory against (they were 72 + 40 with the
+// directions in double).
+struct LocalDirF {
+  float u = 0, w = 0, n = 1;
+  LocalDirF() = default;
+  LocalDirF(const LocalDir& d)  // NOLINT: a record takes a direction as it is computed
+      : u(static_cast<float>(d.u)), w(static_cast<float>(d.w)), n(static_cast<float>(d.n)) {}
+  operator LocalDir() const { return {u, w, n}; }  // NOLINT: the models read double
+};
 struct ObsLight {
-  LocalDir L;
+  LocalDirF L;
   float E[3];  // irradiance times exposure, per channel
 };
 struct Observation {
-  LocalDir V;
+  LocalDirF V;
   uint32_t first_light = 0, num_lights = 0;
   float y[3];                 // measured value
   float base[3];              // known constant part (ambient times k_a, which is not fitted)
   float smath = 0, mapv = 0;  // fiber model: mathematical topology and map value at the pixel
   float u = 0, v = 0;         // texture coordinates (per-texel topology fits)
 };
+static_assert(sizeof(ObsLight) == 24 && sizeof(Observation) == 60, "records as counted above");
 // How the fiber model's topology enters: one s for the whole sample, the map amplitude A on top
 // of per-pixel s_math and map values, s_math alone (nothing to fit), or a map of s over uv.
 enum class TopologyMode { kGlobalS, kAmplitude, kMathematical, kTexels };
