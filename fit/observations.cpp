@@ -39,7 +39,7 @@ struct UvBand {
   long t0 = 0, t1 = 0;
   bool keeps(const ViewData& d, int x, int y) const {
     if (!on) return true;
-    const long t = texel_of(d.uv.at(x, y, 0), d.uv.at(x, y, 1), w, h);
+    const long t = texel_of(d.geo->uv.at(x, y, 0), d.geo->uv.at(x, y, 1), w, h);
     return t >= t0 && t < t1;
   }
 };
@@ -67,15 +67,17 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
                             const Material& known, int stride, const UvBand& band, RecordSlot* out,
                             FitReport* rep) {
   const int w = d.rgb.width, h = d.rgb.height;
+  const ViewGeometry& g = *d.geo;
   for (int y = 0; y < h; y += stride)
     for (int x = 0; x < w; x += stride) {
-      if (!d.use[static_cast<size_t>(y) * w + x]) continue;
+      const size_t p = static_cast<size_t>(y) * w + x;
+      if (!d.use[p]) continue;
       if (!band.keeps(d, x, y)) {
         ++rep->outside_tile;
         continue;
       }
       SurfacePoint sp;
-      if (!frame_at(d.P, d.N, d.U, x, y, &sp)) {
+      if (!frame_at(g.P, g.N, g.U, x, y, &sp)) {
         ++rep->nonfinite;
         continue;
       }
@@ -99,11 +101,11 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
         o.y[k] = d.rgb.at(x, y, k);
         o.base[k] = v.exposure * known.ka[k] * set.ambient[k];
       }
-      o.smath = d.smath.at(x, y, 0);
-      o.mapv = d.mapv.at(x, y, 0);
-      if (!d.uv.empty()) {
-        o.u = d.uv.at(x, y, 0);
-        o.v = d.uv.at(x, y, 1);
+      o.smath = g.smath_at(p);
+      o.mapv = g.mapv_at(p);
+      if (!g.uv.empty()) {
+        o.u = g.uv.px[2 * p];
+        o.v = g.uv.px[2 * p + 1];
       }
       if (o.num_lights == 0) {
         ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
@@ -295,7 +297,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   // the set's arrays and each view's thread writes its records in place (no copy, and the new
   // pages are touched on both cores), the gaps closed in view order.
   const size_t batch = 2 * static_cast<size_t>(std::max(1, opt.threads)), n = set.views.size();
-  std::vector<GeometryCache> geometry(batch);  // one per slot of a batch
+  GeometryCache geometry;  // a fixed camera's buffers decoded once, shared by every view
   tbb::task_arena arena(std::max(1, opt.threads));
   const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &map : nullptr;
   const UvBand band = uv_band(opt);
@@ -305,7 +307,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
-        p.d = load_view(set, i, tmap, &geometry[i - b0]);
+        p.d = load_view(set, i, tmap, &geometry);
         grey_views += p.d.channels == 1;
         add_neighbour_differences(p.d, &p.diffs);
         p.rep.masked_out = static_cast<size_t>(p.d.rgb.width) * p.d.rgb.height - p.d.mask_pixels;
@@ -320,7 +322,6 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
         add_pixel_observations(p.d, set.views[i], set, known, opt.subsample, band, &p.slot, &p.rep);
-        give_back_geometry(&p.d, &geometry[i - b0]);
         p.d = ViewData{};
         bar.advance();
       });

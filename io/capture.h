@@ -2,7 +2,9 @@
 // The reader accepts exactly what FORMAT.md says, from whoever wrote it, and rejects what it does
 // not understand with a message naming the file and the key.
 #pragma once
+#include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -68,14 +70,23 @@ std::vector<std::string> capture_input_files(const CaptureSet& set);
 // Writes capture.json for `set` into set.dir (atomically). Paths in `set` are relative to it.
 void write_capture_json(const CaptureSet& set, const std::string& path);
 
+// Per-pixel geometry of a view, from its buffers or a traced mesh; shared (read-only) by every
+// view that names the same buffers.
+struct ViewGeometry {
+  Image P, N, U;  // world position, unit normal, reference tangent
+  Image smath;    // 1 channel: mathematical topology s_math (empty: no buffer, 0 everywhere)
+  Image mapv;     // 1 channel: topology-map value m in [-1, 1] at the pixel's uv (empty: no map)
+  Image uv;       // 2 channels, when the set has a uv buffer (empty otherwise)
+  std::vector<uint8_t> mask;
+  float smath_at(size_t p) const { return smath.empty() ? 0.f : smath.px[p]; }
+  float mapv_at(size_t p) const { return mapv.empty() ? 0.f : mapv.px[p]; }
+};
+
 // One view loaded for fitting or verification: linear RGB image, per-pixel geometry, and which
 // pixels are usable (mask on, finite, not saturated, geometry finite).
 struct ViewData {
-  Image rgb;      // 3 channels, linear, black level removed
-  Image P, N, U;  // world position, unit normal, reference tangent
-  Image smath;    // 1 channel: mathematical topology s_math (0 where no buffer is given)
-  Image mapv;     // 1 channel: topology-map value m in [-1, 1] at the pixel's uv (0 if none)
-  Image uv;       // 2 channels, when the set has a uv buffer (empty otherwise)
+  Image rgb;  // 3 channels, linear, black level removed
+  std::shared_ptr<const ViewGeometry> geo;
   std::vector<uint8_t> use;  // 1 = pixel is an observation
   size_t mask_pixels = 0, saturated = 0, nonfinite = 0, used = 0;
   int channels = 3;  // of the image: 1 (grey, repeated into rgb) or 3
@@ -91,22 +102,28 @@ struct TopologyMap {
 };
 TopologyMap load_topology_map(const std::string& path);
 
-// The geometry buffers of the last view loaded: views that name the same buffer files (a fixed
-// camera, one geometry for every light) decode them once. The buffers are lent to the next view
-// that names them (moved, not copied) and come back with give_back_geometry.
-struct GeometryCache {
-  std::string key;  // the buffer paths and the camera's size
-  Image P, N, U, smath, mapv, uv;
-  std::vector<uint8_t> mask;
-  bool held = false;  // the buffers are here (not lent out)
+// Geometry buffers already decoded, for views loaded on any number of threads: views that name
+// the same buffer files (a fixed camera, one geometry for every light) share one decoded copy,
+// decoded once (a second thread asking for it waits for the first). Keeps the latest geometry for
+// views still to come; the others live as long as a view holds them.
+class GeometryCache {
+ public:
+  GeometryCache();
+  ~GeometryCache();
+  GeometryCache(const GeometryCache&) = delete;
+  GeometryCache& operator=(const GeometryCache&) = delete;
+  std::shared_ptr<const ViewGeometry> get(const std::string& key,
+                                          const std::function<ViewGeometry()>& load);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 // Loads view i; per-pixel geometry comes from its buffers or by casting rays at its mesh.
-// `map` (the set's topology map, loaded once by the caller) fills ViewData::mapv from the uv
-// buffer. With `cache`, buffers the previous view also named are not decoded again.
+// `map` (the set's topology map, loaded once by the caller) fills ViewGeometry::mapv from the uv
+// buffer. With `cache`, buffers an earlier view also named are not decoded again.
 ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nullptr,
                    GeometryCache* cache = nullptr);
-// A loaded view's geometry back into the cache it was lent from (or kept there, the first time).
-void give_back_geometry(ViewData* d, GeometryCache* cache);
 
 }  // namespace aniso

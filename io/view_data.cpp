@@ -3,6 +3,8 @@
 // and every masked pixel sorted into usable, saturated or not finite.
 #include <cmath>
 #include <limits>
+#include <map>
+#include <mutex>
 
 #include "core/color.h"
 #include "core/error.h"
@@ -92,50 +94,67 @@ LoadedImage read_view_image(const CaptureSet& s, const ViewSpec& v, const std::s
 
 // Per-pixel geometry from the view's buffers: P, N, U, the mask, s_math, uv and the topology
 // map's value at uv.
-void read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const TopologyMap* map,
-                           ViewData* d, std::vector<uint8_t>* mask) {
+ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const TopologyMap* map) {
   const Intrinsics& k = v.camera;
   const GeometrySpec& g = v.geometry;
-  d->P = need_buffer(join_path(s.dir, g.position), 3, k, "position");
-  d->N = need_buffer(join_path(s.dir, g.normal), 3, k, "normal");
-  d->U = need_buffer(join_path(s.dir, g.tangent), 3, k, "tangent");
+  ViewGeometry d;
+  d.mask.assign(static_cast<size_t>(k.width) * k.height, 1);
+  d.P = need_buffer(join_path(s.dir, g.position), 3, k, "position");
+  d.N = need_buffer(join_path(s.dir, g.normal), 3, k, "normal");
+  d.U = need_buffer(join_path(s.dir, g.tangent), 3, k, "tangent");
   if (!g.mask.empty()) {
     const Image m = need_buffer(join_path(s.dir, g.mask), 1, k, "mask");
-    for (size_t p = 0; p < mask->size(); ++p) (*mask)[p] = m.px[p * m.channels] != 0.f;
+    for (size_t p = 0; p < d.mask.size(); ++p) d.mask[p] = m.px[p * m.channels] != 0.f;
   }
   if (!g.topology.empty()) {
     const Image t = need_buffer(join_path(s.dir, g.topology), 1, k, "topology");
-    for (size_t p = 0; p < mask->size(); ++p) {
+    d.smath = Image(k.width, k.height, 1, 0.f);
+    for (size_t p = 0; p < d.mask.size(); ++p) {
       const float val = t.px[p * t.channels];
-      if ((*mask)[p] && !(val >= 0.f && val <= 1.f))
+      if (d.mask[p] && !(val >= 0.f && val <= 1.f))
         throw Error(join_path(s.dir, g.topology) + ": topology value " + std::to_string(val) +
                     " outside [0, 1]");
-      d->smath.px[p] = val;
+      d.smath.px[p] = val;
     }
   }
   if (!g.uv.empty()) {
-    const Image uv = need_buffer(join_path(s.dir, g.uv), 2, k, "uv");
-    d->uv = Image(k.width, k.height, 2);
-    for (size_t p = 0; p < mask->size(); ++p)
-      for (int c = 0; c < 2; ++c) d->uv.px[2 * p + c] = uv.px[p * uv.channels + c];
+    Image uv = need_buffer(join_path(s.dir, g.uv), 2, k, "uv");
+    if (uv.channels == 2) {
+      d.uv = std::move(uv);
+    } else {
+      d.uv = Image(k.width, k.height, 2);
+      for (size_t p = 0; p < d.mask.size(); ++p)
+        for (int c = 0; c < 2; ++c) d.uv.px[2 * p + c] = uv.px[p * uv.channels + c];
+    }
   }
-  if (!map) return;
-  if (d->uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
-  for (size_t p = 0; p < mask->size(); ++p)
-    if ((*mask)[p] && std::isfinite(d->uv.px[2 * p]) && std::isfinite(d->uv.px[2 * p + 1]))
-      d->mapv.px[p] = static_cast<float>(map->sample(d->uv.px[2 * p], d->uv.px[2 * p + 1]));
+  if (!map) return d;
+  if (d.uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
+  d.mapv = Image(k.width, k.height, 1, 0.f);
+  for (size_t p = 0; p < d.mask.size(); ++p)
+    if (d.mask[p] && std::isfinite(d.uv.px[2 * p]) && std::isfinite(d.uv.px[2 * p + 1]))
+      d.mapv.px[p] = static_cast<float>(map->sample(d.uv.px[2 * p], d.uv.px[2 * p + 1]));
+  return d;
 }
 
 // Decodes the masked pixels to linear and sorts them: usable, saturated or not finite (value or
-// geometry).
-void classify_pixels(const CaptureSet& s, const LoadedImage& li, const std::vector<uint8_t>& mask,
-                     ViewData* d) {
+// geometry). An RGB image is decoded in place (no second copy of the view); pixels outside the
+// mask read 0.
+void classify_pixels(const CaptureSet& s, LoadedImage li, ViewData* d) {
+  const ViewGeometry& g = *d->geo;
+  const std::vector<uint8_t>& mask = g.mask;
   const Image& raw = li.image;
   const int w = raw.width, h = raw.height;
   const double sat = s.color.saturation_given
                          ? s.color.saturation
                          : (li.bits ? 1.0 : std::numeric_limits<double>::infinity());
-  d->rgb = Image(w, h, 3);
+  Image grey;  // a grey image is read from here into the three channels
+  if (li.image.channels == 3) {
+    d->rgb = std::move(li.image);
+  } else {
+    grey = std::move(li.image);
+    d->rgb = Image(w, h, 3);
+  }
+  const Image& in = grey.empty() ? d->rgb : grey;
   d->use.assign(mask.size(), 0);
   auto finite3 = [](const Image& im, int x, int y) {
     return std::isfinite(im.at(x, y, 0)) && std::isfinite(im.at(x, y, 1)) &&
@@ -144,11 +163,14 @@ void classify_pixels(const CaptureSet& s, const LoadedImage& li, const std::vect
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const size_t p = static_cast<size_t>(y) * w + x;
-      if (!mask[p]) continue;
+      if (!mask[p]) {
+        for (int c = 0; c < 3; ++c) d->rgb.at(x, y, c) = 0.f;
+        continue;
+      }
       ++d->mask_pixels;
       bool ok = true, saturated = false;
       for (int c = 0; c < 3; ++c) {
-        const float r = raw.at(x, y, raw.channels == 3 ? c : 0);
+        const float r = in.at(x, y, in.channels == 3 ? c : 0);
         if (!std::isfinite(r))
           ok = false;
         else if (r >= sat)
@@ -157,10 +179,9 @@ void classify_pixels(const CaptureSet& s, const LoadedImage& li, const std::vect
         if (!std::isfinite(lin) || std::abs(lin) > std::numeric_limits<float>::max()) ok = false;
         d->rgb.at(x, y, c) = static_cast<float>(lin);
       }
-      if (!d->uv.empty() &&
-          (!std::isfinite(d->uv.at(x, y, 0)) || !std::isfinite(d->uv.at(x, y, 1))))
+      if (!g.uv.empty() && (!std::isfinite(g.uv.at(x, y, 0)) || !std::isfinite(g.uv.at(x, y, 1))))
         ok = false;
-      if (!finite3(d->P, x, y) || !finite3(d->N, x, y) || !finite3(d->U, x, y)) ok = false;
+      if (!finite3(g.P, x, y) || !finite3(g.N, x, y) || !finite3(g.U, x, y)) ok = false;
       if (!ok) {
         ++d->nonfinite;
         continue;
@@ -176,59 +197,74 @@ void classify_pixels(const CaptureSet& s, const LoadedImage& li, const std::vect
 
 }  // namespace
 
+struct GeometryCache::Impl {
+  struct Entry {
+    std::once_flag once;
+    std::shared_ptr<const ViewGeometry> geo;
+  };
+  std::mutex m;
+  std::map<std::string, std::weak_ptr<Entry>> live;
+  std::shared_ptr<Entry> latest;  // kept for the views still to come
+};
+
+GeometryCache::GeometryCache() : impl_(std::make_unique<Impl>()) {}
+GeometryCache::~GeometryCache() = default;
+
+std::shared_ptr<const ViewGeometry> GeometryCache::get(const std::string& key,
+                                                       const std::function<ViewGeometry()>& load) {
+  std::shared_ptr<Impl::Entry> e;
+  {
+    std::lock_guard<std::mutex> lock(impl_->m);
+    for (auto it = impl_->live.begin(); it != impl_->live.end();)
+      it = it->second.expired() ? impl_->live.erase(it) : std::next(it);
+    auto it = impl_->live.find(key);
+    if (it != impl_->live.end()) e = it->second.lock();
+    if (!e) {
+      e = std::make_shared<Impl::Entry>();
+      impl_->live[key] = e;
+    }
+    impl_->latest = e;
+  }
+  // Decoded once; a failed decode leaves the entry empty for the next caller to try (and fail
+  // with the same message).
+  std::call_once(e->once, [&] { e->geo = std::make_shared<const ViewGeometry>(load()); });
+  return e->geo;
+}
+
 ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, GeometryCache* cache) {
   const ViewSpec& v = s.views.at(i);
   const Intrinsics& k = v.camera;
   const std::string ctx = s.file + ": views[" + std::to_string(i) + "]";
   ViewData d;
   d.eye = v.world_from_camera.translation();
-  const LoadedImage li = read_view_image(s, v, ctx);
+  LoadedImage li = read_view_image(s, v, ctx);
   d.channels = li.image.channels;
-  std::vector<uint8_t> mask(static_cast<size_t>(k.width) * k.height, 1);
   const GeometrySpec& g = v.geometry;
-  const std::string key = g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
-                          g.topology + '\n' + g.uv + '\n' + std::to_string(k.width) + 'x' +
-                          std::to_string(k.height);
-  const bool cached = g.mesh.empty() && cache && cache->held && cache->key == key;
-  if (!cached) {
-    d.smath = Image(k.width, k.height, 1, 0.f);
-    d.mapv = Image(k.width, k.height, 1, 0.f);
-  }
   if (!g.mesh.empty()) {
+    auto geo = std::make_shared<ViewGeometry>();
+    geo->mask.assign(static_cast<size_t>(k.width) * k.height, 1);
     try {
-      trace_mesh_gbuffer(join_path(s.dir, g.mesh), g.fiber_field, k, v.world_from_camera, &d.P,
-                         &d.N, &d.U, &mask);
+      trace_mesh_gbuffer(join_path(s.dir, g.mesh), g.fiber_field, k, v.world_from_camera, &geo->P,
+                         &geo->N, &geo->U, &geo->mask);
     } catch (const Error& e) {
       throw Error(ctx + ".geometry.mesh: " + e.what());
     }
+    d.geo = std::move(geo);
   } else {
-    if (cached) {  // lent, not copied: give_back_geometry returns them
-      d.P = std::move(cache->P), d.N = std::move(cache->N), d.U = std::move(cache->U);
-      d.smath = std::move(cache->smath), d.mapv = std::move(cache->mapv);
-      d.uv = std::move(cache->uv);
-      mask = cache->mask;
-      cache->held = false;
-    } else {
+    auto load = [&] {
       try {
-        read_geometry_buffers(s, v, map, &d, &mask);
+        return read_geometry_buffers(s, v, map);
       } catch (const Error& e) {
         throw Error(ctx + ".geometry: " + e.what());
       }
-      if (cache)
-        *cache =
-            GeometryCache{key, Image(), Image(), Image(), Image(), Image(), Image(), mask, false};
-    }
+    };
+    const std::string key = g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
+                            g.topology + '\n' + g.uv + '\n' + std::to_string(k.width) + 'x' +
+                            std::to_string(k.height);
+    d.geo = cache ? cache->get(key, load) : std::make_shared<const ViewGeometry>(load());
   }
-  classify_pixels(s, li, mask, &d);
+  classify_pixels(s, std::move(li), &d);
   return d;
-}
-
-void give_back_geometry(ViewData* d, GeometryCache* cache) {
-  if (cache->key.empty() || cache->held) return;
-  cache->P = std::move(d->P), cache->N = std::move(d->N), cache->U = std::move(d->U);
-  cache->smath = std::move(d->smath), cache->mapv = std::move(d->mapv);
-  cache->uv = std::move(d->uv);
-  cache->held = true;
 }
 
 }  // namespace aniso

@@ -31,9 +31,10 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
   GeometryCache geometry;
   for (size_t i = 0; i < set.views.size(); ++i) {
     ViewData d = load_view(set, i, use_map ? &map : nullptr, &geometry);
-    if (!s_map.empty() && d.uv.empty())
+    const ViewGeometry& g = *d.geo;
+    if (!s_map.empty() && g.uv.empty())
       throw Error(set.file + ": the material's map of s needs the \"uv\" buffer");
-    if (m.maps.any() && d.uv.empty())
+    if (m.maps.any() && g.uv.empty())
       throw Error(set.file + ": views[" + std::to_string(i) +
                   "]: the material has maps (k_d, k_s, n or fiber over uv); the view needs the "
                   "\"uv\" buffer");
@@ -47,16 +48,16 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
       for (int x = 0; x < d.rgb.width; ++x) {
         if (!d.use[static_cast<size_t>(y) * d.rgb.width + x]) continue;
         SurfacePoint sp;
-        if (!frame_at(d.P, d.N, d.U, x, y, &sp)) continue;
+        if (!frame_at(g.P, g.N, g.U, x, y, &sp)) continue;
         double I[3];
         const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
         const double mv = s_map.empty()
-                              ? d.mapv.px[p]
-                              : sample_first_channel(s_map, d.uv.px[2 * p], d.uv.px[2 * p + 1]);
-        const double topo = s_at(m, d.smath.px[p], mv);
+                              ? g.mapv_at(p)
+                              : sample_first_channel(s_map, g.uv.px[2 * p], g.uv.px[2 * p + 1]);
+        const double topo = s_at(m, g.smath_at(p), mv);
         // A material with maps: its values at the pixel's texture coordinates.
         const Evaluator local =
-            m.maps.any() ? Evaluator(material_at(m, d.uv.px[2 * p], d.uv.px[2 * p + 1])) : eval;
+            m.maps.any() ? Evaluator(material_at(m, g.uv.px[2 * p], g.uv.px[2 * p + 1])) : eval;
         shade_point(local, sp, d.eye, v.lights, amb, topo, no_shadows, I, &cnt);
         for (int c = 0; c < 3; ++c) {
           const double err = v.exposure * I[c] - d.rgb.at(x, y, c);
@@ -76,7 +77,6 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     sumy += sy;
     res.overall.pixels += e.pixels;
     res.overall.max_abs = std::max(res.overall.max_abs, e.max_abs);
-    give_back_geometry(&d, &geometry);
   }
   if (!residual_dir.empty())  // one folder output, swapped in whole (io/files.h)
     write_folder_atomically(residual_dir, [&](const std::string& dir) {
