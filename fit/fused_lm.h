@@ -160,20 +160,28 @@ FusedSums<P> fused_pass(size_t n, const RobustLoss& loss, bool jac, tbb::task_ar
   });
 }
 
-// The largest coordinate of `step` in units of that coordinate's standard error at the current
-// point (H^-1 s^2 with s^2 = rss / (values - P)).
+// The diagonal of H^-1 (one factorisation, every column at once).
 template <int P>
-double step_in_sigmas_p(const MatP<P>& H, const VecP<P>& step, double rss, double values) {
+VecP<P> inverse_diagonal(const MatP<P>& H) {
+  return Eigen::LDLT<MatP<P>>(H).solve(MatP<P>::Identity()).diagonal();
+}
+
+// The largest coordinate of `step` in units of that coordinate's standard error at the current
+// point (H^-1 s^2 with s^2 = rss / (values - P)), from the diagonal of H^-1.
+template <int P>
+double step_in_sigmas_d(const VecP<P>& hinv, const VecP<P>& step, double rss, double values) {
   const double s2 = rss / std::max(1.0, values - P);
-  const Eigen::LDLT<MatP<P>> ldlt(H);
   double worst = 0;
   for (int k = 0; k < P; ++k) {
-    VecP<P> e = VecP<P>::Zero();
-    e(k) = 1;
-    const double var = ldlt.solve(e)(k) * s2;
+    const double var = hinv(k) * s2;
     if (var > 0 && std::isfinite(var)) worst = std::max(worst, std::abs(step(k)) / std::sqrt(var));
   }
   return worst;
+}
+
+template <int P>
+double step_in_sigmas_p(const MatP<P>& H, const VecP<P>& step, double rss, double values) {
+  return step_in_sigmas_d<P>(inverse_diagonal<P>(H), step, rss, values);
 }
 
 // Converged: no coordinate of the next step would move by this much of its standard error.

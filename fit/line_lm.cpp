@@ -81,10 +81,6 @@ void core_bounds(Vec8* lo, Vec8* hi) {
   (*lo)(7) = -INFINITY, (*hi)(7) = INFINITY;
 }
 
-double step_in_sigmas(const Mat8& H, const Vec8& step, double rss, double values) {
-  return step_in_sigmas_p<8>(H, step, rss, values);
-}
-
 void line_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss_kind,
                    double scale, int max_iterations, int threads, Core* c, FusedSolve* out) {
   tbb::task_arena arena(std::max(1, threads));

@@ -24,11 +24,6 @@ Vec8 pack_core(const Core& c);
 void unpack_core(const Vec8& x, Core* c);
 void core_bounds(Vec8* lo, Vec8* hi);
 
-// The largest coordinate of `step` in units of that coordinate's standard error at the current
-// point (H^-1 s^2 with s^2 = rss / (values - 8); H = J^T J): below kStepInSigma the solution
-// will not move by anything that matters.
-double step_in_sigmas(const Mat8& H, const Vec8& step, double rss, double values);
-
 // Adds observations idx[begin .. end) (idx null: begin .. end themselves) at p to *s: robust cost,
 // and with `jac` the channels' J^T W J and J^T W r. The one loop of every line-model pass.
 void line_chunk(const ObsSet& os, const size_t* idx, size_t begin, size_t end,

@@ -289,10 +289,12 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   // that are not.
   struct Eval {
     Mat8 info, h;
-    Vec8 grad, g;
+    Vec8 grad, g, hinv;  // hinv: the diagonal of h^-1, once per point (rejected steps reuse it)
     double rss = 0, total = 0;
+    bool have_hinv = false;
   };
   auto evaluate = [&](const Vec8& at, Eval* e) {
+    e->have_hinv = false;
     e->rss = texel_pass(os, idx, at, &e->info, &e->grad);
     e->h = e->info, e->g = e->grad, e->total = e->rss;
     if (!prior) return;
@@ -310,7 +312,8 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
     a.diagonal() += lambda * cur.h.diagonal().cwiseMax(1e-12);
     const Vec8 step = a.ldlt().solve(-cur.g);
     // The same stopping rule as the global fused solve: a step under 1e-3 sigma is not taken.
-    if (step_in_sigmas(cur.h, step, cur.total, 3.0 * idx.size()) < kStepInSigma) break;
+    if (!cur.have_hinv) cur.hinv = inverse_diagonal<8>(cur.h), cur.have_hinv = true;
+    if (step_in_sigmas_d<8>(cur.hinv, step, cur.total, 3.0 * idx.size()) < kStepInSigma) break;
     Vec8 xn = (x + step).cwiseMax(lo).cwiseMin(hi);
     xn(7) = wrap_half_turn(xn(7));
     evaluate(xn, &trial);
