@@ -85,34 +85,9 @@ void parse_tile(const std::string& tile, FitOptions* fo) {
     throw Error("fit: --tile i/N needs 0 <= i < N, got '" + tile + "'");
 }
 
-// --global FILE: the material and the sigmas its fit recorded ("uncertainty": a number or an
-// array per key; null where undetermined).
+// --global FILE: the global fit an earlier `aniso fit` wrote.
 void read_global(const std::string& path, FitOptions* fo) {
-  const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
-  // Read once; its maps (of an earlier --maps fit) are not loaded: only the global values count.
-  fo->global = material_from_json(j, path);
-  fo->global.base_dir = parent_dir(path);
-  fo->has_global = true;
-  fo->global_file = path;
-  const jsonu::json rep = j.value("report", jsonu::json::object());
-  if (rep.is_object()) {
-    const int order = rep.value("fiber_order", 0);
-    if (order >= 1 && order <= 16) fo->global_fiber_order = order;
-    fo->global_views = rep.value("views", size_t(0));
-    fo->global_rms = rep.value("residual_rms", 0.0);
-    for (const auto& w : rep.value("warnings", jsonu::json::array()))
-      if (w.is_string()) fo->global_warnings.push_back(w);
-  }
-  if (!j.contains("uncertainty") || !j["uncertainty"].is_object()) return;
-  for (const auto& [key, v] : j["uncertainty"].items()) {
-    std::vector<double> s;
-    if (v.is_number()) s.push_back(v.get<double>());
-    if (v.is_array())
-      for (const auto& x : v)
-        if (x.is_number()) s.push_back(x.get<double>());
-    if (!s.empty() && std::all_of(s.begin(), s.end(), [](double x) { return std::isfinite(x); }))
-      fo->global_sigma[key] = s;
-  }
+  fo->global = given_global(read_text_file(path), path, parent_dir(path));
 }
 
 bool g_mpi_rank = false;  // run_fit is one rank's tile of `fit --mpi`: no "then merge" hint
@@ -148,17 +123,14 @@ bool share_global_fit(const std::string& in, const MpiWorld* world, FitOptions* 
         "fit --mpi: --maps fits the plain line model or the fiber model per texel: give "
         "--model line or fiber");
   bool ok = true;
-  std::string bytes;
+  std::string bytes;  // the global fit as write_fit writes it (it has no maps)
   if (world->rank == 0) try {
-      const TempDir tmp;
       FitOptions g = *fo;
       g.maps_w = g.maps_h = 0;
       g.maps_smooth = 0;
       g.tile_index = g.tile_count = 0;
-      const std::string path = tmp.path + "/global.json";
       const FitResult r = fit_capture(read_capture(in), g);
-      write_fit(path, r);
-      bytes = read_text_file(path);
+      bytes = fit_text(r);
       std::printf(
           "fit --mpi: rank 0 fitted the global parameters (%d iterations, residual RMS %.3g, "
           "%.3f s); every rank fits its tile from them, keeping only the pixels of its rows\n",
@@ -172,10 +144,7 @@ bool share_global_fit(const std::string& in, const MpiWorld* world, FitOptions* 
     if (world->rank == 0) throw Error("fit --mpi: the global fit: " + global);
     return false;
   }
-  const TempDir tmp;
-  write_text_file(tmp.path + "/global.json", global);
-  read_global(tmp.path + "/global.json", fo);
-  fo->global_file = "rank 0's global fit (fit --mpi)";
+  fo->global = given_global(global, "rank 0's global fit (fit --mpi)", parent_dir(in));
   return true;
 }
 
@@ -203,7 +172,7 @@ int run_fit_mpi(FitArgs& a) {
   }
   g_mpi_rank = true;
   FitOptions fo = a.fo;
-  if (!fo.has_global && !share_global_fit(a.in, world, &fo)) return 1;
+  if (!fo.global && !share_global_fit(a.in, world, &fo)) return 1;
   fo.tile_index = world->rank;
   fo.tile_count = world->size;
   bool ok = true;
@@ -251,7 +220,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
     for (const auto& f : capture_input_files(set)) inputs.push_back(f);
     if (truth.empty() && !set.truth.empty()) truth = join_path(set.dir, set.truth);
   }
-  if (fo.has_global) inputs.push_back(fo.global_file);
+  if (fo.global) inputs.push_back(fo.global->file);
   Material truth_m;
   if (!truth.empty()) {
     truth_m = read_material(truth);
@@ -396,7 +365,7 @@ Command add_fit(CLI::App& app) {
             if (!a->global.empty()) {
               read_global(a->global, &a->fo);
               if (fit->get_option("--model")->count() == 0)
-                a->fo.model = a->fo.global.fiber() ? FitModel::kFiber : FitModel::kLine;
+                a->fo.model = a->fo.global->material.fiber() ? FitModel::kFiber : FitModel::kLine;
             }
             if (a->mpi) return run_fit_mpi(*a);
             return run_fit(a->in, a->fo, a->out, a->truth);

@@ -128,25 +128,25 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
   check_fit_request(os, opt, *m);
   const auto t0 = Clock::now();
   FitResult res;
-  res.material = opt.global;
+  res.material = opt.global->material;
   res.material.maps = MaterialMaps{};
   const Material& g = res.material;
   Core c;
   for (int k = 0; k < 3; ++k) c.kd[k] = g.kd[k], c.ks[k] = g.ks[k];
   c.logn = std::log(g.n);
   c.psi = deg_to_rad(g.fiber_angle_deg);
-  res.sigma = opt.global_sigma;
-  res.fixed["global_fit"] = "from " + opt.global_file + ", not fitted with the maps";
-  rep.global_from = opt.global_file;
+  res.sigma = opt.global->sigma;
+  res.fixed["global_fit"] = "from " + opt.global->file + ", not fitted with the maps";
+  rep.global_from = opt.global->file;
   rep.solver = "none";
-  rep.rms = opt.global_rms;
-  for (const auto& w : opt.global_warnings) rep.warnings.push_back(w);
-  if (opt.global_views > 0 && opt.global_views != rep.views)
-    rep.warnings.push_back("--global " + opt.global_file + " was fitted on " +
-                           std::to_string(opt.global_views) + " views; this capture has " +
+  rep.rms = opt.global->rms;
+  for (const auto& w : opt.global->warnings) rep.warnings.push_back(w);
+  if (opt.global->views > 0 && opt.global->views != rep.views)
+    rep.warnings.push_back("--global " + opt.global->file + " was fitted on " +
+                           std::to_string(opt.global->views) + " views; this capture has " +
                            std::to_string(rep.views) + ": is it a fit of the same capture?");
   if (model == Model::kFiber) {
-    rep.fiber_order = opt.fiber_order > 0 ? opt.fiber_order : opt.global_fiber_order;
+    rep.fiber_order = opt.fiber_order > 0 ? opt.fiber_order : opt.global->fiber_order;
     std::string why = opt.fiber_order > 0 ? "as given" : "the global fit's";
     if (rep.fiber_order <= 0) rep.fiber_order = 8, why = "the default: --fiber-order sets it";
     rep.start = "texels: quadrature order " + std::to_string(rep.fiber_order) + " (" + why + ")";
@@ -172,17 +172,17 @@ void quiet_library_logs() {
 FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& rep,
                       const RGB& ka) {
   quiet_library_logs();
-  if (opt.has_global) {
-    const Model given = opt.global.model;
+  if (opt.global) {
+    const Model given = opt.global->material.model;
     if (opt.maps_w == 0)
       throw Error("fit: --global hands a --maps fit its global fit: give --maps WxH");
     if (opt.model == FitModel::kAuto || (opt.model == FitModel::kFiber) != (given == Model::kFiber))
-      throw Error("fit: --global " + opt.global_file + " is a " + model_name(given) +
+      throw Error("fit: --global " + opt.global->file + " is a " + model_name(given) +
                   " model fit: --maps fits the same model (give --model " + model_name(given) +
                   ", or leave --model out)");
-    if (opt.global.isotropic_active() || opt.global.second_active() ||
-        opt.global.topology_as<TopologyMapRef>())
-      throw Error("fit: --global " + opt.global_file +
+    const Material& gm = opt.global->material;
+    if (gm.isotropic_active() || gm.second_active() || gm.topology_as<TopologyMapRef>())
+      throw Error("fit: --global " + opt.global->file +
                   ": it has an isotropic term, a second fiber or a topology map; --maps fits the "
                   "plain line model or the fiber model with one s");
     return maps_on_given_global(given, os, opt, rep);

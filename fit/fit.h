@@ -6,6 +6,7 @@
 #pragma once
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,19 @@ enum class FitModel { kLine, kFiber, kAuto };
 enum class FitLoss { kHuber, kCauchy, kNone };
 const char* fit_model_name(FitModel m);
 const char* fit_loss_name(FitLoss l);
+
+// A global fit given to --maps (--global, or rank 0's under `fit --mpi`): what an earlier fit's
+// file says, read by given_global.
+struct GivenGlobal {
+  std::string file;  // where it came from, for messages and the report
+  Material material;
+  std::map<std::string, std::vector<double>> sigma;  // as its file recorded them
+  int fiber_order = 0;  // the quadrature order its fit chose (report.fiber_order)
+  // Its report's views, residual RMS and warnings (carried into this result's report).
+  size_t views = 0;
+  double rms = 0;
+  std::vector<std::string> warnings;
+};
 
 struct FitOptions {
   FitModel model = FitModel::kLine;
@@ -60,15 +74,7 @@ struct FitOptions {
   // do not determine) taken from an earlier fit instead of fitted here. With --tile, the tile then
   // keeps only the observations whose uv falls in its rows (and its --smooth band): a tile's
   // memory is its share of the sample, not the whole set.
-  bool has_global = false;
-  Material global;
-  std::string global_file;
-  std::map<std::string, std::vector<double>> global_sigma;  // as its file recorded them
-  int global_fiber_order = 0;  // the quadrature order its fit chose (report.fiber_order)
-  // Its report's views, residual RMS and warnings (carried into this result's report).
-  size_t global_views = 0;
-  double global_rms = 0;
-  std::vector<std::string> global_warnings;
+  std::optional<GivenGlobal> global;
 };
 
 // --maps: every texel's fit (row-major, glTF uv: texel (i, j) covers u in [i/W, (i+1)/W)). Texels
@@ -154,6 +160,12 @@ size_t export_observations(const CaptureSet& set, const FitOptions& opt, const s
                            std::vector<double>* start);
 
 // The material file with "uncertainty", "fixed", "undetermined" and "report"; atomic.
+// What write_fit writes for a result without maps, as text (fit --mpi sends rank 0's global fit).
+std::string fit_text(const FitResult& r);
+// The global fit of a file write_fit wrote (`text`, named `file` in messages; relative paths from
+// `base_dir`): its material without maps (only the global values count), sigmas, report.
+GivenGlobal given_global(const std::string& text, const std::string& file,
+                         const std::string& base_dir);
 void write_fit(const std::string& path, const FitResult& r);
 
 // --tile: a self-describing tile of a maps fit (format "aniso-maps-tile": the tile, the grid, its

@@ -46,7 +46,7 @@ struct UvBand {
 
 UvBand uv_band(const FitOptions& opt) {
   UvBand b;
-  if (!opt.has_global || opt.tile_count == 0 || opt.maps_w == 0) return b;
+  if (!opt.global || opt.tile_count == 0 || opt.maps_w == 0) return b;
   const TileRows r = tile_rows(opt);
   b.on = true;
   b.w = opt.maps_w, b.h = opt.maps_h;

@@ -172,6 +172,42 @@ jsonu::json fit_json(const std::string& path, const FitResult& r) {
 
 }  // namespace
 
+std::string fit_text(const FitResult& r) {
+  if (r.maps.w > 0) throw Error("fit_text: a result with maps is written by write_fit");
+  return fit_json("fit.json", r).dump();
+}
+
+GivenGlobal given_global(const std::string& text, const std::string& file,
+                         const std::string& base_dir) {
+  const jsonu::json j = jsonu::parse_file(text, file);
+  GivenGlobal g;
+  g.file = file;
+  // Read once; its maps (of an earlier --maps fit) are not loaded: only the global values count.
+  g.material = material_from_json(j, file);
+  g.material.base_dir = base_dir;
+  const jsonu::json rep = j.value("report", jsonu::json::object());
+  if (rep.is_object()) {
+    const int order = rep.value("fiber_order", 0);
+    if (order >= 1 && order <= 16) g.fiber_order = order;
+    g.views = rep.value("views", size_t(0));
+    g.rms = rep.value("residual_rms", 0.0);
+    for (const auto& w : rep.value("warnings", jsonu::json::array()))
+      if (w.is_string()) g.warnings.push_back(w);
+  }
+  // "uncertainty": a number or an array per key; null where undetermined.
+  if (!j.contains("uncertainty") || !j["uncertainty"].is_object()) return g;
+  for (const auto& [key, v] : j["uncertainty"].items()) {
+    std::vector<double> s;
+    if (v.is_number()) s.push_back(v.get<double>());
+    if (v.is_array())
+      for (const auto& x : v)
+        if (x.is_number()) s.push_back(x.get<double>());
+    if (!s.empty() && std::all_of(s.begin(), s.end(), [](double x) { return std::isfinite(x); }))
+      g.sigma[key] = s;
+  }
+  return g;
+}
+
 void write_fit(const std::string& path, const FitResult& r) {
   jsonu::json j = fit_json(path, r);
   if (r.maps.w > 0) add_maps(path, r.maps, &j);
