@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "fit/start.h"
+#include "fit/texel_simd.h"
 
 namespace aniso::fitting {
 
@@ -173,6 +174,16 @@ ANISO_AVX2 void group(const Lanes& q, const LinePixelParams& p, const RobustLoss
   }
 }
 
+// The lane sums into the chunk's: lane by lane, a fixed order.
+ANISO_AVX2 void add_lanes(const LaneSums& acc, ChannelSums<8>* sums) {
+  sums->cost += hsum(acc.cost);
+  sums->rss += hsum(acc.rss);
+  for (int k = 0; k < 3; ++k) {
+    for (int t = 0; t < 10; ++t) sums->h[k][t] += hsum(acc.h[k][t]);
+    for (int i = 0; i < 4; ++i) sums->g[k][i] += hsum(acc.g[k][i]);
+  }
+}
+
 ANISO_AVX2 void pass_avx2(const ObsSet& os, const size_t* idx, size_t count,
                           const LinePixelParams& p, const RobustLoss& loss, bool jac,
                           ChannelSums<8>* sums) {
@@ -183,12 +194,33 @@ ANISO_AVX2 void pass_avx2(const ObsSet& os, const size_t* idx, size_t count,
     gather(os, idx + i, count - i, &q);
     group(q, p, loss, jac, &acc);
   }
-  sums->cost += hsum(acc.cost);
-  sums->rss += hsum(acc.rss);
-  for (int k = 0; k < 3; ++k) {
-    for (int t = 0; t < 10; ++t) sums->h[k][t] += hsum(acc.h[k][t]);
-    for (int i = 0; i < 4; ++i) sums->g[k][i] += hsum(acc.g[k][i]);
-  }
+  add_lanes(acc, sums);
+}
+
+// Four floats of row k of a group of eight, as doubles.
+ANISO_AVX2_INLINE v4d row4(const float* g, int k) {
+  return v4d{g[8 * k], g[8 * k + 1], g[8 * k + 2], g[8 * k + 3]};
+}
+
+// The texel's transposed rows (fit/texel_simd.h) in double, four lanes at a time: the weights
+// already times n_L (Ln 1) and the values less the known part (base 0).
+ANISO_AVX2 void lanes_pass_avx2(const TexelLanes& t, const LinePixelParams& p, bool jac,
+                                ChannelSums<8>* sums) {
+  LaneSums acc;
+  std::memset(&acc, 0, sizeof acc);
+  const RobustLoss none{FitLoss::kNone, 0};
+  Lanes q;
+  q.Ln = splat(1.0);
+  for (int k = 0; k < 3; ++k) q.base[k] = splat(0.0);
+  for (size_t gi = 0; gi < t.groups; ++gi)
+    for (int half = 0; half < 2; ++half) {
+      const float* g = t.f.data() + gi * TexelLanes::kRows * 8 + 4 * half;
+      q.Vu = row4(g, 0), q.Vw = row4(g, 1), q.Lu = row4(g, 2), q.Lw = row4(g, 3);
+      for (int k = 0; k < 3; ++k) q.E[k] = row4(g, 5 + k), q.y[k] = row4(g, 8 + k);
+      q.mask = row4(g, 11);
+      group(q, p, none, jac, &acc);
+    }
+  add_lanes(acc, sums);
 }
 
 // Four start nodes at once, psi in the lanes (n = 2^log2n, x^n by squaring): line_node_cost's
@@ -316,6 +348,11 @@ void set_line_simd(bool on) { g_simd_on = on; }
 void line_pass_simd(const ObsSet& os, const size_t* idx, size_t count, const LinePixelParams& p,
                     const RobustLoss& loss, bool jac, ChannelSums<8>* sums) {
   pass_avx2(os, idx, count, p, loss, jac, sums);
+}
+
+void line_pass_lanes(const TexelLanes& t, const LinePixelParams& p, bool jac,
+                     ChannelSums<8>* sums) {
+  lanes_pass_avx2(t, p, jac, sums);
 }
 
 void line_nodes_simd(const ObsSet& os, const size_t* idx, size_t count, const double psi[4],

@@ -22,6 +22,11 @@ void set_line_simd(bool on);
 void line_pass_simd(const ObsSet& os, const size_t* idx, size_t count, const LinePixelParams& p,
                     const RobustLoss& loss, bool jac, ChannelSums<8>* sums);
 
+struct TexelLanes;
+// The same over a texel's transposed rows (fit/texel_simd.h), in double, without a robust loss:
+// the texel's last passes after its float ones.
+void line_pass_lanes(const TexelLanes& t, const LinePixelParams& p, bool jac, ChannelSums<8>* sums);
+
 struct KdKsSums;
 // Four nodes of the start's grid (fit/start.h, line_node_cost) at once, psi[i] in lane i, over
 // observations idx[0 .. count): each node's k_d, k_s sums in out[i].

@@ -20,7 +20,9 @@
 #include "fit/fiber_lm.h"
 #include "fit/line_lm.h"
 #include "fit/line_pixel.h"
+#include "fit/line_simd.h"
 #include "fit/start.h"
+#include "fit/texel_simd.h"
 #include "models/params.h"
 
 namespace aniso::fitting {
@@ -38,13 +40,26 @@ double prior_sigma(const char* key) {
 }
 
 // Grid over psi with k_d, k_s in closed form at the power of two nearest the global n (x^n by
-// squaring: this grid was most of the texel phase with a pow per pixel): the texel's start.
-void texel_start(const ObsSet& os, const std::vector<size_t>& idx, Core* c) {
+// squaring: this grid was most of the texel phase with a pow per pixel): the texel's start. With
+// `lanes`, eight nodes at a time in float (fit/texel_simd.h).
+void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
+                 Core* c) {
   const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
   double best = INFINITY;
   auto take = [&](const double* psi, int count) {
     NodeFit fit[12];
-    line_nodes_cost(os, idx, psi, count, log2n, fit);
+    if (lanes) {
+      for (int i = 0; i < count; i += 8) {
+        double p8[8];
+        for (int k = 0; k < 8; ++k) p8[k] = psi[std::min(i + k, count - 1)];
+        KdKsSums sums[8];
+        texel_nodes_f32(*lanes, p8, log2n, sums);
+        for (int k = 0; k < 8 && i + k < count; ++k)
+          fit[i + k].cost = sums[k].solve(fit[i + k].kd, fit[i + k].ks);
+      }
+    } else {
+      line_nodes_cost(os, idx, psi, count, log2n, fit);
+    }
     for (int k = 0; k < count; ++k)
       if (fit[k].cost < best) {
         best = fit[k].cost;
@@ -99,24 +114,27 @@ Vec8 prior_diff(const TexelPrior& p, const Vec8& x) {
   return d;
 }
 
-// sigmas from J^T J (`info`) and the residual sum of squares at the solution: the rank test on
-// the eigenvalues of the column-scaled matrix, then the diagonal of its inverse times s^2.
-void texel_sigmas(const Eigen::MatrixXd& info, double rss, double values, TexelResult* t) {
+// sigmas from J^T J (`info`: fixed 8 x 8, or dynamic) and the residual sum of squares at the
+// solution: the rank test on the eigenvalues of the column-scaled matrix, then the diagonal of its
+// inverse times s^2.
+template <class M>
+void texel_sigmas(const M& info, double rss, double values, TexelResult* t) {
+  using V = Eigen::Matrix<double, M::RowsAtCompileTime, 1>;
   t->rss = rss;
   t->values = values;
   const int P = static_cast<int>(info.rows());
   const double dof = values - P;
   if (dof < 1) return;
   const double s2 = rss / dof;
-  Eigen::VectorXd scale(P);
+  V scale(P);
   for (int k = 0; k < P; ++k) scale(k) = info(k, k) > 0 ? 1 / std::sqrt(info(k, k)) : 0;
-  const Eigen::MatrixXd scaled = scale.asDiagonal() * info * scale.asDiagonal();
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
+  const M scaled = scale.asDiagonal() * info * scale.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<M> eig(scaled);
   const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
   if (!(scale.minCoeff() > 0) || !(lo > kConditionLimit * hi)) return;
-  const Eigen::MatrixXd cov = scale.asDiagonal() * eig.eigenvectors() *
-                              eig.eigenvalues().cwiseInverse().asDiagonal() *
-                              eig.eigenvectors().transpose() * scale.asDiagonal();
+  const M cov = scale.asDiagonal() * eig.eigenvectors() *
+                eig.eigenvalues().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose() *
+                scale.asDiagonal();
   for (int k = 0; k < P; ++k) t->sigma[k] = std::sqrt(std::max(cov(k, k), 0.0) * s2);
   t->determined = rad_to_deg(t->sigma[7]) < kPsiUndeterminedDeg &&
                   (P < 9 || t->sigma[8] < kTopologyUndetermined);
@@ -178,7 +196,7 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   t.s = from.s;
   if (prior) return t;
   Core line = from.c;
-  texel_start(os, idx, &line);
+  texel_start(os, idx, nullptr, &line);
   t.c.psi = line.psi;
   if (os.topology == TopologyMode::kMathematical) return t;  // s is not fitted
   FiberAccuracy acc;
@@ -203,7 +221,8 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, 
                               const TexelPrior* prior) {
   TexelResult t;
   t.c = from;
-  if (!prior) texel_start(os, idx, &t.c);
+  TexelLanes lanes;  // the same start as the LM path
+  if (!prior) texel_start(os, idx, texel_lanes(os, idx, &lanes) ? &lanes : nullptr, &t.c);
   ceres::Problem::Options po;
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem pb(po);
@@ -257,13 +276,20 @@ TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>&
   return t;
 }
 
-// Sum of squares, and (info, grad) = (J^T J, J^T r) when asked, in one pass over the texel.
-double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const Vec8& x, Mat8* info,
-                  Vec8* grad) {
+// Sum of squares, and (info, grad) = (J^T J, J^T r) when asked, in one pass over the texel: from
+// `lanes` (in float with `in_float`, else in double), or from the records in double.
+double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
+                  bool in_float, const Vec8& x, Mat8* info, Vec8* grad) {
   const double kd[3] = {x(0), x(1), x(2)}, ks[3] = {x(3), x(4), x(5)};
   const LinePixelParams p{kd, ks, std::exp(x(6)), std::cos(x(7)), std::sin(x(7))};
   ChannelSums<8> s;
-  line_chunk(os, idx.data(), 0, idx.size(), p, RobustLoss{FitLoss::kNone, 0}, info != nullptr, &s);
+  if (lanes && in_float)
+    texel_pass_f32(*lanes, p, info != nullptr, &s);
+  else if (lanes)
+    line_pass_lanes(*lanes, p, info != nullptr, &s);
+  else
+    line_chunk(os, idx.data(), 0, idx.size(), p, RobustLoss{FitLoss::kNone, 0}, info != nullptr,
+               &s);
   if (info) {
     FusedSums<8> f;
     s.scatter(&f);
@@ -273,14 +299,84 @@ double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const Vec8& 
   return s.cost;
 }
 
+// A = L D L^T of a symmetric 8 x 8 matrix (unit lower L, no pivoting): what every LM step of a
+// texel solves with, written out because Eigen's dynamic kernels behind a fixed 8 x 8 solve cost
+// more than the texel's float passes. False unless every pivot is positive and finite (the
+// caller then takes Eigen's pivoting LDLT).
+struct Ldl8 {
+  double L[8][8] = {}, D[8] = {};
+  bool factor(const Mat8& A) {
+    for (int j = 0; j < 8; ++j) {
+      double d = A(j, j);
+      for (int k = 0; k < j; ++k) d -= L[j][k] * L[j][k] * D[k];
+      if (!(d > 0) || !std::isfinite(d)) return false;
+      D[j] = d, L[j][j] = 1;
+      for (int i = j + 1; i < 8; ++i) {
+        double v = A(i, j);
+        for (int k = 0; k < j; ++k) v -= L[i][k] * L[j][k] * D[k];
+        L[i][j] = v / d;
+      }
+    }
+    return true;
+  }
+  Vec8 solve(const Vec8& b) const {
+    double y[8];
+    for (int i = 0; i < 8; ++i) {
+      y[i] = b(i);
+      for (int k = 0; k < i; ++k) y[i] -= L[i][k] * y[k];
+    }
+    Vec8 x;
+    for (int i = 7; i >= 0; --i) {
+      double v = y[i] / D[i];
+      for (int k = i + 1; k < 8; ++k) v -= L[k][i] * x(k);
+      x(i) = v;
+    }
+    return x;
+  }
+  // The diagonal of A^-1 = L^-T D^-1 L^-1: sum over j of (L^-1)_jk^2 / D_j.
+  Vec8 inverse_diagonal() const {
+    double M[8][8] = {};  // L^-1, unit lower
+    for (int k = 0; k < 8; ++k) {
+      M[k][k] = 1;
+      for (int i = k + 1; i < 8; ++i) {
+        double v = 0;
+        for (int m = k; m < i; ++m) v -= L[i][m] * M[m][k];
+        M[i][k] = v;
+      }
+    }
+    Vec8 d;
+    for (int k = 0; k < 8; ++k) {
+      double s = 0;
+      for (int j = k; j < 8; ++j) s += M[j][k] * M[j][k] / D[j];
+      d(k) = s;
+    }
+    return d;
+  }
+};
+
+// H^-1's diagonal and H^-1 b, by Ldl8 where it applies, else Eigen's pivoting LDLT.
+Vec8 texel_inverse_diagonal(const Mat8& H) {
+  Ldl8 f;
+  return f.factor(H) ? f.inverse_diagonal() : inverse_diagonal<8>(H);
+}
+Vec8 texel_solve(const Mat8& A, const Vec8& b) {
+  Ldl8 f;
+  return f.factor(A) ? f.solve(b) : Vec8(A.ldlt().solve(b));
+}
+
 // One texel with a hand-written Levenberg-Marquardt (the fast path of --maps): the same
 // function (fit/line_pixel.h), the same bounds (projected) and the same start as the Ceres path;
-// the tests check that both reach the same minimum.
+// the tests check that both reach the same minimum. The steps run in float (fit/texel_simd.h)
+// until they are under kFloatStepInSigma, where float's rounding of the cost (~1e-7 of it) starts
+// to hide a step's gain; then in double from there to the end (J^T J, J^T r and the sigmas too).
+constexpr double kFloatStepInSigma = 0.05;
 TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
                            const TexelPrior* prior) {
   TexelResult t;
   t.c = from;
-  if (!prior) texel_start(os, idx, &t.c);
+  TexelLanes lanes;
+  const bool f32 = texel_lanes(os, idx, &lanes);
+  if (!prior) texel_start(os, idx, f32 ? &lanes : nullptr, &t.c);
   Vec8 lo, hi;
   core_bounds(&lo, &hi);
   // At a point: the data's sum of squares with J^T J, J^T r, and the same with the prior added
@@ -293,9 +389,10 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
     double rss = 0, total = 0;
     bool have_hinv = false;
   };
+  bool in_float = f32;
   auto evaluate = [&](const Vec8& at, Eval* e) {
     e->have_hinv = false;
-    e->rss = texel_pass(os, idx, at, &e->info, &e->grad);
+    e->rss = texel_pass(os, idx, f32 ? &lanes : nullptr, in_float, at, &e->info, &e->grad);
     e->h = e->info, e->g = e->grad, e->total = e->rss;
     if (!prior) return;
     const Vec8 d = prior_diff(*prior, at);
@@ -303,31 +400,47 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
     e->g += prior->w.cwiseProduct(d);
     e->total += prior->w.dot(d.cwiseProduct(d));
   };
+  auto in_sigmas = [&](Eval* e, const Vec8& step) {
+    if (!e->have_hinv) e->hinv = texel_inverse_diagonal(e->h), e->have_hinv = true;
+    return step_in_sigmas_d<8>(e->hinv, step, e->total, 3.0 * idx.size());
+  };
+  auto bounded = [&](const Vec8& xn) {
+    Vec8 b = xn.cwiseMax(lo).cwiseMin(hi);
+    b(7) = wrap_half_turn(b(7));
+    return b;
+  };
   Vec8 x = pack_core(t.c);
   Eval cur, trial;
-  evaluate(x, &cur);
-  double lambda = 1e-3;
-  for (int it = 0; it < 100; ++it) {
-    Mat8 a = cur.h;
-    a.diagonal() += lambda * cur.h.diagonal().cwiseMax(1e-12);
-    const Vec8 step = a.ldlt().solve(-cur.g);
-    // The same stopping rule as the global fused solve: a step under 1e-3 sigma is not taken.
-    if (!cur.have_hinv) cur.hinv = inverse_diagonal<8>(cur.h), cur.have_hinv = true;
-    if (step_in_sigmas_d<8>(cur.hinv, step, cur.total, 3.0 * idx.size()) < kStepInSigma) break;
-    Vec8 xn = (x + step).cwiseMax(lo).cwiseMin(hi);
-    xn(7) = wrap_half_turn(xn(7));
-    evaluate(xn, &trial);
-    if (trial.total < cur.total) {
-      const bool done = cur.total - trial.total <= 1e-12 * cur.total;
-      x = xn;
-      cur = trial;
-      lambda = std::max(lambda / 3, 1e-12);
-      if (done) break;
-    } else {
-      lambda *= 4;
-      if (lambda > 1e12) break;
+  // Levenberg-Marquardt from x until a step is under `stop` sigma.
+  auto run = [&](double stop) {
+    evaluate(x, &cur);
+    double lambda = 1e-3;
+    for (int it = 0; it < 100; ++it) {
+      Mat8 a = cur.h;
+      a.diagonal() += lambda * cur.h.diagonal().cwiseMax(1e-12);
+      const Vec8 step = texel_solve(a, -cur.g);
+      const double size = in_sigmas(&cur, step);
+      if (size < stop) break;
+      const Vec8 xn = bounded(x + step);
+      evaluate(xn, &trial);
+      if (trial.total < cur.total) {
+        const bool done = cur.total - trial.total <= 1e-12 * cur.total;
+        x = xn;
+        cur = trial;
+        lambda = std::max(lambda / 3, 1e-12);
+        if (done) break;
+      } else {
+        if (in_float && size < 4 * stop) break;  // within float's rounding of the cost
+        lambda *= 4;
+        if (lambda > 1e12) break;
+      }
     }
-  }
+  };
+  if (in_float) run(kFloatStepInSigma);
+  // In double to the end: the same stopping rule as the global fused solve (a step under 1e-3
+  // sigma is not taken); from the float solution one or two passes.
+  in_float = false;
+  run(kStepInSigma);
   unpack_core(x, &t.c);
   texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t);
   return t;

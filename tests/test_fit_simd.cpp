@@ -12,6 +12,7 @@
 #include "fit/line_lm.h"
 #include "fit/line_simd.h"
 #include "fit/start.h"
+#include "fit/texel_simd.h"
 
 namespace aniso::fitting {
 namespace {
@@ -162,6 +163,66 @@ TEST(FitPaths, FourGridColumnsAtOnceAsOneByOne) {
       EXPECT_NEAR(lanes.kd[ch], alone.kd[ch], 1e-10 * (1e-3 + alone.kd[ch]));
       EXPECT_NEAR(lanes.ks[ch], alone.ks[ch], 1e-10 * (1e-3 + alone.ks[ch]));
     }
+  }
+}
+
+}  // namespace
+}  // namespace aniso::fitting
+
+namespace aniso::fitting {
+namespace {
+
+// A texel's float lanes (fit/texel_simd.h) against the double pass over the same records: the
+// cost, J^T J and J^T r to float's rounding (relative 1e-4 of each sum's scale), the double pass
+// from the lanes to double's, and eight start nodes at once as the double nodes (same cost to
+// 1e-4, the same best node).
+TEST(FitPaths, TexelFloatLanesAsTheDoublePass) {
+  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  const ObsSet os = random_set(false, 1);
+  std::vector<size_t> idx;
+  for (size_t i = 0; i < os.obs.size(); i += 3) idx.push_back(i);
+  TexelLanes lanes;
+  ASSERT_TRUE(texel_lanes(os, idx, &lanes));
+  EXPECT_EQ(lanes.count, idx.size());
+  const double kd[3] = {0.2, 0.3, 0.1}, ks[3] = {0.5, 0.4, 0.6};
+  for (double n : {1.0, 40.0, 2000.0}) {
+    const LinePixelParams p{kd, ks, n, std::cos(0.5), std::sin(0.5)};
+    ChannelSums<8> ref, f32, f64;
+    line_chunk(os, idx.data(), 0, idx.size(), p, RobustLoss{FitLoss::kNone, 0}, true, &ref);
+    texel_pass_f32(lanes, p, true, &f32);
+    line_pass_lanes(lanes, p, true, &f64);
+    double scale = 0;
+    for (int k = 0; k < 3; ++k)
+      for (int t = 0; t < 10; ++t) scale = std::max(scale, std::abs(ref.h[k][t]));
+    EXPECT_NEAR(f32.cost, ref.cost, 1e-4 * ref.cost) << n;
+    EXPECT_NEAR(f64.cost, ref.cost, 1e-6 * ref.cost) << n;
+    for (int k = 0; k < 3; ++k) {
+      for (int t = 0; t < 10; ++t) {
+        EXPECT_NEAR(f32.h[k][t], ref.h[k][t], 1e-4 * scale) << n << " h " << k << " " << t;
+        EXPECT_NEAR(f64.h[k][t], ref.h[k][t], 1e-6 * scale) << n << " h " << k << " " << t;
+      }
+      for (int a = 0; a < 4; ++a) {
+        EXPECT_NEAR(f32.g[k][a], ref.g[k][a], 1e-4 * scale) << n << " g " << k << " " << a;
+        EXPECT_NEAR(f64.g[k][a], ref.g[k][a], 1e-6 * scale) << n << " g " << k << " " << a;
+      }
+    }
+  }
+  const double psi[8] = {0, 0.3, 0.7, 1.2, 1.6, 2.0, 2.5, 2.9};
+  for (int log2n : {1, 5, 12}) {
+    NodeFit ref[8];
+    line_nodes_cost(os, idx, psi, 8, log2n, ref);
+    KdKsSums sums[8];
+    texel_nodes_f32(lanes, psi, log2n, sums);
+    int best_ref = 0, best_f32 = 0;
+    double cost[8];
+    for (int k = 0; k < 8; ++k) {
+      double kdk[3], ksk[3];
+      cost[k] = sums[k].solve(kdk, ksk);
+      EXPECT_NEAR(cost[k], ref[k].cost, 1e-4 * ref[k].cost) << log2n << " node " << k;
+      if (ref[k].cost < ref[best_ref].cost) best_ref = k;
+      if (cost[k] < cost[best_f32]) best_f32 = k;
+    }
+    EXPECT_EQ(best_f32, best_ref) << log2n;
   }
 }
 

@@ -1,0 +1,227 @@
+#include "fit/texel_simd.h"
+
+#include <atomic>
+#include <cmath>
+#include <cstring>
+
+#include "fit/start.h"
+
+namespace aniso::fitting {
+
+namespace {
+
+// GCC's vector types: eight floats (one AVX2 register) and eight 32-bit integers.
+typedef float v8f __attribute__((vector_size(32)));
+typedef int v8i __attribute__((vector_size(32)));
+#define ANISO_AVX2 __attribute__((target("avx2,fma")))
+#define ANISO_AVX2_INLINE __attribute__((target("avx2,fma"), always_inline)) inline
+
+ANISO_AVX2_INLINE v8f splat(float x) { return v8f{x, x, x, x, x, x, x, x}; }
+ANISO_AVX2_INLINE v8f select(v8i m, v8f a, v8f b) { return m ? a : b; }
+ANISO_AVX2_INLINE v8f vmax(v8f a, v8f b) { return select(a > b, a, b); }
+ANISO_AVX2_INLINE v8f vmin(v8f a, v8f b) { return select(a < b, a, b); }
+ANISO_AVX2_INLINE v8f vsqrt(v8f a) { return __builtin_ia32_sqrtps256(a); }
+ANISO_AVX2_INLINE v8f clamp_unit(v8f a) { return vmin(vmax(a, splat(-1.f)), splat(1.f)); }
+
+// exp(t): t = k ln 2 + r, |r| <= ln 2 / 2, e^r by its Taylor series to r^7 (truncation below
+// 2e-8 relative), times 2^k built in the exponent bits; 0 below -87 (subnormal 2^k).
+ANISO_AVX2_INLINE v8f vexp(v8f t) {
+  const v8f magic = splat(12582912.f);  // 1.5 * 2^23: adding it rounds to an integer
+  const v8f tc = vmin(vmax(t, splat(-87.f)), splat(88.f));
+  const v8f kf = (tc * splat(1.44269504f) + magic) - magic;
+  const v8f r = (tc - kf * splat(0.693145751953125f)) - kf * splat(1.428606765330187e-06f);
+  v8f p = splat(1.f / 5040);
+  for (const float c : {1.f / 720, 1.f / 120, 1.f / 24, 1.f / 6, 0.5f, 1.f, 1.f}) p = p * r + c;
+  const v8i k = (v8i)(kf + magic) - (v8i)magic;
+  return select(t < splat(-87.f), splat(0.f), p * (v8f)((k + 127) << 23));
+}
+
+// log(x), x > 0 (subnormals taken as the smallest normal): x = m 2^e, m in [sqrt(1/2), sqrt(2)),
+// log m = 2 atanh(s), s = (m - 1) / (m + 1), |s| <= 0.1716, by its series to s^9.
+ANISO_AVX2_INLINE v8f vlog(v8f x) {
+  x = vmax(x, splat(1.17549435e-38f));
+  const v8i bits = (v8i)x;
+  const v8i e0 = ((bits >> 23) & 0xff) - 127;
+  v8f m = (v8f)((bits & 0x007fffff) | 0x3f800000);
+  const v8i big = m > splat(1.41421356f);
+  m = select(big, m * splat(0.5f), m);
+  const v8f ed = __builtin_convertvector(e0 - big, v8f);  // big is -1 where m was halved
+  const v8f f = m - splat(1.f);
+  const v8f s = f / (splat(2.f) + f), z = s * s, hfsq = splat(0.5f) * f * f;
+  const v8f R = z * (splat(2.f / 3) + z * (splat(2.f / 5) + z * (splat(2.f / 7) + z * (2.f / 9))));
+  return ed * splat(0.693145751953125f) -
+         ((hfsq - (s * (hfsq + R) + ed * splat(1.428606765330187e-06f))) - f);
+}
+
+// sqrt(1 - a^2) and its derivative, as sin_and_derivative (fit/line_pixel.h); 1 - a^2 as
+// (1 - a)(1 + a), which float keeps near |a| = 1.
+ANISO_AVX2_INLINE void vsin(v8f a, v8f* s, v8f* ds) {
+  const v8f x = (splat(1.f) - a) * (splat(1.f) + a);
+  const float eps = static_cast<float>(kSqrtChordEps);
+  const float chord = static_cast<float>(1 / std::sqrt(kSqrtChordEps));
+  const v8f root = vsqrt(vmax(x, splat(eps)));
+  const v8i zero = x <= splat(0.f), near = x < splat(eps);
+  *s = select(zero, splat(0.f), select(near, x * splat(chord), root));
+  *ds = select(zero, splat(0.f), select(near, splat(-2.f * chord) * a, -a / root));
+}
+
+ANISO_AVX2_INLINE double hsum(v8f v) {
+  double s = 0;
+  for (int i = 0; i < 8; ++i) s += v[i];
+  return s;
+}
+
+// One group of the lanes: rows in TexelLanes' order.
+struct Group {
+  v8f Vu, Vw, Lu, Lw, Ln, W[3], y[3], mask;
+};
+ANISO_AVX2_INLINE Group load_group(const float* g) {
+  Group q;
+  v8f* dst[TexelLanes::kRows] = {&q.Vu,   &q.Vw,   &q.Lu,   &q.Lw,   &q.Ln,   &q.W[0],
+                                 &q.W[1], &q.W[2], &q.y[0], &q.y[1], &q.y[2], &q.mask};
+  for (int k = 0; k < TexelLanes::kRows; ++k) std::memcpy(dst[k], g + 8 * k, sizeof(v8f));
+  return q;
+}
+
+struct LaneSums {
+  v8f h[3][10], g[3][4], cost;
+};
+
+ANISO_AVX2 void pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac,
+                         ChannelSums<8>* sums) {
+  LaneSums acc;
+  std::memset(&acc, 0, sizeof acc);
+  const v8f c = splat(static_cast<float>(p.c)), sn = splat(static_cast<float>(p.sn));
+  const v8f n = splat(static_cast<float>(p.n)), one = splat(1.f), zero = splat(0.f);
+  v8f kd[3], ks[3];
+  for (int k = 0; k < 3; ++k)
+    kd[k] = splat(static_cast<float>(p.kd[k])), ks[k] = splat(static_cast<float>(p.ks[k]));
+  for (size_t gi = 0; gi < t.groups; ++gi) {
+    const Group q = load_group(t.f.data() + gi * TexelLanes::kRows * 8);
+    const v8f b = clamp_unit(c * q.Vu + sn * q.Vw), db = c * q.Vw - sn * q.Vu;
+    const v8f a = clamp_unit(c * q.Lu + sn * q.Lw), da = c * q.Lw - sn * q.Lu;
+    v8f sV, dsV, sL, dsL;
+    vsin(b, &sV, &dsV);
+    vsin(a, &sL, &dsL);
+    const v8f x = sL * sV - a * b;
+    const v8i lit = x > zero;
+    const v8f xs = select(lit, x, one), lx = vlog(xs);
+    const v8f S = select(lit, vexp(n * lx), zero);
+    const v8f dS_dx = n * S / xs, dS_dlogn = S * n * lx;
+    const v8f dx_dpsi = (dsL * sV - b) * da + (sL * dsV - a) * db;
+    const v8f dD_dpsi = dsL * da;
+    for (int k = 0; k < 3; ++k) {
+      const v8f w = q.W[k];
+      const v8f r = w * (kd[k] * sL + ks[k] * S) - q.y[k];
+      acc.cost += q.mask * r * r;
+      if (!jac) continue;
+      const v8f v[4] = {w * sL, w * S, w * ks[k] * dS_dlogn,
+                        w * (kd[k] * dD_dpsi + ks[k] * dS_dx * dx_dpsi)};
+      int tt = 0;
+      for (int i = 0; i < 4; ++i) {
+        const v8f wv = q.mask * v[i];
+        acc.g[k][i] += wv * r;
+        for (int j = i; j < 4; ++j) acc.h[k][tt++] += wv * v[j];
+      }
+    }
+  }
+  const double cost = hsum(acc.cost);
+  sums->cost += cost;
+  sums->rss += cost;
+  if (!jac) return;
+  for (int k = 0; k < 3; ++k) {
+    for (int i = 0; i < 10; ++i) sums->h[k][i] += hsum(acc.h[k][i]);
+    for (int i = 0; i < 4; ++i) sums->g[k][i] += hsum(acc.g[k][i]);
+  }
+}
+
+ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, KdKsSums out[8]) {
+  v8f c, sn;
+  for (int i = 0; i < 8; ++i)
+    c[i] = static_cast<float>(std::cos(psi[i])), sn[i] = static_cast<float>(std::sin(psi[i]));
+  const v8f zero = splat(0.f);
+  // Node i's sums over the texel's observations, lane i; the observations go one at a time (a
+  // group's lane j splatted).
+  v8f dd[3], ds[3], ss[3], dy[3], sy[3];
+  double yy[3] = {0, 0, 0};
+  for (int k = 0; k < 3; ++k) dd[k] = ds[k] = ss[k] = dy[k] = sy[k] = zero;
+  for (size_t gi = 0; gi < t.groups; ++gi) {
+    const float* g = t.f.data() + gi * TexelLanes::kRows * 8;
+    const int lanes = static_cast<int>(std::min<size_t>(8, t.count - gi * 8));
+    for (int j = 0; j < lanes; ++j) {
+      const float* o = g + j;  // row k of this observation at o[8 * k]
+      const v8f b = clamp_unit(c * splat(o[0]) + sn * splat(o[8]));
+      const v8f a = clamp_unit(c * splat(o[16]) + sn * splat(o[24]));
+      v8f sV, sL, unused;
+      vsin(b, &sV, &unused);
+      vsin(a, &sL, &unused);
+      v8f x = vmax(sL * sV - a * b, zero);
+      for (int i = 0; i < log2n; ++i) x *= x;
+      for (int ch = 0; ch < 3; ++ch) {
+        const v8f w = splat(o[8 * (5 + ch)]), y = splat(o[8 * (8 + ch)]);
+        const v8f dcol = w * sL, scol = w * x;
+        dd[ch] += dcol * dcol;
+        ds[ch] += dcol * scol;
+        ss[ch] += scol * scol;
+        dy[ch] += dcol * y;
+        sy[ch] += scol * y;
+        yy[ch] += static_cast<double>(o[8 * (8 + ch)]) * o[8 * (8 + ch)];
+      }
+    }
+  }
+  for (int i = 0; i < 8; ++i)
+    for (int ch = 0; ch < 3; ++ch) {
+      out[i].dd[ch] = dd[ch][i], out[i].ds[ch] = ds[ch][i], out[i].ss[ch] = ss[ch][i];
+      out[i].dy[ch] = dy[ch][i], out[i].sy[ch] = sy[ch][i], out[i].yy[ch] = yy[ch];
+    }
+}
+
+std::atomic<bool> g_on{true};
+
+bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return has;
+}
+
+}  // namespace
+
+bool texel_simd_enabled() { return g_on.load() && cpu_has_avx2(); }
+void set_texel_simd(bool on) { g_on = on; }
+
+bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out) {
+  if (!texel_simd_enabled()) return false;
+  for (size_t i : idx)
+    if (os.obs[i].num_lights != 1) return false;
+  out->count = idx.size();
+  out->groups = (idx.size() + 7) / 8;
+  out->f.assign(out->groups * TexelLanes::kRows * 8, 0.f);
+  for (size_t j = 0; j < idx.size(); ++j) {
+    const Observation& o = os.obs[idx[j]];
+    const ObsLight& l = os.lights[o.first_light];
+    float* g = out->f.data() + (j / 8) * TexelLanes::kRows * 8 + j % 8;
+    const float row[TexelLanes::kRows] = {o.V.u,
+                                          o.V.w,
+                                          l.L.u,
+                                          l.L.w,
+                                          l.L.n,
+                                          l.E[0] * l.L.n,
+                                          l.E[1] * l.L.n,
+                                          l.E[2] * l.L.n,
+                                          o.y[0] - o.base[0],
+                                          o.y[1] - o.base[1],
+                                          o.y[2] - o.base[2],
+                                          1.f};
+    for (int k = 0; k < TexelLanes::kRows; ++k) g[8 * k] = row[k];
+  }
+  return true;
+}
+
+void texel_pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac, ChannelSums<8>* s) {
+  pass_f32(t, p, jac, s);
+}
+
+void texel_nodes_f32(const TexelLanes& t, const double psi[8], int log2n, KdKsSums out[8]) {
+  nodes_f32(t, psi, log2n, out);
+}
+
+}  // namespace aniso::fitting

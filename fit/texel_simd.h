@@ -1,0 +1,41 @@
+// fit/ internal: one texel of --maps eight observations at a time in float (AVX2 and FMA, chosen
+// at run time). A texel's start and its Levenberg-Marquardt read the same few hundred
+// observations ten times or more, so they are transposed once (TexelLanes: float, structure of
+// arrays, eight to a group) and every pass reads them straight from there; the lobe's exp and log
+// in 8-wide float. Sums are per lane in float (a texel's lane sums a few dozen terms) and added
+// in double at the end of the pass. The double 4-lane pass (fit/line_simd.h) stays the global
+// fit's and the reference of the tests.
+#pragma once
+#include <cstddef>
+#include <vector>
+
+#include "fit/fused_lm.h"
+#include "fit/line_pixel.h"
+
+namespace aniso::fitting {
+
+struct KdKsSums;
+
+// Per group of eight: u, w of V and L, n of L, the irradiance times n_L per channel, the value
+// less the known part per channel, and 1 for an observation or 0 for padding: 12 x 8 floats.
+struct TexelLanes {
+  static constexpr int kRows = 12;
+  size_t groups = 0, count = 0;
+  std::vector<float> f;  // groups * kRows * 8
+};
+
+// The texel's observations idx as lanes; false (nothing written) where the CPU lacks AVX2/FMA,
+// the float path is switched off, or an observation has other than one light.
+bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out);
+bool texel_simd_enabled();
+void set_texel_simd(bool on);  // tests: compare with the double path
+
+// The texel's pass at p (no robust loss, as every texel's fit): cost, and the J^T J and J^T r
+// sums with `jac`.
+void texel_pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac, ChannelSums<8>* s);
+
+// Eight start nodes at once, psi[i] in lane i (n = 2^log2n, x^n by squaring): line_nodes_simd's
+// sums (fit/line_simd.h) from the lanes.
+void texel_nodes_f32(const TexelLanes& t, const double psi[8], int log2n, KdKsSums out[8]);
+
+}  // namespace aniso::fitting
