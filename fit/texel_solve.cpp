@@ -1,0 +1,445 @@
+// One texel of --maps (fit/texel_solve.h): its start (a grid over psi with k_d, k_s in closed
+// form; for the fiber model a grid over s too), its solve and its sigmas.
+#include "fit/texel_solve.h"
+
+#include <ceres/normal_prior.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+#include "core/angles.h"
+#include "fit/fiber_lm.h"
+#include "fit/line_pixel.h"
+#include "fit/line_simd.h"
+#include "fit/start.h"
+#include "fit/texel_simd.h"
+
+namespace aniso::fitting {
+
+namespace {
+
+constexpr double kPsiUndeterminedDeg = 10;  // sigma of psi above this: the direction is not known
+constexpr double kConditionLimit = 1e-12;   // smallest / largest eigenvalue, column-scaled
+constexpr double kTopologyUndetermined = 0.25;  // sigma of s above this: s is not known
+
+// Grid over psi with k_d, k_s in closed form at the power of two nearest the global n (x^n by
+// squaring: this grid was most of the texel phase with a pow per pixel): the texel's start. With
+// `lanes`, eight nodes at a time in float (fit/texel_simd.h).
+void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
+                 Core* c) {
+  const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
+  double best = INFINITY;
+  auto take = [&](const double* psi, int count) {
+    NodeFit fit[12];
+    if (lanes) {
+      for (int i = 0; i < count; i += 8) {
+        double p8[8];
+        for (int k = 0; k < 8; ++k) p8[k] = psi[std::min(i + k, count - 1)];
+        KdKsSums sums[8];
+        texel_nodes_f32(*lanes, p8, log2n, sums);
+        for (int k = 0; k < 8 && i + k < count; ++k)
+          fit[i + k].cost = sums[k].solve(fit[i + k].kd, fit[i + k].ks);
+      }
+    } else {
+      line_nodes_cost(os, idx, psi, count, log2n, fit);
+    }
+    for (int k = 0; k < count; ++k)
+      if (fit[k].cost < best) {
+        best = fit[k].cost;
+        c->psi = psi[k];
+        set_start_kd_ks(fit[k].kd, fit[k].ks, c);
+      }
+  };
+  // Every 15 degrees, then 5 and 10 degrees either side of the best: 16 nodes where a 5-degree
+  // grid takes 36 (the LM goes on from there).
+  double coarse[12];
+  for (int ip = 0; ip < 12; ++ip) coarse[ip] = ip * M_PI / 12;
+  take(coarse, 12);
+  double fine[4];
+  for (int k = 0; k < 4; ++k)
+    fine[k] = wrap_half_turn(c->psi + (k < 2 ? k - 2 : k - 1) * M_PI / 36);
+  take(fine, 4);
+}
+
+// Ceres' half-turn manifold, so it may wrap past the target).
+class PsiPrior : public ceres::SizedCostFunction<1, 1> {
+ public:
+  PsiPrior(double sqrt_w, double target) : sqrt_w_(sqrt_w), target_(target) {}
+  bool Evaluate(double const* const* p, double* r, double** jac) const override {
+    r[0] = sqrt_w_ * std::remainder(p[0][0] - target_, M_PI);
+    if (jac && jac[0]) jac[0][0] = sqrt_w_;
+    return true;
+  }
+
+ private:
+  double sqrt_w_, target_;
+};
+
+Vec8 prior_diff(const TexelPrior& p, const Vec8& x) {
+  Vec8 d = x - p.b;
+  d(7) = std::remainder(d(7), M_PI);
+  return d;
+}
+
+// sigmas from J^T J (`info`: fixed 8 x 8, or dynamic) and the residual sum of squares at the
+// solution: the rank test on the eigenvalues of the column-scaled matrix, then the diagonal of its
+// inverse times s^2.
+template <class M>
+void texel_sigmas(const M& info, double rss, double values, TexelResult* t) {
+  using V = Eigen::Matrix<double, M::RowsAtCompileTime, 1>;
+  t->rss = rss;
+  t->values = values;
+  const int P = static_cast<int>(info.rows());
+  const double dof = values - P;
+  if (dof < 1) return;
+  const double s2 = rss / dof;
+  V scale(P);
+  for (int k = 0; k < P; ++k) scale(k) = info(k, k) > 0 ? 1 / std::sqrt(info(k, k)) : 0;
+  const M scaled = scale.asDiagonal() * info * scale.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<M> eig(scaled);
+  const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
+  if (!(scale.minCoeff() > 0) || !(lo > kConditionLimit * hi)) return;
+  const M cov = scale.asDiagonal() * eig.eigenvectors() *
+                eig.eigenvalues().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose() *
+                scale.asDiagonal();
+  for (int k = 0; k < P; ++k) t->sigma[k] = std::sqrt(std::max(cov(k, k), 0.0) * s2);
+  t->determined = rad_to_deg(t->sigma[7]) < kPsiUndeterminedDeg &&
+                  (P < 9 || t->sigma[8] < kTopologyUndetermined);
+}
+
+// The pull toward the neighbours as Ceres terms: NormalPriors on k_d, k_s, log n, PsiPrior on psi.
+void add_prior(const TexelPrior& prior, ceres::Problem* pb, Core* c) {
+  const std::pair<double*, int> blocks[3] = {{c->kd, 0}, {c->ks, 3}, {&c->logn, 6}};
+  for (const auto& [block, at] : blocks) {
+    const int size = at < 6 ? 3 : 1;
+    const Eigen::VectorXd w = prior.w.segment(at, size).cwiseSqrt();
+    pb->AddResidualBlock(
+        new ceres::NormalPrior(w.asDiagonal().toDenseMatrix(), prior.b.segment(at, size)), nullptr,
+        block);
+  }
+  pb->AddResidualBlock(new PsiPrior(std::sqrt(prior.w(7)), prior.b(7)), nullptr, &c->psi);
+}
+
+// Solves the texel's problem to double precision, then its sigmas from J^T J of the `data`
+// residuals alone (not the pull) over `blocks` (one column each, in order).
+void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlockId>& data,
+                      const std::vector<double*>& blocks, TexelResult* t) {
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = 100;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  // Converged as far as double precision takes it, as the LM path: the reference to compare with.
+  so.function_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-14;
+  so.parameter_tolerance = 1e-12;
+  ceres::Solver::Summary sum;
+  ceres::Solve(so, pb, &sum);
+  ceres::Problem::EvaluateOptions eo;
+  eo.parameter_blocks = blocks;
+  eo.residual_blocks = data;  // sigma from the texel's own data
+  double cost = 0;
+  ceres::CRSMatrix J;
+  int P = 0;
+  for (double* b : blocks) P += pb->ParameterBlockSize(b);
+  if (!pb->Evaluate(eo, &cost, nullptr, nullptr, &J) || J.num_cols != P) return;
+  Eigen::MatrixXd info = Eigen::MatrixXd::Zero(P, P);
+  for (int r = 0; r < J.num_rows; ++r)
+    for (int a = J.rows[r]; a < J.rows[r + 1]; ++a)
+      for (int b = J.rows[r]; b < J.rows[r + 1]; ++b)
+        info(J.cols[a], J.cols[b]) += J.values[a] * J.values[b];
+  texel_sigmas(info, 2 * cost, J.num_rows, t);
+}
+
+// The fiber model's texel start: psi from the line model's texel grid (the direction looks the
+// same to both), n from `from`, then s over a grid (s varies over the sample: started from the
+// global s alone, texels far from it stopped in other minima, differently for the fused solver
+// and Ceres) with k_d, k_s in closed form at every node; with a pull, `from` as it is.
+TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
+                              const TexelResult& from, const TexelMapOptions& o,
+                              const TexelPrior* prior) {
+  TexelResult t;
+  t.c = from.c;
+  t.s = from.s;
+  if (prior) return t;
+  Core line = from.c;
+  texel_start(os, idx, nullptr, &line);
+  t.c.psi = line.psi;
+  if (os.topology == TopologyMode::kMathematical) return t;  // s is not fitted
+  FiberAccuracy acc;
+  acc.order = std::min(4, o.fiber_order);  // plenty to rank nodes, as the global start
+  const double c = std::cos(t.c.psi), sn = std::sin(t.c.psi), n = std::exp(t.c.logn);
+  double best = INFINITY;
+  for (const double s : {from.s, 0.1, 0.3, 0.5, 0.7, 0.9}) {
+    double kd[3], ks[3];
+    const double cost = solve_kd_ks(
+        os, idx,
+        [&](const Observation& ob, double* dcol, double* scol) {
+          fiber_columns(os, ob, c, sn, n, s, acc, dcol, scol);
+        },
+        kd, ks);
+    if (cost < best) best = cost, t.s = s, set_start_kd_ks(kd, ks, &t.c);
+  }
+  return t;
+}
+
+}  // namespace
+
+// One texel with Ceres (the fitter of record): solve, then J^T J of its own problem.
+TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
+                              const TexelPrior* prior) {
+  TexelResult t;
+  t.c = from;
+  TexelLanes lanes;  // the same start as the LM path
+  if (!prior) texel_start(os, idx, texel_lanes(os, idx, &lanes) ? &lanes : nullptr, &t.c);
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem pb(po);
+  double dummy[2] = {0, 0};
+  Core& c = t.c;
+  std::vector<ceres::ResidualBlockId> data;
+  for (size_t i : idx)
+    data.push_back(pb.AddResidualBlock(line_pixel_cost(&os.obs[i], os.lights.data()), nullptr, c.kd,
+                                       c.ks, &c.logn, &c.psi, &dummy[0], &dummy[1]));
+  if (prior) add_prior(*prior, &pb, &c);
+  pb.SetParameterBlockConstant(&dummy[0]);
+  pb.SetParameterBlockConstant(&dummy[1]);
+  set_core_bounds(&pb, &c);
+  solve_and_sigmas(&pb, data, {c.kd, c.ks, &c.logn, &c.psi}, &t);
+  return t;
+}
+
+// The same for the fiber model: solve_texel_fiber's start (fiber_texel_start), the autodiff
+// residual of the global fit's Ceres path (fiber_pixel_cost), s bounded as there (fixed under a
+// mathematical topology), the pull on s as one more NormalPrior.
+TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>& idx,
+                                    const TexelResult& from, const TexelMapOptions& o,
+                                    const TexelPrior* prior) {
+  TexelResult t = fiber_texel_start(os, idx, from, o, prior);
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem pb(po);
+  Core& c = t.c;
+  FiberAccuracy acc;
+  acc.order = o.fiber_order;
+  std::vector<ceres::ResidualBlockId> data;
+  for (size_t i : idx)
+    data.push_back(
+        pb.AddResidualBlock(fiber_pixel_cost(&os.obs[i], os.lights.data(), os.topology, acc),
+                            nullptr, c.kd, c.ks, &c.logn, &c.psi, &t.s));
+  const bool fit_s = os.topology != TopologyMode::kMathematical;
+  if (prior) add_prior(*prior, &pb, &c);
+  if (prior && fit_s && prior->ws > 0)
+    pb.AddResidualBlock(
+        new ceres::NormalPrior(Eigen::MatrixXd::Constant(1, 1, std::sqrt(prior->ws)),
+                               Eigen::VectorXd::Constant(1, prior->bs)),
+        nullptr, &t.s);
+  set_core_bounds(&pb, &c);
+  if (fit_s)
+    set_param_bounds(&pb, &t.s, 0, "topology.s");
+  else
+    pb.SetParameterBlockConstant(&t.s);
+  std::vector<double*> blocks = {c.kd, c.ks, &c.logn, &c.psi};
+  if (fit_s) blocks.push_back(&t.s);
+  solve_and_sigmas(&pb, data, blocks, &t);
+  return t;
+}
+
+namespace {
+
+// Sum of squares, and (info, grad) = (J^T J, J^T r) when asked, in one pass over the texel: from
+// `lanes` (in float with `in_float`, else in double), or from the records in double.
+double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
+                  bool in_float, const Vec8& x, Mat8* info, Vec8* grad) {
+  const double kd[3] = {x(0), x(1), x(2)}, ks[3] = {x(3), x(4), x(5)};
+  const LinePixelParams p{kd, ks, std::exp(x(6)), std::cos(x(7)), std::sin(x(7))};
+  ChannelSums<8> s;
+  if (lanes && in_float)
+    texel_pass_f32(*lanes, p, info != nullptr, &s);
+  else if (lanes)
+    line_pass_lanes(*lanes, p, info != nullptr, &s);
+  else
+    line_chunk(os, idx.data(), 0, idx.size(), p, RobustLoss{FitLoss::kNone, 0}, info != nullptr,
+               &s);
+  if (info) {
+    FusedSums<8> f;
+    s.scatter(&f);
+    *info = f.H.selfadjointView<Eigen::Upper>();
+    *grad = f.g;
+  }
+  return s.cost;
+}
+
+// A = L D L^T of a symmetric 8 x 8 matrix (unit lower L, no pivoting): what every LM step of a
+// texel solves with, written out because Eigen's dynamic kernels behind a fixed 8 x 8 solve cost
+// more than the texel's float passes. False unless every pivot is positive and finite (the
+// caller then takes Eigen's pivoting LDLT).
+struct Ldl8 {
+  double L[8][8] = {}, D[8] = {};
+  bool factor(const Mat8& A) {
+    for (int j = 0; j < 8; ++j) {
+      double d = A(j, j);
+      for (int k = 0; k < j; ++k) d -= L[j][k] * L[j][k] * D[k];
+      if (!(d > 0) || !std::isfinite(d)) return false;
+      D[j] = d, L[j][j] = 1;
+      for (int i = j + 1; i < 8; ++i) {
+        double v = A(i, j);
+        for (int k = 0; k < j; ++k) v -= L[i][k] * L[j][k] * D[k];
+        L[i][j] = v / d;
+      }
+    }
+    return true;
+  }
+  Vec8 solve(const Vec8& b) const {
+    double y[8];
+    for (int i = 0; i < 8; ++i) {
+      y[i] = b(i);
+      for (int k = 0; k < i; ++k) y[i] -= L[i][k] * y[k];
+    }
+    Vec8 x;
+    for (int i = 7; i >= 0; --i) {
+      double v = y[i] / D[i];
+      for (int k = i + 1; k < 8; ++k) v -= L[k][i] * x(k);
+      x(i) = v;
+    }
+    return x;
+  }
+  // The diagonal of A^-1 = L^-T D^-1 L^-1: sum over j of (L^-1)_jk^2 / D_j.
+  Vec8 inverse_diagonal() const {
+    double M[8][8] = {};  // L^-1, unit lower
+    for (int k = 0; k < 8; ++k) {
+      M[k][k] = 1;
+      for (int i = k + 1; i < 8; ++i) {
+        double v = 0;
+        for (int m = k; m < i; ++m) v -= L[i][m] * M[m][k];
+        M[i][k] = v;
+      }
+    }
+    Vec8 d;
+    for (int k = 0; k < 8; ++k) {
+      double s = 0;
+      for (int j = k; j < 8; ++j) s += M[j][k] * M[j][k] / D[j];
+      d(k) = s;
+    }
+    return d;
+  }
+};
+
+// H^-1's diagonal and H^-1 b, by Ldl8 where it applies, else Eigen's pivoting LDLT.
+Vec8 texel_inverse_diagonal(const Mat8& H) {
+  Ldl8 f;
+  return f.factor(H) ? f.inverse_diagonal() : inverse_diagonal<8>(H);
+}
+Vec8 texel_solve(const Mat8& A, const Vec8& b) {
+  Ldl8 f;
+  return f.factor(A) ? f.solve(b) : Vec8(A.ldlt().solve(b));
+}
+
+// One texel with a hand-written Levenberg-Marquardt (the fast path of --maps): the same
+// function (fit/line_pixel.h), the same bounds (projected) and the same start as the Ceres path;
+// the tests check that both reach the same minimum. The steps run in float (fit/texel_simd.h)
+// until they are under kFloatStepInSigma, where float's rounding of the cost (~1e-7 of it) starts
+// to hide a step's gain; then in double from there to the end (J^T J, J^T r and the sigmas too).
+constexpr double kFloatStepInSigma = 0.05;
+}  // namespace
+
+TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
+                           const TexelPrior* prior) {
+  TexelResult t;
+  t.c = from;
+  TexelLanes lanes;
+  const bool f32 = texel_lanes(os, idx, &lanes);
+  if (!prior) texel_start(os, idx, f32 ? &lanes : nullptr, &t.c);
+  Vec8 lo, hi;
+  core_bounds(&lo, &hi);
+  // At a point: the data's sum of squares with J^T J, J^T r, and the same with the prior added
+  // (the objective). A trial point is evaluated with its derivatives at once: most steps are
+  // taken, and a second pass at the same point would cost more than the derivatives of the few
+  // that are not.
+  struct Eval {
+    Mat8 info, h;
+    Vec8 grad, g, hinv;  // hinv: the diagonal of h^-1, once per point (rejected steps reuse it)
+    double rss = 0, total = 0;
+    bool have_hinv = false;
+  };
+  bool in_float = f32;
+  auto evaluate = [&](const Vec8& at, Eval* e) {
+    e->have_hinv = false;
+    e->rss = texel_pass(os, idx, f32 ? &lanes : nullptr, in_float, at, &e->info, &e->grad);
+    e->h = e->info, e->g = e->grad, e->total = e->rss;
+    if (!prior) return;
+    const Vec8 d = prior_diff(*prior, at);
+    e->h.diagonal() += prior->w;
+    e->g += prior->w.cwiseProduct(d);
+    e->total += prior->w.dot(d.cwiseProduct(d));
+  };
+  auto in_sigmas = [&](Eval* e, const Vec8& step) {
+    if (!e->have_hinv) e->hinv = texel_inverse_diagonal(e->h), e->have_hinv = true;
+    return step_in_sigmas_d<8>(e->hinv, step, e->total, 3.0 * idx.size());
+  };
+  auto bounded = [&](const Vec8& xn) {
+    Vec8 b = xn.cwiseMax(lo).cwiseMin(hi);
+    b(7) = wrap_half_turn(b(7));
+    return b;
+  };
+  Vec8 x = pack_core(t.c);
+  Eval cur, trial;
+  // Levenberg-Marquardt from x until a step is under `stop` sigma.
+  auto run = [&](double stop) {
+    evaluate(x, &cur);
+    double lambda = 1e-3;
+    for (int it = 0; it < 100; ++it) {
+      Mat8 a = cur.h;
+      a.diagonal() += lambda * cur.h.diagonal().cwiseMax(1e-12);
+      const Vec8 step = texel_solve(a, -cur.g);
+      const double size = in_sigmas(&cur, step);
+      if (size < stop) break;
+      const Vec8 xn = bounded(x + step);
+      evaluate(xn, &trial);
+      if (trial.total < cur.total) {
+        const bool done = cur.total - trial.total <= 1e-12 * cur.total;
+        x = xn;
+        cur = trial;
+        lambda = std::max(lambda / 3, 1e-12);
+        if (done) break;
+      } else {
+        if (in_float && size < 4 * stop) break;  // within float's rounding of the cost
+        lambda *= 4;
+        if (lambda > 1e12) break;
+      }
+    }
+  };
+  if (in_float) run(kFloatStepInSigma);
+  // In double to the end: the same stopping rule as the global fused solve (a step under 1e-3
+  // sigma is not taken); from the float solution one or two passes.
+  in_float = false;
+  run(kStepInSigma);
+  unpack_core(x, &t.c);
+  texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t);
+  return t;
+}
+
+// One texel of the fiber model: fiber_texel_start, then the fiber model's fused solve
+// (fit/fiber_lm.h: the global fit's solver, checked against Ceres there) on the texel alone.
+TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
+                              const TexelResult& from, const TexelMapOptions& o,
+                              const TexelPrior* prior) {
+  TexelResult t = fiber_texel_start(os, idx, from, o, prior);
+  FiberAccuracy acc;
+  acc.order = o.fiber_order;
+  FusedSolve fs;
+  FiberPull pull;
+  if (prior) {
+    for (int k = 0; k < 8; ++k) pull.w[k] = prior->w(k), pull.b[k] = prior->b(k);
+    pull.w[8] = prior->ws, pull.b[8] = prior->bs;
+  }
+  fiber_lm_solve(os, &idx, FitLoss::kNone, 0, 100, 1, os.topology, acc, &t.c, &t.s, &fs,
+                 prior ? &pull : nullptr);
+  const int P = os.topology == TopologyMode::kMathematical ? 8 : 9;
+  const Eigen::MatrixXd info = Eigen::Map<const Eigen::MatrixXd>(fs.info.data(), P, P);
+  texel_sigmas(info, fs.rss, 3.0 * idx.size(), &t);
+  return t;
+}
+
+}  // namespace aniso::fitting

@@ -1,0 +1,41 @@
+// fit/ internal: one texel of --maps solved (fit/texel_solve.cpp) for fit_texel_maps
+// (fit/maps.cpp): the line model by a hand-written Levenberg-Marquardt (float lanes, then double)
+// or by Ceres, the fiber model by its fused solver or by Ceres; each with the texel's sigmas from
+// its own normal equations and the verdict whether its data determine it.
+#pragma once
+#include <vector>
+
+#include "fit/line_lm.h"
+#include "fit/maps.h"
+
+namespace aniso::fitting {
+
+struct TexelResult {
+  Core c;
+  double s = 0;                                   // the fiber model's topology
+  double sigma[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};  // kd 3, ks 3, log n, psi (, s)
+  bool determined = false;
+  double rss = 0, values = 0;
+};
+
+// --smooth: a quadratic pull of x toward b with weights w (diagonal), added to the texel's sum
+// of squares; psi's difference taken modulo a half turn.
+struct TexelPrior {
+  Vec8 w = Vec8::Zero(), b = Vec8::Zero();
+  double ws = 0, bs = 0;  // the fiber model's topology s (where fitted)
+};
+
+// Solves the texel of observations idx from `from` (with `prior`: pulled toward its neighbours,
+// started where it is; without: started from its own grid over psi).
+TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
+                           const TexelPrior* prior);
+TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
+                              const TexelPrior* prior);
+TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
+                              const TexelResult& from, const TexelMapOptions& o,
+                              const TexelPrior* prior);
+TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>& idx,
+                                    const TexelResult& from, const TexelMapOptions& o,
+                                    const TexelPrior* prior);
+
+}  // namespace aniso::fitting
