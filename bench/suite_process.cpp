@@ -1,12 +1,14 @@
 // `aniso bench fit`: the whole `aniso fit` process on the sets issue 11 names, bm16 (16 views of
 // 128², brushed metal, 1 % noise) and bm64 (64 views of 256²): wall time and peak memory of the
 // fused solver against Ceres (--solver ceres) in the same run, each a child process started the
-// way a user starts it, the median of three runs. Then the fiber model, fused against Ceres.
+// way a user starts it, the median of three runs. Then --maps' texel phase against one Ceres
+// problem per texel, and the fiber model, fused against Ceres.
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -133,6 +135,84 @@ json fiber_entry(const std::string& work, bool quick, const char* preset, const 
   return e;
 }
 
+// The texel phase's seconds (report.time_breakdown_s.texels) of a --maps material file.
+double texel_seconds(const std::string& mat) {
+  const auto j = jsonu::json::parse(read_text_file(mat), nullptr, false);
+  if (!j.is_object() || !j.contains("report")) return NAN;
+  return j["report"]["time_breakdown_s"].value("texels", NAN);
+}
+
+// The largest |a - b| / sigma_b over the determined texels of two --maps fits (k_d, k_s, n, psi).
+double maps_difference(const std::string& a_stem, const std::string& b_stem) {
+  auto img = [](const std::string& stem, const std::string& key) {
+    return read_image(stem + "_" + key + ".exr").image;
+  };
+  const Image det = img(b_stem, "determined");
+  double worst = 0;
+  for (const char* key : {"kd", "ks", "n"}) {
+    const Image a = img(a_stem, key), b = img(b_stem, key),
+                sg = img(b_stem, std::string(key) + "_sigma");
+    for (size_t i = 0; i < a.px.size(); ++i)
+      if (det.px[i / a.channels] > 0.5 && sg.px[i] > 0)
+        worst = std::max(worst, std::abs(double(a.px[i]) - b.px[i]) / sg.px[i]);
+  }
+  const Image fa = img(a_stem, "fiber"), fb = img(b_stem, "fiber"), fs = img(b_stem, "fiber_sigma");
+  for (size_t t = 0; t < det.px.size(); ++t) {
+    if (det.px[t] < 0.5 || !(fs.px[t] > 0)) continue;
+    double d = std::abs(std::atan2(fa.px[2 * t + 1], fa.px[2 * t]) -
+                        std::atan2(fb.px[2 * t + 1], fb.px[2 * t])) *
+               90 / M_PI;
+    d = std::min(d, 180 - d);
+    worst = std::max(worst, d / fs.px[t]);
+  }
+  return worst;
+}
+
+// --maps (issue 11): the texel phase by the hand-written LM (float lanes, then double; median of
+// three) against one Ceres problem per texel (one run), both from the same --global fit of a
+// swirl-brushed plate, and how far apart the maps land.
+json maps_entry(const std::string& work, bool quick, int views) {
+  PresetOptions po;
+  po.views = quick ? 8 : views;
+  po.width = po.height = quick ? 64 : 256;
+  po.noise = 0.01;
+  po.progress = false;
+  const std::string stem = join_path(work, "swirl" + std::to_string(po.views));
+  const std::string dir = stem + "_set", global = stem + "_global.json";
+  set_exr_compression("none");
+  simulate_capture(make_preset("swirl-plate", po), dir);
+  const std::string grid = quick ? "8x8" : "64x64";
+  run_self({"fit", dir, "--subsample", "4", "--out", global});
+  auto maps = [&](const char* solver) {
+    return std::vector<std::string>{"fit",           dir,
+                                    "--maps",        grid,
+                                    "--global",      global,
+                                    "--maps-solver", solver,
+                                    "--out",         stem + "_" + solver + ".json"};
+  };
+  std::vector<double> lm;
+  for (int i = 0; i < 3; ++i)
+    if (run_self(maps("lm")).ok) lm.push_back(texel_seconds(stem + "_lm.json"));
+  std::sort(lm.begin(), lm.end());
+  const double ours = lm.size() == 3 ? lm[1] : NAN;
+  const bool ceres_ok = run_self(maps("ceres")).ok;
+  const double ceres = ceres_ok ? texel_seconds(stem + "_ceres.json") : NAN;
+  const double diff =
+      ceres_ok && lm.size() == 3 ? maps_difference(stem + "_lm", stem + "_ceres") : NAN;
+  json e = entry("fit",
+                 "--maps " + grid + " texel phase on swirl-plate (" + std::to_string(po.views) +
+                     " views of " + std::to_string(po.width) +
+                     "^2), LM per texel vs one Ceres problem per texel",
+                 ours, ceres, "s", NAN);
+  e["largest_difference_sigma"] = std::isfinite(diff) ? json(diff) : json(nullptr);
+  if (!quick)
+    target(&e, ">= 30x the per-texel Ceres baseline at the same answer (within 0.1 sigma)",
+           ceres >= 30 * ours && diff < 0.1, "see BENCHMARKS.md: maps");
+  std::printf("bench fit: --maps %s, %d views: LM %.3f s, Ceres %.3f s (%.1fx), %.4f sigma apart\n",
+              grid.c_str(), po.views, ours, ceres, ceres / ours, diff);
+  return e;
+}
+
 }  // namespace
 
 json bench_fit_process(const std::string& work, bool quick) {
@@ -204,6 +284,8 @@ json bench_fit_process(const std::string& work, bool quick) {
         start.seconds, start.max_rss_kb, err[0], err[1],
         own_kb > 0 ? (runs[0].max_rss_kb - start.max_rss_kb) / own_kb : NAN);
   }
+  out.push_back(maps_entry(work, quick, 16));
+  if (!quick) out.push_back(maps_entry(work, quick, 64));
   out.push_back(fiber_entry(work, quick, "fiber-flat", "fiber"));
   out.push_back(fiber_entry(work, quick, "brushed-metal", "fiber"));
   out.push_back(fiber_entry(work, quick, "brushed-metal", "auto"));
