@@ -29,7 +29,8 @@ struct GivenGlobal {
   std::string file;  // where it came from, for messages and the report
   Material material;
   std::map<std::string, std::vector<double>> sigma;  // as its file recorded them
-  int fiber_order = 0;  // the quadrature order its fit chose (report.fiber_order)
+  int fiber_order = 0;           // the quadrature order its fit chose (report.fiber_order)
+  double implausible_limit = 0;  // report.implausible_limit (0: compute it here, as before)
   // Its report's views, residual RMS and warnings (carried into this result's report).
   size_t views = 0;
   double rms = 0;
@@ -101,7 +102,10 @@ struct TexelMaps {
 struct FitReport {
   size_t views = 0, pixels = 0, observations = 0;  // observations = pixels x channels
   size_t masked_out = 0, saturated = 0, nonfinite = 0, unlit = 0;
-  size_t implausible = 0;   // values above 1e4 x the 90th percentile: left out
+  size_t implausible = 0;  // values above 1e4 x the 90th percentile: left out
+  // That limit (0: too few pixels to set one); a --global fit's is used by the maps after it, so
+  // tiles, which hold only their rows, leave out exactly what one run over all rows would.
+  double implausible_limit = 0;
   size_t outside_tile = 0;  // --global with --tile: pixels whose uv falls in another tile's rows
   int iterations = 0;
   double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0,

@@ -120,16 +120,21 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
 // closed-form start and the noise estimate before any robust loss can act: a pixel with a value
 // above kImplausible times the 90th percentile of all values is left out and counted (a real
 // highlight is brighter than most pixels, but not 10^4 times brighter than the brightest tenth).
-void drop_implausible(ObsSet* os, FitReport* rep) {
-  if (os->obs.size() < 100) return;
-  std::vector<float> mags;
-  mags.reserve(os->obs.size());
-  for (const auto& o : os->obs)
-    mags.push_back(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}));
-  std::nth_element(mags.begin(), mags.begin() + mags.size() * 9 / 10, mags.end());
-  const double p90 = mags[mags.size() * 9 / 10];
-  constexpr double kImplausible = 1e4;
-  const double limit = kImplausible * std::max(p90, 1e-12);
+// `given` > 0: that limit instead (a --global fit's, for the maps after it).
+void drop_implausible(ObsSet* os, FitReport* rep, double given) {
+  double limit = given;
+  if (!(limit > 0)) {
+    if (os->obs.size() < 100) return;
+    std::vector<float> mags;
+    mags.reserve(os->obs.size());
+    for (const auto& o : os->obs)
+      mags.push_back(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}));
+    std::nth_element(mags.begin(), mags.begin() + mags.size() * 9 / 10, mags.end());
+    const double p90 = mags[mags.size() * 9 / 10];
+    constexpr double kImplausible = 1e4;
+    limit = kImplausible * std::max(p90, 1e-12);
+  }
+  rep->implausible_limit = limit;
   size_t kept = 0;
   for (const auto& o : os->obs)
     if (std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)
@@ -329,7 +334,8 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
     close_gaps(&parts, obs_start, light_start, &os, &rep, &neighbour_diffs);
   }
   // The implausible values and the noise estimate are independent: side by side.
-  tbb::parallel_invoke([&] { drop_implausible(&os, &rep); },
+  const double given = opt.global ? opt.global->implausible_limit : 0;
+  tbb::parallel_invoke([&] { drop_implausible(&os, &rep, given); },
                        [&] { os.pixel_noise = pixel_noise(&neighbour_diffs); });
   // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
   os.grey = grey_views == set.views.size();

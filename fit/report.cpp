@@ -117,6 +117,7 @@ jsonu::json report_json(const FitReport& p) {
   if (!p.global_from.empty()) j["global_from"] = p.global_from;
   if (p.fiber_order > 0) j["fiber_order"] = p.fiber_order;
   if (p.outside_tile > 0) j["skipped"]["outside_tile"] = p.outside_tile;
+  if (p.implausible_limit > 0) j["implausible_limit"] = p.implausible_limit;
   if (!p.model_selection.empty()) j["model_selection"] = p.model_selection;
   if (!p.warnings.empty()) j["warnings"] = p.warnings;
   return j;
@@ -190,6 +191,8 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
     const int order = rep.value("fiber_order", 0);
     if (order >= 1 && order <= 16) g.fiber_order = order;
     g.views = rep.value("views", size_t(0));
+    const double limit = rep.value("implausible_limit", 0.0);
+    if (std::isfinite(limit) && limit > 0) g.implausible_limit = limit;
     g.rms = rep.value("residual_rms", 0.0);
     for (const auto& w : rep.value("warnings", jsonu::json::array()))
       if (w.is_string()) g.warnings.push_back(w);

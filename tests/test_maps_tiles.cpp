@@ -80,6 +80,9 @@ TEST(FitMaps, TilesGivenTheGlobalFitKeepOnlyTheirRows) {
     ASSERT_EQ(r.status, 0) << r.output;
     const auto rep = report(t, true);
     const size_t kept = rep["pixels"], outside = rep["skipped"]["outside_tile"];
+    // The implausible-value limit is the global fit's, not one from the tile's own rows.
+    EXPECT_EQ(rep.value("implausible_limit", 0.0),
+              report(dir + "/global.json", false).value("implausible_limit", -1.0));
     std::printf("tile %d/3 (with its smoothing band): %zu of %zu pixels\n", i, kept, total);
     EXPECT_LT(kept, total * 3 / 4);
     EXPECT_EQ(kept + outside, total);
