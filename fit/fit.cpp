@@ -17,6 +17,7 @@
 #include "fit/solve.h"
 #include "fit/start.h"
 #include "io/files.h"
+#include "models/params.h"
 
 namespace aniso {
 
@@ -51,6 +52,38 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
                 std::to_string(m.parameters()) + " parameters");
 }
 
+// A texel counts as determined by its fiber direction (and s); its k_d, k_s or n may still be
+// known less well than their bounds alone know them (sigma above the bounds' spread, width /
+// sqrt 12: a texel whose k_s and n trade off, near a bound). Those are written with their sigma,
+// and named here: a number, not a measurement.
+void warn_weak_texels(const TexelMaps& m, FitReport* rep) {
+  std::string names;
+  struct Param {
+    const char* key;
+    const std::vector<double>* sigma;
+    int per;  // numbers per texel
+  };
+  for (const auto& [key, sigmas, per] :
+       {Param{"kd", &m.kd_sigma, 3}, Param{"ks", &m.ks_sigma, 3}, Param{"n", &m.n_sigma, 1}}) {
+    const ParamSpec& p = line_param(key);
+    const double spread = (p.hi - p.lo) / std::sqrt(12.0);
+    size_t weak = 0;
+    for (size_t t = 0; t < m.determined.size(); ++t) {
+      bool w = false;
+      for (int c = 0; c < per; ++c) w |= (*sigmas)[per * t + c] > spread;
+      weak += m.determined[t] && w;
+    }
+    if (weak)
+      names += std::string(names.empty() ? "" : ", ") + key + " in " + std::to_string(weak) +
+               (weak == 1 ? " texel" : " texels");
+  }
+  if (!names.empty())
+    rep->warnings.push_back("--maps: the data know " + names +
+                            " less well than the parameter's bounds do (sigma above the bounds' "
+                            "spread): those values are written with that sigma; do not read them "
+                            "as measured (more views or larger texels help)");
+}
+
 // --maps after the global fit `global` (the fiber model's quadrature order and s with it); the
 // misfit warning and the count of undetermined texels go to the report.
 void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global, int fiber_order,
@@ -78,6 +111,7 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
     }
   size_t determined = 0;
   for (uint8_t d : res->maps.determined) determined += d;
+  warn_weak_texels(res->maps, rep);
   if (determined < res->maps.determined.size())
     rep->warnings.push_back(
         "--maps: " + std::to_string(res->maps.determined.size() - determined) + " of " +
