@@ -198,9 +198,12 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, ViewData* d) {
 }  // namespace
 
 struct GeometryCache::Impl {
+  // Not std::call_once: with GCC 12's libstdc++ a callable that throws leaves the flag stuck and
+  // the next caller waits forever (GCC bug 66146); a bad buffer must give its message to every
+  // view that names it.
   struct Entry {
-    std::once_flag once;
-    std::shared_ptr<const ViewGeometry> geo;
+    std::mutex m;
+    std::shared_ptr<const ViewGeometry> geo;  // null until decoded
   };
   std::mutex m;
   std::map<std::string, std::weak_ptr<Entry>> live;
@@ -225,9 +228,10 @@ std::shared_ptr<const ViewGeometry> GeometryCache::get(const std::string& key,
     }
     impl_->latest = e;
   }
-  // Decoded once; a failed decode leaves the entry empty for the next caller to try (and fail
-  // with the same message).
-  std::call_once(e->once, [&] { e->geo = std::make_shared<const ViewGeometry>(load()); });
+  // Decoded once, under the entry's lock (a second view naming it waits); a failed decode leaves
+  // the entry empty for the next caller to try, and fail with the same message.
+  std::lock_guard<std::mutex> lock(e->m);
+  if (!e->geo) e->geo = std::make_shared<const ViewGeometry>(load());
   return e->geo;
 }
 
