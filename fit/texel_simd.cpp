@@ -1,9 +1,9 @@
 #include "fit/texel_simd.h"
 
-#include <atomic>
 #include <cmath>
 #include <cstring>
 
+#include "fit/line_simd.h"
 #include "fit/start.h"
 
 namespace aniso::fitting {
@@ -176,20 +176,10 @@ ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, K
     }
 }
 
-std::atomic<bool> g_on{true};
-
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
-
 }  // namespace
 
-bool texel_simd_enabled() { return g_on.load() && cpu_has_avx2(); }
-void set_texel_simd(bool on) { g_on = on; }
-
 bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out) {
-  if (!texel_simd_enabled()) return false;
+  if (!line_simd_enabled()) return false;  // the same CPU check and switch as the double lanes
   for (size_t i : idx)
     if (os.obs[i].num_lights != 1) return false;
   out->count = idx.size();

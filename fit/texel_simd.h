@@ -24,11 +24,9 @@ struct TexelLanes {
   std::vector<float> f;  // groups * kRows * 8
 };
 
-// The texel's observations idx as lanes; false (nothing written) where the CPU lacks AVX2/FMA,
-// the float path is switched off, or an observation has other than one light.
+// The texel's observations idx as lanes; false (nothing written) where line_simd_enabled() is
+// false (no AVX2/FMA, or switched off) or an observation has other than one light.
 bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out);
-bool texel_simd_enabled();
-void set_texel_simd(bool on);  // tests: compare with the double path
 
 // The texel's pass at p (no robust loss, as every texel's fit): cost, and the J^T J and J^T r
 // sums with `jac`.
