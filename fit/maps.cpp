@@ -132,12 +132,18 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   const int band0 = o.rows.band0, band1 = o.rows.band1;
   const size_t t_begin = static_cast<size_t>(band0) * w, t_end = static_cast<size_t>(band1) * w;
   const size_t B = t_end - t_begin;
-  std::vector<std::vector<size_t>> bins(B);
-  for (size_t i = 0; i < os.obs.size(); ++i) {
+  // Each texel's observations in order, its list sized once (counted first).
+  auto entry = [&](size_t i) -> long {
     const long t = texel_of(os.obs[i].u, os.obs[i].v, w, h);
-    if (t >= static_cast<long>(t_begin) && t < static_cast<long>(t_end))
-      bins[t - t_begin].push_back(i);
-  }
+    return t >= static_cast<long>(t_begin) && t < static_cast<long>(t_end) ? t - t_begin : -1;
+  };
+  std::vector<size_t> count(B, 0);
+  for (size_t i = 0; i < os.obs.size(); ++i)
+    if (const long b = entry(i); b >= 0) ++count[b];
+  std::vector<std::vector<size_t>> bins(B);
+  for (size_t b = 0; b < B; ++b) bins[b].reserve(count[b]);
+  for (size_t i = 0; i < os.obs.size(); ++i)
+    if (const long b = entry(i); b >= 0) bins[b].push_back(i);
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
   auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
     if (o.fiber_order > 0)

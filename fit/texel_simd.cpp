@@ -143,7 +143,6 @@ ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, K
   // Node i's sums over the texel's observations, lane i; the observations go one at a time (a
   // group's lane j splatted).
   v8f dd[3], ds[3], ss[3], dy[3], sy[3];
-  double yy[3] = {0, 0, 0};
   for (int k = 0; k < 3; ++k) dd[k] = ds[k] = ss[k] = dy[k] = sy[k] = zero;
   for (size_t gi = 0; gi < t.groups; ++gi) {
     const float* g = t.f.data() + gi * TexelLanes::kRows * 8;
@@ -165,14 +164,13 @@ ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, K
         ss[ch] += scol * scol;
         dy[ch] += dcol * y;
         sy[ch] += scol * y;
-        yy[ch] += static_cast<double>(o[8 * (8 + ch)]) * o[8 * (8 + ch)];
       }
     }
   }
   for (int i = 0; i < 8; ++i)
     for (int ch = 0; ch < 3; ++ch) {
       out[i].dd[ch] = dd[ch][i], out[i].ds[ch] = ds[ch][i], out[i].ss[ch] = ss[ch][i];
-      out[i].dy[ch] = dy[ch][i], out[i].sy[ch] = sy[ch][i], out[i].yy[ch] = yy[ch];
+      out[i].dy[ch] = dy[ch][i], out[i].sy[ch] = sy[ch][i], out[i].yy[ch] = t.yy[ch];
     }
 }
 
@@ -184,8 +182,26 @@ bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* o
     if (os.obs[i].num_lights != 1) return false;
   out->count = idx.size();
   out->groups = (idx.size() + 7) / 8;
-  out->f.assign(out->groups * TexelLanes::kRows * 8, 0.f);
+  out->f.resize(out->groups * TexelLanes::kRows * 8);
+  // The padding lanes of the last group: zero (mask 0 and finite values).
+  if (idx.size() % 8)
+    for (int k = 0; k < TexelLanes::kRows; ++k)
+      std::fill_n(out->f.data() + ((out->groups - 1) * TexelLanes::kRows + k) * 8 + idx.size() % 8,
+                  8 - idx.size() % 8, 0.f);
+  for (int c = 0; c < 3; ++c) out->yy[c] = 0;
+  // The records are scattered over the views, each a cache miss unless asked for ahead: the
+  // observation 2k ahead, the light of the one k ahead (its record asked for k steps ago).
+  constexpr size_t kAhead = 8;
+  auto ask = [](const void* p, size_t bytes) {
+    __builtin_prefetch(p);
+    __builtin_prefetch(static_cast<const char*>(p) + bytes - 1);
+  };
+  for (size_t j = 0; j < std::min(2 * kAhead, idx.size()); ++j)
+    ask(&os.obs[idx[j]], sizeof(Observation));
   for (size_t j = 0; j < idx.size(); ++j) {
+    if (j + 2 * kAhead < idx.size()) ask(&os.obs[idx[j + 2 * kAhead]], sizeof(Observation));
+    if (j + kAhead < idx.size())
+      ask(&os.lights[os.obs[idx[j + kAhead]].first_light], sizeof(ObsLight));
     const Observation& o = os.obs[idx[j]];
     const ObsLight& l = os.lights[o.first_light];
     float* g = out->f.data() + (j / 8) * TexelLanes::kRows * 8 + j % 8;
@@ -202,6 +218,7 @@ bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* o
                                           o.y[2] - o.base[2],
                                           1.f};
     for (int k = 0; k < TexelLanes::kRows; ++k) g[8 * k] = row[k];
+    for (int c = 0; c < 3; ++c) out->yy[c] += static_cast<double>(row[8 + c]) * row[8 + c];
   }
   return true;
 }

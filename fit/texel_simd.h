@@ -21,7 +21,8 @@ struct KdKsSums;
 struct TexelLanes {
   static constexpr int kRows = 12;
   size_t groups = 0, count = 0;
-  std::vector<float> f;  // groups * kRows * 8
+  std::vector<float> f;      // groups * kRows * 8
+  double yy[3] = {0, 0, 0};  // sum of the squared values less the known part, per channel
 };
 
 // The texel's observations idx as lanes; false (nothing written) where line_simd_enabled() is

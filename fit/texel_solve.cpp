@@ -82,6 +82,62 @@ Vec8 prior_diff(const TexelPrior& p, const Vec8& x) {
   return d;
 }
 
+// A = L D L^T of a symmetric 8 x 8 matrix (unit lower L, no pivoting): what every LM step of a
+// texel solves with, written out because Eigen's dynamic kernels behind a fixed 8 x 8 solve cost
+// more than the texel's float passes. False unless every pivot is positive and finite (the
+// caller then takes Eigen's pivoting LDLT).
+struct Ldl8 {
+  double L[8][8] = {}, D[8] = {}, Dinv[8] = {};  // Dinv: 1 / D (one division per pivot)
+  bool factor(const Mat8& A) {
+    for (int j = 0; j < 8; ++j) {
+      double LD[8];  // L[j][k] D[k]
+      double d = A(j, j);
+      for (int k = 0; k < j; ++k) LD[k] = L[j][k] * D[k], d -= L[j][k] * LD[k];
+      if (!(d > 0) || !std::isfinite(d)) return false;
+      D[j] = d, Dinv[j] = 1 / d, L[j][j] = 1;
+      for (int i = j + 1; i < 8; ++i) {
+        double v = A(i, j);
+        for (int k = 0; k < j; ++k) v -= L[i][k] * LD[k];
+        L[i][j] = v * Dinv[j];
+      }
+    }
+    return true;
+  }
+  Vec8 solve(const Vec8& b) const {
+    double y[8];
+    for (int i = 0; i < 8; ++i) {
+      y[i] = b(i);
+      for (int k = 0; k < i; ++k) y[i] -= L[i][k] * y[k];
+    }
+    Vec8 x;
+    for (int i = 7; i >= 0; --i) {
+      double v = y[i] * Dinv[i];
+      for (int k = i + 1; k < 8; ++k) v -= L[k][i] * x(k);
+      x(i) = v;
+    }
+    return x;
+  }
+  // The diagonal of A^-1 = L^-T D^-1 L^-1: sum over j of (L^-1)_jk^2 / D_j.
+  Vec8 inverse_diagonal() const {
+    double M[8][8] = {};  // L^-1, unit lower
+    for (int k = 0; k < 8; ++k) {
+      M[k][k] = 1;
+      for (int i = k + 1; i < 8; ++i) {
+        double v = 0;
+        for (int m = k; m < i; ++m) v -= L[i][m] * M[m][k];
+        M[i][k] = v;
+      }
+    }
+    Vec8 d;
+    for (int k = 0; k < 8; ++k) {
+      double s = 0;
+      for (int j = k; j < 8; ++j) s += M[j][k] * M[j][k] * Dinv[j];
+      d(k) = s;
+    }
+    return d;
+  }
+};
+
 // sigmas from J^T J (`info`: fixed 8 x 8, or dynamic) and the residual sum of squares at the
 // solution: the rank test on the eigenvalues of the column-scaled matrix, then the diagonal of its
 // inverse times s^2.
@@ -97,6 +153,19 @@ void texel_sigmas(const M& info, double rss, double values, TexelResult* t) {
   V scale(P);
   for (int k = 0; k < P; ++k) scale(k) = info(k, k) > 0 ? 1 / std::sqrt(info(k, k)) : 0;
   const M scaled = scale.asDiagonal() * info * scale.asDiagonal();
+  if constexpr (M::RowsAtCompileTime == 8) {
+    // The rank test without the eigenvalues where it is clear: the scaled matrix's largest
+    // eigenvalue is at most its trace (8), its smallest at least 1 / trace(scaled^-1).
+    Ldl8 f;
+    if (scale.minCoeff() > 0 && f.factor(scaled)) {
+      const Vec8 d = f.inverse_diagonal();
+      if (1 / d.sum() > kConditionLimit * 8) {
+        for (int k = 0; k < 8; ++k) t->sigma[k] = scale(k) * std::sqrt(std::max(d(k), 0.0) * s2);
+        t->determined = rad_to_deg(t->sigma[7]) < kPsiUndeterminedDeg;
+        return;
+      }
+    }
+  }
   Eigen::SelfAdjointEigenSolver<M> eig(scaled);
   const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
   if (!(scale.minCoeff() > 0) || !(lo > kConditionLimit * hi)) return;
@@ -271,61 +340,6 @@ double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const TexelL
   return s.cost;
 }
 
-// A = L D L^T of a symmetric 8 x 8 matrix (unit lower L, no pivoting): what every LM step of a
-// texel solves with, written out because Eigen's dynamic kernels behind a fixed 8 x 8 solve cost
-// more than the texel's float passes. False unless every pivot is positive and finite (the
-// caller then takes Eigen's pivoting LDLT).
-struct Ldl8 {
-  double L[8][8] = {}, D[8] = {};
-  bool factor(const Mat8& A) {
-    for (int j = 0; j < 8; ++j) {
-      double d = A(j, j);
-      for (int k = 0; k < j; ++k) d -= L[j][k] * L[j][k] * D[k];
-      if (!(d > 0) || !std::isfinite(d)) return false;
-      D[j] = d, L[j][j] = 1;
-      for (int i = j + 1; i < 8; ++i) {
-        double v = A(i, j);
-        for (int k = 0; k < j; ++k) v -= L[i][k] * L[j][k] * D[k];
-        L[i][j] = v / d;
-      }
-    }
-    return true;
-  }
-  Vec8 solve(const Vec8& b) const {
-    double y[8];
-    for (int i = 0; i < 8; ++i) {
-      y[i] = b(i);
-      for (int k = 0; k < i; ++k) y[i] -= L[i][k] * y[k];
-    }
-    Vec8 x;
-    for (int i = 7; i >= 0; --i) {
-      double v = y[i] / D[i];
-      for (int k = i + 1; k < 8; ++k) v -= L[k][i] * x(k);
-      x(i) = v;
-    }
-    return x;
-  }
-  // The diagonal of A^-1 = L^-T D^-1 L^-1: sum over j of (L^-1)_jk^2 / D_j.
-  Vec8 inverse_diagonal() const {
-    double M[8][8] = {};  // L^-1, unit lower
-    for (int k = 0; k < 8; ++k) {
-      M[k][k] = 1;
-      for (int i = k + 1; i < 8; ++i) {
-        double v = 0;
-        for (int m = k; m < i; ++m) v -= L[i][m] * M[m][k];
-        M[i][k] = v;
-      }
-    }
-    Vec8 d;
-    for (int k = 0; k < 8; ++k) {
-      double s = 0;
-      for (int j = k; j < 8; ++j) s += M[j][k] * M[j][k] / D[j];
-      d(k) = s;
-    }
-    return d;
-  }
-};
-
 // H^-1's diagonal and H^-1 b, by Ldl8 where it applies, else Eigen's pivoting LDLT.
 Vec8 texel_inverse_diagonal(const Mat8& H) {
   Ldl8 f;
@@ -411,10 +425,29 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
     }
   };
   if (in_float) run(kFloatStepInSigma);
+  // Past where float's cost tells steps apart its gradient still does (the step it gives is off
+  // by ~1e-5 sigma): Gauss-Newton steps without the cost test while they stay inside the bounds
+  // and shrink, to the usual 1e-3 sigma. Anything else (a bound in the way, a step that grows or
+  // is still large) goes on in double with the cost test.
+  bool converged = false;
+  double last = kFloatStepInSigma;
+  for (int it = 0; in_float && it < 4; ++it) {
+    const Vec8 step = texel_solve(cur.h, -cur.g);
+    const double size = in_sigmas(&cur, step);
+    if (size < kStepInSigma) {
+      converged = true;
+      break;
+    }
+    const Vec8 xn = x + step;
+    if (!(size < last) || bounded(xn) != xn) break;
+    last = size;
+    x = xn;
+    evaluate(x, &cur);
+  }
   // In double to the end: the same stopping rule as the global fused solve (a step under 1e-3
   // sigma is not taken); from the float solution one or two passes.
   in_float = false;
-  run(kStepInSigma);
+  if (!converged) run(kStepInSigma);
   unpack_core(x, &t.c);
   texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t);
   return t;
