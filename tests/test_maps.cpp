@@ -288,8 +288,8 @@ namespace {
 // per texel) against Ceres, the fitter of record, on the same texels, alone and with --smooth
 // (Ceres with the same pull as a NormalPrior): the same minimum within a tenth of sigma
 // everywhere. `options` names the maps' size.
-double worst_lm_against_ceres(const std::string& dir, const std::string& options,
-                              size_t* compared) {
+double worst_lm_against_ceres(const std::string& dir, const std::string& options, size_t* compared,
+                              double* worst_sigma_ratio = nullptr) {
   for (const std::string solver : {"lm", "ceres"}) {
     const auto r = test::run_cli("fit " + dir + "/set " + options + " --maps-solver " + solver +
                                  " --out " + dir + "/" + solver + ".json");
@@ -308,9 +308,12 @@ double worst_lm_against_ceres(const std::string& dir, const std::string& options
   for (const std::string& key : keys) {
     const Image a = img("lm", key.c_str()), b = img("ceres", key.c_str()),
                 s = img("ceres", (std::string(key) + "_sigma").c_str());
+    const Image sa = img("lm", (std::string(key) + "_sigma").c_str());
     for (size_t i = 0; i < a.px.size(); ++i) {
       if (det.px[i / a.channels] < 0.5) continue;
       worst = std::max(worst, std::abs(double(a.px[i]) - b.px[i]) / s.px[i]);
+      if (worst_sigma_ratio)  // the sigmas too: each path's own J^T J and rank test
+        *worst_sigma_ratio = std::max(*worst_sigma_ratio, std::abs(sa.px[i] / s.px[i] - 1.0));
       ++*compared;
     }
   }
@@ -335,8 +338,11 @@ TEST(FitMaps, LevenbergMarquardtReachesCeresMinimumPerTexel) {
   ASSERT_EQ(r.status, 0) << r.output;
   for (const std::string options : {"--maps 8x6", "--maps 8x6 --smooth 1 --smooth-sweeps 3"}) {
     size_t compared = 0;
-    EXPECT_LT(worst_lm_against_ceres(dir, options, &compared), 0.1) << options;
+    double sigma_ratio = 0;
+    EXPECT_LT(worst_lm_against_ceres(dir, options, &compared, &sigma_ratio), 0.1) << options;
     EXPECT_GT(compared, 300u);
+    std::printf("sigmas: worst relative difference %.2e\n", sigma_ratio);
+    EXPECT_LT(sigma_ratio, 0.01) << options;
   }
 }
 
