@@ -358,7 +358,7 @@ Command add_fit(CLI::App& app) {
       ->check(CLI::Range(1, 100000));
   add_maps_options(fit, a.get());
   return {fit, [a, fit] {
-            if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h);
+            if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h, "--maps");
             a->fo.maps_ceres = a->maps_solver == "ceres";
             a->fo.ceres_solver = a->solver == "ceres";
             if (!a->tile.empty()) parse_tile(a->tile, &a->fo);

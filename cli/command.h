@@ -65,8 +65,8 @@ struct MpiWorld {
 };
 const MpiWorld* mpi_world();
 
-// `--size WxH` or `--size N`.
-void parse_size(const std::string& s, int* w, int* h);
+// `--size WxH` or `--size N` (errors name `opt`: --size, --maps).
+void parse_size(const std::string& s, int* w, int* h, const char* opt = "--size");
 // A non-zero direction "x,y,z" for option `opt`.
 Vec3 parse_vec(const std::string& s, const std::string& opt);
 // The fiber model's map the material names (relative to its file), or `map_override`, into the

@@ -42,19 +42,19 @@ void run_beside(const std::string& name, const std::string& missing) {
   throw Error("cannot start " + path + ": " + std::strerror(errno));
 }
 
-void parse_size(const std::string& s, int* w, int* h) {
+void parse_size(const std::string& s, int* w, int* h, const char* opt) {
   long a = 0, b = 0;
   char x = 0, extra = 0;
   if (std::sscanf(s.c_str(), "%ld%c%ld%c", &a, &x, &b, &extra) == 3 && (x == 'x' || x == 'X')) {
   } else if (std::sscanf(s.c_str(), "%ld%c", &a, &extra) == 1) {
     b = a;
   } else {
-    throw Error("--size: expected WxH or N, got '" + s + "'");
+    throw Error(std::string(opt) + ": expected WxH or N, got '" + s + "'");
   }
   constexpr long kMaxSide = 16384;  // keeps W * H * channels well inside memory and int
   if (a < 1 || b < 1 || a > kMaxSide || b > kMaxSide)
-    throw Error("--size: each side must be in [1, " + std::to_string(kMaxSide) + "], got '" + s +
-                "'");
+    throw Error(std::string(opt) + ": each side must be in [1, " + std::to_string(kMaxSide) +
+                "], got '" + s + "'");
   *w = static_cast<int>(a);
   *h = static_cast<int>(b);
 }

@@ -132,18 +132,27 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   const int band0 = o.rows.band0, band1 = o.rows.band1;
   const size_t t_begin = static_cast<size_t>(band0) * w, t_end = static_cast<size_t>(band1) * w;
   const size_t B = t_end - t_begin;
-  // Each texel's observations in order, its list sized once (counted first).
-  auto entry = [&](size_t i) -> long {
-    const long t = texel_of(os.obs[i].u, os.obs[i].v, w, h);
-    return t >= static_cast<long>(t_begin) && t < static_cast<long>(t_end) ? t - t_begin : -1;
-  };
+  // Each texel's observations in order: their texels read from the records once (in parallel:
+  // the records are the most memory this touches), then each list sized once and filled.
+  std::vector<uint32_t> entry(os.obs.size());
+  constexpr uint32_t kNone = UINT32_MAX;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, os.obs.size(), 1 << 14),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i < r.end(); ++i) {
+                        const long t = texel_of(os.obs[i].u, os.obs[i].v, w, h);
+                        entry[i] = t >= static_cast<long>(t_begin) && t < static_cast<long>(t_end)
+                                       ? static_cast<uint32_t>(t - t_begin)
+                                       : kNone;
+                      }
+                    });
   std::vector<size_t> count(B, 0);
-  for (size_t i = 0; i < os.obs.size(); ++i)
-    if (const long b = entry(i); b >= 0) ++count[b];
+  for (const uint32_t b : entry)
+    if (b != kNone) ++count[b];
   std::vector<std::vector<size_t>> bins(B);
   for (size_t b = 0; b < B; ++b) bins[b].reserve(count[b]);
-  for (size_t i = 0; i < os.obs.size(); ++i)
-    if (const long b = entry(i); b >= 0) bins[b].push_back(i);
+  for (size_t i = 0; i < entry.size(); ++i)
+    if (entry[i] != kNone) bins[entry[i]].push_back(i);
+  std::vector<uint32_t>().swap(entry);
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
   auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
     if (o.fiber_order > 0)

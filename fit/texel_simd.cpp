@@ -112,16 +112,16 @@ ANISO_AVX2 void pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac
     const v8f dD_dpsi = dsL * da;
     for (int k = 0; k < 3; ++k) {
       const v8f w = q.W[k];
+      // A padding lane has W = y = 0: its r and v are 0, no mask needed.
       const v8f r = w * (kd[k] * sL + ks[k] * S) - q.y[k];
-      acc.cost += q.mask * r * r;
+      acc.cost += r * r;
       if (!jac) continue;
       const v8f v[4] = {w * sL, w * S, w * ks[k] * dS_dlogn,
                         w * (kd[k] * dD_dpsi + ks[k] * dS_dx * dx_dpsi)};
       int tt = 0;
       for (int i = 0; i < 4; ++i) {
-        const v8f wv = q.mask * v[i];
-        acc.g[k][i] += wv * r;
-        for (int j = i; j < 4; ++j) acc.h[k][tt++] += wv * v[j];
+        acc.g[k][i] += v[i] * r;
+        for (int j = i; j < 4; ++j) acc.h[k][tt++] += v[i] * v[j];
       }
     }
   }

@@ -276,6 +276,9 @@ TEST(FitMaps, SmoothingBringsNoisyTexelsCloserToTheTruth) {
   r = test::run_cli("fit " + dir + "/set --smooth 1 --out " + dir + "/x.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("give --maps"), std::string::npos) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 0x6 --out " + dir + "/x.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("--maps: each side"), std::string::npos) << r.output;
 }
 
 }  // namespace
