@@ -108,22 +108,26 @@ ANISO_AVX2_INLINE v4d load4(const double* p) {
   return v;
 }
 
+// Each lane vector built from its four values in registers (scalar stores to a table read back
+// as 32-byte loads stall: a load cannot take its bytes from several stores in flight).
 ANISO_AVX2_INLINE void gather(const ObsSet& os, const size_t* idx, size_t count, Lanes* q) {
-  double t[15][4];
+  const Observation* o[4];
+  const ObsLight* l[4];
   for (int i = 0; i < 4; ++i) {
-    const Observation& o = os.obs[idx[static_cast<size_t>(i) < count ? i : 0]];
-    const ObsLight& l = os.lights[o.first_light];
-    const double row[15] = {
-        o.V.u,  o.V.w,     l.L.u,     l.L.w,     l.L.n,
-        l.E[0], l.E[1],    l.E[2],    o.y[0],    o.y[1],
-        o.y[2], o.base[0], o.base[1], o.base[2], static_cast<size_t>(i) < count ? 1.0 : 0.0};
-    for (int k = 0; k < 15; ++k) t[k][i] = row[k];
+    o[i] = &os.obs[idx[static_cast<size_t>(i) < count ? i : 0]];
+    l[i] = &os.lights[o[i]->first_light];
   }
-  q->Vu = load4(t[0]), q->Vw = load4(t[1]), q->Lu = load4(t[2]), q->Lw = load4(t[3]);
-  q->Ln = load4(t[4]);
+#define ANISO_LANES(field) v4d{o[0]->field, o[1]->field, o[2]->field, o[3]->field}
+#define ANISO_LIGHT_LANES(field) \
+  v4d { l[0]->field, l[1]->field, l[2]->field, l[3]->field }
+  q->Vu = ANISO_LANES(V.u), q->Vw = ANISO_LANES(V.w);
+  q->Lu = ANISO_LIGHT_LANES(L.u), q->Lw = ANISO_LIGHT_LANES(L.w), q->Ln = ANISO_LIGHT_LANES(L.n);
   for (int k = 0; k < 3; ++k)
-    q->E[k] = load4(t[5 + k]), q->y[k] = load4(t[8 + k]), q->base[k] = load4(t[11 + k]);
-  q->mask = load4(t[14]);
+    q->E[k] = ANISO_LIGHT_LANES(E[k]), q->y[k] = ANISO_LANES(y[k]),
+    q->base[k] = ANISO_LANES(base[k]);
+#undef ANISO_LANES
+#undef ANISO_LIGHT_LANES
+  q->mask = v4d{1.0, count > 1 ? 1.0 : 0.0, count > 2 ? 1.0 : 0.0, count > 3 ? 1.0 : 0.0};
 }
 
 ANISO_AVX2 void group(const Lanes& q, const LinePixelParams& p, const RobustLoss& loss, bool jac,

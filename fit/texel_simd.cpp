@@ -75,11 +75,19 @@ ANISO_AVX2_INLINE double hsum(v8f v) {
 struct Group {
   v8f Vu, Vw, Lu, Lw, Ln, W[3], y[3], mask;
 };
+ANISO_AVX2_INLINE v8f load8(const float* p) {
+  v8f v;
+  std::memcpy(&v, p, sizeof v);  // one unaligned 32-byte load
+  return v;
+}
+// Row by row straight into registers (a table of pointers to the members made the compiler copy
+// through the stack in 16-byte halves and stall reading them back whole).
 ANISO_AVX2_INLINE Group load_group(const float* g) {
   Group q;
-  v8f* dst[TexelLanes::kRows] = {&q.Vu,   &q.Vw,   &q.Lu,   &q.Lw,   &q.Ln,   &q.W[0],
-                                 &q.W[1], &q.W[2], &q.y[0], &q.y[1], &q.y[2], &q.mask};
-  for (int k = 0; k < TexelLanes::kRows; ++k) std::memcpy(dst[k], g + 8 * k, sizeof(v8f));
+  q.Vu = load8(g), q.Vw = load8(g + 8), q.Lu = load8(g + 16), q.Lw = load8(g + 24);
+  q.Ln = load8(g + 32);
+  for (int k = 0; k < 3; ++k) q.W[k] = load8(g + 8 * (5 + k)), q.y[k] = load8(g + 8 * (8 + k));
+  q.mask = load8(g + 88);
   return q;
 }
 
