@@ -186,6 +186,7 @@ double step_in_sigmas_p(const MatP<P>& H, const VecP<P>& step, double rss, doubl
 
 // Converged: no coordinate of the next step would move by this much of its standard error.
 constexpr double kStepInSigma = 1e-3;
+constexpr double kLastStepInSigma = 0.1;
 
 // Where Gauss-Newton converges only linearly (a model that does not describe the data, or the
 // robust weights still moving), consecutive steps point the same way and shrink by a steady ratio
@@ -216,6 +217,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
   out->passes = 1;
   double lambda = 1e-4;
   VecP<P> prev = VecP<P>::Zero();  // the last plain step taken
+  double last = 0;                 // its size in sigmas (0: none yet)
   auto to = [&](const VecP<P>& s) {
     VecP<P> xn = (*x + s).cwiseMax(lo).cwiseMin(hi);
     xn(7) = wrap_half_turn(xn(7));
@@ -227,11 +229,25 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
     const VecP<P> step = a.ldlt().solve(-cur->g);
     // A step too small to matter is not taken (nor evaluated: at this size the cost's change is
     // rounding, and a rejected step would only raise lambda).
-    if (step_in_sigmas_p<P>(cur->H, step, cur->rss, values) < kStepInSigma) {
+    const double size = step_in_sigmas_p<P>(cur->H, step, cur->rss, values);
+    if (size < kStepInSigma) {
       out->converged = true;
       break;
     }
     VecP<P> trial, xn = to(step);
+    // A last Gauss-Newton step is taken without a pass to confirm it where the steps show it
+    // lands within kStepInSigma: under kLastStepInSigma, lambda small, inside the bounds, and
+    // shrinking fast enough that even at the rate of the step before (size / last, linear: the
+    // cautious reading of a quadratic convergence) what is left after it is under kStepInSigma.
+    // The pass would only say so. J^T J and the sum of squares stay those of the point before
+    // (they change by as little). Fiber-flat, full data: steps 5.4, 0.053 (left: 5e-4) sigma.
+    if (size < kLastStepInSigma && size * size < kStepInSigma * last && lambda <= 1e-3 &&
+        xn == *x + step) {
+      *x = xn;
+      ++out->iterations;
+      out->converged = true;
+      break;
+    }
     FusedSums<P> next;
     if (extrapolate<P>(cur->H, step, prev, &trial)) {
       const VecP<P> xt = to(trial);
@@ -247,6 +263,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
     }
     if (next.finite && next.cost < cur->cost) {
       prev = step;
+      last = size;
       const bool small_decrease = cur->cost - next.cost <= kRelativeDecrease * cur->cost;
       *x = xn;
       *cur = next;
@@ -258,6 +275,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
       }
     } else {
       prev.setZero();
+      last = 0;
       lambda *= 10;
       if (lambda > kLambdaMax) {
         out->converged = true;  // no step lowers the cost: a minimum to the precision of doubles
