@@ -5,6 +5,9 @@
 #include <cstring>
 #include <string>
 #include <vector>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 #include "cli/command.h"
 #include "core/error.h"
@@ -48,6 +51,12 @@ bool explain_unknown_option(const CLI::App* sub, int argc, char** argv) {
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
+#ifdef __GLIBC__
+  // Large buffers (a decoded view: 0.25-1 MB) in mappings of their own, given back when freed.
+  // glibc raises this threshold to the size of the first such buffer freed, and the next views'
+  // buffers then come from the heap, which keeps their pages: 0.8 MB (a tenth) of bm16's peak.
+  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+#endif
   cli::set_command_line(argc, argv);
   if (!cli::runs_here(argc, argv)) try {
       cli::run_beside("aniso-full",

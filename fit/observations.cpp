@@ -125,10 +125,16 @@ void drop_implausible(ObsSet* os, FitReport* rep, double given) {
   double limit = given;
   if (!(limit > 0)) {
     if (os->obs.size() < 100) return;
+    // From at most kSample pixels, evenly strided (a copy of every value was a tenth of the
+    // records, at the peak): the 90th percentile of 16384 values is within ~0.3 % of its rank.
+    constexpr size_t kSample = 16384;
+    const size_t stride = (os->obs.size() + kSample - 1) / kSample;
     std::vector<float> mags;
-    mags.reserve(os->obs.size());
-    for (const auto& o : os->obs)
+    mags.reserve(os->obs.size() / stride + 1);
+    for (size_t i = 0; i < os->obs.size(); i += stride) {
+      const Observation& o = os->obs[i];
       mags.push_back(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}));
+    }
     std::nth_element(mags.begin(), mags.begin() + mags.size() * 9 / 10, mags.end());
     const double p90 = mags[mags.size() * 9 / 10];
     constexpr double kImplausible = 1e4;
