@@ -35,10 +35,8 @@ struct Run {
 // The `aniso` a user runs: the lean one beside this binary (cli/commands_lean.cpp), else this one.
 const std::string& aniso_binary() {
   static const std::string path = [] {
-    std::error_code ec;
-    const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
-    const std::string lean = (self.parent_path() / "aniso").string();
-    return !ec && ::access(lean.c_str(), X_OK) == 0 ? lean : std::string("/proc/self/exe");
+    const std::string lean = program_beside_self("aniso");
+    return lean.empty() ? std::string("/proc/self/exe") : lean;
   }();
   return path;
 }

@@ -29,10 +29,8 @@ void set_command_line(int argc, char** argv) {
 }
 
 void run_beside(const std::string& name, const std::string& missing) {
-  std::error_code ec;
-  const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
-  const std::string path = (self.parent_path() / name).string();
-  if (ec || ::access(path.c_str(), X_OK) != 0) throw Error(missing);
+  const std::string path = program_beside_self(name);
+  if (path.empty()) throw Error(missing);
   std::vector<std::string> words = command_words();
   std::vector<char*> argv;
   for (auto& w : words) argv.push_back(w.data());

@@ -324,6 +324,13 @@ std::string lower_ext(const std::string& path) {
   return e;
 }
 
+std::string program_beside_self(const std::string& name) {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  const std::string path = (self.parent_path() / name).string();
+  return !ec && ::access(path.c_str(), X_OK) == 0 ? path : std::string();
+}
+
 std::string relative_to(const std::string& path, const std::string& base) {
   const fs::path p = fs::weakly_canonical(fs::absolute(path));
   const fs::path b = fs::weakly_canonical(fs::absolute(base));

@@ -55,5 +55,8 @@ std::string parent_dir(const std::string& path);
 std::string lower_ext(const std::string& path);
 // `path` relative to the folder `base` (both may be relative to the working directory).
 std::string relative_to(const std::string& path, const std::string& base);
+// The executable `name` in the folder of the running program (/proc/self/exe), or "" when there
+// is none (or it may not be run).
+std::string program_beside_self(const std::string& name);
 
 }  // namespace aniso
