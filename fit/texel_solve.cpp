@@ -368,7 +368,7 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
                            const TexelPrior* prior) {
   TexelResult t;
   t.c = from;
-  TexelLanes lanes;
+  thread_local TexelLanes lanes;  // each thread's buffer, reused texel after texel
   const bool f32 = texel_lanes(os, idx, &lanes);
   if (!prior) texel_start(os, idx, f32 ? &lanes : nullptr, &t.c);
   Vec8 lo, hi;
