@@ -167,7 +167,7 @@ class FiberFit : public ModelFit {
                      ceres::LossFunction* loss) override {
     if (mode_ == TopologyMode::kTexels) {
       for (size_t i : idx) {
-        const BilinearTaps t = bilinear_wrap(os.obs[i].u, os.obs[i].v, texels_n_, texels_n_);
+        const BilinearTaps t = bilinear_wrap(os.uv[2 * i], os.uv[2 * i + 1], texels_n_, texels_n_);
         pb->AddResidualBlock(FiberTexelResidual::Create(&os.obs[i], os.lights.data(), t, acc_),
                              loss, core.kd, core.ks, &core.logn, &core.psi, &texels_[t.index[0]],
                              &texels_[t.index[1]], &texels_[t.index[2]], &texels_[t.index[3]]);

@@ -139,7 +139,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   tbb::parallel_for(tbb::blocked_range<size_t>(0, os.obs.size(), 1 << 14),
                     [&](const tbb::blocked_range<size_t>& r) {
                       for (size_t i = r.begin(); i < r.end(); ++i) {
-                        const long t = texel_of(os.obs[i].u, os.obs[i].v, w, h);
+                        const long t = texel_of(os.uv[2 * i], os.uv[2 * i + 1], w, h);
                         entry[i] = t >= static_cast<long>(t_begin) && t < static_cast<long>(t_end)
                                        ? static_cast<uint32_t>(t - t_begin)
                                        : kNone;

@@ -28,6 +28,7 @@ struct RecordSlot {
   Observation* obs;
   ObsLight* lights;
   uint32_t light_base;
+  float* uv = nullptr;                 // two per observation, where kept
   size_t num_obs = 0, num_lights = 0;  // written
 };
 
@@ -103,14 +104,12 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
       }
       o.smath = g.smath_at(p);
       o.mapv = g.mapv_at(p);
-      if (!g.uv.empty()) {
-        o.u = g.uv.px[2 * p];
-        o.v = g.uv.px[2 * p + 1];
-      }
       if (o.num_lights == 0) {
         ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
         continue;
       }
+      if (out->uv)
+        for (int c = 0; c < 2; ++c) out->uv[2 * out->num_obs + c] = g.uv.px[2 * p + c];
       out->num_lights += lit;
       out->obs[out->num_obs++] = o;
     }
@@ -142,11 +141,16 @@ void drop_implausible(ObsSet* os, FitReport* rep, double given) {
   }
   rep->implausible_limit = limit;
   size_t kept = 0;
-  for (const auto& o : os->obs)
-    if (std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)
-      os->obs[kept++] = o;
+  const bool uv = !os->uv.empty();
+  for (size_t i = 0; i < os->obs.size(); ++i) {
+    const Observation& o = os->obs[i];
+    if (!(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)) continue;
+    if (uv) os->uv[2 * kept] = os->uv[2 * i], os->uv[2 * kept + 1] = os->uv[2 * i + 1];
+    os->obs[kept++] = o;
+  }
   rep->implausible += os->obs.size() - kept;
   os->obs.resize(kept);
+  if (uv) os->uv.resize(2 * kept);
 }
 
 // The fiber model's topology from what the set carries: a map means its amplitude is fitted over
@@ -223,8 +227,8 @@ size_t grow_by(V* v, size_t more, size_t batches_left) {
 
 // Closes the gaps a batch's views left in their slots (pixels without a frame or a light) and
 // trims the arrays to what was written; the reports are added up in view order.
-void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_start, ObsSet* os,
-                FitReport* rep, std::vector<float>* diffs) {
+void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_start, bool keep_uv,
+                ObsSet* os, FitReport* rep, std::vector<float>* diffs) {
   size_t o_end = obs_start, l_end = light_start;
   for (ViewPart& p : *parts) {
     const size_t o_at = static_cast<size_t>(p.slot.obs - os->obs.data());
@@ -235,8 +239,11 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
                    p.slot.num_lights * sizeof(ObsLight));
       for (size_t j = 0; j < p.slot.num_obs; ++j) p.slot.obs[j].first_light -= shift;
     }
-    if (o_at != o_end)
+    if (o_at != o_end) {
       std::memmove(os->obs.data() + o_end, p.slot.obs, p.slot.num_obs * sizeof(Observation));
+      if (p.slot.uv)
+        std::memmove(os->uv.data() + 2 * o_end, p.slot.uv, 2 * p.slot.num_obs * sizeof(float));
+    }
     o_end += p.slot.num_obs;
     l_end += p.slot.num_lights;
     diffs->insert(diffs->end(), p.diffs.begin(), p.diffs.end());
@@ -249,12 +256,13 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
   }
   os->obs.resize(o_end);
   os->lights.resize(l_end);
+  if (!os->uv.empty() || keep_uv) os->uv.resize(2 * o_end);
 }
 
 // Room in the set's arrays for a batch of views from view b0 on (each view's usable pixels and as
 // many lights each), and each view's slot in it; *obs_start, *light_start: where the batch begins.
-void make_room(const CaptureSet& set, size_t b0, size_t batches_left, std::vector<ViewPart>* parts,
-               ObsSet* os, size_t* obs_start, size_t* light_start) {
+void make_room(const CaptureSet& set, size_t b0, size_t batches_left, bool keep_uv,
+               std::vector<ViewPart>* parts, ObsSet* os, size_t* obs_start, size_t* light_start) {
   size_t more_obs = 0, more_lights = 0;
   for (size_t k = 0; k < parts->size(); ++k) {
     more_obs += (*parts)[k].bound;
@@ -262,13 +270,14 @@ void make_room(const CaptureSet& set, size_t b0, size_t batches_left, std::vecto
   }
   *obs_start = grow_by(&os->obs, more_obs, batches_left);
   *light_start = grow_by(&os->lights, more_lights, batches_left);
+  if (keep_uv) grow_by(&os->uv, 2 * more_obs, batches_left);
   if (os->lights.size() > std::numeric_limits<uint32_t>::max())
     throw Error(set.file + ": more than 2^32 pixel lights; fit with --subsample");
   size_t o_at = *obs_start, l_at = *light_start;
   for (size_t k = 0; k < parts->size(); ++k) {
     ViewPart& p = (*parts)[k];
-    p.slot =
-        RecordSlot{os->obs.data() + o_at, os->lights.data() + l_at, static_cast<uint32_t>(l_at)};
+    p.slot = RecordSlot{os->obs.data() + o_at, os->lights.data() + l_at,
+                        static_cast<uint32_t>(l_at), keep_uv ? os->uv.data() + 2 * o_at : nullptr};
     o_at += p.bound;
     l_at += p.bound * set.views[b0 + k].lights.size();
   }
@@ -312,6 +321,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   tbb::task_arena arena(std::max(1, opt.threads));
   const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &map : nullptr;
   const UvBand band = uv_band(opt);
+  const bool keep_uv = opt.maps_w > 0 || opt.topology_texels > 0;  // both checked for uv above
   for (size_t b0 = 0; b0 < n; b0 += batch) {
     const size_t b1 = std::min(n, b0 + batch);
     std::vector<ViewPart> parts(b1 - b0);
@@ -328,7 +338,8 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
       });
     });
     size_t obs_start, light_start;
-    make_room(set, b0, (n - b0 + batch - 1) / batch, &parts, &os, &obs_start, &light_start);
+    make_room(set, b0, (n - b0 + batch - 1) / batch, keep_uv, &parts, &os, &obs_start,
+              &light_start);
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
@@ -337,7 +348,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
         bar.advance();
       });
     });
-    close_gaps(&parts, obs_start, light_start, &os, &rep, &neighbour_diffs);
+    close_gaps(&parts, obs_start, light_start, keep_uv, &os, &rep, &neighbour_diffs);
   }
   // The implausible values and the noise estimate are independent: side by side.
   const double given = opt.global ? opt.global->implausible_limit : 0;

@@ -17,9 +17,9 @@ namespace aniso::fitting {
 
 // A record holds everything in float: directions (a unit direction to float's 6e-8; the lobe's
 // x^n moves by n times that, 6e-5 relative at n = 1000, far below any image's noise, and the
-// models read them as double), values from images, irradiance: 60 + 24 bytes per pixel and light,
-// 0.75 of the 14-double record BENCHMARKS.md counts the memory against (they were 72 + 40 with the
-// directions in double).
+// models read them as double), values from images, irradiance: 52 + 24 bytes per pixel and light,
+// 0.68 of the 14-double record BENCHMARKS.md counts the memory against (they were 72 + 40 with the
+// directions in double, and 60 + 24 with the texture coordinates in every record).
 struct LocalDirF {
   float u = 0, w = 0, n = 1;
   LocalDirF() = default;
@@ -37,9 +37,8 @@ struct Observation {
   float y[3];                 // measured value
   float base[3];              // known constant part (ambient times k_a, which is not fitted)
   float smath = 0, mapv = 0;  // fiber model: mathematical topology and map value at the pixel
-  float u = 0, v = 0;         // texture coordinates (per-texel topology fits)
 };
-static_assert(sizeof(ObsLight) == 24 && sizeof(Observation) == 60, "records as counted above");
+static_assert(sizeof(ObsLight) == 24 && sizeof(Observation) == 52, "records as counted above");
 // How the fiber model's topology enters: one s for the whole sample, the map amplitude A on top
 // of per-pixel s_math and map values, s_math alone (nothing to fit), or a map of s over uv.
 enum class TopologyMode { kGlobalS, kAmplitude, kMathematical, kTexels };
@@ -64,6 +63,9 @@ struct RecordAllocator : std::allocator<T> {
 struct ObsSet {
   std::vector<Observation, RecordAllocator<Observation>> obs;
   std::vector<ObsLight, RecordAllocator<ObsLight>> lights;
+  // Texture coordinates u, v of obs[i] at uv[2i], uv[2i + 1]: only where a fit reads them (--maps,
+  // --topology-map); empty otherwise.
+  std::vector<float, RecordAllocator<float>> uv;
   TopologyMode topology = TopologyMode::kGlobalS;
   int texels = 0;            // kTexels: an N x N map of s over uv
   std::string topology_map;  // recorded in the result
