@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
@@ -279,6 +280,17 @@ TEST(FitMaps, SmoothingBringsNoisyTexelsCloserToTheTruth) {
   r = test::run_cli("fit " + dir + "/set --maps 0x6 --out " + dir + "/x.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("--maps: each side"), std::string::npos) << r.output;
+  // A sample table has no texture coordinates: refused, not every row in texel 0.
+  {
+    std::ofstream t(dir + "/t.csv");
+    t << "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,r,g,b\n";
+    for (int i = 0; i < 40; ++i)
+      t << 10 + i << "," << 9 * i << "," << 50 - i << "," << 180 + 4 * i << ",0.2,0.3,0.4\n";
+  }
+  r = test::run_cli("fit " + dir + "/t.csv --maps 4x4 --out " + dir + "/t.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("--maps needs texture coordinates"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/t.json"));
 }
 
 }  // namespace
