@@ -115,25 +115,12 @@ void size_maps(size_t texels, bool fit_s, TexelMaps* m) {
   m->determined.assign(texels, 0);
 }
 
-}  // namespace
-
-TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOptions& o) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const int w = o.w, h = o.h;
-  TexelMaps m;
-  m.w = w;
-  m.h = h;
-  m.row0 = o.rows.row0;
-  m.row1 = o.rows.row1;
-  const bool smooth = o.smooth > 0;
-  m.smooth = smooth ? o.smooth : 0;
-  m.sweeps = smooth ? o.sweeps : 0;
-  // Only the rows fitted are held: texel t of the grid is entry t - t_begin below.
-  const int band0 = o.rows.band0, band1 = o.rows.band1;
-  const size_t t_begin = static_cast<size_t>(band0) * w, t_end = static_cast<size_t>(band1) * w;
+// Each texel's observations in order, for the texels [t_begin, t_end) of a w x h grid: their
+// texels read from the texture coordinates once (in parallel), then each list sized once and
+// filled.
+std::vector<std::vector<size_t>> texel_bins(const ObsSet& os, int w, int h, size_t t_begin,
+                                            size_t t_end) {
   const size_t B = t_end - t_begin;
-  // Each texel's observations in order: their texels read from the records once (in parallel:
-  // the records are the most memory this touches), then each list sized once and filled.
   std::vector<uint32_t> entry(os.obs.size());
   constexpr uint32_t kNone = UINT32_MAX;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, os.obs.size(), 1 << 14),
@@ -152,7 +139,27 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   for (size_t b = 0; b < B; ++b) bins[b].reserve(count[b]);
   for (size_t i = 0; i < entry.size(); ++i)
     if (entry[i] != kNone) bins[entry[i]].push_back(i);
-  std::vector<uint32_t>().swap(entry);
+  return bins;
+}
+
+}  // namespace
+
+TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int w = o.w, h = o.h;
+  TexelMaps m;
+  m.w = w;
+  m.h = h;
+  m.row0 = o.rows.row0;
+  m.row1 = o.rows.row1;
+  const bool smooth = o.smooth > 0;
+  m.smooth = smooth ? o.smooth : 0;
+  m.sweeps = smooth ? o.sweeps : 0;
+  // Only the rows fitted are held: texel t of the grid is entry t - t_begin below.
+  const int band0 = o.rows.band0, band1 = o.rows.band1;
+  const size_t t_begin = static_cast<size_t>(band0) * w, t_end = static_cast<size_t>(band1) * w;
+  const size_t B = t_end - t_begin;
+  const std::vector<std::vector<size_t>> bins = texel_bins(os, w, h, t_begin, t_end);
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
   auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
     if (o.fiber_order > 0)

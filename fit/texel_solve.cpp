@@ -362,6 +362,93 @@ Vec8 texel_solve(const Mat8& A, const Vec8& b) {
 // until they are under kFloatStepInSigma, where float's rounding of the cost (~1e-7 of it) starts
 // to hide a step's gain; then in double from there to the end (J^T J, J^T r and the sigmas too).
 constexpr double kFloatStepInSigma = 0.05;
+
+// The texel's objective at a point: the data's sum of squares with J^T J, J^T r, and the same
+// with the prior added. A trial point is evaluated with its derivatives at once: most steps are
+// taken, and a second pass at the same point would cost more than the derivatives of the few
+// that are not.
+struct TexelEval {
+  Mat8 info, h;
+  Vec8 grad, g, hinv;  // hinv: the diagonal of h^-1, once per point (rejected steps reuse it)
+  double rss = 0, total = 0;
+  bool have_hinv = false;
+};
+
+struct TexelObjective {
+  const ObsSet& os;
+  const std::vector<size_t>& idx;
+  const TexelLanes* lanes;  // null: from the records in double
+  const TexelPrior* prior;
+  bool in_float;
+  Vec8 lo, hi;
+
+  void evaluate(const Vec8& at, TexelEval* e) const {
+    e->have_hinv = false;
+    e->rss = texel_pass(os, idx, lanes, in_float, at, &e->info, &e->grad);
+    e->h = e->info, e->g = e->grad, e->total = e->rss;
+    if (!prior) return;
+    const Vec8 d = prior_diff(*prior, at);
+    e->h.diagonal() += prior->w;
+    e->g += prior->w.cwiseProduct(d);
+    e->total += prior->w.dot(d.cwiseProduct(d));
+  }
+  double in_sigmas(TexelEval* e, const Vec8& step) const {
+    if (!e->have_hinv) e->hinv = texel_inverse_diagonal(e->h), e->have_hinv = true;
+    return step_in_sigmas_d<8>(e->hinv, step, e->total, 3.0 * idx.size());
+  }
+  Vec8 bounded(const Vec8& xn) const {
+    Vec8 b = xn.cwiseMax(lo).cwiseMin(hi);
+    b(7) = wrap_half_turn(b(7));
+    return b;
+  }
+
+  // Levenberg-Marquardt from *x until a step is under `stop` sigma; *cur ends at *x.
+  void run(double stop, Vec8* x, TexelEval* cur) const {
+    evaluate(*x, cur);
+    TexelEval trial;
+    double lambda = 1e-3;
+    for (int it = 0; it < 100; ++it) {
+      Mat8 a = cur->h;
+      a.diagonal() += lambda * cur->h.diagonal().cwiseMax(1e-12);
+      const Vec8 step = texel_solve(a, -cur->g);
+      const double size = in_sigmas(cur, step);
+      if (size < stop) break;
+      const Vec8 xn = bounded(*x + step);
+      evaluate(xn, &trial);
+      if (trial.total < cur->total) {
+        const bool done = cur->total - trial.total <= 1e-12 * cur->total;
+        *x = xn;
+        *cur = trial;
+        lambda = std::max(lambda / 3, 1e-12);
+        if (done) break;
+      } else {
+        if (in_float && size < 4 * stop) break;  // within float's rounding of the cost
+        lambda *= 4;
+        if (lambda > 1e12) break;
+      }
+    }
+  }
+
+  // Past where float's cost tells steps apart its gradient still does (the step it gives is off
+  // by ~1e-5 sigma): Gauss-Newton steps without the cost test while they stay inside the bounds
+  // and shrink, to the usual 1e-3 sigma. False where something else (a bound in the way, a step
+  // that grows or is still large) needs the cost test.
+  bool polish(Vec8* x, TexelEval* cur) const {
+    double last = kFloatStepInSigma;
+    for (int it = 0; it < 4; ++it) {
+      const Vec8 step = texel_solve(cur->h, -cur->g);
+      const double size = in_sigmas(cur, step);
+      if (size < kStepInSigma) return true;
+      const Vec8 xn = *x + step;
+      if (!(size < last) || bounded(xn) != xn) return false;
+      last = size;
+      *x = xn;
+      evaluate(*x, cur);
+    }
+    return false;
+  }
+};
+
 }  // namespace
 
 TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
@@ -371,89 +458,19 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   thread_local TexelLanes lanes;  // each thread's buffer, reused texel after texel
   const bool f32 = texel_lanes(os, idx, &lanes);
   if (!prior) texel_start(os, idx, f32 ? &lanes : nullptr, &t.c);
-  Vec8 lo, hi;
-  core_bounds(&lo, &hi);
-  // At a point: the data's sum of squares with J^T J, J^T r, and the same with the prior added
-  // (the objective). A trial point is evaluated with its derivatives at once: most steps are
-  // taken, and a second pass at the same point would cost more than the derivatives of the few
-  // that are not.
-  struct Eval {
-    Mat8 info, h;
-    Vec8 grad, g, hinv;  // hinv: the diagonal of h^-1, once per point (rejected steps reuse it)
-    double rss = 0, total = 0;
-    bool have_hinv = false;
-  };
-  bool in_float = f32;
-  auto evaluate = [&](const Vec8& at, Eval* e) {
-    e->have_hinv = false;
-    e->rss = texel_pass(os, idx, f32 ? &lanes : nullptr, in_float, at, &e->info, &e->grad);
-    e->h = e->info, e->g = e->grad, e->total = e->rss;
-    if (!prior) return;
-    const Vec8 d = prior_diff(*prior, at);
-    e->h.diagonal() += prior->w;
-    e->g += prior->w.cwiseProduct(d);
-    e->total += prior->w.dot(d.cwiseProduct(d));
-  };
-  auto in_sigmas = [&](Eval* e, const Vec8& step) {
-    if (!e->have_hinv) e->hinv = texel_inverse_diagonal(e->h), e->have_hinv = true;
-    return step_in_sigmas_d<8>(e->hinv, step, e->total, 3.0 * idx.size());
-  };
-  auto bounded = [&](const Vec8& xn) {
-    Vec8 b = xn.cwiseMax(lo).cwiseMin(hi);
-    b(7) = wrap_half_turn(b(7));
-    return b;
-  };
+  TexelObjective obj{os, idx, f32 ? &lanes : nullptr, prior, f32, Vec8(), Vec8()};
+  core_bounds(&obj.lo, &obj.hi);
   Vec8 x = pack_core(t.c);
-  Eval cur, trial;
-  // Levenberg-Marquardt from x until a step is under `stop` sigma.
-  auto run = [&](double stop) {
-    evaluate(x, &cur);
-    double lambda = 1e-3;
-    for (int it = 0; it < 100; ++it) {
-      Mat8 a = cur.h;
-      a.diagonal() += lambda * cur.h.diagonal().cwiseMax(1e-12);
-      const Vec8 step = texel_solve(a, -cur.g);
-      const double size = in_sigmas(&cur, step);
-      if (size < stop) break;
-      const Vec8 xn = bounded(x + step);
-      evaluate(xn, &trial);
-      if (trial.total < cur.total) {
-        const bool done = cur.total - trial.total <= 1e-12 * cur.total;
-        x = xn;
-        cur = trial;
-        lambda = std::max(lambda / 3, 1e-12);
-        if (done) break;
-      } else {
-        if (in_float && size < 4 * stop) break;  // within float's rounding of the cost
-        lambda *= 4;
-        if (lambda > 1e12) break;
-      }
-    }
-  };
-  if (in_float) run(kFloatStepInSigma);
-  // Past where float's cost tells steps apart its gradient still does (the step it gives is off
-  // by ~1e-5 sigma): Gauss-Newton steps without the cost test while they stay inside the bounds
-  // and shrink, to the usual 1e-3 sigma. Anything else (a bound in the way, a step that grows or
-  // is still large) goes on in double with the cost test.
+  TexelEval cur;
   bool converged = false;
-  double last = kFloatStepInSigma;
-  for (int it = 0; in_float && it < 4; ++it) {
-    const Vec8 step = texel_solve(cur.h, -cur.g);
-    const double size = in_sigmas(&cur, step);
-    if (size < kStepInSigma) {
-      converged = true;
-      break;
-    }
-    const Vec8 xn = x + step;
-    if (!(size < last) || bounded(xn) != xn) break;
-    last = size;
-    x = xn;
-    evaluate(x, &cur);
+  if (f32) {
+    obj.run(kFloatStepInSigma, &x, &cur);
+    converged = obj.polish(&x, &cur);
   }
   // In double to the end: the same stopping rule as the global fused solve (a step under 1e-3
   // sigma is not taken); from the float solution one or two passes.
-  in_float = false;
-  if (!converged) run(kStepInSigma);
+  obj.in_float = false;
+  if (!converged) obj.run(kStepInSigma, &x, &cur);
   unpack_core(x, &t.c);
   texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t);
   return t;
