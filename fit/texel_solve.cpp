@@ -66,6 +66,15 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
     }
 }
 
+// The texel's observations as float lanes (false where they cannot be: then none) and, without a
+// pull, its start from the grid over psi: the LM and Ceres start from the same node.
+bool texel_begin(const ObsSet& os, const std::vector<size_t>& idx, const TexelPrior* prior,
+                 TexelLanes* lanes, Core* c) {
+  const bool f32 = texel_lanes(os, idx, lanes);
+  if (!prior) texel_start(os, idx, f32 ? lanes : nullptr, c);
+  return f32;
+}
+
 // --smooth's pull on psi toward its target, modulo a half turn (psi lives on Ceres' half-turn
 // manifold, so it may wrap past the target).
 class PsiPrior : public ceres::SizedCostFunction<1, 1> {
@@ -267,7 +276,7 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, 
   TexelResult t;
   t.c = from;
   TexelLanes lanes;  // the same start as the LM path
-  if (!prior) texel_start(os, idx, texel_lanes(os, idx, &lanes) ? &lanes : nullptr, &t.c);
+  texel_begin(os, idx, prior, &lanes, &t.c);
   ceres::Problem::Options po;
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem pb(po);
@@ -456,8 +465,7 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   TexelResult t;
   t.c = from;
   thread_local TexelLanes lanes;  // each thread's buffer, reused texel after texel
-  const bool f32 = texel_lanes(os, idx, &lanes);
-  if (!prior) texel_start(os, idx, f32 ? &lanes : nullptr, &t.c);
+  const bool f32 = texel_begin(os, idx, prior, &lanes, &t.c);
   TexelObjective obj{os, idx, f32 ? &lanes : nullptr, prior, f32, Vec8(), Vec8()};
   core_bounds(&obj.lo, &obj.hi);
   Vec8 x = pack_core(t.c);
