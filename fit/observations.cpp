@@ -256,7 +256,7 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
   }
   os->obs.resize(o_end);
   os->lights.resize(l_end);
-  if (!os->uv.empty() || keep_uv) os->uv.resize(2 * o_end);
+  if (keep_uv) os->uv.resize(2 * o_end);
 }
 
 // Room in the set's arrays for a batch of views from view b0 on (each view's usable pixels and as

@@ -72,8 +72,8 @@ ANISO_AVX2_INLINE double hsum(v8f v) {
 }
 
 // One group of the lanes: rows in TexelLanes' order.
-struct Group {
-  v8f Vu, Vw, Lu, Lw, Ln, W[3], y[3], mask;
+struct Group {  // rows 0-10 (the mask row is the double lanes'; here padding has W = y = 0)
+  v8f Vu, Vw, Lu, Lw, Ln, W[3], y[3];
 };
 ANISO_AVX2_INLINE v8f load8(const float* p) {
   v8f v;
@@ -87,7 +87,6 @@ ANISO_AVX2_INLINE Group load_group(const float* g) {
   q.Vu = load8(g), q.Vw = load8(g + 8), q.Lu = load8(g + 16), q.Lw = load8(g + 24);
   q.Ln = load8(g + 32);
   for (int k = 0; k < 3; ++k) q.W[k] = load8(g + 8 * (5 + k)), q.y[k] = load8(g + 8 * (8 + k));
-  q.mask = load8(g + 88);
   return q;
 }
 

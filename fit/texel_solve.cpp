@@ -166,27 +166,24 @@ void texel_sigmas(const M& info, double rss, double values, TexelResult* t) {
   const double s2 = rss / dof;
   V scale(P);
   for (int k = 0; k < P; ++k) scale(k) = info(k, k) > 0 ? 1 / std::sqrt(info(k, k)) : 0;
+  if (!(scale.minCoeff() > 0)) return;
   const M scaled = scale.asDiagonal() * info * scale.asDiagonal();
+  V var(P);  // the diagonal of scaled^-1, once the rank test has passed
+  bool full_rank = false;
   if constexpr (M::RowsAtCompileTime == 8) {
     // The rank test without the eigenvalues where it is clear: the scaled matrix's largest
     // eigenvalue is at most its trace (8), its smallest at least 1 / trace(scaled^-1).
     Ldl8 f;
-    if (scale.minCoeff() > 0 && f.factor(scaled)) {
-      const Vec8 d = f.inverse_diagonal();
-      if (1 / d.sum() > kConditionLimit * 8) {
-        for (int k = 0; k < 8; ++k) t->sigma[k] = scale(k) * std::sqrt(std::max(d(k), 0.0) * s2);
-        t->determined = rad_to_deg(t->sigma[7]) < kPsiUndeterminedDeg;
-        return;
-      }
-    }
+    if (f.factor(scaled))
+      var = f.inverse_diagonal(), full_rank = 1 / var.sum() > kConditionLimit * 8;
   }
-  Eigen::SelfAdjointEigenSolver<M> eig(scaled);
-  const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
-  if (!(scale.minCoeff() > 0) || !(lo > kConditionLimit * hi)) return;
-  const M cov = scale.asDiagonal() * eig.eigenvectors() *
-                eig.eigenvalues().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose() *
-                scale.asDiagonal();
-  for (int k = 0; k < P; ++k) t->sigma[k] = std::sqrt(std::max(cov(k, k), 0.0) * s2);
+  if (!full_rank) {
+    Eigen::SelfAdjointEigenSolver<M> eig(scaled);
+    const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
+    if (!(lo > kConditionLimit * hi)) return;
+    var = eig.eigenvectors().cwiseAbs2() * eig.eigenvalues().cwiseInverse();
+  }
+  for (int k = 0; k < P; ++k) t->sigma[k] = scale(k) * std::sqrt(std::max(var(k), 0.0) * s2);
   t->determined = rad_to_deg(t->sigma[7]) < kPsiUndeterminedDeg &&
                   (P < 9 || t->sigma[8] < kTopologyUndetermined);
 }
