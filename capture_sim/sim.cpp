@@ -14,6 +14,7 @@
 #include "core/color.h"
 #include "core/error.h"
 #include "core/frame.h"
+#include "core/gauss.h"
 #include "core/progress.h"
 #include "core/texture.h"
 #include "core/timer.h"
@@ -324,13 +325,12 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
 struct SensorLevels {
   double exposure, white, saturation;
 };
-Image sensor_image(const SimOptions& opt, const Image& radiance, const SensorLevels& lv,
-                   size_t view) {
+Image sensor_image(const SimOptions& opt, Image radiance, const SensorLevels& lv, size_t view) {
   std::seed_seq seq{static_cast<uint32_t>(opt.seed), static_cast<uint32_t>(opt.seed >> 32),
                     static_cast<uint32_t>(view)};
   std::mt19937_64 rng(seq);
-  std::normal_distribution<double> gauss(0.0, 1.0);
-  Image img = radiance;
+  const ZigguratNormal gauss;
+  Image img = std::move(radiance);
   for (float& px : img.px) {
     double val = lv.exposure * px;
     if (opt.sensor.shot_photons > 0) {
@@ -454,7 +454,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       v.exposure = lv.exposure;
       v.camera = opt.camera;
       if (!tr.fixed_camera) v.geometry = tr.geometry[i];
-      const Image img = sensor_image(opt, tr.radiance[i], lv, i);
+      const Image img = sensor_image(opt, std::move(tr.radiance[i]), lv, i);
       v.image = std::string("images/") + stem + (opt.sensor.bits ? ".png" : ".exr");
       if (opt.sensor.bits)
         write_png(join_path(dir, v.image), img, opt.sensor.bits);

@@ -215,7 +215,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
   *x = x->cwiseMax(lo).cwiseMin(hi);
   *cur = pass(*x, true);
   out->passes = 1;
-  double lambda = 1e-4;
+  double lambda = 1e-4, nu = 2;    // nu: the factor lambda grows by at the next rejected step
   VecP<P> prev = VecP<P>::Zero();  // the last plain step taken
   double last = 0;                 // its size in sigmas (0: none yet)
   auto to = [&](const VecP<P>& s) {
@@ -262,13 +262,22 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
       ++out->passes;
     }
     if (next.finite && next.cost < cur->cost) {
+      // Nielsen's update of lambda from the gain ratio rho (the decrease against the one the
+      // linear model predicts): steady where the model holds, not the halving of the accepted
+      // steps that a fixed /10, *10 gives in a curved valley (a fiber texel ran out of its 100
+      // iterations that way, 50 accepted, 50 rejected, where Ceres took 37).
+      const VecP<P> taken = xn - *x;
+      const double predicted = -2 * cur->g.dot(taken) -
+                               taken.dot(cur->H.template selfadjointView<Eigen::Lower>() * taken);
+      const double rho = predicted > 0 ? (cur->cost - next.cost) / predicted : 1.0;
       prev = step;
       last = size;
       const bool small_decrease = cur->cost - next.cost <= kRelativeDecrease * cur->cost;
       *x = xn;
       *cur = next;
       ++out->iterations;
-      lambda = std::max(lambda / 10, 1e-12);
+      lambda = std::max(lambda * std::max(1.0 / 3, 1 - std::pow(2 * rho - 1, 3)), 1e-12);
+      nu = 2;
       if (small_decrease) {
         out->converged = true;
         break;
@@ -276,7 +285,8 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
     } else {
       prev.setZero();
       last = 0;
-      lambda *= 10;
+      lambda *= nu;
+      nu *= 2;
       if (lambda > kLambdaMax) {
         out->converged = true;  // no step lowers the cost: a minimum to the precision of doubles
         break;

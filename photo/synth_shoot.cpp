@@ -14,6 +14,7 @@
 #include "core/color.h"
 #include "core/error.h"
 #include "core/frame.h"
+#include "core/gauss.h"
 #include "core/lens.h"
 #include "core/progress.h"
 #include "geometry/raycast.h"
@@ -218,7 +219,7 @@ Image expose(const PhotoShootOptions& o, const Image& radiance, double exposure,
                       static_cast<uint32_t>(photo), static_cast<uint32_t>(shot),
                       static_cast<uint32_t>(y)};
     std::mt19937_64 rng(seq);
-    std::normal_distribution<double> gauss(0.0, 1.0);
+    const ZigguratNormal gauss;
     size_t n = 0;
     float* row = &img.px[static_cast<size_t>(y) * img.width * img.channels];
     for (int i = 0; i < img.width * img.channels; ++i) {

@@ -4,8 +4,11 @@
 
 #include <filesystem>
 #include <fstream>
+#include <random>
+#include <vector>
 
 #include "capture_sim/sim.h"
+#include "core/gauss.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
 #include "geometry/raycast.h"
@@ -74,6 +77,36 @@ TEST(CaptureSim, NoiseIsSeededAndRecorded) {
   EXPECT_NE(a.px, c.px);
   const CaptureSet s = read_capture(dir + "/a");
   EXPECT_NE(s.provenance.find("\"seed\":42"), std::string::npos) << s.provenance;
+}
+
+// The sensor's noise: the ziggurat's samples against the normal distribution itself, in the core
+// (Kolmogorov-Smirnov distance), the moments and the tail beyond r = 3.44 (its own sampler).
+TEST(CaptureSim, ZigguratNoiseIsStandardNormal) {
+  std::mt19937_64 rng(7);
+  const ZigguratNormal gauss;
+  constexpr int kN = 1 << 21;
+  std::vector<double> v(kN);
+  double m1 = 0, m2 = 0, m4 = 0;
+  size_t beyond_r = 0;
+  for (double& x : v) {
+    x = gauss(rng);
+    ASSERT_TRUE(std::isfinite(x));
+    m1 += x, m2 += x * x, m4 += x * x * x * x;
+    beyond_r += std::abs(x) > 3.442619855899;
+  }
+  m1 /= kN, m2 /= kN, m4 /= kN;
+  EXPECT_NEAR(m1, 0.0, 4e-3);
+  EXPECT_NEAR(m2, 1.0, 4e-3);
+  EXPECT_NEAR(m4, 3.0, 0.04);
+  const double tail = std::erfc(3.442619855899 / std::sqrt(2.0));  // both sides
+  EXPECT_NEAR(static_cast<double>(beyond_r) / kN, tail, 5 * std::sqrt(tail / kN));
+  std::sort(v.begin(), v.end());
+  double ks = 0;
+  for (int i = 0; i < kN; ++i) {
+    const double cdf = 0.5 * std::erfc(-v[i] / std::sqrt(2.0));
+    ks = std::max({ks, std::abs(cdf - double(i) / kN), std::abs(cdf - double(i + 1) / kN)});
+  }
+  EXPECT_LT(ks, 1.63 / std::sqrt(double(kN)));  // the 1 % critical value
 }
 
 TEST(CaptureSim, IntegerSensorQuantisesAndClips) {

@@ -88,8 +88,12 @@ TEST(FitRecovery, RandomMaterialsFromDeterministicStart) {
   }
 }
 
-// With 1 % read noise every parameter lands within 3 of its reported standard deviations.
+// With 1 % read noise every parameter lands within 4 of its reported standard deviations, and at
+// most one of the twelve (three seeds; k_d and k_s as their worst channel) beyond 3. A calibrated
+// sigma fails this about 0.3 % of the time; a sigma half as large as it should be, nearly always.
+// (60 seeds: k_d's worst channel had a median of 1.33 sigma, 1.26 expected; one beyond 3, 3.27.)
 TEST(FitRecovery, OnePercentNoiseWithinThreeReportedSigma) {
+  int beyond3 = 0;
   for (uint64_t seed : {1u, 2u, 3u}) {
     PresetOptions p = small(12, 64);
     p.noise = 0.01;
@@ -99,13 +103,14 @@ TEST(FitRecovery, OnePercentNoiseWithinThreeReportedSigma) {
     simulate_capture(so, dir);
     FitResult r;
     const TruthErrors e = fit_and_compare(dir, so.truth, quiet(), &r);
-    EXPECT_LE(e.kd_sigmas, 3.0);
-    EXPECT_LE(e.ks_sigmas, 3.0);
-    EXPECT_LE(e.n_sigmas, 3.0);
-    EXPECT_LE(e.psi_sigmas, 3.0);
+    for (const double z : {e.kd_sigmas, e.ks_sigmas, e.n_sigmas, e.psi_sigmas}) {
+      EXPECT_LE(z, 4.0) << "seed " << seed;
+      beyond3 += z > 3.0;
+    }
     EXPECT_TRUE(r.undetermined.empty());
     EXPECT_NEAR(r.report.rms, 0.01 * 1.0, 0.01);  // residual at the noise level
   }
+  EXPECT_LE(beyond3, 1);
 }
 
 TEST(FitRecovery, Srgb16BitPngCapture) {
