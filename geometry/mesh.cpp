@@ -21,24 +21,6 @@ FiberField parse_fiber_field(const std::string& field) {
   return FiberField::kMesh;
 }
 
-Vec3 fiber_field_tangent(FiberField field, const Vec3& P, const Vec3& N, const Vec3& U,
-                         const Vec3& center, const Vec3& axis) {
-  Vec3 t = U;
-  if (field == FiberField::kRadial || field == FiberField::kCircular) {
-    const Vec3 r = P - center;
-    const Vec3 radial = r - axis * dot(r, axis);
-    t = field == FiberField::kRadial ? radial : cross(axis, radial);
-  } else if (field == FiberField::kMeridian) {
-    t = axis;  // toward the pole, projected below
-  }
-  t = t - N * dot(t, N);
-  const double l = length(t);
-  // Below this the field is undefined (centre of a disc, pole of a sphere): any tangent will do,
-  // the pixel is measure-zero.
-  constexpr double kDegenerate = 1e-9;
-  return l > kDegenerate ? t / l : any_perpendicular(N);
-}
-
 namespace {
 
 // A (nu+1) x (nv+1) vertex grid over a parametric surface f(u, v) -> (P, N, dP/du).

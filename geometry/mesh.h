@@ -45,15 +45,31 @@ TriMesh load_obj(const std::string& path, bool need_uv = true);
 enum class FiberField { kMesh, kRadial, kCircular, kMeridian };
 FiberField parse_fiber_field(const std::string& field);
 
-// The reference tangent U at point P with normal N for a fiber field.
-Vec3 fiber_field_tangent(FiberField field, const Vec3& P, const Vec3& N, const Vec3& U,
-                         const Vec3& center, const Vec3& axis);
+// Any unit vector perpendicular to N, chosen deterministically (fallback for degenerate U).
+Vec3 any_perpendicular(const Vec3& N);
+
+// The reference tangent U at point P with normal N for a fiber field (inline: once per traced
+// pixel).
+inline Vec3 fiber_field_tangent(FiberField field, const Vec3& P, const Vec3& N, const Vec3& U,
+                                const Vec3& center, const Vec3& axis) {
+  Vec3 t = U;
+  if (field == FiberField::kRadial || field == FiberField::kCircular) {
+    const Vec3 r = P - center;
+    const Vec3 radial = r - axis * dot(r, axis);
+    t = field == FiberField::kRadial ? radial : cross(axis, radial);
+  } else if (field == FiberField::kMeridian) {
+    t = axis;  // toward the pole, projected below
+  }
+  t = t - N * dot(t, N);
+  const double l = length(t);
+  // Below this the field is undefined (centre of a disc, pole of a sphere): any tangent will do,
+  // the pixel is measure-zero.
+  constexpr double kDegenerate = 1e-9;
+  return l > kDegenerate ? t / l : any_perpendicular(N);
+}
 inline Vec3 fiber_field_tangent(const std::string& field, const Vec3& P, const Vec3& N,
                                 const Vec3& U, const Vec3& center, const Vec3& axis) {
   return fiber_field_tangent(parse_fiber_field(field), P, N, U, center, axis);
 }
-
-// Any unit vector perpendicular to N, chosen deterministically (fallback for degenerate U).
-Vec3 any_perpendicular(const Vec3& N);
 
 }  // namespace aniso

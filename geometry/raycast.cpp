@@ -87,6 +87,50 @@ void fit_image(Image* img, int w, int h, int c) {
   *img = Image(w, h, c);
 }
 
+// Lane l of a packet: a primary ray from `eye` along `d`.
+void start_ray(const Vec3& eye, const Vec3& d, int l, RTCRayHit8* rh) {
+  rh->ray.org_x[l] = static_cast<float>(eye.x);
+  rh->ray.org_y[l] = static_cast<float>(eye.y);
+  rh->ray.org_z[l] = static_cast<float>(eye.z);
+  rh->ray.dir_x[l] = static_cast<float>(d.x);
+  rh->ray.dir_y[l] = static_cast<float>(d.y);
+  rh->ray.dir_z[l] = static_cast<float>(d.z);
+  rh->ray.tnear[l] = 0.f;
+  rh->ray.tfar[l] = std::numeric_limits<float>::infinity();
+  rh->ray.time[l] = 0.f;
+  rh->ray.mask[l] = 0xFFFFFFFFu;
+  rh->ray.id[l] = static_cast<unsigned>(l);
+  rh->ray.flags[l] = 0;
+  rh->hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
+  rh->hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
+}
+
+// Pixel p's buffers from a hit on triangle `prim` at barycentrics (b1, b2), distance t along the
+// ray (eye, d): the position from the ray (exact on the triangle), the attributes interpolated.
+// False (nothing written) where the ray meets the back of the surface: not a sample pixel.
+bool store_hit(const TriMesh& m, FiberField field, const Vec3& eye, const Vec3& d, unsigned prim,
+               double b1, double b2, float t, size_t p, GBuffer* g) {
+  const auto& tri = m.tri[prim];
+  const double b0 = 1.0 - b1 - b2;
+  const Vec3 Nw = normalize(m.N[tri[0]] * b0 + m.N[tri[1]] * b1 + m.N[tri[2]] * b2);
+  if (dot(Nw, d) >= 0.0) return false;
+  const Vec3 Pw = eye + d * static_cast<double>(t);
+  const Vec3 Uw = fiber_field_tangent(
+      field, Pw, Nw, m.U[tri[0]] * b0 + m.U[tri[1]] * b1 + m.U[tri[2]] * b2, m.center, m.axis);
+  float* P = &g->P.px[3 * p];
+  float* N = &g->N.px[3 * p];
+  float* U = &g->U.px[3 * p];
+  for (int c = 0; c < 3; ++c) {
+    P[c] = static_cast<float>(Pw[c]);
+    N[c] = static_cast<float>(Nw[c]);
+    U[c] = static_cast<float>(Uw[c]);
+  }
+  for (int c = 0; c < 2; ++c)
+    g->uv.px[2 * p + c] =
+        static_cast<float>(m.uv[tri[0]][c] * b0 + m.uv[tri[1]][c] * b1 + m.uv[tri[2]][c] * b2);
+  return true;
+}
+
 }  // namespace
 
 GBuffer RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string& field) const {
@@ -107,11 +151,14 @@ void RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string& f
   const TriMesh& m = mesh_;
   const bool distorted = k.distorted();
   const FiberField field_kind = parse_fiber_field(field);
+  std::vector<double> ray_x(static_cast<size_t>(k.width));  // camera-space x of each column's ray
+  for (int x = 0; x < k.width; ++x) ray_x[x] = (x - k.cx) / k.fx;
   tbb::parallel_for(tbb::blocked_range<int>(0, k.height), [&](const tbb::blocked_range<int>& rows) {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    for (int y = rows.begin(); y < rows.end(); ++y)
+    for (int y = rows.begin(); y < rows.end(); ++y) {
+      const double ray_y = (y - k.cy) / k.fy;
       for (int x0 = 0; x0 < k.width; x0 += 8) {
         alignas(32) int valid[8];
         alignas(32) RTCRayHit8 rh;
@@ -119,56 +166,24 @@ void RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string& f
         for (int l = 0; l < 8; ++l) {
           const int x = x0 + l;
           valid[l] = x < k.width ? -1 : 0;
-          Vec3 r((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0);
+          Vec3 r(x < k.width ? ray_x[x] : 0.0, ray_y, 1.0);
           if (distorted && !pixel_ray(k, x, y, &r)) valid[l] = 0;  // outside the lens model
-          const Vec3 d = normalize(pose.dir(r));
-          dirs[l] = d;
-          rh.ray.org_x[l] = static_cast<float>(eye.x);
-          rh.ray.org_y[l] = static_cast<float>(eye.y);
-          rh.ray.org_z[l] = static_cast<float>(eye.z);
-          rh.ray.dir_x[l] = static_cast<float>(d.x);
-          rh.ray.dir_y[l] = static_cast<float>(d.y);
-          rh.ray.dir_z[l] = static_cast<float>(d.z);
-          rh.ray.tnear[l] = 0.f;
-          rh.ray.tfar[l] = std::numeric_limits<float>::infinity();
-          rh.ray.time[l] = 0.f;
-          rh.ray.mask[l] = 0xFFFFFFFFu;
-          rh.ray.id[l] = static_cast<unsigned>(l);
-          rh.ray.flags[l] = 0;
-          rh.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
-          rh.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
+          dirs[l] = normalize(pose.dir(r));
+          start_ray(eye, dirs[l], l, &rh);
         }
         rtcIntersect8(valid, impl_->scene, &ctx, &rh);
         for (int l = 0; l < 8 && x0 + l < k.width; ++l) {
-          const int x = x0 + l;
-          const size_t p = static_cast<size_t>(y) * k.width + x;
-          float* P = &g.P.px[3 * p];
-          float* N = &g.N.px[3 * p];
-          float* U = &g.U.px[3 * p];
-          float* uv = &g.uv.px[2 * p];
-          g.hit[p] = 0;
-          std::fill(P, P + 3, 0.f), std::fill(N, N + 3, 0.f), std::fill(U, U + 3, 0.f);
-          uv[0] = uv[1] = 0.f;
-          if (!valid[l] || rh.hit.geomID[l] == RTC_INVALID_GEOMETRY_ID) continue;
-          const auto& t = m.tri[rh.hit.primID[l]];
-          const double b1 = rh.hit.u[l], b2 = rh.hit.v[l], b0 = 1.0 - b1 - b2;
-          // Position from the ray (exact on the triangle), attributes interpolated.
-          const Vec3 Pw = eye + dirs[l] * static_cast<double>(rh.ray.tfar[l]);
-          const Vec3 Nw = normalize(m.N[t[0]] * b0 + m.N[t[1]] * b1 + m.N[t[2]] * b2);
-          if (dot(Nw, dirs[l]) >= 0.0) continue;  // back side: not a sample pixel
-          Vec3 Uw = m.U[t[0]] * b0 + m.U[t[1]] * b1 + m.U[t[2]] * b2;
-          Uw = fiber_field_tangent(field_kind, Pw, Nw, Uw, m.center, m.axis);
-          g.hit[p] = 1;
-          for (int c = 0; c < 3; ++c) {
-            P[c] = static_cast<float>(Pw[c]);
-            N[c] = static_cast<float>(Nw[c]);
-            U[c] = static_cast<float>(Uw[c]);
-          }
-          for (int c = 0; c < 2; ++c)
-            uv[c] =
-                static_cast<float>(m.uv[t[0]][c] * b0 + m.uv[t[1]][c] * b1 + m.uv[t[2]][c] * b2);
+          const size_t p = static_cast<size_t>(y) * k.width + x0 + l;
+          const bool hit = valid[l] && rh.hit.geomID[l] != RTC_INVALID_GEOMETRY_ID &&
+                           store_hit(m, field_kind, eye, dirs[l], rh.hit.primID[l], rh.hit.u[l],
+                                     rh.hit.v[l], rh.ray.tfar[l], p, &g);
+          g.hit[p] = hit;
+          if (hit) continue;
+          std::fill_n(&g.P.px[3 * p], 3, 0.f), std::fill_n(&g.N.px[3 * p], 3, 0.f);
+          std::fill_n(&g.U.px[3 * p], 3, 0.f), std::fill_n(&g.uv.px[2 * p], 2, 0.f);
         }
       }
+    }
   });
   g.rays = static_cast<size_t>(k.width) * k.height;
 }

@@ -183,18 +183,23 @@ void write_atomically(const std::string& path,
   }
 }
 
-void write_text_file(const std::string& path, const std::string& text) {
+void write_file_pieces(const std::string& path,
+                       const std::function<void(const ByteSink&)>& produce) {
   write_atomically(path, [&](const std::string& tmp) {
     const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
     if (fd < 0) throw Error(path + ": cannot open for writing: " + errno_text());
     try {
-      write_all(fd, text.data(), text.size(), path);
+      produce([&](const char* data, size_t size) { write_all(fd, data, size, path); });
     } catch (...) {
       ::close(fd);
       throw;
     }
     if (::close(fd) != 0) throw Error(path + ": write failed: " + errno_text());
   });
+}
+
+void write_text_file(const std::string& path, const std::string& text) {
+  write_file_pieces(path, [&](const ByteSink& sink) { sink(text.data(), text.size()); });
 }
 
 std::string read_text_file(const std::string& path, size_t max_bytes) {

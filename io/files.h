@@ -33,6 +33,13 @@ void write_atomically(const std::string& path,
 
 void write_text_file(const std::string& path, const std::string& text);
 
+// Receives a file's bytes in order, piece by piece.
+using ByteSink = std::function<void(const char* data, size_t size)>;
+// Writes `path` atomically from the pieces `produce` hands its sink, each as it comes: nothing the
+// size of the file is held in memory.
+void write_file_pieces(const std::string& path,
+                       const std::function<void(const ByteSink&)>& produce);
+
 // Reads a regular file of at most `max_bytes` (default 256 MiB); anything else (missing, a
 // folder, a device, a FIFO, too large) is an error naming the file.
 std::string read_text_file(const std::string& path, size_t max_bytes = size_t(256) << 20);

@@ -250,7 +250,7 @@ void put_attribute(std::string* out, const char* name, const char* type, const s
 
 }  // namespace
 
-std::string encode_exr_uncompressed(const Image& img) {
+void encode_exr_uncompressed(const Image& img, const ByteSink& sink) {
   static_assert(sizeof(float) == 4, "EXR FLOAT is 32 bits");
   // Channels in the file's order (sorted by name: B, G, R), each its index in img's pixels.
   static const char* kNames[] = {"R", "G", "B"};
@@ -286,19 +286,29 @@ std::string encode_exr_uncompressed(const Image& img) {
   // byte count, and the line's values channel by channel.
   const size_t line = static_cast<size_t>(img.width) * img.channels * sizeof(float);
   const size_t table = out.size(), first = table + 8 * static_cast<size_t>(img.height);
-  out.reserve(first + static_cast<size_t>(img.height) * (8 + line));
   for (int y = 0; y < img.height; ++y) put<uint64_t>(&out, first + y * (8 + line));
-  std::vector<float> planar(static_cast<size_t>(img.width) * img.channels);
-  for (int y = 0; y < img.height; ++y) {
-    put<int32_t>(&out, y);
-    put<int32_t>(&out, static_cast<int32_t>(line));
-    const float* row = img.px.data() + static_cast<size_t>(y) * img.width * img.channels;
-    for (size_t k = 0; k < order.size(); ++k)
-      for (int x = 0; x < img.width; ++x)
-        planar[k * img.width + x] = row[static_cast<size_t>(x) * img.channels + order[k]];
-    out.append(reinterpret_cast<const char*>(planar.data()), line);
+  sink(out.data(), out.size());
+  // Blocks in batches of rows through one buffer of about 64 KiB (below the mmap threshold: its
+  // pages come back from the heap, not fresh from the kernel).
+  constexpr size_t kBatchBytes = size_t(64) << 10;
+  const size_t block = 2 + line / sizeof(float);  // in 4-byte words: y, the byte count, the line
+  const int rows = static_cast<int>(std::max<size_t>(1, kBatchBytes / (4 * block)));
+  std::vector<float> buf(static_cast<size_t>(std::min(rows, img.height)) * block);
+  for (int y0 = 0; y0 < img.height; y0 += rows) {
+    const int y1 = std::min(img.height, y0 + rows);
+    float* b = buf.data();
+    for (int y = y0; y < y1; ++y, b += block) {
+      const int32_t head[2] = {y, static_cast<int32_t>(line)};
+      std::memcpy(b, head, sizeof head);
+      float* planar = b + 2;
+      const float* row = img.px.data() + static_cast<size_t>(y) * img.width * img.channels;
+      for (size_t k = 0; k < order.size(); ++k)
+        for (int x = 0; x < img.width; ++x)
+          planar[k * img.width + x] = row[static_cast<size_t>(x) * img.channels + order[k]];
+    }
+    sink(reinterpret_cast<const char*>(buf.data()),
+         sizeof(float) * static_cast<size_t>(b - buf.data()));
   }
-  return out;
 }
 
 void set_exr_compression(const std::string& name) {
@@ -346,7 +356,7 @@ void write_exr(const std::string& path, const Image& img) {
   if (g_compression.load() == Imf::NO_COMPRESSION) {
     // At memory speed: OpenEXR's scanline writer took 84-116 ms for what one write of the
     // finished bytes does in 8-12 ms (issue 11); read back by OpenEXR in the tests.
-    write_text_file(path, encode_exr_uncompressed(img));
+    write_file_pieces(path, [&](const ByteSink& sink) { encode_exr_uncompressed(img, sink); });
     return;
   }
   write_atomically(path, [&](const std::string& tmp) {

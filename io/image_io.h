@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/image.h"
+#include "io/files.h"
 
 namespace aniso {
 
@@ -28,8 +29,9 @@ LoadedImage read_image(const std::string& path, int expect_w = 0, int expect_h =
 void set_exr_compression(const std::string& name);
 
 // The bytes of an uncompressed float EXR (scanline, channels R[,G[,B]]), written by hand: what
-// write_exr writes with compression "none".
-std::string encode_exr_uncompressed(const Image& img);
+// write_exr writes with compression "none". Handed to `sink` in pieces of at most ~64 KiB
+// after the header (a reused buffer: no fresh pages for a copy of the file).
+void encode_exr_uncompressed(const Image& img, const ByteSink& sink);
 
 // Decodes the bytes of an uncompressed single-part scanline EXR whose channels are all 32-bit
 // float into *out (channels as read_image gives them); false for anything else (compressed, half,
