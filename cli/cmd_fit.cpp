@@ -283,6 +283,11 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
                   "of the sweep before; a pull reaches this many texels)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000));
+  fit->add_option("--maps-iterations", fo.maps_iterations,
+                  "--maps: iterations each texel's solver may take; a texel still moving then is "
+                  "counted, warned about and marked undetermined (the global values kept)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
   fit->add_option("--global", a->global,
                   "--maps: take the global fit (every texel's start, and the values of texels the "
                   "data do not determine) from this material, an earlier `aniso fit` of the same "

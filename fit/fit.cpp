@@ -97,6 +97,7 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
   to.ceres = opt.maps_ceres;
   to.smooth = opt.maps_smooth;
   to.sweeps = opt.maps_sweeps;
+  to.max_iterations = opt.maps_iterations;
   to.progress = opt.progress;
   to.fiber_order = fiber_order;
   to.s = s;
@@ -120,9 +121,17 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
     rep->warnings.push_back(
         "--maps: " + std::to_string(res->maps.determined.size() - determined) + " of " +
         std::to_string(res->maps.determined.size()) +
-        " texels are not determined by the data (too few pixels, or psi's sigma over 10 deg): "
+        " texels are not determined by the data (too few pixels, psi's sigma over 10 deg, or a "
+        "solver "
+        "that did not converge): "
         "they hold the global values with the prior's spread as sigma (maps_uncertainty."
         "determined = 0)");
+  if (res->maps.not_converged > 0)
+    rep->warnings.push_back(
+        "--maps: " + std::to_string(res->maps.not_converged) + " texels stopped at " +
+        std::to_string(opt.maps_iterations) +
+        " iterations (--maps-iterations) before their solver converged: marked undetermined, "
+        "the global values kept");
 }
 
 FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, FitReport rep,

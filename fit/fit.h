@@ -71,6 +71,7 @@ struct FitOptions {
   // --smooth lambda / --smooth-sweeps K: couple each texel to its 4 neighbours (fit/maps.h).
   double maps_smooth = 0;
   int maps_sweeps = 10;
+  int maps_iterations = 100;  // --maps-iterations: each texel's solver
   // --global MATERIAL: the global fit (every texel's start, and the values of the texels the data
   // do not determine) taken from an earlier fit instead of fitted here. With --tile, the tile then
   // keeps only the observations whose uv falls in its rows (and its --smooth band): a tile's
@@ -95,7 +96,9 @@ struct TexelMaps {
   double smooth = 0;  // --smooth lambda (0: every texel alone)
   int sweeps = 0;     // its Jacobi sweeps
   size_t fitted = 0;  // texels with a problem solved
-  double rms = 0;     // residual RMS over the solved texels' observations
+  // of those, texels whose solver stopped at --maps-iterations (marked undetermined)
+  size_t not_converged = 0;
+  double rms = 0;  // residual RMS over the solved texels' observations
   double seconds = 0;
 };
 

@@ -165,8 +165,8 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
     if (o.fiber_order > 0)
       return o.ceres ? solve_texel_fiber_ceres(os, bins[b], from, o, prior)
                      : solve_texel_fiber(os, bins[b], from, o, prior);
-    return o.ceres ? solve_texel_ceres(os, bins[b], from.c, prior)
-                   : solve_texel_lm(os, bins[b], from.c, prior);
+    return o.ceres ? solve_texel_ceres(os, bins[b], from.c, prior, o.max_iterations)
+                   : solve_texel_lm(os, bins[b], from.c, prior, o.max_iterations);
   };
   TexelResult start;  // the global fit
   start.c = global;
@@ -198,7 +198,10 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   for (size_t t = 0; t < m.pixels.size(); ++t) {
     const size_t b = a + t;
     m.pixels[t] = static_cast<int>(bins[b].size());
-    if (bins[b].size() >= kMinTexelPixels) ++m.fitted, sr += now[b].rss, sv += now[b].values;
+    if (bins[b].size() >= kMinTexelPixels) {
+      ++m.fitted, sr += now[b].rss, sv += now[b].values;
+      if (!now[b].converged) ++m.not_converged;
+    }
     put_texel(now[b], t, global, o.s, &m);
   }
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;

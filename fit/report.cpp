@@ -255,6 +255,7 @@ void write_maps_tile(const std::string& path, const FitResult& r, const FitOptio
                          {"rows", {t.row0, t.row1}},
                          {"smooth", {t.smooth, t.sweeps}},
                          {"fitted", t.fitted},
+                         {"not_converged", t.not_converged},
                          {"seconds", t.seconds},
                          {"fit", fit_json(path, r)},
                          {"values", values}};
@@ -321,6 +322,7 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       std::copy(px.begin(), px.end(), m.pixels.begin() + a);
       std::copy(det.begin(), det.end(), m.determined.begin() + a);
       m.fitted += j["fitted"].get<size_t>();
+      m.not_converged += j.value("not_converged", size_t(0));  // absent in older tiles
     } catch (const jsonu::json::exception& e) {
       throw Error(path + ": not a readable tile: " + e.what());
     }

@@ -152,6 +152,13 @@ struct Ldl8 {
   }
 };
 
+// A texel whose solver stopped at its iteration limit is marked, and not determined: its numbers
+// are not a minimum's (the global values are kept for it, as for any undetermined texel).
+void mark_converged(bool converged, TexelResult* t) {
+  t->converged = converged;
+  if (!converged) t->determined = false;
+}
+
 // sigmas from J^T J (`info`: fixed 8 x 8, or dynamic) and the residual sum of squares at the
 // solution: the rank test on the eigenvalues of the column-scaled matrix, then the diagonal of its
 // inverse times s^2.
@@ -204,10 +211,10 @@ void add_prior(const TexelPrior& prior, ceres::Problem* pb, Core* c) {
 // Solves the texel's problem to double precision, then its sigmas from J^T J of the `data`
 // residuals alone (not the pull) over `blocks` (one column each, in order).
 void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlockId>& data,
-                      const std::vector<double*>& blocks, TexelResult* t) {
+                      const std::vector<double*>& blocks, int max_iterations, TexelResult* t) {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = 100;
+  so.max_num_iterations = max_iterations;
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
   // Converged as far as double precision takes it, as the LM path: the reference to compare with.
@@ -230,6 +237,7 @@ void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlock
       for (int b = J.rows[r]; b < J.rows[r + 1]; ++b)
         info(J.cols[a], J.cols[b]) += J.values[a] * J.values[b];
   texel_sigmas(info, 2 * cost, J.num_rows, t);
+  mark_converged(sum.termination_type == ceres::CONVERGENCE, t);
 }
 
 // The fiber model's texel start: psi from the line model's texel grid (the direction looks the
@@ -269,7 +277,7 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
 
 // One texel with Ceres (the fitter of record): solve, then J^T J of its own problem.
 TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                              const TexelPrior* prior) {
+                              const TexelPrior* prior, int max_iterations) {
   TexelResult t;
   t.c = from;
   TexelLanes lanes;  // the same start as the LM path
@@ -287,7 +295,7 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, 
   pb.SetParameterBlockConstant(&dummy[0]);
   pb.SetParameterBlockConstant(&dummy[1]);
   set_core_bounds(&pb, &c);
-  solve_and_sigmas(&pb, data, {c.kd, c.ks, &c.logn, &c.psi}, &t);
+  solve_and_sigmas(&pb, data, {c.kd, c.ks, &c.logn, &c.psi}, max_iterations, &t);
   return t;
 }
 
@@ -323,7 +331,7 @@ TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>&
     pb.SetParameterBlockConstant(&t.s);
   std::vector<double*> blocks = {c.kd, c.ks, &c.logn, &c.psi};
   if (fit_s) blocks.push_back(&t.s);
-  solve_and_sigmas(&pb, data, blocks, &t);
+  solve_and_sigmas(&pb, data, blocks, o.max_iterations, &t);
   return t;
 }
 
@@ -387,6 +395,7 @@ struct TexelObjective {
   const TexelPrior* prior;
   bool in_float;
   Vec8 lo, hi;
+  int max_iterations;
 
   void evaluate(const Vec8& at, TexelEval* e) const {
     e->have_hinv = false;
@@ -408,17 +417,18 @@ struct TexelObjective {
     return b;
   }
 
-  // Levenberg-Marquardt from *x until a step is under `stop` sigma; *cur ends at *x.
-  void run(double stop, Vec8* x, TexelEval* cur) const {
+  // Levenberg-Marquardt from *x until a step is under `stop` sigma; *cur ends at *x. False where
+  // it stopped at its iteration limit instead.
+  bool run(double stop, Vec8* x, TexelEval* cur) const {
     evaluate(*x, cur);
     TexelEval trial;
     double lambda = 1e-3;
-    for (int it = 0; it < 100; ++it) {
+    for (int it = 0; it < max_iterations; ++it) {
       Mat8 a = cur->h;
       a.diagonal() += lambda * cur->h.diagonal().cwiseMax(1e-12);
       const Vec8 step = texel_solve(a, -cur->g);
       const double size = in_sigmas(cur, step);
-      if (size < stop) break;
+      if (size < stop) return true;
       const Vec8 xn = bounded(*x + step);
       evaluate(xn, &trial);
       if (trial.total < cur->total) {
@@ -426,13 +436,14 @@ struct TexelObjective {
         *x = xn;
         *cur = trial;
         lambda = std::max(lambda / 3, 1e-12);
-        if (done) break;
+        if (done) return true;
       } else {
-        if (in_float && size < 4 * stop) break;  // within float's rounding of the cost
+        if (in_float && size < 4 * stop) return true;  // within float's rounding of the cost
         lambda *= 4;
-        if (lambda > 1e12) break;
+        if (lambda > 1e12) return true;  // no step lowers the cost: a minimum
       }
     }
+    return false;
   }
 
   // Past where float's cost tells steps apart its gradient still does (the step it gives is off
@@ -458,12 +469,12 @@ struct TexelObjective {
 }  // namespace
 
 TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                           const TexelPrior* prior) {
+                           const TexelPrior* prior, int max_iterations) {
   TexelResult t;
   t.c = from;
   thread_local TexelLanes lanes;  // each thread's buffer, reused texel after texel
   const bool f32 = texel_begin(os, idx, prior, &lanes, &t.c);
-  TexelObjective obj{os, idx, f32 ? &lanes : nullptr, prior, f32, Vec8(), Vec8()};
+  TexelObjective obj{os, idx, f32 ? &lanes : nullptr, prior, f32, Vec8(), Vec8(), max_iterations};
   core_bounds(&obj.lo, &obj.hi);
   Vec8 x = pack_core(t.c);
   TexelEval cur;
@@ -475,9 +486,10 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   // In double to the end: the same stopping rule as the global fused solve (a step under 1e-3
   // sigma is not taken); from the float solution one or two passes.
   obj.in_float = false;
-  if (!converged) obj.run(kStepInSigma, &x, &cur);
+  if (!converged) converged = obj.run(kStepInSigma, &x, &cur);
   unpack_core(x, &t.c);
   texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t);
+  mark_converged(converged, &t);
   return t;
 }
 
@@ -495,11 +507,12 @@ TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
     for (int k = 0; k < 8; ++k) pull.w[k] = prior->w(k), pull.b[k] = prior->b(k);
     pull.w[8] = prior->ws, pull.b[8] = prior->bs;
   }
-  fiber_lm_solve(os, &idx, FitLoss::kNone, 0, 100, 1, os.topology, acc, &t.c, &t.s, &fs,
-                 prior ? &pull : nullptr);
+  fiber_lm_solve(os, &idx, FitLoss::kNone, 0, o.max_iterations, 1, os.topology, acc, &t.c, &t.s,
+                 &fs, prior ? &pull : nullptr);
   const int P = os.topology == TopologyMode::kMathematical ? 8 : 9;
   const Eigen::MatrixXd info = Eigen::Map<const Eigen::MatrixXd>(fs.info.data(), P, P);
   texel_sigmas(info, fs.rss, 3.0 * idx.size(), &t);
+  mark_converged(fs.converged, &t);
   return t;
 }
 

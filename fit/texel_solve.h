@@ -15,8 +15,13 @@ struct TexelResult {
   double s = 0;                                   // the fiber model's topology
   double sigma[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};  // kd 3, ks 3, log n, psi (, s)
   bool determined = false;
+  // The solver reached a minimum. A texel whose solver stopped at its iteration limit is not
+  // determined either: its numbers may be anywhere on the way.
+  bool converged = true;
   double rss = 0, values = 0;
 };
+
+constexpr int kTexelIterations = 100;  // --maps-iterations' default
 
 // --smooth: a quadratic pull of x toward b with weights w (diagonal), added to the texel's sum
 // of squares; psi's difference taken modulo a half turn.
@@ -28,9 +33,9 @@ struct TexelPrior {
 // Solves the texel of observations idx from `from` (with `prior`: pulled toward its neighbours,
 // started where it is; without: started from its own grid over psi).
 TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                           const TexelPrior* prior);
+                           const TexelPrior* prior, int max_iterations = kTexelIterations);
 TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                              const TexelPrior* prior);
+                              const TexelPrior* prior, int max_iterations = kTexelIterations);
 TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
                               const TexelResult& from, const TexelMapOptions& o,
                               const TexelPrior* prior);

@@ -420,5 +420,41 @@ TEST(FitMaps, TexelsWhoseValuesTheDataDoNotKnowAreNamed) {
   }
 }
 
+// A texel whose solver stops at its iteration limit is not a minimum: it is counted, warned about
+// and marked undetermined (global values, the prior's sigma), by the LM and by Ceres, and the
+// tile file carries the count to `aniso merge`.
+TEST(FitMaps, TexelsThatStopBeforeConvergingAreMarked) {
+  const std::string dir = test::tmp_dir("unconverged");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 48x48 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const std::string solver : {"lm", "ceres"}) {
+    const std::string out = dir + "/" + solver;
+    for (const int iterations : {2, 100}) {
+      r = test::run_cli("fit " + dir + "/set --maps 6x6 --maps-solver " + solver +
+                        " --maps-iterations " + std::to_string(iterations) + " --out " + out +
+                        ".json");
+      ASSERT_EQ(r.status, 0) << r.output;
+      const bool warned = r.output.find("before their solver converged") != std::string::npos;
+      const Image det = read_image(out + "_determined.exr").image;
+      size_t determined = 0;
+      for (float d : det.px) determined += d > 0.5f;
+      std::printf("%s, %d iterations: %zu of 36 determined\n", solver.c_str(), iterations,
+                  determined);
+      if (iterations == 2) {
+        EXPECT_TRUE(warned) << r.output;
+        EXPECT_LT(determined, 18u) << solver;
+      } else {
+        EXPECT_FALSE(warned) << r.output;
+        EXPECT_EQ(determined, 36u) << solver;
+      }
+    }
+  }
+  r = test::run_cli("fit " + dir + "/set --maps 6x6 --maps-iterations 2 --tile 0/2 --out " + dir +
+                    "/t0.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto tile = nlohmann::json::parse(read_text_file(dir + "/t0.json"));
+  EXPECT_GT(tile.value("not_converged", 0), 0) << tile.dump().substr(0, 300);
+}
+
 }  // namespace
 }  // namespace aniso
