@@ -266,7 +266,8 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
       // linear model predicts): steady where the model holds, not the halving of the accepted
       // steps that a fixed /10, *10 gives in a curved valley (a fiber texel ran out of its 100
       // iterations that way, 50 accepted, 50 rejected, where Ceres took 37).
-      const VecP<P> taken = xn - *x;
+      VecP<P> taken = xn - *x;
+      taken(7) -= M_PI * std::round(taken(7) / M_PI);  // psi's step, not its wrap
       const double predicted = -2 * cur->g.dot(taken) -
                                taken.dot(cur->H.template selfadjointView<Eigen::Lower>() * taken);
       const double rho = predicted > 0 ? (cur->cost - next.cost) / predicted : 1.0;
