@@ -122,10 +122,8 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
         "--maps: " + std::to_string(res->maps.determined.size() - determined) + " of " +
         std::to_string(res->maps.determined.size()) +
         " texels are not determined by the data (too few pixels, psi's sigma over 10 deg, or a "
-        "solver "
-        "that did not converge): "
-        "they hold the global values with the prior's spread as sigma (maps_uncertainty."
-        "determined = 0)");
+        "solver that did not converge): they hold the global values with the prior's spread as "
+        "sigma (maps_uncertainty.determined = 0)");
   if (res->maps.not_converged > 0)
     rep->warnings.push_back(
         "--maps: " + std::to_string(res->maps.not_converged) + " texels stopped at " +
