@@ -205,6 +205,28 @@ bool extrapolate(const MatP<P>& H, const VecP<P>& step, const VecP<P>& prev, Vec
   return true;
 }
 
+// Nielsen's rule for lambda (Madsen, Nielsen & Tingleff, "Methods for non-linear least squares
+// problems", 2004, §3.2): after an accepted step lambda *= max(1/3, 1 - (2 rho - 1)^3), rho the
+// decrease over the one the linear model predicts; after a rejected one lambda *= nu, nu doubling.
+// Steady where the model holds, not the halving of the accepted steps that a fixed /10, *10 gave
+// in a curved valley (a fiber texel ran out of its 100 iterations that way, 50 accepted, 50
+// rejected, where Ceres took 37).
+struct NielsenDamping {
+  double lambda = 1e-4, nu = 2;
+  // The step from `from` (sums `at`) to `to` lowered the cost to `cost`.
+  template <int P>
+  void accepted(const FusedSums<P>& at, const VecP<P>& from, const VecP<P>& to, double cost) {
+    VecP<P> d = to - from;
+    d(7) -= M_PI * std::round(d(7) / M_PI);  // psi's step, not its wrap
+    const double predicted =
+        -2 * at.g.dot(d) - d.dot(at.H.template selfadjointView<Eigen::Lower>() * d);
+    const double rho = predicted > 0 ? (at.cost - cost) / predicted : 1.0;
+    lambda = std::max(lambda * std::max(1.0 / 3, 1 - std::pow(2 * rho - 1, 3)), 1e-12);
+    nu = 2;
+  }
+  void rejected() { lambda *= nu, nu *= 2; }
+};
+
 // The Levenberg-Marquardt loop from *x (updated) within [lo, hi] (psi, coordinate 7, wrapped):
 // `pass(x, jac)` returns the sums at x. *cur ends as the sums at the solution.
 template <int P, class Pass>
@@ -215,7 +237,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
   *x = x->cwiseMax(lo).cwiseMin(hi);
   *cur = pass(*x, true);
   out->passes = 1;
-  double lambda = 1e-4, nu = 2;    // nu: the factor lambda grows by at the next rejected step
+  NielsenDamping damp;
   VecP<P> prev = VecP<P>::Zero();  // the last plain step taken
   double last = 0;                 // its size in sigmas (0: none yet)
   auto to = [&](const VecP<P>& s) {
@@ -225,7 +247,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
   };
   for (int it = 0; it < max_iterations && cur->finite; ++it) {
     MatP<P> a = cur->H;
-    a.diagonal() += lambda * cur->H.diagonal().cwiseMax(1e-300);
+    a.diagonal() += damp.lambda * cur->H.diagonal().cwiseMax(1e-300);
     const VecP<P> step = a.ldlt().solve(-cur->g);
     // A step too small to matter is not taken (nor evaluated: at this size the cost's change is
     // rounding, and a rejected step would only raise lambda).
@@ -241,7 +263,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
     // cautious reading of a quadratic convergence) what is left after it is under kStepInSigma.
     // The pass would only say so. J^T J and the sum of squares stay those of the point before
     // (they change by as little). Fiber-flat, full data: steps 5.4, 0.053 (left: 5e-4) sigma.
-    if (size < kLastStepInSigma && size * size < kStepInSigma * last && lambda <= 1e-3 &&
+    if (size < kLastStepInSigma && size * size < kStepInSigma * last && damp.lambda <= 1e-3 &&
         xn == *x + step) {
       *x = xn;
       ++out->iterations;
@@ -262,23 +284,13 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
       ++out->passes;
     }
     if (next.finite && next.cost < cur->cost) {
-      // Nielsen's update of lambda from the gain ratio rho (the decrease against the one the
-      // linear model predicts): steady where the model holds, not the halving of the accepted
-      // steps that a fixed /10, *10 gives in a curved valley (a fiber texel ran out of its 100
-      // iterations that way, 50 accepted, 50 rejected, where Ceres took 37).
-      VecP<P> taken = xn - *x;
-      taken(7) -= M_PI * std::round(taken(7) / M_PI);  // psi's step, not its wrap
-      const double predicted = -2 * cur->g.dot(taken) -
-                               taken.dot(cur->H.template selfadjointView<Eigen::Lower>() * taken);
-      const double rho = predicted > 0 ? (cur->cost - next.cost) / predicted : 1.0;
+      damp.accepted<P>(*cur, *x, xn, next.cost);
       prev = step;
       last = size;
       const bool small_decrease = cur->cost - next.cost <= kRelativeDecrease * cur->cost;
       *x = xn;
       *cur = next;
       ++out->iterations;
-      lambda = std::max(lambda * std::max(1.0 / 3, 1 - std::pow(2 * rho - 1, 3)), 1e-12);
-      nu = 2;
       if (small_decrease) {
         out->converged = true;
         break;
@@ -286,9 +298,8 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
     } else {
       prev.setZero();
       last = 0;
-      lambda *= nu;
-      nu *= 2;
-      if (lambda > kLambdaMax) {
+      damp.rejected();
+      if (damp.lambda > kLambdaMax) {
         out->converged = true;  // no step lowers the cost: a minimum to the precision of doubles
         break;
       }
