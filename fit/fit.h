@@ -37,6 +37,9 @@ struct GivenGlobal {
   std::vector<std::string> warnings;
 };
 
+// --maps-iterations' default: the iterations each texel's solver (LM or Ceres) may take.
+constexpr int kTexelIterations = 100;
+
 struct FitOptions {
   FitModel model = FitModel::kLine;
   bool fit_isotropic = false;
@@ -71,7 +74,7 @@ struct FitOptions {
   // --smooth lambda / --smooth-sweeps K: couple each texel to its 4 neighbours (fit/maps.h).
   double maps_smooth = 0;
   int maps_sweeps = 10;
-  int maps_iterations = 100;  // --maps-iterations: each texel's solver
+  int maps_iterations = kTexelIterations;  // --maps-iterations: each texel's solver
   // --global MATERIAL: the global fit (every texel's start, and the values of the texels the data
   // do not determine) taken from an earlier fit instead of fitted here. With --tile, the tile then
   // keeps only the observations whose uv falls in its rows (and its --smooth band): a tile's

@@ -34,7 +34,7 @@ struct TexelMapOptions {
   // sample's one topology value, `s` from the global fit) unless the topology is mathematical.
   int fiber_order = 0;
   double s = 0;
-  int max_iterations = 100;  // --maps-iterations: per texel solve (LM or Ceres)
+  int max_iterations = kTexelIterations;  // --maps-iterations: per texel solve (LM or Ceres)
 };
 
 // Fits texel rows [rows.band0, rows.band1) of a w x h grid and returns rows [row0, row1), each

@@ -21,8 +21,6 @@ struct TexelResult {
   double rss = 0, values = 0;
 };
 
-constexpr int kTexelIterations = 100;  // --maps-iterations' default
-
 // --smooth: a quadratic pull of x toward b with weights w (diagonal), added to the texel's sum
 // of squares; psi's difference taken modulo a half turn.
 struct TexelPrior {
