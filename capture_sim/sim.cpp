@@ -235,9 +235,7 @@ GeometrySpec write_geometry(const std::string& dir, const GBuffer& g, const Imag
   write_exr(join_path(dir, gs.normal), g.N);
   write_exr(join_path(dir, gs.tangent), g.U);
   write_exr(join_path(dir, gs.uv), g.uv);
-  Image m(g.P.width, g.P.height, 1);
-  for (size_t p = 0; p < g.hit.size(); ++p) m.px[p] = g.hit[p] ? 1.f : 0.f;
-  write_png(join_path(dir, gs.mask), m, 8);
+  write_mask_png(join_path(dir, gs.mask), g.hit, g.P.width, g.P.height);
   if (with_topology) {
     gs.topology = "geometry/" + stem + "_topology.exr";
     write_exr(join_path(dir, gs.topology), smath);

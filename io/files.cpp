@@ -5,12 +5,15 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
+#include <vector>
 
 #include "core/error.h"
 
@@ -24,6 +27,34 @@ std::atomic<bool> g_force{false};
 std::atomic<unsigned> g_counter{0};
 
 std::string errno_text() { return std::strerror(errno); }
+
+// Folders being filled by write_folder_atomically, each with a trailing separator. Nobody else
+// sees one until its single rename, and a failed fill discards it whole: a file inside one is
+// written in place, without a temporary of its own, a rename or a scan for stale temporaries.
+std::mutex g_staging_mutex;
+std::vector<std::string> g_staging;
+
+bool in_staging_folder(const std::string& path) {
+  std::lock_guard<std::mutex> lock(g_staging_mutex);
+  for (const auto& s : g_staging)
+    if (path.compare(0, s.size(), s) == 0 && path.find("..", s.size()) == std::string::npos)
+      return true;
+  return false;
+}
+
+struct StagingFolder {
+  std::string prefix;
+  explicit StagingFolder(const std::string& dir) : prefix(dir + "/") {
+    std::lock_guard<std::mutex> lock(g_staging_mutex);
+    g_staging.push_back(prefix);
+  }
+  ~StagingFolder() {
+    std::lock_guard<std::mutex> lock(g_staging_mutex);
+    g_staging.erase(std::find(g_staging.begin(), g_staging.end(), prefix));
+  }
+  StagingFolder(const StagingFolder&) = delete;
+  StagingFolder& operator=(const StagingFolder&) = delete;
+};
 
 // Standard output, or a path under /dev or /proc (devices, /dev/stdout and its kin): written in
 // place and never compared with inputs by name.
@@ -135,6 +166,13 @@ bool force_overwrite() { return g_force; }
 void write_atomically(const std::string& path,
                       const std::function<void(const std::string&)>& write) {
   if (path.empty()) throw Error("output path is empty");
+  if (in_staging_folder(path)) {
+    std::error_code ec;
+    fs::create_directories(fs::path(path).parent_path(), ec);
+    if (ec) throw Error(path + ": cannot create its folder: " + ec.message());
+    run_writer(path, path, write);  // a failure removes the file; the folder goes with the run
+    return;
+  }
   struct stat st;
   const bool exists = path != "-" && ::stat(path.c_str(), &st) == 0;
   const bool device_path = is_stream_path(path);
@@ -255,6 +293,7 @@ void write_folder_atomically(const std::string& dir,
   if (ec) throw Error(dir + ": cannot create folder: " + ec.message());
   try {
     try {
+      const StagingFolder staging(tmp.string());
       fill(tmp.string());
     } catch (const Error& e) {
       throw Error(dir + ": not written (what was there is kept): " + e.what());

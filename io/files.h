@@ -48,7 +48,9 @@ std::string read_text_file(const std::string& path, size_t max_bytes = size_t(25
 // folder, or holds kOutputMarker; with force_overwrite() any folder. Call it before a long run.
 void check_output_folder(const std::string& dir);
 
-// Writes a whole folder: fill(tmp_dir), then the marker, then one atomic swap into place.
+// Writes a whole folder: fill(tmp_dir), then the marker, then one atomic swap into place. While
+// fill runs, files written under tmp_dir go straight to their names (the folder is private and
+// is discarded whole if fill fails): no per-file temporary and rename.
 void write_folder_atomically(const std::string& dir,
                              const std::function<void(const std::string&)>& fill);
 

@@ -3,6 +3,7 @@
 #include <jpeglib.h>
 #include <png.h>
 #include <tiffio.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <cmath>
@@ -147,6 +148,42 @@ struct PngWrite {
 
 }  // namespace
 
+namespace {
+
+// PNG bytes of `h` rows of `stride` bytes (big-endian samples) at `data`. `filter`: libpng's
+// adaptive choice per row (photographs compress better) or none (masks: runs of equal bytes,
+// which zlib's run-length strategy takes directly).
+std::string png_bytes(const std::string& path, const unsigned char* data, int w, int h, int bits,
+                      int channels, size_t stride, double dpi, bool filter) {
+  const auto wr = std::make_unique<PngWrite>();
+  wr->rows.resize(h);
+  for (int y = 0; y < h; ++y) wr->rows[y] = const_cast<unsigned char*>(data) + y * stride;
+  wr->png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &wr->msg, png_error_to_jump,
+                                    png_ignore_warning);
+  if (!wr->png) throw Error(path + ": out of memory for the PNG encoder");
+  wr->info = png_create_info_struct(wr->png);
+  if (setjmp(png_jmpbuf(wr->png))) throw Error(path + ": cannot encode PNG: " + wr->msg.text);
+  png_set_write_fn(wr->png, &wr->bytes, png_append, png_no_flush);
+  png_set_compression_level(wr->png, 1);  // fast: these are images we write many of
+  if (!filter) {
+    png_set_filter(wr->png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
+    png_set_compression_strategy(wr->png, Z_RLE);
+  }
+  png_set_IHDR(wr->png, wr->info, w, h, bits,
+               channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  if (dpi > 0) {
+    const auto ppm = static_cast<png_uint_32>(std::lround(dpi / 0.0254));
+    png_set_pHYs(wr->png, wr->info, ppm, ppm, PNG_RESOLUTION_METER);
+  }
+  png_write_info(wr->png, wr->info);
+  png_write_image(wr->png, wr->rows.data());
+  png_write_end(wr->png, nullptr);
+  return std::move(wr->bytes);
+}
+
+}  // namespace
+
 std::string encode_png(const std::string& path, const Image& img, int bits, double dpi) {
   const int c = img.channels >= 3 ? 3 : 1;
   const double maxv = bits == 8 ? 255.0 : 65535.0;
@@ -167,27 +204,16 @@ std::string encode_png(const std::string& path, const Image& img, int bits, doub
           p[1] = static_cast<unsigned char>(q & 0xFF);
         }
       }
-  const auto wr = std::make_unique<PngWrite>();
-  wr->rows.resize(img.height);
-  for (int y = 0; y < img.height; ++y) wr->rows[y] = buf.data() + y * stride;
-  wr->png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &wr->msg, png_error_to_jump,
-                                    png_ignore_warning);
-  if (!wr->png) throw Error(path + ": out of memory for the PNG encoder");
-  wr->info = png_create_info_struct(wr->png);
-  if (setjmp(png_jmpbuf(wr->png))) throw Error(path + ": cannot encode PNG: " + wr->msg.text);
-  png_set_write_fn(wr->png, &wr->bytes, png_append, png_no_flush);
-  png_set_compression_level(wr->png, 1);  // fast: these are images we write many of
-  png_set_IHDR(wr->png, wr->info, img.width, img.height, bits,
-               c == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
-               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-  if (dpi > 0) {
-    const auto ppm = static_cast<png_uint_32>(std::lround(dpi / 0.0254));
-    png_set_pHYs(wr->png, wr->info, ppm, ppm, PNG_RESOLUTION_METER);
-  }
-  png_write_info(wr->png, wr->info);
-  png_write_image(wr->png, wr->rows.data());
-  png_write_end(wr->png, nullptr);
-  return std::move(wr->bytes);
+  return png_bytes(path, buf.data(), img.width, img.height, bits, c, stride, dpi, true);
+}
+
+std::string encode_mask_png(const std::string& path, const std::vector<uint8_t>& on, int w, int h) {
+  if (on.size() != static_cast<size_t>(w) * h)
+    throw Error(path + ": mask has " + std::to_string(on.size()) + " entries for " +
+                std::to_string(w) + "x" + std::to_string(h) + " pixels");
+  std::vector<unsigned char> buf(on.size());
+  for (size_t i = 0; i < on.size(); ++i) buf[i] = on[i] ? 255 : 0;
+  return png_bytes(path, buf.data(), w, h, 8, 1, static_cast<size_t>(w), 0, false);
 }
 
 // ---- JPEG --------------------------------------------------------------------------------------

@@ -2,8 +2,10 @@
 // imgcodecs did this before, but it links about 140 libraries (GDAL among them) and every process
 // linked to it paid ~150 ms at start, more than a whole small fit.
 #pragma once
+#include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "io/image_io.h"
 
@@ -25,5 +27,7 @@ LoadedImage decode_tiff(const std::string& path, const SizeCheck& check);
 // PNG file bytes of values in [0, 1] (8 or 16 bit; 1 or 3 channels), with a pHYs chunk when
 // dpi > 0. `path` names the file in messages.
 std::string encode_png(const std::string& path, const Image& img, int bits, double dpi);
+// An 8-bit grey PNG of a mask: 255 where `on` is non-zero, else 0 (w x h entries, row by row).
+std::string encode_mask_png(const std::string& path, const std::vector<uint8_t>& on, int w, int h);
 
 }  // namespace aniso

@@ -392,6 +392,10 @@ void write_png(const std::string& path, const Image& img, int bits, double dpi) 
   write_text_file(path, encode_png(path, img, bits, dpi));
 }
 
+void write_mask_png(const std::string& path, const std::vector<uint8_t>& on, int w, int h) {
+  write_text_file(path, encode_mask_png(path, on, w, h));
+}
+
 Image encode_srgb(const Image& linear, double exposure) {
   Image out = linear;
   for (float& v : out.px) v = static_cast<float>(srgb_encode(v * exposure));

@@ -4,7 +4,9 @@
 // colour decoding (the capture reader applies `color.encoding`). Channels come back as R,G,B
 // (or one grey channel, or R,G for two-channel buffers); alpha is dropped.
 #pragma once
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/image.h"
 #include "io/files.h"
@@ -47,6 +49,10 @@ void write_exr(const std::string& path, const Image& img);
 void write_png(const std::string& path, const Image& img, int bits);
 // ... recording the print resolution (a pHYs chunk), so it prints at the intended size.
 void write_png(const std::string& path, const Image& img, int bits, double dpi);
+
+// An 8-bit grey PNG mask: 255 where `on` is non-zero, else 0 (w x h, row by row). Unfiltered,
+// run-length deflated (libpng's adaptive filters buy a mask nothing and cost most of its time).
+void write_mask_png(const std::string& path, const std::vector<uint8_t>& on, int w, int h);
 
 // Linear radiance times `exposure`, clamped to [0, 1] and sRGB-encoded (for 8-bit previews).
 Image encode_srgb(const Image& linear, double exposure);

@@ -402,6 +402,34 @@ TEST(Lights, AttenuationAndSpotCone) {  // MODELS.md §2
   EXPECT_FALSE(light_at(s, {2, 0, 0}, &L, &E, &d));  // outside the cone
 }
 
+// Inside a folder being written whole, files go straight to their names (subfolders made as
+// needed) and nothing else lands beside them; the folder appears only when filled, and a fill
+// that fails leaves the earlier output as it was. The mask PNG reads back as the mask.
+TEST(Files, AFolderIsFilledInPlaceAndPublishedWhole) {
+  namespace fs = std::filesystem;
+  const std::string out = test::tmp_dir("staging") + "/set";
+  const std::vector<uint8_t> on = {0, 1, 1, 0, 1, 0};
+  write_folder_atomically(out, [&](const std::string& tmp) {
+    write_text_file(tmp + "/a/b.txt", "first");
+    write_mask_png(tmp + "/a/mask.png", on, 3, 2);
+    EXPECT_FALSE(fs::exists(out));
+    size_t entries = 0;
+    for (const auto& e : fs::directory_iterator(tmp + "/a")) entries += !e.path().empty();
+    EXPECT_EQ(entries, 2u);  // no temporary beside them
+  });
+  EXPECT_EQ(read_text_file(out + "/a/b.txt"), "first");
+  const LoadedImage m = read_image(out + "/a/mask.png");
+  ASSERT_EQ(m.image.px.size(), on.size());
+  for (size_t i = 0; i < on.size(); ++i) EXPECT_EQ(m.image.px[i], on[i] ? 1.f : 0.f);
+  EXPECT_THROW(write_folder_atomically(out,
+                                       [&](const std::string& tmp) {
+                                         write_text_file(tmp + "/a/b.txt", "second");
+                                         throw Error("stopped part way");
+                                       }),
+               Error);
+  EXPECT_EQ(read_text_file(out + "/a/b.txt"), "first");
+}
+
 }  // namespace
 }  // namespace aniso
 
