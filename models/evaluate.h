@@ -31,14 +31,18 @@ inline LineParamsT<double> line_params(const Material& m) {
 class Evaluator {
  public:
   explicit Evaluator(const Material& m, FiberAccuracy acc = {})
-      : line_(line_params(m)), fiber_(m.fiber()), s_(m.uniform_s()), acc_(acc) {}
+      : line_(line_params(m)),
+        angles_(fiber_angles(line_)),
+        fiber_(m.fiber()),
+        s_(m.uniform_s()),
+        acc_(acc) {}
   // Reflectance for unit irradiance from direction L seen from V (local frame), at a point of
   // topology s (fiber model; ignored by the line model).
   void operator()(const LocalDir& L, const LocalDir& V, double out[3], double s) const {
     if (fiber_)
       fiber_reflectance(line_, s, L, V, acc_, out);
     else
-      line_reflectance(line_, L, V, out);
+      line_reflectance(line_, angles_, L, V, out);
   }
   // ... with the material's own topology value.
   void operator()(const LocalDir& L, const LocalDir& V, double out[3]) const {
@@ -48,6 +52,7 @@ class Evaluator {
 
  private:
   LineParamsT<double> line_;
+  FiberAngles<double> angles_;  // cos and sin of the fiber angles, once per material
   bool fiber_;
   double s_;
   FiberAccuracy acc_;

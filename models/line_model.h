@@ -49,13 +49,11 @@ void line_DS(const T& a_in, const T& b_in, const T& n, T* D, T* S) {
   *S = pos_pow(sL * sV - a * b, n);
 }
 
-// One anisotropic lobe (k_d D + k_s S) for the fiber at angle psi, per colour channel.
+// One anisotropic lobe (k_d D + k_s S) for the fiber at angle psi, given as its cosine c and
+// sine s, per colour channel.
 template <class T>
-void line_lobe(const T kd[3], const T ks[3], const T& n, const T& psi, const LocalDir& L,
+void line_lobe(const T kd[3], const T ks[3], const T& n, const T& c, const T& s, const LocalDir& L,
                const LocalDir& V, T out[3]) {
-  using std::cos;
-  using std::sin;
-  const T c = cos(psi), s = sin(psi);
   const T a = c * L.u + s * L.w;
   const T b = c * V.u + s * V.w;
   T D, S;
@@ -63,19 +61,34 @@ void line_lobe(const T kd[3], const T ks[3], const T& n, const T& psi, const Loc
   for (int k = 0; k < 3; ++k) out[k] = kd[k] * D + ks[k] * S;
 }
 
-// Reflected radiance per unit irradiance E_i = 1 for one light (the bracket of MODELS.md §3,
-// <N,L>^+ included). Zero-weight terms are skipped, not evaluated.
+// The cosines and sines of the fiber angles (psi; psi2 where there is a second lobe): constant
+// for a material, so a renderer computes them once, not per evaluation.
 template <class T>
-void line_reflectance(const LineParamsT<T>& p, const LocalDir& L, const LocalDir& V, T out[3]) {
-  using std::sqrt;
+struct FiberAngles {
+  T c1, s1, c2, s2;
+};
+template <class T>
+FiberAngles<T> fiber_angles(const LineParamsT<T>& p) {
+  using std::cos;
+  using std::sin;
+  FiberAngles<T> f{cos(p.psi), sin(p.psi), T(1.0), T(0.0)};
+  if (p.second) f.c2 = cos(p.psi2), f.s2 = sin(p.psi2);
+  return f;
+}
+
+// Reflected radiance per unit irradiance E_i = 1 for one light (the bracket of MODELS.md §3,
+// <N,L>^+ included), with p's fiber angles as `fa`. Zero-weight terms are skipped, not evaluated.
+template <class T>
+void line_reflectance(const LineParamsT<T>& p, const FiberAngles<T>& fa, const LocalDir& L,
+                      const LocalDir& V, T out[3]) {
   out[0] = out[1] = out[2] = T(0.0);
   const double nl = L.n;
   if (!(nl > 0.0)) return;  // light below the horizon: Banks' clamp makes everything zero
   T lobe[3];
-  line_lobe(p.kd, p.ks, p.n, p.psi, L, V, lobe);
+  line_lobe(p.kd, p.ks, p.n, fa.c1, fa.s1, L, V, lobe);
   if (p.second) {
     T lobe2[3];
-    line_lobe(p.kd, p.ks, p.n, p.psi2, L, V, lobe2);
+    line_lobe(p.kd, p.ks, p.n, fa.c2, fa.s2, L, V, lobe2);
     for (int k = 0; k < 3; ++k) lobe[k] = p.w * lobe[k] + (T(1.0) - p.w) * lobe2[k];
   }
   for (int k = 0; k < 3; ++k) out[k] = nl * lobe[k];
@@ -86,6 +99,16 @@ void line_reflectance(const LineParamsT<T>& p, const LocalDir& L, const LocalDir
     const T spec = pos_pow(T(nh), p.n_iso);
     for (int k = 0; k < 3; ++k) out[k] += p.kd_iso[k] * nl + p.ks_iso[k] * spec;
   }
+}
+
+// The same, the fiber angles' cosines and sines computed here.
+template <class T>
+void line_reflectance(const LineParamsT<T>& p, const LocalDir& L, const LocalDir& V, T out[3]) {
+  if (!(L.n > 0.0)) {
+    out[0] = out[1] = out[2] = T(0.0);
+    return;
+  }
+  line_reflectance(p, fiber_angles(p), L, V, out);
 }
 
 }  // namespace aniso
