@@ -122,14 +122,21 @@ Intrinsics frame_camera(int width, int height, double radius, double distance) {
 
 namespace {
 
+// An image of w x h x c filled with `v`, reusing its memory when it has one of that size.
+void refill(Image* img, int w, int h, int c, float v) {
+  img->width = w, img->height = h, img->channels = c;
+  img->px.assign(static_cast<size_t>(w) * h * c, v);
+}
+
 // Noise-free radiance image of one view (exposure 1), shading every hit pixel. `topo` holds the
 // topology value s of each pixel (fiber model).
-Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, const Image& topo,
-                 const Vec3& eye, const std::vector<Light>& lights, const RGB& ambient,
-                 const RayScene& scene, bool force_shadows, std::atomic<size_t>* shadow_rays,
-                 std::atomic<size_t>* light_evals, std::vector<uint8_t>* light_used) {
+void shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, const Image& topo,
+                const Vec3& eye, const std::vector<Light>& lights, const RGB& ambient,
+                const RayScene& scene, bool force_shadows, std::atomic<size_t>* shadow_rays,
+                std::atomic<size_t>* light_evals, std::vector<uint8_t>* light_used, Image* img) {
   const int w = g.P.width, h = g.P.height;
-  Image out(w, h, 3);
+  refill(img, w, h, 3, 0.f);
+  Image& out = *img;
   const bool shadows = scene.mesh().can_self_shadow || force_shadows;
   std::vector<std::atomic<uint8_t>> used(lights.size());
   for (auto& u : used) u = 0;
@@ -165,7 +172,6 @@ Image shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g,
   });
   light_used->resize(lights.size());
   for (size_t i = 0; i < lights.size(); ++i) (*light_used)[i] = used[i];
-  return out;
 }
 
 void check_sim_options(const SimOptions& opt) {
@@ -194,12 +200,6 @@ Image quantised16(Image img) {
   for (float& v : img.px)
     v = static_cast<float>(std::round(std::clamp(v, 0.f, 1.f) * 65535.0) / 65535.0);
   return img;
-}
-
-// An image of w x h x c filled with `v`, reusing its memory when it has one of that size.
-void refill(Image* img, int w, int h, int c, float v) {
-  img->width = w, img->height = h, img->channels = c;
-  img->px.assign(static_cast<size_t>(w) * h * c, v);
 }
 
 // Per-pixel topology s_math and s of a traced pose; constant images when neither the material
@@ -243,29 +243,47 @@ GeometrySpec write_geometry(const std::string& dir, const GBuffer& g, const Imag
   return gs;
 }
 
-// What is traced per camera pose, and every view's noise-free radiance. Two sets of geometry
+// Whether the sensor records the radiance as it is: float, exposure 1, no noise, no clipping (the
+// synth default). Then no view needs the white level of all of them before it can be written.
+bool sensor_is_identity(const SensorOptions& s) {
+  return s.bits == 0 && s.read_noise == 0 && s.shot_photons == 0 && !std::isfinite(s.saturation);
+}
+
+std::string view_image_name(size_t i, int bits) {
+  char stem[32];
+  std::snprintf(stem, sizeof stem, "%03zu", i);
+  return std::string("images/") + stem + (bits ? ".png" : ".exr");
+}
+
+// What is traced per camera pose, and the views' noise-free radiance. Two sets of geometry
 // buffers: one is written to disk in the background while the next pose is traced into the other.
+// The radiance of every view is kept for the white level, unless the sensor records it as it is
+// (`streamed`): then each view is written with its pose's geometry, from one of two buffers.
 struct Traced {
   GBuffer g[2];
   Image smath[2], s[2];  // per pixel: s_math (the `topology` buffer) and s (for shading)
   std::vector<Image> radiance;
+  Image shaded[2];                     // streamed: the view being shaded and the one being written
   std::vector<GeometrySpec> geometry;  // per view (moving camera) or one for all (fixed)
   bool fixed_camera = true;            // every view shares the first view's pose: one geometry
+  bool streamed = false;
 };
 
-// Traces every pose and shades every view. The geometry of each pose is written under `dir` as
-// soon as it is traced (a fixed camera's once, as "all"), in the background, and its buffers are
-// reused: only the radiance of every view stays (the white level needs all of them).
+// Traces every pose and shades every view. The geometry of each pose is written under `dir` in
+// the background (a fixed camera's once, as "all") while the next view is traced and shaded, and
+// its buffers are reused; so is a streamed view's image. Without streaming the radiance of every
+// view stays (the white level needs all of them).
 void trace_and_shade(const SimOptions& opt, const RayScene& scene, const TopologyMap& map,
                      const Image& s_map, const std::string& dir, Traced* tr, SimStats* st) {
   for (const auto& v : opt.rig)
     if (v.world_from_camera.m != opt.rig[0].world_from_camera.m) tr->fixed_camera = false;
+  tr->streamed = sensor_is_identity(opt.sensor);
   const bool with_topology = opt.mathematical_topology != MathTopology::kNone;
   tr->geometry.resize(tr->fixed_camera ? 1 : opt.rig.size());
   const Evaluator eval(opt.truth);
   std::atomic<size_t> shadow_rays{0}, light_evals{0};
   Progress bar("capture_sim: tracing and shading", opt.rig.size(), opt.progress);
-  tbb::task_group writer;  // at most one pose's geometry in flight
+  tbb::task_group writer;  // at most one view's files in flight
   auto wait_writer = [&] {
     const auto tw = std::chrono::steady_clock::now();
     writer.wait();
@@ -284,25 +302,29 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
         topology_images(opt, map, s_map, tr->g[b], &tr->smath[b], &tr->s[b]);
       }
       const GBuffer& g = tr->g[b];
-      if (traced && (i == 0 || !tr->fixed_camera)) {
-        wait_writer();  // the other buffers' pose is on disk
+      Image* img = tr->streamed ? &tr->shaded[i % 2] : &tr->radiance.emplace_back();
+      std::vector<uint8_t> used;
+      const auto ts = std::chrono::steady_clock::now();
+      shade_view(eval, opt.truth, g, tr->s[b], opt.rig[i].world_from_camera.translation(),
+                 opt.rig[i].lights, opt.ambient, scene, opt.force_shadows, &shadow_rays,
+                 &light_evals, &used, img);
+      st->seconds_shade += seconds_since(ts);
+      for (float v : img->px) st->white_level = std::max(st->white_level, static_cast<double>(v));
+      for (uint8_t u : used) st->lights_culled += u ? 0 : 1;
+      for (uint8_t hit : g.hit) st->shaded_pixels += hit;
+      const bool geometry = traced && (i == 0 || !tr->fixed_camera);
+      if (geometry || tr->streamed) {
+        wait_writer();  // the other buffers are on disk
         char stem[32];
         std::snprintf(stem, sizeof stem, "%03zu", i);
         const std::string name = tr->fixed_camera ? "all" : stem;
-        GeometrySpec* spec = &tr->geometry[tr->fixed_camera ? 0 : i];
-        writer.run([&dir, &g, smath = &tr->smath[b], name, spec, with_topology] {
-          *spec = write_geometry(dir, g, *smath, name, with_topology);
+        GeometrySpec* spec = geometry ? &tr->geometry[tr->fixed_camera ? 0 : i] : nullptr;
+        const std::string image = tr->streamed ? view_image_name(i, 0) : "";
+        writer.run([&dir, &g, smath = &tr->smath[b], name, spec, with_topology, image, img] {
+          if (spec) *spec = write_geometry(dir, g, *smath, name, with_topology);
+          if (!image.empty()) write_exr(join_path(dir, image), *img);
         });
       }
-      std::vector<uint8_t> used;
-      const auto ts = std::chrono::steady_clock::now();
-      tr->radiance.push_back(shade_view(eval, opt.truth, g, tr->s[b],
-                                        opt.rig[i].world_from_camera.translation(),
-                                        opt.rig[i].lights, opt.ambient, scene, opt.force_shadows,
-                                        &shadow_rays, &light_evals, &used));
-      st->seconds_shade += seconds_since(ts);
-      for (uint8_t u : used) st->lights_culled += u ? 0 : 1;
-      for (uint8_t hit : g.hit) st->shaded_pixels += hit;
       bar.advance();
     }
     wait_writer();
@@ -424,8 +446,6 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     Traced tr;
     trace_and_shade(opt, scene, map, s_map, dir, &tr, &st);
     const auto t_write = std::chrono::steady_clock::now();
-    for (const auto& im : tr.radiance)
-      for (float v : im.px) st.white_level = std::max(st.white_level, static_cast<double>(v));
     if (!(st.white_level > 0))
       throw Error("capture_sim: every pixel is black (no light reaches the visible sample)");
     // Integer images: the white level maps to 0.8 so noise has headroom; float keeps exposure 1.
@@ -444,20 +464,20 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     // Views are written in parallel; each has its own seeded generator, so the set is the same.
     set.views.resize(opt.rig.size());
     tbb::parallel_for(size_t(0), opt.rig.size(), [&](size_t i) {
-      char stem[32];
-      std::snprintf(stem, sizeof stem, "%03zu", i);
       ViewSpec v;
       v.world_from_camera = opt.rig[i].world_from_camera;
       v.lights = opt.rig[i].lights;
       v.exposure = lv.exposure;
       v.camera = opt.camera;
       if (!tr.fixed_camera) v.geometry = tr.geometry[i];
-      const Image img = sensor_image(opt, std::move(tr.radiance[i]), lv, i);
-      v.image = std::string("images/") + stem + (opt.sensor.bits ? ".png" : ".exr");
-      if (opt.sensor.bits)
-        write_png(join_path(dir, v.image), img, opt.sensor.bits);
-      else
-        write_exr(join_path(dir, v.image), img);
+      v.image = view_image_name(i, opt.sensor.bits);
+      if (!tr.streamed) {  // a streamed view's image is on disk already, as the sensor records it
+        const Image img = sensor_image(opt, std::move(tr.radiance[i]), lv, i);
+        if (opt.sensor.bits)
+          write_png(join_path(dir, v.image), img, opt.sensor.bits);
+        else
+          write_exr(join_path(dir, v.image), img);
+      }
       set.views[i] = v;
       bar.advance();
     });
