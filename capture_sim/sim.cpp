@@ -153,6 +153,43 @@ GeometrySpec write_geometry(const std::string& dir, const GBuffer& g, const Imag
   return gs;
 }
 
+// What the sensor records of view i's radiance, in place: exposure, shot and read noise from the
+// view's own generator (seeded from (seed, view): the same set whatever the threading), clipping
+// at saturation, encoding and quantisation.
+struct SensorLevels {
+  double exposure = 1, white = 0, saturation = 0;
+};
+SensorLevels sensor_levels(const SimOptions& opt, double white_level) {
+  // Integer images: the white level maps to 0.8 so noise has headroom; float keeps exposure 1.
+  SensorLevels lv;
+  lv.exposure = opt.sensor.bits ? 0.8 / white_level : 1.0;
+  lv.white = lv.exposure * white_level;
+  lv.saturation = opt.sensor.saturation * lv.white;
+  return lv;
+}
+void apply_sensor(const SimOptions& opt, const SensorLevels& lv, size_t view, Image* img) {
+  std::seed_seq seq{static_cast<uint32_t>(opt.seed), static_cast<uint32_t>(opt.seed >> 32),
+                    static_cast<uint32_t>(view)};
+  std::mt19937_64 rng(seq);
+  const ZigguratNormal gauss;
+  for (float& px : img->px) {
+    double val = lv.exposure * px;
+    if (opt.sensor.shot_photons > 0) {
+      std::poisson_distribution<long long> pois(
+          std::max(val / lv.white * opt.sensor.shot_photons, 0.0));
+      val = static_cast<double>(pois(rng)) * lv.white / opt.sensor.shot_photons;
+    }
+    if (opt.sensor.read_noise > 0) val += opt.sensor.read_noise * lv.white * gauss(rng);
+    if (val > lv.saturation) val = lv.saturation;
+    if (opt.sensor.bits) {
+      val = opt.sensor.encoding == "srgb" ? srgb_encode(val) : std::clamp(val, 0.0, 1.0);
+      const double q = opt.sensor.bits == 8 ? 255.0 : 65535.0;
+      val = std::round(val * q) / q;
+    }
+    px = static_cast<float>(val);
+  }
+}
+
 // Whether the sensor records the radiance as it is: float, exposure 1, no noise, no clipping (the
 // synth default). Then no view needs the white level of all of them before it can be written.
 bool sensor_is_identity(const SensorOptions& s) {
@@ -165,29 +202,40 @@ std::string view_image_name(size_t i, int bits) {
   return std::string("images/") + stem + (bits ? ".png" : ".exr");
 }
 
+// View i's image as the sensor records it, from its radiance (changed in place).
+void write_view_image(const std::string& dir, const SimOptions& opt, const SensorLevels& lv,
+                      size_t i, Image* radiance) {
+  if (!sensor_is_identity(opt.sensor)) apply_sensor(opt, lv, i, radiance);
+  const std::string path = join_path(dir, view_image_name(i, opt.sensor.bits));
+  if (opt.sensor.bits)
+    write_png(path, *radiance, opt.sensor.bits);
+  else
+    write_exr(path, *radiance);
+}
+
 // What is traced per camera pose, and the views' noise-free radiance. Two sets of geometry
 // buffers: one is written to disk in the background while the next pose is traced into the other.
-// The radiance of every view is kept for the white level, unless the sensor records it as it is
-// (`streamed`): then each view is written with its pose's geometry, from one of two buffers.
+// The views' images: every view's radiance kept for the white level (kKeep); each view written as
+// the sensor records it with its pose's geometry, from one of two buffers (kWrite: the white level
+// is known, or not needed); or nothing written, the white level only (kMeasure).
 struct Traced {
+  enum class Images { kKeep, kWrite, kMeasure } images = Images::kKeep;
+  SensorLevels levels;  // kWrite
   GBuffer g[2];
   Image smath[2], s[2];  // per pixel: s_math (the `topology` buffer) and s (for shading)
   std::vector<Image> radiance;
-  Image shaded[2];                     // streamed: the view being shaded and the one being written
+  Image shaded[2];  // kWrite, kMeasure: the view being shaded and the one being written
   std::vector<GeometrySpec> geometry;  // per view (moving camera) or one for all (fixed)
   bool fixed_camera = true;            // every view shares the first view's pose: one geometry
-  bool streamed = false;
 };
 
 // Traces every pose and shades every view. The geometry of each pose is written under `dir` in
 // the background (a fixed camera's once, as "all") while the next view is traced and shaded, and
-// its buffers are reused; so is a streamed view's image. Without streaming the radiance of every
-// view stays (the white level needs all of them).
+// its buffers are reused; so is a written view's image (tr->images says which views are written).
 void trace_and_shade(const SimOptions& opt, const RayScene& scene, const TopologyMap& map,
                      const Image& s_map, const std::string& dir, Traced* tr, SimStats* st) {
   for (const auto& v : opt.rig)
     if (v.world_from_camera.m != opt.rig[0].world_from_camera.m) tr->fixed_camera = false;
-  tr->streamed = sensor_is_identity(opt.sensor);
   const bool with_topology = opt.mathematical_topology != MathTopology::kNone;
   tr->geometry.resize(tr->fixed_camera ? 1 : opt.rig.size());
   const Evaluator eval(opt.truth);
@@ -212,7 +260,8 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
         topology_images(opt, map, s_map, tr->g[b], &tr->smath[b], &tr->s[b]);
       }
       const GBuffer& g = tr->g[b];
-      Image* img = tr->streamed ? &tr->shaded[i % 2] : &tr->radiance.emplace_back();
+      using Images = Traced::Images;
+      Image* img = tr->images == Images::kKeep ? &tr->radiance.emplace_back() : &tr->shaded[i % 2];
       std::vector<uint8_t> used;
       const auto ts = std::chrono::steady_clock::now();
       shade_view(eval, opt.truth, g, tr->s[b], opt.rig[i].world_from_camera.translation(),
@@ -222,17 +271,19 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
       for (float v : img->px) st->white_level = std::max(st->white_level, static_cast<double>(v));
       for (uint8_t u : used) st->lights_culled += u ? 0 : 1;
       for (uint8_t hit : g.hit) st->shaded_pixels += hit;
-      const bool geometry = traced && (i == 0 || !tr->fixed_camera);
-      if (geometry || tr->streamed) {
+      const bool geometry =
+          traced && (i == 0 || !tr->fixed_camera) && tr->images != Images::kMeasure;
+      const bool image = tr->images == Images::kWrite;
+      if (geometry || image) {
         wait_writer();  // the other buffers are on disk
         char stem[32];
         std::snprintf(stem, sizeof stem, "%03zu", i);
         const std::string name = tr->fixed_camera ? "all" : stem;
         GeometrySpec* spec = geometry ? &tr->geometry[tr->fixed_camera ? 0 : i] : nullptr;
-        const std::string image = tr->streamed ? view_image_name(i, 0) : "";
-        writer.run([&dir, &g, smath = &tr->smath[b], name, spec, with_topology, image, img] {
-          if (spec) *spec = write_geometry(dir, g, *smath, name, with_topology);
-          if (!image.empty()) write_exr(join_path(dir, image), *img);
+        writer.run([&dir, &opt, gp = &g, smath = &tr->smath[b], lv = &tr->levels, name, spec,
+                    with_topology, image, img, i] {
+          if (spec) *spec = write_geometry(dir, *gp, *smath, name, with_topology);
+          if (image) write_view_image(dir, opt, *lv, i, img);
         });
       }
       bar.advance();
@@ -249,35 +300,9 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
   st->light_evals = light_evals;
 }
 
-// What the sensor records of view i's radiance: exposure, shot and read noise from the view's
-// own generator (seeded from (seed, view): the same set whatever the threading), clipping at
-// saturation, encoding and quantisation.
-struct SensorLevels {
-  double exposure, white, saturation;
-};
-Image sensor_image(const SimOptions& opt, Image radiance, const SensorLevels& lv, size_t view) {
-  std::seed_seq seq{static_cast<uint32_t>(opt.seed), static_cast<uint32_t>(opt.seed >> 32),
-                    static_cast<uint32_t>(view)};
-  std::mt19937_64 rng(seq);
-  const ZigguratNormal gauss;
-  Image img = std::move(radiance);
-  for (float& px : img.px) {
-    double val = lv.exposure * px;
-    if (opt.sensor.shot_photons > 0) {
-      std::poisson_distribution<long long> pois(
-          std::max(val / lv.white * opt.sensor.shot_photons, 0.0));
-      val = static_cast<double>(pois(rng)) * lv.white / opt.sensor.shot_photons;
-    }
-    if (opt.sensor.read_noise > 0) val += opt.sensor.read_noise * lv.white * gauss(rng);
-    if (val > lv.saturation) val = lv.saturation;
-    if (opt.sensor.bits) {
-      val = opt.sensor.encoding == "srgb" ? srgb_encode(val) : std::clamp(val, 0.0, 1.0);
-      const double q = opt.sensor.bits == 8 ? 255.0 : 65535.0;
-      val = std::round(val * q) / q;
-    }
-    px = static_cast<float>(val);
-  }
-  return img;
+void check_lit(double white_level) {
+  if (!(white_level > 0))
+    throw Error("capture_sim: every pixel is black (no light reaches the visible sample)");
 }
 
 std::string provenance(const SimOptions& opt, const SimStats& st, double white, bool fixed) {
@@ -354,15 +379,32 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
 
   write_folder_atomically(out_dir, [&](const std::string& dir) {
     Traced tr;
+    SensorLevels lv = sensor_levels(opt, 1.0);
+    using Images = Traced::Images;
+    const double kept = 12.0 * opt.camera.width * opt.camera.height * opt.rig.size();
+    if (sensor_is_identity(opt.sensor)) {
+      tr.images = Images::kWrite;  // the white level changes nothing: each view as it comes
+    } else if (kept > opt.kept_radiance_bytes) {
+      // Bounded memory: every view traced and shaded twice, the white level first.
+      if (opt.progress)
+        std::fprintf(stderr,
+                     "capture_sim: keeping every view's radiance for the white level would take "
+                     "%.2f GB: the views are shaded twice instead, the white level first\n",
+                     kept / 1e9);
+      Traced probe;
+      probe.images = Images::kMeasure;
+      SimStats first;
+      trace_and_shade(opt, scene, map, s_map, dir, &probe, &first);
+      st.passes = 2;
+      check_lit(first.white_level);
+      lv = sensor_levels(opt, first.white_level);
+      tr.images = Images::kWrite;
+      tr.levels = lv;
+    }
     trace_and_shade(opt, scene, map, s_map, dir, &tr, &st);
     const auto t_write = std::chrono::steady_clock::now();
-    if (!(st.white_level > 0))
-      throw Error("capture_sim: every pixel is black (no light reaches the visible sample)");
-    // Integer images: the white level maps to 0.8 so noise has headroom; float keeps exposure 1.
-    SensorLevels lv;
-    lv.exposure = opt.sensor.bits ? 0.8 / st.white_level : 1.0;
-    lv.white = lv.exposure * st.white_level;
-    lv.saturation = opt.sensor.saturation * lv.white;
+    check_lit(st.white_level);
+    lv = sensor_levels(opt, st.white_level);
     CaptureSet set = set_header(opt, lv.saturation);
     if (!map.h.empty()) {
       set.topology_map = "maps/topology.png";
@@ -381,13 +423,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       v.camera = opt.camera;
       if (!tr.fixed_camera) v.geometry = tr.geometry[i];
       v.image = view_image_name(i, opt.sensor.bits);
-      if (!tr.streamed) {  // a streamed view's image is on disk already, as the sensor records it
-        const Image img = sensor_image(opt, std::move(tr.radiance[i]), lv, i);
-        if (opt.sensor.bits)
-          write_png(join_path(dir, v.image), img, opt.sensor.bits);
-        else
-          write_exr(join_path(dir, v.image), img);
-      }
+      if (tr.images == Images::kKeep) write_view_image(dir, opt, lv, i, &tr.radiance[i]);
       set.views[i] = v;
       bar.advance();
     });

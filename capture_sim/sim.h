@@ -61,6 +61,10 @@ struct SimOptions {
   // shapes that cannot shadow themselves; re-tracing the geometry of every view of a fixed camera.
   bool force_shadows = false;
   bool force_retrace = false;
+  // A noisy, clipped or integer sensor needs the white level of all views before any is written:
+  // their radiance is kept up to this many bytes (12 per pixel and view); beyond it every view is
+  // traced and shaded twice, the white level first, and memory stays that of two views.
+  double kept_radiance_bytes = 1e9;
 };
 
 struct SimStats {
@@ -68,6 +72,7 @@ struct SimStats {
   size_t lights_culled = 0;  // (view, light) pairs skipped: the light reaches no sample pixel
   double white_level = 0, seconds = 0;
   double seconds_trace = 0, seconds_shade = 0, seconds_write = 0;  // where the time went
+  int passes = 1;  // 2: traced and shaded twice (the white level first; kept_radiance_bytes)
 };
 
 // Writes the capture set into out_dir (atomically: a temporary folder renamed at the end).

@@ -68,11 +68,12 @@ int run(const SynthArgs& a) {
   std::printf(
       "synth: %s -> %s: %zu views %dx%d, seed %llu; %zu primary rays, %zu shadow rays, %zu "
       "shaded pixels, %zu light evaluations, %zu (view, light) pairs culled; %.2f s (trace %.2f, "
-      "shade %.2f, write %.2f)\n",
+      "shade %.2f, write %.2f)%s\n",
       a.preset.c_str(), a.out.c_str(), st.views, po.width, po.height,
       static_cast<unsigned long long>(po.seed), st.primary_rays, st.shadow_rays, st.shaded_pixels,
       st.light_evals, st.lights_culled, st.seconds, st.seconds_trace, st.seconds_shade,
-      st.seconds_write);
+      st.seconds_write,
+      st.passes == 2 ? "; every view shaded twice, the white level first (memory: two views)" : "");
   return 0;
 }
 }  // namespace

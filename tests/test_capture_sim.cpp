@@ -86,6 +86,29 @@ TEST(CaptureSim, StreamedViewsEqualTheKeptOnes) {
   }
 }
 
+// Beyond the memory budget for the kept radiance a noisy 16-bit set is traced and shaded twice,
+// the white level first: the same files as keeping every view's radiance.
+TEST(CaptureSim, ShadingTwiceBoundsMemoryAndGivesTheSameSet) {
+  const std::string dir = test::tmp_dir("sets");
+  PresetOptions o = small(4);
+  o.rig = "orbit";
+  o.noise = 0.01;
+  o.bits = 16;
+  SimOptions kept = make_preset("satin-ball", o), twice = kept;
+  twice.kept_radiance_bytes = 0;
+  const SimStats a = simulate_capture(kept, dir + "/kept");
+  const SimStats b = simulate_capture(twice, dir + "/twice");
+  EXPECT_EQ(a.passes, 1);
+  EXPECT_EQ(b.passes, 2);
+  EXPECT_EQ(a.white_level, b.white_level);
+  for (int v = 0; v < 4; ++v) {
+    const std::string f = "/images/00" + std::to_string(v) + ".png";
+    EXPECT_EQ(read_image(dir + "/kept" + f).image.px, read_image(dir + "/twice" + f).image.px) << f;
+  }
+  EXPECT_EQ(read_capture(dir + "/kept").views[3].exposure,
+            read_capture(dir + "/twice").views[3].exposure);
+}
+
 TEST(CaptureSim, NoiseIsSeededAndRecorded) {
   const std::string dir = test::tmp_dir("sets");
   PresetOptions o = small(2);
