@@ -196,10 +196,15 @@ bool sensor_is_identity(const SensorOptions& s) {
   return s.bits == 0 && s.read_noise == 0 && s.shot_photons == 0 && !std::isfinite(s.saturation);
 }
 
-std::string view_image_name(size_t i, int bits) {
+// View i's files are named after its index: "007".
+std::string view_stem(size_t i) {
   char stem[32];
   std::snprintf(stem, sizeof stem, "%03zu", i);
-  return std::string("images/") + stem + (bits ? ".png" : ".exr");
+  return stem;
+}
+
+std::string view_image_name(size_t i, int bits) {
+  return "images/" + view_stem(i) + (bits ? ".png" : ".exr");
 }
 
 // View i's image as the sensor records it, from its radiance (changed in place).
@@ -276,9 +281,7 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
       const bool image = tr->images == Images::kWrite;
       if (geometry || image) {
         wait_writer();  // the other buffers are on disk
-        char stem[32];
-        std::snprintf(stem, sizeof stem, "%03zu", i);
-        const std::string name = tr->fixed_camera ? "all" : stem;
+        const std::string name = tr->fixed_camera ? "all" : view_stem(i);
         GeometrySpec* spec = geometry ? &tr->geometry[tr->fixed_camera ? 0 : i] : nullptr;
         writer.run([&dir, &opt, gp = &g, smath = &tr->smath[b], lv = &tr->levels, name, spec,
                     with_topology, image, img, i] {
@@ -379,7 +382,6 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
 
   write_folder_atomically(out_dir, [&](const std::string& dir) {
     Traced tr;
-    SensorLevels lv = sensor_levels(opt, 1.0);
     using Images = Traced::Images;
     const double kept = 12.0 * opt.camera.width * opt.camera.height * opt.rig.size();
     if (sensor_is_identity(opt.sensor)) {
@@ -397,14 +399,13 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       trace_and_shade(opt, scene, map, s_map, dir, &probe, &first);
       st.passes = 2;
       check_lit(first.white_level);
-      lv = sensor_levels(opt, first.white_level);
       tr.images = Images::kWrite;
-      tr.levels = lv;
+      tr.levels = sensor_levels(opt, first.white_level);
     }
     trace_and_shade(opt, scene, map, s_map, dir, &tr, &st);
     const auto t_write = std::chrono::steady_clock::now();
     check_lit(st.white_level);
-    lv = sensor_levels(opt, st.white_level);
+    const SensorLevels lv = sensor_levels(opt, st.white_level);
     CaptureSet set = set_header(opt, lv.saturation);
     if (!map.h.empty()) {
       set.topology_map = "maps/topology.png";

@@ -248,10 +248,6 @@ void put_attribute(std::string* out, const char* name, const char* type, const s
   *out += value;
 }
 
-}  // namespace
-
-namespace {
-
 // One scanline's values channel by channel in the file's order (B, G, R: by name), from C
 // interleaved channels; C a constant, so the strides are too.
 template <int C>
@@ -264,14 +260,12 @@ void planar_row(const float* row, int w, float* planar) {
 
 void encode_exr_uncompressed(const Image& img, const ByteSink& sink) {
   static_assert(sizeof(float) == 4, "EXR FLOAT is 32 bits");
-  // Channels in the file's order (sorted by name: B, G, R), each its index in img's pixels.
+  // Channels in the file's order, sorted by name: B, G, R (planar_row's order too).
   static const char* kNames[] = {"R", "G", "B"};
-  std::vector<int> order;
-  for (int c = img.channels - 1; c >= 0; --c) order.push_back(c);
   std::string out("\x76\x2f\x31\x01", 4);
   put<int32_t>(&out, 2);  // version 2, single-part scanline, short names
   std::string chlist;
-  for (int c : order) {
+  for (int c = img.channels - 1; c >= 0; --c) {
     chlist.append(kNames[c], 2);  // name and its terminating zero
     put<int32_t>(&chlist, 2);     // FLOAT
     put<int32_t>(&chlist, 0);     // pLinear 0 and three reserved bytes
