@@ -8,6 +8,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -116,8 +117,9 @@ void size_maps(size_t texels, bool fit_s, TexelMaps* m) {
 }
 
 // Each texel's observations in order, for the texels [t_begin, t_end) of a w x h grid: their
-// texels read from the texture coordinates once (in parallel), then each list sized once and
-// filled.
+// texels read from the texture coordinates once (in parallel); then each thread sizes and fills
+// the lists of its own share of the texels, reading all of them (a read of 4 bytes per
+// observation is cheaper than the lists' scattered writes it splits).
 std::vector<std::vector<size_t>> texel_bins(const ObsSet& os, int w, int h, size_t t_begin,
                                             size_t t_end) {
   const size_t B = t_end - t_begin;
@@ -132,13 +134,18 @@ std::vector<std::vector<size_t>> texel_bins(const ObsSet& os, int w, int h, size
                                        : kNone;
                       }
                     });
-  std::vector<size_t> count(B, 0);
-  for (const uint32_t b : entry)
-    if (b != kNone) ++count[b];
   std::vector<std::vector<size_t>> bins(B);
-  for (size_t b = 0; b < B; ++b) bins[b].reserve(count[b]);
-  for (size_t i = 0; i < entry.size(); ++i)
-    if (entry[i] != kNone) bins[entry[i]].push_back(i);
+  const size_t parts = static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  tbb::parallel_for(size_t{0}, parts, [&](size_t part) {
+    const auto b0 = static_cast<uint32_t>(B * part / parts);
+    const auto b1 = static_cast<uint32_t>(B * (part + 1) / parts);
+    std::vector<size_t> count(b1 - b0, 0);
+    for (const uint32_t b : entry)
+      if (b >= b0 && b < b1) ++count[b - b0];  // kNone is past every b1
+    for (uint32_t b = b0; b < b1; ++b) bins[b].reserve(count[b - b0]);
+    for (size_t i = 0; i < entry.size(); ++i)
+      if (entry[i] >= b0 && entry[i] < b1) bins[entry[i]].push_back(i);
+  });
   return bins;
 }
 
@@ -177,7 +184,8 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
       if (bins[b].size() >= kMinTexelPixels) first[b] = solve(b, start, nullptr);
   });
   const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
-  std::vector<TexelResult> now = first;
+  // Without sweeps `first` is the result as it is (a copy would be 200 bytes a texel to fault in).
+  std::vector<TexelResult> now = m.sweeps > 0 ? first : std::move(first);
   const BandGrid grid{w, band0, band1};
   for (int sweep = 0; sweep < m.sweeps; ++sweep) {
     std::vector<TexelResult> next = now;

@@ -1,4 +1,4 @@
-// A texel's sigmas and verdict from J^T J: the 8 x 8 LDL^T every texel LM step solves with, the
+// A texel's sigmas and verdict from J^T J: the 8 x 8 block solve every texel LM step takes, the
 // rank test, the diagonal of the inverse. Eigen inside: included by fit/texel_solve.cpp alone.
 #pragma once
 #include <Eigen/Dense>
@@ -13,58 +13,70 @@ constexpr double kPsiUndeterminedDeg = 10;  // sigma of psi above this: the dire
 constexpr double kConditionLimit = 1e-12;   // smallest / largest eigenvalue, column-scaled
 constexpr double kTopologyUndetermined = 0.25;  // sigma of s above this: s is not known
 
-// A = L D L^T of a symmetric 8 x 8 matrix (unit lower L, no pivoting): what every LM step of a
-// texel solves with, written out because Eigen's dynamic kernels behind a fixed 8 x 8 solve cost
-// more than the texel's float passes. False unless every pivot is positive and finite (the
-// caller then takes Eigen's pivoting LDLT).
-struct Ldl8 {
-  double L[8][8] = {}, D[8] = {}, Dinv[8] = {};  // Dinv: 1 / D (one division per pivot)
-  bool factor(const Mat8& A) {
-    for (int j = 0; j < 8; ++j) {
-      double LD[8];  // L[j][k] D[k]
-      double d = A(j, j);
-      for (int k = 0; k < j; ++k) LD[k] = L[j][k] * D[k], d -= L[j][k] * LD[k];
-      if (!(d > 0) || !std::isfinite(d)) return false;
-      D[j] = d, Dinv[j] = 1 / d, L[j][j] = 1;
-      for (int i = j + 1; i < 8; ++i) {
-        double v = A(i, j);
-        for (int k = 0; k < j; ++k) v -= L[i][k] * LD[k];
-        L[i][j] = v * Dinv[j];
-      }
-    }
+// A texel's J^T J (plus a diagonal: the damping, the pull) in the order k_d 3, k_s 3, log n, psi
+// has a block structure: channel k's k_d and k_s (rows k and 3 + k) meet no other channel's, only
+// the shared log n and psi (rows 6, 7). Solved by eliminating each channel's 2 x 2 block and then
+// the shared 2 x 2 (the Schur complement): three 2 x 2 inverses and one more, where a dense 8 x 8
+// LDL^T was as long as the texel's float passes. The entries outside the structure are not read.
+// False unless every block is positive definite (then so is the matrix); the caller then takes
+// Eigen's pivoting LDLT.
+struct TexelBlocks {
+  double Ai[3][3] = {};    // channel k's block inverse [[a b] [b c]] as {a, b, c}
+  double M[3][2][2] = {};  // A_k^-1 B_k: channel k's (k_d, k_s) rows against (log n, psi)
+  double Si[3] = {};       // the inverse of the shared block's Schur complement, {a, b, c}
+
+  // {a, b, c}^-1 of a symmetric positive definite 2 x 2; false where it is not one.
+  static bool inverse2(double a, double b, double c, double out[3]) {
+    const double det = a * c - b * b;
+    if (!(a > 0) || !(det > 0) || !std::isfinite(det)) return false;
+    const double id = 1 / det;
+    out[0] = c * id, out[1] = -b * id, out[2] = a * id;
     return true;
   }
+  bool factor(const Mat8& H) {
+    double S[3] = {H(6, 6), H(6, 7), H(7, 7)};
+    for (int k = 0; k < 3; ++k) {
+      if (!inverse2(H(k, k), H(k, 3 + k), H(3 + k, 3 + k), Ai[k])) return false;
+      const double* a = Ai[k];
+      for (int j = 0; j < 2; ++j) {  // column j of B_k: (H(k, 6 + j), H(3 + k, 6 + j))
+        const double b0 = H(k, 6 + j), b1 = H(3 + k, 6 + j);
+        M[k][0][j] = a[0] * b0 + a[1] * b1;
+        M[k][1][j] = a[1] * b0 + a[2] * b1;
+      }
+      // S -= B_k^T A_k^-1 B_k = B_k^T M_k
+      const double b00 = H(k, 6), b01 = H(k, 7), b10 = H(3 + k, 6), b11 = H(3 + k, 7);
+      S[0] -= b00 * M[k][0][0] + b10 * M[k][1][0];
+      S[1] -= b00 * M[k][0][1] + b10 * M[k][1][1];
+      S[2] -= b01 * M[k][0][1] + b11 * M[k][1][1];
+    }
+    return inverse2(S[0], S[1], S[2], Si);
+  }
   Vec8 solve(const Vec8& b) const {
-    double y[8];
-    for (int i = 0; i < 8; ++i) {
-      y[i] = b(i);
-      for (int k = 0; k < i; ++k) y[i] -= L[i][k] * y[k];
+    double r0 = b(6), r1 = b(7);  // b_s - sum of M_k^T b_k
+    for (int k = 0; k < 3; ++k) {
+      r0 -= M[k][0][0] * b(k) + M[k][1][0] * b(3 + k);
+      r1 -= M[k][0][1] * b(k) + M[k][1][1] * b(3 + k);
     }
     Vec8 x;
-    for (int i = 7; i >= 0; --i) {
-      double v = y[i] * Dinv[i];
-      for (int k = i + 1; k < 8; ++k) v -= L[k][i] * x(k);
-      x(i) = v;
+    x(6) = Si[0] * r0 + Si[1] * r1;
+    x(7) = Si[1] * r0 + Si[2] * r1;
+    for (int k = 0; k < 3; ++k) {  // A_k^-1 b_k - M_k x_s
+      const double* a = Ai[k];
+      x(k) = a[0] * b(k) + a[1] * b(3 + k) - M[k][0][0] * x(6) - M[k][0][1] * x(7);
+      x(3 + k) = a[1] * b(k) + a[2] * b(3 + k) - M[k][1][0] * x(6) - M[k][1][1] * x(7);
     }
     return x;
   }
-  // The diagonal of A^-1 = L^-T D^-1 L^-1: sum over j of (L^-1)_jk^2 / D_j.
+  // The diagonal of H^-1: S^-1 for the shared rows; A_k^-1 + M_k S^-1 M_k^T for channel k's.
   Vec8 inverse_diagonal() const {
-    double M[8][8] = {};  // L^-1, unit lower
-    for (int k = 0; k < 8; ++k) {
-      M[k][k] = 1;
-      for (int i = k + 1; i < 8; ++i) {
-        double v = 0;
-        for (int m = k; m < i; ++m) v -= L[i][m] * M[m][k];
-        M[i][k] = v;
-      }
-    }
     Vec8 d;
-    for (int k = 0; k < 8; ++k) {
-      double s = 0;
-      for (int j = k; j < 8; ++j) s += M[j][k] * M[j][k] * Dinv[j];
-      d(k) = s;
-    }
+    d(6) = Si[0], d(7) = Si[2];
+    for (int k = 0; k < 3; ++k)
+      for (int i = 0; i < 2; ++i) {
+        const double m0 = M[k][i][0], m1 = M[k][i][1];
+        d(i == 0 ? k : 3 + k) =
+            Ai[k][2 * i] + m0 * (Si[0] * m0 + Si[1] * m1) + m1 * (Si[1] * m0 + Si[2] * m1);
+      }
     return d;
   }
 };
@@ -97,7 +109,7 @@ void texel_sigmas(const M& info, double rss, double values, TexelResult* t) {
   if constexpr (M::RowsAtCompileTime == 8) {
     // The rank test without the eigenvalues where it is clear: the scaled matrix's largest
     // eigenvalue is at most its trace (8), its smallest at least 1 / trace(scaled^-1).
-    Ldl8 f;
+    TexelBlocks f;
     if (f.factor(scaled))
       var = f.inverse_diagonal(), full_rank = 1 / var.sum() > kConditionLimit * 8;
   }

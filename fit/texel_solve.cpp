@@ -258,13 +258,13 @@ double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const TexelL
   return s.cost;
 }
 
-// H^-1's diagonal and H^-1 b, by Ldl8 where it applies, else Eigen's pivoting LDLT.
+// H^-1's diagonal and H^-1 b, by TexelBlocks where it applies, else Eigen's pivoting LDLT.
 Vec8 texel_inverse_diagonal(const Mat8& H) {
-  Ldl8 f;
+  TexelBlocks f;
   return f.factor(H) ? f.inverse_diagonal() : inverse_diagonal<8>(H);
 }
 Vec8 texel_solve(const Mat8& A, const Vec8& b) {
-  Ldl8 f;
+  TexelBlocks f;
   return f.factor(A) ? f.solve(b) : Vec8(A.ldlt().solve(b));
 }
 
