@@ -380,6 +380,13 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
   if (!opt.topology_map.empty()) map.h = quantised16(opt.topology_map);
   const Image s_map = quantised16(opt.s_map);
 
+  if (!opt.write_files) {
+    Traced tr;
+    tr.images = Traced::Images::kMeasure;
+    trace_and_shade(opt, scene, map, s_map, out_dir, &tr, &st);
+    st.seconds = seconds_since(t0);
+    return st;
+  }
   write_folder_atomically(out_dir, [&](const std::string& dir) {
     Traced tr;
     using Images = Traced::Images;

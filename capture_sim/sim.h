@@ -61,6 +61,9 @@ struct SimOptions {
   // shapes that cannot shadow themselves; re-tracing the geometry of every view of a fixed camera.
   bool force_shadows = false;
   bool force_retrace = false;
+  // Benchmark switch: trace and shade every view, write nothing (no folder either), to measure
+  // what writing the set costs against a ray loop that writes nothing.
+  bool write_files = true;
   // A noisy, clipped or integer sensor needs the white level of all views before any is written:
   // their radiance is kept up to this many bytes (12 per pixel and view); beyond it every view is
   // traced and shaded twice, the white level first, and memory stays that of two views.

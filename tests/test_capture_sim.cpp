@@ -86,6 +86,23 @@ TEST(CaptureSim, StreamedViewsEqualTheKeptOnes) {
   }
 }
 
+// The benchmark's switch that writes nothing traces and shades the same views (the same rays, the
+// same white level) and leaves no folder behind.
+TEST(CaptureSim, WritingNoFilesTracesTheSameAndLeavesNothing) {
+  const std::string dir = test::tmp_dir("sets");
+  PresetOptions o = small(3);
+  o.rig = "orbit";
+  SimOptions written = make_preset("satin-ball", o), dry = written;
+  dry.write_files = false;
+  const SimStats a = simulate_capture(written, dir + "/written");
+  const SimStats b = simulate_capture(dry, dir + "/dry");
+  EXPECT_EQ(a.primary_rays, b.primary_rays);
+  EXPECT_EQ(a.shaded_pixels, b.shaded_pixels);
+  EXPECT_EQ(a.white_level, b.white_level);
+  EXPECT_GT(b.primary_rays, 0u);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/dry"));
+}
+
 // Beyond the memory budget for the kept radiance a noisy 16-bit set is traced and shaded twice,
 // the white level first: the same files as keeping every view's radiance.
 TEST(CaptureSim, ShadingTwiceBoundsMemoryAndGivesTheSameSet) {
