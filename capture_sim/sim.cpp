@@ -232,6 +232,7 @@ struct Traced {
   Image shaded[2];  // kWrite, kMeasure: the view being shaded and the one being written
   std::vector<GeometrySpec> geometry;  // per view (moving camera) or one for all (fixed)
   bool fixed_camera = true;            // every view shares the first view's pose: one geometry
+  const char* label = "capture_sim: tracing and shading";  // the progress bar's
 };
 
 // Traces every pose and shades every view. The geometry of each pose is written under `dir` in
@@ -245,7 +246,7 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
   tr->geometry.resize(tr->fixed_camera ? 1 : opt.rig.size());
   const Evaluator eval(opt.truth);
   std::atomic<size_t> shadow_rays{0}, light_evals{0};
-  Progress bar("capture_sim: tracing and shading", opt.rig.size(), opt.progress);
+  Progress bar(tr->label, opt.rig.size(), opt.progress);
   tbb::task_group writer;  // at most one view's files in flight
   auto wait_writer = [&] {
     const auto tw = std::chrono::steady_clock::now();
@@ -398,10 +399,13 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       if (opt.progress)
         std::fprintf(stderr,
                      "capture_sim: keeping every view's radiance for the white level would take "
-                     "%.2f GB: the views are shaded twice instead, the white level first\n",
-                     kept / 1e9);
+                     "%.3f GB (over the %.3f GB allowed, --kept-radiance-gb): the views are "
+                     "shaded twice instead, the white level first\n",
+                     kept / 1e9, opt.kept_radiance_bytes / 1e9);
       Traced probe;
       probe.images = Images::kMeasure;
+      probe.label = "capture_sim: the white level (pass 1 of 2)";
+      tr.label = "capture_sim: tracing, shading and writing (pass 2 of 2)";
       SimStats first;
       trace_and_shade(opt, scene, map, s_map, dir, &probe, &first);
       st.passes = 2;

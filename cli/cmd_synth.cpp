@@ -17,6 +17,7 @@ namespace {
 struct SynthArgs {
   std::string preset, out, size = "128x128", truth, compression = "none";
   PresetOptions po;
+  double kept_gb = 1.0;  // --kept-radiance-gb
   bool list = false, photos = false, dng = false;
   CLI::App* app = nullptr;
 };
@@ -64,6 +65,7 @@ int run(const SynthArgs& a) {
   set_exr_compression(a.compression);
   SimOptions so = make_preset(a.preset, po);
   if (!a.truth.empty()) so.truth = read_material(a.truth);
+  so.kept_radiance_bytes = a.kept_gb * 1e9;
   const SimStats st = simulate_capture(so, a.out);
   std::printf(
       "synth: %s -> %s: %zu views %dx%d, seed %llu; %zu primary rays, %zu shadow rays, %zu "
@@ -141,6 +143,14 @@ Command add_synth(CLI::App& app) {
   synth->add_option("--amplitude", po.topology_amplitude, "silk-torus: topology map amplitude A")
       ->capture_default_str()
       ->check(CLI::Range(-2.0, 2.0));
+  synth
+      ->add_option("--kept-radiance-gb", a->kept_gb,
+                   "noise, clipping or integer images need the white level of all views before "
+                   "any is written: keep up to this many GB of radiance (12 bytes per pixel and "
+                   "view); beyond it every view is traced and shaded twice, the white level "
+                   "first, in the memory of two views (0: always twice)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
   return {synth, [a] { return run(*a); }};
 }
 

@@ -86,6 +86,22 @@ TEST(CaptureSim, StreamedViewsEqualTheKeptOnes) {
   }
 }
 
+// synth --kept-radiance-gb 0: a noisy set shaded twice, as the synth line says, with the same
+// images as the default budget (which keeps them).
+TEST(CaptureSim, KeptRadianceBudgetFromTheCommandLine) {
+  const std::string dir = test::tmp_dir("sets");
+  const std::string args = " --size 48x48 --views 3 --noise 0.01 --bits 16";
+  const auto twice =
+      test::run_cli("synth satin-ball " + dir + "/twice" + args + " --kept-radiance-gb 0");
+  const auto kept = test::run_cli("synth satin-ball " + dir + "/kept" + args);
+  ASSERT_EQ(twice.status, 0) << twice.output;
+  ASSERT_EQ(kept.status, 0) << kept.output;
+  EXPECT_NE(twice.output.find("every view shaded twice"), std::string::npos) << twice.output;
+  EXPECT_EQ(kept.output.find("every view shaded twice"), std::string::npos) << kept.output;
+  for (const char* f : {"/images/000.png", "/images/002.png"})
+    EXPECT_EQ(read_image(dir + "/twice" + f).image.px, read_image(dir + "/kept" + f).image.px) << f;
+}
+
 // The benchmark's switch that writes nothing traces and shades the same views (the same rays, the
 // same white level) and leaves no folder behind.
 TEST(CaptureSim, WritingNoFilesTracesTheSameAndLeavesNothing) {
