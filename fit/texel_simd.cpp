@@ -177,30 +177,38 @@ ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, K
     c[i] = static_cast<float>(std::cos(psi[i])), sn[i] = static_cast<float>(std::sin(psi[i]));
   const v8f zero = splat(0.f);
   // Node i's sums over the texel's observations, lane i; the observations go one at a time (a
-  // group's lane j splatted).
+  // group's lane j splatted), in blocks: first each one's sin(L) and x^n at the eight nodes, then
+  // channel by channel the five sums, which then stay in registers.
   v8f dd[3], ds[3], ss[3], dy[3], sy[3];
   for (int k = 0; k < 3; ++k) dd[k] = ds[k] = ss[k] = dy[k] = sy[k] = zero;
-  for (size_t gi = 0; gi < t.groups; ++gi) {
-    const float* g = t.f.data() + gi * TexelLanes::kRows * 8;
-    const int lanes = static_cast<int>(std::min<size_t>(8, t.count - gi * 8));
-    for (int j = 0; j < lanes; ++j) {
-      const float* o = g + j;  // row k of this observation at o[8 * k]
-      const v8f b = clamp_unit(c * splat(o[0]) + sn * splat(o[8]));
-      const v8f a = clamp_unit(c * splat(o[16]) + sn * splat(o[24]));
-      v8f sV, sL, unused;
-      vsin(b, &sV, &unused);
-      vsin(a, &sL, &unused);
-      v8f x = vmax(sL * sV - a * b, zero);
+  constexpr size_t kBlock = 64;  // observations: their terms (4 KiB) stay in L1
+  v8f sLs[kBlock], xs[kBlock];
+  for (size_t j0 = 0; j0 < t.count; j0 += kBlock) {
+    const size_t count = std::min(kBlock, t.count - j0);
+    auto row = [&](size_t j, int k) { return t.f[((j / 8) * TexelLanes::kRows + k) * 8 + j % 8]; };
+    for (size_t b = 0; b < count; ++b) {
+      const size_t j = j0 + b;
+      const v8f bv = clamp_unit(c * splat(row(j, 0)) + sn * splat(row(j, 1)));
+      const v8f a = clamp_unit(c * splat(row(j, 2)) + sn * splat(row(j, 3)));
+      v8f sV, unused;
+      vsin(bv, &sV, &unused);
+      vsin(a, &sLs[b], &unused);
+      v8f x = vmax(sLs[b] * sV - a * bv, zero);
       for (int i = 0; i < log2n; ++i) x *= x;
-      for (int ch = 0; ch < 3; ++ch) {
-        const v8f w = splat(o[8 * (5 + ch)]), y = splat(o[8 * (8 + ch)]);
-        const v8f dcol = w * sL, scol = w * x;
-        dd[ch] += dcol * dcol;
-        ds[ch] += dcol * scol;
-        ss[ch] += scol * scol;
-        dy[ch] += dcol * y;
-        sy[ch] += scol * y;
+      xs[b] = x;
+    }
+    for (int ch = 0; ch < 3; ++ch) {
+      v8f sdd = dd[ch], sds = ds[ch], sss = ss[ch], sdy = dy[ch], ssy = sy[ch];
+      for (size_t b = 0; b < count; ++b) {
+        const v8f w = splat(row(j0 + b, 5 + ch)), y = splat(row(j0 + b, 8 + ch));
+        const v8f dcol = w * sLs[b], scol = w * xs[b];
+        sdd += dcol * dcol;
+        sds += dcol * scol;
+        sss += scol * scol;
+        sdy += dcol * y;
+        ssy += scol * y;
       }
+      dd[ch] = sdd, ds[ch] = sds, ss[ch] = sss, dy[ch] = sdy, sy[ch] = ssy;
     }
   }
   for (int i = 0; i < 8; ++i)
