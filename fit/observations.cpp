@@ -15,6 +15,7 @@
 #include "core/progress.h"
 #include "fit/maps.h"
 #include "io/files.h"
+#include "io/image_io.h"
 #include "io/json_util.h"
 #include "io/material_io.h"
 
@@ -317,7 +318,8 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   // the set's arrays and each view's thread writes its records in place (no copy, and the new
   // pages are touched on both cores), the gaps closed in view order.
   const size_t batch = 2 * static_cast<size_t>(std::max(1, opt.threads)), n = set.views.size();
-  GeometryCache geometry;  // a fixed camera's buffers decoded once, shared by every view
+  GeometryCache geometry;             // a fixed camera's buffers decoded once, shared by every view
+  const ExrReadBuffers read_buffers;  // each thread's file buffer reused view after view
   tbb::task_arena arena(std::max(1, opt.threads));
   const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &map : nullptr;
   const UvBand band = uv_band(opt);

@@ -240,7 +240,7 @@ void write_text_file(const std::string& path, const std::string& text) {
   write_file_pieces(path, [&](const ByteSink& sink) { sink(text.data(), text.size()); });
 }
 
-std::string read_text_file(const std::string& path, size_t max_bytes) {
+void read_file_into(const std::string& path, size_t max_bytes, std::string* out) {
   struct stat st;
   if (::stat(path.c_str(), &st) != 0) throw Error(path + ": file not found");
   if (S_ISDIR(st.st_mode)) throw Error(path + ": is a folder, expected a file");
@@ -251,9 +251,14 @@ std::string read_text_file(const std::string& path, size_t max_bytes) {
                 std::to_string(max_bytes) + ")");
   std::ifstream f(path, std::ios::binary);
   if (!f) throw Error(path + ": cannot open (unreadable)");
-  std::string out(static_cast<size_t>(st.st_size), '\0');
-  f.read(out.data(), static_cast<std::streamsize>(out.size()));
-  out.resize(static_cast<size_t>(f.gcount()));
+  out->resize(static_cast<size_t>(st.st_size));
+  f.read(out->data(), static_cast<std::streamsize>(out->size()));
+  out->resize(static_cast<size_t>(f.gcount()));
+}
+
+std::string read_text_file(const std::string& path, size_t max_bytes) {
+  std::string out;
+  read_file_into(path, max_bytes, &out);
   return out;
 }
 

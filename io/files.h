@@ -43,6 +43,9 @@ void write_file_pieces(const std::string& path,
 // Reads a regular file of at most `max_bytes` (default 256 MiB); anything else (missing, a
 // folder, a device, a FIFO, too large) is an error naming the file.
 std::string read_text_file(const std::string& path, size_t max_bytes = size_t(256) << 20);
+// The same into *out, whose allocation is kept where it is large enough (a buffer reused file
+// after file touches no fresh pages).
+void read_file_into(const std::string& path, size_t max_bytes, std::string* out);
 
 // Throws unless `dir` may be (re)written by a folder output: it does not exist, is an empty
 // folder, or holds kOutputMarker; with force_overwrite() any folder. Call it before a long run.

@@ -5,6 +5,7 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <tbb/enumerable_thread_specific.h>
 
 #include <algorithm>
 #include <atomic>
@@ -203,6 +204,8 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
 
 namespace {
 
+std::atomic<ExrReadBuffers::Impl*> g_read_buffers{nullptr};
+
 // The file's first `n` bytes (fewer if it is shorter; empty if it cannot be read).
 std::string read_prefix(const std::string& path, size_t n) {
   std::string out(n, '\0');
@@ -212,6 +215,22 @@ std::string read_prefix(const std::string& path, size_t n) {
   std::fclose(f);
   return out;
 }
+
+}  // namespace
+
+struct ExrReadBuffers::Impl : tbb::enumerable_thread_specific<std::string> {};
+
+ExrReadBuffers::ExrReadBuffers() : impl_(std::make_unique<Impl>()) {
+  Impl* none = nullptr;
+  if (!g_read_buffers.compare_exchange_strong(none, impl_.get()))
+    impl_.reset();  // another is alive: files are read as without one
+}
+
+ExrReadBuffers::~ExrReadBuffers() {
+  if (impl_) g_read_buffers.store(nullptr);
+}
+
+namespace {
 
 // Uncompressed float EXRs (what synth writes by default) at memory speed; everything else, and
 // anything our reader does not follow, through OpenEXR. The header is looked at first, so a
@@ -226,8 +245,11 @@ Image read_exr(const std::string& path, int expect_w, int expect_h) {
   int32_t box[4];
   if (!head.empty() && uncompressed_float_header(&r, &ch, box)) {
     Image img;
-    if (decode_exr_uncompressed(read_text_file(path, kMaxDirect), path, expect_w, expect_h, &img))
-      return img;
+    ExrReadBuffers::Impl* reuse = g_read_buffers.load();
+    std::string fresh;
+    std::string& bytes = reuse ? reuse->local() : fresh;
+    read_file_into(path, kMaxDirect, &bytes);
+    if (decode_exr_uncompressed(bytes, path, expect_w, expect_h, &img)) return img;
   }
   return read_exr_openexr(path, expect_w, expect_h);
 }

@@ -5,6 +5,7 @@
 // (or one grey channel, or R,G for two-channel buffers); alpha is dropped.
 #pragma once
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,23 @@ void encode_exr_uncompressed(const Image& img, const ByteSink& sink);
 // only on a declared size outside the limits or not the expected one.
 bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, int expect_w,
                              int expect_h, Image* out);
+
+// While one is alive, uncompressed EXRs are read through one buffer per thread, reused file after
+// file. A 2048^2 RGB view is 48 MB, above glibc's largest mmap threshold (32 MB): every fresh
+// buffer for it was new pages the kernel zeroes before the file is copied in. The loader of a
+// capture set holds one while it decodes views; the buffers go with it. One at a time.
+class ExrReadBuffers {
+ public:
+  ExrReadBuffers();
+  ~ExrReadBuffers();
+  ExrReadBuffers(const ExrReadBuffers&) = delete;
+  ExrReadBuffers& operator=(const ExrReadBuffers&) = delete;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
 
 // Float EXR with channels R[,G[,B]] (1, 2 or 3 channels). Written atomically.
 void write_exr(const std::string& path, const Image& img);

@@ -92,6 +92,29 @@ TEST(ImageIO, UncompressedExrFromOurWriterReadsBackThroughOpenExr) {
   }
 }
 
+// Through the loader's reused per-thread buffer, files of different sizes read as they do without
+// it (a larger one, then a smaller one and a damaged one in the same buffer); a second scope while
+// one is alive reads without a buffer of its own.
+TEST(ImageIO, ReusedReadBuffersReadEveryFileAsAFreshOne) {
+  const std::string dir = test::tmp_dir("img");
+  set_exr_compression("none");
+  Image big(61, 40, 3), small(9, 7, 1);
+  for (size_t i = 0; i < big.px.size(); ++i) big.px[i] = std::cos(0.1 * i);
+  for (size_t i = 0; i < small.px.size(); ++i) small.px[i] = -0.5f * i;
+  write_exr(dir + "/big.exr", big);
+  write_exr(dir + "/small.exr", small);
+  write_text_file(dir + "/cut.exr", read_text_file(dir + "/big.exr").substr(0, 3000));
+  const ExrReadBuffers outer;
+  const ExrReadBuffers inner;  // refused quietly: the outer one stays in use
+  for (int round = 0; round < 2; ++round) {
+    EXPECT_EQ(read_image(dir + "/big.exr").image.px, big.px) << round;
+    const LoadedImage s = read_image(dir + "/small.exr");
+    EXPECT_EQ(s.image.width, 9);
+    EXPECT_EQ(s.image.px, small.px) << round;
+    EXPECT_THROW(read_image(dir + "/cut.exr"), Error) << round;
+  }
+}
+
 // Uncompressed float EXRs are read by our own decoder (at memory speed): files OpenEXR wrote
 // without compression, with an alpha channel, a data window away from the origin and decreasing
 // line order, decode to exactly OpenEXR's values; half, compressed and damaged files are left to
