@@ -46,7 +46,8 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
 // While one is alive, uncompressed EXRs are read through one buffer per thread, reused file after
 // file. A 2048^2 RGB view is 48 MB, above glibc's largest mmap threshold (32 MB): every fresh
 // buffer for it was new pages the kernel zeroes before the file is copied in. The loader of a
-// capture set holds one while it decodes views; the buffers go with it. One at a time.
+// capture set holds one while it decodes views; the buffers go with it. One at a time (a second
+// one while the first is alive does nothing), and every read it serves ends before it does.
 class ExrReadBuffers {
  public:
   ExrReadBuffers();
