@@ -318,8 +318,8 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   // the set's arrays and each view's thread writes its records in place (no copy, and the new
   // pages are touched on both cores), the gaps closed in view order.
   const size_t batch = 2 * static_cast<size_t>(std::max(1, opt.threads)), n = set.views.size();
-  GeometryCache geometry;             // a fixed camera's buffers decoded once, shared by every view
-  const ExrReadBuffers read_buffers;  // each thread's file buffer reused view after view
+  GeometryCache geometry;       // a fixed camera's buffers decoded once, shared by every view
+  ExrReadBuffers read_buffers;  // file buffers and decoded images reused view after view
   tbb::task_arena arena(std::max(1, opt.threads));
   const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &map : nullptr;
   const UvBand band = uv_band(opt);
@@ -346,6 +346,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
         add_pixel_observations(p.d, set.views[i], set, known, opt.subsample, band, &p.slot, &p.rep);
+        read_buffers.give_back(std::move(p.d.rgb));
         p.d = ViewData{};
         bar.advance();
       });

@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <mutex>
 #include <vector>
 
 #include "core/color.h"
@@ -181,7 +182,12 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
     return false;
   }
   const size_t line = static_cast<size_t>(w) * ch.size() * sizeof(float);
-  Image img(static_cast<int>(w), static_cast<int>(h), static_cast<int>(pick.size()));
+  // out's allocation, if it has one, holds the image: every value is written below.
+  Image img;
+  img.px = std::move(out->px);
+  img.width = static_cast<int>(w), img.height = static_cast<int>(h);
+  img.channels = static_cast<int>(pick.size());
+  img.px.resize(static_cast<size_t>(w) * h * pick.size());
   std::vector<uint8_t> seen(static_cast<size_t>(h), 0);
   for (long long k = 0; k < h; ++k) {
     uint64_t offset = 0;
@@ -218,7 +224,18 @@ std::string read_prefix(const std::string& path, size_t n) {
 
 }  // namespace
 
-struct ExrReadBuffers::Impl : tbb::enumerable_thread_specific<std::string> {};
+struct ExrReadBuffers::Impl {
+  tbb::enumerable_thread_specific<std::string> files;  // each thread's file bytes
+  std::mutex mu;
+  std::vector<std::vector<float>> spare;  // decoded images' allocations given back
+};
+
+void ExrReadBuffers::give_back(Image&& img) {
+  if (!impl_ || img.px.empty()) return;
+  std::lock_guard<std::mutex> lock(impl_->mu);
+  constexpr size_t kMostSpare = 16;  // more than the views a loader has in flight
+  if (impl_->spare.size() < kMostSpare) impl_->spare.push_back(std::move(img.px));
+}
 
 ExrReadBuffers::ExrReadBuffers() : impl_(std::make_unique<Impl>()) {
   Impl* none = nullptr;
@@ -247,7 +264,11 @@ Image read_exr(const std::string& path, int expect_w, int expect_h) {
     Image img;
     ExrReadBuffers::Impl* reuse = g_read_buffers.load();
     std::string fresh;
-    std::string& bytes = reuse ? reuse->local() : fresh;
+    std::string& bytes = reuse ? reuse->files.local() : fresh;
+    if (reuse) {
+      std::lock_guard<std::mutex> lock(reuse->mu);
+      if (!reuse->spare.empty()) img.px = std::move(reuse->spare.back()), reuse->spare.pop_back();
+    }
     read_file_into(path, kMaxDirect, &bytes);
     if (decode_exr_uncompressed(bytes, path, expect_w, expect_h, &img)) return img;
   }

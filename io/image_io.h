@@ -37,21 +37,24 @@ void set_exr_compression(const std::string& name);
 void encode_exr_uncompressed(const Image& img, const ByteSink& sink);
 
 // Decodes the bytes of an uncompressed single-part scanline EXR whose channels are all 32-bit
-// float into *out (channels as read_image gives them); false for anything else (compressed, half,
-// tiled, several parts, a malformed offset or block), which read_image hands to OpenEXR. Throws
-// only on a declared size outside the limits or not the expected one.
+// float into *out (channels as read_image gives them; out's allocation, if any, is reused); false
+// for anything else (compressed, half, tiled, several parts, a malformed offset or block), which
+// read_image hands to OpenEXR (*out may then have lost its allocation). Throws only on a declared
+// size outside the limits or not the expected one.
 bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, int expect_w,
                              int expect_h, Image* out);
 
 // While one is alive, uncompressed EXRs are read through one buffer per thread, reused file after
-// file. A 2048^2 RGB view is 48 MB, above glibc's largest mmap threshold (32 MB): every fresh
-// buffer for it was new pages the kernel zeroes before the file is copied in. The loader of a
-// capture set holds one while it decodes views; the buffers go with it. One at a time (a second
-// one while the first is alive does nothing), and every read it serves ends before it does.
+// file, and decoded into the allocations of images given back. A 2048^2 RGB view is 48 MB, above
+// glibc's largest mmap threshold (32 MB): every fresh buffer for it was new pages the kernel
+// zeroes first. The loader of a capture set holds one while it decodes views and gives back each
+// view's image when its records are written; the buffers go with it. One at a time (a second one
+// while the first is alive does nothing), and every read it serves ends before it does.
 class ExrReadBuffers {
  public:
   ExrReadBuffers();
   ~ExrReadBuffers();
+  void give_back(Image&& img);  // its allocation, for a later read
   ExrReadBuffers(const ExrReadBuffers&) = delete;
   ExrReadBuffers& operator=(const ExrReadBuffers&) = delete;
 

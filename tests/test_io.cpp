@@ -92,9 +92,9 @@ TEST(ImageIO, UncompressedExrFromOurWriterReadsBackThroughOpenExr) {
   }
 }
 
-// Through the loader's reused per-thread buffer, files of different sizes read as they do without
-// it (a larger one, then a smaller one and a damaged one in the same buffer); a second scope while
-// one is alive reads without a buffer of its own.
+// Through the loader's reused per-thread buffer and images given back, files of different sizes
+// read as they do without them (a larger one, then a smaller one and a damaged one in the same
+// buffers); a second scope while one is alive reads without buffers of its own.
 TEST(ImageIO, ReusedReadBuffersReadEveryFileAsAFreshOne) {
   const std::string dir = test::tmp_dir("img");
   set_exr_compression("none");
@@ -104,13 +104,16 @@ TEST(ImageIO, ReusedReadBuffersReadEveryFileAsAFreshOne) {
   write_exr(dir + "/big.exr", big);
   write_exr(dir + "/small.exr", small);
   write_text_file(dir + "/cut.exr", read_text_file(dir + "/big.exr").substr(0, 3000));
-  const ExrReadBuffers outer;
+  ExrReadBuffers outer;
   const ExrReadBuffers inner;  // refused quietly: the outer one stays in use
   for (int round = 0; round < 2; ++round) {
-    EXPECT_EQ(read_image(dir + "/big.exr").image.px, big.px) << round;
-    const LoadedImage s = read_image(dir + "/small.exr");
-    EXPECT_EQ(s.image.width, 9);
+    LoadedImage b = read_image(dir + "/big.exr");
+    EXPECT_EQ(b.image.px, big.px) << round;
+    outer.give_back(std::move(b.image));  // the small one is decoded into its allocation
+    LoadedImage s = read_image(dir + "/small.exr");
+    EXPECT_TRUE(s.image.width == 9 && s.image.channels == 1) << round;
     EXPECT_EQ(s.image.px, small.px) << round;
+    outer.give_back(std::move(s.image));  // and the big one into the small one's
     EXPECT_THROW(read_image(dir + "/cut.exr"), Error) << round;
   }
 }
