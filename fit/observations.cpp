@@ -318,8 +318,9 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   // the set's arrays and each view's thread writes its records in place (no copy, and the new
   // pages are touched on both cores), the gaps closed in view order.
   const size_t batch = 2 * static_cast<size_t>(std::max(1, opt.threads)), n = set.views.size();
-  GeometryCache geometry;       // a fixed camera's buffers decoded once, shared by every view
-  ExrReadBuffers read_buffers;  // file buffers and decoded images reused view after view
+  GeometryCache geometry;  // a fixed camera's buffers decoded once, shared by every view
+  // File buffers and decoded images reused view after view, until the last view is loaded.
+  auto read_buffers = std::make_unique<ExrReadBuffers>();
   tbb::task_arena arena(std::max(1, opt.threads));
   const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &map : nullptr;
   const UvBand band = uv_band(opt);
@@ -346,13 +347,14 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
         add_pixel_observations(p.d, set.views[i], set, known, opt.subsample, band, &p.slot, &p.rep);
-        read_buffers.give_back(std::move(p.d.rgb));
+        read_buffers->give_back(std::move(p.d.rgb));
         p.d = ViewData{};
         bar.advance();
       });
     });
     close_gaps(&parts, obs_start, light_start, keep_uv, &os, &rep, &neighbour_diffs);
   }
+  read_buffers.reset();
   // The implausible values and the noise estimate are independent: side by side.
   const double given = opt.global ? opt.global->implausible_limit : 0;
   tbb::parallel_invoke([&] { drop_implausible(&os, &rep, given); },

@@ -233,7 +233,7 @@ struct ExrReadBuffers::Impl {
 void ExrReadBuffers::give_back(Image&& img) {
   if (!impl_ || img.px.empty()) return;
   std::lock_guard<std::mutex> lock(impl_->mu);
-  constexpr size_t kMostSpare = 16;  // more than the views a loader has in flight
+  constexpr size_t kMostSpare = 16;  // kept at most (a loader has 2 per thread in flight)
   if (impl_->spare.size() < kMostSpare) impl_->spare.push_back(std::move(img.px));
 }
 
