@@ -17,7 +17,7 @@ namespace {
 struct SynthArgs {
   std::string preset, out, size = "128x128", truth, compression = "none";
   PresetOptions po;
-  double kept_gb = 1.0;  // --kept-radiance-gb
+  double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
   bool list = false, photos = false, dng = false;
   CLI::App* app = nullptr;
 };

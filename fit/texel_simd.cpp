@@ -184,9 +184,10 @@ ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, K
   for (int k = 0; k < 3; ++k) dd[k] = ds[k] = ss[k] = dy[k] = sy[k] = zero;
   constexpr size_t kBlock = 64;  // observations: their terms (4 KiB) stay in L1
   v8f sLs[kBlock], xs[kBlock];
+  // Row k of observation j (lane j % 8 of group j / 8).
+  auto row = [&](size_t j, int k) { return t.f[((j / 8) * TexelLanes::kRows + k) * 8 + j % 8]; };
   for (size_t j0 = 0; j0 < t.count; j0 += kBlock) {
     const size_t count = std::min(kBlock, t.count - j0);
-    auto row = [&](size_t j, int k) { return t.f[((j / 8) * TexelLanes::kRows + k) * 8 + j % 8]; };
     for (size_t b = 0; b < count; ++b) {
       const size_t j = j0 + b;
       const v8f bv = clamp_unit(c * splat(row(j, 0)) + sn * splat(row(j, 1)));
