@@ -315,9 +315,9 @@ struct TexelObjective {
     return b;
   }
 
-  // Levenberg-Marquardt from *x until a step is under `stop` sigma; *cur ends at *x. False where
-  // it stopped at its iteration limit instead.
-  bool run(double stop, Vec8* x, TexelEval* cur) const {
+  // Levenberg-Marquardt from *x until a step is under `stop` sigma; *cur ends at *x, *taken is
+  // the size of the last step taken, in sigmas. False where it stopped at its iteration limit.
+  bool run(double stop, Vec8* x, TexelEval* cur, double* taken) const {
     evaluate(*x, cur);
     TexelEval trial;
     double lambda = 1e-3;
@@ -331,6 +331,7 @@ struct TexelObjective {
       evaluate(xn, &trial);
       if (trial.total < cur->total) {
         const bool done = cur->total - trial.total <= 1e-12 * cur->total;
+        *taken = size;
         *x = xn;
         *cur = trial;
         lambda = std::max(lambda / 3, 1e-12);
@@ -346,9 +347,12 @@ struct TexelObjective {
 
   // Past where float's cost tells steps apart its gradient still does (the step it gives is off
   // by ~1e-5 sigma): Gauss-Newton steps without the cost test while they stay inside the bounds
-  // and shrink, to the usual 1e-3 sigma. False where something else (a bound in the way, a step
-  // that grows or is still large) needs the cost test.
-  bool polish(Vec8* x, TexelEval* cur) const {
+  // and shrink, to the usual 1e-3 sigma. The last is taken without a pass to confirm it by the
+  // global solve's rule (fit/fused_lm.h): under kLastStepInSigma and shrinking fast enough after
+  // the step before (`taken`) that what is left after it is under kStepInSigma; J^T J and the sum
+  // of squares stay those of the point before. False where something else (a bound in the way, a
+  // step that grows or is still large) needs the cost test.
+  bool polish(Vec8* x, TexelEval* cur, double taken) const {
     double last = kFloatStepInSigma;
     for (int it = 0; it < 4; ++it) {
       const Vec8 step = texel_solve(cur->h, -cur->g);
@@ -356,8 +360,9 @@ struct TexelObjective {
       if (size < kStepInSigma) return true;
       const Vec8 xn = *x + step;
       if (!(size < last) || bounded(xn) != xn) return false;
-      last = size;
       *x = xn;
+      if (size < kLastStepInSigma && size * size < kStepInSigma * taken) return true;
+      last = taken = size;
       evaluate(*x, cur);
     }
     return false;
@@ -377,14 +382,15 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   Vec8 x = pack_core(t.c);
   TexelEval cur;
   bool converged = false;
+  double taken = kFloatStepInSigma;  // no step taken: as if the last had been at the switch
   if (f32) {
-    obj.run(kFloatStepInSigma, &x, &cur);
-    converged = obj.polish(&x, &cur);
+    obj.run(kFloatStepInSigma, &x, &cur, &taken);
+    converged = obj.polish(&x, &cur, taken);
   }
   // In double to the end: the same stopping rule as the global fused solve (a step under 1e-3
   // sigma is not taken); from the float solution one or two passes.
   obj.in_float = false;
-  if (!converged) converged = obj.run(kStepInSigma, &x, &cur);
+  if (!converged) converged = obj.run(kStepInSigma, &x, &cur, &taken);
   unpack_core(x, &t.c);
   texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t);
   mark_converged(converged, &t);
