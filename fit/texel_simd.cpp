@@ -172,6 +172,31 @@ ANISO_AVX2 void pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac
   }
 }
 
+// nodes_f32's sums over observations j0 .. j0 + count where every light is grey: the three
+// channels' columns are the same, so are their dd, ds, ss sums (channel 0's, the same arithmetic);
+// only dy and sy are per channel.
+ANISO_AVX2_INLINE void grey_node_sums(const TexelLanes& t, size_t j0, size_t count, const v8f* sLs,
+                                      const v8f* xs, v8f dd[3], v8f ds[3], v8f ss[3], v8f dy[3],
+                                      v8f sy[3]) {
+  auto row = [&](size_t j, int k) { return t.f[((j / 8) * TexelLanes::kRows + k) * 8 + j % 8]; };
+  v8f sdd = dd[0], sds = ds[0], sss = ss[0];
+  v8f sdy[3] = {dy[0], dy[1], dy[2]}, ssy[3] = {sy[0], sy[1], sy[2]};
+  for (size_t b = 0; b < count; ++b) {
+    const v8f w = splat(row(j0 + b, 5));
+    const v8f dcol = w * sLs[b], scol = w * xs[b];
+    sdd += dcol * dcol;
+    sds += dcol * scol;
+    sss += scol * scol;
+    for (int ch = 0; ch < 3; ++ch) {
+      const v8f y = splat(row(j0 + b, 8 + ch));
+      sdy[ch] += dcol * y;
+      ssy[ch] += scol * y;
+    }
+  }
+  dd[0] = sdd, ds[0] = sds, ss[0] = sss;
+  for (int ch = 0; ch < 3; ++ch) dy[ch] = sdy[ch], sy[ch] = ssy[ch];
+}
+
 ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, KdKsSums out[8]) {
   v8f c, sn;
   for (int i = 0; i < 8; ++i)
@@ -199,6 +224,10 @@ ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, K
       for (int i = 0; i < log2n; ++i) x *= x;
       xs[b] = x;
     }
+    if (t.grey_light) {
+      grey_node_sums(t, j0, count, sLs, xs, dd, ds, ss, dy, sy);
+      continue;
+    }
     for (int ch = 0; ch < 3; ++ch) {
       v8f sdd = dd[ch], sds = ds[ch], sss = ss[ch], sdy = dy[ch], ssy = sy[ch];
       for (size_t b = 0; b < count; ++b) {
@@ -213,6 +242,8 @@ ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, K
       dd[ch] = sdd, ds[ch] = sds, ss[ch] = sss, dy[ch] = sdy, sy[ch] = ssy;
     }
   }
+  if (t.grey_light)
+    for (int ch = 1; ch < 3; ++ch) dd[ch] = dd[0], ds[ch] = ds[0], ss[ch] = ss[0];
   for (int i = 0; i < 8; ++i)
     for (int ch = 0; ch < 3; ++ch) {
       out[i].dd[ch] = dd[ch][i], out[i].ds[ch] = ds[ch][i], out[i].ss[ch] = ss[ch][i];
@@ -235,6 +266,7 @@ bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* o
       std::fill_n(out->f.data() + ((out->groups - 1) * TexelLanes::kRows + k) * 8 + idx.size() % 8,
                   8 - idx.size() % 8, 0.f);
   for (int c = 0; c < 3; ++c) out->yy[c] = 0;
+  out->grey_light = true;
   // The records are scattered over the views, each a cache miss unless asked for ahead: the
   // observation 2k ahead, the light of the one k ahead (its record asked for k steps ago).
   constexpr size_t kAhead = 8;
@@ -264,6 +296,7 @@ bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* o
                                           o.y[2] - o.base[2],
                                           1.f};
     for (int k = 0; k < TexelLanes::kRows; ++k) g[8 * k] = row[k];
+    out->grey_light = out->grey_light && l.E[0] == l.E[1] && l.E[1] == l.E[2];
     for (int c = 0; c < 3; ++c) out->yy[c] += static_cast<double>(row[8 + c]) * row[8 + c];
   }
   return true;

@@ -23,6 +23,7 @@ struct TexelLanes {
   size_t groups = 0, count = 0;
   std::vector<float> f;      // groups * kRows * 8
   double yy[3] = {0, 0, 0};  // sum of the squared values less the known part, per channel
+  bool grey_light = false;   // every light's irradiance the same in the three channels
 };
 
 // The texel's observations idx as lanes; false (nothing written) where line_simd_enabled() is

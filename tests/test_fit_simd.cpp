@@ -227,6 +227,38 @@ TEST(FitPaths, TexelFloatLanesAsTheDoublePass) {
   }
 }
 
+// Under grey lights the start nodes share the channels' dd, ds, ss sums: the same numbers, bit for
+// bit, as the three channels summed apart (the lanes told their lights are not grey); a coloured
+// light anywhere in the texel keeps them apart.
+TEST(FitPaths, TexelGreyLightNodesAsThreeChannels) {
+  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  ObsSet os = random_set(false, 1);
+  for (ObsLight& l : os.lights) l.E[1] = l.E[2] = l.E[0];
+  std::vector<size_t> idx;
+  for (size_t i = 0; i < 77; ++i) idx.push_back(i);  // not a whole number of groups or blocks
+  TexelLanes grey;
+  ASSERT_TRUE(texel_lanes(os, idx, &grey));
+  ASSERT_TRUE(grey.grey_light);
+  TexelLanes apart = grey;
+  apart.grey_light = false;
+  const double psi[8] = {0, 0.3, 0.7, 1.2, 1.6, 2.0, 2.5, 2.9};
+  KdKsSums a[8], b[8];
+  texel_nodes_f32(grey, psi, 4, a);
+  texel_nodes_f32(apart, psi, 4, b);
+  for (int k = 0; k < 8; ++k)
+    for (int ch = 0; ch < 3; ++ch) {
+      EXPECT_EQ(a[k].dd[ch], b[k].dd[ch]) << k << " " << ch;
+      EXPECT_EQ(a[k].ds[ch], b[k].ds[ch]) << k << " " << ch;
+      EXPECT_EQ(a[k].ss[ch], b[k].ss[ch]) << k << " " << ch;
+      EXPECT_EQ(a[k].dy[ch], b[k].dy[ch]) << k << " " << ch;
+      EXPECT_EQ(a[k].sy[ch], b[k].sy[ch]) << k << " " << ch;
+    }
+  os.lights[os.obs[idx[40]].first_light].E[2] *= 1.5f;
+  TexelLanes coloured;
+  ASSERT_TRUE(texel_lanes(os, idx, &coloured));
+  EXPECT_FALSE(coloured.grey_light);
+}
+
 // The texel's block solve (fit/texel_sigmas.h) against Eigen's dense inverse, on J^T J of rows
 // shaped as a texel's (channel k's row nonzero at k_d[k], k_s[k], log n, psi) plus a diagonal, as
 // the LM's damping adds: the step and the inverse's diagonal to 1e-6 relative, over matrices from
