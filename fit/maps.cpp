@@ -116,12 +116,28 @@ void size_maps(size_t texels, bool fit_s, TexelMaps* m) {
   m->determined.assign(texels, 0);
 }
 
-// Each texel's observations in order, for the texels [t_begin, t_end) of a w x h grid: their
-// texels read from the texture coordinates once (in parallel); then each thread sizes and fills
-// the lists of its own share of the texels, reading all of them (a read of 4 bytes per
-// observation is cheaper than the lists' scattered writes it splits).
-std::vector<std::vector<size_t>> texel_bins(const ObsSet& os, int w, int h, size_t t_begin,
-                                            size_t t_end) {
+// Each texel's observations in order, for the texels [t_begin, t_end) of a w x h grid, in one
+// array of 4-byte indices (the loader keeps fewer than 2^32 records), texel b's from at[b] to
+// at[b + 1]: 12 bytes an observation to fault in where a list per texel took 8 (and a million
+// allocations) besides the 4 of `entry`. Their texels are read from the texture coordinates once
+// (in parallel); then each thread counts, and after the sum of the counts places, its own share of
+// the texels, reading all of them (a read of 4 bytes per observation is cheaper than the scattered
+// writes it splits).
+struct TexelBins {
+  std::vector<uint32_t> idx;
+  std::vector<size_t> at;
+  size_t size(size_t b) const { return at[b + 1] - at[b]; }
+  // Texel b's observations as the solvers take them.
+  const std::vector<size_t>& list(size_t b) const {
+    thread_local std::vector<size_t> out;
+    out.assign(idx.begin() + static_cast<std::ptrdiff_t>(at[b]),
+               idx.begin() + static_cast<std::ptrdiff_t>(at[b + 1]));
+    return out;
+  }
+};
+
+TexelBins texel_bins(const ObsSet& os, int w, int h, size_t t_begin, size_t t_end) {
+  if (os.obs.size() >= UINT32_MAX) throw Error("fit --maps: 2^32 pixels or more; use --subsample");
   const size_t B = t_end - t_begin;
   std::vector<uint32_t> entry(os.obs.size());
   constexpr uint32_t kNone = UINT32_MAX;
@@ -134,17 +150,26 @@ std::vector<std::vector<size_t>> texel_bins(const ObsSet& os, int w, int h, size
                                        : kNone;
                       }
                     });
-  std::vector<std::vector<size_t>> bins(B);
+  TexelBins bins;
+  bins.at.assign(B + 1, 0);
   const size_t parts = static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  auto share = [&](size_t part) {
+    return std::pair{static_cast<uint32_t>(B * part / parts),
+                     static_cast<uint32_t>(B * (part + 1) / parts)};
+  };
   tbb::parallel_for(size_t{0}, parts, [&](size_t part) {
-    const auto b0 = static_cast<uint32_t>(B * part / parts);
-    const auto b1 = static_cast<uint32_t>(B * (part + 1) / parts);
-    std::vector<size_t> count(b1 - b0, 0);
+    const auto [b0, b1] = share(part);
     for (const uint32_t b : entry)
-      if (b >= b0 && b < b1) ++count[b - b0];  // kNone is past every b1
-    for (uint32_t b = b0; b < b1; ++b) bins[b].reserve(count[b - b0]);
+      if (b >= b0 && b < b1) ++bins.at[b + 1];  // kNone is past every b1
+  });
+  for (size_t b = 0; b < B; ++b) bins.at[b + 1] += bins.at[b];
+  bins.idx.resize(bins.at[B]);
+  tbb::parallel_for(size_t{0}, parts, [&](size_t part) {
+    const auto [b0, b1] = share(part);
+    std::vector<size_t> next(bins.at.begin() + b0, bins.at.begin() + b1);
     for (size_t i = 0; i < entry.size(); ++i)
-      if (entry[i] >= b0 && entry[i] < b1) bins[entry[i]].push_back(i);
+      if (entry[i] >= b0 && entry[i] < b1)
+        bins.idx[next[entry[i] - b0]++] = static_cast<uint32_t>(i);
   });
   return bins;
 }
@@ -166,14 +191,14 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   const int band0 = o.rows.band0, band1 = o.rows.band1;
   const size_t t_begin = static_cast<size_t>(band0) * w, t_end = static_cast<size_t>(band1) * w;
   const size_t B = t_end - t_begin;
-  const std::vector<std::vector<size_t>> bins = texel_bins(os, w, h, t_begin, t_end);
+  const TexelBins bins = texel_bins(os, w, h, t_begin, t_end);
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
   auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
     if (o.fiber_order > 0)
-      return o.ceres ? solve_texel_fiber_ceres(os, bins[b], from, o, prior)
-                     : solve_texel_fiber(os, bins[b], from, o, prior);
-    return o.ceres ? solve_texel_ceres(os, bins[b], from.c, prior, o.max_iterations)
-                   : solve_texel_lm(os, bins[b], from.c, prior, o.max_iterations);
+      return o.ceres ? solve_texel_fiber_ceres(os, bins.list(b), from, o, prior)
+                     : solve_texel_fiber(os, bins.list(b), from, o, prior);
+    return o.ceres ? solve_texel_ceres(os, bins.list(b), from.c, prior, o.max_iterations)
+                   : solve_texel_lm(os, bins.list(b), from.c, prior, o.max_iterations);
   };
   TexelResult start;  // the global fit
   start.c = global;
@@ -181,7 +206,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   std::vector<TexelResult> first(B, start);  // every texel alone
   tbb::parallel_for(tbb::blocked_range<size_t>(0, B, 4), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t b = r.begin(); b < r.end(); ++b, bar.advance())
-      if (bins[b].size() >= kMinTexelPixels) first[b] = solve(b, start, nullptr);
+      if (bins.size(b) >= kMinTexelPixels) first[b] = solve(b, start, nullptr);
   });
   const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
   // Without sweeps `first` is the result as it is (a copy would be 200 bytes a texel to fault in).
@@ -205,8 +230,8 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   double sr = 0, sv = 0;
   for (size_t t = 0; t < m.pixels.size(); ++t) {
     const size_t b = a + t;
-    m.pixels[t] = static_cast<int>(bins[b].size());
-    if (bins[b].size() >= kMinTexelPixels) {
+    m.pixels[t] = static_cast<int>(bins.size(b));
+    if (bins.size(b) >= kMinTexelPixels) {
       ++m.fitted, sr += now[b].rss, sv += now[b].values;
       if (!now[b].converged) ++m.not_converged;
     }
