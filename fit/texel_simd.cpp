@@ -1,6 +1,7 @@
 #include "fit/texel_simd.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 
@@ -93,6 +94,7 @@ ANISO_AVX2_INLINE Group load_group(const float* g) {
 
 struct LaneSums {
   v8f h[3][10], g[3][4], cost;
+  v8f grey_h[15], grey_g[3][5];  // under grey lights (grey_jac_sums)
 };
 
 // What a group's lanes share across the three channels, and their residuals, kept for the
@@ -100,6 +102,62 @@ struct LaneSums {
 struct GroupTerms {
   v8f sL, S, dS_dlogn, dD_dpsi, dS_dx, dx_dpsi, r[3];
 };
+
+constexpr size_t kPassBlock = 16;  // groups: their terms (4 KiB) stay in L1
+
+// pass_f32's J^T J and J^T r sums over the block's groups where every light is grey. Channel k's
+// row of J is (a, b, ks_k c, kd_k d + ks_k e) with a = W sL, b = W S, c = W dS/dlog n,
+// d = W dD/dpsi and e = W dS/dx dx/dpsi the same in the three channels: J^T J takes the 15
+// products of a .. e once (grey_assemble scales them per channel), J^T r five sums a channel; 36
+// multiply-adds a group where the channels apart take 66.
+ANISO_AVX2_INLINE void grey_jac_sums(const TexelLanes& t, size_t g0, size_t count,
+                                     const GroupTerms* terms, LaneSums* acc) {
+  v8f col[kPassBlock][5];
+  for (size_t b = 0; b < count; ++b) {
+    const GroupTerms& e = terms[b];
+    const v8f w = load8(t.f.data() + ((g0 + b) * TexelLanes::kRows + 5) * 8);
+    col[b][0] = w * e.sL, col[b][1] = w * e.S, col[b][2] = w * e.dS_dlogn;
+    col[b][3] = w * e.dD_dpsi, col[b][4] = w * (e.dS_dx * e.dx_dpsi);
+  }
+  // The products in two sweeps (9 and 6 sums) that fit the registers, then each channel's five.
+  for (const auto [i0, i1, t0] : {std::array<int, 3>{0, 2, 0}, std::array<int, 3>{2, 5, 9}}) {
+    v8f h[9];
+    for (int k = 0; k < 9; ++k) h[k] = acc->grey_h[t0 + k];
+    for (size_t b = 0; b < count; ++b) {
+      int tt = 0;
+      for (int i = i0; i < i1; ++i)
+        for (int j = i; j < 5; ++j) h[tt++] += col[b][i] * col[b][j];
+    }
+    const int n = i0 == 0 ? 9 : 6;
+    for (int k = 0; k < n; ++k) acc->grey_h[t0 + k] = h[k];
+  }
+  for (int k = 0; k < 3; ++k) {
+    v8f g[5];
+    for (int i = 0; i < 5; ++i) g[i] = acc->grey_g[k][i];
+    for (size_t b = 0; b < count; ++b)
+      for (int i = 0; i < 5; ++i) g[i] += col[b][i] * terms[b].r[k];
+    for (int i = 0; i < 5; ++i) acc->grey_g[k][i] = g[i];
+  }
+}
+
+// Channel k's J^T J (upper triangle, the order of pass_f32's h) and J^T r from grey_jac_sums'.
+ANISO_AVX2 void grey_assemble(const LaneSums& acc, const float kd[3], const float ks[3],
+                              ChannelSums<8>* s) {
+  double P[5][5], G[5];
+  for (int i = 0, tt = 0; i < 5; ++i)
+    for (int j = i; j < 5; ++j) P[i][j] = P[j][i] = hsum(acc.grey_h[tt++]);
+  for (int k = 0; k < 3; ++k) {
+    const double d = kd[k], e = ks[k];
+    for (int i = 0; i < 5; ++i) G[i] = hsum(acc.grey_g[k][i]);
+    double* h = s->h[k];
+    h[0] += P[0][0], h[1] += P[0][1], h[2] += e * P[0][2], h[3] += d * P[0][3] + e * P[0][4];
+    h[4] += P[1][1], h[5] += e * P[1][2], h[6] += d * P[1][3] + e * P[1][4];
+    h[7] += e * e * P[2][2], h[8] += e * (d * P[2][3] + e * P[2][4]);
+    h[9] += d * d * P[3][3] + 2 * d * e * P[3][4] + e * e * P[4][4];
+    double* g = s->g[k];
+    g[0] += G[0], g[1] += G[1], g[2] += e * G[2], g[3] += d * G[3] + e * G[4];
+  }
+}
 
 // The pass in blocks of groups: first every group's shared terms, residuals and cost (in group
 // order, as before), then channel by channel the J^T J and J^T r sums over the block. A channel's
@@ -116,7 +174,7 @@ ANISO_AVX2 void pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac
   v8f kd[3], ks[3];
   for (int k = 0; k < 3; ++k)
     kd[k] = splat(static_cast<float>(p.kd[k])), ks[k] = splat(static_cast<float>(p.ks[k]));
-  constexpr size_t kBlock = 16;  // groups: their terms (4 KiB) stay in L1
+  constexpr size_t kBlock = kPassBlock;
   GroupTerms terms[kBlock];
   for (size_t g0 = 0; g0 < t.groups; g0 += kBlock) {
     const size_t count = std::min(kBlock, t.groups - g0);
@@ -142,6 +200,10 @@ ANISO_AVX2 void pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac
       }
     }
     if (!jac) continue;
+    if (t.grey_light) {
+      grey_jac_sums(t, g0, count, terms, &acc);
+      continue;
+    }
     for (int k = 0; k < 3; ++k) {
       v8f h[10], g[4];
       for (int i = 0; i < 10; ++i) h[i] = acc.h[k][i];
@@ -166,6 +228,12 @@ ANISO_AVX2 void pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac
   sums->cost += cost;
   sums->rss += cost;
   if (!jac) return;
+  if (t.grey_light) {
+    float kdf[3], ksf[3];
+    for (int k = 0; k < 3; ++k) kdf[k] = kd[k][0], ksf[k] = ks[k][0];
+    grey_assemble(acc, kdf, ksf, sums);
+    return;
+  }
   for (int k = 0; k < 3; ++k) {
     for (int i = 0; i < 10; ++i) sums->h[k][i] += hsum(acc.h[k][i]);
     for (int i = 0; i < 4; ++i) sums->g[k][i] += hsum(acc.g[k][i]);

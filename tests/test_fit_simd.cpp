@@ -228,9 +228,10 @@ TEST(FitPaths, TexelFloatLanesAsTheDoublePass) {
 }
 
 // Under grey lights the start nodes share the channels' dd, ds, ss sums: the same numbers, bit for
-// bit, as the three channels summed apart (the lanes told their lights are not grey); a coloured
-// light anywhere in the texel keeps them apart.
-TEST(FitPaths, TexelGreyLightNodesAsThreeChannels) {
+// bit, as the three channels summed apart (the lanes told their lights are not grey); the pass's
+// J^T J and J^T r come from products shared by the channels, as the double pass's to float's
+// rounding; a coloured light anywhere in the texel keeps the channels apart.
+TEST(FitPaths, TexelGreyLightsAsThreeChannels) {
   if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
   ObsSet os = random_set(false, 1);
   for (ObsLight& l : os.lights) l.E[1] = l.E[2] = l.E[0];
@@ -253,6 +254,27 @@ TEST(FitPaths, TexelGreyLightNodesAsThreeChannels) {
       EXPECT_EQ(a[k].dy[ch], b[k].dy[ch]) << k << " " << ch;
       EXPECT_EQ(a[k].sy[ch], b[k].sy[ch]) << k << " " << ch;
     }
+  // The pass's J^T J and J^T r from the products shared by the channels, against the double pass
+  // over the same records (as FitPaths.TexelFloatLanesAsTheDoublePass for coloured lights).
+  const double kd[3] = {0.2, 0.3, 0.1}, ks[3] = {0.5, 0.4, 0.6};
+  for (double n : {1.0, 40.0, 2000.0}) {
+    const LinePixelParams p{kd, ks, n, std::cos(0.5), std::sin(0.5)};
+    ChannelSums<8> ref, f32, sep;
+    line_chunk(os, idx.data(), 0, idx.size(), p, RobustLoss{FitLoss::kNone, 0}, true, &ref);
+    texel_pass_f32(grey, p, true, &f32);
+    texel_pass_f32(apart, p, true, &sep);
+    double scale = 0;
+    for (int k = 0; k < 3; ++k)
+      for (int t = 0; t < 10; ++t) scale = std::max(scale, std::abs(ref.h[k][t]));
+    EXPECT_EQ(f32.cost, sep.cost) << n;  // the residuals are the same arithmetic
+    EXPECT_NEAR(f32.cost, ref.cost, 1e-4 * ref.cost) << n;
+    for (int k = 0; k < 3; ++k) {
+      for (int t = 0; t < 10; ++t)
+        EXPECT_NEAR(f32.h[k][t], ref.h[k][t], 1e-4 * scale) << n << " h " << k << " " << t;
+      for (int a = 0; a < 4; ++a)
+        EXPECT_NEAR(f32.g[k][a], ref.g[k][a], 1e-4 * scale) << n << " g " << k << " " << a;
+    }
+  }
   os.lights[os.obs[idx[40]].first_light].E[2] *= 1.5f;
   TexelLanes coloured;
   ASSERT_TRUE(texel_lanes(os, idx, &coloured));
