@@ -121,14 +121,14 @@ ANISO_AVX2_INLINE void grey_jac_sums(const TexelLanes& t, size_t g0, size_t coun
   }
   // The products in two sweeps (9 and 6 sums) that fit the registers, then each channel's five.
   for (const auto [i0, i1, t0] : {std::array<int, 3>{0, 2, 0}, std::array<int, 3>{2, 5, 9}}) {
+    const int n = i0 == 0 ? 9 : 6;  // the sweep's sums: grey_h[t0 .. t0 + n)
     v8f h[9];
-    for (int k = 0; k < 9; ++k) h[k] = acc->grey_h[t0 + k];
+    for (int k = 0; k < n; ++k) h[k] = acc->grey_h[t0 + k];
     for (size_t b = 0; b < count; ++b) {
       int tt = 0;
       for (int i = i0; i < i1; ++i)
         for (int j = i; j < 5; ++j) h[tt++] += col[b][i] * col[b][j];
     }
-    const int n = i0 == 0 ? 9 : 6;
     for (int k = 0; k < n; ++k) acc->grey_h[t0 + k] = h[k];
   }
   for (int k = 0; k < 3; ++k) {
