@@ -44,7 +44,7 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
         "mathematical topology; a topology map's amplitude per texel is not written yet");
   if (opt.maps_w > 0 && os.topology == TopologyMode::kTexels)
     throw Error("fit: --maps and --topology-map do not go together");
-  if (opt.maps_w > 0 && os.uv.size() != 2 * os.obs.size())
+  if (opt.maps_w > 0 && os.texel.size() != os.obs.size())
     throw Error(
         "fit: --maps needs texture coordinates: a capture set with \"uv\" buffers (a sample "
         "table has none)");

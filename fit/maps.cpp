@@ -116,15 +116,15 @@ void size_maps(size_t texels, bool fit_s, TexelMaps* m) {
   m->determined.assign(texels, 0);
 }
 
-// Each texel's observations in order, for the texels [t_begin, t_end) of a w x h grid, in one
-// array of 4-byte indices (the loader keeps fewer than 2^32 records), texel b's from at[b] to
-// at[b + 1]: 12 bytes an observation to fault in where a list per texel took 8 (and a million
-// allocations) besides the 4 of `entry`. Their texels are read from the texture coordinates once
-// (in parallel); then each thread counts, and after the sum of the counts places, its own share of
-// the texels, reading all of them (a read of 4 bytes per observation is cheaper than the scattered
-// writes it splits).
+// Each texel's observations in order, for the texels [t_begin, t_end) of the grid, in one array
+// of 4-byte indices (the loader keeps fewer than 2^32 records), texel b's from at[b] to at[b + 1]
+// (a list per texel took 8 bytes an observation and a million allocations). Each thread counts,
+// and after the sum of the counts places, its own share of the texels, reading the texel of every
+// observation (the loader's, ObsSet::texel: a read of 4 bytes per observation is cheaper than the
+// scattered writes it splits). `idx` is left unwritten until placed: the threads fault its pages
+// in where a serial zero fill took a third of the bins' time.
 struct TexelBins {
-  std::vector<uint32_t> idx;
+  std::vector<uint32_t, RecordAllocator<uint32_t>> idx;
   std::vector<size_t> at;
   size_t size(size_t b) const { return at[b + 1] - at[b]; }
   // Texel b's observations as the solvers take them.
@@ -136,20 +136,13 @@ struct TexelBins {
   }
 };
 
-TexelBins texel_bins(const ObsSet& os, int w, int h, size_t t_begin, size_t t_end) {
+TexelBins texel_bins(const ObsSet& os, size_t t_begin, size_t t_end) {
   if (os.obs.size() >= UINT32_MAX) throw Error("fit --maps: 2^32 pixels or more; use --subsample");
   const size_t B = t_end - t_begin;
-  std::vector<uint32_t> entry(os.obs.size());
-  constexpr uint32_t kNone = UINT32_MAX;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, os.obs.size(), 1 << 14),
-                    [&](const tbb::blocked_range<size_t>& r) {
-                      for (size_t i = r.begin(); i < r.end(); ++i) {
-                        const long t = texel_of(os.uv[2 * i], os.uv[2 * i + 1], w, h);
-                        entry[i] = t >= static_cast<long>(t_begin) && t < static_cast<long>(t_end)
-                                       ? static_cast<uint32_t>(t - t_begin)
-                                       : kNone;
-                      }
-                    });
+  // Texel t is entry t - t_begin, in 32 bits: a texel before t_begin wraps past every entry, as
+  // does kNoTexel (a grid has at most 16384^2 texels, so t_end is far below 2^32).
+  const auto first = static_cast<uint32_t>(t_begin);
+  const std::vector<uint32_t, RecordAllocator<uint32_t>>& texel = os.texel;
   TexelBins bins;
   bins.at.assign(B + 1, 0);
   const size_t parts = static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
@@ -159,17 +152,20 @@ TexelBins texel_bins(const ObsSet& os, int w, int h, size_t t_begin, size_t t_en
   };
   tbb::parallel_for(size_t{0}, parts, [&](size_t part) {
     const auto [b0, b1] = share(part);
-    for (const uint32_t b : entry)
-      if (b >= b0 && b < b1) ++bins.at[b + 1];  // kNone is past every b1
+    for (const uint32_t t : texel) {
+      const uint32_t b = t - first;
+      if (b >= b0 && b < b1) ++bins.at[b + 1];
+    }
   });
   for (size_t b = 0; b < B; ++b) bins.at[b + 1] += bins.at[b];
   bins.idx.resize(bins.at[B]);
   tbb::parallel_for(size_t{0}, parts, [&](size_t part) {
     const auto [b0, b1] = share(part);
     std::vector<size_t> next(bins.at.begin() + b0, bins.at.begin() + b1);
-    for (size_t i = 0; i < entry.size(); ++i)
-      if (entry[i] >= b0 && entry[i] < b1)
-        bins.idx[next[entry[i] - b0]++] = static_cast<uint32_t>(i);
+    for (size_t i = 0; i < texel.size(); ++i) {
+      const uint32_t b = texel[i] - first;
+      if (b >= b0 && b < b1) bins.idx[next[b - b0]++] = static_cast<uint32_t>(i);
+    }
   });
   return bins;
 }
@@ -191,7 +187,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   const int band0 = o.rows.band0, band1 = o.rows.band1;
   const size_t t_begin = static_cast<size_t>(band0) * w, t_end = static_cast<size_t>(band1) * w;
   const size_t B = t_end - t_begin;
-  const TexelBins bins = texel_bins(os, w, h, t_begin, t_end);
+  const TexelBins bins = texel_bins(os, t_begin, t_end);
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
   auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
     if (o.fiber_order > 0)

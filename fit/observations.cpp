@@ -30,31 +30,39 @@ struct RecordSlot {
   ObsLight* lights;
   uint32_t light_base;
   float* uv = nullptr;                 // two per observation, where kept
+  uint32_t* texel = nullptr;           // one per observation, where kept
   size_t num_obs = 0, num_lights = 0;  // written
 };
 
-// --global with --tile: the texels [t0, t1) of a w x h grid whose observations the tile keeps
-// (its rows and its --smooth band); every pixel where the band is off.
+// --maps: the w x h grid of the maps (w = 0 without), and with --global and --tile the texels
+// [t0, t1) whose observations the tile keeps (its rows and its --smooth band); every pixel where
+// the band is off.
 struct UvBand {
   bool on = false;
   int w = 0, h = 0;
   long t0 = 0, t1 = 0;
-  bool keeps(const ViewData& d, int x, int y) const {
-    if (!on) return true;
-    const long t = texel_of(d.geo->uv.at(x, y, 0), d.geo->uv.at(x, y, 1), w, h);
-    return t >= t0 && t < t1;
+  long texel(const ViewData& d, int x, int y) const {
+    return texel_of(d.geo->uv.at(x, y, 0), d.geo->uv.at(x, y, 1), w, h);
   }
+  bool keeps(long t) const { return !on || (t >= t0 && t < t1); }
+  bool keeps(const ViewData& d, int x, int y) const { return !on || keeps(texel(d, x, y)); }
 };
 
 UvBand uv_band(const FitOptions& opt) {
   UvBand b;
-  if (!opt.global || opt.tile_count == 0 || opt.maps_w == 0) return b;
+  if (opt.maps_w == 0) return b;
+  b.w = opt.maps_w, b.h = opt.maps_h;
+  if (!opt.global || opt.tile_count == 0) return b;
   const TileRows r = tile_rows(opt);
   b.on = true;
-  b.w = opt.maps_w, b.h = opt.maps_h;
   b.t0 = static_cast<long>(r.band0) * b.w, b.t1 = static_cast<long>(r.band1) * b.w;
   return b;
 }
+
+// The arrays kept beside the records: texture coordinates (--topology-map), texels (--maps).
+struct Kept {
+  bool uv = false, texel = false;
+};
 
 // The usable pixels on the stride grid (in the tile's band): the most records a view can give.
 size_t usable_on_grid(const ViewData& d, int stride, const UvBand& band) {
@@ -74,7 +82,8 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
     for (int x = 0; x < w; x += stride) {
       const size_t p = static_cast<size_t>(y) * w + x;
       if (!d.use[p]) continue;
-      if (!band.keeps(d, x, y)) {
+      const long t = band.w > 0 ? band.texel(d, x, y) : -1;
+      if (!band.keeps(t)) {
         ++rep->outside_tile;
         continue;
       }
@@ -111,6 +120,8 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
       }
       if (out->uv)
         for (int c = 0; c < 2; ++c) out->uv[2 * out->num_obs + c] = g.uv.px[2 * p + c];
+      if (out->texel)
+        out->texel[out->num_obs] = t < 0 ? ObsSet::kNoTexel : static_cast<uint32_t>(t);
       out->num_lights += lit;
       out->obs[out->num_obs++] = o;
     }
@@ -142,16 +153,18 @@ void drop_implausible(ObsSet* os, FitReport* rep, double given) {
   }
   rep->implausible_limit = limit;
   size_t kept = 0;
-  const bool uv = !os->uv.empty();
+  const bool uv = !os->uv.empty(), texel = !os->texel.empty();
   for (size_t i = 0; i < os->obs.size(); ++i) {
     const Observation& o = os->obs[i];
     if (!(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)) continue;
     if (uv) os->uv[2 * kept] = os->uv[2 * i], os->uv[2 * kept + 1] = os->uv[2 * i + 1];
+    if (texel) os->texel[kept] = os->texel[i];
     os->obs[kept++] = o;
   }
   rep->implausible += os->obs.size() - kept;
   os->obs.resize(kept);
   if (uv) os->uv.resize(2 * kept);
+  if (texel) os->texel.resize(kept);
 }
 
 // The fiber model's topology from what the set carries: a map means its amplitude is fitted over
@@ -234,7 +247,7 @@ size_t grow_by(V* v, size_t more, size_t batches_left) {
 
 // Closes the gaps a batch's views left in their slots (pixels without a frame or a light) and
 // trims the arrays to what was written; the reports are added up in view order.
-void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_start, bool keep_uv,
+void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_start, Kept keep,
                 ObsSet* os, FitReport* rep, std::vector<float>* diffs) {
   size_t o_end = obs_start, l_end = light_start;
   for (ViewPart& p : *parts) {
@@ -250,6 +263,8 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
       std::memmove(os->obs.data() + o_end, p.slot.obs, p.slot.num_obs * sizeof(Observation));
       if (p.slot.uv)
         std::memmove(os->uv.data() + 2 * o_end, p.slot.uv, 2 * p.slot.num_obs * sizeof(float));
+      if (p.slot.texel)
+        std::memmove(os->texel.data() + o_end, p.slot.texel, p.slot.num_obs * sizeof(uint32_t));
     }
     o_end += p.slot.num_obs;
     l_end += p.slot.num_lights;
@@ -263,12 +278,13 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
   }
   os->obs.resize(o_end);
   os->lights.resize(l_end);
-  if (keep_uv) os->uv.resize(2 * o_end);
+  if (keep.uv) os->uv.resize(2 * o_end);
+  if (keep.texel) os->texel.resize(o_end);
 }
 
 // Room in the set's arrays for a batch of views from view b0 on (each view's usable pixels and as
 // many lights each), and each view's slot in it; *obs_start, *light_start: where the batch begins.
-void make_room(const CaptureSet& set, size_t b0, size_t batches_left, bool keep_uv,
+void make_room(const CaptureSet& set, size_t b0, size_t batches_left, Kept keep,
                std::vector<ViewPart>* parts, ObsSet* os, size_t* obs_start, size_t* light_start) {
   size_t more_obs = 0, more_lights = 0;
   for (size_t k = 0; k < parts->size(); ++k) {
@@ -277,14 +293,16 @@ void make_room(const CaptureSet& set, size_t b0, size_t batches_left, bool keep_
   }
   *obs_start = grow_by(&os->obs, more_obs, batches_left);
   *light_start = grow_by(&os->lights, more_lights, batches_left);
-  if (keep_uv) grow_by(&os->uv, 2 * more_obs, batches_left);
+  if (keep.uv) grow_by(&os->uv, 2 * more_obs, batches_left);
+  if (keep.texel) grow_by(&os->texel, more_obs, batches_left);
   if (os->lights.size() > std::numeric_limits<uint32_t>::max())
     throw Error(set.file + ": more than 2^32 pixel lights; fit with --subsample");
   size_t o_at = *obs_start, l_at = *light_start;
   for (size_t k = 0; k < parts->size(); ++k) {
     ViewPart& p = (*parts)[k];
     p.slot = RecordSlot{os->obs.data() + o_at, os->lights.data() + l_at,
-                        static_cast<uint32_t>(l_at), keep_uv ? os->uv.data() + 2 * o_at : nullptr};
+                        static_cast<uint32_t>(l_at), keep.uv ? os->uv.data() + 2 * o_at : nullptr,
+                        keep.texel ? os->texel.data() + o_at : nullptr};
     o_at += p.bound;
     l_at += p.bound * set.views[b0 + k].lights.size();
   }
@@ -330,7 +348,8 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   tbb::task_arena arena(std::max(1, opt.threads));
   const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &map : nullptr;
   const UvBand band = uv_band(opt);
-  const bool keep_uv = opt.maps_w > 0 || opt.topology_texels > 0;  // both checked for uv above
+  // Both checked for uv above.
+  const Kept keep{opt.topology_texels > 0, opt.maps_w > 0};
   for (size_t b0 = 0; b0 < n; b0 += batch) {
     const size_t b1 = std::min(n, b0 + batch);
     std::vector<ViewPart> parts(b1 - b0);
@@ -347,8 +366,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
       });
     });
     size_t obs_start, light_start;
-    make_room(set, b0, (n - b0 + batch - 1) / batch, keep_uv, &parts, &os, &obs_start,
-              &light_start);
+    make_room(set, b0, (n - b0 + batch - 1) / batch, keep, &parts, &os, &obs_start, &light_start);
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
@@ -358,7 +376,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
         bar.advance();
       });
     });
-    close_gaps(&parts, obs_start, light_start, keep_uv, &os, &rep, &neighbour_diffs);
+    close_gaps(&parts, obs_start, light_start, keep, &os, &rep, &neighbour_diffs);
   }
   read_buffers.reset();
   // The implausible values and the noise estimate are independent: side by side.

@@ -63,9 +63,14 @@ struct RecordAllocator : std::allocator<T> {
 struct ObsSet {
   std::vector<Observation, RecordAllocator<Observation>> obs;
   std::vector<ObsLight, RecordAllocator<ObsLight>> lights;
-  // Texture coordinates u, v of obs[i] at uv[2i], uv[2i + 1]: only where a fit reads them (--maps,
-  // --topology-map); empty otherwise.
+  // Texture coordinates u, v of obs[i] at uv[2i], uv[2i + 1]: only where a fit reads them
+  // (--topology-map); empty otherwise.
   std::vector<float, RecordAllocator<float>> uv;
+  // --maps: the texel of obs[i] on the maps' grid (texel_of in fit/maps.h; kNoTexel outside
+  // [0, 1)^2), found once while loading: 4 bytes an observation to fault in where its u, v took 8,
+  // and no pass over them to bin. Empty without --maps.
+  static constexpr uint32_t kNoTexel = UINT32_MAX;
+  std::vector<uint32_t, RecordAllocator<uint32_t>> texel;
   TopologyMode topology = TopologyMode::kGlobalS;
   int texels = 0;            // kTexels: an N x N map of s over uv
   std::string topology_map;  // recorded in the result
