@@ -23,8 +23,13 @@ namespace {
 // The fiber model's residual (MODELS.md §4): blocks kd 3, ks 3, log n 1, psi 1, topology 1
 // (s, or the map amplitude A, or a constant dummy).
 struct FiberResidual {
-  FiberResidual(const Observation* o, const ObsLight* l, TopologyMode m, FiberAccuracy a)
-      : obs(o), lights(l), mode(m), acc(a) {}
+  FiberResidual(const ObsSet& os, size_t i, TopologyMode m, FiberAccuracy a)
+      : obs(&os.obs[i]),
+        lights(os.lights.data()),
+        smath(os.smath(i)),
+        mapv(os.mapv(i)),
+        mode(m),
+        acc(a) {}
 
   template <class T>
   bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* topo,
@@ -36,10 +41,10 @@ struct FiberResidual {
         s = topo[0];
         break;
       case TopologyMode::kAmplitude:
-        s = topology_with_map(obs->smath, topo[0], obs->mapv);
+        s = topology_with_map(smath, topo[0], mapv);
         break;
       default:
-        s = T(obs->smath);
+        s = T(smath);
         break;
     }
     pixel_residual(
@@ -49,14 +54,14 @@ struct FiberResidual {
     return true;
   }
 
-  static ceres::CostFunction* Create(const Observation* o, const ObsLight* l, TopologyMode m,
-                                     FiberAccuracy a) {
+  static ceres::CostFunction* Create(const ObsSet& os, size_t i, TopologyMode m, FiberAccuracy a) {
     return new ceres::AutoDiffCostFunction<FiberResidual, 3, 3, 3, 1, 1, 1>(
-        new FiberResidual(o, l, m, a));
+        new FiberResidual(os, i, m, a));
   }
 
   const Observation* obs;
   const ObsLight* lights;
+  float smath, mapv;  // the pixel's topology (ObsSet::topo)
   TopologyMode mode;
   FiberAccuracy acc;
 };
@@ -131,8 +136,8 @@ class FiberFit : public ModelFit {
         const double n = std::exp(node.logn);
         node.cost = solve_kd_ks(
             os, subset,
-            [&](const Observation& o, double* dcol, double* scol) {
-              fiber_columns(os, o, c, sn, n, pixel_s(o, node.t), grid_acc, dcol, scol);
+            [&](size_t i, const Observation& o, double* dcol, double* scol) {
+              fiber_columns(os, o, c, sn, n, pixel_s(os, i, node.t), grid_acc, dcol, scol);
             },
             node.kd, node.ks);
       });
@@ -176,8 +181,8 @@ class FiberFit : public ModelFit {
         if (pb->HasParameterBlock(&t)) set_param_bounds(pb, &t, 0, "topology.s");
     } else {
       for (size_t i : idx)
-        pb->AddResidualBlock(FiberResidual::Create(&os.obs[i], os.lights.data(), mode_, acc_), loss,
-                             core.kd, core.ks, &core.logn, &core.psi, topo_);
+        pb->AddResidualBlock(FiberResidual::Create(os, i, mode_, acc_), loss, core.kd, core.ks,
+                             &core.logn, &core.psi, topo_);
       if (fitted_topology())
         set_param_bounds(pb, topo_, 0, topology_key());
       else
@@ -201,7 +206,7 @@ class FiberFit : public ModelFit {
   int quadrature_order() const override { return acc_.order; }
 
   void residual(const ObsSet& os, size_t i, double r[3]) const override {
-    const FiberResidual f(&os.obs[i], os.lights.data(), mode_, acc_);
+    const FiberResidual f(os, i, mode_, acc_);
     f(core.kd, core.ks, &core.logn, &core.psi, topo_, r);
   }
 
@@ -281,16 +286,16 @@ class FiberFit : public ModelFit {
   // (fit/fiber_order.h); the start's note says which and why.
   std::string choose_order(const ObsSet& os, const std::vector<size_t>& subset) {
     if (acc_.order > 0) return "; quadrature order " + std::to_string(acc_.order) + " (as given)";
-    const FiberOrderChoice ch = choose_fiber_order(
-        os, subset, core, [&](const Observation& o) { return pixel_s(o, topo_[0]); });
+    const FiberOrderChoice ch =
+        choose_fiber_order(os, subset, core, [&](size_t i) { return pixel_s(os, i, topo_[0]); });
     acc_.order = ch.order;
     return ch.note;
   }
 
   // s at an observation for the topology value t (s or A) of the start grid.
-  double pixel_s(const Observation& o, double t) const {
-    if (mode_ == TopologyMode::kAmplitude) return topology_with_map(o.smath, t, o.mapv);
-    if (mode_ == TopologyMode::kMathematical) return o.smath;
+  double pixel_s(const ObsSet& os, size_t i, double t) const {
+    if (mode_ == TopologyMode::kAmplitude) return topology_with_map(os.smath(i), t, os.mapv(i));
+    if (mode_ == TopologyMode::kMathematical) return os.smath(i);
     return t;
   }
 
@@ -303,9 +308,9 @@ class FiberFit : public ModelFit {
 
 }  // namespace
 
-ceres::CostFunction* fiber_pixel_cost(const Observation* o, const ObsLight* lights,
-                                      TopologyMode mode, const FiberAccuracy& acc) {
-  return FiberResidual::Create(o, lights, mode, acc);
+ceres::CostFunction* fiber_pixel_cost(const ObsSet& os, size_t i, TopologyMode mode,
+                                      const FiberAccuracy& acc) {
+  return FiberResidual::Create(os, i, mode, acc);
 }
 
 std::unique_ptr<ModelFit> make_fiber_fit(const FitOptions& opt, const ObsSet& os) {

@@ -28,10 +28,12 @@ struct FiberPass {
     const J3 topo = P == 9 ? J3(x(P - 1), 2) : J3(0.0);
     const size_t count = subset ? subset->size() : os.obs.size();
     return fused_pass<P>(count, loss, jac, arena, [&](size_t j, ObsRow<P>* d) {
-      const Observation& o = os.obs[subset ? (*subset)[j] : j];
-      const J3 s = mode == TopologyMode::kGlobalS     ? topo
-                   : mode == TopologyMode::kAmplitude ? topology_with_map(o.smath, topo, o.mapv)
-                                                      : J3(o.smath);
+      const size_t i = subset ? (*subset)[j] : j;
+      const Observation& o = os.obs[i];
+      const J3 s = mode == TopologyMode::kGlobalS ? topo
+                   : mode == TopologyMode::kAmplitude
+                       ? topology_with_map(os.smath(i), topo, os.mapv(i))
+                       : J3(os.smath(i));
       row(o, kd, ks, n, c, sn, s, d);
     });
   }
@@ -41,7 +43,7 @@ struct FiberPass {
            const J3& sn, const J3& s, ObsRow<P>* d) const {
     const LocalDir& V = o.V;
     for (int k = 0; k < 3; ++k) {
-      d->r[k] = o.base[k] - double(o.y[k]);
+      d->r[k] = -double(o.y[k]);
       d->dkd[k] = d->dks[k] = 0;
       for (int j = 0; j < P - 6; ++j) d->shared[k][j] = 0;
     }

@@ -8,8 +8,7 @@
 namespace aniso::fitting {
 
 FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>& subset,
-                                    const Core& c,
-                                    const std::function<double(const Observation&)>& s_of) {
+                                    const Core& c, const std::function<double(size_t)>& s_of) {
   constexpr int kReference = 16, kSample = 400;
   constexpr int kOrders[] = {3, 4, 6, 8, 12};
   constexpr int kCount = sizeof kOrders / sizeof kOrders[0];
@@ -27,7 +26,7 @@ FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>&
   const size_t step = std::max<size_t>(1, subset.size() / kSample);
   for (size_t j = 0; j < subset.size(); j += step) {
     const Observation& o = os.obs[subset[j]];
-    const double s = s_of(o);
+    const double s = s_of(subset[j]);
     double f[kCount + 1][3];
     for (int k = 0; k <= kCount; ++k) {
       FiberAccuracy acc;

@@ -21,7 +21,6 @@ struct FiberOrderChoice {
 };
 
 FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>& subset,
-                                    const Core& c,
-                                    const std::function<double(const Observation&)>& s_of);
+                                    const Core& c, const std::function<double(size_t)>& s_of);
 
 }  // namespace aniso::fitting

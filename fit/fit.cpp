@@ -296,11 +296,12 @@ size_t export_observations(const CaptureSet& set, const FitOptions& opt, const s
   std::vector<double> rows;
   rows.reserve(os.obs.size() * 14);
   size_t n = 0;
-  for (const Observation& o : os.obs) {
+  for (size_t i = 0; i < os.obs.size(); ++i) {
+    const Observation& o = os.obs[i];
     if (o.num_lights != 1) continue;  // the benchmark scripts model one light per view
     const ObsLight& l = os.lights[o.first_light];
-    const double r[14] = {o.V.u,  o.V.w,  o.V.n,  l.L.u,  l.L.w,  l.L.n,   l.E[0],
-                          l.E[1], l.E[2], o.y[0], o.y[1], o.y[2], o.smath, o.mapv};
+    const double r[14] = {o.V.u,  o.V.w,  o.V.n,  l.L.u,  l.L.w,  l.L.n,       l.E[0],
+                          l.E[1], l.E[2], o.y[0], o.y[1], o.y[2], os.smath(i), os.mapv(i)};
     rows.insert(rows.end(), r, r + 14);
     ++n;
   }

@@ -46,7 +46,7 @@ inline void line_pixel_derivs(const Observation& o, const ObsLight* lights,
   const double b = clamp_unit(c * V.u + sn * V.w), db = -sn * V.u + c * V.w;
   double sV, dsV;
   sin_and_derivative(b, &sV, &dsV);
-  double f[3] = {o.base[0], o.base[1], o.base[2]};
+  double f[3] = {0, 0, 0};
   for (int k = 0; k < 3; ++k) d->dkd[k] = d->dks[k] = d->dlogn[k] = d->dpsi[k] = 0;
   for (uint32_t i = 0; i < o.num_lights; ++i) {
     const ObsLight& l = lights[o.first_light + i];

@@ -99,7 +99,7 @@ struct LaneSums {
 
 // The four observations' values, lane by lane.
 struct Lanes {
-  v4d Vu, Vw, Lu, Lw, Ln, E[3], y[3], base[3], mask;
+  v4d Vu, Vw, Lu, Lw, Ln, E[3], y[3], mask;
 };
 
 ANISO_AVX2_INLINE v4d load4(const double* p) {
@@ -122,9 +122,7 @@ ANISO_AVX2_INLINE void gather(const ObsSet& os, const size_t* idx, size_t count,
   v4d { l[0]->field, l[1]->field, l[2]->field, l[3]->field }
   q->Vu = ANISO_LANES(V.u), q->Vw = ANISO_LANES(V.w);
   q->Lu = ANISO_LIGHT_LANES(L.u), q->Lw = ANISO_LIGHT_LANES(L.w), q->Ln = ANISO_LIGHT_LANES(L.n);
-  for (int k = 0; k < 3; ++k)
-    q->E[k] = ANISO_LIGHT_LANES(E[k]), q->y[k] = ANISO_LANES(y[k]),
-    q->base[k] = ANISO_LANES(base[k]);
+  for (int k = 0; k < 3; ++k) q->E[k] = ANISO_LIGHT_LANES(E[k]), q->y[k] = ANISO_LANES(y[k]);
 #undef ANISO_LANES
 #undef ANISO_LIGHT_LANES
   q->mask = v4d{1.0, count > 1 ? 1.0 : 0.0, count > 2 ? 1.0 : 0.0, count > 3 ? 1.0 : 0.0};
@@ -150,7 +148,7 @@ ANISO_AVX2 void group(const Lanes& q, const LinePixelParams& p, const RobustLoss
   v4d r[3], v[3][4];
   for (int k = 0; k < 3; ++k) {
     const v4d w = q.E[k] * q.Ln, kd = splat(p.kd[k]), ks = splat(p.ks[k]);
-    r[k] = (q.base[k] + w * (kd * sL + ks * S)) - q.y[k];
+    r[k] = w * (kd * sL + ks * S) - q.y[k];
     v[k][0] = w * sL;
     v[k][1] = w * S;
     v[k][2] = w * ks * dS_dlogn;
@@ -207,7 +205,7 @@ ANISO_AVX2_INLINE v4d row4(const float* g, int k) {
 }
 
 // The texel's transposed rows (fit/texel_simd.h) in double, four lanes at a time: the weights
-// already times n_L (Ln 1) and the values less the known part (base 0).
+// already times n_L (Ln 1).
 ANISO_AVX2 void lanes_pass_avx2(const TexelLanes& t, const LinePixelParams& p, bool jac,
                                 ChannelSums<8>* sums) {
   LaneSums acc;
@@ -215,7 +213,6 @@ ANISO_AVX2 void lanes_pass_avx2(const TexelLanes& t, const LinePixelParams& p, b
   const RobustLoss none{FitLoss::kNone, 0};
   Lanes q;
   q.Ln = splat(1.0);
-  for (int k = 0; k < 3; ++k) q.base[k] = splat(0.0);
   for (size_t gi = 0; gi < t.groups; ++gi)
     for (int half = 0; half < 2; ++half) {
       const float* g = t.f.data() + gi * TexelLanes::kRows * 8 + 4 * half;
@@ -257,7 +254,7 @@ ANISO_AVX2 void nodes_avx2(const ObsSet& os, const size_t* idx, size_t count, co
       }
     }
     for (int ch = 0; ch < 3; ++ch) {
-      const double y = o.y[ch] - o.base[ch];
+      const double y = o.y[ch];
       dd[ch] += dcol[ch] * dcol[ch];
       ds[ch] += dcol[ch] * scol[ch];
       ss[ch] += scol[ch] * scol[ch];
@@ -305,7 +302,7 @@ ANISO_AVX2 void grid_avx2(const ObsSet& os, const double psi[4], KdKsSums out[4]
     }
     v4d y[3];
     for (int ch = 0; ch < 3; ++ch) {
-      const double yc = o.y[ch] - o.base[ch];
+      const double yc = o.y[ch];
       y[ch] = splat(yc);
       dd[ch] += dcol[ch] * dcol[ch];
       dy[ch] += dcol[ch] * y[ch];

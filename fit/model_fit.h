@@ -102,8 +102,8 @@ ceres::CostFunction* line_pixel_cost(const Observation* o, const ObsLight* light
 std::unique_ptr<ModelFit> make_fiber_fit(const FitOptions& opt, const ObsSet& os);
 // One pixel's residual of the fiber model by autodiff (Ceres' reference for the fused solver);
 // blocks (k_d 3, k_s 3, log n 1, psi 1, topology 1: s, A, or a constant under kMathematical).
-ceres::CostFunction* fiber_pixel_cost(const Observation* o, const ObsLight* lights,
-                                      TopologyMode mode, const FiberAccuracy& acc);
+ceres::CostFunction* fiber_pixel_cost(const ObsSet& os, size_t i, TopologyMode mode,
+                                      const FiberAccuracy& acc);
 
 // Bounds of k_d, k_s, log n from models/params.h and psi on its half-turn manifold: the blocks
 // every problem shares.
@@ -125,10 +125,10 @@ LineParamsT<T> fitted_params(const T* kd, const T* ks, const T* logn, const T* p
   return p;
 }
 
-// residual = known part + sum over the pixel's lights of E * reflectance(L, V) - y.
+// residual = sum over the pixel's lights of E * reflectance(L, V) - y.
 template <class T, class Reflectance>
 void pixel_residual(const Observation* obs, const ObsLight* lights, Reflectance reflectance, T* r) {
-  T acc[3] = {T(obs->base[0]), T(obs->base[1]), T(obs->base[2])};
+  T acc[3] = {T(0.0), T(0.0), T(0.0)};
   for (uint32_t i = 0; i < obs->num_lights; ++i) {
     const ObsLight& l = lights[obs->first_light + i];
     T f[3];

@@ -31,6 +31,7 @@ struct RecordSlot {
   uint32_t light_base;
   float* uv = nullptr;                 // two per observation, where kept
   uint32_t* texel = nullptr;           // one per observation, where kept
+  float* topo = nullptr;               // two per observation, where kept
   size_t num_obs = 0, num_lights = 0;  // written
 };
 
@@ -59,9 +60,10 @@ UvBand uv_band(const FitOptions& opt) {
   return b;
 }
 
-// The arrays kept beside the records: texture coordinates (--topology-map), texels (--maps).
+// The arrays kept beside the records: texture coordinates (--topology-map), texels (--maps), the
+// fiber model's topology (a topology buffer or map).
 struct Kept {
-  bool uv = false, texel = false;
+  bool uv = false, texel = false, topo = false;
 };
 
 // The usable pixels on the stride grid (in the tile's band): the most records a view can give.
@@ -73,9 +75,8 @@ size_t usable_on_grid(const ViewData& d, int stride, const UvBand& band) {
   return n;
 }
 
-void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureSet& set,
-                            const Material& known, int stride, const UvBand& band, RecordSlot* out,
-                            FitReport* rep) {
+void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, const UvBand& band,
+                            RecordSlot* out, FitReport* rep) {
   const int w = d.rgb.width, h = d.rgb.height;
   const ViewGeometry& g = *d.geo;
   for (int y = 0; y < h; y += stride)
@@ -108,12 +109,7 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
         out->lights[out->num_lights + lit++] = ol;
       }
       o.num_lights = static_cast<uint32_t>(lit);
-      for (int k = 0; k < 3; ++k) {
-        o.y[k] = d.rgb.at(x, y, k);
-        o.base[k] = v.exposure * known.ka[k] * set.ambient[k];
-      }
-      o.smath = g.smath_at(p);
-      o.mapv = g.mapv_at(p);
+      for (int k = 0; k < 3; ++k) o.y[k] = d.rgb.at(x, y, k);
       if (o.num_lights == 0) {
         ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
         continue;
@@ -122,6 +118,8 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, const CaptureS
         for (int c = 0; c < 2; ++c) out->uv[2 * out->num_obs + c] = g.uv.px[2 * p + c];
       if (out->texel)
         out->texel[out->num_obs] = t < 0 ? ObsSet::kNoTexel : static_cast<uint32_t>(t);
+      if (out->topo)
+        out->topo[2 * out->num_obs] = g.smath_at(p), out->topo[2 * out->num_obs + 1] = g.mapv_at(p);
       out->num_lights += lit;
       out->obs[out->num_obs++] = o;
     }
@@ -153,18 +151,20 @@ void drop_implausible(ObsSet* os, FitReport* rep, double given) {
   }
   rep->implausible_limit = limit;
   size_t kept = 0;
-  const bool uv = !os->uv.empty(), texel = !os->texel.empty();
+  const bool uv = !os->uv.empty(), texel = !os->texel.empty(), topo = !os->topo.empty();
   for (size_t i = 0; i < os->obs.size(); ++i) {
     const Observation& o = os->obs[i];
     if (!(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)) continue;
     if (uv) os->uv[2 * kept] = os->uv[2 * i], os->uv[2 * kept + 1] = os->uv[2 * i + 1];
     if (texel) os->texel[kept] = os->texel[i];
+    if (topo) os->topo[2 * kept] = os->topo[2 * i], os->topo[2 * kept + 1] = os->topo[2 * i + 1];
     os->obs[kept++] = o;
   }
   rep->implausible += os->obs.size() - kept;
   os->obs.resize(kept);
   if (uv) os->uv.resize(2 * kept);
   if (texel) os->texel.resize(kept);
+  if (topo) os->topo.resize(2 * kept);
 }
 
 // The fiber model's topology from what the set carries: a map means its amplitude is fitted over
@@ -265,6 +265,8 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
         std::memmove(os->uv.data() + 2 * o_end, p.slot.uv, 2 * p.slot.num_obs * sizeof(float));
       if (p.slot.texel)
         std::memmove(os->texel.data() + o_end, p.slot.texel, p.slot.num_obs * sizeof(uint32_t));
+      if (p.slot.topo)
+        std::memmove(os->topo.data() + 2 * o_end, p.slot.topo, 2 * p.slot.num_obs * sizeof(float));
     }
     o_end += p.slot.num_obs;
     l_end += p.slot.num_lights;
@@ -280,6 +282,7 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
   os->lights.resize(l_end);
   if (keep.uv) os->uv.resize(2 * o_end);
   if (keep.texel) os->texel.resize(o_end);
+  if (keep.topo) os->topo.resize(2 * o_end);
 }
 
 // Room in the set's arrays for a batch of views from view b0 on (each view's usable pixels and as
@@ -295,14 +298,18 @@ void make_room(const CaptureSet& set, size_t b0, size_t batches_left, Kept keep,
   *light_start = grow_by(&os->lights, more_lights, batches_left);
   if (keep.uv) grow_by(&os->uv, 2 * more_obs, batches_left);
   if (keep.texel) grow_by(&os->texel, more_obs, batches_left);
+  if (keep.topo) grow_by(&os->topo, 2 * more_obs, batches_left);
   if (os->lights.size() > std::numeric_limits<uint32_t>::max())
     throw Error(set.file + ": more than 2^32 pixel lights; fit with --subsample");
   size_t o_at = *obs_start, l_at = *light_start;
   for (size_t k = 0; k < parts->size(); ++k) {
     ViewPart& p = (*parts)[k];
-    p.slot = RecordSlot{os->obs.data() + o_at, os->lights.data() + l_at,
-                        static_cast<uint32_t>(l_at), keep.uv ? os->uv.data() + 2 * o_at : nullptr,
-                        keep.texel ? os->texel.data() + o_at : nullptr};
+    p.slot = RecordSlot{os->obs.data() + o_at,
+                        os->lights.data() + l_at,
+                        static_cast<uint32_t>(l_at),
+                        keep.uv ? os->uv.data() + 2 * o_at : nullptr,
+                        keep.texel ? os->texel.data() + o_at : nullptr,
+                        keep.topo ? os->topo.data() + 2 * o_at : nullptr};
     o_at += p.bound;
     l_at += p.bound * set.views[b0 + k].lights.size();
   }
@@ -325,7 +332,6 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   ObsSet os;
   FitReport& rep = *rep_out;
   rep.views = set.views.size();
-  const Material known;  // k_a = 0 unless given: the ambient term is not fitted
   choose_topology(set, opt, &os);
   if (opt.maps_w > 0)
     for (size_t i = 0; i < set.views.size(); ++i)
@@ -349,7 +355,9 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &map : nullptr;
   const UvBand band = uv_band(opt);
   // Both checked for uv above.
-  const Kept keep{opt.topology_texels > 0, opt.maps_w > 0};
+  const Kept keep{
+      opt.topology_texels > 0, opt.maps_w > 0,
+      os.topology == TopologyMode::kAmplitude || os.topology == TopologyMode::kMathematical};
   for (size_t b0 = 0; b0 < n; b0 += batch) {
     const size_t b1 = std::min(n, b0 + batch);
     std::vector<ViewPart> parts(b1 - b0);
@@ -370,7 +378,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
-        add_pixel_observations(p.d, set.views[i], set, known, opt.subsample, band, &p.slot, &p.rep);
+        add_pixel_observations(p.d, set.views[i], opt.subsample, band, &p.slot, &p.rep);
         read_buffers->give_back(std::move(p.d.rgb));
         p.d = ViewData{};
         bar.advance();
@@ -401,19 +409,16 @@ ObsSet table_observations(const SampleTable& t, FitReport* rep) {
     ObsLight l;
     l.L = dir_from_angles(row.theta_i, row.phi_i);
     l.E[0] = l.E[1] = l.E[2] = 1.0;
-    for (int k = 0; k < 3; ++k) {
-      o.y[k] = row.value[k];
-      o.base[k] = 0.0;
-    }
+    for (int k = 0; k < 3; ++k) o.y[k] = row.value[k];
     if (!(l.L.n > 0.0)) {
       ++rep->unlit;
       continue;
     }
     o.first_light = static_cast<uint32_t>(os.lights.size());
     o.num_lights = 1;
-    o.smath = row.s;
     os.lights.push_back(l);
     os.obs.push_back(o);
+    if (t.has_s) os.topo.insert(os.topo.end(), {static_cast<float>(row.s), 0.f});
   }
   // A table with an s column gives the fiber model's topology per row; otherwise one s is fitted.
   if (t.has_s) os.topology = TopologyMode::kMathematical;

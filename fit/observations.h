@@ -17,9 +17,10 @@ namespace aniso::fitting {
 
 // A record holds everything in float: directions (a unit direction to float's 6e-8; the lobe's
 // x^n moves by n times that, 6e-5 relative at n = 1000, far below any image's noise, and the
-// models read them as double), values from images, irradiance: 52 + 24 bytes per pixel and light,
-// 0.68 of the 14-double record BENCHMARKS.md counts the memory against (they were 72 + 40 with the
-// directions in double, and 60 + 24 with the texture coordinates in every record).
+// models read them as double), values from images, irradiance: 32 + 24 bytes per pixel and light,
+// half the 14-double record BENCHMARKS.md counts the memory against (they were 72 + 40 with the
+// directions in double, 60 + 24 with the texture coordinates in every record, and 52 + 24 with
+// an ambient part that was always 0 and the fiber model's topology in every record).
 struct LocalDirF {
   float u = 0, w = 0, n = 1;
   LocalDirF() = default;
@@ -31,14 +32,14 @@ struct ObsLight {
   LocalDirF L;
   float E[3];  // irradiance times exposure, per channel
 };
+// The ambient term k_a I_a is not fitted and k_a is taken as 0 (MODELS.md: a known constant part
+// would be exposure k_a I_a per view), so a value is the lights' sum alone.
 struct Observation {
   LocalDirF V;
   uint32_t first_light = 0, num_lights = 0;
-  float y[3];                 // measured value
-  float base[3];              // known constant part (ambient times k_a, which is not fitted)
-  float smath = 0, mapv = 0;  // fiber model: mathematical topology and map value at the pixel
+  float y[3];  // measured value
 };
-static_assert(sizeof(ObsLight) == 24 && sizeof(Observation) == 52, "records as counted above");
+static_assert(sizeof(ObsLight) == 24 && sizeof(Observation) == 32, "records as counted above");
 // How the fiber model's topology enters: one s for the whole sample, the map amplitude A on top
 // of per-pixel s_math and map values, s_math alone (nothing to fit), or a map of s over uv.
 enum class TopologyMode { kGlobalS, kAmplitude, kMathematical, kTexels };
@@ -71,6 +72,12 @@ struct ObsSet {
   // and no pass over them to bin. Empty without --maps.
   static constexpr uint32_t kNoTexel = UINT32_MAX;
   std::vector<uint32_t, RecordAllocator<uint32_t>> texel;
+  // The fiber model's mathematical topology s_math and topology-map value m of obs[i] at
+  // topo[2i], topo[2i + 1]: only where the set has a topology buffer or map (kAmplitude,
+  // kMathematical); empty otherwise, where both are 0.
+  std::vector<float, RecordAllocator<float>> topo;
+  float smath(size_t i) const { return topo.empty() ? 0.f : topo[2 * i]; }
+  float mapv(size_t i) const { return topo.empty() ? 0.f : topo[2 * i + 1]; }
   TopologyMode topology = TopologyMode::kGlobalS;
   int texels = 0;            // kTexels: an N x N map of s over uv
   std::string topology_map;  // recorded in the result

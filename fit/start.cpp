@@ -25,7 +25,7 @@ double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, doubl
   const double c = std::cos(psi), s = std::sin(psi);
   return solve_kd_ks(
       os, subset,
-      [&](const Observation& o, double* dcol, double* scol) {
+      [&](size_t, const Observation& o, double* dcol, double* scol) {
         const double b = clamp_unit(c * o.V.u + s * o.V.w), sV = sin_from_cos(b);
         for (uint32_t k = 0; k < o.num_lights; ++k) {
           const ObsLight& l = os.lights[o.first_light + k];
@@ -109,7 +109,7 @@ void grid_column(const ObsSet& os, double psi, KdKsSums sums[kGridN]) {
         for (int ch = 0; ch < 3; ++ch) scol[3 * in + ch] += w[ch] * p;
       }
     }
-    const double y[3] = {o.y[0] - o.base[0], o.y[1] - o.base[1], o.y[2] - o.base[2]};
+    const double y[3] = {o.y[0], o.y[1], o.y[2]};
     for (int ch = 0; ch < 3; ++ch) {
       dd[ch] += dcol[ch] * dcol[ch];
       dy[ch] += dcol[ch] * y[ch];

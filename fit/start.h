@@ -32,7 +32,8 @@ struct KdKsSums {
   double solve(double kd[3], double ks[3]) const;
 };
 
-// The same over `subset`, with the columns from cols(o) -> (diffuse, specular).
+// The same over `subset`, with the columns from cols(i, o) -> (diffuse, specular) for o =
+// os.obs[i].
 template <class Cols>
 double solve_kd_ks(const ObsSet& os, const std::vector<size_t>& subset, Cols cols, double kd[3],
                    double ks[3]) {
@@ -40,8 +41,8 @@ double solve_kd_ks(const ObsSet& os, const std::vector<size_t>& subset, Cols col
   for (size_t i : subset) {
     const Observation& o = os.obs[i];
     double dcol[3] = {0, 0, 0}, scol[3] = {0, 0, 0};
-    cols(o, dcol, scol);
-    const double y[3] = {o.y[0] - o.base[0], o.y[1] - o.base[1], o.y[2] - o.base[2]};
+    cols(i, o, dcol, scol);
+    const double y[3] = {o.y[0], o.y[1], o.y[2]};
     sums.add(dcol, scol, y);
   }
   return sums.solve(kd, ks);

@@ -351,18 +351,9 @@ bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* o
     const Observation& o = os.obs[idx[j]];
     const ObsLight& l = os.lights[o.first_light];
     float* g = out->f.data() + (j / 8) * TexelLanes::kRows * 8 + j % 8;
-    const float row[TexelLanes::kRows] = {o.V.u,
-                                          o.V.w,
-                                          l.L.u,
-                                          l.L.w,
-                                          l.L.n,
-                                          l.E[0] * l.L.n,
-                                          l.E[1] * l.L.n,
-                                          l.E[2] * l.L.n,
-                                          o.y[0] - o.base[0],
-                                          o.y[1] - o.base[1],
-                                          o.y[2] - o.base[2],
-                                          1.f};
+    const float row[TexelLanes::kRows] = {o.V.u,  o.V.w,          l.L.u,          l.L.w,
+                                          l.L.n,  l.E[0] * l.L.n, l.E[1] * l.L.n, l.E[2] * l.L.n,
+                                          o.y[0], o.y[1],         o.y[2],         1.f};
     for (int k = 0; k < TexelLanes::kRows; ++k) g[8 * k] = row[k];
     out->grey_light = out->grey_light && l.E[0] == l.E[1] && l.E[1] == l.E[2];
     for (int c = 0; c < 3; ++c) out->yy[c] += static_cast<double>(row[8 + c]) * row[8 + c];

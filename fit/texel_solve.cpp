@@ -162,7 +162,7 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
     double kd[3], ks[3];
     const double cost = solve_kd_ks(
         os, idx,
-        [&](const Observation& ob, double* dcol, double* scol) {
+        [&](size_t, const Observation& ob, double* dcol, double* scol) {
           fiber_columns(os, ob, c, sn, n, s, acc, dcol, scol);
         },
         kd, ks);
@@ -212,9 +212,8 @@ TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>&
   acc.order = o.fiber_order;
   std::vector<ceres::ResidualBlockId> data;
   for (size_t i : idx)
-    data.push_back(
-        pb.AddResidualBlock(fiber_pixel_cost(&os.obs[i], os.lights.data(), os.topology, acc),
-                            nullptr, c.kd, c.ks, &c.logn, &c.psi, &t.s));
+    data.push_back(pb.AddResidualBlock(fiber_pixel_cost(os, i, os.topology, acc), nullptr, c.kd,
+                                       c.ks, &c.logn, &c.psi, &t.s));
   const bool fit_s = os.topology != TopologyMode::kMathematical;
   if (prior) add_prior(*prior, &pb, &c);
   if (prior && fit_s && prior->ws > 0)

@@ -74,7 +74,6 @@ ObsSet random_set(bool chord, int lights) {
     o.first_light = static_cast<uint32_t>(os.lights.size());
     o.num_lights = lights;
     for (int k = 0; k < 3; ++k) o.y[k] = static_cast<float>(0.3 + 0.2 * u(rng) + (i % 50 == 0));
-    for (int k = 0; k < 3; ++k) o.base[k] = 0.01f * k;
     for (int j = 0; j < lights; ++j) {
       ObsLight l;
       l.L = dir(0.01);
