@@ -150,7 +150,7 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   mat.n = std::exp(c.logn);
   mat.fiber_angle_deg = wrap_fiber_deg(rad_to_deg(c.psi));
   m->assemble(os, &res);
-  res.fixed["ka"] = "not fitted: taken as given (the capture's ambient multiplies it)";
+  res.fixed["ka"] = "not fitted: taken as 0 (a capture with an ambient says so in the warnings)";
   const auto t_cov = Clock::now();
   estimate_uncertainty(m.get(), os, opt, &sol, &res);
   rep.covariance = res.report.covariance;

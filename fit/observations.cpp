@@ -395,6 +395,11 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   os.grey = grey_views == set.views.size();
   rep.pixels = os.obs.size();
   rep.observations = os.obs.size() * (os.grey ? 1 : 3);
+  if (set.ambient[0] != 0 || set.ambient[1] != 0 || set.ambient[2] != 0)
+    rep.warnings.push_back(
+        set.file + ": its ambient " + jsonu::to_json(set.ambient).dump() +
+        " is not fitted: k_a is taken as 0 and the values as the lights' sum alone (a sample that "
+        "reflects the ambient light shows it as a higher k_d)");
   return os;
 }
 

@@ -283,6 +283,25 @@ TEST(Trust, AModelThatDoesNotDescribeTheDataIsSaidPlainly) {
   EXPECT_LT(ratio, 1.4);
 }
 
+// The fit has no ambient term (k_a is taken as 0): a capture that states an ambient light gets a
+// warning naming it, not a k_d quietly lifted by it.
+TEST(Trust, AnAmbientLightTheFitDoesNotModelIsSaid) {
+  const std::string dir = small_capture(test::tmp_dir("ambient"));
+  auto r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("WARNING"), std::string::npos) << r.output;
+  auto set = nlohmann::json::parse(read_text_file(dir + "/capture.json"));
+  set["ambient"] = {0.05, 0.05, 0.05};
+  write_text_file(dir + "/capture.json", set.dump(2));
+  r = test::run_cli("fit " + dir + " --out " + dir + "/../m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("WARNING: " + dir + "/capture.json: its ambient [0.05,0.05,0.05]"),
+            std::string::npos)
+      << r.output;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/../m.json"));
+  EXPECT_NE(j["report"]["warnings"].dump().find("ambient"), std::string::npos);
+}
+
 TEST(Trust, ManyIdenticalViewsDoNotAliasTheStartSubset) {
   const std::string dir = capture_of(test::tmp_dir("same"), "brushed-metal", 1, 10, 0.01);
   // 4000 copies of one view: a stride of (observations / 4000) lands on one pixel every time.
