@@ -32,13 +32,35 @@ struct Run {
   bool ok = false;
 };
 
-// The `aniso` a user runs: the lean one beside this binary (cli/commands_lean.cpp), else this one.
-const std::string& aniso_binary() {
-  static const std::string path = [] {
+// The `aniso` a user runs: the lean one beside this binary (cli/commands_lean.cpp), else this one,
+// run from a private copy made at the first call (the suite runs it for minutes, and a rebuild in
+// the meantime timed a mix of two builds); the copy goes when this process ends.
+class BinaryCopy {
+ public:
+  BinaryCopy() {
     const std::string lean = program_beside_self("aniso");
-    return lean.empty() ? std::string("/proc/self/exe") : lean;
-  }();
-  return path;
+    std::error_code ec;
+    from_ = lean.empty() ? std::filesystem::read_symlink("/proc/self/exe", ec).string() : lean;
+    copy_ = (std::filesystem::temp_directory_path(ec) /
+             ("aniso-bench-" + std::to_string(::getpid()) + "-" + std::to_string(stamp())))
+                .string();
+    if (ec || !std::filesystem::copy_file(from_, copy_, ec) || ec) copy_.clear();
+  }
+  ~BinaryCopy() {
+    std::error_code ec;
+    if (!copy_.empty()) std::filesystem::remove(copy_, ec);
+  }
+  // The copy, or the binary itself where no copy could be made.
+  const std::string& path() const { return copy_.empty() ? from_ : copy_; }
+
+ private:
+  static unsigned stamp() { return static_cast<unsigned>(Clock::now().time_since_epoch().count()); }
+  std::string from_, copy_;
+};
+
+const std::string& aniso_binary() {
+  static const BinaryCopy binary;
+  return binary.path();
 }
 
 // `aniso` with `args`, its wall time and peak resident memory (getrusage of the child).
