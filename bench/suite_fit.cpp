@@ -118,6 +118,16 @@ json bench_fit(const std::string& work, bool quick) {
         "%.2e), ratios %.2f / %.2f\n",
         sub, r.report.observations, r.report.seconds, r.report.seconds_solve, e.worst(), scipy_s,
         scipy_err, scipy_s / r.report.seconds, scipy_s / r.report.seconds_solve);
+    if (!std::isfinite(scipy_s)) {
+      // Its last line says why (a missing numpy or scipy is the usual reason).
+      std::string why = outtxt;
+      while (!why.empty() && why.back() == '\n') why.pop_back();
+      why = why.substr(why.rfind('\n') == std::string::npos ? 0 : why.rfind('\n') + 1);
+      std::printf(
+          "bench fit: WARNING: the SciPy baseline did not run (%s): `scripts/install_deps.sh "
+          "--with-python` installs numpy and scipy\n",
+          why.empty() ? "no output" : why.c_str());
+    }
   }
   // Linearity: time per observation across the sweep.
   // Peak memory of a full-resolution fit, measured in a child process.

@@ -12,6 +12,7 @@
 #include "core/texture.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
+#include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/material_io.h"
@@ -107,6 +108,19 @@ TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
   all >> pixels >> rms;
   std::printf("verify with the fitted maps: residual RMS %.4f over %.0f pixels\n", rms, pixels);
   EXPECT_LT(rms, 0.025);
+  // --residuals: one image a view whose values (0 off the sample) give the same RMS.
+  r = test::run_cli("verify " + dir + "/set " + dir + "/fit/m.json --residuals " + dir + "/res");
+  ASSERT_EQ(r.status, 0) << r.output;
+  double sum2 = 0;
+  size_t files = 0;
+  for (const auto& f : std::filesystem::directory_iterator(dir + "/res")) {
+    if (f.path().extension() != ".exr") continue;  // the folder's .aniso-output marker
+    const Image img = read_image(f.path().string()).image;
+    for (float v : img.px) sum2 += static_cast<double>(v) * v;
+    ++files;
+  }
+  EXPECT_EQ(files, read_capture(dir + "/set").views.size());
+  EXPECT_NEAR(std::sqrt(sum2 / (3 * pixels)), rms, 1e-3 * rms);
 }
 
 // The other presets with maps (issue 11): a woven patch (a checker of warp and weft blocks that
