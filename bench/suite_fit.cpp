@@ -36,6 +36,22 @@
 namespace aniso::benchutil {
 
 // ------------------------------------------------------------------------------------------------
+namespace {
+
+// A SciPy run that gave no result: its output's last line says why (a missing numpy or scipy is
+// the usual reason).
+void warn_no_scipy(std::string out) {
+  while (!out.empty() && out.back() == '\n') out.pop_back();
+  const std::string why =
+      out.substr(out.rfind('\n') == std::string::npos ? 0 : out.rfind('\n') + 1);
+  std::printf(
+      "bench fit: WARNING: the SciPy baseline did not run (%s): `scripts/install_deps.sh "
+      "--with-python` installs numpy and scipy\n",
+      why.empty() ? "no output" : why.c_str());
+}
+
+}  // namespace
+
 json bench_fit(const std::string& work, bool quick) {
   json out = json::array();
   PresetOptions po;
@@ -118,16 +134,7 @@ json bench_fit(const std::string& work, bool quick) {
         "%.2e), ratios %.2f / %.2f\n",
         sub, r.report.observations, r.report.seconds, r.report.seconds_solve, e.worst(), scipy_s,
         scipy_err, scipy_s / r.report.seconds, scipy_s / r.report.seconds_solve);
-    if (!std::isfinite(scipy_s)) {
-      // Its last line says why (a missing numpy or scipy is the usual reason).
-      std::string why = outtxt;
-      while (!why.empty() && why.back() == '\n') why.pop_back();
-      why = why.substr(why.rfind('\n') == std::string::npos ? 0 : why.rfind('\n') + 1);
-      std::printf(
-          "bench fit: WARNING: the SciPy baseline did not run (%s): `scripts/install_deps.sh "
-          "--with-python` installs numpy and scipy\n",
-          why.empty() ? "no output" : why.c_str());
-    }
+    if (!std::isfinite(scipy_s)) warn_no_scipy(outtxt);
   }
   // Linearity: time per observation across the sweep.
   // Peak memory of a full-resolution fit, measured in a child process.

@@ -13,6 +13,20 @@
 
 namespace aniso {
 
+namespace {
+
+// A material with maps, or a map of s, is read at each pixel's texture coordinates.
+void check_uv(const CaptureSet& set, size_t i, const ViewGeometry& g, bool maps, bool s_map) {
+  if (s_map && g.uv.empty())
+    throw Error(set.file + ": the material's map of s needs the \"uv\" buffer");
+  if (maps && g.uv.empty())
+    throw Error(set.file + ": views[" + std::to_string(i) +
+                "]: the material has maps (k_d, k_s, n or fiber over uv); the view needs the "
+                "\"uv\" buffer");
+}
+
+}  // namespace
+
 VerifyResult verify_capture(const CaptureSet& set, const Material& m,
                             const std::string& residual_dir) {
   VerifyResult res;
@@ -36,12 +50,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
   for (size_t i = 0; i < set.views.size(); ++i) {
     ViewData d = load_view(set, i, use_map ? &map : nullptr, &geometry);
     const ViewGeometry& g = *d.geo;
-    if (!s_map.empty() && g.uv.empty())
-      throw Error(set.file + ": the material's map of s needs the \"uv\" buffer");
-    if (m.maps.any() && g.uv.empty())
-      throw Error(set.file + ": views[" + std::to_string(i) +
-                  "]: the material has maps (k_d, k_s, n or fiber over uv); the view needs the "
-                  "\"uv\" buffer");
+    check_uv(set, i, g, m.maps.any(), !s_map.empty());
     const ViewSpec& v = set.views[i];
     ViewError e;
     double s2 = 0, sy = 0;
