@@ -17,7 +17,7 @@ constexpr size_t kMaxStartObs = 4000;  // the start and stage 1 use at most this
 struct KdKsSums {
   double dd[3] = {0, 0, 0}, ds[3] = {0, 0, 0}, ss[3] = {0, 0, 0}, dy[3] = {0, 0, 0},
          sy[3] = {0, 0, 0}, yy[3] = {0, 0, 0};
-  // One observation: its diffuse and specular columns and its value less the known part.
+  // One observation: its diffuse and specular columns and its value.
   void add(const double dcol[3], const double scol[3], const double y[3]) {
     for (int ch = 0; ch < 3; ++ch) {
       dd[ch] += dcol[ch] * dcol[ch];

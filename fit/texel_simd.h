@@ -17,12 +17,12 @@ namespace aniso::fitting {
 struct KdKsSums;
 
 // Per group of eight: u, w of V and L, n of L, the irradiance times n_L per channel, the value
-// less the known part per channel, and 1 for an observation or 0 for padding: 12 x 8 floats.
+// per channel, and 1 for an observation or 0 for padding: 12 x 8 floats.
 struct TexelLanes {
   static constexpr int kRows = 12;
   size_t groups = 0, count = 0;
   std::vector<float> f;      // groups * kRows * 8
-  double yy[3] = {0, 0, 0};  // sum of the squared values less the known part, per channel
+  double yy[3] = {0, 0, 0};  // sum of the squared values, per channel
   bool grey_light = false;   // every light's irradiance the same in the three channels
 };
 
