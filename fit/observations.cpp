@@ -66,6 +66,15 @@ struct Kept {
   bool uv = false, texel = false, topo = false;
 };
 
+// f(array, its values per observation) for each array beside the records that `keep` keeps: the
+// one place that knows them, for growing, moving, trimming and filtering them with the records.
+template <class F>
+void for_each_kept(const Kept& keep, ObsSet* os, F f) {
+  if (keep.uv) f(os->uv, 2);
+  if (keep.texel) f(os->texel, 1);
+  if (keep.topo) f(os->topo, 2);
+}
+
 // The usable pixels on the stride grid (in the tile's band): the most records a view can give.
 size_t usable_on_grid(const ViewData& d, int stride, const UvBand& band) {
   size_t n = 0;
@@ -130,7 +139,7 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, co
 // above kImplausible times the 90th percentile of all values is left out and counted (a real
 // highlight is brighter than most pixels, but not 10^4 times brighter than the brightest tenth).
 // `given` > 0: that limit instead (a --global fit's, for the maps after it).
-void drop_implausible(ObsSet* os, FitReport* rep, double given) {
+void drop_implausible(const Kept& keep, ObsSet* os, FitReport* rep, double given) {
   double limit = given;
   if (!(limit > 0)) {
     if (os->obs.size() < 100) return;
@@ -151,20 +160,17 @@ void drop_implausible(ObsSet* os, FitReport* rep, double given) {
   }
   rep->implausible_limit = limit;
   size_t kept = 0;
-  const bool uv = !os->uv.empty(), texel = !os->texel.empty(), topo = !os->topo.empty();
   for (size_t i = 0; i < os->obs.size(); ++i) {
     const Observation& o = os->obs[i];
     if (!(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)) continue;
-    if (uv) os->uv[2 * kept] = os->uv[2 * i], os->uv[2 * kept + 1] = os->uv[2 * i + 1];
-    if (texel) os->texel[kept] = os->texel[i];
-    if (topo) os->topo[2 * kept] = os->topo[2 * i], os->topo[2 * kept + 1] = os->topo[2 * i + 1];
+    for_each_kept(keep, os, [&](auto& v, size_t per) {
+      std::copy_n(v.begin() + per * i, per, v.begin() + per * kept);
+    });
     os->obs[kept++] = o;
   }
   rep->implausible += os->obs.size() - kept;
   os->obs.resize(kept);
-  if (uv) os->uv.resize(2 * kept);
-  if (texel) os->texel.resize(kept);
-  if (topo) os->topo.resize(2 * kept);
+  for_each_kept(keep, os, [&](auto& v, size_t per) { v.resize(per * kept); });
 }
 
 // The fiber model's topology from what the set carries: a map means its amplitude is fitted over
@@ -261,12 +267,10 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
     }
     if (o_at != o_end) {
       std::memmove(os->obs.data() + o_end, p.slot.obs, p.slot.num_obs * sizeof(Observation));
-      if (p.slot.uv)
-        std::memmove(os->uv.data() + 2 * o_end, p.slot.uv, 2 * p.slot.num_obs * sizeof(float));
-      if (p.slot.texel)
-        std::memmove(os->texel.data() + o_end, p.slot.texel, p.slot.num_obs * sizeof(uint32_t));
-      if (p.slot.topo)
-        std::memmove(os->topo.data() + 2 * o_end, p.slot.topo, 2 * p.slot.num_obs * sizeof(float));
+      for_each_kept(keep, os, [&](auto& v, size_t per) {
+        std::memmove(v.data() + per * o_end, v.data() + per * o_at,
+                     per * p.slot.num_obs * sizeof(v[0]));
+      });
     }
     o_end += p.slot.num_obs;
     l_end += p.slot.num_lights;
@@ -280,9 +284,7 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
   }
   os->obs.resize(o_end);
   os->lights.resize(l_end);
-  if (keep.uv) os->uv.resize(2 * o_end);
-  if (keep.texel) os->texel.resize(o_end);
-  if (keep.topo) os->topo.resize(2 * o_end);
+  for_each_kept(keep, os, [&](auto& v, size_t per) { v.resize(per * o_end); });
 }
 
 // Room in the set's arrays for a batch of views from view b0 on (each view's usable pixels and as
@@ -296,9 +298,7 @@ void make_room(const CaptureSet& set, size_t b0, size_t batches_left, Kept keep,
   }
   *obs_start = grow_by(&os->obs, more_obs, batches_left);
   *light_start = grow_by(&os->lights, more_lights, batches_left);
-  if (keep.uv) grow_by(&os->uv, 2 * more_obs, batches_left);
-  if (keep.texel) grow_by(&os->texel, more_obs, batches_left);
-  if (keep.topo) grow_by(&os->topo, 2 * more_obs, batches_left);
+  for_each_kept(keep, os, [&](auto& v, size_t per) { grow_by(&v, per * more_obs, batches_left); });
   if (os->lights.size() > std::numeric_limits<uint32_t>::max())
     throw Error(set.file + ": more than 2^32 pixel lights; fit with --subsample");
   size_t o_at = *obs_start, l_at = *light_start;
@@ -389,7 +389,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   read_buffers.reset();
   // The implausible values and the noise estimate are independent: side by side.
   const double given = opt.global ? opt.global->implausible_limit : 0;
-  tbb::parallel_invoke([&] { drop_implausible(&os, &rep, given); },
+  tbb::parallel_invoke([&] { drop_implausible(keep, &os, &rep, given); },
                        [&] { os.pixel_noise = pixel_noise(&neighbour_diffs); });
   // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
   os.grey = grey_views == set.views.size();
