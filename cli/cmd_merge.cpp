@@ -6,13 +6,14 @@
 #include "core/error.h"
 #include "fit/fit.h"
 #include "io/files.h"
+#include "io/image_io.h"
 
 namespace aniso::cli {
 
 Command add_merge(CLI::App& app) {
   struct Args {
     std::vector<std::string> tiles;
-    std::string out;
+    std::string out, compression = "none";
   };
   auto a = std::make_shared<Args>();
   auto* c = app.add_subcommand(
@@ -21,11 +22,14 @@ Command add_merge(CLI::App& app) {
       "material and its maps: the same files as one untiled run");
   c->add_option("TILES", a->tiles, "every tile's file")->required();
   c->add_option("--out", a->out, "material file to write (its maps go beside it)")->required();
+  add_exr_compression(c, &a->compression,
+                      "the maps (as `fit --maps` writes them: the same default)");
   return {c, [a] {
             std::vector<std::string> outputs{a->out};
             for (const auto& f : map_files(a->out))
               outputs.push_back(join_path(parent_dir(a->out), f));
             check_outputs_apart(outputs, a->tiles);
+            set_exr_compression(a->compression);
             merge_maps_tiles(a->tiles, a->out);
             std::printf("merge: %zu tiles -> %s (and its maps)\n", a->tiles.size(), a->out.c_str());
             return 0;

@@ -129,12 +129,7 @@ Command add_synth(CLI::App& app) {
   synth->add_option("--rig", po.rig,
                     "fixed-camera, orbit, or a rig JSON file (default: the preset's)");
   synth->add_option("--truth", a->truth, "use this material file as the ground truth instead");
-  synth
-      ->add_option(
-          "--exr-compression", a->compression,
-          "EXR compression: none (fastest), zip (zlib level 1, about half the size) or piz")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"zip", "piz", "none"}));
+  add_exr_compression(synth, &a->compression, "the images and geometry buffers");
   synth->add_option("--topology-s", po.topology_s, "fiber-flat: the sample's topology value s")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));

@@ -67,6 +67,10 @@ const MpiWorld* mpi_world();
 
 // `--size WxH` or `--size N` (errors name `opt`: --size, --maps).
 void parse_size(const std::string& s, int* w, int* h, const char* opt = "--size");
+// `--exr-compression` of a command that writes float EXRs (`what` names them in its help): none,
+// zip or piz, into *value (its default is the command's); the command hands it to
+// set_exr_compression when it runs.
+void add_exr_compression(CLI::App* sub, std::string* value, const std::string& what);
 // A non-zero direction "x,y,z" for option `opt`.
 Vec3 parse_vec(const std::string& s, const std::string& opt);
 // The fiber model's map the material names (relative to its file), or `map_override`, into the

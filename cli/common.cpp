@@ -57,6 +57,15 @@ void parse_size(const std::string& s, int* w, int* h, const char* opt) {
   *h = static_cast<int>(b);
 }
 
+void add_exr_compression(CLI::App* sub, std::string* value, const std::string& what) {
+  sub->add_option("--exr-compression", *value,
+                  "EXR compression of " + what +
+                      ": none (fastest), zip (zlib level 1: about half the size of smooth "
+                      "images, 0.8 of noisy maps; ~40 MB/s a core) or piz")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"zip", "piz", "none"}));
+}
+
 Vec3 parse_vec(const std::string& s, const std::string& opt) {
   Vec3 v;
   char extra;

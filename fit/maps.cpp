@@ -14,6 +14,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <type_traits>
+#include <utility>
 
 #include "core/angles.h"
 #include "core/progress.h"
@@ -26,6 +28,10 @@ namespace aniso::fitting {
 namespace {
 
 constexpr size_t kMinTexelPixels = 12;  // fewer: not even tried
+
+// Per texel, left unwritten when sized (RecordAllocator): the solving threads write each entry.
+static_assert(std::is_trivially_copyable_v<TexelResult>, "written over unconstructed entries");
+using TexelResults = std::vector<TexelResult, RecordAllocator<TexelResult>>;
 
 double prior_sigma(const char* key) {
   const ParamSpec& p = line_param(key);
@@ -60,8 +66,8 @@ struct BandGrid {
 // The prior of entry b for the next sweep: its 4 neighbours' values of this sweep (those the data
 // determined; with `with_s` their s too), weights lambda x neighbours / (H^-1)_kk from the
 // texel's first, unpulled fit.
-bool smoothing_prior(const std::vector<TexelResult>& now, const std::vector<TexelResult>& first,
-                     const BandGrid& g, size_t b, double lambda, bool with_s, TexelPrior* p) {
+bool smoothing_prior(const TexelResults& now, const TexelResults& first, const BandGrid& g,
+                     size_t b, double lambda, bool with_s, TexelPrior* p) {
   const int x = static_cast<int>(b % g.w), y = g.row0 + static_cast<int>(b / g.w);
   const Vec8 self = pack_core(now[b].c);
   Vec8 sum = Vec8::Zero();
@@ -118,11 +124,12 @@ void size_maps(size_t texels, bool fit_s, TexelMaps* m) {
 
 // Each texel's observations in order, for the texels [t_begin, t_end) of the grid, in one array
 // of 4-byte indices (the loader keeps fewer than 2^32 records), texel b's from at[b] to at[b + 1]
-// (a list per texel took 8 bytes an observation and a million allocations). Each thread counts,
-// and after the sum of the counts places, its own share of the texels, reading the texel of every
-// observation (the loader's, ObsSet::texel: a read of 4 bytes per observation is cheaper than the
-// scattered writes it splits). `idx` is left unwritten until placed: the threads fault its pages
-// in where a serial zero fill took a third of the bins' time.
+// (a list per texel took 8 bytes an observation and a million allocations). A counting sort in two
+// levels, stable at both: each observation's index goes first to its band of kBandTexels texels
+// (one stream per band, written in order), then each band is sorted by texel in a buffer that stays
+// in cache. Placing each index at once at its texel wrote at random over the whole array (300 MB
+// for the 2048^2 set's map): ~1 s of its texel phase. `idx` is left unwritten until placed: the
+// threads fault its pages in where a serial zero fill took a third of the bins' time then.
 struct TexelBins {
   std::vector<uint32_t, RecordAllocator<uint32_t>> idx;
   std::vector<size_t> at;
@@ -136,36 +143,63 @@ struct TexelBins {
   }
 };
 
+constexpr int kBandShift = 12;  // 4096 texels a band: ~1.3 MB of indices at 80 pixels a texel
+constexpr size_t kBandTexels = size_t{1} << kBandShift;
+
+// The first level: idx holds each band's indices in order, band k's from band_at[k].
+void bin_by_band(const std::vector<uint32_t, RecordAllocator<uint32_t>>& texel, uint32_t first,
+                 size_t B, TexelBins* bins, std::vector<size_t>* band_at) {
+  const size_t bands = (B + kBandTexels - 1) >> kBandShift, n = texel.size();
+  const size_t parts = static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  // Part p's observations [n p / parts, n (p + 1) / parts) and its count (then its next place)
+  // per band at next[p][k].
+  std::vector<std::vector<size_t>> next(parts, std::vector<size_t>(bands, 0));
+  auto for_part = [&](size_t p, auto&& f) {
+    for (size_t i = n * p / parts, end = n * (p + 1) / parts; i < end; ++i) {
+      const uint32_t b = texel[i] - first;
+      if (b < B) f(i, b >> kBandShift);
+    }
+  };
+  tbb::parallel_for(size_t{0}, parts,
+                    [&](size_t p) { for_part(p, [&](size_t, uint32_t k) { ++next[p][k]; }); });
+  band_at->assign(bands + 1, 0);
+  size_t sum = 0;  // band by band, in each the parts in order: stable
+  for (size_t k = 0; k < bands; ++k) {
+    (*band_at)[k] = sum;
+    for (size_t p = 0; p < parts; ++p) sum += std::exchange(next[p][k], sum);
+  }
+  (*band_at)[bands] = sum;
+  bins->idx.resize(sum);
+  tbb::parallel_for(size_t{0}, parts, [&](size_t p) {
+    for_part(p, [&](size_t i, uint32_t k) { bins->idx[next[p][k]++] = static_cast<uint32_t>(i); });
+  });
+}
+
 TexelBins texel_bins(const ObsSet& os, size_t t_begin, size_t t_end) {
   if (os.obs.size() >= UINT32_MAX) throw Error("fit --maps: 2^32 pixels or more; use --subsample");
   const size_t B = t_end - t_begin;
   // Texel t is entry t - t_begin, in 32 bits: a texel before t_begin wraps past every entry, as
   // does kNoTexel (a grid has at most 16384^2 texels, so t_end is far below 2^32).
   const auto first = static_cast<uint32_t>(t_begin);
-  const std::vector<uint32_t, RecordAllocator<uint32_t>>& texel = os.texel;
   TexelBins bins;
-  bins.at.assign(B + 1, 0);
-  const size_t parts = static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
-  auto share = [&](size_t part) {
-    return std::pair{static_cast<uint32_t>(B * part / parts),
-                     static_cast<uint32_t>(B * (part + 1) / parts)};
-  };
-  tbb::parallel_for(size_t{0}, parts, [&](size_t part) {
-    const auto [b0, b1] = share(part);
-    for (const uint32_t t : texel) {
-      const uint32_t b = t - first;
-      if (b >= b0 && b < b1) ++bins.at[b + 1];
+  std::vector<size_t> band_at;
+  bin_by_band(os.texel, first, B, &bins, &band_at);
+  bins.at.resize(B + 1);
+  bins.at[B] = band_at.back();
+  tbb::parallel_for(size_t{0}, band_at.size() - 1, [&](size_t k) {
+    const size_t t0 = k << kBandShift, nt = std::min(kBandTexels, B - t0);
+    const size_t j0 = band_at[k], j1 = band_at[k + 1];
+    thread_local std::vector<uint32_t> count, sorted;
+    count.assign(nt + 1, 0);
+    for (size_t j = j0; j < j1; ++j) ++count[os.texel[bins.idx[j]] - first - t0 + 1];
+    for (size_t t = 0; t < nt; ++t) count[t + 1] += count[t];
+    for (size_t t = 0; t < nt; ++t) bins.at[t0 + t] = j0 + count[t];
+    sorted.resize(j1 - j0);
+    for (size_t j = j0; j < j1; ++j) {
+      const uint32_t i = bins.idx[j];
+      sorted[count[os.texel[i] - first - t0]++] = i;
     }
-  });
-  for (size_t b = 0; b < B; ++b) bins.at[b + 1] += bins.at[b];
-  bins.idx.resize(bins.at[B]);
-  tbb::parallel_for(size_t{0}, parts, [&](size_t part) {
-    const auto [b0, b1] = share(part);
-    std::vector<size_t> next(bins.at.begin() + b0, bins.at.begin() + b1);
-    for (size_t i = 0; i < texel.size(); ++i) {
-      const uint32_t b = texel[i] - first;
-      if (b >= b0 && b < b1) bins.idx[next[b - b0]++] = static_cast<uint32_t>(i);
-    }
+    std::copy(sorted.begin(), sorted.end(), bins.idx.begin() + static_cast<std::ptrdiff_t>(j0));
   });
   return bins;
 }
@@ -199,17 +233,19 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   TexelResult start;  // the global fit
   start.c = global;
   start.s = o.s;
-  std::vector<TexelResult> first(B, start);  // every texel alone
+  // Every texel alone, each entry written first by the thread that solves it (~170 MB for a
+  // 1024^2 map: filling it with the start ahead of the threads took ~0.1 s of one core).
+  TexelResults first(B);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, B, 4), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t b = r.begin(); b < r.end(); ++b, bar.advance())
-      if (bins.size(b) >= kMinTexelPixels) first[b] = solve(b, start, nullptr);
+      first[b] = bins.size(b) >= kMinTexelPixels ? solve(b, start, nullptr) : start;
   });
   const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
   // Without sweeps `first` is the result as it is (a copy would be 200 bytes a texel to fault in).
-  std::vector<TexelResult> now = m.sweeps > 0 ? first : std::move(first);
+  TexelResults now = m.sweeps > 0 ? first : std::move(first);
   const BandGrid grid{w, band0, band1};
   for (int sweep = 0; sweep < m.sweeps; ++sweep) {
-    std::vector<TexelResult> next = now;
+    TexelResults next = now;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, B, 4),
                       [&](const tbb::blocked_range<size_t>& r) {
                         for (size_t b = r.begin(); b < r.end(); ++b, bar.advance()) {

@@ -282,6 +282,19 @@ TEST(FitMaps, SmoothingBringsNoisyTexelsCloserToTheTruth) {
     EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
                 read_text_file(dir + "/merged_" + k + ".exr"))
         << k << ": the merged smoothed map differs from the untiled one";
+  // --exr-compression zip (fit and merge alike): other bytes than the default's (none), the same
+  // values.
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --smooth 1 --smooth-sweeps 2 " +
+                    "--exr-compression zip --out " + dir + "/zip.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("merge" + tiles + " --exr-compression zip --out " + dir + "/zipmerged.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* k : {"kd", "fiber_sigma"}) {
+    const std::string plain = dir + "/whole_" + k + ".exr", zip = dir + "/zip_" + k + ".exr";
+    EXPECT_NE(read_text_file(plain), read_text_file(zip)) << k;
+    EXPECT_EQ(read_text_file(zip), read_text_file(dir + "/zipmerged_" + k + ".exr")) << k;
+    EXPECT_EQ(read_image(plain).image.px, read_image(zip).image.px) << k;
+  }
   r = test::run_cli("fit " + dir + "/set --maps 8x6 --tile 0/3 --out " + dir + "/plain0.json");
   ASSERT_EQ(r.status, 0) << r.output;
   r = test::run_cli("merge " + dir + "/plain0.json " + dir + "/t1.json " + dir + "/t2.json --out " +
