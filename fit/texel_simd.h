@@ -26,8 +26,9 @@ struct TexelLanes {
   bool grey_light = false;   // every light's irradiance the same in the three channels
 };
 
-// The texel's observations idx as lanes; false (nothing written) where line_simd_enabled() is
-// false (no AVX2/FMA, or switched off) or an observation has other than one light.
+// The texel's observations idx as lanes; false (*out is then not to be read) where
+// line_simd_enabled() is false (no AVX2/FMA, or switched off) or an observation has other than
+// one light.
 bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out);
 
 // The texel's pass at p (no robust loss, as every texel's fit): cost, and the J^T J and J^T r
