@@ -11,9 +11,9 @@
 #include <limits>
 
 #include "core/error.h"
-#include "core/frame.h"
 #include "core/progress.h"
 #include "fit/maps.h"
+#include "fit/pixel_records.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
@@ -22,43 +22,6 @@
 namespace aniso::fitting {
 
 namespace {
-
-// Where a view's records go: obs and lights at these places of the set's arrays (room for every
-// usable pixel of the stride grid), the lights numbered from light_base.
-struct RecordSlot {
-  Observation* obs;
-  ObsLight* lights;
-  uint32_t light_base;
-  float* uv = nullptr;                 // two per observation, where kept
-  uint32_t* texel = nullptr;           // one per observation, where kept
-  float* topo = nullptr;               // two per observation, where kept
-  size_t num_obs = 0, num_lights = 0;  // written
-};
-
-// --maps: the w x h grid of the maps (w = 0 without), and with --global and --tile the texels
-// [t0, t1) whose observations the tile keeps (its rows and its --smooth band); every pixel where
-// the band is off.
-struct UvBand {
-  bool on = false;
-  int w = 0, h = 0;
-  long t0 = 0, t1 = 0;
-  long texel(const ViewData& d, int x, int y) const {
-    return texel_of(d.geo->uv.at(x, y, 0), d.geo->uv.at(x, y, 1), w, h);
-  }
-  bool keeps(long t) const { return !on || (t >= t0 && t < t1); }
-  bool keeps(const ViewData& d, int x, int y) const { return !on || keeps(texel(d, x, y)); }
-};
-
-UvBand uv_band(const FitOptions& opt) {
-  UvBand b;
-  if (opt.maps_w == 0) return b;
-  b.w = opt.maps_w, b.h = opt.maps_h;
-  if (!opt.global || opt.tile_count == 0) return b;
-  const TileRows r = tile_rows(opt);
-  b.on = true;
-  b.t0 = static_cast<long>(r.band0) * b.w, b.t1 = static_cast<long>(r.band1) * b.w;
-  return b;
-}
 
 // The arrays kept beside the records: texture coordinates (--topology-map), texels (--maps), the
 // fiber model's topology (a topology buffer or map).
@@ -73,65 +36,6 @@ void for_each_kept(const Kept& keep, ObsSet* os, F f) {
   if (keep.uv) f(os->uv, 2);
   if (keep.texel) f(os->texel, 1);
   if (keep.topo) f(os->topo, 2);
-}
-
-// The usable pixels on the stride grid (in the tile's band): the most records a view can give.
-size_t usable_on_grid(const ViewData& d, int stride, const UvBand& band) {
-  size_t n = 0;
-  for (int y = 0; y < d.rgb.height; y += stride)
-    for (int x = 0; x < d.rgb.width; x += stride)
-      n += d.use[static_cast<size_t>(y) * d.rgb.width + x] && band.keeps(d, x, y);
-  return n;
-}
-
-void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, const UvBand& band,
-                            RecordSlot* out, FitReport* rep) {
-  const int w = d.rgb.width, h = d.rgb.height;
-  const ViewGeometry& g = *d.geo;
-  for (int y = 0; y < h; y += stride)
-    for (int x = 0; x < w; x += stride) {
-      const size_t p = static_cast<size_t>(y) * w + x;
-      if (!d.use[p]) continue;
-      const long t = band.w > 0 ? band.texel(d, x, y) : -1;
-      if (!band.keeps(t)) {
-        ++rep->outside_tile;
-        continue;
-      }
-      SurfacePoint sp;
-      if (!frame_at(g.P, g.N, g.U, x, y, &sp)) {
-        ++rep->nonfinite;
-        continue;
-      }
-      Observation o;
-      o.V = to_local(sp, normalize(d.eye - sp.P));
-      o.first_light = out->light_base + static_cast<uint32_t>(out->num_lights);
-      size_t lit = 0;
-      for (const Light& l : v.lights) {
-        Vec3 L;
-        RGB E;
-        double dist;
-        if (!light_at(l, sp.P, &L, &E, &dist)) continue;
-        ObsLight ol;
-        ol.L = to_local(sp, L);
-        if (!(ol.L.n > 0.0)) continue;
-        for (int k = 0; k < 3; ++k) ol.E[k] = v.exposure * E[k];
-        out->lights[out->num_lights + lit++] = ol;
-      }
-      o.num_lights = static_cast<uint32_t>(lit);
-      for (int k = 0; k < 3; ++k) o.y[k] = d.rgb.at(x, y, k);
-      if (o.num_lights == 0) {
-        ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
-        continue;
-      }
-      if (out->uv)
-        for (int c = 0; c < 2; ++c) out->uv[2 * out->num_obs + c] = g.uv.px[2 * p + c];
-      if (out->texel)
-        out->texel[out->num_obs] = t < 0 ? ObsSet::kNoTexel : static_cast<uint32_t>(t);
-      if (out->topo)
-        out->topo[2 * out->num_obs] = g.smath_at(p), out->topo[2 * out->num_obs + 1] = g.mapv_at(p);
-      out->num_lights += lit;
-      out->obs[out->num_obs++] = o;
-    }
 }
 
 // Values far above anything else in the set (hot pixels, a broken writer's 1e30) would steer the

@@ -6,11 +6,14 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 #include <string>
 
+#include "core/frame.h"
 #include "fit/line_lm.h"
 #include "fit/line_simd.h"
+#include "fit/pixel_frames.h"
 #include "fit/start.h"
 #include "fit/texel_sigmas.h"
 #include "fit/texel_simd.h"
@@ -318,6 +321,59 @@ TEST(FitPaths, TexelBlockSolveAsTheDenseInverse) {
   bad(1, 4) = bad(4, 1) = 1;  // a singular channel block
   EXPECT_FALSE(f.factor(bad));
   std::printf("block solve against the dense inverse: worst relative difference %.2e\n", worst);
+}
+
+// The loader's four pixels at a time (fit/pixel_frames.h) against make_frame, to_local and
+// light_at one pixel at a time: the same bits, over random buffers with the cases that branch (a
+// zero normal, a tangent along the normal, the light on the point, an attenuation that is 0).
+TEST(FitPaths, PixelQuadsAreTheScalarFramesBitForBit) {
+  if (!pixel_quads_enabled()) GTEST_SKIP() << "no AVX2 on this CPU";
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<float> u(-1, 1);
+  auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  size_t checked = 0, frames = 0, lit = 0;
+  for (int it = 0; it < 20000; ++it) {
+    const Vec3 eye(3 * u(rng), 3 * u(rng), 4 + u(rng));
+    Light light;
+    light.position = Vec3(2 * u(rng), 2 * u(rng), 2 + u(rng));
+    light.attenuation = {it % 5 == 0 ? 0.0 : 0.5 + u(rng), it % 3 == 0 ? 0.0 : 0.3, 1.0};
+    if (it % 17 == 0) light.attenuation = {0, 0, 0};  // att = 0: reaches nothing
+    PixelQuad q;
+    Vec3 P[4], N[4], U[4];
+    for (int l = 0; l < 4; ++l) {
+      P[l] = Vec3(u(rng), u(rng), 0.1f * u(rng));
+      N[l] = Vec3(0.2f * u(rng), 0.2f * u(rng), 1.0f + 0.1f * u(rng));
+      U[l] = Vec3(1.0f + 0.1f * u(rng), 0.3f * u(rng), 0.1f * u(rng));
+      if (it % 7 == 0 && l == 1) N[l] = Vec3(0, 0, 0);
+      if (it % 11 == 0 && l == 2) U[l] = N[l] * 2.0;
+      if (it % 13 == 0 && l == 3) P[l] = light.position, light.attenuation = {1.0, 0, 0};
+      for (int c = 0; c < 3; ++c) q.P[c][l] = P[l][c], q.N[c][l] = N[l][c], q.U[c][l] = U[l][c];
+    }
+    pixel_quad(eye, light, &q);
+    for (int l = 0; l < 4; ++l, ++checked) {
+      SurfacePoint sp;
+      const bool ok = make_frame(P[l], N[l], U[l], &sp);
+      ASSERT_EQ(q.frame_ok[l], ok) << it << " lane " << l;
+      if (!ok) continue;
+      ++frames;
+      const LocalDir V = to_local(sp, normalize(eye - sp.P));
+      EXPECT_TRUE(same(q.V[l].u, V.u) && same(q.V[l].w, V.w) && same(q.V[l].n, V.n)) << it;
+      Vec3 L;
+      RGB E;
+      double dist;
+      const bool reaches = light_at(light, sp.P, &L, &E, &dist);
+      const bool quad_reaches = q.lit[l] && light.intensity[0] * q.f[l] > 0;
+      ASSERT_EQ(quad_reaches, reaches) << it << " lane " << l;
+      if (!reaches) continue;
+      ++lit;
+      const LocalDir Ll = to_local(sp, L);
+      EXPECT_TRUE(same(q.L[l].u, Ll.u) && same(q.L[l].w, Ll.w) && same(q.L[l].n, Ll.n)) << it;
+      EXPECT_TRUE(same(light.intensity[0] * q.f[l], E[0])) << it;
+    }
+  }
+  std::printf("%zu pixels: %zu frames, %zu lit, bit for bit\n", checked, frames, lit);
+  EXPECT_GT(lit, checked / 2);
+  EXPECT_LT(frames, checked);
 }
 
 }  // namespace

@@ -1,0 +1,30 @@
+// fit/ internal: the loader's per-pixel geometry four pixels at a time (AVX2 without FMA, chosen
+// at run time): the shading frame (core/frame.h make_frame), V and one point light in that frame
+// (models/light.h light_at), each with the same operations in the same order as the scalar form,
+// so with the same bits (IEEE division and square root are exact in either; the test
+// FitPaths.PixelQuadsAreTheScalarFramesBitForBit holds them to it). The scalar form took a third
+// of the load: ~6 square roots and ~13 divisions a pixel, one at a time.
+#pragma once
+#include "core/local_dir.h"
+#include "core/vec.h"
+#include "models/light.h"
+
+namespace aniso::fitting {
+
+struct PixelQuad {
+  // In, per lane: the buffers' position, normal and tangent (their floats as doubles).
+  double P[3][4], N[3][4], U[3][4];
+  // Out, per lane: whether the buffers define a frame (make_frame's test); V and L in it; the
+  // light's attenuation factor 1 / att; whether the light reaches the point (r > 0, att > 0).
+  bool frame_ok[4];
+  LocalDir V[4], L[4];
+  double f[4];
+  bool lit[4];
+};
+
+// False where the CPU has no AVX2 (the scalar forms then).
+bool pixel_quads_enabled();
+// Fills q's outputs from its inputs for a camera at `eye` and one point light.
+void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q);
+
+}  // namespace aniso::fitting

@@ -1,0 +1,140 @@
+// A view's pixels to records (fit/pixel_records.h).
+#include "fit/pixel_records.h"
+
+#include "core/frame.h"
+#include "fit/pixel_frames.h"
+
+namespace aniso::fitting {
+
+UvBand uv_band(const FitOptions& opt) {
+  UvBand b;
+  if (opt.maps_w == 0) return b;
+  b.w = opt.maps_w, b.h = opt.maps_h;
+  if (!opt.global || opt.tile_count == 0) return b;
+  const TileRows r = tile_rows(opt);
+  b.on = true;
+  b.t0 = static_cast<long>(r.band0) * b.w, b.t1 = static_cast<long>(r.band1) * b.w;
+  return b;
+}
+
+size_t usable_on_grid(const ViewData& d, int stride, const UvBand& band) {
+  size_t n = 0;
+  for (int y = 0; y < d.rgb.height; y += stride)
+    for (int x = 0; x < d.rgb.width; x += stride)
+      n += d.use[static_cast<size_t>(y) * d.rgb.width + x] && band.keeps(d, x, y);
+  return n;
+}
+
+namespace {
+
+// Pixel (x, y)'s record (texel t), its V and the `lit` lights already in out->lights from
+// out->num_lights on; or counted as unlit where no light reaches it.
+void put_record(const ViewData& d, int x, int y, long t, const LocalDir& V, size_t lit,
+                RecordSlot* out, FitReport* rep) {
+  const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
+  const ViewGeometry& g = *d.geo;
+  Observation o;
+  o.V = V;
+  o.first_light = out->light_base + static_cast<uint32_t>(out->num_lights);
+  o.num_lights = static_cast<uint32_t>(lit);
+  for (int k = 0; k < 3; ++k) o.y[k] = d.rgb.at(x, y, k);
+  if (o.num_lights == 0) {
+    ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
+    return;
+  }
+  if (out->uv)
+    for (int c = 0; c < 2; ++c) out->uv[2 * out->num_obs + c] = g.uv.px[2 * p + c];
+  if (out->texel) out->texel[out->num_obs] = t < 0 ? ObsSet::kNoTexel : static_cast<uint32_t>(t);
+  if (out->topo)
+    out->topo[2 * out->num_obs] = g.smath_at(p), out->topo[2 * out->num_obs + 1] = g.mapv_at(p);
+  out->num_lights += lit;
+  out->obs[out->num_obs++] = o;
+}
+
+// One pixel in double, one at a time: any lights.
+void add_pixel(const ViewData& d, const ViewSpec& v, int x, int y, long t, RecordSlot* out,
+               FitReport* rep) {
+  const ViewGeometry& g = *d.geo;
+  SurfacePoint sp;
+  if (!frame_at(g.P, g.N, g.U, x, y, &sp)) {
+    ++rep->nonfinite;
+    return;
+  }
+  size_t lit = 0;
+  for (const Light& l : v.lights) {
+    Vec3 L;
+    RGB E;
+    double dist;
+    if (!light_at(l, sp.P, &L, &E, &dist)) continue;
+    ObsLight ol;
+    ol.L = to_local(sp, L);
+    if (!(ol.L.n > 0.0)) continue;
+    for (int k = 0; k < 3; ++k) ol.E[k] = v.exposure * E[k];
+    out->lights[out->num_lights + lit++] = ol;
+  }
+  put_record(d, x, y, t, to_local(sp, normalize(d.eye - sp.P)), lit, out, rep);
+}
+
+// Up to four pixels (xs[0..n), row y) under one point light, in lanes (fit/pixel_frames.h: the
+// same bits as add_pixel); the records in the pixels' order.
+void add_pixel_quad(const ViewData& d, const ViewSpec& v, int y, const int* xs, const long* ts,
+                    int n, RecordSlot* out, FitReport* rep) {
+  const ViewGeometry& g = *d.geo;
+  PixelQuad q;
+  for (int l = 0; l < 4; ++l) {
+    const int x = xs[l < n ? l : n - 1];  // a short quad repeats its last pixel
+    for (int c = 0; c < 3; ++c)
+      q.P[c][l] = g.P.at(x, y, c), q.N[c][l] = g.N.at(x, y, c), q.U[c][l] = g.U.at(x, y, c);
+  }
+  const Light& light = v.lights[0];
+  pixel_quad(d.eye, light, &q);
+  for (int l = 0; l < n; ++l) {
+    if (!q.frame_ok[l]) {
+      ++rep->nonfinite;
+      continue;
+    }
+    size_t lit = 0;
+    const RGB E = {light.intensity[0] * q.f[l], light.intensity[1] * q.f[l],
+                   light.intensity[2] * q.f[l]};
+    if (q.lit[l] && (E[0] > 0 || E[1] > 0 || E[2] > 0) && q.L[l].n > 0.0) {
+      ObsLight ol;
+      ol.L = q.L[l];
+      for (int k = 0; k < 3; ++k) ol.E[k] = v.exposure * E[k];
+      out->lights[out->num_lights] = ol;
+      lit = 1;
+    }
+    put_record(d, xs[l], y, ts[l], q.V[l], lit, out, rep);
+  }
+}
+
+}  // namespace
+
+void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, const UvBand& band,
+                            RecordSlot* out, FitReport* rep) {
+  const int w = d.rgb.width, h = d.rgb.height;
+  const bool quads =
+      pixel_quads_enabled() && v.lights.size() == 1 && v.lights[0].type == Light::Type::kPoint;
+  int xs[4];
+  long ts[4];
+  for (int y = 0; y < h; y += stride) {
+    int n = 0;
+    for (int x = 0; x < w; x += stride) {
+      const size_t p = static_cast<size_t>(y) * w + x;
+      if (!d.use[p]) continue;
+      const long t = band.w > 0 ? band.texel(d, x, y) : -1;
+      if (!band.keeps(t)) {
+        ++rep->outside_tile;
+        continue;
+      }
+      if (!quads) {
+        add_pixel(d, v, x, y, t, out, rep);
+        continue;
+      }
+      xs[n] = x, ts[n] = t;
+      if (++n == 4) add_pixel_quad(d, v, y, xs, ts, n, out, rep), n = 0;
+    }
+    if (n > 0) add_pixel_quad(d, v, y, xs, ts, n, out, rep);
+  }
+}
+
+}  // namespace aniso::fitting
