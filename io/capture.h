@@ -78,6 +78,7 @@ struct ViewGeometry {
   Image mapv;     // 1 channel: topology-map value m in [-1, 1] at the pixel's uv (empty: no map)
   Image uv;       // 2 channels, when the set has a uv buffer (empty otherwise)
   std::vector<uint8_t> mask;
+  std::vector<uint8_t> finite;  // 1 where P, N, U (and uv, where there is one) are all finite
   float smath_at(size_t p) const { return smath.empty() ? 0.f : smath.px[p]; }
   float mapv_at(size_t p) const { return mapv.empty() ? 0.f : mapv.px[p]; }
 };

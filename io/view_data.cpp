@@ -94,6 +94,20 @@ LoadedImage read_view_image(const CaptureSet& s, const ViewSpec& v, const std::s
 
 // Per-pixel geometry from the view's buffers: P, N, U, the mask, s_math, uv and the topology
 // map's value at uv.
+// g->finite: 1 where the pixel's position, normal, tangent (and uv, where the set has one) are
+// finite. Once per geometry, where every view sharing it checked the same ten values again.
+void mark_finite(ViewGeometry* g) {
+  auto finite3 = [](const Image& im, size_t p) {  // a buffer may hold more than three channels
+    const float* v = &im.px[p * im.channels];
+    return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+  };
+  g->finite.assign(g->mask.size(), 0);
+  for (size_t p = 0; p < g->mask.size(); ++p)
+    g->finite[p] =
+        (g->uv.empty() || (std::isfinite(g->uv.px[2 * p]) && std::isfinite(g->uv.px[2 * p + 1]))) &&
+        finite3(g->P, p) && finite3(g->N, p) && finite3(g->U, p);
+}
+
 ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const TopologyMap* map) {
   const Intrinsics& k = v.camera;
   const GeometrySpec& g = v.geometry;
@@ -127,6 +141,7 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
         for (int c = 0; c < 2; ++c) d.uv.px[2 * p + c] = uv.px[p * uv.channels + c];
     }
   }
+  mark_finite(&d);
   if (!map) return d;
   if (d.uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
   d.mapv = Image(k.width, k.height, 1, 0.f);
@@ -156,10 +171,8 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, ViewData* d) {
   }
   const Image& in = grey.empty() ? d->rgb : grey;
   d->use.assign(mask.size(), 0);
-  auto finite3 = [](const Image& im, int x, int y) {
-    return std::isfinite(im.at(x, y, 0)) && std::isfinite(im.at(x, y, 1)) &&
-           std::isfinite(im.at(x, y, 2));
-  };
+  // A float RGB image is linear as it is: its values stay where they were decoded.
+  const bool as_is = li.bits == 0 && in.channels == 3;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const size_t p = static_cast<size_t>(y) * w + x;
@@ -168,20 +181,18 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, ViewData* d) {
         continue;
       }
       ++d->mask_pixels;
-      bool ok = true, saturated = false;
+      bool ok = g.finite[p] != 0, saturated = false;
       for (int c = 0; c < 3; ++c) {
         const float r = in.at(x, y, in.channels == 3 ? c : 0);
         if (!std::isfinite(r))
           ok = false;
         else if (r >= sat)
           saturated = true;
+        if (as_is) continue;  // a finite float is finite and within float's range
         const double lin = li.bits ? decode_code(r, s.color) : r;
         if (!std::isfinite(lin) || std::abs(lin) > std::numeric_limits<float>::max()) ok = false;
         d->rgb.at(x, y, c) = static_cast<float>(lin);
       }
-      if (!g.uv.empty() && (!std::isfinite(g.uv.at(x, y, 0)) || !std::isfinite(g.uv.at(x, y, 1))))
-        ok = false;
-      if (!finite3(g.P, x, y) || !finite3(g.N, x, y) || !finite3(g.U, x, y)) ok = false;
       if (!ok) {
         ++d->nonfinite;
         continue;
@@ -253,6 +264,7 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
     } catch (const Error& e) {
       throw Error(ctx + ".geometry.mesh: " + e.what());
     }
+    mark_finite(geo.get());
     d.geo = std::move(geo);
   } else {
     auto load = [&] {

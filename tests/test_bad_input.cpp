@@ -107,6 +107,28 @@ TEST(BadInput, NanPixelsAreLeftOutAndAllNanFails) {
                  dir + "/m.json");
 }
 
+// A non-finite value in a geometry buffer (checked once per geometry, which the views share):
+// that pixel is left out of every view and counted as not finite in each, the rest fitted.
+TEST(BadInput, NanGeometryPixelsAreLeftOutOfEveryView) {
+  const std::string dir = good_capture(test::tmp_dir("geo"));
+  const auto set = nlohmann::json::parse(read_text_file(dir + "/capture.json"));
+  const std::string normal = dir + "/" + set["geometry"]["normal"].get<std::string>();
+  test::RunResult r = test::run_cli("fit " + dir + " --out " + dir + "/a.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto a = nlohmann::json::parse(read_text_file(dir + "/a.json"));
+  Image n = read_image(normal).image;
+  size_t spoiled = 0;
+  for (size_t p = 0; p < n.px.size() / 3; p += 5, ++spoiled) n.px[3 * p + 1] = NAN;
+  write_raw_exr(normal, n);
+  r = test::run_cli("fit " + dir + " --out " + dir + "/b.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto b = nlohmann::json::parse(read_text_file(dir + "/b.json"));
+  const int lost = a["report"]["pixels"].get<int>() - b["report"]["pixels"].get<int>();
+  EXPECT_GT(lost, 0);
+  EXPECT_EQ(b["report"]["skipped"]["nonfinite"].get<int>(), lost) << "every pixel lost is counted";
+  EXPECT_LE(static_cast<size_t>(lost), 2 * spoiled);  // at most the spoiled pixels of two views
+}
+
 TEST(BadInput, EmptyMask) {
   const std::string dir = good_capture(test::tmp_dir("set"));
   write_png(dir + "/geometry/all_mask.png", Image(24, 24, 1, 0.f), 8);
