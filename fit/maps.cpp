@@ -125,7 +125,7 @@ void size_maps(size_t texels, bool fit_s, TexelMaps* m) {
 // Each texel's observations in order, for the texels [t_begin, t_end) of the grid, in one array
 // of 4-byte indices (the loader keeps fewer than 2^32 records), texel b's from at[b] to at[b + 1]
 // (a list per texel took 8 bytes an observation and a million allocations). A counting sort in two
-// levels, stable at both: each observation's index goes first to its band of kBandTexels texels
+// levels, stable at both: each observation's index goes first to its band of 2^shift texels
 // (one stream per band, written in order), then each band is sorted by texel in a buffer that stays
 // in cache. Placing each index at once at its texel wrote at random over the whole array (300 MB
 // for the 2048^2 set's map): ~1 s of its texel phase. `idx` is left unwritten until placed: the
@@ -143,21 +143,25 @@ struct TexelBins {
   }
 };
 
-constexpr int kBandShift = 12;  // 4096 texels a band: ~1.3 MB of indices at 80 pixels a texel
-constexpr size_t kBandTexels = size_t{1} << kBandShift;
+// Bands of 4096 texels (~1.3 MB of indices at 80 pixels a texel), or smaller on a small grid: at
+// least eight a thread, so that the second level is spread over the threads too.
+int band_shift(size_t B, size_t parts) {
+  int shift = 12;
+  while (shift > 6 && (B >> shift) < 8 * parts) --shift;
+  return shift;
+}
 
 // The first level: idx holds each band's indices in order, band k's from band_at[k].
 void bin_by_band(const std::vector<uint32_t, RecordAllocator<uint32_t>>& texel, uint32_t first,
-                 size_t B, TexelBins* bins, std::vector<size_t>* band_at) {
-  const size_t bands = (B + kBandTexels - 1) >> kBandShift, n = texel.size();
-  const size_t parts = static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+                 size_t B, size_t parts, int shift, TexelBins* bins, std::vector<size_t>* band_at) {
+  const size_t bands = (B + (size_t{1} << shift) - 1) >> shift, n = texel.size();
   // Part p's observations [n p / parts, n (p + 1) / parts) and its count (then its next place)
   // per band at next[p][k].
   std::vector<std::vector<size_t>> next(parts, std::vector<size_t>(bands, 0));
   auto for_part = [&](size_t p, auto&& f) {
     for (size_t i = n * p / parts, end = n * (p + 1) / parts; i < end; ++i) {
       const uint32_t b = texel[i] - first;
-      if (b < B) f(i, b >> kBandShift);
+      if (b < B) f(i, b >> shift);
     }
   };
   tbb::parallel_for(size_t{0}, parts,
@@ -183,11 +187,13 @@ TexelBins texel_bins(const ObsSet& os, size_t t_begin, size_t t_end) {
   const auto first = static_cast<uint32_t>(t_begin);
   TexelBins bins;
   std::vector<size_t> band_at;
-  bin_by_band(os.texel, first, B, &bins, &band_at);
+  const size_t parts = static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  const int shift = band_shift(B, parts);
+  bin_by_band(os.texel, first, B, parts, shift, &bins, &band_at);
   bins.at.resize(B + 1);
   bins.at[B] = band_at.back();
   tbb::parallel_for(size_t{0}, band_at.size() - 1, [&](size_t k) {
-    const size_t t0 = k << kBandShift, nt = std::min(kBandTexels, B - t0);
+    const size_t t0 = k << shift, nt = std::min(size_t{1} << shift, B - t0);
     const size_t j0 = band_at[k], j1 = band_at[k + 1];
     thread_local std::vector<uint32_t> count, sorted;
     count.assign(nt + 1, 0);
