@@ -50,6 +50,19 @@ void warn_no_scipy(std::string out) {
       why.empty() ? "no output" : why.c_str());
 }
 
+// Why a SciPy entry missed its target, from what was measured: the speed, or the error at it.
+std::string scipy_why_missed(double ratio, double ours_err, double scipy_err) {
+  char why[200];
+  if (!(ratio >= 30))
+    std::snprintf(why, sizeof why, "%.1fx: the ratio is what was measured", ratio);
+  else
+    std::snprintf(why, sizeof why,
+                  "%.1fx, but its error %.3g is above SciPy's %.3g (the same observations, each "
+                  "solver's own minimum)",
+                  ratio, ours_err, scipy_err);
+  return why;
+}
+
 }  // namespace
 
 json bench_fit(const std::string& work, bool quick) {
@@ -111,7 +124,7 @@ json bench_fit(const std::string& work, bool quick) {
     const bool met = std::isfinite(scipy_s) && scipy_s / r.report.seconds >= 30 &&
                      e.worst() <= scipy_err * 1.0001 + 1e-9;
     target(&e1, ">= 30x less wall time than SciPy at equal or better error", met,
-           "SciPy's 2-point Jacobian is vectorised numpy; the ratio is what was measured");
+           scipy_why_missed(scipy_s / r.report.seconds, e.worst(), scipy_err));
     e1["us_per_observation"] = 1e6 * r.report.seconds / r.report.observations;
     out.push_back(e1);
     // The solver alone (both start from the same grid point with the data in memory).
@@ -124,9 +137,7 @@ json bench_fit(const std::string& work, bool quick) {
     target(&e2, ">= 30x less wall time than SciPy at equal or better error",
            std::isfinite(scipy_s) && scipy_s / ours_solve >= 30 &&
                e.worst() <= scipy_err * 1.0001 + 1e-9,
-           "both solvers take a handful of iterations; SciPy's per-iteration cost is vectorised "
-           "numpy, ours is "
-           "Ceres with analytic derivatives: the gap is a small constant, not 30x");
+           scipy_why_missed(scipy_s / ours_solve, e.worst(), scipy_err));
     out.push_back(e2);
     std::printf(
         "bench fit: subsample %d: %zu obs, ours %.3f s total / %.3f s solve (err %.2e), SciPy %.3f "
