@@ -211,8 +211,8 @@ json bench_capture(const std::string& work, bool quick) {
     // The same run writing nothing: what the files (the bare loop writes none) cost.
     e["seconds_writing_no_files"] = median_of(unwritten);
     e["ratio_writing_no_files"] = ours_unwritten / bare_rate;
+    // The breakdown is the last run's into a new folder.
     e["seconds_breakdown"] = {
-        // of the last run into a new folder
         {"trace", st.seconds_trace},
         {"shade", st.seconds_shade},
         {"write", st.seconds_write},

@@ -75,12 +75,9 @@ ANISO_AVX2_ONLY void quad(const Vec3& eye, const Light& light, PixelQuad* q) {
   const v4d f = splat(1.0) / att;
   const v4d lit = v4d(_mm256_and_pd(__m256d(gt(r, splat(0.0))), __m256d(gt(att, splat(0.0)))));
   put_local(L, U, W, N, q->L);
-  const __m256i okb = _mm256_castpd_si256(__m256d(ok)), litb = _mm256_castpd_si256(__m256d(lit));
-  for (int l = 0; l < 4; ++l) q->f[l] = f[l];
-  alignas(32) long long okm[4], litm[4];
-  _mm256_store_si256(reinterpret_cast<__m256i*>(okm), okb);
-  _mm256_store_si256(reinterpret_cast<__m256i*>(litm), litb);
-  for (int l = 0; l < 4; ++l) q->frame_ok[l] = okm[l] != 0, q->lit[l] = litm[l] != 0;
+  const int okm = _mm256_movemask_pd(__m256d(ok)), litm = _mm256_movemask_pd(__m256d(lit));
+  for (int l = 0; l < 4; ++l)
+    q->f[l] = f[l], q->frame_ok[l] = (okm >> l) & 1, q->lit[l] = (litm >> l) & 1;
 }
 
 }  // namespace

@@ -22,7 +22,8 @@ struct PixelQuad {
   bool lit[4];
 };
 
-// False where the CPU has no AVX2 (the scalar forms then).
+// False where the CPU has no AVX2 or the lanes are switched off (set_line_simd): the scalar
+// forms then.
 bool pixel_quads_enabled();
 // Fills q's outputs from its inputs for a camera at `eye` and one point light.
 void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q);

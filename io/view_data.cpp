@@ -92,8 +92,6 @@ LoadedImage read_view_image(const CaptureSet& s, const ViewSpec& v, const std::s
   return li;
 }
 
-// Per-pixel geometry from the view's buffers: P, N, U, the mask, s_math, uv and the topology
-// map's value at uv.
 // g->finite: 1 where the pixel's position, normal, tangent (and uv, where the set has one) are
 // finite. Once per geometry, where every view sharing it checked the same ten values again.
 void mark_finite(ViewGeometry* g) {
@@ -108,6 +106,8 @@ void mark_finite(ViewGeometry* g) {
         finite3(g->P, p) && finite3(g->N, p) && finite3(g->U, p);
 }
 
+// Per-pixel geometry from the view's buffers: P, N, U, the mask, s_math, uv and the topology
+// map's value at uv.
 ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const TopologyMap* map) {
   const Intrinsics& k = v.camera;
   const GeometrySpec& g = v.geometry;
