@@ -128,7 +128,7 @@ void topology_images(const SimOptions& opt, const TopologyMap& map, const Image&
       const double u = g.uv.at(x, y, 0), v = g.uv.at(x, y, 1);
       double mv = map.h.empty() ? 0.0 : map.sample(u, v);
       if (!s_map.empty()) mv = sample_first_channel(s_map, u, v);
-      s->at(x, y, 0) = static_cast<float>(s_at(opt.truth, sm, mv));
+      s->at(x, y, 0) = static_cast<float>(s_at(opt.truth, sm, mv, u, v));
     }
 }
 
@@ -361,6 +361,7 @@ void write_truth(const std::string& dir, const Material& truth, const std::strin
   put(mp.ks, &mp.ks_file, "ks");
   put(mp.n, &mp.n_file, "n");
   put(mp.fiber, &mp.fiber_file, "fiber");
+  put(mp.amplitude, &mp.amplitude_file, "amplitude");
   jsonu::json j;
   material_to_json(truth_m, &j);
   write_json_file(join_path(dir, "truth.json"), j);

@@ -304,7 +304,8 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
                 "E.g. mpirun -np 4 aniso fit CAPTURE --maps 256x256 --mpi --out m.json");
   fit->add_option("--maps", a->maps,
                   "also fit per-texel maps of k_d, k_s, n and the fiber direction (and, with "
-                  "--model fiber on a flat sample, the topology s), WxH texels over the sample's "
+                  "--model fiber, the topology s of a flat sample or, where the set has a "
+                  "topology map, its amplitude A), WxH texels over the sample's "
                   "uv (written beside --out as EXR, FORMAT.md \"Material maps\", with per-texel "
                   "sigma, coverage and a determined mask)");
 }

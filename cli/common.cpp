@@ -78,7 +78,8 @@ Vec3 parse_vec(const std::string& s, const std::string& opt) {
 void note_material_maps(const Material& m, const char* what) {
   if (!m.maps.any()) return;
   std::fprintf(stderr,
-               "%s: NOTE: the material has maps (k_d, k_s, n or the fiber direction over uv); %s "
+               "%s: NOTE: the material has maps (k_d, k_s, n, the fiber direction or the topology "
+               "amplitude over uv); %s "
                "uses its scalar (mean) values: per-texel maps are not carried here yet\n",
                what, what);
 }

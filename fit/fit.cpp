@@ -38,10 +38,6 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
     throw Error(
         "fit: --maps fits the plain line model or the fiber model per texel: use it with --model "
         "line or fiber and without --fit-isotropic / --fit-second-fiber");
-  if (opt.maps_w > 0 && m.model() == Model::kFiber && os.topology == TopologyMode::kAmplitude)
-    throw Error(
-        "fit: --maps with the fiber model fits s per texel on a flat sample (one s) or a "
-        "mathematical topology; a topology map's amplitude per texel is not written yet");
   if (opt.maps_w > 0 && os.topology == TopologyMode::kTexels)
     throw Error("fit: --maps and --topology-map do not go together");
   if (opt.maps_w > 0 && os.texel.size() != os.obs.size())
@@ -196,7 +192,14 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
     if (rep.fiber_order <= 0) rep.fiber_order = 8, why = "the default: --fiber-order sets it";
     rep.start = "texels: quadrature order " + std::to_string(rep.fiber_order) + " (" + why + ")";
   }
-  add_texel_maps(os, opt, c, rep.fiber_order, g.uniform_s(), &rep, &res);
+  // A topology map's amplitude: the global fit's A, over this capture's map (its path as the
+  // fit of the capture names it, not as the global fit's file did).
+  double topo = g.uniform_s();
+  if (const auto* t = g.topology_as<TopologyMapRef>()) {
+    topo = t->amplitude;
+    res.material.topology = TopologyMapRef{os.topology_map, t->amplitude, os.topology_mathematical};
+  }
+  add_texel_maps(os, opt, c, rep.fiber_order, topo, &rep, &res);
   rep.seconds += seconds_since(t0);
   res.report = rep;
   return res;
@@ -226,10 +229,18 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
                   " model fit: --maps fits the same model (give --model " + model_name(given) +
                   ", or leave --model out)");
     const Material& gm = opt.global->material;
-    if (gm.isotropic_active() || gm.second_active() || gm.topology_as<TopologyMapRef>())
+    if (gm.isotropic_active() || gm.second_active())
       throw Error("fit: --global " + opt.global->file +
-                  ": it has an isotropic term, a second fiber or a topology map; --maps fits the "
-                  "plain line model or the fiber model with one s");
+                  ": it has an isotropic term or a second fiber; --maps fits the plain line model "
+                  "or the fiber model");
+    if (given == Model::kFiber &&
+        (gm.topology_as<TopologyMapRef>() != nullptr) != (os.topology == TopologyMode::kAmplitude))
+      throw Error("fit: --global " + opt.global->file + (gm.topology_as<TopologyMapRef>()
+                                                             ? ": it was fitted with a topology map "
+                                                               "and this capture names none"
+                                                             : ": it was fitted without a topology "
+                                                               "map and this capture names one") +
+                  ": give the global fit of this capture");
     return maps_on_given_global(given, os, opt, rep);
   }
   if (opt.model != FitModel::kAuto)

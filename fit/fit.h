@@ -91,6 +91,9 @@ struct TexelMaps {
   std::vector<double> n, psi_deg;  // 1 per texel
   std::vector<double> kd_sigma, ks_sigma, n_sigma, psi_sigma_deg;
   std::vector<double> s, s_sigma;   // the fiber model's topology s per texel (else empty)
+  // What `s` holds: "s", or "amplitude": a topology map's amplitude A per texel (FORMAT.md
+  // "Material maps": maps.s or maps.amplitude).
+  std::string s_key = "s";
   std::vector<int> pixels;          // observations (pixels) per texel
   std::vector<uint8_t> determined;  // 1 = fitted and determined by its data
   // The texel rows this result holds (a tile: a band of rows): every per-texel array above holds

@@ -39,7 +39,8 @@ double prior_sigma(const char* key) {
 }
 
 // values (`global`, `s`) with the prior's spread as sigma.
-void put_texel(const TexelResult& res, size_t t, const Core& global, double s, TexelMaps* m) {
+void put_texel(const TexelResult& res, size_t t, const Core& global, double s, const char* s_param,
+               TexelMaps* m) {
   m->determined[t] = res.determined;
   const Core& c = res.determined ? res.c : global;
   for (int k = 0; k < 3; ++k) {
@@ -54,7 +55,7 @@ void put_texel(const TexelResult& res, size_t t, const Core& global, double s, T
   m->psi_sigma_deg[t] = res.determined ? rad_to_deg(res.sigma[7]) : 180 / std::sqrt(12.0);
   if (!m->s.empty()) {
     m->s[t] = res.determined ? res.s : s;
-    m->s_sigma[t] = res.determined ? res.sigma[8] : prior_sigma("topology.s");
+    m->s_sigma[t] = res.determined ? res.sigma[8] : prior_sigma(s_param);
   }
 }
 
@@ -265,6 +266,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   }
   const size_t a = static_cast<size_t>(m.row0) * w - t_begin;
   size_maps(static_cast<size_t>(m.row1 - m.row0) * w, fit_s, &m);
+  if (os.topology == TopologyMode::kAmplitude) m.s_key = "amplitude";
   double sr = 0, sv = 0;
   for (size_t t = 0; t < m.pixels.size(); ++t) {
     const size_t b = a + t;
@@ -273,7 +275,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
       ++m.fitted, sr += now[b].rss, sv += now[b].values;
       if (!now[b].converged) ++m.not_converged;
     }
-    put_texel(now[b], t, global, o.s, &m);
+    put_texel(now[b], t, global, o.s, texel_topology_key(os.topology), &m);
   }
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

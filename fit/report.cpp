@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <limits>
 
 #include "fit/fit.h"
 #include "io/files.h"
@@ -20,7 +21,7 @@ std::vector<std::string> map_files(const std::string& material_path) {
   const std::string stem = std::filesystem::path(material_path).stem().string();
   std::vector<std::string> f;
   for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
-                        "coverage", "determined", "s", "s_sigma"})
+                        "coverage", "determined", "s", "s_sigma", "amplitude", "amplitude_sigma"})
     f.push_back(stem + "_" + k + ".exr");
   return f;
 }
@@ -40,9 +41,12 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
   auto put = [&](size_t file, int channels, auto value) {
     writes.push_back([&, file, channels, value] {
       Image img(t.w, t.h, channels);
+      // A sigma past float's range (a texel whose n the data barely touch: 1e140 was seen) is
+      // written as float's largest: "not known at all", where the cast would make it Inf.
+      constexpr double kMax = std::numeric_limits<float>::max();
       for (size_t i = 0; i < N; ++i)
         for (int c = 0; c < channels; ++c)
-          img.px[channels * i + c] = static_cast<float>(value(i, c));
+          img.px[channels * i + c] = static_cast<float>(std::clamp<double>(value(i, c), -kMax, kMax));
       write_exr(join_path(dir, f[file]), img);
     });
   };
@@ -59,9 +63,12 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
   put(7, 1, [&](size_t i, int) { return t.psi_sigma_deg[i]; });
   put(8, 1, [&](size_t i, int) { return t.pixels[i]; });
   put(9, 1, [&](size_t i, int) { return t.determined[i]; });
-  if (!t.s.empty()) {  // the fiber model's topology per texel (FORMAT.md: maps.s, channel R)
-    put(10, 1, [&](size_t i, int) { return t.s[i]; });
-    put(11, 1, [&](size_t i, int) { return t.s_sigma[i]; });
+  // The fiber model's topology per texel (FORMAT.md: maps.s, or maps.amplitude over a topology
+  // map; channel R).
+  const size_t s_file = t.s_key == "amplitude" ? 12 : 10;
+  if (!t.s.empty()) {
+    put(s_file, 1, [&](size_t i, int) { return t.s[i]; });
+    put(s_file + 1, 1, [&](size_t i, int) { return t.s_sigma[i]; });
   }
   tbb::parallel_for(size_t{0}, writes.size(), [&](size_t k) { writes[k](); });
   (*j)["maps"] = {{"kd", f[0]}, {"ks", f[1]}, {"n", f[2]}, {"fiber", f[3]}, {"wrap", "clamp"}};
@@ -78,8 +85,8 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
        "coverage: pixels per texel; determined = 0: not determined by the data, the "
        "global value is kept and sigma is the prior's spread"}};
   if (!t.s.empty()) {
-    (*j)["maps"]["s"] = f[10];
-    (*j)["maps_uncertainty"]["s"] = f[11];
+    (*j)["maps"][t.s_key] = f[s_file];
+    (*j)["maps_uncertainty"][t.s_key] = f[s_file + 1];
   }
   if (t.smooth > 0)
     (*j)["maps_uncertainty"]["smooth"] = {
@@ -262,6 +269,7 @@ void write_maps_tile(const std::string& path, const FitResult& r, const FitOptio
                          {"texels", {t.w, t.h}},
                          {"rows", {t.row0, t.row1}},
                          {"smooth", {t.smooth, t.sweeps}},
+                         {"s_key", t.s_key},
                          {"fitted", t.fitted},
                          {"not_converged", t.not_converged},
                          {"seconds", t.seconds},
@@ -292,6 +300,8 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       if (count < 0) {
         count = n, m.w = w, m.h = h, fit = j["fit"];
         m.smooth = smooth, m.sweeps = sweeps;
+        m.s_key = j.value("s_key", "s");  // what values.s holds (absent in older tiles: s)
+        if (m.s_key != "s" && m.s_key != "amplitude") c.at("s_key").fail("expected s or amplitude");
         seen.assign(n, 0);
         const size_t N = static_cast<size_t>(w) * h;
         for (const auto& arr : kTexelArrays)
@@ -339,6 +349,11 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       throw Error("merge: tile " + std::to_string(i) + " of " + std::to_string(count) +
                   " is missing: give every tile's file");
   fit["report"]["merged_from_tiles"] = count;
+  // A topology map's path is relative to the file that names it: the tile's folder then, the
+  // merged material's now.
+  if (fit.contains("topology") && fit["topology"].contains("map") && fit["topology"]["map"].is_string())
+    fit["topology"]["map"] = relative_to(
+        join_path(parent_dir(tiles[0]), fit["topology"]["map"].get<std::string>()), parent_dir(out));
   add_maps(out, m, &fit);
   write_json_file(out, fit);
 }

@@ -158,12 +158,17 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   acc.order = std::min(4, o.fiber_order);  // plenty to rank nodes, as the global start
   const double c = std::cos(t.c.psi), sn = std::sin(t.c.psi), n = std::exp(t.c.logn);
   double best = INFINITY;
-  for (const double s : {from.s, 0.1, 0.3, 0.5, 0.7, 0.9}) {
+  // s in [0, 1], or a topology map's amplitude A in [-2, 2] (models/params.h)
+  const bool amp = os.topology == TopologyMode::kAmplitude;
+  const double grid[6] = {from.s, amp ? -1.6 : 0.1, amp ? -0.8 : 0.3, amp ? 0.0 : 0.5,
+                          amp ? 0.8 : 0.7, amp ? 1.6 : 0.9};
+  for (const double s : grid) {
     double kd[3], ks[3];
     const double cost = solve_kd_ks(
         os, idx,
-        [&](size_t, const Observation& ob, double* dcol, double* scol) {
-          fiber_columns(os, ob, c, sn, n, s, acc, dcol, scol);
+        [&](size_t i, const Observation& ob, double* dcol, double* scol) {
+          const double si = amp ? topology_with_map(os.smath(i), s, os.mapv(i)) : s;
+          fiber_columns(os, ob, c, sn, n, si, acc, dcol, scol);
         },
         kd, ks);
     if (cost < best) best = cost, t.s = s, set_start_kd_ks(kd, ks, &t.c);
@@ -223,7 +228,7 @@ TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>&
         nullptr, &t.s);
   set_core_bounds(&pb, &c);
   if (fit_s)
-    set_param_bounds(&pb, &t.s, 0, "topology.s");
+    set_param_bounds(&pb, &t.s, 0, texel_topology_key(os.topology));
   else
     pb.SetParameterBlockConstant(&t.s);
   std::vector<double*> blocks = {c.kd, c.ks, &c.logn, &c.psi};

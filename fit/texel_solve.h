@@ -10,6 +10,11 @@
 
 namespace aniso::fitting {
 
+// The parameter a fiber texel fits beside the core: s, or a topology map's amplitude A.
+inline const char* texel_topology_key(TopologyMode mode) {
+  return mode == TopologyMode::kAmplitude ? "topology.amplitude" : "topology.s";
+}
+
 struct TexelResult {
   Core c;
   double s = 0;                                   // the fiber model's topology

@@ -128,7 +128,7 @@ void parse_maps(const json& j, const Ctx& root, Material* m) {
   const Ctx c = root.at("maps");
   const json& b = j["maps"];
   if (!b.is_object()) c.fail("expected an object");
-  jsonu::check_keys(b, {"kd", "ks", "n", "fiber", "s", "wrap"}, c);
+  jsonu::check_keys(b, {"kd", "ks", "n", "fiber", "s", "amplitude", "wrap"}, c);
   MaterialMaps& mp = m->maps;
   mp.kd_file = jsonu::str_or(b, "kd", "", c);
   mp.ks_file = jsonu::str_or(b, "ks", "", c);
@@ -137,6 +137,13 @@ void parse_maps(const json& j, const Ctx& root, Material* m) {
   if (b.contains("s")) {
     if (!m->fiber()) c.at("s").fail("a map of the topology s needs \"model\": \"fiber\"");
     m->topology = SMapRef{jsonu::str(b["s"], c.at("s"))};
+  }
+  if (b.contains("amplitude")) {
+    if (!m->fiber() || !m->topology_as<TopologyMapRef>())
+      c.at("amplitude").fail(
+          "a map of the topology amplitude needs \"model\": \"fiber\" and a topology map "
+          "(\"topology\": {\"map\": ...})");
+    mp.amplitude_file = jsonu::str(b["amplitude"], c.at("amplitude"));
   }
   const std::string wrap = jsonu::str_or(b, "wrap", "clamp", c);
   if (wrap != "clamp" && wrap != "repeat")
@@ -229,6 +236,7 @@ Material read_material(const std::string& path) {
   mp.ks = load_map(path, mp.ks_file, "ks", 3, "ks");
   mp.n = load_map(path, mp.n_file, "n", 1, "n");
   mp.fiber = load_map(path, mp.fiber_file, "fiber", 2, nullptr);
+  mp.amplitude = load_map(path, mp.amplitude_file, "amplitude", 1, "topology.amplitude");
   return m;
 }
 
@@ -236,7 +244,8 @@ std::vector<std::string> material_input_files(const Material& m, const std::stri
   std::vector<std::string> f{path};
   if (const auto* t = m.topology_as<TopologyMapRef>()) f.push_back(join_path(m.base_dir, t->file));
   if (const auto* t = m.topology_as<SMapRef>()) f.push_back(join_path(m.base_dir, t->file));
-  for (const auto* rel : {&m.maps.kd_file, &m.maps.ks_file, &m.maps.n_file, &m.maps.fiber_file})
+  for (const auto* rel : {&m.maps.kd_file, &m.maps.ks_file, &m.maps.n_file, &m.maps.fiber_file,
+                          &m.maps.amplitude_file})
     if (!rel->empty()) f.push_back(join_path(m.base_dir, *rel));
   return f;
 }
@@ -268,12 +277,14 @@ void material_to_json(const Material& m, json* out) {
     j["topology"] = t;
   }
   const MaterialMaps& mp = m.maps;
-  if (!mp.kd_file.empty() || !mp.ks_file.empty() || !mp.n_file.empty() || !mp.fiber_file.empty()) {
+  if (!mp.kd_file.empty() || !mp.ks_file.empty() || !mp.n_file.empty() || !mp.fiber_file.empty() ||
+      !mp.amplitude_file.empty()) {
     json maps = json::object();
     if (!mp.kd_file.empty()) maps["kd"] = mp.kd_file;
     if (!mp.ks_file.empty()) maps["ks"] = mp.ks_file;
     if (!mp.n_file.empty()) maps["n"] = mp.n_file;
     if (!mp.fiber_file.empty()) maps["fiber"] = mp.fiber_file;
+    if (!mp.amplitude_file.empty()) maps["amplitude"] = mp.amplitude_file;
     maps["wrap"] = mp.repeat ? "repeat" : "clamp";
     j["maps"] = maps;
   }

@@ -38,12 +38,14 @@ using Topology = std::variant<UniformS, MathematicalS, TopologyMapRef, SMapRef>;
 
 // Per-texel maps over the sample's texture coordinates (FORMAT.md "Material maps"): each present
 // map replaces its scalar wherever the sample has uv; the scalars hold the mean values. Images
-// are shared (a Material is copied freely). kd, ks: RGB; n: R; fiber: R,G = (cos 2psi, sin 2psi).
+// are shared (a Material is copied freely). kd, ks: RGB; n: R; fiber: R,G = (cos 2psi, sin 2psi);
+// amplitude: R, the topology map's amplitude A per texel (the fiber model over a topology map,
+// what `fit --maps --model fiber` writes for such a set; the topology's "amplitude" is its mean).
 struct MaterialMaps {
-  std::string kd_file, ks_file, n_file, fiber_file;  // as named in the file (relative to it)
-  std::shared_ptr<const Image> kd, ks, n, fiber;
+  std::string kd_file, ks_file, n_file, fiber_file, amplitude_file;  // as named (relative to it)
+  std::shared_ptr<const Image> kd, ks, n, fiber, amplitude;
   bool repeat = false;  // wrap "repeat" (default "clamp")
-  bool any() const { return kd || ks || n || fiber; }
+  bool any() const { return kd || ks || n || fiber || amplitude; }
 };
 
 struct Material {

@@ -29,6 +29,8 @@ inline Material material_at(const Material& m, double u, double v) {
     if (mp.ks) out.ks[c] = map_lookup(*mp.ks, u, v, mp.ks->channels == 1 ? 0 : c, mp.repeat);
   }
   if (mp.n) out.n = map_lookup(*mp.n, u, v, 0, mp.repeat);
+  if (auto* t = out.topology_as<TopologyMapRef>(); t && mp.amplitude)
+    t->amplitude = map_lookup(*mp.amplitude, u, v, 0, mp.repeat);
   if (mp.fiber) {
     const double c2 = map_lookup(*mp.fiber, u, v, 0, mp.repeat);
     const double s2 = map_lookup(*mp.fiber, u, v, 1, mp.repeat);

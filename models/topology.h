@@ -9,6 +9,7 @@
 
 #include "models/fiber_model.h"
 #include "models/material.h"
+#include "models/material_maps.h"
 
 namespace aniso {
 
@@ -25,6 +26,15 @@ inline double s_at(const Material& m, double s_math, double map_value) {
     double operator()(const SMapRef&) const { return std::clamp(map_value, 0.0, 1.0); }
   };
   return std::visit(Visit{s_math, map_value}, m.topology);
+}
+
+// The same at a point with texture coordinates (u, v): a topology map's amplitude from the
+// material's map of it (maps.amplitude) where it has one, else as above.
+inline double s_at(const Material& m, double s_math, double map_value, double u, double v) {
+  if (m.maps.amplitude && m.topology_as<TopologyMapRef>())
+    return topology_with_map(s_math, map_lookup(*m.maps.amplitude, u, v, 0, m.maps.repeat),
+                             map_value);
+  return s_at(m, s_math, map_value);
 }
 
 // True when the material's topology needs a map sampled at the point (s_at's map_value).

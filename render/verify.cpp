@@ -67,7 +67,10 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
         const double mv = s_map.empty()
                               ? g.mapv_at(p)
                               : sample_first_channel(s_map, g.uv.px[2 * p], g.uv.px[2 * p + 1]);
-        const double topo = s_at(m, g.smath_at(p), mv);
+        // (check_uv: a material with maps has the pixel's texture coordinates)
+        const double topo = m.maps.any()
+                                ? s_at(m, g.smath_at(p), mv, g.uv.px[2 * p], g.uv.px[2 * p + 1])
+                                : s_at(m, g.smath_at(p), mv);
         // A material with maps: its values at the pixel's texture coordinates.
         const Evaluator local =
             m.maps.any() ? Evaluator(material_at(m, g.uv.px[2 * p], g.uv.px[2 * p + 1])) : eval;

@@ -346,7 +346,8 @@ double worst_lm_against_ceres(const std::string& dir, const std::string& options
   double worst = 0;
   *compared = 0;
   std::vector<std::string> keys = {"kd", "ks", "n"};
-  if (std::filesystem::exists(dir + "/ceres_s.exr")) keys.push_back("s");  // the fiber model's
+  for (const char* topo : {"s", "amplitude"})  // the fiber model's s, or a map's amplitude
+    if (std::filesystem::exists(dir + "/ceres_" + std::string(topo) + ".exr")) keys.push_back(topo);
   for (const std::string& key : keys) {
     const Image a = img("lm", key.c_str()), b = img("ceres", key.c_str()),
                 s = img("ceres", (std::string(key) + "_sigma").c_str());
@@ -400,6 +401,74 @@ TEST(FitMaps, FusedFiberTexelsReachCeresMinimum) {
     size_t compared = 0;
     EXPECT_LT(worst_lm_against_ceres(dir, options, &compared), 0.1) << options;
     EXPECT_GT(compared, 6u * 6 * 9 * 3 / 4);  // kd 3, ks 3, n, s and psi per texel
+  }
+}
+
+// --maps with the fiber model over a topology map (silk-torus: Hast's torus, its mathematical
+// topology plus a known map with amplitude A): every texel fits its own A (maps.amplitude) beside
+// k_d, k_s, n and psi. Against the truth's one A, the fused solver against Ceres per texel, the
+// material read back (its topology map kept, the amplitude map beside it), and `aniso verify`
+// rendering with the per-texel A.
+TEST(FitMaps, FiberModelMapsFitTheTopologyMapAmplitudePerTexel) {
+  const std::string dir = test::tmp_dir("fiber_amplitude");
+  auto r = test::run_cli("synth silk-torus " + dir +
+                         "/set --noise 0.01 --size 96x96 --views 16 --amplitude 0.8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  size_t compared = 0;
+  EXPECT_LT(worst_lm_against_ceres(dir, "--model fiber --maps 4x4", &compared), 0.1);
+  EXPECT_GE(compared, 8u * 9);  // the 8 texels the torus covers well: kd 3, ks 3, n, A, psi
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/lm.json"));
+  ASSERT_TRUE(j["maps"].contains("amplitude")) << j["maps"].dump();
+  EXPECT_FALSE(j["maps"].contains("s"));
+  EXPECT_TRUE(j["maps_uncertainty"].contains("amplitude"));
+  const Image a = read_image(dir + "/" + j["maps"]["amplitude"].get<std::string>()).image;
+  const Image det =
+      read_image(dir + "/" + j["maps_uncertainty"]["determined"].get<std::string>()).image;
+  std::vector<double> da;
+  for (size_t t = 0; t < a.px.size(); ++t)
+    if (det.px[t] > 0.5) da.push_back(std::abs(a.px[t] - 0.8));
+  std::printf("amplitude per texel: %zu determined, median |dA| %.4f (truth 0.8, global %.4f)\n",
+              da.size(), median(da), j["topology"]["amplitude"].get<double>());
+  EXPECT_GE(da.size(), 8u);
+  EXPECT_LT(median(da), 0.1);
+  const Material back = read_material(dir + "/lm.json");
+  ASSERT_NE(back.topology_as<TopologyMapRef>(), nullptr);
+  EXPECT_TRUE(back.maps.amplitude && back.maps.fiber);
+  // The amplitude at a texel centre is the texel's own.
+  const Material at = material_at(back, 0.625, 0.375);
+  EXPECT_NEAR(at.topology_as<TopologyMapRef>()->amplitude, a.at(2, 1, 0), 1e-6);
+  r = test::run_cli("verify " + dir + "/set " + dir + "/lm.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto all = r.output.find("\nall ");
+  ASSERT_NE(all, std::string::npos) << r.output;
+  std::istringstream in(r.output.substr(all + 5));
+  double pixels = 0, rms = 0;
+  in >> pixels >> rms;
+  std::printf("verify with the per-texel amplitude: residual RMS %.4f over %.0f pixels\n", rms,
+              pixels);
+  EXPECT_LT(rms, 0.03);
+  // Two tiles merged in another folder: the untiled run's amplitude map byte for byte, and the
+  // topology map still found from there.
+  for (int i = 0; i < 2; ++i) {
+    r = test::run_cli("fit " + dir + "/set --model fiber --maps 4x4 --tile " + std::to_string(i) +
+                      "/2 --out " + dir + "/tile" + std::to_string(i) + ".json");
+    ASSERT_EQ(r.status, 0) << r.output;
+  }
+  r = test::run_cli("merge " + dir + "/tile0.json " + dir + "/tile1.json --out " + dir +
+                    "/merged/lm.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(read_text_file(dir + "/lm_amplitude.exr") ==
+              read_text_file(dir + "/merged/lm_amplitude.exr"));
+  EXPECT_NE(read_material(dir + "/merged/lm.json").topology_as<TopologyMapRef>(), nullptr);
+  // A map of the amplitude without a topology map to apply it to is refused, naming the key.
+  nlohmann::json bad = j;
+  bad["topology"] = {{"s", 0.5}, {"mathematical", "none"}};
+  write_text_file(dir + "/bad.json", bad.dump());
+  try {
+    read_material(dir + "/bad.json");
+    ADD_FAILURE() << "a map of the amplitude over a uniform s was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("maps.amplitude"), std::string::npos) << e.what();
   }
 }
 
