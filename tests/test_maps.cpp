@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
@@ -71,6 +72,22 @@ MapErrors map_errors(const std::string& truth_json, const std::string& fit_json,
   return e;
 }
 
+// `aniso verify SET MATERIAL`: its "all" line's pixels and residual RMS (NaN where it failed).
+struct VerifyAll {
+  double pixels = NAN, rms = NAN;
+};
+VerifyAll verify_all(const std::string& set, const std::string& material) {
+  const auto r = test::run_cli("verify " + set + " " + material);
+  EXPECT_EQ(r.status, 0) << r.output;
+  const auto at = r.output.find("\nall ");
+  EXPECT_NE(at, std::string::npos) << r.output;
+  VerifyAll v;
+  if (r.status != 0 || at == std::string::npos) return v;
+  std::istringstream all(r.output.substr(at + 5));
+  all >> v.pixels >> v.rms;
+  return v;
+}
+
 // `aniso synth SYNTH DIR/set`, then `aniso fit DIR/set FIT --out OUT`; the fit's output.
 std::string synth_and_fit(const std::string& dir, const std::string& synth, const std::string& fit,
                           const std::string& out) {
@@ -99,17 +116,12 @@ TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
   EXPECT_LT(e.z, 3.0);  // the sigmas are not wildly overconfident
   // `aniso verify` renders with the maps: residual RMS near the noise (0.01); the global fit alone
   // left 0.11.
-  auto r = test::run_cli("verify " + dir + "/set " + dir + "/fit/m.json");
-  ASSERT_EQ(r.status, 0) << r.output;
-  const auto at = r.output.find("\nall ");
-  ASSERT_NE(at, std::string::npos) << r.output;
-  std::istringstream all(r.output.substr(at + 5));
-  double pixels = 0, rms = 0;
-  all >> pixels >> rms;
+  const auto [pixels, rms] = verify_all(dir + "/set", dir + "/fit/m.json");
   std::printf("verify with the fitted maps: residual RMS %.4f over %.0f pixels\n", rms, pixels);
   EXPECT_LT(rms, 0.025);
   // --residuals: one image a view whose values (0 off the sample) give the same RMS.
-  r = test::run_cli("verify " + dir + "/set " + dir + "/fit/m.json --residuals " + dir + "/res");
+  auto r =
+      test::run_cli("verify " + dir + "/set " + dir + "/fit/m.json --residuals " + dir + "/res");
   ASSERT_EQ(r.status, 0) << r.output;
   double sum2 = 0;
   size_t files = 0;
@@ -437,13 +449,7 @@ TEST(FitMaps, FiberModelMapsFitTheTopologyMapAmplitudePerTexel) {
   // The amplitude at a texel centre is the texel's own.
   const Material at = material_at(back, 0.625, 0.375);
   EXPECT_NEAR(at.topology_as<TopologyMapRef>()->amplitude, a.at(2, 1, 0), 1e-6);
-  r = test::run_cli("verify " + dir + "/set " + dir + "/lm.json");
-  ASSERT_EQ(r.status, 0) << r.output;
-  const auto all = r.output.find("\nall ");
-  ASSERT_NE(all, std::string::npos) << r.output;
-  std::istringstream in(r.output.substr(all + 5));
-  double pixels = 0, rms = 0;
-  in >> pixels >> rms;
+  const auto [pixels, rms] = verify_all(dir + "/set", dir + "/lm.json");
   std::printf("verify with the per-texel amplitude: residual RMS %.4f over %.0f pixels\n", rms,
               pixels);
   EXPECT_LT(rms, 0.03);
