@@ -162,8 +162,8 @@ int run_fit_mpi(FitArgs& a) {
   if (a.out == "-")
     throw Error("fit --mpi: --maps writes map files beside the material: give --out a file");
   // The merged output must not replace an input: checked by every rank before any work.
-  std::vector<std::string> outputs{a.out};
-  for (const auto& f : map_files(a.out)) outputs.push_back(join_path(parent_dir(a.out), f));
+  std::vector<std::string> outputs = map_outputs(a.out);
+  outputs.push_back(a.out);
   if (lower_ext(a.in) != ".csv") {
     const CaptureSet set = read_capture(a.in);
     check_outputs_apart(outputs, capture_input_files(set));
@@ -236,7 +236,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   if (fo.maps_w > 0 && fo.tile_count == 0) {
     if (out == "-")
       throw Error("fit: --maps writes map files beside the material: give --out a file");
-    for (const auto& f : map_files(out)) outputs.push_back(join_path(parent_dir(out), f));
+    for (const auto& p : map_outputs(out)) outputs.push_back(p);
   }
   check_outputs_apart(outputs, inputs);
   const FitResult r = is_table ? fit_table(table, fo) : fit_capture(set, fo);
@@ -324,6 +324,9 @@ Command add_fit(CLI::App& app) {
       ->default_str("line")
       ->transform(CLI::CheckedTransformer(models));
   fit->add_option("--out", a->out, "material file to write ('-' = standard output)")->required();
+  add_force_flag(fit,
+                 "--maps: replace files beside --out at the maps' names (OUT_kd.exr, ...) even "
+                 "where no earlier material at --out names them (never an input)");
   fit->add_option(
       "--truth", a->truth,
       "ground-truth material: print every parameter's error (default: the set's truth)");

@@ -142,6 +142,11 @@ struct FitReport {
 
 // The map files `write_fit` puts beside a material file when the result has maps.
 std::vector<std::string> map_files(const std::string& material_path);
+// Their paths, checked before any work: a file already at one of them is replaced only where it
+// is ours — the material already at material_path (an earlier fit or merge to the same --out)
+// names it in "maps" or "maps_uncertainty" — or with --force; anything else is a person's file
+// that the run was not asked to write, and is refused, named.
+std::vector<std::string> map_outputs(const std::string& material_path);
 
 struct FitResult {
   Material material;

@@ -2,6 +2,7 @@
 // a --maps run and their merge. The console's text: fit/report_text.cpp.
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -24,6 +25,33 @@ std::vector<std::string> map_files(const std::string& material_path) {
                         "coverage", "determined", "s", "s_sigma", "amplitude", "amplitude_sigma"})
     f.push_back(stem + "_" + k + ".exr");
   return f;
+}
+
+std::vector<std::string> map_outputs(const std::string& material_path) {
+  const std::string dir = parent_dir(material_path);
+  std::vector<std::string> paths, named;
+  // What an earlier material at this path names beside it (nothing, if it is not one).
+  if (std::filesystem::is_regular_file(material_path)) try {
+      const jsonu::json j = jsonu::json::parse(read_text_file(material_path));
+      for (const char* block : {"maps", "maps_uncertainty"})
+        if (j.is_object() && j.contains(block) && j[block].is_object())
+          for (const auto& [key, v] : j[block].items())
+            if (v.is_string()) named.push_back(v.get<std::string>());
+    } catch (const std::exception&) {
+      named.clear();  // not a material: it names nothing
+    }
+  for (const auto& f : map_files(material_path)) {
+    const std::string p = join_path(dir, f);
+    std::error_code ec;
+    if (std::filesystem::exists(std::filesystem::symlink_status(p, ec)) && !force_overwrite() &&
+        std::find(named.begin(), named.end(), f) == named.end())
+      throw Error(p + ": exists, and " + material_path +
+                  " (an earlier fit's material) does not name it among its maps: it is not a map "
+                  "this command wrote, and --maps would replace it; move it, choose another --out, "
+                  "or give --force");
+    paths.push_back(p);
+  }
+  return paths;
 }
 
 namespace {

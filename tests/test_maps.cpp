@@ -484,6 +484,38 @@ TEST(FitMaps, FiberModelMapsFitTheTopologyMapAmplitudePerTexel) {
 namespace aniso {
 namespace {
 
+// The map files go beside --out under names the user did not give (m_kd.exr, ...): a file already
+// there that no earlier material at --out names is a person's, and the run refuses before any
+// work, naming it, and leaves it and --out as they were; its own maps of an earlier run it
+// replaces; --force replaces anything. The same for merge.
+TEST(FitMaps, MapsBesideTheMaterialNeverReplaceAPersonsFile) {
+  const std::string dir = test::tmp_dir("maps_files");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 32x32 --views 4");
+  ASSERT_EQ(r.status, 0) << r.output;
+  write_text_file(dir + "/m_kd.exr", "my notes");
+  r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("m_kd.exr: exists"), std::string::npos) << r.output;
+  EXPECT_EQ(read_text_file(dir + "/m_kd.exr"), "my notes");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/m.json"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/m_ks.exr"));
+  // A material of the person's own at --out names nothing: still refused.
+  write_text_file(dir + "/m.json", "{\"maps\": {\"kd\": \"other.exr\"}}");
+  r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_EQ(read_text_file(dir + "/m_kd.exr"), "my notes");
+  r = test::run_cli("merge " + dir + "/none.json --out " + dir + "/m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("m_kd.exr: exists"), std::string::npos) << r.output;
+  // --force: replaced.
+  r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/m.json --force");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(read_image(dir + "/m_kd.exr").image.width, 4);
+  // Its own maps of that run, named by the m.json it wrote: replaced without --force.
+  r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/m.json");
+  EXPECT_EQ(r.status, 0) << r.output;
+}
+
 // A texel counts as determined by its direction; where its k_s is known less well than the
 // bounds know it (4 views of a swirl: k_s and n trade off in a few texels), the fit says so and
 // how many; with 8 views it does not.
