@@ -233,9 +233,10 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
     throw Error("fit: --tile splits a --maps fit: give --maps WxH");
   if (fo.maps_smooth > 0 && fo.maps_w == 0)
     throw Error("fit: --smooth couples the texels of a --maps fit: give --maps WxH");
-  if (fo.maps_w > 0 && fo.tile_count == 0) {
+  if ((fo.maps_w > 0 && fo.tile_count == 0) || fo.topology_texels > 0) {
     if (out == "-")
-      throw Error("fit: --maps writes map files beside the material: give --out a file");
+      throw Error(std::string("fit: ") + (fo.maps_w > 0 ? "--maps" : "--topology-map") +
+                  " writes map files beside the material: give --out a file");
     for (const auto& p : map_outputs(out)) outputs.push_back(p);
   }
   check_outputs_apart(outputs, inputs);

@@ -140,7 +140,8 @@ struct FitReport {
   std::vector<std::string> model_summaries;  // --model auto: one line per model
 };
 
-// The map files `write_fit` puts beside a material file when the result has maps.
+// The map files `write_fit` puts beside a material file when the result has maps (--maps) or a
+// map of s (--topology-map).
 std::vector<std::string> map_files(const std::string& material_path);
 // Their paths, checked before any work: a file already at one of them is replaced only where it
 // is ours — the material already at material_path (an earlier fit or merge to the same --out)

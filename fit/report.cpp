@@ -22,7 +22,8 @@ std::vector<std::string> map_files(const std::string& material_path) {
   const std::string stem = std::filesystem::path(material_path).stem().string();
   std::vector<std::string> f;
   for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
-                        "coverage", "determined", "s", "s_sigma", "amplitude", "amplitude_sigma"})
+                        "coverage", "determined", "s", "s_sigma", "amplitude", "amplitude_sigma",
+                        "topology_s"})  // the last: --topology-map's map of s
     f.push_back(stem + "_" + k + ".exr");
   return f;
 }
@@ -33,10 +34,10 @@ std::vector<std::string> map_outputs(const std::string& material_path) {
   // What an earlier material at this path names beside it (nothing, if it is not one).
   if (std::filesystem::is_regular_file(material_path)) try {
       const jsonu::json j = jsonu::json::parse(read_text_file(material_path));
-      for (const char* block : {"maps", "maps_uncertainty"})
+      for (const char* block : {"maps", "maps_uncertainty", "topology"})
         if (j.is_object() && j.contains(block) && j[block].is_object())
           for (const auto& [key, v] : j[block].items())
-            if (v.is_string()) named.push_back(v.get<std::string>());
+            if (v.is_string() && key != "map") named.push_back(v.get<std::string>());
     } catch (const std::exception&) {
       named.clear();  // not a material: it names nothing
     }
@@ -60,7 +61,7 @@ namespace {
 void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
   if (path == "-")
     throw Error("fit: --maps writes map files beside the material: give --out a file");
-  const std::vector<std::string> f = map_files(path);
+  const std::vector<std::string> f = map_files(path);  // checked by map_outputs
   const std::string dir = parent_dir(path);
   const size_t N = static_cast<size_t>(t.w) * t.h;
   // Each file as one job: compressing them (zlib) one after the other took ~2 s of one core for
@@ -172,7 +173,8 @@ jsonu::json fit_json(const std::string& path, const FitResult& r) {
   Material m = r.material;
   std::string s_map_path;
   if (!r.s_texels.empty()) {
-    // The map of s beside the material file: R = s, G = its sigma (-1 where undetermined).
+    // The map of s beside the material file (a name map_files lists, checked by map_outputs): R =
+    // s, G = its sigma (-1 where undetermined).
     std::string stem = std::filesystem::path(path).stem().string();
     m.topology = SMapRef{stem + "_topology_s.exr"};
     s_map_path = join_path(parent_dir(path), stem + "_topology_s.exr");

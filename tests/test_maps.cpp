@@ -514,6 +514,14 @@ TEST(FitMaps, MapsBesideTheMaterialNeverReplaceAPersonsFile) {
   // Its own maps of that run, named by the m.json it wrote: replaced without --force.
   r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/m.json");
   EXPECT_EQ(r.status, 0) << r.output;
+  // --topology-map's map of s beside the material: the same rule.
+  r = test::run_cli("synth fiber-flat-map " + dir + "/flat --size 32x32 --views 4");
+  ASSERT_EQ(r.status, 0) << r.output;
+  write_text_file(dir + "/f_topology_s.exr", "mine");
+  r = test::run_cli("fit " + dir + "/flat --model fiber --topology-map 2 --out " + dir + "/f.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("f_topology_s.exr: exists"), std::string::npos) << r.output;
+  EXPECT_EQ(read_text_file(dir + "/f_topology_s.exr"), "mine");
 }
 
 // A texel counts as determined by its direction; where its k_s is known less well than the
