@@ -35,7 +35,7 @@ Command add_export(CLI::App& app) {
         const Material m = read_material(a->mat);
         note_material_maps(
             m,
-            "export (tables, shaders, viewer; its glTF takes the fiber map as anisotropyTexture)");
+            "export (tables, shaders, viewer; its glTF takes the maps per texel as textures)");
         check_outputs_apart({a->out}, material_input_files(m, a->mat));
         ExportOptions o;
         o.size = a->size;
@@ -57,6 +57,12 @@ Command add_export(CLI::App& app) {
             "rotation %.1f deg; GGX lobe vs the model's lobe: relative RMS %.3f\n",
             s.pbr.roughness, s.pbr.strength, rad_to_deg(s.pbr.rotation_rad), s.pbr.lobe_rel_rms);
         std::printf("  %s\n", s.pbr.mapping.c_str());
+        if (s.gltf_texels.w > 0)
+          std::printf(
+              "  glTF per texel (%dx%d, the lobe fitted at %d values of n): baseColorTexture, "
+              "metallicRoughnessTexture, anisotropyTexture with its strength; whole-model "
+              "relative RMS at worst %.3f\n",
+              s.gltf_texels.w, s.gltf_texels.h, s.gltf_texels.nodes, s.gltf_texels.worst_rel_rms);
         return 0;
       }};
 }

@@ -1,5 +1,6 @@
 #include "render/export.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -7,6 +8,7 @@
 #include <filesystem>
 
 #include "core/angles.h"
+#include "core/color.h"
 #include "core/error.h"
 #include "geometry/mesh.h"
 #include "io/files.h"
@@ -176,23 +178,33 @@ SphereBuffers sphere_buffers() {
 
 // A material with a fiber map: KHR_materials_anisotropy's anisotropyTexture, RG the direction in
 // the (tangent, bitangent) plane encoded to [0, 1] (across the fibers: psi + 90 deg, as the
-// rotation of the uniform case), B the strength (1: the factor applies). The rotation is then 0.
-Image anisotropy_texture(const Material& m) {
+// rotation of the uniform case), B the strength (1: the factor applies; with `strength`, each
+// texel's own, the factor then 1). The rotation is then 0.
+Image anisotropy_texture(const Material& m, const GltfPbrTexels* strength) {
   const Image& f = *m.maps.fiber;
-  Image out(f.width, f.height, 3);
-  for (int y = 0; y < f.height; ++y)
-    for (int x = 0; x < f.width; ++x) {
-      const double psi = 0.5 * std::atan2(f.at(x, y, 1), f.at(x, y, 0));
-      const double dir = psi + M_PI / 2;
+  const int w = strength ? strength->w : f.width, h = strength ? strength->h : f.height;
+  Image out(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t t = static_cast<size_t>(y) * w + x;
+      const double dir = strength ? strength->rotation_rad[t]
+                                  : 0.5 * std::atan2(f.at(x, y, 1), f.at(x, y, 0)) + M_PI / 2;
       out.at(x, y, 0) = static_cast<float>(0.5 + 0.5 * std::cos(dir));
       out.at(x, y, 1) = static_cast<float>(0.5 + 0.5 * std::sin(dir));
-      out.at(x, y, 2) = 1.f;
+      out.at(x, y, 2) = strength ? strength->strength[t] : 1.f;
     }
   return out;
 }
 
+// The glTF's textures (file names in gltf/, empty where absent): the anisotropy direction (and
+// strength), and per texel the base colour (sRGB) and metallic-roughness (G roughness, B metallic).
+struct GltfTextures {
+  std::string anisotropy, base_color, metallic_roughness;
+  bool per_texel = false;  // the three from fit_gltf_pbr_texels: the factors are then 1
+};
+
 json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b,
-                   const json& tables, const std::string& anisotropy_png) {
+                   const json& tables, const GltfTextures& tex) {
   constexpr int kFloat = 5126, kUint = 5125, kArray = 34962, kElements = 34963;
   const size_t nv = b.vertices;
   json views = json::array(), accessors = json::array();
@@ -234,15 +246,34 @@ json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b
             {"whole_model_relative_rms", pbr.total_rel_rms},
             {"mapping", pbr.mapping}}}}}}}};
   json doc_extra = json::object();
-  if (!anisotropy_png.empty()) {
-    auto& ext = mat["extensions"]["KHR_materials_anisotropy"];
+  json images = json::array(), textures = json::array();
+  auto texture = [&](const std::string& uri) {
+    images.push_back({{"uri", uri}});
+    textures.push_back({{"sampler", 0}, {"source", images.size() - 1}});
+    return textures.size() - 1;
+  };
+  auto& ext = mat["extensions"]["KHR_materials_anisotropy"];
+  auto& pmr = mat["pbrMetallicRoughness"];
+  if (!tex.anisotropy.empty()) {
     ext["anisotropyRotation"] = 0.0;
-    ext["anisotropyTexture"] = {{"index", 0}};
-    doc_extra["images"] = {{{"uri", anisotropy_png}}};
+    ext["anisotropyTexture"] = {{"index", texture(tex.anisotropy)}};
+    if (tex.per_texel) ext["anisotropyStrength"] = 1.0;
+  }
+  if (!tex.base_color.empty()) {
+    pmr["baseColorTexture"] = {{"index", texture(tex.base_color)}};
+    pmr["baseColorFactor"] = {1.0, 1.0, 1.0, 1.0};
+  }
+  if (!tex.metallic_roughness.empty()) {
+    pmr["metallicRoughnessTexture"] = {{"index", texture(tex.metallic_roughness)}};
+    pmr["metallicFactor"] = 1.0;
+    pmr["roughnessFactor"] = 1.0;
+  }
+  if (!images.empty()) {
+    doc_extra["images"] = images;
     // Linear filtering, clamped at the border (FORMAT.md's default wrap for material maps).
     doc_extra["samplers"] = {
         {{"magFilter", 9729}, {"minFilter", 9729}, {"wrapS", 33071}, {"wrapT", 33071}}};
-    doc_extra["textures"] = {{{"sampler", 0}, {"source", 0}}};
+    doc_extra["textures"] = textures;
   }
   json doc = {{"asset", {{"version", "2.0"}, {"generator", "aniso export"}}},
               {"extensionsUsed", {"KHR_materials_anisotropy"}},
@@ -395,13 +426,37 @@ void write_gltf(const std::string& tmp, const Material& m, const json& tables, E
   const SphereBuffers sphere = sphere_buffers();
   json gtables = json::object();
   for (const auto& [k, v] : tables.items()) gtables[k] = "../" + v["ktx2"].get<std::string>();
-  std::string aniso_png;
-  if (m.maps.fiber) {  // the fiber map as glTF's anisotropyTexture (PNG: what glTF core takes)
-    aniso_png = "sample_anisotropy.png";
-    write_png(join_path(tmp, "gltf/" + aniso_png), anisotropy_texture(m), 8);
-    sum->files.push_back("gltf/" + aniso_png);
+  GltfTextures tex;
+  auto png = [&](const std::string& name, const Image& img) {
+    write_png(join_path(tmp, "gltf/" + name), img, 8);  // PNG: what glTF core takes
+    sum->files.push_back("gltf/" + name);
+    return name;
+  };
+  const MaterialMaps& mp = m.maps;
+  if ((mp.kd || mp.ks || mp.n) && !m.fiber() && !m.isotropic_active() && !m.second_active()) {
+    // Per texel, on the finest of the maps' grids: base colour, metallic, roughness and the
+    // anisotropy's direction and strength, each as fit_gltf_pbr gives them at the texel.
+    int w = 0, h = 0;
+    for (const auto* img : {mp.kd.get(), mp.ks.get(), mp.n.get(), mp.fiber.get()})
+      if (img) w = std::max(w, img->width), h = std::max(h, img->height);
+    const GltfPbrTexels px = fit_gltf_pbr_texels(m, w, h);
+    Image base(w, h, 3), mr(w, h, 3);
+    for (size_t t = 0; t < px.metallic.size(); ++t) {
+      for (int c = 0; c < 3; ++c)
+        base.px[3 * t + c] = static_cast<float>(srgb_encode(px.base_color[3 * t + c]));
+      mr.px[3 * t] = 1.f;  // R: unused by metallic-roughness (occlusion's channel)
+      mr.px[3 * t + 1] = px.roughness[t];
+      mr.px[3 * t + 2] = px.metallic[t];
+    }
+    tex.per_texel = true;
+    tex.base_color = png("sample_base_color.png", base);
+    tex.metallic_roughness = png("sample_metallic_roughness.png", mr);
+    if (mp.fiber) tex.anisotropy = png("sample_anisotropy.png", anisotropy_texture(m, &px));
+    sum->gltf_texels = {w, h, px.n_nodes, px.worst_total_rel_rms};
+  } else if (mp.fiber) {
+    tex.anisotropy = png("sample_anisotropy.png", anisotropy_texture(m, nullptr));
   }
-  const json doc = gltf_document(m, sum->pbr, sphere, gtables, aniso_png);
+  const json doc = gltf_document(m, sum->pbr, sphere, gtables, tex);
   write_text_file(join_path(tmp, "gltf/sample.gltf"), doc.dump(2) + "\n");
   write_text_file(join_path(tmp, "gltf/sample.bin"),
                   std::string(sphere.bin.begin(), sphere.bin.end()));
@@ -467,7 +522,16 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
           {"anisotropy_rotation_rad", sum.pbr.rotation_rad},
           {"direction",
            "anisotropy direction = psi + 90 deg (roughness grows "
-           "across the fibers)"}}},
+           "across the fibers)"},
+          {"per_texel",
+           sum.gltf_texels.w > 0
+               ? json{{"texels", {sum.gltf_texels.w, sum.gltf_texels.h}},
+                      {"lobe_fits", sum.gltf_texels.nodes},
+                      {"worst_whole_model_relative_rms", sum.gltf_texels.worst_rel_rms},
+                      {"textures",
+                       "baseColorTexture (sRGB), metallicRoughnessTexture (G roughness, B "
+                       "metallic), anisotropyTexture (RG direction, B strength); factors 1"}}
+               : json(nullptr)}}},
         {"three", viewer},
         {"warnings", sum.warnings},
         {"conventions", conventions(sum)},

@@ -29,7 +29,12 @@ struct ExportSummary {
   BakeTables line;  // sizes and measured errors (texels dropped)
   bool fiber = false;
   FiberBakeTables fiber_tables;
-  GltfPbr pbr;
+  GltfPbr pbr;  // the mean material's (its factors where there are no per-texel textures)
+  // A material with maps of k_d, k_s or n: the glTF's per-texel textures (w = 0: none).
+  struct {
+    int w = 0, h = 0, nodes = 0;
+    double worst_rel_rms = 0;
+  } gltf_texels;
   std::vector<std::string> files;     // relative to the export folder
   std::vector<std::string> warnings;  // said to the user and recorded in export.json
   double seconds = 0;

@@ -6,8 +6,12 @@
 #include <cstdio>
 #include <vector>
 
+#include <tbb/parallel_for.h>
+
 #include "core/angles.h"
+#include "core/error.h"
 #include "models/evaluate.h"
+#include "models/material_maps.h"
 
 namespace aniso {
 
@@ -123,28 +127,15 @@ double ggx_aniso_lobe(double lu, double lw, double ln, double vu, double vw, dou
   return D * vis * ln;
 }
 
-GltfPbr fit_gltf_pbr(const Material& m_in) {
-  GltfPbr out;
-  const std::vector<Pair> pairs = direction_pairs();
-  out.samples = pairs.size();
-  // The model with the fiber along u: its specular lobe (k_s = 1) and its whole reflectance.
-  Material m = m_in;
-  m.fiber_angle_deg = 0;
-  m.second_angle_deg = m_in.second_angle_deg - m_in.fiber_angle_deg;
-  Material spec = m;
-  spec.kd = {0, 0, 0};
-  spec.ks = {1, 1, 1};
-  spec.has_isotropic = false;
-  spec.has_second_fiber = false;
-  const Evaluator es(spec), ef(m);
-  std::vector<double> ms(pairs.size());
-  std::vector<std::array<double, 3>> full(pairs.size());
-  for (size_t i = 0; i < pairs.size(); ++i) {
-    double f[3];
-    es(pairs[i].L, pairs[i].V, f);
-    ms[i] = f[0];
-    ef(pairs[i].L, pairs[i].V, full[i].data());
-  }
+namespace {
+
+// The GGX lobe whose shape best matches the model's specular lobe ms (k_s = 1): roughness,
+// strength, its least-squares scale, its values at the pairs and the shape's relative RMS.
+struct LobeFit {
+  double roughness = 0.5, strength = 0, scale = 0, rel_rms = INFINITY;
+  std::vector<double> g;
+};
+LobeFit fit_lobe(const std::vector<Pair>& pairs, const std::vector<double>& ms) {
   // Coarse grid over (roughness, strength), then two finer grids about the best node.
   double best = INFINITY, br = 0.5, bs = 0, step_r = 0.05, step_s = 0.05;
   auto search = [&](double r0, double r1, double s0, double s1, double dr, double ds) {
@@ -162,15 +153,165 @@ GltfPbr fit_gltf_pbr(const Material& m_in) {
     search(br - step_r, br + step_r, bs - step_s, bs + step_s, dr, ds);
     step_r = dr, step_s = ds;
   }
-  out.roughness = br;
-  out.strength = bs;
-  out.lobe_rel_rms = best;
-  out.rotation_rad = wrap_half_turn(deg_to_rad(m_in.fiber_angle_deg + 90.0));
-  double scale;
-  const std::vector<double> g = lobe(pairs, br, bs);
-  fit_scale(ms, g, &scale);
+  LobeFit f;
+  f.roughness = br, f.strength = bs, f.rel_rms = best;
+  f.g = lobe(pairs, br, bs);
+  fit_scale(ms, f.g, &f.scale);
+  return f;
+}
 
-  choose_colours(pairs, full, ms, g, m_in, scale, &out);
+// The material with the fiber along u (glTF's rotation carries psi).
+Material along_u(const Material& m_in) {
+  Material m = m_in;
+  m.fiber_angle_deg = 0;
+  m.second_angle_deg = m_in.second_angle_deg - m_in.fiber_angle_deg;
+  return m;
+}
+
+// Its specular lobe alone (k_s = 1) at the pairs.
+std::vector<double> specular_lobe(const std::vector<Pair>& pairs, const Material& m) {
+  Material spec = along_u(m);
+  spec.kd = {0, 0, 0};
+  spec.ks = {1, 1, 1};
+  spec.has_isotropic = false;
+  spec.has_second_fiber = false;
+  spec.maps = MaterialMaps{};
+  const Evaluator es(spec);
+  std::vector<double> ms(pairs.size());
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    double f[3];
+    es(pairs[i].L, pairs[i].V, f);
+    ms[i] = f[0];
+  }
+  return ms;
+}
+
+}  // namespace
+
+GltfPbr fit_gltf_pbr(const Material& m_in) {
+  GltfPbr out;
+  const std::vector<Pair> pairs = direction_pairs();
+  out.samples = pairs.size();
+  // The model with the fiber along u: its specular lobe (k_s = 1) and its whole reflectance.
+  const std::vector<double> ms = specular_lobe(pairs, m_in);
+  const Evaluator ef(along_u(m_in));
+  std::vector<std::array<double, 3>> full(pairs.size());
+  for (size_t i = 0; i < pairs.size(); ++i) ef(pairs[i].L, pairs[i].V, full[i].data());
+  const LobeFit f = fit_lobe(pairs, ms);
+  out.roughness = f.roughness;
+  out.strength = f.strength;
+  out.lobe_rel_rms = f.rel_rms;
+  out.rotation_rad = wrap_half_turn(deg_to_rad(m_in.fiber_angle_deg + 90.0));
+  choose_colours(pairs, full, ms, f.g, m_in, f.scale, &out);
+  return out;
+}
+
+namespace {
+
+// A node of log n for the texels: the lobe's fit and the sums over the pairs that the colours
+// need (D: the diffuse term at k_d = 1, S: the lobe at k_s = 1, nl: <N,L>, g: the GGX lobe).
+struct PbrNode {
+  double logn = 0, roughness = 0, strength = 0, scale = 0;
+  double DD = 0, DS = 0, SS = 0, Dnl = 0, Snl = 0, Dg = 0, Sg = 0, nlnl = 0, nlg = 0, gg = 0;
+};
+constexpr int kNodeSums = 14;  // the doubles above, interpolated together
+static_assert(sizeof(PbrNode) == kNodeSums * sizeof(double));
+
+}  // namespace
+
+GltfPbrTexels fit_gltf_pbr_texels(const Material& m, int w, int h) {
+  if (m.fiber() || m.isotropic_active() || m.second_active())
+    throw Error("glTF per texel: the plain line model only (a fiber model's or optional terms' "
+                "maps take the mean values)");
+  GltfPbrTexels out;
+  out.w = w, out.h = h;
+  const size_t N = static_cast<size_t>(w) * h;
+  // The material at texel t's centre (looked up twice rather than held: ~300 bytes a texel).
+  auto at = [&](size_t t) {
+    return material_at(m, (static_cast<double>(t % w) + 0.5) / w,
+                       (static_cast<double>(t / w) + 0.5) / h);
+  };
+  double lo = INFINITY, hi = -INFINITY;
+  for (size_t t = 0; t < N; ++t) {
+    const double logn = std::log(at(t).n);
+    lo = std::min(lo, logn), hi = std::max(hi, logn);
+  }
+  const std::vector<Pair> pairs = direction_pairs();
+  // Nodes at most 15 % apart in n (the lobe's shape changes slowly with n), at most 24.
+  const int K = hi - lo < 1e-9 ? 1
+                                : std::clamp(static_cast<int>(std::ceil((hi - lo) / std::log(1.15))) + 1,
+                                             2, 24);
+  out.n_nodes = K;
+  std::vector<PbrNode> nodes(K);
+  Material dif = along_u(m);
+  dif.maps = MaterialMaps{};
+  dif.kd = {1, 1, 1}, dif.ks = {0, 0, 0};
+  std::vector<double> D(pairs.size());
+  {
+    const Evaluator ed(dif);
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      double f[3];
+      ed(pairs[i].L, pairs[i].V, f);
+      D[i] = f[0];
+    }
+  }
+  tbb::parallel_for(0, K, [&](int k) {
+    PbrNode& nd = nodes[k];
+    nd.logn = K == 1 ? lo : lo + (hi - lo) * k / (K - 1);
+    Material mk = dif;
+    mk.n = std::exp(nd.logn);
+    const std::vector<double> S = specular_lobe(pairs, mk);
+    const LobeFit f = fit_lobe(pairs, S);
+    nd.roughness = f.roughness, nd.strength = f.strength, nd.scale = f.scale;
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      const double d = D[i], s = S[i], nl = pairs[i].L.n, g = f.g[i];
+      nd.DD += d * d, nd.DS += d * s, nd.SS += s * s, nd.Dnl += d * nl, nd.Snl += s * nl;
+      nd.Dg += d * g, nd.Sg += s * g, nd.nlnl += nl * nl, nd.nlg += nl * g, nd.gg += g * g;
+    }
+  });
+  out.base_color.resize(3 * N);
+  for (auto* v : {&out.metallic, &out.roughness, &out.strength, &out.rotation_rad}) v->resize(N);
+  double worst = 0;
+  for (size_t t = 0; t < N; ++t) {
+    const Material mt = at(t);
+    // The node pair around log n, and the sums between them (linear in log n).
+    const double pos = K == 1 ? 0 : std::clamp((std::log(mt.n) - lo) / (hi - lo) * (K - 1), 0.0,
+                                              K - 1.0);
+    const int k0 = std::min(static_cast<int>(pos), K - 1), k1 = std::min(k0 + 1, K - 1);
+    const double a = pos - k0;
+    PbrNode nd;
+    const auto* p0 = reinterpret_cast<const double*>(&nodes[k0]);
+    const auto* p1 = reinterpret_cast<const double*>(&nodes[k1]);
+    auto* q = reinterpret_cast<double*>(&nd);
+    for (int i = 0; i < kNodeSums; ++i) q[i] = (1 - a) * p0[i] + a * p1[i];
+    // As choose_colours, from the sums: metal (base = k_s scale) or dielectric (base = the
+    // Lambert fit of k_d D, F0 = 0.04), whichever leaves less of the whole model.
+    double rss_m = 0, rss_d = 0, mm = 0;
+    RGB metal, diel;
+    for (int c = 0; c < 3; ++c) {
+      const double kd = mt.kd[c], ks = mt.ks[c];
+      const double FF = kd * kd * nd.DD + 2 * kd * ks * nd.DS + ks * ks * nd.SS;
+      const double Fg = kd * nd.Dg + ks * nd.Sg, Fnl = kd * nd.Dnl + ks * nd.Snl;
+      metal[c] = std::clamp(ks * nd.scale, 0.0, 1.0);
+      rss_m += FF - 2 * metal[c] * Fg + metal[c] * metal[c] * nd.gg;
+      diel[c] = std::clamp(M_PI * kd * nd.Dnl / std::max(nd.nlnl, 1e-300), 0.0, 1.0);
+      const double b = diel[c] / M_PI;
+      rss_d += FF - 2 * (b * Fnl + 0.04 * Fg) + b * b * nd.nlnl + 2 * b * 0.04 * nd.nlg +
+               0.04 * 0.04 * nd.gg;
+      mm += FF;
+    }
+    const double e_m = mm > 0 ? std::sqrt(std::max(rss_m, 0.0) / mm) : 0;
+    const double e_d = mm > 0 ? std::sqrt(std::max(rss_d, 0.0) / mm) : 0;
+    const bool is_metal = e_m <= e_d;
+    for (int c = 0; c < 3; ++c)
+      out.base_color[3 * t + c] = static_cast<float>(is_metal ? metal[c] : diel[c]);
+    out.metallic[t] = is_metal ? 1.f : 0.f;
+    out.roughness[t] = static_cast<float>(nd.roughness);
+    out.strength[t] = static_cast<float>(nd.strength);
+    out.rotation_rad[t] = static_cast<float>(wrap_half_turn(deg_to_rad(mt.fiber_angle_deg + 90.0)));
+    worst = std::max(worst, std::min(e_m, e_d));
+  }
+  out.worst_total_rel_rms = worst;
   return out;
 }
 

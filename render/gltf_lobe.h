@@ -9,6 +9,7 @@
 // degrees, and the roughness along the fiber is the base roughness.
 #pragma once
 #include <string>
+#include <vector>
 
 #include "models/material.h"
 
@@ -28,6 +29,20 @@ struct GltfPbr {
 };
 
 GltfPbr fit_gltf_pbr(const Material& m);
+
+// The same per texel of a line-model material with maps (k_d, k_s, n, the fiber direction), on a
+// w x h grid over uv (texel centres, as FORMAT.md's maps): what fit_gltf_pbr gives for the
+// material at each texel's centre, the lobe's shape (roughness, strength, its scale) fitted at
+// nodes of log n spaced at most 15 % apart and interpolated between them, the colours and the
+// metal / dielectric choice per texel from sums over the direction grid (the model is linear in
+// k_d and k_s). Linear values; 3 per texel for the base colour.
+struct GltfPbrTexels {
+  int w = 0, h = 0;
+  std::vector<float> base_color, metallic, roughness, strength, rotation_rad;
+  int n_nodes = 0;                  // the lobe fits made
+  double worst_total_rel_rms = 0;   // the whole model's worst relative RMS over the texels
+};
+GltfPbrTexels fit_gltf_pbr_texels(const Material& m, int w, int h);
 
 // The extension's lobe (D * Vis * <N,L>, F = 1) for unit vectors in the frame (u along the
 // fiber, w across it, n the normal), alpha_t across the fiber and alpha_b along it.

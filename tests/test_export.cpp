@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/angles.h"
+#include "core/color.h"
 #include "core/error.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -237,6 +238,76 @@ TEST(Export, FiberMapBecomesTheGltfAnisotropyTexture) {
   std::printf("anisotropyTexture: %dx%d, worst direction error against psi + 90 deg: %.2f deg\n",
               tex.width, tex.height, worst);
   EXPECT_LT(worst, 0.5);  // 8-bit encoding
+}
+
+// A material with maps of k_d, k_s and n (woven-patch: warp blocks red with n = 30, weft blocks
+// blue with n = 12, each its own direction) becomes per-texel glTF textures: base colour (sRGB),
+// metallic-roughness and the anisotropy's strength beside its direction, each within 8-bit
+// rounding (and the lobe's interpolation in log n) of fit_gltf_pbr at the texel's centre; the
+// Khronos validator accepts the file.
+TEST(Export, MapsBecomePerTexelGltfTextures) {
+  const std::string root = tmp_dir("pbr_texels");
+  auto r = test::run_cli("synth woven-patch " + root + "/set --size 16x16 --views 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const Material m = read_material(root + "/set/truth.json");
+  ASSERT_TRUE(m.maps.kd && m.maps.n && m.maps.fiber);
+  // In process, texels of a 12 x 12 grid (every 5th: fit_gltf_pbr takes ~0.1 s) against the
+  // uniform fit at the centre.
+  const GltfPbrTexels px = fit_gltf_pbr_texels(m, 12, 12);
+  double d_base = 0, d_rough = 0, d_strength = 0;
+  int metal_mismatch = 0, compared = 0;
+  for (int y = 0; y < 12; y += 5)
+    for (int x = 0; x < 12; x += 5, ++compared) {
+      const size_t t = static_cast<size_t>(y) * 12 + x;
+      const GltfPbr one = fit_gltf_pbr(material_at(m, (x + 0.5) / 12, (y + 0.5) / 12));
+      for (int c = 0; c < 3; ++c)
+        d_base = std::max(d_base, std::abs(px.base_color[3 * t + c] - one.base_color[c]));
+      d_rough = std::max(d_rough, std::abs(px.roughness[t] - one.roughness));
+      d_strength = std::max(d_strength, std::abs(px.strength[t] - one.strength));
+      metal_mismatch += px.metallic[t] != one.metallic;
+    }
+  std::printf("per texel against fit_gltf_pbr at the centre (%d lobe fits): base colour %.2e, "
+              "roughness %.2e, strength %.2e, metallic differs in %d of %d\n",
+              px.n_nodes, d_base, d_rough, d_strength, metal_mismatch, compared);
+  EXPECT_GE(px.n_nodes, 2);  // n from 12 to 30
+  EXPECT_LT(d_base, 1e-6);   // the nodes fall on the two n values: exact there
+  EXPECT_LT(d_rough, 1e-6);
+  EXPECT_LT(d_strength, 1e-6);
+  EXPECT_EQ(metal_mismatch, 0);
+  // The exported glTF.
+  r = test::run_cli("export " + root + "/set/truth.json --out " + root + "/export --size 32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  int status = 0;
+  const auto j = node_json("validate_gltf.mjs", "'" + root + "/export/gltf/sample.gltf'", &status);
+  EXPECT_EQ(status, 0) << j.dump(2);
+  EXPECT_EQ(j["numErrors"], 0) << j.dump(2);
+  const auto g = nlohmann::json::parse(read_text_file(root + "/export/gltf/sample.gltf"));
+  const auto& pmr = g["materials"][0]["pbrMetallicRoughness"];
+  ASSERT_TRUE(pmr.contains("baseColorTexture") && pmr.contains("metallicRoughnessTexture"))
+      << pmr.dump();
+  auto image = [&](const nlohmann::json& ref) {
+    const int src = g["textures"][ref["index"].get<int>()]["source"];
+    return read_image(root + "/export/gltf/" + g["images"][src]["uri"].get<std::string>()).image;
+  };
+  const Image base = image(pmr["baseColorTexture"]), mr = image(pmr["metallicRoughnessTexture"]);
+  const Image an = image(g["materials"][0]["extensions"]["KHR_materials_anisotropy"]
+                          ["anisotropyTexture"]);
+  ASSERT_EQ(base.width, m.maps.kd->width);  // the finest of the maps' grids
+  ASSERT_EQ(mr.width, base.width);
+  ASSERT_EQ(an.width, base.width);
+  double worst = 0;
+  const int W = base.width, H = base.height;
+  for (int y = 1; y < H; y += H / 3)
+    for (int x = 2; x < W; x += W / 3) {
+      const GltfPbr one = fit_gltf_pbr(material_at(m, (x + 0.5) / W, (y + 0.5) / H));
+      for (int c = 0; c < 3; ++c)
+        worst = std::max(worst, std::abs(srgb_decode(base.at(x, y, c)) - one.base_color[c]));
+      worst = std::max(worst, std::abs(mr.at(x, y, 1) - one.roughness));
+      worst = std::max(worst, std::abs(mr.at(x, y, 2) - one.metallic));
+      worst = std::max(worst, std::abs(an.at(x, y, 2) - one.strength));
+    }
+  std::printf("glTF textures against fit_gltf_pbr at the texel centres: worst %.4f\n", worst);
+  EXPECT_LT(worst, 0.01);  // 8-bit codes (sRGB's steepest step near black is ~0.0012)
 }
 
 TEST(Export, RefusesAFolderThatIsNotAnEarlierExport) {
