@@ -17,14 +17,15 @@ Command add_eval(CLI::App& app) {
   auto* eval = app.add_subcommand("eval", "Fill in a sample table (CSV) by evaluating a material");
   eval->add_option("MATERIAL", a->mat, "material file")->required();
   eval->add_option("--table", a->table,
-                   "sample table: theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg[,...]")
+                   "sample table: theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg[,s][,u,v] (u, v: "
+                   "where on the sample, for a material with maps)")
       ->required();
   eval->add_option("--out", a->out, "table to write with r,g,b ('-' = standard output)")
       ->required();
   return {eval, [a] {
             const Material m = read_material(a->mat);
-            note_material_maps(m, "eval");
             SampleTable t = read_table(a->table);
+            if (!t.has_uv) note_material_maps(m, "eval (a table without u, v columns)");
             check_outputs_apart({a->out}, {a->mat, a->table});
             evaluate_table(m, &t);
             write_table(a->out, t);

@@ -42,8 +42,8 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
     throw Error("fit: --maps and --topology-map do not go together");
   if (opt.maps_w > 0 && os.texel.size() != os.obs.size())
     throw Error(
-        "fit: --maps needs texture coordinates: a capture set with \"uv\" buffers (a sample "
-        "table has none)");
+        "fit: --maps needs texture coordinates: a capture set with \"uv\" buffers, or a sample "
+        "table with u, v columns");
   if (os.obs.empty())
     throw Error(
         "fit: no usable observations (empty mask, all pixels saturated, non-finite or unlit)");
@@ -342,7 +342,7 @@ FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
 FitResult fit_table(const SampleTable& t, const FitOptions& opt) {
   const auto t0 = Clock::now();
   FitReport rep;
-  const ObsSet os = table_observations(t, &rep);
+  const ObsSet os = table_observations(t, opt, &rep);
   FitResult r = solve_model(os, opt, rep, {0, 0, 0});
   r.report.seconds = seconds_since(t0);
   return r;

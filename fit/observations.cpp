@@ -307,7 +307,7 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
   return os;
 }
 
-ObsSet table_observations(const SampleTable& t, FitReport* rep) {
+ObsSet table_observations(const SampleTable& t, const FitOptions& opt, FitReport* rep) {
   if (t.values == SampleTable::Values::kNone)
     throw Error("fit: the sample table has no value columns (r,g,b or y)");
   ObsSet os;
@@ -328,6 +328,10 @@ ObsSet table_observations(const SampleTable& t, FitReport* rep) {
     os.lights.push_back(l);
     os.obs.push_back(o);
     if (t.has_s) os.topo.insert(os.topo.end(), {static_cast<float>(row.s), 0.f});
+    if (t.has_uv && opt.maps_w > 0) {  // --maps: the spot's texel
+      const long tx = texel_of(row.u, row.v, opt.maps_w, opt.maps_h);
+      os.texel.push_back(tx < 0 ? ObsSet::kNoTexel : static_cast<uint32_t>(tx));
+    }
   }
   // A table with an s column gives the fiber model's topology per row; otherwise one s is fitted.
   if (t.has_s) os.topology = TopologyMode::kMathematical;

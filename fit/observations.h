@@ -89,7 +89,8 @@ struct ObsSet {
 };
 
 ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep);
-ObsSet table_observations(const SampleTable& table, FitReport* rep);
+// A table's rows; with --maps and u, v columns, each row's texel.
+ObsSet table_observations(const SampleTable& table, const FitOptions& opt, FitReport* rep);
 
 // Up to `count` of n observation indices, spread by the golden-ratio sequence rather than a
 // fixed stride: a stride can alias with the layout of the data (10 000 identical views, a

@@ -75,7 +75,8 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
       constexpr double kMax = std::numeric_limits<float>::max();
       for (size_t i = 0; i < N; ++i)
         for (int c = 0; c < channels; ++c)
-          img.px[channels * i + c] = static_cast<float>(std::clamp<double>(value(i, c), -kMax, kMax));
+          img.px[channels * i + c] =
+              static_cast<float>(std::clamp<double>(value(i, c), -kMax, kMax));
       write_exr(join_path(dir, f[file]), img);
     });
   };
@@ -381,9 +382,11 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
   fit["report"]["merged_from_tiles"] = count;
   // A topology map's path is relative to the file that names it: the tile's folder then, the
   // merged material's now.
-  if (fit.contains("topology") && fit["topology"].contains("map") && fit["topology"]["map"].is_string())
-    fit["topology"]["map"] = relative_to(
-        join_path(parent_dir(tiles[0]), fit["topology"]["map"].get<std::string>()), parent_dir(out));
+  if (fit.contains("topology") && fit["topology"].contains("map") &&
+      fit["topology"]["map"].is_string())
+    fit["topology"]["map"] =
+        relative_to(join_path(parent_dir(tiles[0]), fit["topology"]["map"].get<std::string>()),
+                    parent_dir(out));
   add_maps(out, m, &fit);
   write_json_file(out, fit);
 }

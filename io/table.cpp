@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "core/angles.h"
@@ -10,6 +11,7 @@
 #include "core/text.h"
 #include "io/files.h"
 #include "models/evaluate.h"
+#include "models/material_maps.h"
 
 namespace aniso {
 
@@ -40,20 +42,21 @@ SampleTable read_table(const std::string& path) {
   if (!std::getline(f, line)) throw Error(path + ": empty file (expected a header line)");
   if (line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // a UTF-8 byte-order mark
   const auto head = split_csv(line);
-  int col[9];
-  const char* names[9] = {"theta_i_deg", "phi_i_deg", "theta_o_deg", "phi_o_deg", "r",
-                          "g",           "b",         "y",           "s"};
-  for (int k = 0; k < 9; ++k) {
+  constexpr int kColumns = 11;
+  int col[kColumns];
+  const char* names[kColumns] = {"theta_i_deg", "phi_i_deg", "theta_o_deg", "phi_o_deg", "r", "g",
+                                 "b",           "y",         "s",           "u",         "v"};
+  for (int k = 0; k < kColumns; ++k) {
     col[k] = -1;
     for (size_t c = 0; c < head.size(); ++c)
       if (head[c] == names[k]) col[k] = static_cast<int>(c);
   }
   for (int k = 0; k < 4; ++k)
     if (col[k] < 0) throw Error(path + ": header: missing column '" + names[k] + "'");
-  const std::vector<std::string> known_names(names, names + 9);
+  const std::vector<std::string> known_names(names, names + kColumns);
   for (size_t c = 0; c < head.size(); ++c) {
     bool known = false;
-    for (int k = 0; k < 9; ++k) known |= head[c] == names[k];
+    for (int k = 0; k < kColumns; ++k) known |= head[c] == names[k];
     if (!known)
       throw Error(path + ": header: unknown column '" + head[c] + "'" +
                   did_you_mean(head[c], known_names));
@@ -69,6 +72,8 @@ SampleTable read_table(const std::string& path) {
   t.values = rgb ? SampleTable::Values::kRGB
                  : (col[7] >= 0 ? SampleTable::Values::kGrey : SampleTable::Values::kNone);
   t.has_s = col[8] >= 0;
+  if ((col[9] >= 0) != (col[10] >= 0)) throw Error(path + ": header: u and v go together");
+  t.has_uv = col[9] >= 0;
   int lineno = 1;
   while (std::getline(f, line)) {
     ++lineno;
@@ -106,6 +111,7 @@ SampleTable read_table(const std::string& path) {
     if (t.values == SampleTable::Values::kGrey)
       r.value[0] = r.value[1] = r.value[2] = get(7, -big, big);
     if (t.has_s) r.s = get(8, 0, 1);
+    if (t.has_uv) r.u = get(9, -big, big), r.v = get(10, -big, big);
     t.rows.push_back(r);
   }
   if (t.rows.empty()) throw Error(path + ": no data rows");
@@ -117,12 +123,14 @@ void write_table(const std::string& path, const SampleTable& t) {
   o.precision(9);
   o << "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg";
   if (t.has_s) o << ",s";
+  if (t.has_uv) o << ",u,v";
   o << (t.values == SampleTable::Values::kGrey ? ",y" : ",r,g,b") << "\n";
   for (const auto& r : t.rows) {
     for (double v : r.value)
       if (!std::isfinite(v)) throw Error(path + ": refusing to write a non-finite value");
     o << r.theta_i << "," << r.phi_i << "," << r.theta_o << "," << r.phi_o;
     if (t.has_s) o << "," << r.s;
+    if (t.has_uv) o << "," << r.u << "," << r.v;
     if (t.values == SampleTable::Values::kGrey)
       o << "," << r.value[0];
     else
@@ -134,14 +142,18 @@ void write_table(const std::string& path, const SampleTable& t) {
 
 void evaluate_table(const Material& m, SampleTable* t) {
   const Evaluator ev(m);
+  const bool local = t->has_uv && m.maps.any();  // the maps at each row's spot
   for (auto& row : t->rows) {
     double f[3];
     const LocalDir L = dir_from_angles(row.theta_i, row.phi_i);
     const LocalDir V = dir_from_angles(row.theta_o, row.phi_o);
+    std::optional<Evaluator> here;
+    if (local) here.emplace(material_at(m, row.u, row.v));
+    const Evaluator& e = here ? *here : ev;
     if (t->has_s)
-      ev(L, V, f, row.s);
+      e(L, V, f, row.s);
     else
-      ev(L, V, f);
+      e(L, V, f);
     for (int c = 0; c < 3; ++c) row.value[c] = f[c];
   }
   t->values = SampleTable::Values::kRGB;

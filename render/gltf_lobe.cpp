@@ -1,12 +1,12 @@
 #include "render/gltf_lobe.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <vector>
-
-#include <tbb/parallel_for.h>
 
 #include "core/angles.h"
 #include "core/error.h"
@@ -221,8 +221,9 @@ static_assert(sizeof(PbrNode) == kNodeSums * sizeof(double));
 
 GltfPbrTexels fit_gltf_pbr_texels(const Material& m, int w, int h) {
   if (m.fiber() || m.isotropic_active() || m.second_active())
-    throw Error("glTF per texel: the plain line model only (a fiber model's or optional terms' "
-                "maps take the mean values)");
+    throw Error(
+        "glTF per texel: the plain line model only (a fiber model's or optional terms' "
+        "maps take the mean values)");
   GltfPbrTexels out;
   out.w = w, out.h = h;
   const size_t N = static_cast<size_t>(w) * h;
@@ -238,9 +239,10 @@ GltfPbrTexels fit_gltf_pbr_texels(const Material& m, int w, int h) {
   }
   const std::vector<Pair> pairs = direction_pairs();
   // Nodes at most 15 % apart in n (the lobe's shape changes slowly with n), at most 24.
-  const int K = hi - lo < 1e-9 ? 1
-                                : std::clamp(static_cast<int>(std::ceil((hi - lo) / std::log(1.15))) + 1,
-                                             2, 24);
+  const int K =
+      hi - lo < 1e-9
+          ? 1
+          : std::clamp(static_cast<int>(std::ceil((hi - lo) / std::log(1.15))) + 1, 2, 24);
   out.n_nodes = K;
   std::vector<PbrNode> nodes(K);
   Material dif = along_u(m);
@@ -275,8 +277,8 @@ GltfPbrTexels fit_gltf_pbr_texels(const Material& m, int w, int h) {
   for (size_t t = 0; t < N; ++t) {
     const Material mt = at(t);
     // The node pair around log n, and the sums between them (linear in log n).
-    const double pos = K == 1 ? 0 : std::clamp((std::log(mt.n) - lo) / (hi - lo) * (K - 1), 0.0,
-                                              K - 1.0);
+    const double pos =
+        K == 1 ? 0 : std::clamp((std::log(mt.n) - lo) / (hi - lo) * (K - 1), 0.0, K - 1.0);
     const int k0 = std::min(static_cast<int>(pos), K - 1), k1 = std::min(k0 + 1, K - 1);
     const double a = pos - k0;
     PbrNode nd;

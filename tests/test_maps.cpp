@@ -6,8 +6,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
 
 #include "core/error.h"
 #include "core/texture.h"
@@ -319,7 +320,8 @@ TEST(FitMaps, SmoothingBringsNoisyTexelsCloserToTheTruth) {
   r = test::run_cli("fit " + dir + "/set --maps 0x6 --out " + dir + "/x.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("--maps: each side"), std::string::npos) << r.output;
-  // A sample table has no texture coordinates: refused, not every row in texel 0.
+  // A sample table without u, v columns has no texture coordinates: refused, not every row in
+  // texel 0.
   {
     std::ofstream t(dir + "/t.csv");
     t << "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,r,g,b\n";
@@ -596,6 +598,56 @@ TEST(FitMaps, TexelsThatStopBeforeConvergingAreMarked) {
   ASSERT_EQ(r.status, 0) << r.output;
   const auto tile = nlohmann::json::parse(read_text_file(dir + "/t0.json"));
   EXPECT_GT(tile.value("not_converged", 0), 0) << tile.dump().substr(0, 300);
+}
+
+}  // namespace
+}  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// A point gonioreflectometer that reads several spots of a sample: a sample table with u, v
+// columns. `eval` fills it from a material with maps at each row's spot, and `fit --maps` on it
+// recovers the maps per texel (woven-patch's 4 x 4 checker of warp and weft blocks, 60 readings
+// a block away from the blocks' borders, noise-free: every texel its block's k_d, n and psi).
+TEST(FitMaps, ATableWithSpotsFitsMaps) {
+  const std::string dir = test::tmp_dir("table_maps");
+  auto r = test::run_cli("synth woven-patch " + dir + "/set --size 16x16 --views 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> uni(0, 1);
+  std::ofstream t(dir + "/spots.csv");
+  t << "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,u,v\n";
+  for (int b = 0; b < 16; ++b)
+    for (int k = 0; k < 60; ++k)
+      t << 5 + 70 * uni(rng) << "," << 360 * uni(rng) << "," << 5 + 70 * uni(rng) << ","
+        << 360 * uni(rng) << "," << (b % 4 + 0.15 + 0.7 * uni(rng)) / 4 << ","
+        << (b / 4 + 0.15 + 0.7 * uni(rng)) / 4 << "\n";
+  t.close();
+  r = test::run_cli("eval " + dir + "/set/truth.json --table " + dir + "/spots.csv --out " + dir +
+                    "/values.csv");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("NOTE"), std::string::npos) << r.output;  // the maps are used
+  r = test::run_cli("fit " + dir + "/values.csv --maps 4x4 --out " + dir + "/fit.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const MapErrors e = map_errors(dir + "/set/truth.json", dir + "/fit.json");
+  std::printf(
+      "table with spots, --maps 4x4: %zu of 16 texels determined, median |dpsi| %.2e deg, "
+      "|dkd|/kd %.2e, |dn|/n %.2e\n",
+      e.determined, e.dpsi, e.dkd, e.dn);
+  EXPECT_EQ(e.determined, 16u);
+  EXPECT_LT(e.dpsi, 1e-3);
+  EXPECT_LT(e.dkd, 1e-4);
+  EXPECT_LT(e.dn, 1e-4);
+  // The table written back keeps its spots; u without v is refused, naming the columns.
+  EXPECT_EQ(read_text_file(dir + "/values.csv")
+                .rfind("theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,u,v,r,g,b\n", 0),
+            0u);
+  write_text_file(dir + "/bad.csv",
+                  "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,u,y\n1,2,3,4,0.5,1\n");
+  r = test::run_cli("fit " + dir + "/bad.csv --out " + dir + "/f2.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("u and v go together"), std::string::npos) << r.output;
 }
 
 }  // namespace
