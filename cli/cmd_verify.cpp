@@ -1,6 +1,8 @@
 // aniso verify: renders a capture's views with a material and reports the error per view.
+#include <algorithm>
 #include <cstdio>
 #include <memory>
+#include <string>
 
 #include "cli/command.h"
 #include "io/capture.h"
@@ -38,6 +40,21 @@ Command add_verify(CLI::App& app) {
                           r.views[i].rms, r.views[i].max_abs, 100 * r.views[i].rel_rms());
             std::printf("%-6s %8zu %12.4g %12.4g %9.4f%%\n", "all", r.overall.pixels, r.overall.rms,
                         r.overall.max_abs, 100 * r.overall.rel_rms());
+            if (r.overall.dark > 0) {
+              std::string views;
+              for (size_t i = 0; i < r.views.size(); ++i)
+                if (r.views[i].dark > 0)
+                  views += (views.empty() ? "" : ", ") + std::to_string(i) + " (" +
+                           std::to_string(r.views[i].dark) + ")";
+              std::printf(
+                  "verify: NOTE: %zu pixels (%.2f %%) read under a quarter of what the material "
+                  "predicts there, beyond the noise: a cast shadow or an occluder (verify traces "
+                  "no shadow rays: "
+                  "the sample's own geometry is only its buffers), or a material that does not "
+                  "describe them. Without them the RMS is %.4g. Views (pixels): %s\n",
+                  r.overall.dark, 100.0 * r.overall.dark / std::max<size_t>(r.overall.pixels, 1),
+                  r.overall.rms_without_dark, views.c_str());
+            }
             return 0;
           }};
 }

@@ -1,7 +1,10 @@
 #include "render/verify.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
+#include <vector>
 
 #include "core/error.h"
 #include "core/texture.h"
@@ -32,7 +35,8 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
   VerifyResult res;
   std::vector<Image> resids;  // --residuals: written together at the end
   const Evaluator eval(m);
-  double sum2 = 0, sumy = 0;
+  double sum2 = 0, sumy = 0, sum2_dark = 0;
+  std::vector<float> abs_green;  // reused view after view
   auto no_shadows = [](const SurfacePoint&, const Vec3&, double, ShadeCounters*) { return false; };
   TopologyMap map;
   // The material's own maps (paths relative to the material file).
@@ -53,7 +57,13 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     check_uv(set, i, g, m.maps.any(), !s_map.empty());
     const ViewSpec& v = set.views[i];
     ViewError e;
-    double s2 = 0, sy = 0;
+    double s2 = 0, sy = 0, predicted = 0;
+    struct Dark {
+      double predicted, deficit, err2;  // summed over the channels
+    };
+    std::vector<Dark> darker;  // pixels under a quarter of the prediction (few in a good fit)
+    std::vector<float>& green = abs_green;  // |error| of one channel per pixel: the noise
+    green.clear();
     Image resid = keep_residuals ? Image(d.rgb.width, d.rgb.height, 3, 0.f) : Image();
     ShadeCounters cnt;
     const RGB amb{m.ka[0] * set.ambient[0], m.ka[1] * set.ambient[1], m.ka[2] * set.ambient[2]};
@@ -75,19 +85,42 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
         const Evaluator local =
             m.maps.any() ? Evaluator(material_at(m, g.uv.px[2 * p], g.uv.px[2 * p + 1])) : eval;
         shade_point(local, sp, d.eye, v.lights, amb, topo, no_shadows, I, &cnt);
+        double p2 = 0, pred = 0, obs = 0;
         for (int c = 0; c < 3; ++c) {
           const double err = v.exposure * I[c] - d.rgb.at(x, y, c);
           if (keep_residuals) resid.at(x, y, c) = static_cast<float>(err);
-          s2 += err * err;
+          p2 += err * err;
+          pred += v.exposure * I[c], obs += d.rgb.at(x, y, c);
           sy += std::abs(d.rgb.at(x, y, c));
           e.max_abs = std::max(e.max_abs, std::abs(err));
         }
+        s2 += p2;
+        predicted += pred;
+        if (obs < 0.25 * pred) darker.push_back({pred, pred - obs, p2});
+        green.push_back(static_cast<float>(std::abs(v.exposure * I[1] - d.rgb.at(x, y, 1))));
         ++e.pixels;
       }
     res.light_evals += cnt.light_evals;
     if (keep_residuals) resids.push_back(std::move(resid));
     buffers.give_back(std::move(d.rgb));
     e.rms = e.pixels ? std::sqrt(s2 / (3.0 * e.pixels)) : 0;
+    // Dark beyond the noise: a deficit over 5 sigma of the three channels' sum, sigma robust from
+    // the view's residuals (the median |error| of one channel; shadows are a few pixels of many).
+    double sigma = 0;
+    if (!green.empty()) {
+      std::nth_element(green.begin(), green.begin() + green.size() / 2, green.end());
+      sigma = 1.4826 * green[green.size() / 2];
+    }
+    double s2_dark = 0;
+    for (const Dark& k : darker)
+      if (k.predicted > 0.1 * predicted / std::max<size_t>(e.pixels, 1) &&
+          k.deficit > 5 * std::sqrt(3.0) * sigma)
+        ++e.dark, s2_dark += k.err2;
+    e.rms_without_dark = e.pixels > e.dark
+                             ? std::sqrt(std::max(s2 - s2_dark, 0.0) / (3.0 * (e.pixels - e.dark)))
+                             : 0;
+    res.overall.dark += e.dark;
+    sum2_dark += s2_dark;
     e.mean_signal = e.pixels ? sy / (3.0 * e.pixels) : 0;
     res.views.push_back(e);
     sum2 += s2;
@@ -105,6 +138,8 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     });
   const double n = 3.0 * std::max<size_t>(res.overall.pixels, 1);
   res.overall.rms = std::sqrt(sum2 / n);
+  const size_t lit = res.overall.pixels - res.overall.dark;
+  res.overall.rms_without_dark = lit ? std::sqrt(std::max(sum2 - sum2_dark, 0.0) / (3.0 * lit)) : 0;
   res.overall.mean_signal = sumy / n;
   return res;
 }

@@ -13,6 +13,12 @@ namespace aniso {
 struct ViewError {
   size_t pixels = 0;
   double rms = 0, max_abs = 0, mean_signal = 0;
+  // Pixels that read under a quarter of what the material predicts, short of it by more than 5
+  // sigma of the view's noise (robust, from its residuals), where it predicts at least a tenth of
+  // the view's mean: a cast shadow or an occluder (verify traces no shadow rays), or a material
+  // that does not describe them; and the RMS of the other pixels.
+  size_t dark = 0;
+  double rms_without_dark = 0;
   double rel_rms() const { return mean_signal > 0 ? rms / mean_signal : 0; }
 };
 
