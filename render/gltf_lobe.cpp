@@ -214,8 +214,25 @@ struct PbrNode {
   double logn = 0, roughness = 0, strength = 0, scale = 0;
   double DD = 0, DS = 0, SS = 0, Dnl = 0, Snl = 0, Dg = 0, Sg = 0, nlnl = 0, nlg = 0, gg = 0;
 };
-constexpr int kNodeSums = 14;  // the doubles above, interpolated together
-static_assert(sizeof(PbrNode) == kNodeSums * sizeof(double));
+
+// (1 - a) x + a y, member by member: a texel between two nodes of log n.
+PbrNode lerp(const PbrNode& x, const PbrNode& y, double a) {
+  auto l = [a](double p, double q) { return (1 - a) * p + a * q; };
+  return {l(x.logn, y.logn),
+          l(x.roughness, y.roughness),
+          l(x.strength, y.strength),
+          l(x.scale, y.scale),
+          l(x.DD, y.DD),
+          l(x.DS, y.DS),
+          l(x.SS, y.SS),
+          l(x.Dnl, y.Dnl),
+          l(x.Snl, y.Snl),
+          l(x.Dg, y.Dg),
+          l(x.Sg, y.Sg),
+          l(x.nlnl, y.nlnl),
+          l(x.nlg, y.nlg),
+          l(x.gg, y.gg)};
+}
 
 }  // namespace
 
@@ -281,11 +298,7 @@ GltfPbrTexels fit_gltf_pbr_texels(const Material& m, int w, int h) {
         K == 1 ? 0 : std::clamp((std::log(mt.n) - lo) / (hi - lo) * (K - 1), 0.0, K - 1.0);
     const int k0 = std::min(static_cast<int>(pos), K - 1), k1 = std::min(k0 + 1, K - 1);
     const double a = pos - k0;
-    PbrNode nd;
-    const auto* p0 = reinterpret_cast<const double*>(&nodes[k0]);
-    const auto* p1 = reinterpret_cast<const double*>(&nodes[k1]);
-    auto* q = reinterpret_cast<double*>(&nd);
-    for (int i = 0; i < kNodeSums; ++i) q[i] = (1 - a) * p0[i] + a * p1[i];
+    const PbrNode nd = lerp(nodes[k0], nodes[k1], a);
     // As choose_colours, from the sums: metal (base = k_s scale) or dielectric (base = the
     // Lambert fit of k_d D, F0 = 0.04), whichever leaves less of the whole model.
     double rss_m = 0, rss_d = 0, mm = 0;

@@ -36,7 +36,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
   std::vector<Image> resids;  // --residuals: written together at the end
   const Evaluator eval(m);
   double sum2 = 0, sumy = 0, sum2_dark = 0;
-  std::vector<float> abs_green;  // reused view after view
+  std::vector<float> green;  // |error| of one channel per pixel, for the noise: reused view to view
   auto no_shadows = [](const SurfacePoint&, const Vec3&, double, ShadeCounters*) { return false; };
   TopologyMap map;
   // The material's own maps (paths relative to the material file).
@@ -62,7 +62,6 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
       double predicted, deficit, err2;  // summed over the channels
     };
     std::vector<Dark> darker;  // pixels under a quarter of the prediction (few in a good fit)
-    std::vector<float>& green = abs_green;  // |error| of one channel per pixel: the noise
     green.clear();
     Image resid = keep_residuals ? Image(d.rgb.width, d.rgb.height, 3, 0.f) : Image();
     ShadeCounters cnt;
