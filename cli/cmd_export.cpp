@@ -34,8 +34,7 @@ Command add_export(CLI::App& app) {
       ex, [a] {
         const Material m = read_material(a->mat);
         note_material_maps(
-            m,
-            "export (tables, shaders, viewer; its glTF takes the maps per texel as textures)");
+            m, "export (tables, shaders, viewer; its glTF takes the maps per texel as textures)");
         check_outputs_apart({a->out}, material_input_files(m, a->mat));
         ExportOptions o;
         o.size = a->size;

@@ -87,8 +87,9 @@ void note_material_maps(const Material& m, const char* what) {
 void add_force_flag(CLI::App* sub, const char* help) {
   sub->add_flag_callback(
       "--force", [] { set_force_overwrite(true); },
-      help ? help
-           : "replace an output folder even if it holds files aniso did not write (never an input)");
+      help
+          ? help
+          : "replace an output folder even if it holds files aniso did not write (never an input)");
 }
 
 void load_material_maps(const Material& m, const std::string& map_override, PreviewOptions* p) {

@@ -235,11 +235,11 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
                   "or the fiber model");
     if (given == Model::kFiber &&
         (gm.topology_as<TopologyMapRef>() != nullptr) != (os.topology == TopologyMode::kAmplitude))
-      throw Error("fit: --global " + opt.global->file + (gm.topology_as<TopologyMapRef>()
-                                                             ? ": it was fitted with a topology map "
-                                                               "and this capture names none"
-                                                             : ": it was fitted without a topology "
-                                                               "map and this capture names one") +
+      throw Error("fit: --global " + opt.global->file +
+                  (gm.topology_as<TopologyMapRef>() ? ": it was fitted with a topology map "
+                                                      "and this capture names none"
+                                                    : ": it was fitted without a topology "
+                                                      "map and this capture names one") +
                   ": give the global fit of this capture");
     return maps_on_given_global(given, os, opt, rep);
   }

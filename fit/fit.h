@@ -90,7 +90,7 @@ struct TexelMaps {
   std::vector<double> kd, ks;      // 3 per texel
   std::vector<double> n, psi_deg;  // 1 per texel
   std::vector<double> kd_sigma, ks_sigma, n_sigma, psi_sigma_deg;
-  std::vector<double> s, s_sigma;   // the fiber model's topology s per texel (else empty)
+  std::vector<double> s, s_sigma;  // the fiber model's topology s per texel (else empty)
   // What `s` holds: "s", or "amplitude": a topology map's amplitude A per texel (FORMAT.md
   // "Material maps": maps.s or maps.amplitude).
   std::string s_key = "s";

@@ -160,9 +160,9 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   double best = INFINITY;
   // s in [0, 1], or a topology map's amplitude A in [-2, 2] (models/params.h)
   const bool amp = os.topology == TopologyMode::kAmplitude;
-  const double grid[6] = {from.s, amp ? -1.6 : 0.1, amp ? -0.8 : 0.3, amp ? 0.0 : 0.5,
-                          amp ? 0.8 : 0.7, amp ? 1.6 : 0.9};
-  for (const double s : grid) {
+  static constexpr double kS[5] = {0.1, 0.3, 0.5, 0.7, 0.9}, kA[5] = {-1.6, -0.8, 0.0, 0.8, 1.6};
+  const double* nodes = amp ? kA : kS;
+  for (const double s : {from.s, nodes[0], nodes[1], nodes[2], nodes[3], nodes[4]}) {
     double kd[3], ks[3];
     const double cost = solve_kd_ks(
         os, idx,

@@ -140,9 +140,10 @@ void parse_maps(const json& j, const Ctx& root, Material* m) {
   }
   if (b.contains("amplitude")) {
     if (!m->fiber() || !m->topology_as<TopologyMapRef>())
-      c.at("amplitude").fail(
-          "a map of the topology amplitude needs \"model\": \"fiber\" and a topology map "
-          "(\"topology\": {\"map\": ...})");
+      c.at("amplitude")
+          .fail(
+              "a map of the topology amplitude needs \"model\": \"fiber\" and a topology map "
+              "(\"topology\": {\"map\": ...})");
     mp.amplitude_file = jsonu::str(b["amplitude"], c.at("amplitude"));
   }
   const std::string wrap = jsonu::str_or(b, "wrap", "clamp", c);

@@ -14,7 +14,7 @@ namespace aniso {
 struct SampleRow {
   double theta_i = 0, phi_i = 0, theta_o = 0, phi_o = 0;
   std::array<double, 3> value{0, 0, 0};
-  double s = 0;  // optional topology value (fiber model)
+  double s = 0;         // optional topology value (fiber model)
   double u = 0, v = 0;  // optional: where on the sample (texture coordinates, glTF convention)
 };
 

@@ -39,8 +39,8 @@ GltfPbr fit_gltf_pbr(const Material& m);
 struct GltfPbrTexels {
   int w = 0, h = 0;
   std::vector<float> base_color, metallic, roughness, strength, rotation_rad;
-  int n_nodes = 0;                  // the lobe fits made
-  double worst_total_rel_rms = 0;   // the whole model's worst relative RMS over the texels
+  int n_nodes = 0;                 // the lobe fits made
+  double worst_total_rel_rms = 0;  // the whole model's worst relative RMS over the texels
 };
 GltfPbrTexels fit_gltf_pbr_texels(const Material& m, int w, int h);
 
