@@ -72,7 +72,8 @@ int run(const PreviewArgs& a) {
   BakeFolder bake;
   if (!a.bake.empty()) bake = read_bake(a.bake);
   const Material m = a.bake.empty() ? read_material(a.mat) : bake.material;
-  note_material_maps(m, "preview");
+  // The line model's maps are drawn per fragment; the fiber model's pass takes the scalar values.
+  if (m.fiber()) note_material_maps(m, "preview (the fiber model's pass)");
   std::vector<std::string> inputs =
       a.bake.empty() ? material_input_files(m, a.mat) : std::vector<std::string>{a.bake};
   inputs.push_back(a.map);

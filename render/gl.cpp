@@ -1,5 +1,6 @@
 #include "render/gl.h"
 
+#include <algorithm>
 #include <cstdio>
 
 #include "core/error.h"
@@ -145,6 +146,19 @@ void Texture::array(const std::vector<float>& data, int w, int h, int layers) {
   glBindTexture(target_, id_);
   glTexImage3D(target_, 0, GL_R32F, w, h, layers, 0, GL_RED, GL_FLOAT, data.data());
   set_filtering(target_, GL_CLAMP_TO_EDGE);
+}
+
+void Texture::texels(const Image& img) {
+  std::vector<float> rgba(static_cast<size_t>(img.width) * img.height * 4, 0.0f);
+  for (size_t p = 0; p < rgba.size() / 4; ++p)
+    for (int c = 0; c < std::min(img.channels, 4); ++c)
+      rgba[p * 4 + c] = img.px[p * img.channels + c];
+  target_ = GL_TEXTURE_2D;
+  glGenTextures(1, &id_);
+  glBindTexture(target_, id_);
+  glTexImage2D(target_, 0, GL_RGBA32F, img.width, img.height, 0, GL_RGBA, GL_FLOAT, rgba.data());
+  glTexParameteri(target_, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(target_, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
 }
 
 void Texture::bind(int unit) const {

@@ -21,9 +21,17 @@ namespace {
 const std::vector<int> kAttributeSizes = {3, 3, 3, 3, 2, 1};
 
 // Per-vertex fiber directions T and T2 (MODELS.md §1), uv and the mathematical topology.
+// With a map of the fiber direction (line model) T is the reference tangent U: the shader turns it
+// by the map's angle per fragment.
+bool line_maps(const Material& m, const PreviewOptions& opt) {
+  return !m.fiber() && !opt.plain && m.maps.any();
+}
+
 std::vector<float> vertex_attributes(const Material& m, const PreviewOptions& opt,
                                      const TriMesh& mesh, double* radius) {
-  const double psi = deg_to_rad(m.fiber_angle_deg), psi2 = deg_to_rad(m.second_angle_deg);
+  const bool psi_map = line_maps(m, opt) && m.maps.fiber;
+  const double psi = psi_map ? 0.0 : deg_to_rad(m.fiber_angle_deg),
+               psi2 = deg_to_rad(m.second_angle_deg);
   std::vector<float> vbuf;
   *radius = 0;
   for (size_t i = 0; i < mesh.P.size(); ++i) {
@@ -111,11 +119,65 @@ void texture_matrix(const Vec3& L, const Vec3& V, const BakeTables& t, float out
 
 // What the passes sample: the line tables, and for the fiber model its factor tables and the
 // material's map.
+// With line-model maps also the maps themselves (read texel by texel) and the specular tables over
+// the map's n.
 struct Lookups {
   BakeTables tables;
   FiberBakeTables fb;
   gl::Texture D, S, G, F, map;
+  bool maps = false;
+  SpecularStack stack;
+  gl::Texture kd_map, ks_map, n_map, fiber_map, s_stack;
 };
+
+// A map of k_d or k_s as RGB (one channel stands for all three, as material_at reads it).
+Image as_rgb(const Image& img) {
+  if (img.channels >= 3) return img;
+  Image out(img.width, img.height, 3);
+  for (size_t p = 0; p < static_cast<size_t>(img.width) * img.height; ++p)
+    for (int c = 0; c < 3; ++c) out.px[p * 3 + c] = img.px[p * img.channels];
+  return out;
+}
+
+void make_map_lookups(const Material& m, Lookups* lk) {
+  const MaterialMaps& mp = m.maps;
+  lk->maps = true;
+  double lo = m.n, hi = m.n;
+  if (mp.n && !map_range(*mp.n, &lo, &hi))
+    throw Error("preview: the material's map of n (" + mp.n_file + ") holds no positive value");
+  lk->stack = bake_specular_stack(lo, hi, lk->tables.size, lk->tables.index);
+  if (mp.kd) lk->kd_map.texels(as_rgb(*mp.kd));
+  if (mp.ks) lk->ks_map.texels(as_rgb(*mp.ks));
+  if (mp.fiber) lk->fiber_map.texels(*mp.fiber);
+  if (!mp.n) return;
+  lk->n_map.texels(*mp.n);
+  std::vector<float> levels;
+  for (const Image& t : lk->stack.S) levels.insert(levels.end(), t.px.begin(), t.px.end());
+  lk->s_stack.array(levels, lk->stack.size, lk->stack.size, lk->stack.levels);
+}
+
+// The aniso pass's map uniforms (render/shaders/aniso.frag), units 5 to 9. Each sampler gets its
+// own unit even without maps: samplers of two types on one unit (the default 0) fail the draw.
+void set_map_uniforms(const gl::Program& p, const Material& m, const Lookups& lk) {
+  const MaterialMaps& mp = m.maps;
+  const int bits =
+      lk.maps ? (mp.kd ? 1 : 0) | (mp.ks ? 2 : 0) | (mp.n ? 4 : 0) | (mp.fiber ? 8 : 0) : 0;
+  p.set("uMaps", bits);
+  const std::pair<const gl::Texture*, const char*> units[5] = {{&lk.kd_map, "uKdMap"},
+                                                               {&lk.ks_map, "uKsMap"},
+                                                               {&lk.n_map, "uNMap"},
+                                                               {&lk.fiber_map, "uFiberMap"},
+                                                               {&lk.s_stack, "uSStack"}};
+  for (int k = 0; k < 5; ++k) {
+    if (!units[k].first->empty()) units[k].first->bind(5 + k);
+    p.set(units[k].second, 5 + k);
+  }
+  if (!bits) return;
+  p.set("uRepeat", mp.repeat ? 1 : 0);
+  p.set("uLevels", lk.stack.levels);
+  p.set("uLogN0", float(lk.stack.logn0));
+  p.set("uLogStep", float(lk.stack.log_step()));
+}
 
 void make_lookups(const Material& m, const PreviewOptions& opt, bool fiber, bool paper,
                   Lookups* lk) {
@@ -127,6 +189,7 @@ void make_lookups(const Material& m, const PreviewOptions& opt, bool fiber, bool
   lk->tables = opt.baked ? *opt.baked : bake_line(m, opt.table_size, index);
   lk->D.table(lk->tables.diffuse);
   lk->S.table(lk->tables.specular);
+  if (line_maps(m, opt) && !paper) make_map_lookups(m, lk);
   if (!fiber) return;
   lk->fb = opt.baked_fiber ? *opt.baked_fiber : bake_fiber(m, lk->tables);
   lk->G.array(lk->fb.G, lk->fb.nphi, lk->fb.nphi, lk->fb.ns);
@@ -207,6 +270,7 @@ int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, c
       begin_pass();
       pa.use();
       if (ps.fiber) set_fiber_uniforms(pa, m, lk, V);
+      if (!ps.fiber && !opt.plain) set_map_uniforms(pa, m, lk);
       pa.set_matrix("uViewProj", view_proj);
       pa.set_matrix("uTexMat", texmat);
       lk.D.bind(0);
@@ -248,7 +312,7 @@ int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, c
 // The geometry pass: N, T and T2 (or u, v, s_math) per fragment, and which pixels are covered.
 GBuffer geometry_pass(const gl::Framebuffer& fb, const gl::MeshBuffers& mesh,
                       const float view_proj[16], bool fiber, PreviewResult* res) {
-  constexpr int kTargets = 4;  // N, T, T2 or (u, v, s_math), P
+  constexpr int kTargets = 5;  // N, T, T2 or (u, v, s_math), P, (u, v)
   const gl::Program p(shaders::vertex_vert, shaders::gbuffer_frag, "gbuffer.frag");
   fb.draw_to(kTargets);
   glClearColor(0, 0, 0, 0);  // coverage is where a normal was written
@@ -261,7 +325,7 @@ GBuffer geometry_pass(const gl::Framebuffer& fb, const gl::MeshBuffers& mesh,
   p.set("uFiber", fiber ? 1 : 0);
   mesh.draw();
   glFinish();
-  GBuffer g{fb.read(0), fb.read(1), fb.read(2), fb.read(3)};
+  GBuffer g{fb.read(0), fb.read(1), fb.read(2), fb.read(3), fb.read(4)};
   const int w = g.N.width, h = g.N.height;
   res->covered.assign(static_cast<size_t>(w) * h, 0);
   for (int y = 0; y < h; ++y)
@@ -337,8 +401,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   indices.reserve(mesh.tri.size() * 3);
   for (const auto& t : mesh.tri) indices.insert(indices.end(), t.begin(), t.end());
   const gl::MeshBuffers buffers(vbuf, kAttributeSizes, indices);
-  // Four float colour targets (the geometry pass uses all of them) and depth.
-  const gl::Framebuffer fb(w, h, 4);
+  // Five float colour targets (the geometry pass uses all of them) and depth.
+  const gl::Framebuffer fb(w, h, 5);
   PreviewCamera cam;
   cam.V = normalize(opt.view_dir);
   cam.perspective = opt.perspective;
@@ -349,6 +413,10 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   const std::vector<PreviewLight> lights = preview_lights(opt, mesh.center);
 
   const bool paper = opt.per_vertex && !opt.plain && !m.fiber();
+  if (paper && m.maps.any())
+    throw Error(
+        "preview: --per-vertex (the paper's construction) cannot follow a material's maps, which "
+        "vary per fragment: leave out --per-vertex");
   if (paper && (opt.perspective || !opt.point_lights.empty()))
     throw Error(
         "preview: --per-vertex (the paper's construction) needs directional lights and a "
@@ -381,7 +449,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   const GBuffer g = geometry_pass(fb, buffers, cam.view_proj, fiber, &res);
   if (opt.reference && fiber) fiber_reference(m, opt, cam, lights, lk.tables, lk.fb, g, &res);
   if (opt.reference && !opt.plain && !fiber)
-    line_reference(m, opt, cam, lights, lk.tables, g, &res);
+    line_reference(m, opt, cam, lights, lk.tables, lk.maps ? &lk.stack : nullptr, g, &res);
   return res;
 }
 

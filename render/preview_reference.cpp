@@ -8,6 +8,7 @@
 #include "core/texture.h"
 #include "io/capture.h"
 #include "models/evaluate.h"
+#include "models/material_maps.h"
 #include "models/topology.h"
 
 namespace aniso {
@@ -85,9 +86,30 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Preview
   res->error_bound = max_e * fb.max_abs_error + 1e-5;
 }
 
+namespace {
+
+// The largest value of any channel of a map, or of the scalar it replaces.
+double largest(const std::shared_ptr<const Image>& map, const RGB& scalar) {
+  double v = std::max({scalar[0], scalar[1], scalar[2]});
+  if (map)
+    for (float x : map->px) v = std::max(v, double(x));
+  return v;
+}
+
+double max_step(const Image& t) {
+  double step = 0;
+  for (int j = 0; j < t.height; ++j)
+    for (int i = 0; i + 1 < t.width; ++i)
+      step = std::max({step, double(std::abs(t.at(i + 1, j, 0) - t.at(i, j, 0))),
+                       double(std::abs(t.at(j, i + 1, 0) - t.at(j, i, 0)))});
+  return step;
+}
+
+}  // namespace
+
 void line_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
                     const std::vector<PreviewLight>& lights, const BakeTables& tables,
-                    const GBuffer& g, PreviewResult* res) {
+                    const SpecularStack* stack, const GBuffer& g, PreviewResult* res) {
   const int w = g.N.width, h = g.N.height;
   res->reference = Image(w, h, 3);
   // The largest texel step times the 8-bit sub-texel weight precision that hardware filtering is
@@ -99,18 +121,27 @@ void line_reference(const Material& m, const PreviewOptions& opt, const PreviewC
   const double acos_texels =
       angle ? std::sqrt(2.0 * std::ldexp(1.0, -24)) * (tables.size - 1) / M_PI : 0.0;
   const int lobes = m.second_active() ? 2 : 1;
-  const double unit_bound = lobes * (tables.max_abs_error + 2 * max_texel_step(tables) *
-                                                                (kFilterWeightStep + acos_texels));
+  const double filter = 2 * (kFilterWeightStep + acos_texels);
+  double unit_bound = lobes * (tables.max_abs_error + max_texel_step(tables) * filter);
+  const bool maps = m.maps.any();
+  if (maps && stack) {
+    // D and S apart, each times the largest k_d, k_s the maps hold (the maps themselves are
+    // filtered in float by the shader, as here).
+    const double kd = largest(m.maps.kd, m.kd), ks = largest(m.maps.ks, m.ks);
+    unit_bound = lobes * (kd * (stack->diffuse_max_abs_error + max_step(tables.diffuse) * filter) +
+                          ks * (stack->max_abs_error + stack->max_texel_step * filter));
+  }
+  const bool psi_map = maps && m.maps.fiber != nullptr;
   double max_e = 0;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       SurfacePoint sp;
       if (!fragment_frame(g, *res, x, y, &sp)) continue;
       const Vec3 T2{g.T2.at(x, y, 0), g.T2.at(x, y, 1), g.T2.at(x, y, 2)};
-      // In the frame (U = T) the fiber angle is 0 and the second fiber sits at
-      // atan2(<T2,W>, <T2,T>).
-      Material local = m;
-      local.fiber_angle_deg = 0;
+      // In the frame (U = T) the fiber angle is 0, or the fiber map's (then T is the reference
+      // tangent, turned by the shader), and the second fiber sits at atan2(<T2,W>, <T2,T>).
+      Material local = maps ? material_at(m, g.UV.at(x, y, 0), g.UV.at(x, y, 1)) : m;
+      if (!psi_map) local.fiber_angle_deg = 0;
       local.second_angle_deg = rad_to_deg(std::atan2(dot(T2, sp.W), dot(T2, sp.U)));
       const Evaluator le(local);
       double acc[3] = {0, 0, 0}, esum = 0;

@@ -5,6 +5,7 @@
 #pragma once
 #include "core/image.h"
 #include "render/bake.h"
+#include "render/bake_stack.h"
 #include "render/preview.h"
 
 namespace aniso {
@@ -12,6 +13,7 @@ namespace aniso {
 struct GBuffer {
   Image N, T, T2;  // T2 holds (u, v, s_math) for the fiber model
   Image P;         // position
+  Image UV;        // (u, v, 0)
 };
 
 // The viewer: distant (the paper's: V constant) or at `eye` (perspective).
@@ -26,8 +28,10 @@ struct PreviewCamera {
 void fiber_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
                      const std::vector<PreviewLight>& lights, const BakeTables& tables,
                      const FiberBakeTables& fb, const GBuffer& g, PreviewResult* res);
+// With maps (`stack`: the specular tables over the map's n, when it has one) every fragment
+// evaluates material_at(u, v), and the bound takes the maps' largest k_d and k_s.
 void line_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
                     const std::vector<PreviewLight>& lights, const BakeTables& tables,
-                    const GBuffer& g, PreviewResult* res);
+                    const SpecularStack* stack, const GBuffer& g, PreviewResult* res);
 
 }  // namespace aniso

@@ -2,8 +2,10 @@
 // Mesa) against the model at the same fragments, and verify.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <random>
 
 #include "core/color.h"
 #include "core/error.h"
@@ -13,6 +15,7 @@
 #include "io/material_io.h"
 #include "models/line_model.h"
 #include "render/bake.h"
+#include "render/bake_stack.h"
 #include "render/preview.h"
 #include "render/verify.h"
 #include "test_util.h"
@@ -156,9 +159,10 @@ TEST(Verify, PixelsInCastShadowAreNamedNotHidden) {
   const auto synth = test::run_cli("synth silk-torus " + dir + " --size 64x64 --views 16");
   ASSERT_EQ(synth.status, 0) << synth.output;
   const VerifyResult r = verify_capture(read_capture(dir), read_material(dir + "/truth.json"));
-  std::printf("silk-torus truth: RMS %.3g, %zu of %zu pixels dark beyond the noise, RMS without "
-              "them %.3g\n",
-              r.overall.rms, r.overall.dark, r.overall.pixels, r.overall.rms_without_dark);
+  std::printf(
+      "silk-torus truth: RMS %.3g, %zu of %zu pixels dark beyond the noise, RMS without "
+      "them %.3g\n",
+      r.overall.rms, r.overall.dark, r.overall.pixels, r.overall.rms_without_dark);
   EXPECT_GT(r.overall.dark, 0u);
   EXPECT_LT(r.overall.dark, r.overall.pixels / 20);
   EXPECT_LT(r.overall.rms_without_dark, 0.1 * r.overall.rms);
@@ -395,6 +399,78 @@ TEST(View, ScreenshotShowsThePreviewAndTheErrorMap) {
   // lights): 0.00333.
   EXPECT_LT(err / n, 0.00333);
   EXPECT_GT(lit / n, 0.05);
+}
+
+}  // namespace
+}  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// The specular tables over a range of n: the lookup the shader makes (two levels, blended by the
+// exact weight) against S itself stays within the error measured at bake time, and that error is
+// of the order of one table's own.
+TEST(Bake, SpecularStackLookupStaysWithinItsMeasuredError) {
+  const SpecularStack st = bake_specular_stack(8, 400, 128, BakeIndex::kAngle);
+  EXPECT_EQ(st.levels, 64);  // log(50) / 0.05 = 78.2 steps: capped at 64 levels
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1), t(0, 1);
+  double worst = 0;
+  for (int k = 0; k < 20000; ++k) {
+    const double a = u(rng), b = k % 2 ? u(rng) : std::clamp(-a + 0.02 * u(rng), -1.0, 1.0);
+    const double n = 8 * std::pow(50.0, t(rng));
+    double D, S;
+    line_DS(a, b, n, &D, &S);
+    worst = std::max(worst, std::abs(stack_lookup(st, a, b, n) - S));
+  }
+  Material at400 = satin();
+  at400.kd = {0, 0, 0};
+  at400.ks = {1, 1, 1};
+  at400.n = 400;
+  const double one_table = bake_line(at400, 128).max_abs_error;
+  std::printf(
+      "stack of %d levels over n 8..400: max error %.3g (measured at bake %.3g), one table "
+      "at n = 400: %.3g\n",
+      st.levels, worst, st.max_abs_error, one_table);
+  EXPECT_LE(worst, 1.2 * st.max_abs_error);
+  EXPECT_LT(st.max_abs_error, 1.5 * one_table);
+  EXPECT_GT(st.max_abs_error, 0.0);
+}
+
+// A line-model material with maps (swirl-plate: a fiber map and a k_d map; woven-patch: also a map
+// of n) is drawn per fragment: within the stated bound of the model evaluated at each fragment's
+// (u, v), and far from the same material at its scalar (mean) values.
+TEST(Preview, LineModelMapsAreDrawnPerFragment) {
+  for (const char* preset : {"swirl-plate", "woven-patch"}) {
+    PresetOptions po;
+    po.views = 1;
+    po.width = po.height = 16;
+    po.progress = false;
+    const Material m = make_preset(preset, po).truth;
+    ASSERT_TRUE(m.maps.fiber && m.maps.kd) << preset;
+    PreviewOptions p;
+    p.shape = "flat";
+    p.width = p.height = 96;
+    p.view_dir = {0, -0.5, 1};
+    p.perspective = true;  // a flat sample shows its streak
+    p.reference = true;
+    const PreviewResult r = render_preview(m, p);
+    Material mean = m;
+    mean.maps = MaterialMaps{};
+    const PreviewResult rm = render_preview(mean, p);
+    double diff = 0, sum = 0;
+    for (size_t i = 0; i < r.rgb.px.size(); ++i) {
+      diff += std::abs(r.rgb.px[i] - rm.rgb.px[i]);
+      sum += r.rgb.px[i];
+    }
+    std::printf(
+        "%s with maps: max |baked - direct| %.3g (bound %.3g); against its mean values "
+        "%.0f %% of the image's sum apart\n",
+        preset, r.max_abs_diff, r.error_bound, 100 * diff / sum);
+    EXPECT_GT(r.max_abs_diff, 0.0);
+    EXPECT_LE(r.max_abs_diff, r.error_bound);
+    EXPECT_GT(diff, 0.1 * sum) << preset;
+  }
 }
 
 }  // namespace

@@ -1,0 +1,85 @@
+#include "render/bake_stack.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+
+#include "core/error.h"
+#include "models/line_model.h"
+
+namespace aniso {
+
+SpecularStack bake_specular_stack(double n_min, double n_max, int size, BakeIndex index,
+                                  double max_log_step, int max_levels, uint64_t seed) {
+  if (!(n_min > 0 && n_max >= n_min && std::isfinite(n_max)))
+    throw Error("bake: the map of n must hold finite positive values (range " +
+                std::to_string(n_min) + " to " + std::to_string(n_max) + ")");
+  SpecularStack st;
+  st.size = size;
+  st.index = index;
+  st.seed = seed;
+  st.logn0 = std::log(n_min);
+  st.logn1 = std::log(n_max);
+  const int steps = static_cast<int>(std::ceil((st.logn1 - st.logn0) / max_log_step - 1e-9));
+  st.levels = std::clamp(steps + 1, 2, max_levels);
+  Image D(size, size, 1);
+  for (int k = 0; k < st.levels; ++k) {
+    const double n = std::exp(st.logn0 + k * st.log_step());
+    Image S(size, size, 1);
+    for (int j = 0; j < size; ++j)
+      for (int i = 0; i < size; ++i) {
+        double d, s;
+        line_DS(texel_cosine(i, size, index), texel_cosine(j, size, index), n, &d, &s);
+        S.at(i, j, 0) = static_cast<float>(s);
+        D.at(i, j, 0) = static_cast<float>(d);
+      }
+    for (int j = 0; j < size; ++j)
+      for (int i = 0; i + 1 < size; ++i)
+        st.max_texel_step =
+            std::max({st.max_texel_step, double(std::abs(S.at(i + 1, j, 0) - S.at(i, j, 0))),
+                      double(std::abs(S.at(j, i + 1, 0) - S.at(j, i, 0)))});
+    st.S.push_back(std::move(S));
+  }
+  // The error of the lookup: random (a, b) at random n, plus the ridge b = -a where the lobe is
+  // sharpest, as bake_line measures its tables.
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), t(0.0, 1.0);
+  auto check = [&](double a, double b) {
+    const double n = std::exp(st.logn0 + t(rng) * (st.logn1 - st.logn0));
+    double d, s;
+    line_DS(a, b, n, &d, &s);
+    st.max_abs_error = std::max(st.max_abs_error, std::abs(stack_lookup(st, a, b, n) - s));
+    st.diffuse_max_abs_error =
+        std::max(st.diffuse_max_abs_error, std::abs(lookup_bilinear(D, a, b, 0, index) - d));
+    ++st.samples;
+  };
+  constexpr int kRandomSamples = 100000, kRidgeSamples = 20000;
+  for (int k = 0; k < kRandomSamples; ++k) check(u(rng), u(rng));
+  for (int k = 0; k < kRidgeSamples; ++k) {
+    const double a = u(rng);
+    check(a, std::clamp(-a + 0.02 * u(rng), -1.0, 1.0));
+  }
+  return st;
+}
+
+double stack_lookup(const SpecularStack& st, double a, double b, double n) {
+  const double f = st.log_step() > 0 ? std::clamp((std::log(n) - st.logn0) / st.log_step(), 0.0,
+                                                  double(st.levels - 1))
+                                     : 0.0;
+  const int k0 = std::min(static_cast<int>(f), std::max(st.levels - 2, 0));
+  const double w = f - k0;
+  const double s0 = lookup_bilinear(st.S[k0], a, b, 0, st.index);
+  return st.levels > 1 ? s0 + w * (lookup_bilinear(st.S[k0 + 1], a, b, 0, st.index) - s0) : s0;
+}
+
+bool map_range(const Image& img, double* lo, double* hi) {
+  *lo = INFINITY, *hi = -INFINITY;
+  for (size_t p = 0; p < img.px.size(); p += img.channels) {
+    const double v = img.px[p];
+    if (std::isfinite(v) && v > 0) *lo = std::min(*lo, v), *hi = std::max(*hi, v);
+  }
+  return *lo <= *hi;
+}
+
+}  // namespace aniso
