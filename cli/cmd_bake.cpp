@@ -31,7 +31,8 @@ Command add_bake(CLI::App& app) {
       ->check(CLI::IsMember({"angle", "cosine"}));
   return {bake, [a] {
             const Material m = read_material(a->mat);
-            note_material_maps(m, "bake");
+            if (m.fiber())
+              note_material_maps(m, "bake (the fiber model's tables; the maps are carried)");
             check_outputs_apart({a->out}, material_input_files(m, a->mat));
             check_output_folder(a->out);
             const BakeTables t = bake_line(m, a->size, parse_index(a->index));
@@ -44,7 +45,19 @@ Command add_bake(CLI::App& app) {
                   fb.nphi, fb.nphi, fb.ns, fb.nk, fb.seconds, fb.samples, fb.max_abs_error,
                   fb.p99_error, fb.rms_error, fb.peak_value);
             }
-            write_bake(a->out, m, t, command_line(), m.fiber() ? &fb : nullptr);
+            // A line material's map of n: the specular tables over its range (render/bake.h).
+            SpecularStack st;
+            double lo = 0, hi = 0;
+            const bool stack = !m.fiber() && m.maps.n && map_range(*m.maps.n, &lo, &hi);
+            if (stack) {
+              st = bake_specular_stack(lo, hi, a->size, t.index);
+              std::printf(
+                  "bake: map of n (%.4g to %.4g): specular stack of %d levels, lookup vs direct "
+                  "evaluation over %zu samples: max abs %.3g (of S)\n",
+                  lo, hi, st.levels, st.samples, st.max_abs_error);
+            }
+            write_bake(a->out, m, t, command_line(), m.fiber() ? &fb : nullptr,
+                       stack ? &st : nullptr);
             std::printf(
                 "bake: %dx%d tables (%s index) in %.3f s -> %s; bilinear lookup vs direct "
                 "evaluation over %zu samples: max abs %.3g, RMS %.3g (peak value %.3g)\n",

@@ -95,6 +95,7 @@ int run(const PreviewArgs& a) {
   if (!a.bake.empty()) {
     p.baked = &bake.tables;
     if (bake.has_fiber) p.baked_fiber = &bake.fiber;
+    if (bake.has_stack) p.baked_stack = &bake.stack;
   }
   load_material_maps(m, a.map, &p);
   p.shape_options.torus_R = a.R;

@@ -81,6 +81,7 @@ Command add_view(CLI::App& app) {
             if (bake.tables.size > 0) {
               p.baked = &bake.tables;
               if (bake.has_fiber) p.baked_fiber = &bake.fiber;
+              if (bake.has_stack) p.baked_stack = &bake.stack;
             }
             load_material_maps(m, "", &p);
             o.screenshot = a->screenshot;

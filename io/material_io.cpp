@@ -232,13 +232,17 @@ Material read_material(const std::string& path) {
   m.base_dir = parent_dir(path);
   if (const auto* t = m.topology_as<TopologyMapRef>()) need_map_file(path, t->file, "topology.map");
   if (const auto* t = m.topology_as<SMapRef>()) need_map_file(path, t->file, "topology.s_map");
-  MaterialMaps& mp = m.maps;
+  load_material_maps(path, &m);
+  return m;
+}
+
+void load_material_maps(const std::string& path, Material* m) {
+  MaterialMaps& mp = m->maps;
   mp.kd = load_map(path, mp.kd_file, "kd", 3, "kd");
   mp.ks = load_map(path, mp.ks_file, "ks", 3, "ks");
   mp.n = load_map(path, mp.n_file, "n", 1, "n");
   mp.fiber = load_map(path, mp.fiber_file, "fiber", 2, nullptr);
   mp.amplitude = load_map(path, mp.amplitude_file, "amplitude", 1, "topology.amplitude");
-  return m;
 }
 
 std::vector<std::string> material_input_files(const Material& m, const std::string& path) {

@@ -10,6 +10,9 @@ namespace aniso {
 
 // Reads and validates against the bounds of models/params.h; errors name the file and key.
 Material read_material(const std::string& path);
+// The images of the maps a material names (FORMAT.md "Material maps"), relative to the folder of
+// `path` (the file that names them, used in messages), checked as read_material checks them.
+void load_material_maps(const std::string& path, Material* m);
 
 // The material file and every map it names (resolved against its folder).
 std::vector<std::string> material_input_files(const Material& m, const std::string& path);

@@ -242,7 +242,8 @@ void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBake
 }
 
 void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
-                const std::string& command, const FiberBakeTables* fiber) {
+                const std::string& command, const FiberBakeTables* fiber,
+                const SpecularStack* stack) {
   using jsonu::json;
   write_folder_atomically(dir, [&](const std::string& tmp) {
     json files = json::object();
@@ -308,7 +309,10 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
     auto carry = [&](bool has, std::string* rel, const char* key, const char* meaning) {
       if (!has) return;
       const std::string src = join_path(m.base_dir, *rel);
-      const std::string dst = "maps/" + std::filesystem::path(src).filename().string();
+      std::string dst = "maps/" + std::filesystem::path(src).filename().string();
+      // Two maps of one name from different folders: the second under its key's name too.
+      if (std::filesystem::exists(join_path(tmp, dst)))
+        dst = "maps/" + std::string(key) + "_" + std::filesystem::path(src).filename().string();
       write_text_file(join_path(tmp, dst), read_text_file(src));
       *rel = dst;
       maps[key] = {{"file", dst}, {"meaning", meaning}};
@@ -321,6 +325,16 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
     carry(m.fiber() && mm_s_map, mm_s_map ? &mm_s_map->file : nullptr, "topology.s_map",
           "the topology s itself per texel (channel R; G = its sigma, -1 where undetermined), "
           "over glTF uv, bilinear with wrap");
+    MaterialMaps& mp = mm.maps;
+    carry(!mp.kd_file.empty(), &mp.kd_file, "kd", "k_d per texel (RGB), over uv (FORMAT.md)");
+    carry(!mp.ks_file.empty(), &mp.ks_file, "ks", "k_s per texel (RGB), over uv");
+    carry(!mp.n_file.empty(), &mp.n_file, "n",
+          "n per texel (R): the specular stack's level from log n (specular_stack)");
+    carry(!mp.fiber_file.empty(), &mp.fiber_file, "fiber",
+          "(cos 2 psi, sin 2 psi) per texel (R, G): T turned by psi about N from the reference "
+          "tangent");
+    carry(!mp.amplitude_file.empty(), &mp.amplitude_file, "amplitude",
+          "the topology map's amplitude A per texel (R)");
     json material;
     material_to_json(mm, &material);
     const int n = t.size;
@@ -369,6 +383,7 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
         {"material", material}};
     if (fiber) j["fiber"] = fiber_json;
     if (!maps.empty()) j["maps"] = maps;
+    if (stack) j["specular_stack"] = write_specular_stack(tmp, *stack);
     write_json_file(join_path(tmp, "bake.json"), j);
   });
 }
@@ -440,6 +455,11 @@ BakeFolder read_bake(const std::string& dir) {
     fb.G = G.px;
     fb.F = F.px;
     b.has_fiber = true;
+  }
+  load_material_maps(file, &b.material);
+  if (j.contains("specular_stack")) {
+    b.stack = read_specular_stack(j["specular_stack"], file, t);
+    b.has_stack = true;
   }
   if (b.material.fiber() && !b.has_fiber)
     root.fail("a fiber material's bake needs its \"fiber\" tables");

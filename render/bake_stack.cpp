@@ -1,12 +1,15 @@
-#include "render/bake_stack.h"
-
+// The line model's specular tables at many n (render/bake.h: SpecularStack).
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
 
 #include "core/error.h"
+#include "io/files.h"
+#include "io/image_io.h"
+#include "io/json_util.h"
 #include "models/line_model.h"
+#include "render/bake.h"
 
 namespace aniso {
 
@@ -71,6 +74,62 @@ double stack_lookup(const SpecularStack& st, double a, double b, double n) {
   const double w = f - k0;
   const double s0 = lookup_bilinear(st.S[k0], a, b, 0, st.index);
   return st.levels > 1 ? s0 + w * (lookup_bilinear(st.S[k0 + 1], a, b, 0, st.index) - s0) : s0;
+}
+
+nlohmann::json write_specular_stack(const std::string& dir, const SpecularStack& st) {
+  Image levels(st.size, st.size * st.levels, 1);
+  for (int k = 0; k < st.levels; ++k)
+    std::copy(st.S[k].px.begin(), st.S[k].px.end(),
+              levels.px.begin() + static_cast<ptrdiff_t>(k) * st.size * st.size);
+  write_exr(join_path(dir, "specular_stack.exr"), levels);
+  return {{"file", "specular_stack.exr"},
+          {"layout",
+           "width size, rows size * levels: level k's row j at k * size + j, indexed as "
+           "specular"},
+          {"levels", st.levels},
+          {"log_n0", st.logn0},
+          {"log_n1", st.logn1},
+          {"n", "level k at n = exp(log_n0 + k (log_n1 - log_n0) / (levels - 1))"},
+          {"lookup",
+           "f = (log n - log_n0) / step clamped to [0, levels - 1]; S bilinear from level "
+           "min(floor(f), levels - 2) and the next, blended by f less that level"},
+          {"error",
+           {{"against", "S(a, b; n) at random n in the range, random (a, b) and the ridge"},
+            {"max_abs", st.max_abs_error},
+            {"diffuse_max_abs", st.diffuse_max_abs_error},
+            {"max_texel_step", st.max_texel_step},
+            {"samples", st.samples},
+            {"seed", st.seed}}}};
+}
+
+SpecularStack read_specular_stack(const nlohmann::json& f, const std::string& file,
+                                  const BakeTables& t) {
+  const jsonu::Ctx c{file, "specular_stack"};
+  SpecularStack st;
+  const double levels = jsonu::num(jsonu::need(f, "levels", c), c.at("levels"));
+  if (levels < 2 || levels > 4096 || levels != std::floor(levels))
+    c.at("levels").fail("must be an integer in [2, 4096]");
+  st.levels = static_cast<int>(levels);
+  st.size = t.size;
+  st.index = t.index;
+  st.logn0 = jsonu::num(jsonu::need(f, "log_n0", c), c.at("log_n0"));
+  st.logn1 = jsonu::num(jsonu::need(f, "log_n1", c), c.at("log_n1"));
+  if (!(st.logn1 >= st.logn0)) c.at("log_n1").fail("must be at least log_n0");
+  const nlohmann::json& e = jsonu::need(f, "error", c);
+  const jsonu::Ctx ce = c.at("error");
+  st.max_abs_error = jsonu::num(jsonu::need(e, "max_abs", ce), ce.at("max_abs"));
+  st.diffuse_max_abs_error = jsonu::num_or(e, "diffuse_max_abs", 0, ce);
+  st.max_texel_step = jsonu::num_or(e, "max_texel_step", 0, ce);
+  const std::string name = jsonu::str(jsonu::need(f, "file", c), c.at("file"));
+  const Image all = read_image(join_path(parent_dir(file), name), t.size, t.size * st.levels).image;
+  if (all.channels != 1) c.at("file").fail(name + " must hold one channel");
+  const size_t level = static_cast<size_t>(t.size) * t.size;
+  for (int k = 0; k < st.levels; ++k) {
+    Image S(t.size, t.size, 1);
+    std::copy(all.px.begin() + k * level, all.px.begin() + (k + 1) * level, S.px.begin());
+    st.S.push_back(std::move(S));
+  }
+  return st;
 }
 
 bool map_range(const Image& img, double* lo, double* hi) {

@@ -139,13 +139,14 @@ Image as_rgb(const Image& img) {
   return out;
 }
 
-void make_map_lookups(const Material& m, Lookups* lk) {
+void make_map_lookups(const Material& m, const SpecularStack* baked, Lookups* lk) {
   const MaterialMaps& mp = m.maps;
   lk->maps = true;
   double lo = m.n, hi = m.n;
   if (mp.n && !map_range(*mp.n, &lo, &hi))
     throw Error("preview: the material's map of n (" + mp.n_file + ") holds no positive value");
-  lk->stack = bake_specular_stack(lo, hi, lk->tables.size, lk->tables.index);
+  lk->stack =
+      baked && mp.n ? *baked : bake_specular_stack(lo, hi, lk->tables.size, lk->tables.index);
   if (mp.kd) lk->kd_map.texels(as_rgb(*mp.kd));
   if (mp.ks) lk->ks_map.texels(as_rgb(*mp.ks));
   if (mp.fiber) lk->fiber_map.texels(*mp.fiber);
@@ -189,7 +190,7 @@ void make_lookups(const Material& m, const PreviewOptions& opt, bool fiber, bool
   lk->tables = opt.baked ? *opt.baked : bake_line(m, opt.table_size, index);
   lk->D.table(lk->tables.diffuse);
   lk->S.table(lk->tables.specular);
-  if (line_maps(m, opt) && !paper) make_map_lookups(m, lk);
+  if (line_maps(m, opt) && !paper) make_map_lookups(m, opt.baked_stack, lk);
   if (!fiber) return;
   lk->fb = opt.baked_fiber ? *opt.baked_fiber : bake_fiber(m, lk->tables);
   lk->G.array(lk->fb.G, lk->fb.nphi, lk->fb.nphi, lk->fb.ns);

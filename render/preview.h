@@ -50,6 +50,7 @@ struct PreviewOptions {
   // Render from these tables (a bake folder read back) instead of baking the material here.
   const BakeTables* baked = nullptr;
   const FiberBakeTables* baked_fiber = nullptr;
+  const SpecularStack* baked_stack = nullptr;  // a line material's map of n: the bake's stack
 };
 
 struct PreviewResult {

@@ -5,7 +5,6 @@
 #pragma once
 #include "core/image.h"
 #include "render/bake.h"
-#include "render/bake_stack.h"
 #include "render/preview.h"
 
 namespace aniso {

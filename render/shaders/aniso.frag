@@ -28,7 +28,7 @@ void local_directions(out vec3 L, out vec3 V, out vec3 E) {
 // Material maps (FORMAT.md "Material maps"; bits of uMaps: 1 k_d, 2 k_s, 4 n, 8 the fiber
 // direction), read texel by texel and filtered here in float as the CPU does (core/texture.h:
 // bilinear, texel centres at (i + 1/2) / W, clamped or repeated), so the reference sees the same
-// values. With a map of n, S comes from the stack of specular tables (render/bake_stack.h): the
+// values. With a map of n, S comes from the stack of specular tables (render/bake.h: SpecularStack): the
 // two levels either side of the fragment's log n, blended by its exact weight.
 in vec2 vUV;
 uniform int uMaps; uniform int uRepeat;
