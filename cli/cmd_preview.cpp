@@ -72,8 +72,13 @@ int run(const PreviewArgs& a) {
   BakeFolder bake;
   if (!a.bake.empty()) bake = read_bake(a.bake);
   const Material m = a.bake.empty() ? read_material(a.mat) : bake.material;
-  // The line model's maps are drawn per fragment; the fiber model's pass takes the scalar values.
-  if (m.fiber()) note_material_maps(m, "preview (the fiber model's pass)");
+  // Maps are drawn per fragment, but the fiber pass's factor tables hold one n.
+  if (m.fiber() && m.maps.n)
+    std::fprintf(stderr,
+                 "preview: NOTE: the fiber model's pass takes n at the material's value (%.4g), "
+                 "not its map (the factor tables hold one n); its other maps are drawn per "
+                 "fragment\n",
+                 m.n);
   std::vector<std::string> inputs =
       a.bake.empty() ? material_input_files(m, a.mat) : std::vector<std::string>{a.bake};
   inputs.push_back(a.map);

@@ -20,16 +20,17 @@ namespace {
 // Vertex attributes: P, N, T, T2 (3 each), uv (2), s_math (1); see render/shaders/vertex.vert.
 const std::vector<int> kAttributeSizes = {3, 3, 3, 3, 2, 1};
 
+// Whether the passes draw the material's maps (render/shaders/maps.glsl): every pass but the plain
+// one. The fiber pass follows all but the map of n (its factor tables hold one n).
+bool drawn_maps(const Material& m, const PreviewOptions& opt) { return !opt.plain && m.maps.any(); }
+
 // Per-vertex fiber directions T and T2 (MODELS.md §1), uv and the mathematical topology.
-// With a map of the fiber direction (line model) T is the reference tangent U: the shader turns it
-// by the map's angle per fragment.
-bool line_maps(const Material& m, const PreviewOptions& opt) {
-  return !m.fiber() && !opt.plain && m.maps.any();
-}
+// With a map of the fiber direction T is the reference tangent U: the shader turns it by the map's
+// angle per fragment.
 
 std::vector<float> vertex_attributes(const Material& m, const PreviewOptions& opt,
                                      const TriMesh& mesh, double* radius) {
-  const bool psi_map = line_maps(m, opt) && m.maps.fiber;
+  const bool psi_map = drawn_maps(m, opt) && m.maps.fiber;
   const double psi = psi_map ? 0.0 : deg_to_rad(m.fiber_angle_deg),
                psi2 = deg_to_rad(m.second_angle_deg);
   std::vector<float> vbuf;
@@ -119,15 +120,24 @@ void texture_matrix(const Vec3& L, const Vec3& V, const BakeTables& t, float out
 
 // What the passes sample: the line tables, and for the fiber model its factor tables and the
 // material's map.
-// With line-model maps also the maps themselves (read texel by texel) and the specular tables over
-// the map's n.
+// A pass's fragment shader with render/shaders/maps.glsl spliced in where it says so.
+std::string with_maps(const char* frag) {
+  std::string s = frag;
+  const std::string marker = "// aniso: maps.glsl";
+  if (const size_t at = s.find(marker); at != std::string::npos)
+    s.replace(at, marker.size(), shaders::maps_glsl);
+  return s;
+}
+
+// With maps also the maps themselves (read texel by texel) and, for the line model, the specular
+// tables over the map's n.
 struct Lookups {
   BakeTables tables;
   FiberBakeTables fb;
   gl::Texture D, S, G, F, map;
   bool maps = false;
   SpecularStack stack;
-  gl::Texture kd_map, ks_map, n_map, fiber_map, s_stack;
+  gl::Texture kd_map, ks_map, n_map, fiber_map, s_stack, amp_map;
 };
 
 // A map of k_d or k_s as RGB (one channel stands for all three, as material_at reads it).
@@ -142,14 +152,16 @@ Image as_rgb(const Image& img) {
 void make_map_lookups(const Material& m, const SpecularStack* baked, Lookups* lk) {
   const MaterialMaps& mp = m.maps;
   lk->maps = true;
+  if (mp.kd) lk->kd_map.texels(as_rgb(*mp.kd));
+  if (mp.ks) lk->ks_map.texels(as_rgb(*mp.ks));
+  if (mp.fiber) lk->fiber_map.texels(*mp.fiber);
+  if (mp.amplitude) lk->amp_map.texels(*mp.amplitude);
+  if (m.fiber()) return;
   double lo = m.n, hi = m.n;
   if (mp.n && !map_range(*mp.n, &lo, &hi))
     throw Error("preview: the material's map of n (" + mp.n_file + ") holds no positive value");
   lk->stack =
       baked && mp.n ? *baked : bake_specular_stack(lo, hi, lk->tables.size, lk->tables.index);
-  if (mp.kd) lk->kd_map.texels(as_rgb(*mp.kd));
-  if (mp.ks) lk->ks_map.texels(as_rgb(*mp.ks));
-  if (mp.fiber) lk->fiber_map.texels(*mp.fiber);
   if (!mp.n) return;
   lk->n_map.texels(*mp.n);
   std::vector<float> levels;
@@ -157,19 +169,19 @@ void make_map_lookups(const Material& m, const SpecularStack* baked, Lookups* lk
   lk->s_stack.array(levels, lk->stack.size, lk->stack.size, lk->stack.levels);
 }
 
-// The aniso pass's map uniforms (render/shaders/aniso.frag), units 5 to 9. Each sampler gets its
-// own unit even without maps: samplers of two types on one unit (the default 0) fail the draw.
+// The passes' map uniforms (render/shaders/maps.glsl), units 5 to 10. Each sampler gets its own
+// unit even without maps: samplers of two types on one unit (the default 0) fail the draw.
 void set_map_uniforms(const gl::Program& p, const Material& m, const Lookups& lk) {
   const MaterialMaps& mp = m.maps;
-  const int bits =
-      lk.maps ? (mp.kd ? 1 : 0) | (mp.ks ? 2 : 0) | (mp.n ? 4 : 0) | (mp.fiber ? 8 : 0) : 0;
+  const bool line = !m.fiber();
+  const int bits = lk.maps ? (mp.kd ? 1 : 0) | (mp.ks ? 2 : 0) | (mp.n && line ? 4 : 0) |
+                                 (mp.fiber ? 8 : 0) | (mp.amplitude && !line ? 16 : 0)
+                           : 0;
   p.set("uMaps", bits);
-  const std::pair<const gl::Texture*, const char*> units[5] = {{&lk.kd_map, "uKdMap"},
-                                                               {&lk.ks_map, "uKsMap"},
-                                                               {&lk.n_map, "uNMap"},
-                                                               {&lk.fiber_map, "uFiberMap"},
-                                                               {&lk.s_stack, "uSStack"}};
-  for (int k = 0; k < 5; ++k) {
+  const std::pair<const gl::Texture*, const char*> units[6] = {
+      {&lk.kd_map, "uKdMap"},       {&lk.ks_map, "uKsMap"},   {&lk.n_map, "uNMap"},
+      {&lk.fiber_map, "uFiberMap"}, {&lk.s_stack, "uSStack"}, {&lk.amp_map, "uAmpMap"}};
+  for (int k = 0; k < 6; ++k) {
     if (!units[k].first->empty()) units[k].first->bind(5 + k);
     p.set(units[k].second, 5 + k);
   }
@@ -190,7 +202,7 @@ void make_lookups(const Material& m, const PreviewOptions& opt, bool fiber, bool
   lk->tables = opt.baked ? *opt.baked : bake_line(m, opt.table_size, index);
   lk->D.table(lk->tables.diffuse);
   lk->S.table(lk->tables.specular);
-  if (line_maps(m, opt) && !paper) make_map_lookups(m, opt.baked_stack, lk);
+  if (drawn_maps(m, opt) && !paper) make_map_lookups(m, opt.baked_stack, lk);
   if (!fiber) return;
   lk->fb = opt.baked_fiber ? *opt.baked_fiber : bake_fiber(m, lk->tables);
   lk->G.array(lk->fb.G, lk->fb.nphi, lk->fb.nphi, lk->fb.ns);
@@ -271,7 +283,7 @@ int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, c
       begin_pass();
       pa.use();
       if (ps.fiber) set_fiber_uniforms(pa, m, lk, V);
-      if (!ps.fiber && !opt.plain) set_map_uniforms(pa, m, lk);
+      if (!opt.plain) set_map_uniforms(pa, m, lk);
       pa.set_matrix("uViewProj", view_proj);
       pa.set_matrix("uTexMat", texmat);
       lk.D.bind(0);
@@ -432,7 +444,9 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   else
     ps.aniso = std::make_unique<gl::Program>(
         shaders::vertex_vert,
-        opt.plain ? shaders::plain_frag : (fiber ? shaders::fiber_frag : shaders::aniso_frag),
+        with_maps(opt.plain ? shaders::plain_frag
+                            : (fiber ? shaders::fiber_frag : shaders::aniso_frag))
+            .c_str(),
         opt.plain ? "plain.frag" : (fiber ? "fiber.frag" : "aniso.frag"));
   ps.iso = std::make_unique<gl::Program>(shaders::vertex_vert, shaders::iso_frag, "iso.frag");
 

@@ -39,53 +39,6 @@ double max_texel_step(const BakeTables& tables) {
 
 }  // namespace
 
-void fiber_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
-                     const std::vector<PreviewLight>& lights, const BakeTables& tables,
-                     const FiberBakeTables& fb, const GBuffer& g, PreviewResult* res) {
-  const int w = g.N.width, h = g.N.height;
-  res->reference = Image(w, h, 3);
-  TopologyMap map;
-  map.h = opt.topology_map;
-  const bool s_map = m.topology_as<SMapRef>() != nullptr;
-  Material line_only = m;
-  line_only.model = Model::kLine;
-  double max_e = 0;  // the largest total irradiance at a fragment (point lights vary)
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      SurfacePoint sp;
-      if (!fragment_frame(g, *res, x, y, &sp)) continue;
-      const double u = g.T2.at(x, y, 0), v = g.T2.at(x, y, 1), smath = g.T2.at(x, y, 2);
-      const double mv = s_map           ? sample_first_channel(opt.s_map, u, v)
-                        : map.h.empty() ? 0.0
-                                        : map.sample(u, v);
-      const double s = s_at(m, smath, mv);
-      double exact[3] = {0, 0, 0}, baked[3] = {0, 0, 0}, esum = 0;
-      const Vec3 P{g.P.at(x, y, 0), g.P.at(x, y, 1), g.P.at(x, y, 2)};
-      const LocalDir Vl = to_local(sp, cam.toward_viewer(P));
-      for (const PreviewLight& light : lights) {
-        Vec3 Ld;
-        double E;
-        light.at(P, &Ld, &E);
-        const LocalDir Ll = to_local(sp, Ld);
-        esum += E;
-        LineParamsT<double> p = line_params(m);
-        p.psi = 0;
-        double f[3], gb[3];
-        fiber_reflectance(p, s, Ll, Vl, FiberAccuracy{}, f);
-        fiber_baked_eval(line_only, tables, fb, Ll, Vl, s, gb);
-        for (int ch = 0; ch < 3; ++ch) exact[ch] += E * f[ch], baked[ch] += E * gb[ch];
-      }
-      max_e = std::max(max_e, esum);
-      for (int ch = 0; ch < 3; ++ch) {
-        res->reference.at(x, y, ch) = float(exact[ch]);
-        const double got = res->rgb.at(x, y, ch);
-        res->max_abs_diff = std::max(res->max_abs_diff, std::abs(got - exact[ch]));
-        res->max_abs_diff_baked = std::max(res->max_abs_diff_baked, std::abs(got - baked[ch]));
-      }
-    }
-  res->error_bound = max_e * fb.max_abs_error + 1e-5;
-}
-
 namespace {
 
 // The largest value of any channel of a map, or of the scalar it replaces.
@@ -106,6 +59,69 @@ double max_step(const Image& t) {
 }
 
 }  // namespace
+
+void fiber_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
+                     const std::vector<PreviewLight>& lights, const BakeTables& tables,
+                     const FiberBakeTables& fb, const GBuffer& g, PreviewResult* res) {
+  const int w = g.N.width, h = g.N.height;
+  res->reference = Image(w, h, 3);
+  TopologyMap map;
+  map.h = opt.topology_map;
+  const bool s_map = m.topology_as<SMapRef>() != nullptr;
+  // With maps every fragment has its own k_d, k_s, fiber direction and amplitude; n stays the
+  // material's (the pass's factor tables hold one n), as in the shader.
+  const bool maps = m.maps.any(), psi_map = maps && m.maps.fiber != nullptr;
+  double max_e = 0;  // the largest total irradiance at a fragment (point lights vary)
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      SurfacePoint sp;
+      if (!fragment_frame(g, *res, x, y, &sp)) continue;
+      const double u = g.T2.at(x, y, 0), v = g.T2.at(x, y, 1), smath = g.T2.at(x, y, 2);
+      Material local = maps ? material_at(m, g.UV.at(x, y, 0), g.UV.at(x, y, 1)) : m;
+      local.n = m.n;
+      if (psi_map) {  // the frame turned by the map's psi: the fiber along its U, as the shader's T
+        const double psi = deg_to_rad(local.fiber_angle_deg);
+        make_frame(sp.P, sp.N, sp.U * std::cos(psi) + sp.W * std::sin(psi), &sp);
+      }
+      const double mv = s_map           ? sample_first_channel(opt.s_map, u, v)
+                        : map.h.empty() ? 0.0
+                                        : map.sample(u, v);
+      const double s = s_at(local, smath, mv);
+      Material line_only = local;
+      line_only.model = Model::kLine;
+      double exact[3] = {0, 0, 0}, baked[3] = {0, 0, 0}, esum = 0;
+      const Vec3 P{g.P.at(x, y, 0), g.P.at(x, y, 1), g.P.at(x, y, 2)};
+      const LocalDir Vl = to_local(sp, cam.toward_viewer(P));
+      for (const PreviewLight& light : lights) {
+        Vec3 Ld;
+        double E;
+        light.at(P, &Ld, &E);
+        const LocalDir Ll = to_local(sp, Ld);
+        esum += E;
+        LineParamsT<double> p = line_params(local);
+        p.psi = 0;
+        double f[3], gb[3];
+        fiber_reflectance(p, s, Ll, Vl, FiberAccuracy{}, f);
+        fiber_baked_eval(line_only, tables, fb, Ll, Vl, s, gb);
+        for (int ch = 0; ch < 3; ++ch) exact[ch] += E * f[ch], baked[ch] += E * gb[ch];
+      }
+      max_e = std::max(max_e, esum);
+      for (int ch = 0; ch < 3; ++ch) {
+        res->reference.at(x, y, ch) = float(exact[ch]);
+        const double got = res->rgb.at(x, y, ch);
+        res->max_abs_diff = std::max(res->max_abs_diff, std::abs(got - exact[ch]));
+        res->max_abs_diff_baked = std::max(res->max_abs_diff_baked, std::abs(got - baked[ch]));
+      }
+    }
+  // The tables' error was measured at the material's k_d, k_s: maps that reach higher scale it.
+  double scale = 1;
+  if (maps)
+    for (const auto& [map, scalar] : {std::pair{m.maps.kd, m.kd}, std::pair{m.maps.ks, m.ks}}) {
+      const double top = std::max({scalar[0], scalar[1], scalar[2]});
+      if (top > 0) scale = std::max(scale, largest(map, scalar) / top);
+    }
+  res->error_bound = max_e * fb.max_abs_error * scale + 1e-5;
+}
 
 void line_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
                     const std::vector<PreviewLight>& lights, const BakeTables& tables,

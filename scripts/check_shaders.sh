@@ -9,8 +9,18 @@ command -v glslangValidator >/dev/null ||
 files=("$@")
 [ ${#files[@]} -gt 0 ] || files=(render/shaders/*)
 bad=0
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
 for f in "${files[@]}"; do
-  if out=$(glslangValidator "$f" 2>&1); then
+  # A .glsl file is a part spliced into the shaders that name it ("// aniso: maps.glsl"), as
+  # render/preview.cpp does: checked there, in place.
+  [[ $f == *.glsl ]] && continue
+  src=$f
+  if grep -q '^// aniso: [a-z_]*\.glsl$' "$f"; then
+    src="$tmp/$(basename "$f")"
+    awk -v dir="$(dirname "$f")" '/^\/\/ aniso: [a-z_]*\.glsl$/ { while ((getline l < (dir "/" $3)) > 0) print l; next } { print }' "$f" >"$src"
+  fi
+  if out=$(glslangValidator "$src" 2>&1); then
     echo "check_shaders: ok   $f"
   else
     echo "check_shaders: FAIL $f"; echo "$out" | sed 's/^/    /'; bad=1

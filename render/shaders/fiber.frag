@@ -15,6 +15,7 @@ uniform int uTopo;  // 0: uniform s, 1: s_math, 2: s_math + map, 3: a map of s i
 uniform float uS0; uniform float uAmp;
 uniform vec3 uL; uniform vec3 uV; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs;
 out vec4 frag;
+// aniso: maps.glsl
 const float PI = 3.14159265358979;
 // A point light (uPointLight: at uLightPos, irradiance uE at distance uLightD0, falling off as
 // 1/d^2) and a perspective viewer (uPerspective: at uEye) make L and V vary per fragment.
@@ -35,7 +36,7 @@ void main() {
   vec3 L, V, E;
   local_directions(L, V, E);
   vec3 N = normalize(vN);
-  vec3 T = normalize(vT - N * dot(N, vT));
+  vec3 T = turned_by_map(normalize(vT - N * dot(N, vT)), N);
   vec3 B = cross(N, T);
   float ln = dot(L, N), vn = dot(V, N);
   if (ln <= 0.0 || vn <= 0.0) { frag = vec4(0.0, 0.0, 0.0, 1.0); return; }
@@ -55,7 +56,8 @@ void main() {
   if (uTopo == 3) s = texture(uMap, vUV).r;
   if (uTopo == 2) {
     float m = 2.0 * texture(uMap, vUV).r - 1.0;
-    float H = clamp(2.0 * sin(PI / 3.0 * vSmath) + uAmp * m, 0.0, sqrt(3.0));
+    float amp = (uMaps & 16) != 0 ? map_at(uAmpMap, vUV).r : uAmp;
+    float H = clamp(2.0 * sin(PI / 3.0 * vSmath) + amp * m, 0.0, sqrt(3.0));
     s = asin(0.5 * H) / (PI / 3.0);
   }
   vec2 uvphi = ((vec2(atan(lb, ln), atan(vb, vn)) + 0.5 * PI) / PI * float(uNphi - 1) + 0.5) / float(uNphi);
@@ -70,5 +72,5 @@ void main() {
   float F1 = mix(texture(uF, vec3(uvphi, float((is + 1) * uNk + ik))).r,
                  texture(uF, vec3(uvphi, float((is + 1) * uNk + ik + 1))).r, wk);
   float F = mix(F0, F1, ws);
-  frag = vec4(E * (uKd * Dl * G + uKs * Sl * F), 1.0);
+  frag = vec4(E * (map_or(1, uKdMap, uKd) * Dl * G + map_or(2, uKsMap, uKs) * Sl * F), 1.0);
 }
