@@ -230,37 +230,22 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   const size_t B = t_end - t_begin;
   const TexelBins bins = texel_bins(os, t_begin, t_end);
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
-  auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior,
-                   const TexelNeighbour& neighbour = {}) {
+  auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
     if (o.fiber_order > 0)
       return o.ceres ? solve_texel_fiber_ceres(os, bins.list(b), from, o, prior)
                      : solve_texel_fiber(os, bins.list(b), from, o, prior);
-    return o.ceres ? solve_texel_ceres(os, bins.list(b), from.c, prior, o.max_iterations, neighbour)
-                   : solve_texel_lm(os, bins.list(b), from.c, prior, o.max_iterations, neighbour);
+    return o.ceres ? solve_texel_ceres(os, bins.list(b), from.c, prior, o.max_iterations)
+                   : solve_texel_lm(os, bins.list(b), from.c, prior, o.max_iterations);
   };
   TexelResult start;  // the global fit
   start.c = global;
   start.s = o.s;
   // Every texel alone, each entry written first by the thread that solves it (~170 MB for a
-  // 1024^2 map: filling it with the start ahead of the threads took ~0.1 s of one core). A row
-  // is one thread's, left to right: a texel may start from the one before it (TexelNeighbour),
-  // the same whatever the threads, tiles or ranks (they split the map by rows).
+  // 1024^2 map: filling it with the start ahead of the threads took ~0.1 s of one core).
   TexelResults first(B);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, B / w), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t row = r.begin(); row < r.end(); ++row) {
-      TexelNeighbour nb;
-      for (size_t b = row * w; b < (row + 1) * w; ++b, bar.advance()) {
-        const bool solved = bins.size(b) >= kMinTexelPixels;
-        first[b] = solved ? solve(b, start, nullptr, nb) : start;
-        // A texel the neighbour's start left undetermined or unconverged: again from the grid.
-        if (solved && nb.c && !(first[b].determined && first[b].converged))
-          first[b] = solve(b, start, nullptr);
-        const bool usable = solved && first[b].determined && first[b].converged;
-        nb.smooth = usable && nb.c &&
-                    std::abs(std::remainder(first[b].c.psi - nb.c->psi, M_PI)) <= M_PI / 64;
-        nb.c = usable ? &first[b].c : nullptr;
-      }
-    }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, B, 4), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b < r.end(); ++b, bar.advance())
+      first[b] = bins.size(b) >= kMinTexelPixels ? solve(b, start, nullptr) : start;
   });
   const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
   // Without sweeps `first` is the result as it is (a copy would be 200 bytes a texel to fault in).

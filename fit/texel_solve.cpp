@@ -26,19 +26,8 @@ namespace {
 // 11.25 degrees either side of the best two: 16 nodes, as many as a 15-degree grid with four
 // more around its best took, which ended in another basin than the truth's in 13 of 4096
 // texels of a swirl where this does in 2.
-//
-// With `nb` (the solved texel before it in its row) the texel starts from the neighbour's solution,
-// nearer its minimum than any node where the material varies smoothly (a swirl turns a fraction
-// of a degree from texel to texel), so its solve takes fewer passes: after the grid, where the
-// neighbour's psi lies within 5.6 degrees of the best node (the same basin); after the first
-// round alone, where it lies within 22.5 degrees of the best first-round node and the two texels
-// before agree within 2.8 degrees (nb.smooth: a map fine against the material). Started from a
-// neighbour after the first round without that test, coarse texels of a swirl (8 x 6 over the
-// plate) ended in other minima, differently for the fused solver and Ceres. A neighbour elsewhere
-// (a woven patch's warp beside its weft) leaves the grid's start as it is.
 void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
-                 const TexelNeighbour& nb, Core* c) {
-  const Core* neighbour = nb.c;
+                 Core* c) {
   const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
   double psi[8];
   NodeFit fit[8];
@@ -61,23 +50,6 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
   double best = fit[b1].cost;
   c->psi = psi[b1];
   set_start_kd_ks(fit[b1].kd, fit[b1].ks, c);
-  // The neighbour's solution as the start, quantized (solvers whose neighbours agree to far below
-  // these steps start alike) and inside the bounds (Ceres refuses a start outside).
-  auto from_neighbour = [&]() {
-    auto q = [](double x, double step) { return std::round(x / step) * step; };
-    c->psi = q(neighbour->psi, M_PI / 1440);
-    c->logn = q(neighbour->logn, 1.0 / 256);
-    for (int k = 0; k < 3; ++k)
-      c->kd[k] = q(neighbour->kd[k], 1.0 / 4096), c->ks[k] = q(neighbour->ks[k], 1.0 / 4096);
-    Vec8 lo, hi;
-    core_bounds(&lo, &hi);
-    unpack_core(pack_core(*c).cwiseMax(lo).cwiseMin(hi), c);
-  };
-  if (neighbour && nb.smooth &&
-      std::abs(std::remainder(neighbour->psi - psi[b1], M_PI)) <= M_PI / 8) {
-    from_neighbour();
-    return;
-  }
   const double p1 = psi[b1], p2 = psi[b2];
   const double off[4] = {-M_PI / 16, -M_PI / 32, M_PI / 32, M_PI / 16};
   for (int k = 0; k < 4; ++k)
@@ -89,16 +61,14 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
       c->psi = psi[k];
       set_start_kd_ks(fit[k].kd, fit[k].ks, c);
     }
-  if (neighbour && std::abs(std::remainder(neighbour->psi - c->psi, M_PI)) <= M_PI / 32)
-    from_neighbour();
 }
 
 // The texel's observations as float lanes (false where they cannot be: then none) and, without a
-// pull, its start from the grid over psi or the neighbour: the LM and Ceres by the same rule.
+// pull, its start from the grid over psi: the LM and Ceres start from the same node.
 bool texel_begin(const ObsSet& os, const std::vector<size_t>& idx, const TexelPrior* prior,
-                 const TexelNeighbour& neighbour, TexelLanes* lanes, Core* c) {
+                 TexelLanes* lanes, Core* c) {
   const bool f32 = texel_lanes(os, idx, lanes);
-  if (!prior) texel_start(os, idx, f32 ? lanes : nullptr, neighbour, c);
+  if (!prior) texel_start(os, idx, f32 ? lanes : nullptr, c);
   return f32;
 }
 
@@ -210,12 +180,11 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
 
 // One texel with Ceres (the fitter of record): solve, then J^T J of its own problem.
 TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                              const TexelPrior* prior, int max_iterations,
-                              const TexelNeighbour& neighbour) {
+                              const TexelPrior* prior, int max_iterations) {
   TexelResult t;
   t.c = from;
   TexelLanes lanes;  // the same start as the LM path
-  texel_begin(os, idx, prior, neighbour, &lanes, &t.c);
+  texel_begin(os, idx, prior, &lanes, &t.c);
   ceres::Problem::Options po;
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem pb(po);
@@ -313,6 +282,7 @@ constexpr double kFloatStepInSigma = 0.05;
 // texels of a swirl end 0.014 sigma from Ceres' minimum, against 0.0024 confirming every step;
 // at 0.02, 0.0055; 4.1 float passes a texel against 4.0 and 5.0).
 constexpr double kTexelLastStepInSigma = 0.02;
+constexpr int kZigZagIterations = 20;
 
 // The texel's objective at a point: the data's sum of squares with J^T J, J^T r, and the same
 // with the prior added. A trial point is evaluated with its derivatives at once: most steps are
@@ -369,11 +339,14 @@ struct TexelObjective {
       const Vec8 xn = bounded(*x + step);
       evaluate(xn, &trial);
       if (trial.total < cur->total) {
-        // Done where the step lowered the cost by less than a step of kStepInSigma would: a
-        // curved valley's Gauss-Newton steps can zig-zag across it for ever, each a little lower.
+        // Done where the step lowered the cost by less than a step of kStepInSigma would, once
+        // past kZigZagIterations: a curved valley's Gauss-Newton steps can zig-zag across it for
+        // ever, each a little lower (they reached the 100-iteration limit); a texel that converges
+        // does so in a few.
         const double s2 = cur->total / std::max(1.0, 3.0 * idx.size() - 8);
-        const bool done = cur->total - trial.total <=
-                          std::max(1e-12 * cur->total, kStepInSigma * kStepInSigma * s2);
+        const double gain = cur->total - trial.total;
+        const bool done = gain <= 1e-12 * cur->total ||
+                          (it >= kZigZagIterations && gain <= kStepInSigma * kStepInSigma * s2);
         *taken = size;
         *x = xn;
         *cur = trial;
@@ -415,12 +388,11 @@ struct TexelObjective {
 }  // namespace
 
 TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                           const TexelPrior* prior, int max_iterations,
-                           const TexelNeighbour& neighbour) {
+                           const TexelPrior* prior, int max_iterations) {
   TexelResult t;
   t.c = from;
   thread_local TexelLanes lanes;  // each thread's buffer, reused texel after texel
-  const bool f32 = texel_begin(os, idx, prior, neighbour, &lanes, &t.c);
+  const bool f32 = texel_begin(os, idx, prior, &lanes, &t.c);
   TexelObjective obj{os, idx, f32 ? &lanes : nullptr, prior, f32, Vec8(), Vec8(), max_iterations};
   core_bounds(&obj.lo, &obj.hi);
   Vec8 x = pack_core(t.c);

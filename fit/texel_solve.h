@@ -33,23 +33,12 @@ struct TexelPrior {
   double ws = 0, bs = 0;  // the fiber model's topology s (where fitted)
 };
 
-// The solved texel before this one in its row (fit_texel_maps), a start nearer the minimum than
-// the grid's nodes where the material varies smoothly; `smooth`: the two before it agree within
-// 2.8 degrees of psi, so the map is fine against the material's variation here.
-struct TexelNeighbour {
-  const Core* c = nullptr;
-  bool smooth = false;
-};
-
 // Solves the texel of observations idx from `from` (with `prior`: pulled toward its neighbours,
-// started where it is; without: started from its own grid over psi, or from `neighbour` where that
-// lies in the grid's best basin: texel_start in fit/texel_solve.cpp).
+// started where it is; without: started from its own grid over psi).
 TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                           const TexelPrior* prior, int max_iterations = kTexelIterations,
-                           const TexelNeighbour& neighbour = {});
+                           const TexelPrior* prior, int max_iterations = kTexelIterations);
 TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                              const TexelPrior* prior, int max_iterations = kTexelIterations,
-                              const TexelNeighbour& neighbour = {});
+                              const TexelPrior* prior, int max_iterations = kTexelIterations);
 TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
                               const TexelResult& from, const TexelMapOptions& o,
                               const TexelPrior* prior);
