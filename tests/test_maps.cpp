@@ -655,3 +655,29 @@ TEST(FitMaps, ATableWithSpotsFitsMaps) {
 
 }  // namespace
 }  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// A map finer than the images resolve: texels between covered ones that got no pixel at all are
+// named as such (they hold the global values, which a viewer shows as streaks); a map the images
+// resolve has none.
+TEST(FitMaps, TexelsBetweenPixelRowsAreNamed) {
+  const std::string dir = test::tmp_dir("holes");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 64x64 --views 4");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 32x32 --out " + dir + "/fine.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const size_t at = r.output.find("texels inside the area the images cover got no pixel");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  const size_t begin = r.output.rfind("--maps: ", at) + 8;
+  const long holes = std::stol(r.output.substr(begin, at - begin));
+  std::printf("--maps 32x32 on 64x64 views: %ld texels between pixel rows\n", holes);
+  EXPECT_GT(holes, 0);
+  r = test::run_cli("fit " + dir + "/set --maps 8x8 --out " + dir + "/coarse.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("got no pixel"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace aniso
