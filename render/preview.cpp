@@ -27,7 +27,6 @@ bool drawn_maps(const Material& m, const PreviewOptions& opt) { return !opt.plai
 // Per-vertex fiber directions T and T2 (MODELS.md §1), uv and the mathematical topology.
 // With a map of the fiber direction T is the reference tangent U: the shader turns it by the map's
 // angle per fragment.
-
 std::vector<float> vertex_attributes(const Material& m, const PreviewOptions& opt,
                                      const TriMesh& mesh, double* radius) {
   const bool psi_map = drawn_maps(m, opt) && m.maps.fiber;
@@ -118,8 +117,6 @@ void texture_matrix(const Vec3& L, const Vec3& V, const BakeTables& t, float out
   for (int i = 0; i < 16; ++i) out[i] = float(m[i]);
 }
 
-// What the passes sample: the line tables, and for the fiber model its factor tables and the
-// material's map.
 // A pass's fragment shader with render/shaders/maps.glsl spliced in where it says so.
 std::string with_maps(const char* frag) {
   std::string s = frag;
@@ -129,8 +126,9 @@ std::string with_maps(const char* frag) {
   return s;
 }
 
-// With maps also the maps themselves (read texel by texel) and, for the line model, the specular
-// tables over the map's n.
+// What the passes sample: the line tables, and for the fiber model its factor tables and the
+// material's topology map; with maps also the maps themselves (read texel by texel) and, for the
+// line model, the specular tables over the map's n.
 struct Lookups {
   BakeTables tables;
   FiberBakeTables fb;

@@ -37,10 +37,6 @@ double max_texel_step(const BakeTables& tables) {
   return step;
 }
 
-}  // namespace
-
-namespace {
-
 // The largest value of any channel of a map, or of the scalar it replaces.
 double largest(const std::shared_ptr<const Image>& map, const RGB& scalar) {
   double v = std::max({scalar[0], scalar[1], scalar[2]});
