@@ -13,6 +13,7 @@
 #include "core/angles.h"
 #include "core/error.h"
 #include "core/timer.h"
+#include "fit/map_holes.h"
 #include "fit/maps.h"
 #include "fit/solve.h"
 #include "fit/start.h"
@@ -84,27 +85,6 @@ void warn_weak_texels(const TexelMaps& m, FitReport* rep) {
                             "as measured (more views or larger texels help)");
 }
 
-// Texels without a single pixel that lie between texels with pixels, along their row or their
-// column: holes in the covered area (not the margin outside the sample).
-size_t interior_holes(const TexelMaps& m) {
-  const int w = m.w, h = m.row1 - m.row0;
-  std::vector<uint8_t> hole(m.pixels.size(), 0);
-  auto scan = [&](int n, int lines, auto at) {  // each line: between its first and last covered
-    for (int l = 0; l < lines; ++l) {
-      int first = -1, last = -1;
-      for (int i = 0; i < n; ++i)
-        if (at(l, i) > 0) last = i, first = first < 0 ? i : first;
-      for (int i = first + 1; i < last; ++i)
-        if (at(l, i) == 0) hole[&at(l, i) - m.pixels.data()] = 1;
-    }
-  };
-  scan(w, h, [&](int y, int x) -> const int& { return m.pixels[static_cast<size_t>(y) * w + x]; });
-  scan(h, w, [&](int x, int y) -> const int& { return m.pixels[static_cast<size_t>(y) * w + x]; });
-  size_t count = 0;
-  for (uint8_t b : hole) count += b;
-  return count;
-}
-
 // --maps after the global fit `global` (the fiber model's quadrature order and s with it); the
 // misfit warning and the count of undetermined texels go to the report.
 void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global, int fiber_order,
@@ -141,13 +121,16 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
         " texels are not determined by the data (too few pixels, psi's sigma over 10 deg, or a "
         "solver that did not converge): they hold the global values with the prior's spread as "
         "sigma (maps_uncertainty.determined = 0)");
-    if (const size_t holes = interior_holes(res->maps); holes > 0)
+    size_t holes = 0;
+    for (uint8_t b : interior_holes(res->maps)) holes += b;
+    if (holes > 0)
       rep->warnings.push_back(
           "--maps: " + std::to_string(holes) +
           " texels inside the area the images cover got no pixel at all: the map is finer than "
           "the images resolve there (texel rows or columns between pixel rows, as on the far side "
-          "of a tilted view). A viewer draws them at the global values, as streaks; a coarser "
-          "--maps, or views that see that part nearer the normal, give them data");
+          "of a tilted view). They stay undetermined and the maps give them the values of the "
+          "nearest determined texels in their column (or row), interpolated; a coarser --maps, "
+          "or views that see that part nearer the normal, give them data");
   }
   if (res->maps.not_converged > 0)
     rep->warnings.push_back(

@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "fit/fit.h"
+#include "fit/map_holes.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
@@ -80,12 +81,13 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
       write_exr(join_path(dir, f[file]), img);
     });
   };
-  const double d2r = M_PI / 90;  // doubled angle, degrees to radians
-  put(0, 3, [&](size_t i, int c) { return t.kd[3 * i + c]; });
-  put(1, 3, [&](size_t i, int c) { return t.ks[3 * i + c]; });
-  put(2, 1, [&](size_t i, int) { return t.n[i]; });
+  const double d2r = M_PI / 90;                                 // doubled angle, degrees to radians
+  const fitting::WrittenValues v = fitting::written_values(t);  // holes filled
+  put(0, 3, [&](size_t i, int c) { return v.kd[3 * i + c]; });
+  put(1, 3, [&](size_t i, int c) { return v.ks[3 * i + c]; });
+  put(2, 1, [&](size_t i, int) { return v.n[i]; });
   put(3, 2, [&](size_t i, int c) {
-    return c == 0 ? std::cos(d2r * t.psi_deg[i]) : std::sin(d2r * t.psi_deg[i]);
+    return c == 0 ? std::cos(d2r * v.psi_deg[i]) : std::sin(d2r * v.psi_deg[i]);
   });
   put(4, 3, [&](size_t i, int c) { return t.kd_sigma[3 * i + c]; });
   put(5, 3, [&](size_t i, int c) { return t.ks_sigma[3 * i + c]; });
@@ -97,7 +99,7 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
   // map; channel R).
   const size_t s_file = t.s_key == "amplitude" ? 12 : 10;
   if (!t.s.empty()) {
-    put(s_file, 1, [&](size_t i, int) { return t.s[i]; });
+    put(s_file, 1, [&](size_t i, int) { return v.s[i]; });
     put(s_file + 1, 1, [&](size_t i, int) { return t.s_sigma[i]; });
   }
   tbb::parallel_for(size_t{0}, writes.size(), [&](size_t k) { writes[k](); });
@@ -112,8 +114,10 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
       {"texels", {t.w, t.h}},
       {"note",
        "one standard deviation per texel (fiber: R = sigma of psi in degrees); "
-       "coverage: pixels per texel; determined = 0: not determined by the data, the "
-       "global value is kept and sigma is the prior's spread"}};
+       "coverage: pixels per texel; determined = 0: not determined by the data, sigma is the "
+       "prior's spread and the value the global one, or, for a texel no pixel reaches between "
+       "texels that have pixels, the nearest determined texels' in its column (else row), "
+       "interpolated"}};
   if (!t.s.empty()) {
     (*j)["maps"][t.s_key] = f[s_file];
     (*j)["maps_uncertainty"][t.s_key] = f[s_file + 1];

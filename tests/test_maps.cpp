@@ -660,21 +660,38 @@ namespace aniso {
 namespace {
 
 // A map finer than the images resolve: texels between covered ones that got no pixel at all are
-// named as such (they hold the global values, which a viewer shows as streaks); a map the images
-// resolve has none.
+// named as such, stay undetermined, and hold their determined neighbours' values interpolated
+// (the global values made streaks in a viewer); a map the images resolve has none.
 TEST(FitMaps, TexelsBetweenPixelRowsAreNamed) {
   const std::string dir = test::tmp_dir("holes");
-  auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 64x64 --views 4");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 128x128 --views 16");
   ASSERT_EQ(r.status, 0) << r.output;
-  r = test::run_cli("fit " + dir + "/set --maps 32x32 --out " + dir + "/fine.json");
+  r = test::run_cli("fit " + dir + "/set --maps 64x64 --out " + dir + "/fine.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const size_t at = r.output.find("texels inside the area the images cover got no pixel");
   ASSERT_NE(at, std::string::npos) << r.output;
   const size_t begin = r.output.rfind("--maps: ", at) + 8;
   const long holes = std::stol(r.output.substr(begin, at - begin));
-  std::printf("--maps 32x32 on 64x64 views: %ld texels between pixel rows\n", holes);
+  std::printf("--maps 64x64 on 16 views of 128x128: %ld texels between pixel rows\n", holes);
   EXPECT_GT(holes, 0);
-  r = test::run_cli("fit " + dir + "/set --maps 8x8 --out " + dir + "/coarse.json");
+  // Such a texel between two determined ones in its column holds their mean, not the global k_d.
+  const Image kd = read_image(dir + "/fine_kd.exr").image,
+              cov = read_image(dir + "/fine_coverage.exr").image,
+              det = read_image(dir + "/fine_determined.exr").image;
+  const double global_kd = nlohmann::json::parse(read_text_file(dir + "/fine.json"))["kd"][0];
+  size_t checked = 0;
+  for (int y = 1; y + 1 < 64; ++y)
+    for (int x = 0; x < 64; ++x)
+      if (cov.at(x, y, 0) == 0 && det.at(x, y - 1, 0) > 0.5 && det.at(x, y + 1, 0) > 0.5) {
+        const double mean = 0.5 * (kd.at(x, y - 1, 0) + kd.at(x, y + 1, 0));
+        EXPECT_NEAR(kd.at(x, y, 0), mean, 1e-6) << x << "," << y;
+        EXPECT_GT(std::abs(kd.at(x, y, 0) - global_kd), 1e-4) << x << "," << y;
+        EXPECT_EQ(det.at(x, y, 0), 0.0f);
+        ++checked;
+      }
+  std::printf("%zu holes between two determined texels hold their mean\n", checked);
+  EXPECT_GT(checked, 0u);
+  r = test::run_cli("fit " + dir + "/set --maps 48x48 --out " + dir + "/coarse.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_EQ(r.output.find("got no pixel"), std::string::npos) << r.output;
 }
