@@ -1,4 +1,5 @@
 // aniso bake: lookup tables of a material in a folder.
+#include <cmath>
 #include <cstdio>
 #include <memory>
 
@@ -47,14 +48,13 @@ Command add_bake(CLI::App& app) {
             }
             // A line material's map of n: the specular tables over its range (render/bake.h).
             SpecularStack st;
-            double lo = 0, hi = 0;
-            const bool stack = !m.fiber() && m.maps.n && map_range(*m.maps.n, &lo, &hi);
+            const bool stack = !m.fiber() && m.maps.n;
             if (stack) {
-              st = bake_specular_stack(lo, hi, a->size, t.index);
+              st = bake_material_stack(m, a->size, t.index);
               std::printf(
                   "bake: map of n (%.4g to %.4g): specular stack of %d levels, lookup vs direct "
                   "evaluation over %zu samples: max abs %.3g (of S)\n",
-                  lo, hi, st.levels, st.samples, st.max_abs_error);
+                  std::exp(st.logn0), std::exp(st.logn1), st.levels, st.samples, st.max_abs_error);
             }
             write_bake(a->out, m, t, command_line(), m.fiber() ? &fb : nullptr,
                        stack ? &st : nullptr);

@@ -23,7 +23,7 @@ std::vector<uint8_t> interior_holes(const TexelMaps& m) {
 }
 
 WrittenValues written_values(const TexelMaps& m) {
-  WrittenValues v{m.kd, m.ks, m.n, m.psi_deg, m.s, 0};
+  WrittenValues v{m.kd, m.ks, m.n, m.psi_deg, m.s};
   const std::vector<uint8_t> hole = interior_holes(m);
   const int w = m.w, h = m.row1 - m.row0;
   // The nearest determined texel from texel (x, y) along (dx, dy), and its distance; -1: none.
@@ -57,7 +57,6 @@ WrittenValues written_values(const TexelMaps& m) {
       const double s2 = (1 - t) * std::sin(d2r * m.psi_deg[a]) + t * std::sin(d2r * m.psi_deg[b]);
       double deg = 0.5 * std::atan2(s2, c2) / (M_PI / 180);
       v.psi_deg[i] = deg < 0 ? deg + 180 : deg;
-      ++v.filled;
     }
   return v;
 }

@@ -16,7 +16,6 @@ std::vector<uint8_t> interior_holes(const TexelMaps& m);
 // The maps' values as written: copies of kd, ks, n, psi_deg and s with the holes filled.
 struct WrittenValues {
   std::vector<double> kd, ks, n, psi_deg, s;
-  size_t filled = 0;
 };
 WrittenValues written_values(const TexelMaps& m);
 

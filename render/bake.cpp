@@ -50,6 +50,18 @@ double lookup_bilinear(const Image& t, double a, double b, int ch, BakeIndex ind
          (1 - wa) * wb * t.at(ia, ib + 1, ch) + wa * wb * t.at(ia + 1, ib + 1, ch);
 }
 
+double max_texel_step(const Image& t) {
+  double step = 0;
+  for (int y = 0; y < t.height; ++y)
+    for (int x = 0; x < t.width; ++x)
+      for (int c = 0; c < t.channels; ++c) {
+        const float v = t.at(x, y, c);
+        if (x + 1 < t.width) step = std::max(step, double(std::abs(t.at(x + 1, y, c) - v)));
+        if (y + 1 < t.height) step = std::max(step, double(std::abs(t.at(x, y + 1, c) - v)));
+      }
+  return step;
+}
+
 BakeTables bake_line(const Material& m, int n, BakeIndex index, uint64_t seed) {
   if (n < 2 || n > 8192)
     throw Error("bake: --size must be between 2 and 8192 (got " + std::to_string(n) + ")");

@@ -53,6 +53,10 @@ double texel_coord(double a, int n, BakeIndex index);
 // Bilinear lookup with the texel-centre convention above (a, b clamped to [-1, 1]).
 double lookup_bilinear(const Image& table, double a, double b, int channel, BakeIndex index);
 
+// Largest change between neighbouring texels (along a row or a column, any channel) of a table:
+// what GL_LINEAR's 8-bit weights may add to its lookup.
+double max_texel_step(const Image& table);
+
 // The fiber model's baked form (ours, MODELS.md §5): the line tables times factors over the
 // projected angles. Exactly,
 //   D_fiber = D_line(a) * G(phi_l, phi_v, s),          G = (1/W) int_{vis&lit} <n,l><n,v> dphi
@@ -108,6 +112,10 @@ SpecularStack bake_specular_stack(double n_min, double n_max, int size, BakeInde
                                   double max_log_step = 0.05, int max_levels = 64,
                                   uint64_t seed = 1);
 
+// The stack a line material with maps draws with: over its map of n's range (throws, naming the
+// map, where it holds no positive value), or at its one n without a map of n.
+SpecularStack bake_material_stack(const Material& m, int size, BakeIndex index);
+
 // bake.json's "specular_stack" section, with specular_stack.exr written into `dir`; and the stack
 // read back from such a section of `file` (errors name the file and key) beside tables `t`.
 nlohmann::json write_specular_stack(const std::string& dir, const SpecularStack& st);
@@ -116,9 +124,6 @@ SpecularStack read_specular_stack(const nlohmann::json& section, const std::stri
 
 // What the shader computes, on the CPU: S at (a, b) and n from the stack.
 double stack_lookup(const SpecularStack& st, double a, double b, double n);
-
-// The smallest and largest finite positive value of channel 0 of `img`; false where there is none.
-bool map_range(const Image& img, double* lo, double* hi);
 
 // Writes diffuse/specular/combined as float EXR, 8- and 16-bit PNG, and bake.json (the sidecar:
 // indexing, decoding scales, texture matrix, measured error, the command that generated it).

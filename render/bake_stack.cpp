@@ -13,6 +13,20 @@
 
 namespace aniso {
 
+namespace {
+
+// The smallest and largest finite positive value of channel 0 of `img`; false where there is none.
+bool map_range(const Image& img, double* lo, double* hi) {
+  *lo = INFINITY, *hi = -INFINITY;
+  for (size_t p = 0; p < img.px.size(); p += img.channels) {
+    const double v = img.px[p];
+    if (std::isfinite(v) && v > 0) *lo = std::min(*lo, v), *hi = std::max(*hi, v);
+  }
+  return *lo <= *hi;
+}
+
+}  // namespace
+
 SpecularStack bake_specular_stack(double n_min, double n_max, int size, BakeIndex index,
                                   double max_log_step, int max_levels, uint64_t seed) {
   if (!(n_min > 0 && n_max >= n_min && std::isfinite(n_max)))
@@ -26,7 +40,13 @@ SpecularStack bake_specular_stack(double n_min, double n_max, int size, BakeInde
   st.logn1 = std::log(n_max);
   const int steps = static_cast<int>(std::ceil((st.logn1 - st.logn0) / max_log_step - 1e-9));
   st.levels = std::clamp(steps + 1, 2, max_levels);
-  Image D(size, size, 1);
+  Image D(size, size, 1);  // the same at every n: for the diffuse part's lookup error
+  for (int j = 0; j < size; ++j)
+    for (int i = 0; i < size; ++i) {
+      double d, s;
+      line_DS(texel_cosine(i, size, index), texel_cosine(j, size, index), 1.0, &d, &s);
+      D.at(i, j, 0) = static_cast<float>(d);
+    }
   for (int k = 0; k < st.levels; ++k) {
     const double n = std::exp(st.logn0 + k * st.log_step());
     Image S(size, size, 1);
@@ -35,13 +55,8 @@ SpecularStack bake_specular_stack(double n_min, double n_max, int size, BakeInde
         double d, s;
         line_DS(texel_cosine(i, size, index), texel_cosine(j, size, index), n, &d, &s);
         S.at(i, j, 0) = static_cast<float>(s);
-        D.at(i, j, 0) = static_cast<float>(d);
       }
-    for (int j = 0; j < size; ++j)
-      for (int i = 0; i + 1 < size; ++i)
-        st.max_texel_step =
-            std::max({st.max_texel_step, double(std::abs(S.at(i + 1, j, 0) - S.at(i, j, 0))),
-                      double(std::abs(S.at(j, i + 1, 0) - S.at(j, i, 0)))});
+    st.max_texel_step = std::max(st.max_texel_step, max_texel_step(S));
     st.S.push_back(std::move(S));
   }
   // The error of the lookup: random (a, b) at random n, plus the ridge b = -a where the lobe is
@@ -64,6 +79,13 @@ SpecularStack bake_specular_stack(double n_min, double n_max, int size, BakeInde
     check(a, std::clamp(-a + 0.02 * u(rng), -1.0, 1.0));
   }
   return st;
+}
+
+SpecularStack bake_material_stack(const Material& m, int size, BakeIndex index) {
+  double lo = m.n, hi = m.n;
+  if (m.maps.n && !map_range(*m.maps.n, &lo, &hi))
+    throw Error("bake: the material's map of n (" + m.maps.n_file + ") holds no positive value");
+  return bake_specular_stack(lo, hi, size, index);
 }
 
 double stack_lookup(const SpecularStack& st, double a, double b, double n) {
@@ -130,15 +152,6 @@ SpecularStack read_specular_stack(const nlohmann::json& f, const std::string& fi
     st.S.push_back(std::move(S));
   }
   return st;
-}
-
-bool map_range(const Image& img, double* lo, double* hi) {
-  *lo = INFINITY, *hi = -INFINITY;
-  for (size_t p = 0; p < img.px.size(); p += img.channels) {
-    const double v = img.px[p];
-    if (std::isfinite(v) && v > 0) *lo = std::min(*lo, v), *hi = std::max(*hi, v);
-  }
-  return *lo <= *hi;
 }
 
 }  // namespace aniso

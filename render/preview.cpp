@@ -155,11 +155,7 @@ void make_map_lookups(const Material& m, const SpecularStack* baked, Lookups* lk
   if (mp.fiber) lk->fiber_map.texels(*mp.fiber);
   if (mp.amplitude) lk->amp_map.texels(*mp.amplitude);
   if (m.fiber()) return;
-  double lo = m.n, hi = m.n;
-  if (mp.n && !map_range(*mp.n, &lo, &hi))
-    throw Error("preview: the material's map of n (" + mp.n_file + ") holds no positive value");
-  lk->stack =
-      baked && mp.n ? *baked : bake_specular_stack(lo, hi, lk->tables.size, lk->tables.index);
+  lk->stack = baked && mp.n ? *baked : bake_material_stack(m, lk->tables.size, lk->tables.index);
   if (!mp.n) return;
   lk->n_map.texels(*mp.n);
   std::vector<float> levels;

@@ -23,35 +23,12 @@ bool fragment_frame(const GBuffer& g, const PreviewResult& res, int x, int y, Su
   return make_frame(Vec3(0, 0, 0), N, T, sp);
 }
 
-// Largest change between neighbouring texels of the combined table.
-double max_texel_step(const BakeTables& tables) {
-  double step = 0;
-  for (int j = 0; j < tables.size; ++j)
-    for (int i = 0; i + 1 < tables.size; ++i)
-      for (int ch = 0; ch < 3; ++ch) {
-        step = std::max(step, double(std::abs(tables.combined.at(i + 1, j, ch) -
-                                              tables.combined.at(i, j, ch))));
-        step = std::max(step, double(std::abs(tables.combined.at(j, i + 1, ch) -
-                                              tables.combined.at(j, i, ch))));
-      }
-  return step;
-}
-
 // The largest value of any channel of a map, or of the scalar it replaces.
 double largest(const std::shared_ptr<const Image>& map, const RGB& scalar) {
   double v = std::max({scalar[0], scalar[1], scalar[2]});
   if (map)
     for (float x : map->px) v = std::max(v, double(x));
   return v;
-}
-
-double max_step(const Image& t) {
-  double step = 0;
-  for (int j = 0; j < t.height; ++j)
-    for (int i = 0; i + 1 < t.width; ++i)
-      step = std::max({step, double(std::abs(t.at(i + 1, j, 0) - t.at(i, j, 0))),
-                       double(std::abs(t.at(j, i + 1, 0) - t.at(j, i, 0)))});
-  return step;
 }
 
 }  // namespace
@@ -134,14 +111,15 @@ void line_reference(const Material& m, const PreviewOptions& opt, const PreviewC
       angle ? std::sqrt(2.0 * std::ldexp(1.0, -24)) * (tables.size - 1) / M_PI : 0.0;
   const int lobes = m.second_active() ? 2 : 1;
   const double filter = 2 * (kFilterWeightStep + acos_texels);
-  double unit_bound = lobes * (tables.max_abs_error + max_texel_step(tables) * filter);
+  double unit_bound = lobes * (tables.max_abs_error + max_texel_step(tables.combined) * filter);
   const bool maps = m.maps.any();
   if (maps && stack) {
     // D and S apart, each times the largest k_d, k_s the maps hold (the maps themselves are
     // filtered in float by the shader, as here).
     const double kd = largest(m.maps.kd, m.kd), ks = largest(m.maps.ks, m.ks);
-    unit_bound = lobes * (kd * (stack->diffuse_max_abs_error + max_step(tables.diffuse) * filter) +
-                          ks * (stack->max_abs_error + stack->max_texel_step * filter));
+    unit_bound =
+        lobes * (kd * (stack->diffuse_max_abs_error + max_texel_step(tables.diffuse) * filter) +
+                 ks * (stack->max_abs_error + stack->max_texel_step * filter));
   }
   const bool psi_map = maps && m.maps.fiber != nullptr;
   double max_e = 0;
