@@ -33,8 +33,6 @@ Command add_export(CLI::App& app) {
   return {
       ex, [a] {
         const Material m = read_material(a->mat);
-        note_material_maps(
-            m, "export (tables, shaders, viewer; its glTF takes the maps per texel as textures)");
         check_outputs_apart({a->out}, material_input_files(m, a->mat));
         ExportOptions o;
         o.size = a->size;
@@ -62,6 +60,18 @@ Command add_export(CLI::App& app) {
               "metallicRoughnessTexture, anisotropyTexture with its strength; whole-model "
               "relative RMS at worst %.3f\n",
               s.gltf_texels.w, s.gltf_texels.h, s.gltf_texels.nodes, s.gltf_texels.worst_rel_rms);
+        if (s.maps.any()) {
+          char stack[128] = "";
+          if (s.maps.n)
+            std::snprintf(stack, sizeof stack,
+                          "; S from %d tables over the map's range of n, max abs %.3g",
+                          s.maps.levels, s.stack_max_abs_error);
+          std::printf("  maps per fragment (shaders/aniso_maps.*, the browser viewer):%s%s%s%s%s\n",
+                      s.maps.kd ? " k_d" : "", s.maps.ks ? " k_s" : "",
+                      s.maps.fiber ? " fiber" : "", s.maps.n ? " n" : "", stack);
+        }
+        for (const std::string& w : s.warnings)
+          std::fprintf(stderr, "export: WARNING: %s\n", w.c_str());
         return 0;
       }};
 }

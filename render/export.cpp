@@ -96,29 +96,101 @@ json write_tables(const std::string& dir, const Material& m, const ExportOptions
   return tables;
 }
 
-// The material's maps: the original file copied, and its first channel as R32 KTX2.
-json write_maps(const std::string& dir, const Material& m, ExportSummary* sum) {
+// The material's maps: each original file copied, and as KTX2 beside it: k_d, k_s and the fiber
+// direction RGBA32F (a grey map's one channel in R, G and B; alpha 1), n and the topology's maps
+// their first channel as R32F. With a line material's map of n, the stack of specular tables the
+// shaders blend (tables/specular_stack.ktx2, a 2D array) and its entry in `tables`.
+json write_maps(const std::string& dir, const Material& m, const ExportOptions& o,
+                ExportSummary* sum, json* tables) {
   json maps = json::object();
-  auto carry = [&](const std::string& rel, const char* key, const char* meaning) {
+  std::vector<std::string> names;
+  auto carry = [&](const std::string& rel, const char* key, const std::string& stem,
+                   const Image* rgba, const char* meaning) {
     const std::string src = join_path(m.base_dir, rel);
-    const std::string name = std::filesystem::path(src).filename().string();
-    const std::string stem = std::filesystem::path(src).stem().string();
+    const std::string name = stem + std::filesystem::path(src).extension().string();
+    for (const std::string& taken : names)
+      if (taken == name || taken == stem + ".ktx2")
+        throw Error("export: two of the material's maps would be written as tables/maps/" + name +
+                    " (" + rel + "): rename one of them");
+    names.insert(names.end(), {name, stem + ".ktx2"});
     write_text_file(join_path(dir, "tables/maps/" + name), read_text_file(src));
-    Image img = read_image(src).image;
-    Image first(img.width, img.height, 1);
-    for (size_t p = 0; p < first.px.size(); ++p) first.px[p] = img.px[p * img.channels];
-    write_ktx2(join_path(dir, "tables/maps/" + stem + ".ktx2"),
-               ktx_of(first, KtxFormat::kR32Float, meaning));
+    Image img = rgba ? Image{} : read_image(src).image;
+    const KtxTexture t = [&] {
+      if (rgba) return ktx_of(*rgba, KtxFormat::kRGBA32Float, meaning);
+      Image first(img.width, img.height, 1);
+      for (size_t p = 0; p < first.px.size(); ++p) first.px[p] = img.px[p * img.channels];
+      return ktx_of(first, KtxFormat::kR32Float, meaning);
+    }();
+    write_ktx2(join_path(dir, "tables/maps/" + stem + ".ktx2"), t);
     maps[key] = {{"original", "tables/maps/" + name},
                  {"ktx2", "tables/maps/" + stem + ".ktx2"},
+                 {"vk_format", ktx_format_name(t.format)},
+                 {"size", {t.width, t.height}},
                  {"meaning", meaning}};
     sum->files.push_back("tables/maps/" + name);
     sum->files.push_back("tables/maps/" + stem + ".ktx2");
   };
+  auto stem_of = [](const std::string& rel) { return std::filesystem::path(rel).stem().string(); };
   if (const auto* r = m.topology_as<TopologyMapRef>())
-    carry(r->file, "topology.map", "topology map h in [0, 1] over uv (m = 2h - 1, MODELS.md §4)");
+    carry(r->file, "topology.map", stem_of(r->file), nullptr,
+          "topology map h in [0, 1] over uv (m = 2h - 1, MODELS.md §4)");
   if (const auto* r = m.topology_as<SMapRef>())
-    carry(r->file, "topology.s_map", "the topology s per texel over uv");
+    carry(r->file, "topology.s_map", stem_of(r->file), nullptr, "the topology s per texel over uv");
+  const MaterialMaps& mp = m.maps;
+  // A grey map's one channel in R, G and B (map_lookup's rule); two channels keep B = A = 1.
+  auto rgb = [](const Image& img) {
+    if (img.channels != 1) return img;
+    Image out(img.width, img.height, 3);
+    for (size_t p = 0; p < img.px.size(); ++p)
+      for (int c = 0; c < 3; ++c) out.px[3 * p + c] = img.px[p];
+    return out;
+  };
+  ExportMapSet& set = sum->maps;
+  if (mp.kd) {
+    const Image v = rgb(*mp.kd);
+    carry(mp.kd_file, "kd", "kd", &v, "k_d per texel over uv, linear RGB (alpha 1)");
+    set.kd = true;
+  }
+  if (mp.ks) {
+    const Image v = rgb(*mp.ks);
+    carry(mp.ks_file, "ks", "ks", &v, "k_s per texel over uv, linear RGB (alpha 1)");
+    set.ks = true;
+  }
+  if (mp.fiber) {
+    carry(mp.fiber_file, "fiber", "fiber", mp.fiber.get(),
+          "fiber direction per texel over uv: R, G = cos 2psi, sin 2psi (psi = atan2(G, R) / 2 "
+          "from the reference tangent toward N x U)");
+    set.fiber = true;
+  }
+  if (mp.n) {
+    carry(mp.n_file, "n", "n", nullptr, "the line model's exponent n per texel over uv");
+    if (!m.fiber()) {  // the fiber model's factor tables hold one n: its shaders use m.n
+      const SpecularStack st = bake_material_stack(m, o.size, BakeIndex::kAngle);
+      std::vector<float> levels;
+      for (const Image& t : st.S) levels.insert(levels.end(), t.px.begin(), t.px.end());
+      write_ktx2(join_path(dir, "tables/specular_stack.ktx2"),
+                 ktx_array(levels, st.size, st.size, st.levels,
+                           "S(a, b; n) of the line model at levels of log n"));
+      (*tables)["specular_stack"] = {
+          {"ktx2", "tables/specular_stack.ktx2"},
+          {"vk_format", "VK_FORMAT_R32_SFLOAT"},
+          {"size", {st.size, st.size}},
+          {"layers", st.levels},
+          {"layer", "k: n = exp(log_n0 + k log_step), indexed as specular"},
+          {"log_n0", st.logn0},
+          {"log_step", st.log_step()},
+          {"lookup",
+           "f = clamp((log n - log_n0) / log_step, 0, layers - 1), k = min(floor f, layers - 2): "
+           "S = S_k + (f - k) (S_k+1 - S_k)"}};
+      sum->files.push_back("tables/specular_stack.ktx2");
+      set.n = true;
+      set.levels = st.levels;
+      set.log_n0 = st.logn0;
+      set.log_step = st.log_step() > 0 ? st.log_step() : 1.0;  // one n: any step reads level 0
+      sum->stack_max_abs_error = st.max_abs_error;
+    }
+  }
+  if (set.any()) maps["wrap"] = mp.repeat ? "repeat" : "clamp";
   return maps;
 }
 
@@ -338,7 +410,7 @@ json write_viewer(const std::string& dir, ExportSummary* sum) {
 
 }  // namespace
 
-ExportShaders export_shaders(int texels, const FiberBakeTables* fiber) {
+ExportShaders export_shaders(int texels, const FiberBakeTables* fiber, const ExportMapSet* maps) {
   char def[64];
   std::snprintf(def, sizeof def, "#define ANISO_TEXELS %d.0\n", texels);
   ExportShaders s;
@@ -346,6 +418,27 @@ ExportShaders export_shaders(int texels, const FiberBakeTables* fiber) {
   s.glsl_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + shaders::aniso_main_frag;
   s.hlsl_lookup = std::string(def) + shaders::aniso_lookup_hlsli;
   s.hlsl_pixel = s.hlsl_lookup + "\n" + shaders::aniso_main_hlsl;
+  if (maps && maps->any()) {
+    std::string mdef;
+    for (const auto& [on, name] : {std::pair{maps->kd, "ANISO_KD_MAP"},
+                                   {maps->ks, "ANISO_KS_MAP"},
+                                   {maps->fiber, "ANISO_FIBER_MAP"},
+                                   {maps->n, "ANISO_N_MAP"}})
+      if (on) mdef += std::string("#define ") + name + "\n";
+    if (maps->n) {
+      char sdef[160];
+      std::snprintf(sdef, sizeof sdef,
+                    "#define ANISO_STACK_LEVELS %d\n#define ANISO_LOG_N0 %.9g\n"
+                    "#define ANISO_LOG_STEP %.9g\n",
+                    maps->levels, maps->log_n0, maps->log_step);
+      mdef += sdef;
+    }
+    s.glsl_maps = mdef + shaders::aniso_maps_glsl;
+    s.glsl_maps_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + s.glsl_maps + "\n" +
+                           shaders::aniso_maps_main_frag;
+    s.hlsl_maps = mdef + shaders::aniso_maps_hlsli;
+    s.hlsl_maps_pixel = s.hlsl_lookup + "\n" + s.hlsl_maps + "\n" + shaders::aniso_maps_main_hlsl;
+  }
   if (!fiber) return s;
   char fdef[128];
   std::snprintf(fdef, sizeof fdef,
@@ -362,7 +455,7 @@ ExportShaders export_shaders(int texels, const FiberBakeTables* fiber) {
 namespace {
 
 json conventions(const ExportSummary& s) {
-  return {
+  json c = {
       {"values",
        "linear radiance factors, not sRGB; KTX2 and EXR hold the same numbers (the "
        "combined table as half float in KTX2)"},
@@ -382,6 +475,13 @@ json conventions(const ExportSummary& s) {
                  "tables multiply D and S (see tables.fiber_*)"
                : "the isotropic term and the second fiber (evaluate them in the shader if the "
                  "material has them)"}};
+  if (s.maps.any())
+    c["maps"] =
+        "tables/maps/*.ktx2 over glTF texture coordinates (TEXCOORD_0; the first stored row at "
+        "v = 0, no flip), texel centres at (i + 1/2) / W, linear, no mipmaps, wrap as maps.wrap; "
+        "with a map of the fiber direction the tangent passed in is the mesh tangent (not turned "
+        "by fiber_angle_deg) and the map's psi turns it about the normal";
+  return c;
 }
 
 json measured_errors(const ExportSummary& s) {
@@ -398,6 +498,10 @@ json measured_errors(const ExportSummary& s) {
               {"other_mapping_relative_rms", s.pbr.other_rel_rms},
               {"direction_pairs", s.pbr.samples},
               {"mapping", s.pbr.mapping}}}};
+  if (s.maps.n)
+    e["specular_stack"] = {
+        {"against", "S at random (a, b) and n in the map's range, and the ridge"},
+        {"max_abs", s.stack_max_abs_error}};
   if (s.fiber)
     e["fiber_tables"] = {{"against", "the full fiber model, random L, V, s"},
                          {"max_abs", s.fiber_tables.max_abs_error},
@@ -472,8 +576,14 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
   sum.pbr = fit_gltf_pbr(m);
   write_folder_atomically(dir, [&](const std::string& tmp) {
     json tables = write_tables(tmp, m, o, &sum);
-    const json maps = write_maps(tmp, m, &sum);
-    const ExportShaders sh = export_shaders(o.size, sum.fiber ? &sum.fiber_tables : nullptr);
+    const json maps = write_maps(tmp, m, o, &sum, &tables);
+    if (m.fiber() && m.maps.n)
+      sum.warnings.push_back(
+          "the fiber model's factor tables hold one n: the shaders and the browser viewer use n "
+          "= " +
+          std::to_string(m.n) + ", not the material's map of n (" + m.maps.n_file + ")");
+    const ExportShaders sh =
+        export_shaders(o.size, sum.fiber ? &sum.fiber_tables : nullptr, &sum.maps);
     std::vector<std::pair<std::string, std::string>> files = {
         {"shaders/aniso_lookup.glsl", sh.glsl_lookup},
         {"shaders/aniso.frag", sh.glsl_fragment},
@@ -484,6 +594,11 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
                                  {"shaders/aniso_fiber.frag", sh.glsl_fiber_fragment},
                                  {"shaders/aniso_fiber.hlsli", sh.hlsl_fiber},
                                  {"shaders/aniso_fiber_ps.hlsl", sh.hlsl_fiber_pixel}});
+    if (sum.maps.any())
+      files.insert(files.end(), {{"shaders/aniso_maps.glsl", sh.glsl_maps},
+                                 {"shaders/aniso_maps.frag", sh.glsl_maps_fragment},
+                                 {"shaders/aniso_maps.hlsli", sh.hlsl_maps},
+                                 {"shaders/aniso_maps_ps.hlsl", sh.hlsl_maps_pixel}});
     for (const auto& [name, text] : files) {
       write_text_file(join_path(tmp, name), text);
       sum.files.push_back(name);
@@ -507,13 +622,20 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
           {"fiber", sum.fiber ? json{"shaders/aniso_fiber.glsl", "shaders/aniso_fiber.frag",
                                      "shaders/aniso_fiber.hlsli", "shaders/aniso_fiber_ps.hlsl"}
                               : json(nullptr)},
+          {"maps", sum.maps.any() ? json{"shaders/aniso_maps.glsl", "shaders/aniso_maps.frag",
+                                         "shaders/aniso_maps.hlsli", "shaders/aniso_maps_ps.hlsl"}
+                                  : json(nullptr)},
           {"checked_by",
            "glslangValidator (GLSL 330 and HLSL via -D), SPIR-V to MSL "
            "by spirv-cross, in the tests"},
-          {"covers", sum.fiber ? "the line-model lookup and the fiber model's factor "
-                                 "tables (one topology s per call: sample a map of "
-                                 "s or s_math yourself)"
-                               : "the line-model lookup"}}},
+          {"covers", std::string(sum.fiber ? "the line-model lookup and the fiber model's factor "
+                                             "tables (one topology s per call: sample a map of "
+                                             "s or s_math yourself)"
+                                           : "the line-model lookup") +
+                         (sum.maps.any() ? "; the material's maps of k_d, k_s, the fiber direction "
+                                           "and (line model) n per fragment (aniso_maps: "
+                                           "anisoMapsAt, anisoRadianceMapped)"
+                                         : "")}}},
         {"gltf",
          {{"file", "gltf/sample.gltf"},
           {"extension", "KHR_materials_anisotropy"},

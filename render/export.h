@@ -3,7 +3,9 @@
 //             supercompression; fiber factor tables as 2D arrays, no side over 8192) and EXR;
 //             the material's maps as KTX2 beside copies of the originals
 //   shaders/  the lookup as GLSL (function file + complete #version 330 fragment shader) and HLSL
-//             (function file + complete pixel shader); fiber materials also the factor tables
+//             (function file + complete pixel shader); fiber materials also the factor tables;
+//             materials with maps of k_d, k_s, n or the fiber direction also the maps' lookup
+//             (with a line material's map of n, S from a stack of tables over its range)
 //   gltf/     a sphere with tangents carrying the material as glTF 2.0 metallic-roughness plus
 //             KHR_materials_anisotropy, fitted numerically (render/gltf_lobe.h); the exact model
 //             and the tables under extras
@@ -25,6 +27,15 @@ struct ExportOptions {
   std::string command;  // recorded in export.json
 };
 
+// Which maps the exported shaders sample (aniso_maps.glsl's defines) and, with a map of n, the
+// stack of specular tables they blend.
+struct ExportMapSet {
+  bool kd = false, ks = false, n = false, fiber = false;
+  int levels = 0;  // the stack's (map of n only)
+  double log_n0 = 0, log_step = 0;
+  bool any() const { return kd || ks || n || fiber; }
+};
+
 struct ExportSummary {
   BakeTables line;  // sizes and measured errors (texels dropped)
   bool fiber = false;
@@ -35,6 +46,8 @@ struct ExportSummary {
     int w = 0, h = 0, nodes = 0;
     double worst_rel_rms = 0;
   } gltf_texels;
+  ExportMapSet maps;                  // what the shaders and the browser viewer draw per texel
+  double stack_max_abs_error = 0;     // the stack's lookup against S (map of n only)
   std::vector<std::string> files;     // relative to the export folder
   std::vector<std::string> warnings;  // said to the user and recorded in export.json
   double seconds = 0;
@@ -51,7 +64,11 @@ struct ExportShaders {
   // Fiber model: the factor-table functions (after the lookup files) and complete shaders that
   // use them; empty for the line model.
   std::string glsl_fiber, glsl_fiber_fragment, hlsl_fiber, hlsl_fiber_pixel;
+  // Maps (ExportMapSet::any): aniso_maps.glsl/.hlsli after the lookup files with the maps'
+  // defines, and complete shaders that draw the line model from them.
+  std::string glsl_maps, glsl_maps_fragment, hlsl_maps, hlsl_maps_pixel;
 };
-ExportShaders export_shaders(int texels, const FiberBakeTables* fiber = nullptr);
+ExportShaders export_shaders(int texels, const FiberBakeTables* fiber = nullptr,
+                             const ExportMapSet* maps = nullptr);
 
 }  // namespace aniso

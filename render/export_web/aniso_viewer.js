@@ -4,7 +4,8 @@
 // viewer.html?shape=sphere&view=x,y,z&light=x,y,z&size=WxH renders exactly the frame of
 //   aniso preview MATERIAL --shape sphere --view x,y,z --light x,y,z --size WxH
 // (orthographic camera along -view framing the object with 10 % margin, the same background and
-// fill light, sRGB output), so the two can be compared pixel by pixel. Optional: fill=E,
+// fill light, sRGB output), so the two can be compared pixel by pixel. A material with maps is
+// drawn per fragment from tables/maps/*.ktx2 by the exported shaders/aniso_maps.glsl. Optional: fill=E,
 // background=g or r,g,b (linear), as in `aniso preview`; fps=N times N frames (title says).
 // With no query: an orbit viewer; drag to turn the view, shift+drag to move the light.
 import * as THREE from './three.module.js';
@@ -21,7 +22,8 @@ const norm = (v) => { const l = Math.hypot(...v); return v.map((x) => x / l); };
 const srgb = (v) => { v = Math.min(Math.max(v, 0), 1);
   return v <= 0.0031308 ? 12.92 * v : 1.055 * Math.pow(v, 1 / 2.4) - 0.055; };
 
-// The KTX2 files aniso writes: one level, no supercompression, R32 or RGBA16F (io/ktx2.h).
+// The KTX2 files aniso writes: one level, no supercompression, R32, RGBA16F or RGBA32F
+// (io/ktx2.h).
 async function loadKtx2(url) {
   const buf = await (await fetch(url)).arrayBuffer();
   const dv = new DataView(buf);
@@ -33,6 +35,10 @@ async function loadKtx2(url) {
   if (vkFormat === 100) {  // VK_FORMAT_R32_SFLOAT
     const data = new Float32Array(buf.slice(offset, offset + length));
     return { w, h, layers, data, format: THREE.RedFormat, type: THREE.FloatType };
+  }
+  if (vkFormat === 109) {  // VK_FORMAT_R32G32B32A32_SFLOAT
+    const data = new Float32Array(buf.slice(offset, offset + length));
+    return { w, h, layers, data, format: THREE.RGBAFormat, type: THREE.FloatType };
   }
   if (vkFormat === 97) {  // VK_FORMAT_R16G16B16A16_SFLOAT
     const data = new Uint16Array(buf.slice(offset, offset + length));
@@ -63,8 +69,9 @@ function tableTexture(t, floatLinear) {
   return tex;
 }
 
-// The sample sphere of gltf/sample.gltf with the fiber direction per vertex:
-// T = U cos(psi) + (N x U) sin(psi), U the glTF tangent.
+// The sample sphere of gltf/sample.gltf with its texture coordinates and the fiber direction per
+// vertex: T = U cos(psi) + (N x U) sin(psi), U the glTF tangent (psi 0 with a map of the fiber
+// direction: the shader turns U per fragment).
 async function loadSphere(psiDeg) {
   const gltf = await (await fetch('../gltf/sample.gltf')).json();
   const bin = await (await fetch('../gltf/sample.bin')).arrayBuffer();
@@ -74,6 +81,7 @@ async function loadSphere(psiDeg) {
   const P = acc(prim.attributes.POSITION, Float32Array, 3);
   const N = acc(prim.attributes.NORMAL, Float32Array, 3);
   const U = acc(prim.attributes.TANGENT, Float32Array, 4);
+  const UV = acc(prim.attributes.TEXCOORD_0, Float32Array, 2);
   const idx = acc(prim.indices, Uint32Array, 1);
   const c = Math.cos(psiDeg * Math.PI / 180), s = Math.sin(psiDeg * Math.PI / 180);
   const T = new Float32Array(P.length);
@@ -86,6 +94,7 @@ async function loadSphere(psiDeg) {
   g.setAttribute('position', new THREE.BufferAttribute(P, 3));
   g.setAttribute('normal', new THREE.BufferAttribute(N, 3));
   g.setAttribute('fiber', new THREE.BufferAttribute(T, 3));
+  g.setAttribute('uv', new THREE.BufferAttribute(UV, 2));
   g.setIndex(new THREE.BufferAttribute(idx, 1));
   g.computeBoundingBox();
   return g;
@@ -93,22 +102,29 @@ async function loadSphere(psiDeg) {
 
 const VERTEX = `
 in vec3 fiber;
-out vec3 vN; out vec3 vT;
+out vec3 vN; out vec3 vT; out vec2 vUV;
 void main() {
-  vN = normal; vT = fiber;
+  vN = normal; vT = fiber; vUV = uv;
   gl_Position = projectionMatrix * modelViewMatrix * vec4(position, 1.0);
 }`;
 
-// The fragment shader: the export's own lookup functions (shaders/aniso_lookup.glsl, and for the
-// fiber model shaders/aniso_fiber.glsl) summed over the light and the fill light, sRGB-encoded.
+// The fragment shader: the export's own lookup functions (shaders/aniso_lookup.glsl, for the
+// fiber model shaders/aniso_fiber.glsl, for a material with maps shaders/aniso_maps.glsl) summed
+// over the light and the fill light, sRGB-encoded.
 const FRAGMENT_MAIN = `
 uniform vec3 kd; uniform vec3 ks; uniform float topologyS;
 uniform vec3 L0; uniform float E0; uniform vec3 L1; uniform float E1; uniform vec3 V;
-in vec3 vN; in vec3 vT;
+in vec3 vN; in vec3 vT; in vec2 vUV;
 out vec4 fragColor;
 vec3 radiance(vec3 N, vec3 T, vec3 L, float E) {
-#ifdef ANISO_NPHI
-  return anisoFiberRadiance(N, T, L, V, topologyS, kd, ks, vec3(E));
+#if defined(ANISO_NPHI)
+  vec3 kdm = kd, ksm = ks;
+#ifdef ANISO_VIEWER_MAPS
+  anisoMapsAt(vUV, N, T, kdm, ksm);  // the fiber model's tables hold one n: a map of n is not used
+#endif
+  return anisoFiberRadiance(N, T, L, V, topologyS, kdm, ksm, vec3(E));
+#elif defined(ANISO_VIEWER_MAPS)
+  return anisoRadianceMapped(N, T, vUV, L, V, kd, ks, vec3(E));
 #else
   return anisoRadiance(N, T, L, V, kd, ks, vec3(E));
 #endif
@@ -124,10 +140,12 @@ void main() {
 
 async function fragmentShader(info, fiber) {
   const text = async (f) => (await fetch('../' + f)).text();
-  // The function files: shaders.glsl[0] and, for the fiber model, shaders.fiber[0].
+  // The function files: shaders.glsl[0], for the fiber model shaders.fiber[0], for a material with
+  // maps shaders.maps[0].
   const parts = ['precision highp float;\nprecision highp sampler2DArray;\n',
                  await text(info.shaders.glsl[0])];
   if (fiber) parts.push(await text(info.shaders.fiber[0]));
+  if (info.shaders.maps) parts.push('#define ANISO_VIEWER_MAPS', await text(info.shaders.maps[0]));
   return parts.join('\n') + FRAGMENT_MAIN;
 }
 
@@ -135,7 +153,7 @@ async function fragmentShader(info, fiber) {
 const FRAGMENT_PLAIN = `
 precision highp float;
 uniform vec3 kd; uniform vec3 L0;
-in vec3 vN; in vec3 vT;
+in vec3 vN; in vec3 vT; in vec2 vUV;
 out vec4 fragColor;
 void main() { fragColor = vec4(kd * max(dot(normalize(vN), L0), 0.0), 1.0); }`;
 
@@ -167,7 +185,7 @@ export async function start(q) {
 
   const [D, S, geometry] = await Promise.all([
     loadKtx2('../' + info.tables.diffuse.ktx2), loadKtx2('../' + info.tables.specular.ktx2),
-    loadSphere(m.fiber_angle_deg || 0)]);
+    loadSphere(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)]);
   const fiberTables = fiber ? await Promise.all([loadKtx2('../' + info.tables.fiber_G.ktx2),
                                                  loadKtx2('../' + info.tables.fiber_F.ktx2)])
                             : null;
@@ -180,6 +198,18 @@ export async function start(q) {
     L1: { value: new THREE.Vector3() }, E1: { value: fill },
     V: { value: new THREE.Vector3() },
   };
+  // The material's maps (export.json maps: kd, ks, fiber, n) and with a map of n the stack of
+  // specular tables, each under the name shaders/aniso_maps.glsl gives it.
+  const mapNames = { kd: 'anisoKdMap', ks: 'anisoKsMap', fiber: 'anisoFiberMap', n: 'anisoNMap' };
+  const wrap = info.maps.wrap === 'repeat' ? THREE.RepeatWrapping : THREE.ClampToEdgeWrapping;
+  await Promise.all(Object.entries(mapNames).filter(([key]) => info.maps[key]).map(async ([key, name]) => {
+    const tex = tableTexture(await loadKtx2('../' + info.maps[key].ktx2), floatLinear);
+    tex.wrapS = tex.wrapT = wrap;
+    uniforms[name] = { value: tex };
+  }));
+  if (info.tables.specular_stack)
+    uniforms.anisoSpecularStack =
+        { value: tableTexture(await loadKtx2('../' + info.tables.specular_stack.ktx2), floatLinear) };
   if (fiber) {
     uniforms.anisoFiberG = { value: tableTexture(fiberTables[0], floatLinear) };
     uniforms.anisoFiberF = { value: tableTexture(fiberTables[1], floatLinear) };
