@@ -38,6 +38,18 @@ nlohmann::json node_json(const std::string& script, const std::string& args, int
   return j;
 }
 
+// A complete exported shader compiled by Khronos' reference compiler (GLSL 330 to SPIR-V for
+// OpenGL, HLSL through its -D front end to SPIR-V for Vulkan) and translated to Metal by
+// spirv-cross; the output holds the Metal source.
+test::RunResult compile_to_metal(const std::string& path) {
+  const std::string spv = path + ".spv";
+  const bool hlsl = lower_ext(path) == ".hlsl";
+  return run_command(
+      (hlsl ? "glslangValidator -D -V -S frag -e main -o '"
+            : "glslangValidator '" + path + "' && glslangValidator -G --aml --amb -o '") +
+      spv + "' '" + path + "' && spirv-cross '" + spv + "' --msl");
+}
+
 Material brushed() {
   Material m;
   m.kd = {0.20, 0.15, 0.10};
@@ -157,27 +169,13 @@ TEST(Export, ShadersCompileForOpenGLVulkanDirect3DAndMetal) {
   o.size = 64;
   export_material(m, dir, o);
   const std::string sh = dir + "/shaders/";
-  for (const char* f : {"aniso_fiber.frag", "aniso_fiber_ps.hlsl"}) {
-    const std::string path = sh + f;
-    const bool hlsl = lower_ext(path) == ".hlsl";
-    const auto r = run_command((hlsl ? "glslangValidator -D -V -S frag -e main -o '"
-                                     : "glslangValidator -G --aml --amb -o '") +
-                               sh + "f.spv' '" + path + "' && spirv-cross '" + sh + "f.spv' --msl");
+  for (const char* f : {"aniso_fiber.frag", "aniso_fiber_ps.hlsl", "aniso.frag", "aniso_ps.hlsl"}) {
+    const auto r = compile_to_metal(sh + f);
     EXPECT_EQ(r.status, 0) << f << ": " << r.output;
     EXPECT_NE(r.output.find("fragment"), std::string::npos) << r.output;
   }
-  auto r = run_command("glslangValidator '" + sh + "aniso.frag'");
-  EXPECT_EQ(r.status, 0) << r.output;
-  r = run_command("glslangValidator -G --aml --amb -o '" + sh + "gl.spv' '" + sh +
-                  "aniso.frag' && spirv-cross '" + sh + "gl.spv' --msl");
-  EXPECT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("fragment"), std::string::npos) << r.output;
-  r = run_command("glslangValidator -D -V -S frag -e main -o '" + sh + "ps.spv' '" + sh +
-                  "aniso_ps.hlsl' && spirv-cross '" + sh + "ps.spv' --msl");
-  EXPECT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("fragment"), std::string::npos) << r.output;
   // The function files alone, as an engine includes them.
-  r = run_command(
+  const auto r = run_command(
       "cd '" + sh + "' && printf '#version 330 core\\n' > inc.frag && cat " +
       "aniso_lookup.glsl >> inc.frag && printf 'out vec4 f; void main() { f = " +
       "vec4(anisoRadiance(vec3(0,0,1), vec3(1,0,0), vec3(0,0,1), vec3(0,0,1), " +
@@ -230,14 +228,10 @@ TEST(Export, MapsTravelAsKtx2WithTheirShaders) {
   EXPECT_NEAR(ej["tables"]["specular_stack"]["log_n0"].get<double>(), std::log(12.0), 1e-9);
   EXPECT_GT(ej["errors"]["specular_stack"]["max_abs"].get<double>(), 0.0);
   // The shaders, as the other exports' are checked.
-  const std::string sh = dir + "/shaders/";
-  r = run_command("glslangValidator '" + sh + "aniso_maps.frag' && glslangValidator -G --aml " +
-                  "--amb -o '" + sh + "m.spv' '" + sh + "aniso_maps.frag' && spirv-cross '" + sh +
-                  "m.spv' --msl");
+  r = compile_to_metal(dir + "/shaders/aniso_maps.frag");
   EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("anisoSpecularStack"), std::string::npos) << r.output;
-  r = run_command("glslangValidator -D -V -S frag -e main -o '" + sh + "p.spv' '" + sh +
-                  "aniso_maps_ps.hlsl' && spirv-cross '" + sh + "p.spv' --msl");
+  r = compile_to_metal(dir + "/shaders/aniso_maps_ps.hlsl");
   EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("anisoKsMap"), std::string::npos) << r.output;
 }
