@@ -59,8 +59,14 @@ Command add_bench(CLI::App& app) {
       ->add_option("--out", a->out,
                    "JSON file of entries {name, ours, baseline, ratio, error, unit, ...}")
       ->required();
-  bench->add_option("--work", a->work, "folder for the synthetic sets it makes")
+  bench
+      ->add_option("--work", a->work,
+                   "folder for the synthetic sets it makes: new, empty or an earlier bench's "
+                   "(replaced run after run)")
       ->capture_default_str();
+  add_force_flag(bench,
+                 "use a --work folder that holds files the bench did not write (they may be "
+                 "replaced)");
   bench->add_flag("--quick", a->quick, "small sweeps (for tests)");
   return {bench, [a] {
             run_bench(a->suite, a->out, a->work, a->quick);

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "io/files.h"
 #include "test_util.h"
 
 namespace aniso {
@@ -74,6 +75,25 @@ TEST(Files, SynthRefusesAFolderWithAPhotoUnlessForced) {
   EXPECT_EQ(f.status, 0) << f.output;
   EXPECT_TRUE(fs::exists(ws + "/shoot/capture.json"));
   EXPECT_FALSE(fs::exists(ws + "/shoot/IMG_0001.jpg"));
+}
+
+// `bench --work` takes a new or empty folder, or one an earlier bench wrote (its marker): a folder
+// of someone's files is refused before anything is written there (the bench replaces its sets
+// and observation files run after run).
+TEST(Files, BenchRefusesAWorkFolderOfSomeoneElsesFiles) {
+  const std::string ws = workspace();
+  const auto r = test::sh("cd " + ws + " && $A bench bake --quick --work . --out b.json");
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("aniso did not write"), std::string::npos) << r.output;
+  EXPECT_EQ(slurp(ws + "/photo.jpg"), "a person's photo");
+  EXPECT_FALSE(fs::exists(ws + "/b.json"));
+  EXPECT_FALSE(fs::exists(ws + "/" + kOutputMarker));
+  // A new folder, then the same folder again: the bench's own.
+  for (int run = 0; run < 2; ++run) {
+    const auto ok = test::sh("cd " + ws + " && $A bench bake --quick --work bw --out b.json");
+    EXPECT_EQ(ok.status, 0) << ok.output;
+  }
+  EXPECT_TRUE(fs::exists(ws + "/bw/" + kOutputMarker));
 }
 
 TEST(Files, AnEarlierOutputIsReplacedWhole) {
