@@ -3,7 +3,8 @@
 
 Reads the observations written by `aniso bench fit` (float64 rows of
 Vu Vw Vn Lu Lw Ln Er Eg Eb yr yg yb smath mapv), starts from the given point
-(kd[3] ks[3] log n psi) and prints a JSON line with the solution and the wall time.
+(kd[3] ks[3] log n psi) and prints a JSON line with the solution, the solve's wall time and
+the time it took to read the rows.
 Usage: scipy_fit.py OBS.bin START_JSON
 """
 import json
@@ -15,9 +16,11 @@ from scipy.optimize import least_squares
 
 
 def main():
+    t_load = time.perf_counter()
     obs = np.fromfile(sys.argv[1], dtype="<f8").reshape(-1, 14)
     x0 = np.array(json.loads(sys.argv[2]), dtype=float)
     V, L, E, y = obs[:, 0:3], obs[:, 3:6], obs[:, 6:9], obs[:, 9:12]
+    load = time.perf_counter() - t_load
 
     def residuals(x):
         kd, ks, n, psi = x[0:3], x[3:6], np.exp(x[6]), x[7]
@@ -35,7 +38,7 @@ def main():
     t0 = time.perf_counter()
     r = least_squares(residuals, x0, bounds=(lo, hi))
     dt = time.perf_counter() - t0
-    print(json.dumps({"x": r.x.tolist(), "seconds": dt, "nfev": int(r.nfev), "status": int(r.status),
+    print(json.dumps({"x": r.x.tolist(), "seconds": dt, "seconds_load": load, "nfev": int(r.nfev), "status": int(r.status),
                       "cost": float(r.cost), "rows": int(obs.shape[0])}))
 
 

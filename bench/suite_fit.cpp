@@ -111,7 +111,7 @@ json bench_fit(const std::string& work, bool quick) {
     const size_t rows = export_observations(set, fo, obs, &start);
     std::string cmd = "/usr/bin/python3 " + std::string(ANISO_SOURCE_DIR) + "/bench/scipy_fit.py " +
                       obs + " '" + json(start).dump() + "' 2>&1";
-    double scipy_s = NAN, scipy_err = NAN, apart = NAN;
+    double scipy_s = NAN, scipy_load = NAN, scipy_err = NAN, apart = NAN;
     std::string outtxt;
     if (FILE* p = popen(cmd.c_str(), "r")) {
       char buf[4096];
@@ -124,6 +124,7 @@ json bench_fit(const std::string& work, bool quick) {
                     nullptr, false);
     if (sj.is_object() && sj.contains("x")) {
       scipy_s = sj["seconds"].get<double>();
+      scipy_load = sj.value("seconds_load", NAN);
       Material sm = so.truth;
       const auto x = sj["x"].get<std::vector<double>>();
       for (int c = 0; c < 3; ++c) sm.kd[c] = x[c], sm.ks[c] = x[3 + c];
@@ -149,9 +150,16 @@ json bench_fit(const std::string& work, bool quick) {
     // Equal error: the same minimum within a tenth of sigma (the rule the tests hold the fast
     // solvers to against Ceres), or an error no larger than SciPy's.
     const bool equal_error = apart <= 0.1 || e.worst() <= scipy_err * 1.0001 + 1e-9;
-    const bool met = std::isfinite(scipy_s) && scipy_s / r.report.seconds >= 30 && equal_error;
-    target(&e1, ">= 30x less wall time than SciPy at equal error (minima within 0.1 sigma)", met,
-           scipy_why_missed(scipy_s / r.report.seconds, apart, e.worst(), scipy_err));
+    // No target here: ours is the whole in-process fit (reading the EXR views, the pixels'
+    // frames, the start, the solve, the covariance), SciPy's its solve of rows already in local
+    // frames; the target (the issue's: the solver against SciPy's) is the next entry's.
+    e1["comparison"] =
+        "ours: the whole fit in process (views read, frames, start, solve, covariance); "
+        "baseline: SciPy's solve alone (rows already in local frames). Informational: the "
+        "solver target is on the entry 'line solve vs SciPy least_squares solve'";
+    e1["baseline_load_s"] = std::isfinite(scipy_load) ? json(scipy_load) : json(nullptr);
+    e1["ratio_to_scipy_load_and_solve"] =
+        std::isfinite(scipy_load) ? json((scipy_s + scipy_load) / r.report.seconds) : json(nullptr);
     e1["us_per_observation"] = 1e6 * r.report.seconds / r.report.observations;
     out.push_back(e1);
     // The solver alone (both start from the same grid point with the data in memory).
