@@ -19,7 +19,9 @@ Command add_export(CLI::App& app) {
   auto* ex = app.add_subcommand(
       "export",
       "Export a material for engines: KTX2 + EXR tables, GLSL/HLSL lookup shaders, a glTF sample "
-      "with KHR_materials_anisotropy, export.json with the conventions and measured errors");
+      "with KHR_materials_anisotropy, a three.js viewer, export.json with the conventions and "
+      "measured errors; a material's maps go along as KTX2 with shaders that draw them per "
+      "fragment");
   ex->add_option("MATERIAL", a->mat, "material file (aniso-material, e.g. what `fit` wrote)")
       ->required();
   ex->add_option("--out", a->out,
