@@ -426,12 +426,16 @@ ExportShaders export_shaders(int texels, const FiberBakeTables* fiber, const Exp
                                    {maps->n, "ANISO_N_MAP"}})
       if (on) mdef += std::string("#define ") + name + "\n";
     if (maps->n) {
-      char sdef[160];
-      std::snprintf(sdef, sizeof sdef,
-                    "#define ANISO_STACK_LEVELS %d\n#define ANISO_LOG_N0 %.9g\n"
-                    "#define ANISO_LOG_STEP %.9g\n",
-                    maps->levels, maps->log_n0, maps->log_step);
-      mdef += sdef;
+      // Float literals with a point or an exponent: GLSL ES (WebGL) converts no int to float.
+      auto literal = [](double v) {
+        char b[40];
+        std::snprintf(b, sizeof b, "%.9g", v);
+        std::string t = b;
+        return t.find_first_of(".e") == std::string::npos ? t + ".0" : t;
+      };
+      mdef += "#define ANISO_STACK_LEVELS " + std::to_string(maps->levels) +
+              "\n#define ANISO_LOG_N0 " + literal(maps->log_n0) + "\n#define ANISO_LOG_STEP " +
+              literal(maps->log_step) + "\n";
     }
     s.glsl_maps = mdef + shaders::aniso_maps_glsl;
     s.glsl_maps_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + s.glsl_maps + "\n" +

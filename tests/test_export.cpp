@@ -234,6 +234,25 @@ TEST(Export, MapsTravelAsKtx2WithTheirShaders) {
   r = compile_to_metal(dir + "/shaders/aniso_maps_ps.hlsl");
   EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("anisoKsMap"), std::string::npos) << r.output;
+  // The function files as the browser viewer takes them, in WebGL's GLSL ES 3.00 (no implicit int
+  // to float): here and with a map of n that holds one value (a stack whose step is written as
+  // 1.0, a whole number).
+  Image one_n(4, 4, 1);
+  for (float& v : one_n.px) v = 30;
+  write_exr(root + "/set/maps/one_n.exr", one_n);
+  mj["maps"]["n"] = "maps/one_n.exr";
+  write_json_file(root + "/set/one_n.json", mj);
+  r = test::run_cli("export " + root + "/set/one_n.json --out " + root + "/one_n --size 32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const std::string& d : {dir, root + "/one_n"}) {
+    r = run_command("cd '" + d + "/shaders' && printf '#version 300 es\\nprecision highp float;" +
+                    "\\nprecision highp sampler2DArray;\\n' > es.frag && cat aniso_lookup.glsl " +
+                    "aniso_maps.glsl >> es.frag && printf 'out vec4 f; void main() { f = " +
+                    "vec4(anisoRadianceMapped(vec3(0,0,1), vec3(1,0,0), vec2(0.5), vec3(0,0,1), " +
+                    "vec3(0,0,1), vec3(1), vec3(1), vec3(1)), 1.0); }\\n' >> es.frag && " +
+                    "glslangValidator es.frag");
+    EXPECT_EQ(r.status, 0) << d << ": " << r.output;
+  }
 }
 
 // The glTF passes the Khronos validator with no errors and carries the fitted anisotropy: the
