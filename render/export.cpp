@@ -190,7 +190,16 @@ json write_maps(const std::string& dir, const Material& m, const ExportOptions& 
       sum->stack_max_abs_error = st.max_abs_error;
     }
   }
-  if (set.any()) maps["wrap"] = mp.repeat ? "repeat" : "clamp";
+  if (mp.amplitude) {
+    carry(mp.amplitude_file, "amplitude", "amplitude", nullptr,
+          "the topology map's amplitude A per texel over uv (fiber model, MODELS.md §4)");
+    sum->warnings.push_back(
+        "the shaders and the browser viewer take one topology s per call: the map of the "
+        "topology's amplitude (" +
+        mp.amplitude_file +
+        ") is carried in tables/maps/ but not drawn (aniso preview and aniso view draw it)");
+  }
+  if (set.any() || mp.amplitude) maps["wrap"] = mp.repeat ? "repeat" : "clamp";
   return maps;
 }
 

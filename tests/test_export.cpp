@@ -129,6 +129,31 @@ TEST(Export, KtxTablesReadBackByAnIndependentReader) {
   EXPECT_GT(s.files.size(), 8u);
 }
 
+// A fiber material's map of the topology's amplitude (what `fit --model fiber --maps` writes over a
+// topology map) travels with the export as KTX2 holding its texels, and the export says that its
+// shaders and viewer, which take one s per call, do not draw it.
+TEST(Export, AFiberMaterialsAmplitudeMapIsCarriedAndNamedAsNotDrawn) {
+  const std::string root = tmp_dir("amplitude");
+  auto r = test::run_cli("synth silk-torus " + root + "/set --size 16x16 --views 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  auto j = nlohmann::json::parse(read_text_file(root + "/set/truth.json"));
+  Image amp(4, 4, 1);
+  for (size_t i = 0; i < amp.px.size(); ++i) amp.px[i] = 0.1f + 0.02f * i;
+  write_exr(root + "/set/maps/amp.exr", amp);
+  j["maps"] = {{"amplitude", "maps/amp.exr"}};
+  write_json_file(root + "/set/m.json", j);
+  r = test::run_cli("export " + root + "/set/m.json --out " + root + "/export --size 32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("amplitude"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("not drawn"), std::string::npos) << r.output;
+  const auto ej = nlohmann::json::parse(read_text_file(root + "/export/export.json"));
+  const KtxTexture t =
+      read_ktx2(root + "/export/" + ej["maps"]["amplitude"]["ktx2"].get<std::string>());
+  ASSERT_EQ(t.texels.size(), amp.px.size());
+  for (size_t i = 0; i < amp.px.size(); ++i) EXPECT_EQ(t.texels[i], amp.px[i]);
+  EXPECT_EQ(ej["warnings"].size(), 1u) << ej["warnings"].dump();
+}
+
 // A fiber material's factor tables go out as 2D arrays, no side over 8192 (a bake's stacked EXR
 // is 64 x 9216), and an independent reader sees the layers.
 TEST(Export, FiberTablesAreArrayTexturesWithinGpuLimits) {
