@@ -15,10 +15,11 @@ for _ in $(seq 50); do
 done
 profile=$(mktemp -d)
 url="http://127.0.0.1:$port/three/viewer.html?$query"
-chromium --headless=new --no-sandbox --disable-gpu-sandbox --use-angle=swiftshader \
+# Each Chromium run is bounded (a hung browser fails the caller instead of stalling it).
+timeout 180 chromium --headless=new --no-sandbox --disable-gpu-sandbox --use-angle=swiftshader \
   --enable-unsafe-swiftshader --user-data-dir="$profile" --hide-scrollbars \
   --window-size="$w,$h" --virtual-time-budget=20000 --screenshot="$out" "$url" 2>/dev/null >/dev/null || true
-chromium --headless=new --no-sandbox --use-angle=swiftshader --enable-unsafe-swiftshader \
+timeout 180 chromium --headless=new --no-sandbox --use-angle=swiftshader --enable-unsafe-swiftshader \
   --user-data-dir="$profile" --virtual-time-budget=20000 --dump-dom "$url" 2>/dev/null |
   grep -o '<title>[^<]*</title>' || echo "<title>no page</title>"
 rm -rf "$profile"
