@@ -122,6 +122,9 @@ nlohmann::json write_specular_stack(const std::string& dir, const SpecularStack&
 SpecularStack read_specular_stack(const nlohmann::json& section, const std::string& file,
                                   const BakeTables& t);
 
+// The levels one after the other (level, then row, then column): a 2D array texture's texels.
+std::vector<float> stack_levels(const SpecularStack& st);
+
 // What the shader computes, on the CPU: S at (a, b) and n from the stack.
 double stack_lookup(const SpecularStack& st, double a, double b, double n);
 

@@ -98,11 +98,16 @@ double stack_lookup(const SpecularStack& st, double a, double b, double n) {
   return st.levels > 1 ? s0 + w * (lookup_bilinear(st.S[k0 + 1], a, b, 0, st.index) - s0) : s0;
 }
 
+std::vector<float> stack_levels(const SpecularStack& st) {
+  std::vector<float> v;
+  v.reserve(static_cast<size_t>(st.size) * st.size * st.levels);
+  for (const Image& t : st.S) v.insert(v.end(), t.px.begin(), t.px.end());
+  return v;
+}
+
 nlohmann::json write_specular_stack(const std::string& dir, const SpecularStack& st) {
   Image levels(st.size, st.size * st.levels, 1);
-  for (int k = 0; k < st.levels; ++k)
-    std::copy(st.S[k].px.begin(), st.S[k].px.end(),
-              levels.px.begin() + static_cast<ptrdiff_t>(k) * st.size * st.size);
+  levels.px = stack_levels(st);
   write_exr(join_path(dir, "specular_stack.exr"), levels);
   return {{"file", "specular_stack.exr"},
           {"layout",

@@ -158,9 +158,7 @@ void make_map_lookups(const Material& m, const SpecularStack* baked, Lookups* lk
   lk->stack = baked && mp.n ? *baked : bake_material_stack(m, lk->tables.size, lk->tables.index);
   if (!mp.n) return;
   lk->n_map.texels(*mp.n);
-  std::vector<float> levels;
-  for (const Image& t : lk->stack.S) levels.insert(levels.end(), t.px.begin(), t.px.end());
-  lk->s_stack.array(levels, lk->stack.size, lk->stack.size, lk->stack.levels);
+  lk->s_stack.array(stack_levels(lk->stack), lk->stack.size, lk->stack.size, lk->stack.levels);
 }
 
 // The passes' map uniforms (render/shaders/maps.glsl), units 5 to 10. Each sampler gets its own
