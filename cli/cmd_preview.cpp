@@ -72,13 +72,6 @@ int run(const PreviewArgs& a) {
   BakeFolder bake;
   if (!a.bake.empty()) bake = read_bake(a.bake);
   const Material m = a.bake.empty() ? read_material(a.mat) : bake.material;
-  // Maps are drawn per fragment, but the fiber pass's factor tables hold one n.
-  if (m.fiber() && m.maps.n)
-    std::fprintf(stderr,
-                 "preview: NOTE: the fiber model's pass takes n at the material's value (%.4g), "
-                 "not its map (the factor tables hold one n); its other maps are drawn per "
-                 "fragment\n",
-                 m.n);
   std::vector<std::string> inputs =
       a.bake.empty() ? material_input_files(m, a.mat) : std::vector<std::string>{a.bake};
   inputs.push_back(a.map);
@@ -129,6 +122,12 @@ int run(const PreviewArgs& a) {
                r.renderer.c_str(), a.out.c_str(), r.max_abs_diff, r.error_bound);
   if (m.fiber())
     std::fprintf(stderr, "; GPU vs the same tables on the CPU: %.3g", r.max_abs_diff_baked);
+  if (r.fiber_stack_levels > 0)
+    std::fprintf(stderr,
+                 "; map of n (%.4g to %.4g) drawn per fragment: F from %d levels over log n (baked "
+                 "in %.2f s), S from the specular stack; vs the full model max abs %.3g",
+                 r.n_min, r.n_max, r.fiber_stack_levels, r.fiber_stack_seconds,
+                 r.fiber_stack_error);
   std::fprintf(stderr, "\n");
   return 0;
 }

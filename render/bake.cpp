@@ -113,6 +113,35 @@ BakeTables bake_line(const Material& m, int n, BakeIndex index, uint64_t seed) {
 
 namespace {
 
+// The in-plane directions of texel (i, j) of the factor tables: phi_l, phi_v from -90 to 90 deg
+// with texel centres on the ends, kept strictly above the surface there.
+void fiber_table_angles(int i, int j, int nphi, double* lb, double* ln, double* vb, double* vn) {
+  constexpr double kGrazingCos = 1e-9;
+  const double pl = -M_PI / 2 + M_PI * i / (nphi - 1), pv = -M_PI / 2 + M_PI * j / (nphi - 1);
+  *lb = std::sin(pl), *ln = std::max(std::cos(pl), kGrazingCos);
+  *vb = std::sin(pv), *vn = std::max(std::cos(pv), kGrazingCos);
+}
+
+// F at one texel's angles, topology s and exponent n for k = 0 .. nk - 1, written `stride` floats
+// apart.
+void fiber_F_entries(double lb, double ln, double vb, double vn, double n, double s, int nk,
+                     size_t stride, float* out) {
+  for (int k = 0; k < nk; ++k) {
+    const double kk = static_cast<double>(k) / (nk - 1);
+    double D, F = 0;  // k = 1 (kappa infinite): the lobe has no width, F = 0
+    if (kk < 1.0) {
+      // s_L = s_V = 1 (unit in-plane vectors) and ab chosen so that kappa = 2 / (1 - ab); at
+      // kappa = 0 a huge -ab makes (1 - kappa sin^2 x)^n = 1: the lit-and-visible fraction.
+      const double kappa = kk / (1 - kk);
+      constexpr double kHugeAB = 1e12;
+      const double ab = kappa > 0 ? 1 - 2 / kappa : -kHugeAB;
+      fiber_DS(lb, ln, vb, vn, 1.0, ab, n, s, FiberAccuracy{}, &D, &F,
+               static_cast<double*>(nullptr), true);
+    }
+    out[k * stride] = static_cast<float>(F);
+  }
+}
+
 // Continuous texel coordinate of an angle in [-pi/2, pi/2] on n texels with centres on the ends.
 double angle_texel(double phi, int n) {
   return std::clamp((phi + M_PI / 2) / M_PI, 0.0, 1.0) * (n - 1);
@@ -127,9 +156,11 @@ Lerp lerp_of(double f, int n) {
   return {i, std::clamp(f - i, 0.0, 1.0)};
 }
 
+}  // namespace
+
 // Factors G and F at the in-plane angles, topology s and kappa (multi-linear in the tables).
-void fiber_factors(const FiberBakeTables& fb, double phi_l, double phi_v, double s, double kappa,
-                   double* G, double* F) {
+void fiber_factors(const FiberBakeTables& fb, const float* Ftab, double phi_l, double phi_v,
+                   double s, double kappa, double* G, double* F) {
   const Lerp li = lerp_of(angle_texel(phi_l, fb.nphi), fb.nphi),
              lj = lerp_of(angle_texel(phi_v, fb.nphi), fb.nphi);
   const Lerp ls = lerp_of(std::clamp(s, 0.0, 1.0) * (fb.ns - 1), fb.ns);
@@ -148,12 +179,23 @@ void fiber_factors(const FiberBakeTables& fb, double phi_l, double phi_v, double
           const size_t fi =
               ((static_cast<size_t>(ls.i0 + c) * fb.nk + (lk.i0 + d)) * np + (lj.i0 + b)) * np +
               (li.i0 + a);
-          *F += w * (d ? lk.w : 1 - lk.w) * fb.F[fi];
+          *F += w * (d ? lk.w : 1 - lk.w) * Ftab[fi];
         }
       }
 }
 
-}  // namespace
+void bake_fiber_F(double n, int nphi, int ns, int nk, float* F) {
+  tbb::parallel_for(0, ns, [&](int is) {
+    const double s = static_cast<double>(is) / (ns - 1);
+    for (int j = 0; j < nphi; ++j)
+      for (int i = 0; i < nphi; ++i) {
+        double lb, ln, vb, vn;
+        fiber_table_angles(i, j, nphi, &lb, &ln, &vb, &vn);
+        fiber_F_entries(lb, ln, vb, vn, n, s, nk, static_cast<size_t>(nphi) * nphi,
+                        &F[((static_cast<size_t>(is) * nk) * nphi + j) * nphi + i]);
+      }
+  });
+}
 
 FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, int ns, int nk,
                            uint64_t seed) {
@@ -165,33 +207,18 @@ FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, 
   fb.nk = nk;
   fb.G.assign(static_cast<size_t>(nphi) * nphi * ns, 0.f);
   fb.F.assign(static_cast<size_t>(nphi) * nphi * ns * nk, 0.f);
-  // Keeps the tabulated directions strictly above the surface at the +-90 deg end texels.
-  constexpr double kGrazingCos = 1e-9;
   Progress bar("bake: fiber factor tables", static_cast<size_t>(ns) * nphi);
   tbb::parallel_for(0, ns, [&](int is) {
     const double s = static_cast<double>(is) / (ns - 1);
     for (int j = 0; j < nphi; ++j, bar.advance())
       for (int i = 0; i < nphi; ++i) {
-        const double pl = -M_PI / 2 + M_PI * i / (nphi - 1), pv = -M_PI / 2 + M_PI * j / (nphi - 1);
-        const double lb = std::sin(pl), ln = std::max(std::cos(pl), kGrazingCos);
-        const double vb = std::sin(pv), vn = std::max(std::cos(pv), kGrazingCos);
+        double lb, ln, vb, vn;
+        fiber_table_angles(i, j, nphi, &lb, &ln, &vb, &vn);
         double D, S;
         fiber_DS(lb, ln, vb, vn, 0.0, 0.0, m.n, s, FiberAccuracy{}, &D, &S);
         fb.G[(static_cast<size_t>(is) * nphi + j) * nphi + i] = static_cast<float>(D);
-        for (int k = 0; k < nk; ++k) {
-          const double kk = static_cast<double>(k) / (nk - 1);
-          double F = 0;  // k = 1 (kappa infinite): the lobe has no width, F = 0
-          if (kk < 1.0) {
-            // s_L = s_V = 1 (unit in-plane vectors) and ab chosen so that kappa = 2 / (1 - ab); at
-            // kappa = 0 a huge -ab makes (1 - kappa sin^2 x)^n = 1: the lit-and-visible fraction.
-            const double kappa = kk / (1 - kk);
-            constexpr double kHugeAB = 1e12;
-            const double ab = kappa > 0 ? 1 - 2 / kappa : -kHugeAB;
-            fiber_DS(lb, ln, vb, vn, 1.0, ab, m.n, s, FiberAccuracy{}, &D, &F,
-                     static_cast<double*>(nullptr), true);
-          }
-          fb.F[((static_cast<size_t>(is) * nk + k) * nphi + j) * nphi + i] = static_cast<float>(F);
-        }
+        fiber_F_entries(lb, ln, vb, vn, m.n, s, nk, nphi * nphi,
+                        &fb.F[((static_cast<size_t>(is) * nk) * nphi + j) * nphi + i]);
       }
   });
   fb.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -247,7 +274,7 @@ void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBake
   const double g0 = sL * sV - a * b;
   const double kappa = g0 > 0 ? 2 * sL * sV / g0 : std::numeric_limits<double>::infinity();
   double G, F;
-  fiber_factors(fb, phi_l, phi_v, s, kappa, &G, &F);
+  fiber_factors(fb, fb.F.data(), phi_l, phi_v, s, kappa, &G, &F);
   const double Dl = lookup_bilinear(line.diffuse, a, b, 0, line.index);
   const double Sl = lookup_bilinear(line.specular, a, b, 0, line.index);
   for (int c = 0; c < 3; ++c) out[c] = m.kd[c] * Dl * G + m.ks[c] * Sl * F;

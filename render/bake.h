@@ -84,6 +84,13 @@ FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi =
 void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBakeTables& fb,
                       const LocalDir& L, const LocalDir& V, double s, double out[3]);
 
+// F's tables at one n, in FiberBakeTables::F's layout (nphi * nphi * ns * nk floats at F).
+void bake_fiber_F(double n, int nphi, int ns, int nk, float* F);
+// G and F at the in-plane angles, topology s and kappa, multi-linear in the tables: G from fb,
+// F from `Ftab` in fb.F's layout (fb.F itself, or a level of a FiberStack).
+void fiber_factors(const FiberBakeTables& fb, const float* Ftab, double phi_l, double phi_v,
+                   double s, double kappa, double* G, double* F);
+
 // The line model's specular table at many n (ours, for materials with a map of n): levels of
 // S(a, b; n) at n spaced evenly in log n over the map's range, on the same grid and index as the
 // table they stand beside (render/bake.h). The shader takes S bilinearly from the two levels
@@ -127,6 +134,46 @@ std::vector<float> stack_levels(const SpecularStack& st);
 
 // What the shader computes, on the CPU: S at (a, b) and n from the stack.
 double stack_lookup(const SpecularStack& st, double a, double b, double n);
+
+// The fiber model at many n (ours, for a fiber material with a map of n): F's tables (the only
+// factor that depends on n) at levels spaced evenly in log n over the map's range, beside the
+// line model's SpecularStack for S_line. The shader takes S_line and F from the two levels either
+// side of its fragment's log n (each stack its own levels) and blends them with the exact weight.
+// The error of the whole lookup against the full fiber model is measured at bake time over random
+// L, V, s and n in the range.
+struct FiberStack {
+  int levels = 0;
+  double logn0 = 0, logn1 = 0;
+  std::vector<float> F;     // level k's F (FiberBakeTables::F's layout) from k * level_floats on
+  size_t level_floats = 0;  // nphi * nphi * ns * nk
+  double max_abs_error = 0, rms_error = 0, peak_value = 0;
+  size_t samples = 0;
+  uint64_t seed = 0;
+  double seconds = 0;
+  double log_step() const { return levels > 1 ? (logn1 - logn0) / (levels - 1) : 0.0; }
+  const float* level(int k) const { return F.data() + static_cast<size_t>(k) * level_floats; }
+};
+
+// Levels at most `max_log_step` apart in log n (at least 2, at most `max_levels`) over the range
+// of `st` (the material's map of n), on fb's grid; the error measured at m's k_d, k_s with
+// `line`'s D and `st`. F is smooth in log n: on silk at n 8 to 60, a lookup between levels is
+// 1.7e-4 / 6.2e-4 / 2.0e-3 from tables baked at its very n at steps 0.1 / 0.2 / 0.4, where the
+// tables' own error against the full model is 4.8e-3 RMS and 0.32 at most (phi, s and kappa).
+FiberStack bake_fiber_stack(const Material& m, const FiberBakeTables& fb, const BakeTables& line,
+                            const SpecularStack& st, double max_log_step = 0.2, int max_levels = 28,
+                            uint64_t seed = 1);
+
+// What the fiber pass computes with a map of n, on the CPU: k_d D + k_s S at the fragment's n
+// (m's k_d, k_s; its n ignored), L and V in the fiber frame, topology s.
+void fiber_stack_eval(const Material& m, const BakeTables& line, const SpecularStack& st,
+                      const FiberBakeTables& fb, const FiberStack& fs, const LocalDir& L,
+                      const LocalDir& V, double s, double n, double out[3]);
+
+// The F stack as 2D array layers for GL: layer k * ns + is holds level k's F at topology is, its
+// nk tables of phi side by side (width nk * nphi: texel (ik * nphi + i, j)). So the layers,
+// levels * ns (at most 28 * 9 = 252), stay within the 256 that WebGL 2 guarantees, and a lookup
+// at a tile's texel centres keeps bilinear filtering inside the tile.
+std::vector<float> fiber_stack_layers(const FiberBakeTables& fb, const FiberStack& fs);
 
 // Writes diffuse/specular/combined as float EXR, 8- and 16-bit PNG, and bake.json (the sidecar:
 // indexing, decoding scales, texture matrix, measured error, the command that generated it).

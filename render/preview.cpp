@@ -21,7 +21,7 @@ namespace {
 const std::vector<int> kAttributeSizes = {3, 3, 3, 3, 2, 1};
 
 // Whether the passes draw the material's maps (render/shaders/maps.glsl): every pass but the plain
-// one. The fiber pass follows all but the map of n (its factor tables hold one n).
+// one. With a map of n the fiber pass takes S_line and F from stacks over n (render/bake.h).
 bool drawn_maps(const Material& m, const PreviewOptions& opt) { return !opt.plain && m.maps.any(); }
 
 // Per-vertex fiber directions T and T2 (MODELS.md §1), uv and the mathematical topology.
@@ -127,15 +127,16 @@ std::string with_maps(const char* frag) {
 }
 
 // What the passes sample: the line tables, and for the fiber model its factor tables and the
-// material's topology map; with maps also the maps themselves (read texel by texel) and, for the
-// line model, the specular tables over the map's n.
+// material's topology map; with maps also the maps themselves (read texel by texel) and, with a
+// map of n, the specular tables over its range (and the fiber model's F over it).
 struct Lookups {
   BakeTables tables;
   FiberBakeTables fb;
   gl::Texture D, S, G, F, map;
   bool maps = false;
   SpecularStack stack;
-  gl::Texture kd_map, ks_map, n_map, fiber_map, s_stack, amp_map;
+  FiberStack fstack;  // the fiber model with a map of n
+  gl::Texture kd_map, ks_map, n_map, fiber_map, s_stack, amp_map, f_stack;
 };
 
 // A map of k_d or k_s as RGB (one channel stands for all three, as material_at reads it).
@@ -147,18 +148,24 @@ Image as_rgb(const Image& img) {
   return out;
 }
 
-void make_map_lookups(const Material& m, const SpecularStack* baked, Lookups* lk) {
+void make_map_lookups(const Material& m, const PreviewOptions& opt, Lookups* lk) {
+  const SpecularStack* baked = opt.baked_stack;
   const MaterialMaps& mp = m.maps;
   lk->maps = true;
   if (mp.kd) lk->kd_map.texels(as_rgb(*mp.kd));
   if (mp.ks) lk->ks_map.texels(as_rgb(*mp.ks));
   if (mp.fiber) lk->fiber_map.texels(*mp.fiber);
   if (mp.amplitude) lk->amp_map.texels(*mp.amplitude);
-  if (m.fiber()) return;
+  if (m.fiber() && !mp.n) return;
   lk->stack = baked && mp.n ? *baked : bake_material_stack(m, lk->tables.size, lk->tables.index);
   if (!mp.n) return;
   lk->n_map.texels(*mp.n);
   lk->s_stack.array(stack_levels(lk->stack), lk->stack.size, lk->stack.size, lk->stack.levels);
+  if (!m.fiber()) return;
+  lk->fstack = opt.baked_fiber_stack ? *opt.baked_fiber_stack
+                                     : bake_fiber_stack(m, lk->fb, lk->tables, lk->stack);
+  lk->f_stack.array(fiber_stack_layers(lk->fb, lk->fstack), lk->fb.nk * lk->fb.nphi, lk->fb.nphi,
+                    lk->fstack.levels * lk->fb.ns);
 }
 
 // The passes' map uniforms (render/shaders/maps.glsl), units 5 to 10. Each sampler gets its own
@@ -166,7 +173,7 @@ void make_map_lookups(const Material& m, const SpecularStack* baked, Lookups* lk
 void set_map_uniforms(const gl::Program& p, const Material& m, const Lookups& lk) {
   const MaterialMaps& mp = m.maps;
   const bool line = !m.fiber();
-  const int bits = lk.maps ? (mp.kd ? 1 : 0) | (mp.ks ? 2 : 0) | (mp.n && line ? 4 : 0) |
+  const int bits = lk.maps ? (mp.kd ? 1 : 0) | (mp.ks ? 2 : 0) | (mp.n ? 4 : 0) |
                                  (mp.fiber ? 8 : 0) | (mp.amplitude && !line ? 16 : 0)
                            : 0;
   p.set("uMaps", bits);
@@ -194,11 +201,13 @@ void make_lookups(const Material& m, const PreviewOptions& opt, bool fiber, bool
   lk->tables = opt.baked ? *opt.baked : bake_line(m, opt.table_size, index);
   lk->D.table(lk->tables.diffuse);
   lk->S.table(lk->tables.specular);
-  if (drawn_maps(m, opt) && !paper) make_map_lookups(m, opt.baked_stack, lk);
+  if (fiber) {  // before the maps: a map of n stacks F on the same grid
+    lk->fb = opt.baked_fiber ? *opt.baked_fiber : bake_fiber(m, lk->tables);
+    lk->G.array(lk->fb.G, lk->fb.nphi, lk->fb.nphi, lk->fb.ns);
+    lk->F.array(lk->fb.F, lk->fb.nphi, lk->fb.nphi, lk->fb.ns * lk->fb.nk);
+  }
+  if (drawn_maps(m, opt) && !paper) make_map_lookups(m, opt, lk);
   if (!fiber) return;
-  lk->fb = opt.baked_fiber ? *opt.baked_fiber : bake_fiber(m, lk->tables);
-  lk->G.array(lk->fb.G, lk->fb.nphi, lk->fb.nphi, lk->fb.ns);
-  lk->F.array(lk->fb.F, lk->fb.nphi, lk->fb.nphi, lk->fb.ns * lk->fb.nk);
   if (m.topology_as<SMapRef>())
     lk->map.map(opt.s_map);
   else if (m.topology_as<TopologyMapRef>())
@@ -211,9 +220,14 @@ void set_fiber_uniforms(const gl::Program& p, const Material& m, const Lookups& 
   lk.G.bind(2);
   lk.F.bind(3);
   if (!lk.map.empty()) lk.map.bind(4);
+  if (!lk.f_stack.empty()) lk.f_stack.bind(11);  // after the maps' units 5 to 10
   p.set("uG", 2);
   p.set("uF", 3);
   p.set("uMap", 4);
+  p.set("uFStack", 11);
+  p.set("uFLevels", lk.fstack.levels);
+  p.set("uFLogN0", float(lk.fstack.logn0));
+  p.set("uFLogStep", float(lk.fstack.log_step()));
   p.set("uNphi", lk.fb.nphi);
   p.set("uNs", lk.fb.ns);
   p.set("uNk", lk.fb.nk);
@@ -454,7 +468,13 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
 
   // Coverage and, when asked, the direct evaluation at the same fragments.
   const GBuffer g = geometry_pass(fb, buffers, cam.view_proj, fiber, &res);
-  if (opt.reference && fiber) fiber_reference(m, opt, cam, lights, lk.tables, lk.fb, g, &res);
+  res.fiber_stack_levels = lk.fstack.levels;
+  res.fiber_stack_seconds = lk.fstack.seconds;
+  res.fiber_stack_error = lk.fstack.max_abs_error;
+  res.n_min = std::exp(lk.fstack.logn0), res.n_max = std::exp(lk.fstack.logn1);
+  if (opt.reference && fiber)
+    fiber_reference(m, opt, cam, lights, lk.tables, lk.fb,
+                    lk.fstack.levels > 0 ? &lk.stack : nullptr, &lk.fstack, g, &res);
   if (opt.reference && !opt.plain && !fiber)
     line_reference(m, opt, cam, lights, lk.tables, lk.maps ? &lk.stack : nullptr, g, &res);
   return res;

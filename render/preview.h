@@ -50,7 +50,8 @@ struct PreviewOptions {
   // Render from these tables (a bake folder read back) instead of baking the material here.
   const BakeTables* baked = nullptr;
   const FiberBakeTables* baked_fiber = nullptr;
-  const SpecularStack* baked_stack = nullptr;  // a line material's map of n: the bake's stack
+  const SpecularStack* baked_stack = nullptr;     // a material's map of n: the bake's stack
+  const FiberStack* baked_fiber_stack = nullptr;  // and a fiber material's F over it
 };
 
 struct PreviewResult {
@@ -63,7 +64,11 @@ struct PreviewResult {
   double max_abs_diff = 0;        // |rgb - reference| over covered pixels (when asked)
   double error_bound = 0;         // what the bake's measured error and filtering allow
   double max_abs_diff_baked = 0;  // fiber model: against the same baked tables evaluated on the CPU
-  std::string renderer;           // GL_RENDERER
+  // The fiber model with a map of n: the levels of F over its range, their bake time and the
+  // whole lookup's measured error against the full model (render/bake.h: FiberStack).
+  int fiber_stack_levels = 0;
+  double fiber_stack_seconds = 0, fiber_stack_error = 0, n_min = 0, n_max = 0;
+  std::string renderer;  // GL_RENDERER
 };
 
 PreviewResult render_preview(const Material& m, const PreviewOptions& opt);

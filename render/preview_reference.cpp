@@ -35,15 +35,17 @@ double largest(const std::shared_ptr<const Image>& map, const RGB& scalar) {
 
 void fiber_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
                      const std::vector<PreviewLight>& lights, const BakeTables& tables,
-                     const FiberBakeTables& fb, const GBuffer& g, PreviewResult* res) {
+                     const FiberBakeTables& fb, const SpecularStack* stack,
+                     const FiberStack* fstack, const GBuffer& g, PreviewResult* res) {
   const int w = g.N.width, h = g.N.height;
   res->reference = Image(w, h, 3);
   TopologyMap map;
   map.h = opt.topology_map;
   const bool s_map = m.topology_as<SMapRef>() != nullptr;
-  // With maps every fragment has its own k_d, k_s, fiber direction and amplitude; n stays the
-  // material's (the pass's factor tables hold one n), as in the shader.
+  // With maps every fragment has its own k_d, k_s, fiber direction and amplitude, and n where the
+  // pass has the stacks over the map of n (the material's n otherwise), as in the shader.
   const bool maps = m.maps.any(), psi_map = maps && m.maps.fiber != nullptr;
+  const bool n_map = stack && fstack && fstack->levels > 0;
   double max_e = 0;  // the largest total irradiance at a fragment (point lights vary)
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
@@ -51,7 +53,7 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Preview
       if (!fragment_frame(g, *res, x, y, &sp)) continue;
       const double u = g.T2.at(x, y, 0), v = g.T2.at(x, y, 1), smath = g.T2.at(x, y, 2);
       Material local = maps ? material_at(m, g.UV.at(x, y, 0), g.UV.at(x, y, 1)) : m;
-      local.n = m.n;
+      if (!n_map) local.n = m.n;
       if (psi_map) {  // the frame turned by the map's psi: the fiber along its U, as the shader's T
         const double psi = deg_to_rad(local.fiber_angle_deg);
         make_frame(sp.P, sp.N, sp.U * std::cos(psi) + sp.W * std::sin(psi), &sp);
@@ -75,7 +77,10 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Preview
         p.psi = 0;
         double f[3], gb[3];
         fiber_reflectance(p, s, Ll, Vl, FiberAccuracy{}, f);
-        fiber_baked_eval(line_only, tables, fb, Ll, Vl, s, gb);
+        if (n_map)
+          fiber_stack_eval(line_only, tables, *stack, fb, *fstack, Ll, Vl, s, local.n, gb);
+        else
+          fiber_baked_eval(line_only, tables, fb, Ll, Vl, s, gb);
         for (int ch = 0; ch < 3; ++ch) exact[ch] += E * f[ch], baked[ch] += E * gb[ch];
       }
       max_e = std::max(max_e, esum);
@@ -93,7 +98,8 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Preview
       const double top = std::max({scalar[0], scalar[1], scalar[2]});
       if (top > 0) scale = std::max(scale, largest(map, scalar) / top);
     }
-  res->error_bound = max_e * fb.max_abs_error * scale + 1e-5;
+  const double table_error = n_map ? fstack->max_abs_error : fb.max_abs_error;
+  res->error_bound = max_e * table_error * scale + 1e-5;
 }
 
 void line_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,

@@ -24,9 +24,12 @@ struct PreviewCamera {
   Vec3 toward_viewer(const Vec3& P) const { return perspective ? normalize(eye - P) : V; }
 };
 
+// With a map of n (`stack` and `fstack`: S_line and F over its range) each fragment's n is the
+// map's, in the exact evaluation and in the baked one.
 void fiber_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
                      const std::vector<PreviewLight>& lights, const BakeTables& tables,
-                     const FiberBakeTables& fb, const GBuffer& g, PreviewResult* res);
+                     const FiberBakeTables& fb, const SpecularStack* stack,
+                     const FiberStack* fstack, const GBuffer& g, PreviewResult* res);
 // With maps (`stack`: the specular tables over the map's n, when it has one) every fragment
 // evaluates material_at(u, v), and the bound takes the maps' largest k_d and k_s.
 void line_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,

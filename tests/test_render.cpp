@@ -570,5 +570,85 @@ TEST(FiberPreview, MapsAreDrawnPerFragment) {
   }
 }
 
+// How far the stacks' lookup at n is from single-n tables baked at that very n, at the middle
+// of `pairs` pairs of levels, over random L, V and s: the error the levels over log n add.
+double stack_against_single_n(const Material& m, const BakeTables& line, const SpecularStack& st,
+                              const FiberBakeTables& fb, const FiberStack& fs, int pairs) {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double worst = 0;
+  for (int q = 0; q < pairs; ++q) {
+    const int k = (fs.levels - 2) * q / std::max(1, pairs - 1);
+    Material one = m;
+    one.n = std::exp(fs.logn0 + (k + 0.5) * fs.log_step());
+    one.maps = MaterialMaps{};
+    const BakeTables line1 = bake_line(one, line.size, line.index);
+    const FiberBakeTables fb1 = bake_fiber(one, line1);
+    Material line_only = one;
+    line_only.model = Model::kLine;
+    for (int it = 0; it < 4000; ++it) {
+      auto unit = [&]() {
+        const double x = g(rng), y = g(rng), z = std::abs(g(rng)),
+                     l = std::sqrt(x * x + y * y + z * z);
+        return LocalDir{x / l, y / l, z / l};
+      };
+      const LocalDir L = unit(), V = unit();
+      const double s = u(rng);
+      double a[3], b[3];
+      fiber_stack_eval(line_only, line, st, fb, fs, L, V, s, one.n, a);
+      fiber_baked_eval(line_only, line1, fb1, L, V, s, b);
+      for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(a[c] - b[c]));
+    }
+  }
+  return worst;
+}
+
+// A fiber material's map of n: F's levels over log n add little to the tables' own error (the
+// lookup between two levels against single-n tables baked at that n), level k holds F at its n,
+// and the pass draws the map per fragment (GPU against the same stacks on the CPU; the full model
+// within the stated bound; far from the same material at its one n).
+TEST(FiberPreview, AMapOfNIsDrawnPerFragment) {
+  Material m = silk();
+  auto nm = std::make_shared<Image>(4, 4, 1);
+  for (size_t i = 0; i < nm->px.size(); ++i) nm->px[i] = float(10.0 * std::pow(4.0, i / 15.0));
+  m.maps.n = nm;
+  m.maps.n_file = "n.exr";
+  const BakeTables line = bake_line(m, 256);
+  const FiberBakeTables fb = bake_fiber(m, line);
+  const SpecularStack st = bake_material_stack(m, line.size, line.index);
+  const FiberStack fs = bake_fiber_stack(m, fb, line, st);
+  const double between = stack_against_single_n(m, line, st, fb, fs, 3);
+  std::printf(
+      "F stack: %d levels in %.2f s, vs the full model max abs %.3g RMS %.3g; between "
+      "levels vs single-n tables max abs %.3g\n",
+      fs.levels, fs.seconds, fs.max_abs_error, fs.rms_error, between);
+  EXPECT_LT(between, 0.25 * fs.rms_error);
+  std::vector<float> last(fs.level_floats);
+  bake_fiber_F(std::exp(fs.logn0 + (fs.levels - 1) * fs.log_step()), fb.nphi, fb.ns, fb.nk,
+               last.data());
+  EXPECT_EQ(last,
+            std::vector<float>(fs.level(fs.levels - 1), fs.level(fs.levels - 1) + fs.level_floats));
+  float spread = 0;
+  for (size_t i = 0; i < fs.level_floats; ++i)
+    spread = std::max(spread, std::abs(last[i] - fs.F[i]));
+  EXPECT_GT(spread, 0.1f);          // F does depend on n
+  PreviewOptions p = silk_torus();  // drawn from these very tables and stacks
+  p.baked = &line;
+  p.baked_fiber = &fb;
+  p.baked_stack = &st;
+  p.baked_fiber_stack = &fs;
+  PreviewResult r;
+  const double apart = apart_from_mean_values(m, p, &r);
+  std::printf(
+      "fiber pass with a map of n: GPU vs CPU stacks %.3g, vs full model %.3g (bound %.3g), "
+      "%d levels; against the mean values %.0f %% of the image apart\n",
+      r.max_abs_diff_baked, r.max_abs_diff, r.error_bound, r.fiber_stack_levels, 100 * apart);
+  EXPECT_EQ(r.fiber_stack_levels, fs.levels);
+  EXPECT_LT(r.max_abs_diff_baked, 2e-3);
+  EXPECT_LE(r.max_abs_diff, r.error_bound);
+  EXPECT_GT(apart, 0.05);
+}
+
 }  // namespace
 }  // namespace aniso

@@ -2,12 +2,16 @@
 // The fiber model from its baked form (render/bake.h): the line tables through the paper's
 // texture matrix times the factor tables G(phi_l, phi_v, s) and F(phi_l, phi_v, s, k), with the
 // topology s per fragment from the mathematical topology and the topology map (MODELS.md §4).
+// With a map of n (uMaps & 4) S_line comes from the specular stack (maps.glsl: stack_at) and F
+// from uFStack, F's tables at levels over log n (render/bake.h: FiberStack; layer level * ns + s,
+// the nk tables of phi side by side), each blended between the two levels either side of log n.
 in vec3 vN; in vec3 vT; in vec3 vT2; in vec2 vUV; in float vSmath;
 uniform mat4 uTexMat;
 uniform sampler2D uD;
 uniform sampler2D uS;
 uniform sampler2DArray uG;
 uniform sampler2DArray uF;
+uniform sampler2DArray uFStack; uniform int uFLevels; uniform float uFLogN0; uniform float uFLogStep;
 uniform sampler2D uMap;
 uniform int uAngleIndex; uniform float uTexels;
 uniform int uNphi; uniform int uNs; uniform int uNk;
@@ -46,7 +50,9 @@ void main() {
     if (uAngleIndex == 0) st = st * (uTexels - 1.0) / uTexels + 0.5 / uTexels;
   }
   if (uAngleIndex == 1) st = (acos(clamp(1.0 - 2.0 * st, -1.0, 1.0)) / PI * (uTexels - 1.0) + 0.5) / uTexels;
-  float Dl = texture(uD, st).r, Sl = texture(uS, st).r;
+  bool nmap = (uMaps & 4) != 0;
+  float n = nmap ? map_at(uNMap, vUV).r : 0.0;
+  float Dl = texture(uD, st).r, Sl = nmap ? stack_at(st, n) : texture(uS, st).r;
   float a = dot(L, T), b = dot(V, T), lb = dot(L, B), vb = dot(V, B);
   float sL = length(vec2(lb, ln)), sV = length(vec2(vb, vn));
   float g0 = sL * sV - a * b;
@@ -68,9 +74,24 @@ void main() {
   int ik = min(int(fk), uNk - 2);
   float wk = fk - float(ik);
   float G = mix(texture(uG, vec3(uvphi, float(is))).r, texture(uG, vec3(uvphi, float(is + 1))).r, ws);
-  float F0 = mix(texture(uF, vec3(uvphi, float(is * uNk + ik))).r, texture(uF, vec3(uvphi, float(is * uNk + ik + 1))).r, wk);
-  float F1 = mix(texture(uF, vec3(uvphi, float((is + 1) * uNk + ik))).r,
-                 texture(uF, vec3(uvphi, float((is + 1) * uNk + ik + 1))).r, wk);
-  float F = mix(F0, F1, ws);
+  float F;
+  if (nmap) {
+    float f = uFLogStep > 0.0 ? clamp((log(n) - uFLogN0) / uFLogStep, 0.0, float(uFLevels - 1)) : 0.0;
+    float k0 = min(floor(f), float(uFLevels - 2));
+    float Fl[2];
+    for (int l = 0; l < 2; ++l) {  // the two levels' F, each multi-linear in (s, k) as below
+      float layer = (k0 + float(l)) * float(uNs) + float(is);
+      vec2 a = vec2((float(ik) + uvphi.x) / float(uNk), uvphi.y), b = a + vec2(1.0 / float(uNk), 0.0);
+      float f0 = mix(texture(uFStack, vec3(a, layer)).r, texture(uFStack, vec3(b, layer)).r, wk);
+      float f1 = mix(texture(uFStack, vec3(a, layer + 1.0)).r, texture(uFStack, vec3(b, layer + 1.0)).r, wk);
+      Fl[l] = mix(f0, f1, ws);
+    }
+    F = Fl[0] + (f - k0) * (Fl[1] - Fl[0]);
+  } else {
+    float F0 = mix(texture(uF, vec3(uvphi, float(is * uNk + ik))).r, texture(uF, vec3(uvphi, float(is * uNk + ik + 1))).r, wk);
+    float F1 = mix(texture(uF, vec3(uvphi, float((is + 1) * uNk + ik))).r,
+                   texture(uF, vec3(uvphi, float((is + 1) * uNk + ik + 1))).r, wk);
+    F = mix(F0, F1, ws);
+  }
   frag = vec4(E * (map_or(1, uKdMap, uKd) * Dl * G + map_or(2, uKsMap, uKs) * Sl * F), 1.0);
 }
