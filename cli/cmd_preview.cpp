@@ -42,6 +42,8 @@ Vec3 parse_point(const std::string& s) {
 Image turntable(const Material& m, PreviewOptions p, int n, PreviewResult* last) {
   Image sheet(p.width * n, p.height, 3);
   const Vec3 v0 = p.view_dir;
+  PreviewBakes bakes;  // one material: its tables baked once for every frame
+  bake_for_frames(m, &p, &bakes);
   for (int i = 0; i < n; ++i) {
     const double a = 2 * M_PI * i / n, c = std::cos(a), s = std::sin(a);
     p.view_dir = Vec3(c * v0.x - s * v0.y, s * v0.x + c * v0.y, v0.z);

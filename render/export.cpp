@@ -413,9 +413,10 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
     const json maps = write_maps(tmp, m, o, &sum, &tables);
     if (m.fiber() && m.maps.n)
       sum.warnings.push_back(
-          "the fiber model's factor tables hold one n: the shaders and the browser viewer use n "
-          "= " +
-          std::to_string(m.n) + ", not the material's map of n (" + m.maps.n_file + ")");
+          "the fiber model's exported factor tables hold one n: the shaders and the browser "
+          "viewer use n = " +
+          std::to_string(m.n) + ", not the material's map of n (" + m.maps.n_file +
+          "; aniso preview and aniso view draw it, from F at levels of log n)");
     const ExportShaders sh =
         export_shaders(o.size, sum.fiber ? &sum.fiber_tables : nullptr, &sum.maps);
     std::vector<std::pair<std::string, std::string>> files = {

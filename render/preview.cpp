@@ -401,6 +401,28 @@ std::vector<PreviewLight> preview_lights(const PreviewOptions& opt, const Vec3& 
   return lights;
 }
 
+void bake_for_frames(const Material& m, PreviewOptions* p, PreviewBakes* keep) {
+  if (!p->baked) {
+    const bool paper = p->per_vertex && !p->plain && !m.fiber();  // as render_preview
+    keep->tables = bake_line(
+        m, p->table_size, p->table_index == 1 && !paper ? BakeIndex::kAngle : BakeIndex::kCosine);
+    p->baked = &keep->tables;
+  }
+  if (m.fiber() && !p->baked_fiber) {
+    keep->fiber = bake_fiber(m, *p->baked);
+    p->baked_fiber = &keep->fiber;
+  }
+  if (!m.maps.n || p->plain) return;
+  if (!p->baked_stack) {
+    keep->stack = bake_material_stack(m, p->baked->size, p->baked->index);
+    p->baked_stack = &keep->stack;
+  }
+  if (m.fiber() && !p->baked_fiber_stack) {
+    keep->fiber_stack = bake_fiber_stack(m, *p->baked_fiber, *p->baked, *p->baked_stack);
+    p->baked_fiber_stack = &keep->fiber_stack;
+  }
+}
+
 PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   const bool fiber = m.fiber() && !opt.plain;
   check_preview_request(m, opt, fiber);

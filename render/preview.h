@@ -73,6 +73,18 @@ struct PreviewResult {
 
 PreviewResult render_preview(const Material& m, const PreviewOptions& opt);
 
+// What render_preview bakes for a material (the line tables; the fiber model's factor tables; with
+// a map of n the stacks over its range), baked once for many frames of one material (a turntable,
+// the interactive view): each that `p` does not already point to is baked into `keep` and `p`
+// pointed to it.
+struct PreviewBakes {
+  BakeTables tables;
+  FiberBakeTables fiber;
+  SpecularStack stack;
+  FiberStack fiber_stack;
+};
+void bake_for_frames(const Material& m, PreviewOptions* p, PreviewBakes* keep);
+
 // The lights a preview draws: each of light_dirs with irradiance 1, the fill light, then the
 // point lights (irradiance 1 at `center`).
 struct PreviewLight {

@@ -192,13 +192,8 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
   s.mode = std::clamp(opt.show, 0, 2);
   const Window window(p.width, p.height, opt.title);
   // The tables depend on n only (colours are uniforms): baked once for every later render.
-  const BakeTables tables = p.baked ? *p.baked : bake_line(m, p.table_size);
-  p.baked = &tables;
-  FiberBakeTables fb;
-  if (m.fiber() && !p.baked_fiber) {
-    fb = bake_fiber(m, tables);
-    p.baked_fiber = &fb;
-  }
+  PreviewBakes bakes;
+  bake_for_frames(m, &p, &bakes);
   GLuint tex = 0;
   glGenTextures(1, &tex);
   PreviewResult r;
