@@ -1,5 +1,6 @@
 // aniso export: tables, shaders and glTF for engines and browsers (render/export.h).
 #include <cstdio>
+#include <cstring>
 #include <memory>
 
 #include "cli/command.h"
@@ -63,14 +64,21 @@ Command add_export(CLI::App& app) {
               "relative RMS at worst %.3f\n",
               s.gltf_texels.w, s.gltf_texels.h, s.gltf_texels.nodes, s.gltf_texels.worst_rel_rms);
         if (s.maps.any()) {
-          char stack[128] = "";
+          char stack[256] = "";
           if (s.maps.n)
             std::snprintf(stack, sizeof stack,
                           "; S from %d tables over the map's range of n, max abs %.3g",
                           s.maps.levels, s.stack_max_abs_error);
-          std::printf("  maps per fragment (shaders/aniso_maps.*, the browser viewer):%s%s%s%s%s\n",
-                      s.maps.kd ? " k_d" : "", s.maps.ks ? " k_s" : "",
-                      s.maps.fiber ? " fiber" : "", s.maps.n ? " n" : "", stack);
+          if (s.fiber_stack.levels > 0)
+            std::snprintf(stack + std::strlen(stack), sizeof stack - std::strlen(stack),
+                          "; F from %d levels, vs the full model max abs %.3g",
+                          s.fiber_stack.levels, s.fiber_stack.max_abs_error);
+          std::printf(
+              "  maps per fragment (shaders/aniso_maps.*, the browser viewer):%s%s%s%s%s%s%s%s\n",
+              s.maps.kd ? " k_d" : "", s.maps.ks ? " k_s" : "", s.maps.fiber ? " fiber" : "",
+              s.maps.n ? " n" : "", s.maps.s_map ? " s" : "",
+              s.maps.topology_map ? " topology-map" : "",
+              s.maps.amplitude ? " amplitude" : "", stack);
         }
         for (const std::string& w : s.warnings)
           std::fprintf(stderr, "export: WARNING: %s\n", w.c_str());

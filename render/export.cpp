@@ -248,40 +248,55 @@ ExportShaders export_shaders(int texels, const FiberBakeTables* fiber, const Exp
   s.glsl_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + shaders::aniso_main_frag;
   s.hlsl_lookup = std::string(def) + shaders::aniso_lookup_hlsli;
   s.hlsl_pixel = s.hlsl_lookup + "\n" + shaders::aniso_main_hlsl;
+  // The fiber model's sizes: its function files, and before the maps' in their complete shaders.
+  std::string fdef;
+  if (fiber) {
+    char b[128];
+    std::snprintf(b, sizeof b, "#define ANISO_NPHI %d\n#define ANISO_NS %d\n#define ANISO_NK %d\n",
+                  fiber->nphi, fiber->ns, fiber->nk);
+    fdef = b;
+    s.glsl_fiber = fdef + shaders::aniso_fiber_glsl;
+    s.hlsl_fiber = fdef + shaders::aniso_fiber_hlsli;
+  }
   if (maps && maps->any()) {
     std::string mdef;
     for (const auto& [on, name] : {std::pair{maps->kd, "ANISO_KD_MAP"},
                                    {maps->ks, "ANISO_KS_MAP"},
                                    {maps->fiber, "ANISO_FIBER_MAP"},
-                                   {maps->n, "ANISO_N_MAP"}})
+                                   {maps->n, "ANISO_N_MAP"},
+                                   {maps->s_map, "ANISO_S_MAP"},
+                                   {maps->topology_map, "ANISO_TOPOLOGY_MAP"},
+                                   {maps->amplitude, "ANISO_AMPLITUDE_MAP"}})
       if (on) mdef += std::string("#define ") + name + "\n";
+    // Float literals with a point or an exponent: GLSL ES (WebGL) converts no int to float.
+    auto literal = [](double v) {
+      char b[40];
+      std::snprintf(b, sizeof b, "%.9g", v);
+      std::string t = b;
+      return t.find_first_of(".e") == std::string::npos ? t + ".0" : t;
+    };
+    if (maps->topology_map && !maps->amplitude)
+      mdef += "#define ANISO_TOPOLOGY_AMPLITUDE " + literal(maps->topology_amplitude) + "\n";
     if (maps->n) {
-      // Float literals with a point or an exponent: GLSL ES (WebGL) converts no int to float.
-      auto literal = [](double v) {
-        char b[40];
-        std::snprintf(b, sizeof b, "%.9g", v);
-        std::string t = b;
-        return t.find_first_of(".e") == std::string::npos ? t + ".0" : t;
-      };
       mdef += "#define ANISO_STACK_LEVELS " + std::to_string(maps->levels) +
               "\n#define ANISO_LOG_N0 " + literal(maps->log_n0) + "\n#define ANISO_LOG_STEP " +
               literal(maps->log_step) + "\n";
+      if (maps->f_levels > 0)
+        mdef += "#define ANISO_FIBER_F_LEVELS " + std::to_string(maps->f_levels) +
+                "\n#define ANISO_FIBER_LOG_N0 " + literal(maps->f_log_n0) +
+                "\n#define ANISO_FIBER_LOG_STEP " + literal(maps->f_log_step) + "\n";
     }
+    // A fiber material's complete maps shader draws the fiber model (anisoFiberRadianceMapped).
     s.glsl_maps = mdef + shaders::aniso_maps_glsl;
-    s.glsl_maps_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + s.glsl_maps + "\n" +
-                           shaders::aniso_maps_main_frag;
+    s.glsl_maps_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + s.glsl_fiber + "\n" +
+                           s.glsl_maps + "\n" + shaders::aniso_maps_main_frag;
     s.hlsl_maps = mdef + shaders::aniso_maps_hlsli;
-    s.hlsl_maps_pixel = s.hlsl_lookup + "\n" + s.hlsl_maps + "\n" + shaders::aniso_maps_main_hlsl;
+    s.hlsl_maps_pixel = s.hlsl_lookup + "\n" + s.hlsl_fiber + "\n" + s.hlsl_maps + "\n" +
+                        shaders::aniso_maps_main_hlsl;
   }
   if (!fiber) return s;
-  char fdef[128];
-  std::snprintf(fdef, sizeof fdef,
-                "#define ANISO_NPHI %d\n#define ANISO_NS %d\n#define ANISO_NK %d\n", fiber->nphi,
-                fiber->ns, fiber->nk);
-  s.glsl_fiber = std::string(fdef) + shaders::aniso_fiber_glsl;
   s.glsl_fiber_fragment = "#version 330 core\n" + s.glsl_lookup + "\n" + s.glsl_fiber + "\n" +
                           shaders::aniso_fiber_main_frag;
-  s.hlsl_fiber = std::string(fdef) + shaders::aniso_fiber_hlsli;
   s.hlsl_fiber_pixel = s.hlsl_lookup + "\n" + s.hlsl_fiber + "\n" + shaders::aniso_fiber_main_hlsl;
   return s;
 }
@@ -314,7 +329,8 @@ json conventions(const ExportSummary& s) {
         "tables/maps/*.ktx2 over glTF texture coordinates (TEXCOORD_0; the first stored row at "
         "v = 0, no flip), texel centres at (i + 1/2) / W, linear, no mipmaps, wrap as maps.wrap; "
         "with a map of the fiber direction the tangent passed in is the mesh tangent (not turned "
-        "by fiber_angle_deg) and the map's psi turns it about the normal";
+        "by fiber_angle_deg) and the map's psi turns it about the normal; the topology's maps "
+        "(topology.map, topology.s_map) repeat";
   return c;
 }
 
@@ -336,6 +352,12 @@ json measured_errors(const ExportSummary& s) {
     e["specular_stack"] = {
         {"against", "S at random (a, b) and n in the map's range, and the ridge"},
         {"max_abs", s.stack_max_abs_error}};
+  if (s.fiber_stack.levels > 0)
+    e["fiber_F_stack"] = {
+        {"against", "the full fiber model, random L, V, s and n in the map's range"},
+        {"max_abs", s.fiber_stack.max_abs_error},
+        {"rms", s.fiber_stack.rms_error},
+        {"samples", s.fiber_stack.samples}};
   if (s.fiber)
     e["fiber_tables"] = {{"against", "the full fiber model, random L, V, s"},
                          {"max_abs", s.fiber_tables.max_abs_error},
@@ -411,12 +433,6 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
   write_folder_atomically(dir, [&](const std::string& tmp) {
     json tables = write_tables(tmp, m, o, &sum);
     const json maps = write_maps(tmp, m, o, &sum, &tables);
-    if (m.fiber() && m.maps.n)
-      sum.warnings.push_back(
-          "the fiber model's exported factor tables hold one n: the shaders and the browser "
-          "viewer use n = " +
-          std::to_string(m.n) + ", not the material's map of n (" + m.maps.n_file +
-          "; aniso preview and aniso view draw it, from F at levels of log n)");
     const ExportShaders sh =
         export_shaders(o.size, sum.fiber ? &sum.fiber_tables : nullptr, &sum.maps);
     std::vector<std::pair<std::string, std::string>> files = {
@@ -464,12 +480,15 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
            "glslangValidator (GLSL 330 and HLSL via -D), SPIR-V to MSL "
            "by spirv-cross, in the tests"},
           {"covers", std::string(sum.fiber ? "the line-model lookup and the fiber model's factor "
-                                             "tables (one topology s per call: sample a map of "
-                                             "s or s_math yourself)"
+                                             "tables (anisoFiberRadiance: one topology s per call)"
                                            : "the line-model lookup") +
                          (sum.maps.any() ? "; the material's maps of k_d, k_s, the fiber direction "
-                                           "and (line model) n per fragment (aniso_maps: "
-                                           "anisoMapsAt, anisoRadianceMapped)"
+                                           "and n per fragment (aniso_maps: anisoMapsAt, "
+                                           "anisoRadianceMapped; the fiber model's "
+                                           "anisoFiberRadianceMapped after aniso_fiber, with a "
+                                           "map of n F from tables/fiber_F_stack.ktx2, and the "
+                                           "topology's map of s, or topology map and amplitude "
+                                           "over s_math, by anisoTopologyAt)"
                                          : "")}}},
         {"gltf",
          {{"file", "gltf/sample.gltf"},

@@ -33,7 +33,13 @@ struct ExportMapSet {
   bool kd = false, ks = false, n = false, fiber = false;
   int levels = 0;  // the stack's (map of n only)
   double log_n0 = 0, log_step = 0;
-  bool any() const { return kd || ks || n || fiber; }
+  int f_levels = 0;  // a fiber material's map of n: F's levels (render/bake.h: FiberStack)
+  double f_log_n0 = 0, f_log_step = 0;
+  // The fiber model's topology over uv: a map of s, or a topology map h with its amplitude (one
+  // value, or a map of it).
+  bool s_map = false, topology_map = false, amplitude = false;
+  double topology_amplitude = 0;
+  bool any() const { return kd || ks || n || fiber || s_map || topology_map || amplitude; }
 };
 
 struct ExportSummary {
@@ -48,6 +54,7 @@ struct ExportSummary {
   } gltf_texels;
   ExportMapSet maps;                  // what the shaders and the browser viewer draw per texel
   double stack_max_abs_error = 0;     // the stack's lookup against S (map of n only)
+  FiberStack fiber_stack;             // F's levels: texels dropped, sizes and error kept
   std::vector<std::string> files;     // relative to the export folder
   std::vector<std::string> warnings;  // said to the user and recorded in export.json
   double seconds = 0;

@@ -90,6 +90,42 @@ json write_tables(const std::string& dir, const Material& m, const ExportOptions
   return tables;
 }
 
+namespace {
+
+// A fiber material's map of n: F's levels over its range (render/bake.h: FiberStack) as
+// tables/fiber_F_stack.ktx2, layers level * ns + is, the nk tables of phi side by side.
+void write_fiber_stack(const std::string& dir, const Material& m, const ExportOptions& o,
+                       const SpecularStack& st, ExportSummary* sum, json* tables) {
+  const FiberBakeTables& fb = sum->fiber_tables;
+  FiberStack fs = bake_fiber_stack(m, fb, bake_line(m, o.size, BakeIndex::kAngle), st);
+  write_ktx2(join_path(dir, "tables/fiber_F_stack.ktx2"),
+             ktx_array(fiber_stack_layers(fb, fs), fb.nk * fb.nphi, fb.nphi, fs.levels * fb.ns,
+                       "fiber factor F(phi_l, phi_v; s, k) at levels of log n"));
+  (*tables)["fiber_F_stack"] = {
+      {"ktx2", "tables/fiber_F_stack.ktx2"},
+      {"vk_format", "VK_FORMAT_R32_SFLOAT"},
+      {"size", {fb.nk * fb.nphi, fb.nphi}},
+      {"layers", fs.levels * fb.ns},
+      {"layer", "level * ns + is: n = exp(log_n0 + level log_step), s = is / (ns - 1)"},
+      {"x", "tile k (k = kappa / (1 + kappa) at k / (nk - 1)) holds x = (k + u) / nk of F's u"},
+      {"levels", fs.levels},
+      {"log_n0", fs.logn0},
+      {"log_step", fs.log_step()},
+      {"lookup",
+       "f = clamp((log n - log_n0) / log_step, 0, levels - 1), l = min(floor f, levels - 2): F "
+       "= F_l + (f - l) (F_l+1 - F_l), each level multi-linear in s and k as fiber_F"}};
+  sum->files.push_back("tables/fiber_F_stack.ktx2");
+  ExportMapSet& set = sum->maps;
+  set.f_levels = fs.levels;
+  set.f_log_n0 = fs.logn0;
+  set.f_log_step = fs.log_step() > 0 ? fs.log_step() : 1.0;
+  fs.F.clear();
+  fs.F.shrink_to_fit();
+  sum->fiber_stack = std::move(fs);
+}
+
+}  // namespace
+
 // The material's maps: each original file copied, and as KTX2 beside it: k_d, k_s and the fiber
 // direction RGBA32F (a grey map's one channel in R, G and B; alpha 1), n and the topology's maps
 // their first channel as R32F. With a line material's map of n, the stack of specular tables the
@@ -133,14 +169,22 @@ json write_maps(const std::string& dir, const Material& m, const ExportOptions& 
   };
   auto stem_of = [](const std::string& rel) { return std::filesystem::path(rel).stem().string(); };
   constexpr KtxFormat kOne = KtxFormat::kR32Float, kRgba = KtxFormat::kRGBA32Float;
-  if (const auto* r = m.topology_as<TopologyMapRef>())
+  // The topology's maps repeat over uv (FORMAT.md), whatever maps.wrap says of the others.
+  ExportMapSet& set = sum->maps;
+  if (const auto* r = m.topology_as<TopologyMapRef>()) {
     carry(r->file, "topology.map", stem_of(r->file), nullptr, kOne,
           "topology map h in [0, 1] over uv (m = 2h - 1, MODELS.md §4)");
-  if (const auto* r = m.topology_as<SMapRef>())
+    maps["topology.map"]["wrap"] = "repeat";
+    set.topology_map = true;
+    set.topology_amplitude = r->amplitude;
+  }
+  if (const auto* r = m.topology_as<SMapRef>()) {
     carry(r->file, "topology.s_map", stem_of(r->file), nullptr, kOne,
           "the topology s per texel over uv");
+    maps["topology.s_map"]["wrap"] = "repeat";
+    set.s_map = true;
+  }
   const MaterialMaps& mp = m.maps;
-  ExportMapSet& set = sum->maps;
   if (mp.kd) {
     carry(mp.kd_file, "kd", "kd", mp.kd.get(), kRgba,
           "k_d per texel over uv, linear RGB (alpha 1)");
@@ -158,8 +202,8 @@ json write_maps(const std::string& dir, const Material& m, const ExportOptions& 
     set.fiber = true;
   }
   if (mp.n) {
-    carry(mp.n_file, "n", "n", mp.n.get(), kOne, "the line model's exponent n per texel over uv");
-    if (!m.fiber()) {  // the fiber model's factor tables hold one n: its shaders use m.n
+    carry(mp.n_file, "n", "n", mp.n.get(), kOne, "the exponent n per texel over uv");
+    {
       const SpecularStack st = bake_material_stack(m, o.size, BakeIndex::kAngle);
       write_ktx2(join_path(dir, "tables/specular_stack.ktx2"),
                  ktx_array(stack_levels(st), st.size, st.size, st.levels,
@@ -181,16 +225,18 @@ json write_maps(const std::string& dir, const Material& m, const ExportOptions& 
       set.log_n0 = st.logn0;
       set.log_step = st.log_step() > 0 ? st.log_step() : 1.0;  // one n: any step reads level 0
       sum->stack_max_abs_error = st.max_abs_error;
+      if (m.fiber()) write_fiber_stack(dir, m, o, st, sum, tables);
     }
   }
   if (mp.amplitude) {
     carry(mp.amplitude_file, "amplitude", "amplitude", mp.amplitude.get(), kOne,
           "the topology map's amplitude A per texel over uv (fiber model, MODELS.md §4)");
-    sum->warnings.push_back(
-        "the shaders and the browser viewer take one topology s per call: the map of the "
-        "topology's amplitude (" +
-        mp.amplitude_file +
-        ") is carried in tables/maps/ but not drawn (aniso preview and aniso view draw it)");
+    // Drawn over a topology map (models/topology.h: s_at); a material without one ignores it.
+    set.amplitude = set.topology_map;
+    if (!set.topology_map)
+      sum->warnings.push_back("the map of the topology's amplitude (" + mp.amplitude_file +
+                              ") is carried in tables/maps/ but the material has no topology map "
+                              "for it to scale: nothing draws it");
   }
   if (set.any() || mp.amplitude) maps["wrap"] = mp.repeat ? "repeat" : "clamp";
   return maps;

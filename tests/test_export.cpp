@@ -50,6 +50,17 @@ test::RunResult compile_to_metal(const std::string& path) {
       spv + "' '" + path + "' && spirv-cross '" + spv + "' --msl");
 }
 
+// An export's complete maps shaders (GLSL and HLSL) compile to Metal and use each of `names`.
+void expect_complete_maps_shaders(const std::string& export_dir,
+                                  std::initializer_list<const char*> names) {
+  for (const char* f : {"aniso_maps.frag", "aniso_maps_ps.hlsl"}) {
+    const test::RunResult r = compile_to_metal(export_dir + "/shaders/" + f);
+    EXPECT_EQ(r.status, 0) << f << ": " << r.output;
+    for (const char* name : names)
+      EXPECT_NE(r.output.find(name), std::string::npos) << f << " " << name << ": " << r.output;
+  }
+}
+
 Material brushed() {
   Material m;
   m.kd = {0.20, 0.15, 0.10};
@@ -132,7 +143,7 @@ TEST(Export, KtxTablesReadBackByAnIndependentReader) {
 // A fiber material's map of the topology's amplitude (what `fit --model fiber --maps` writes over a
 // topology map) travels with the export as KTX2 holding its texels, and the export says that its
 // shaders and viewer, which take one s per call, do not draw it.
-TEST(Export, AFiberMaterialsAmplitudeMapIsCarriedAndNamedAsNotDrawn) {
+TEST(Export, AFiberMaterialsAmplitudeMapIsCarriedAndDrawn) {
   const std::string root = tmp_dir("amplitude");
   auto r = test::run_cli("synth silk-torus " + root + "/set --size 16x16 --views 1");
   ASSERT_EQ(r.status, 0) << r.output;
@@ -144,14 +155,17 @@ TEST(Export, AFiberMaterialsAmplitudeMapIsCarriedAndNamedAsNotDrawn) {
   write_json_file(root + "/set/m.json", j);
   r = test::run_cli("export " + root + "/set/m.json --out " + root + "/export --size 32");
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("amplitude"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("not drawn"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("topology-map amplitude"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("WARNING"), std::string::npos) << r.output;
   const auto ej = nlohmann::json::parse(read_text_file(root + "/export/export.json"));
   const KtxTexture t =
       read_ktx2(root + "/export/" + ej["maps"]["amplitude"]["ktx2"].get<std::string>());
   ASSERT_EQ(t.texels.size(), amp.px.size());
   for (size_t i = 0; i < amp.px.size(); ++i) EXPECT_EQ(t.texels[i], amp.px[i]);
-  EXPECT_EQ(ej["warnings"].size(), 1u) << ej["warnings"].dump();
+  EXPECT_EQ(ej["warnings"].size(), 0u) << ej["warnings"].dump();
+  EXPECT_EQ(ej["maps"]["topology.map"]["wrap"], "repeat");
+  // The maps' shaders take the topology map and the map of its amplitude (GLSL and HLSL).
+  expect_complete_maps_shaders(root + "/export", {"anisoAmplitudeMap", "anisoTopologyMap"});
 }
 
 // A fiber material's factor tables go out as 2D arrays, no side over 8192 (a bake's stacked EXR
@@ -278,6 +292,57 @@ TEST(Export, MapsTravelAsKtx2WithTheirShaders) {
                     "glslangValidator es.frag");
     EXPECT_EQ(r.status, 0) << d << ": " << r.output;
   }
+  // The fiber model with the same maps: F's levels over the map of n go out as a 2D array that an
+  // independent reader reads back as the levels the preview draws, and the fiber files with the
+  // maps' compile as the browser viewer takes them (GLSL ES 3.00) and as HLSL.
+  auto fj = nlohmann::json::parse(read_text_file(root + "/set/m.json"));
+  fj["model"] = "fiber";
+  fj["topology"] = {{"s", 0.3}};
+  write_json_file(root + "/set/fiber.json", fj);
+  const Material mf = read_material(root + "/set/fiber.json");
+  const std::string fdir = root + "/fiber";
+  r = test::run_cli("export " + root + "/set/fiber.json --out " + fdir + " --size 32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("not the material's map of n"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("F from"), std::string::npos) << r.output;
+  const auto fe = nlohmann::json::parse(read_text_file(fdir + "/export.json"));
+  const std::string fstack = fdir + "/" + fe["tables"]["fiber_F_stack"]["ktx2"].get<std::string>();
+  const auto fk = node_json("check_ktx2.mjs", "'" + fstack + "'", &status);
+  ASSERT_EQ(status, 0) << fk.dump(2);
+  const BakeTables line = bake_line(mf, 32, BakeIndex::kAngle);
+  const FiberBakeTables fb = bake_fiber(mf, line);
+  const FiberStack fs =
+      bake_fiber_stack(mf, fb, line, bake_material_stack(mf, 32, BakeIndex::kAngle));
+  const std::vector<float> layers = fiber_stack_layers(fb, fs);
+  EXPECT_EQ(fk[fstack]["layers"], fs.levels * fb.ns);
+  EXPECT_EQ(fk[fstack]["width"], fb.nk * fb.nphi);
+  EXPECT_TRUE(fk[fstack]["finite"].get<bool>());
+  const KtxTexture ft = read_ktx2(fstack);
+  ASSERT_EQ(ft.texels.size(), layers.size());
+  for (size_t i = 0; i < layers.size(); i += 101) ASSERT_EQ(ft.texels[i], layers[i]) << i;
+  EXPECT_GT(fe["errors"]["fiber_F_stack"]["max_abs"].get<double>(), 0.0);
+  const std::string call =
+      "anisoFiberRadianceMapped(N, vec3(1,0,0), vec2(0.5), N, N, 0.3, vec3(1), vec3(1), vec3(1))";
+  r = run_command(
+      "cd '" + fdir + "/shaders' && printf '#version 300 es\nprecision highp float;" +
+      "\nprecision highp sampler2DArray;\n' > es.frag && cat aniso_lookup.glsl " +
+      "aniso_fiber.glsl aniso_maps.glsl >> es.frag && printf 'out vec4 f; void main() " +
+      "{ vec3 N = vec3(0,0,1); f = vec4(" + call + ", 1.0); }\n' >> es.frag && " +
+      "glslangValidator es.frag");
+  EXPECT_EQ(r.status, 0) << r.output;
+  std::string hlsl_call = call;
+  for (size_t at; (at = hlsl_call.find("vec")) != std::string::npos;)
+    hlsl_call.replace(at, 3, "float");
+  r = run_command("cd '" + fdir + "/shaders' && cat aniso_lookup.hlsli aniso_fiber.hlsli " +
+                  "aniso_maps.hlsli > fm.hlsl && printf 'float4 main(float4 p : SV_Position) : " +
+                  "SV_Target { float3 N = float3(0,0,1); return float4(" + hlsl_call +
+                  ", 1.0); }\n' >> fm.hlsl");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = compile_to_metal(fdir + "/shaders/fm.hlsl");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("anisoFiberFStack"), std::string::npos) << r.output;
+  // The complete maps shaders of a fiber material draw the fiber model (they drew the line model).
+  expect_complete_maps_shaders(fdir, {"anisoFiberFStack", "uTopologyS"});
 }
 
 // The glTF passes the Khronos validator with no errors and carries the fitted anisotropy: the
@@ -501,13 +566,17 @@ TEST(Export, BrowserViewerMatchesThePreview) {
 // matches `aniso preview` of the same material (which draws the maps per fragment) within 2 % of
 // full scale, and stands at least 3x as far from the preview of the material at its mean values.
 // woven-patch has maps of k_d, n and the fiber direction; swirl-plate of k_d and the fiber
-// direction; the fiber model takes the swirl's maps with one topology s.
+// direction; the fiber model takes the swirl's maps and woven-patch's (with its map of n: S and F
+// from their levels over log n) with one topology s, and the swirl's with a map of s and with a
+// topology map and a map of its amplitude, each also at least 3x as far from one s.
 TEST(Export, BrowserViewerDrawsTheMapsPerFragment) {
-  for (const char* preset : {"woven-patch", "swirl-plate", "fiber"}) {
+  for (const char* preset : {"woven-patch", "swirl-plate", "fiber", "fiber-woven", "fiber-s-map",
+                             "fiber-topology-map"}) {
     const std::string root = test::tmp_dir(std::string("viewer_maps_") + preset);
-    const bool fiber = std::string(preset) == "fiber";
-    auto r = test::run_cli(std::string("synth ") + (fiber ? "swirl-plate" : preset) + " " + root +
-                           "/set --size 16x16 --views 1");
+    const std::string name = preset;
+    const bool fiber = name.rfind("fiber", 0) == 0, woven = name.find("woven") != std::string::npos;
+    auto r = test::run_cli(std::string("synth ") + (woven ? "woven-patch" : "swirl-plate") + " " +
+                           root + "/set --size 16x16 --views 1");
     ASSERT_EQ(r.status, 0) << r.output;
     auto j = nlohmann::json::parse(read_text_file(root + "/set/truth.json"));
     if (fiber) {
@@ -515,6 +584,35 @@ TEST(Export, BrowserViewerDrawsTheMapsPerFragment) {
       j["topology"] = {{"s", 0.3}};
     }
     write_json_file(root + "/set/m.json", j);
+    // The topology over uv (flat: s_math 0): stripes of s across u, or a topology map's stripes
+    // (h 0 and 1, so m = -1 and 1) at an amplitude that varies with v.
+    const bool s_map = name == "fiber-s-map", topo_map = name == "fiber-topology-map";
+    if (s_map || topo_map) {
+      Image t(8, 8, 1);
+      for (int y = 0; y < 8; ++y)
+        for (int x = 0; x < 8; ++x)
+          t.px[y * 8 + x] = s_map ? (x < 4 ? 0.05f : 0.75f) : (x % 4 < 2 ? 0.f : 1.f);
+      write_exr(root + "/set/maps/topo.exr", t);
+      if (s_map) {
+        j["topology"] = {{"s_map", "maps/topo.exr"}};
+      } else {
+        Image a(4, 4, 1);
+        for (size_t i = 0; i < a.px.size(); ++i) a.px[i] = 0.4f + 0.08f * float(i / 4);
+        write_exr(root + "/set/maps/amp.exr", a);
+        j["topology"] = {{"map", "maps/topo.exr"}, {"amplitude", 0.6}, {"mathematical", "none"}};
+        j["maps"]["amplitude"] = "maps/amp.exr";
+      }
+      auto one_s = j;  // what the topology's maps add to the image
+      one_s["topology"] = {{"s", 0.3}};
+      one_s["maps"].erase("amplitude");
+      write_json_file(root + "/set/one_s.json", one_s);
+      write_json_file(root + "/set/m.json", j);
+    }
+    if (j["maps"].contains("n")) {  // the same maps but n: what the map of n adds to the image
+      auto one_n = j;
+      one_n["maps"].erase("n");
+      write_json_file(root + "/set/one_n.json", one_n);
+    }
     j.erase("maps");
     write_json_file(root + "/set/mean.json", j);
     double lit = 0, lit_mean = 0;
@@ -522,7 +620,8 @@ TEST(Export, BrowserViewerDrawsTheMapsPerFragment) {
         viewer_against_preview(root, root + "/set/m.json", root + "/set/m.json", &lit);
     const nlohmann::json info = nlohmann::json::parse(read_text_file(root + "/export/export.json"));
     ASSERT_TRUE(info["shaders"]["maps"].is_array()) << info["shaders"].dump();
-    EXPECT_EQ(info["tables"].contains("specular_stack"), std::string(preset) == "woven-patch");
+    EXPECT_EQ(info["tables"].contains("specular_stack"), woven);
+    EXPECT_EQ(info["tables"].contains("fiber_F_stack"), woven && fiber);
     const double mad_mean =
         viewer_against_preview(root, root + "/set/m.json", root + "/set/mean.json", &lit_mean);
     std::printf(
@@ -532,6 +631,20 @@ TEST(Export, BrowserViewerDrawsTheMapsPerFragment) {
     EXPECT_LE(mad, 0.02);
     EXPECT_GT(lit, 0.05);
     EXPECT_GE(mad_mean, 3 * mad);
+    if (woven) {  // drawn with its map of n, not at the material's one n
+      double lit_one_n = 0;
+      const double mad_one_n =
+          viewer_against_preview(root, root + "/set/m.json", root + "/set/one_n.json", &lit_one_n);
+      std::printf("%s: vs the preview with the same maps but one n %.4f\n", preset, mad_one_n);
+      EXPECT_GE(mad_one_n, 3 * mad);
+    }
+    if (s_map || topo_map) {  // drawn with its topology over uv, not at one s
+      double lit_one_s = 0;
+      const double mad_one_s =
+          viewer_against_preview(root, root + "/set/m.json", root + "/set/one_s.json", &lit_one_s);
+      std::printf("%s: vs the preview with the same maps but one s %.4f\n", preset, mad_one_s);
+      EXPECT_GE(mad_one_s, 3 * mad);
+    }
   }
 }
 

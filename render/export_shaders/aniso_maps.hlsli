@@ -64,3 +64,81 @@ float3 anisoRadianceMapped(float3 N, float3 T, float2 uv, float3 L, float3 V, fl
   float D = anisoDiffuse.Sample(anisoLinearClamp, st);
   return E * (kd * D + ks * anisoSpecularAt(st, n)) * max(dot(N, L), 0.0);
 }
+
+#ifdef ANISO_NPHI
+// The fiber model's topology over uv, as in aniso_maps.glsl; its maps' sampler (s2) is linear, no
+// mipmaps, addressed wrap (repeat), but the map of the amplitude's, which is the maps' (s1).
+#ifdef ANISO_S_MAP
+Texture2D<float> anisoSMap : register(t10);
+#endif
+#ifdef ANISO_TOPOLOGY_MAP
+Texture2D<float> anisoTopologyMap : register(t11);
+#endif
+#ifdef ANISO_AMPLITUDE_MAP
+Texture2D<float> anisoAmplitudeMap : register(t12);
+#endif
+#if defined(ANISO_S_MAP) || defined(ANISO_TOPOLOGY_MAP)
+SamplerState anisoTopologySampler : register(s2);
+#endif
+
+// The topology at uv: s as passed without a topology map; a map of s's value; with a topology map
+// the climb of height H = clamp(2 sin(60 deg s) + A m, 0, sqrt 3), s passed as the shape's
+// mathematical topology s_math (0 for a flat sample).
+float anisoTopologyAt(float2 uv, float s) {
+#if defined(ANISO_S_MAP)
+  return saturate(anisoSMap.Sample(anisoTopologySampler, uv));
+#elif defined(ANISO_TOPOLOGY_MAP)
+  const float PI = 3.14159265358979;
+  float m = 2.0 * anisoTopologyMap.Sample(anisoTopologySampler, uv) - 1.0;
+#ifdef ANISO_AMPLITUDE_MAP
+  float A = anisoAmplitudeMap.Sample(anisoMapSampler, uv);
+#else
+  float A = ANISO_TOPOLOGY_AMPLITUDE;
+#endif
+  float H = clamp(2.0 * sin(PI / 3.0 * s) + A * m, 0.0, sqrt(3.0));
+  return asin(0.5 * H) / (PI / 3.0);
+#else
+  return s;
+#endif
+}
+
+// The fiber model with maps: include after aniso_fiber.hlsli; layout as in aniso_maps.glsl.
+#ifdef ANISO_N_MAP
+Texture2DArray<float> anisoFiberFStack : register(t9);
+
+float anisoFiberFStackAt(AnisoFiberLookup f, float n) {
+  float x = clamp((log(max(n, 1e-6)) - ANISO_FIBER_LOG_N0) / ANISO_FIBER_LOG_STEP, 0.0,
+                  float(ANISO_FIBER_F_LEVELS - 1));
+  float k0 = min(floor(x), float(ANISO_FIBER_F_LEVELS - 2));
+  float2 a = float2((float(f.ik) + f.uv.x) / float(ANISO_NK), f.uv.y);
+  float2 b = a + float2(1.0 / float(ANISO_NK), 0.0);
+  float Fl[2];
+  for (int l = 0; l < 2; ++l) {
+    float layer = (k0 + float(l)) * float(ANISO_NS) + float(f.is);
+    float f0 = lerp(anisoFiberFStack.Sample(anisoLinearClamp, float3(a, layer)),
+                    anisoFiberFStack.Sample(anisoLinearClamp, float3(b, layer)), f.wk);
+    float f1 = lerp(anisoFiberFStack.Sample(anisoLinearClamp, float3(a, layer + 1.0)),
+                    anisoFiberFStack.Sample(anisoLinearClamp, float3(b, layer + 1.0)), f.wk);
+    Fl[l] = lerp(f0, f1, f.ws);
+  }
+  return Fl[0] + (x - k0) * (Fl[1] - Fl[0]);
+}
+#endif
+
+// Radiance toward V from one light of irradiance E along L at texture coordinates uv, topology s
+// (anisoTopologyAt: with a topology map s is s_math); kd and ks are the material's values where it
+// has no map of them.
+float3 anisoFiberRadianceMapped(float3 N, float3 T, float2 uv, float3 L, float3 V, float s,
+                                float3 kd, float3 ks, float3 E) {
+  float n = anisoMapsAt(uv, N, T, kd, ks);
+  AnisoFiberLookup f;
+  if (!anisoFiberAt(N, T, L, V, anisoTopologyAt(uv, s), f)) return float3(0.0, 0.0, 0.0);
+#ifdef ANISO_N_MAP
+  float F = anisoFiberFStackAt(f, n);
+#else
+  float F = anisoFiberFAt(f);
+#endif
+  return E * (kd * anisoDiffuse.Sample(anisoLinearClamp, f.st) * anisoFiberGAt(f) +
+              ks * anisoSpecularAt(f.st, n) * F);
+}
+#endif

@@ -117,12 +117,10 @@ uniform vec3 L0; uniform float E0; uniform vec3 L1; uniform float E1; uniform ve
 in vec3 vN; in vec3 vT; in vec2 vUV;
 out vec4 fragColor;
 vec3 radiance(vec3 N, vec3 T, vec3 L, float E) {
-#if defined(ANISO_NPHI)
-  vec3 kdm = kd, ksm = ks;
-#ifdef ANISO_VIEWER_MAPS
-  anisoMapsAt(vUV, N, T, kdm, ksm);  // the fiber model's tables hold one n: a map of n is not used
-#endif
-  return anisoFiberRadiance(N, T, L, V, topologyS, kdm, ksm, vec3(E));
+#if defined(ANISO_NPHI) && defined(ANISO_VIEWER_MAPS)
+  return anisoFiberRadianceMapped(N, T, vUV, L, V, topologyS, kd, ks, vec3(E));
+#elif defined(ANISO_NPHI)
+  return anisoFiberRadiance(N, T, L, V, topologyS, kd, ks, vec3(E));
 #elif defined(ANISO_VIEWER_MAPS)
   return anisoRadianceMapped(N, T, vUV, L, V, kd, ks, vec3(E));
 #else
@@ -161,9 +159,14 @@ export async function start(q) {
   const info = await (await fetch('../export.json')).json();
   const m = info.material;
   const fiber = info.model === 'fiber';
-  if (fiber && !(m.topology && typeof m.topology.s === 'number'))
-    throw new Error('the browser viewer draws fiber materials with one topology s (this one has a ' +
-                    'map or a mathematical topology: use aniso view)');
+  // The fiber model's topology: one s, a map of s, or a topology map over a flat sample (s_math
+  // 0); the viewer's sphere has no mathematical topology of a torus or a sphere's meridians.
+  const topo = m.topology || {};
+  if (fiber && typeof topo.s !== 'number' && !topo.s_map &&
+      !(topo.map && (topo.mathematical || 'none') === 'none'))
+    throw new Error('the browser viewer draws fiber materials with one topology s, a map of s or ' +
+                    'a topology map over a flat sample (this one has a mathematical topology: ' +
+                    'use aniso view)');
   const shape = q.get('shape') || 'sphere';
   if (shape !== 'sphere') throw new Error('shape ' + shape + ': the viewer has the sample sphere only');
   const [W, H] = (q.get('size') || `${innerWidth}x${innerHeight}`).split('x').map(Number);
@@ -192,7 +195,7 @@ export async function start(q) {
   const uniforms = {
     anisoDiffuse: { value: tableTexture(D, floatLinear) },
     anisoSpecular: { value: tableTexture(S, floatLinear) },
-    topologyS: { value: fiber ? m.topology.s : 0 },
+    topologyS: { value: fiber && typeof topo.s === 'number' ? topo.s : 0 },  // else s_math 0
     kd: { value: new THREE.Vector3(...m.kd) }, ks: { value: new THREE.Vector3(...m.ks) },
     L0: { value: new THREE.Vector3() }, E0: { value: 1 },
     L1: { value: new THREE.Vector3() }, E1: { value: fill },
@@ -200,11 +203,14 @@ export async function start(q) {
   };
   // The material's maps (export.json maps: kd, ks, fiber, n) and with a map of n the stack of
   // specular tables, each under the name shaders/aniso_maps.glsl gives it.
-  const mapNames = { kd: 'anisoKdMap', ks: 'anisoKsMap', fiber: 'anisoFiberMap', n: 'anisoNMap' };
+  // The topology's maps (a map of s, a topology map) repeat whatever maps.wrap says.
+  const mapNames = { kd: 'anisoKdMap', ks: 'anisoKsMap', fiber: 'anisoFiberMap', n: 'anisoNMap',
+                     'topology.s_map': 'anisoSMap', 'topology.map': 'anisoTopologyMap',
+                     amplitude: 'anisoAmplitudeMap' };
   const wrap = info.maps.wrap === 'repeat' ? THREE.RepeatWrapping : THREE.ClampToEdgeWrapping;
   await Promise.all(Object.entries(mapNames).filter(([key]) => info.maps[key]).map(async ([key, name]) => {
     const tex = tableTexture(await loadKtx2('../' + info.maps[key].ktx2), floatLinear);
-    tex.wrapS = tex.wrapT = wrap;
+    tex.wrapS = tex.wrapT = info.maps[key].wrap === 'repeat' ? THREE.RepeatWrapping : wrap;
     uniforms[name] = { value: tex };
   }));
   if (info.tables.specular_stack)
@@ -214,6 +220,9 @@ export async function start(q) {
     uniforms.anisoFiberG = { value: tableTexture(fiberTables[0], floatLinear) };
     uniforms.anisoFiberF = { value: tableTexture(fiberTables[1], floatLinear) };
   }
+  if (info.tables.fiber_F_stack)  // a fiber material's map of n: F at levels of log n
+    uniforms.anisoFiberFStack =
+        { value: tableTexture(await loadKtx2('../' + info.tables.fiber_F_stack.ktx2), floatLinear) };
   const material = new THREE.ShaderMaterial({ glslVersion: THREE.GLSL3, vertexShader: VERTEX,
                                               fragmentShader: q.has('plain') ? FRAGMENT_PLAIN
                                                                           : await fragmentShader(info, fiber),
