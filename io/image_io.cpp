@@ -44,9 +44,12 @@ Image read_exr(const std::string& path, int expect_w, int expect_h);
 Image read_exr_openexr(const std::string& path, int expect_w, int expect_h) {
   try {
     Imf::InputFile file(path.c_str());
-    const Imath::Box2i dw = file.header().dataWindow();
+    // The image is the display window; the file's pixels are the data window's.
+    const Imath::Box2i dw = file.header().dataWindow(), disp = file.header().displayWindow();
+    check_declared_size(path, static_cast<long long>(disp.max.x) - disp.min.x + 1,
+                        static_cast<long long>(disp.max.y) - disp.min.y + 1, expect_w, expect_h);
     check_declared_size(path, static_cast<long long>(dw.max.x) - dw.min.x + 1,
-                        static_cast<long long>(dw.max.y) - dw.min.y + 1, expect_w, expect_h);
+                        static_cast<long long>(dw.max.y) - dw.min.y + 1, 0, 0);
     const int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
     const Imf::ChannelList& cl = file.header().channels();
     std::vector<const char*> names;
@@ -69,7 +72,14 @@ Image read_exr_openexr(const std::string& path, int expect_w, int expect_h) {
       fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys));
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
-    return img;
+    if (dw == disp) return img;
+    // Placed in the display window, zeros around it.
+    Image whole(disp.max.x - disp.min.x + 1, disp.max.y - disp.min.y + 1, img.channels);
+    for (int y = std::max(dw.min.y, disp.min.y); y <= std::min(dw.max.y, disp.max.y); ++y)
+      for (int x = std::max(dw.min.x, disp.min.x); x <= std::min(dw.max.x, disp.max.x); ++x)
+        for (int c = 0; c < img.channels; ++c)
+          whole.at(x - disp.min.x, y - disp.min.y, c) = img.at(x - dw.min.x, y - dw.min.y, c);
+    return whole;
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {
@@ -105,11 +115,11 @@ struct RawChannel {
 // The header of a single-part scanline EXR: its channels, compression and data window; false on
 // anything else (tiles, deep data, several parts, a malformed attribute).
 bool parse_exr_header(ByteReader* r, std::vector<RawChannel>* ch, int* compression,
-                      int32_t box[4]) {
+                      int32_t box[4], int32_t display[4]) {
   int32_t magic = 0, version = 0;
   if (!r->get(&magic) || magic != 20000630 || !r->get(&version)) return false;
   if ((version & 0xff) != 2 || (version & (0x200 | 0x800 | 0x1000))) return false;
-  bool have_channels = false, have_box = false;
+  bool have_channels = false, have_box = false, have_display = false;
   *compression = -1;
   for (;;) {
     std::string name, type;
@@ -134,17 +144,22 @@ bool parse_exr_header(ByteReader* r, std::vector<RawChannel>* ch, int* compressi
     } else if (name == "dataWindow" && type == "box2i" && size == 16) {
       for (int k = 0; k < 4; ++k) r->get(&box[k]);
       have_box = true;
+    } else if (name == "displayWindow" && type == "box2i" && size == 16) {
+      for (int k = 0; k < 4; ++k) r->get(&display[k]);
+      have_display = true;
     }
     r->at = end;
   }
+  if (have_box && !have_display) std::copy(box, box + 4, display);  // OpenEXR requires one
   return have_channels && have_box && *compression >= 0;
 }
 
 // The header of what decode_exr_uncompressed reads: no compression, every channel 32-bit float
 // at full resolution.
-bool uncompressed_float_header(ByteReader* r, std::vector<RawChannel>* ch, int32_t box[4]) {
+bool uncompressed_float_header(ByteReader* r, std::vector<RawChannel>* ch, int32_t box[4],
+                               int32_t display[4]) {
   int compression = -1;
-  if (!parse_exr_header(r, ch, &compression, box) || compression != 0) return false;
+  if (!parse_exr_header(r, ch, &compression, box, display) || compression != 0) return false;
   for (const RawChannel& c : *ch)
     if (c.type != 2 || c.xs != 1 || c.ys != 1) return false;
   return true;
@@ -156,11 +171,16 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
                              int expect_h, Image* out) {
   ByteReader r{bytes};
   std::vector<RawChannel> ch;
-  int32_t box[4] = {0, 0, 0, 0};
-  if (!uncompressed_float_header(&r, &ch, box)) return false;
+  int32_t box[4] = {0, 0, 0, 0}, disp[4] = {0, 0, 0, 0};
+  if (!uncompressed_float_header(&r, &ch, box, disp)) return false;
+  // The image is the display window; the file holds the data window's rows (w x h values).
+  const long long W = static_cast<long long>(disp[2]) - disp[0] + 1,
+                  H = static_cast<long long>(disp[3]) - disp[1] + 1;
+  check_declared_size(path, W, H, expect_w, expect_h);
   const long long w = static_cast<long long>(box[2]) - box[0] + 1,
                   h = static_cast<long long>(box[3]) - box[1] + 1;
-  check_declared_size(path, w, h, expect_w, expect_h);
+  check_declared_size(path, w, h, 0, 0);
+  const bool whole = std::equal(box, box + 4, disp);
   // The channels read_exr_openexr picks (R[, G[, B]] or Y), each its place in the file's list.
   auto find = [&](const char* n) {
     for (size_t k = 0; k < ch.size(); ++k)
@@ -185,9 +205,14 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
   // out's allocation, if it has one, holds the image: every value is written below.
   Image img;
   img.px = std::move(out->px);
-  img.width = static_cast<int>(w), img.height = static_cast<int>(h);
+  img.width = static_cast<int>(W), img.height = static_cast<int>(H);
   img.channels = static_cast<int>(pick.size());
-  img.px.resize(static_cast<size_t>(w) * h * pick.size());
+  const size_t nc = pick.size();
+  img.px.resize(static_cast<size_t>(W) * H * nc);
+  // A data window smaller than the display window: zeros around it (the allocation may be
+  // reused); one that reaches past it: the part inside.
+  if (!whole) std::fill(img.px.begin(), img.px.end(), 0.f);
+  const long long xa = std::max<long long>(box[0], disp[0]), xb = std::min<long long>(box[2], disp[2]);
   std::vector<uint8_t> seen(static_cast<size_t>(h), 0);
   for (long long k = 0; k < h; ++k) {
     uint64_t offset = 0;
@@ -197,12 +222,14 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
     if (!block.get(&y) || !block.get(&size) || static_cast<size_t>(size) != line ||
         bytes.size() - block.at < line || y < box[1] || y > box[3] || seen[y - box[1]]++)
       return false;
+    if (y < disp[1] || y > disp[3]) continue;
     const char* src = bytes.data() + block.at;
-    float* dst = img.px.data() + static_cast<size_t>(y - box[1]) * w * pick.size();
-    for (size_t c = 0; c < pick.size(); ++c)
-      for (long long x = 0; x < w; ++x)
-        std::memcpy(dst + x * pick.size() + c,
-                    src + (static_cast<size_t>(pick[c]) * w + x) * sizeof(float), sizeof(float));
+    float* dst = img.px.data() + static_cast<size_t>(y - disp[1]) * W * nc;
+    for (size_t c = 0; c < nc; ++c)
+      for (long long x = xa; x <= xb; ++x)
+        std::memcpy(dst + (x - disp[0]) * nc + c,
+                    src + (static_cast<size_t>(pick[c]) * w + (x - box[0])) * sizeof(float),
+                    sizeof(float));
   }
   *out = std::move(img);
   return true;
@@ -259,8 +286,8 @@ Image read_exr(const std::string& path, int expect_w, int expect_h) {
   const std::string head = !ec && size < kMaxDirect ? read_prefix(path, kHeaderBytes) : "";
   ByteReader r{head};
   std::vector<RawChannel> ch;
-  int32_t box[4];
-  if (!head.empty() && uncompressed_float_header(&r, &ch, box)) {
+  int32_t box[4], disp[4];
+  if (!head.empty() && uncompressed_float_header(&r, &ch, box, disp)) {
     Image img;
     ExrReadBuffers::Impl* reuse = g_read_buffers.load();
     std::string fresh;

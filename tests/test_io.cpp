@@ -16,6 +16,7 @@
 #include <half.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -45,13 +46,15 @@ TEST(ImageIO, ExrRoundTripIsExact) {
 
 // An EXR's float channels `names`, interleaved, as OpenEXR itself reads them (the independent
 // reader for our own encoder and decoder).
+// OpenEXR's values of a file whose data window lies inside its display window, placed in the
+// display window (zeros around the data window).
 std::vector<float> openexr_pixels(const std::string& path, const std::vector<const char*>& names) {
   Imf::InputFile in(path.c_str());
-  const Imath::Box2i dw = in.header().dataWindow();
-  const size_t w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1, c = names.size();
+  const Imath::Box2i dw = in.header().dataWindow(), disp = in.header().displayWindow();
+  const size_t w = disp.max.x - disp.min.x + 1, h = disp.max.y - disp.min.y + 1, c = names.size();
   std::vector<float> px(w * h * c);
   char* base = reinterpret_cast<char*>(px.data()) -
-               (static_cast<long>(dw.min.x) + static_cast<long>(dw.min.y) * long(w)) * c * 4;
+               (static_cast<long>(disp.min.x) + static_cast<long>(disp.min.y) * long(w)) * c * 4;
   Imf::FrameBuffer fb;
   for (size_t k = 0; k < c; ++k)
     fb.insert(names[k], Imf::Slice(Imf::FLOAT, base + k * 4, c * 4, c * 4 * w));
@@ -119,8 +122,9 @@ TEST(ImageIO, ReusedReadBuffersReadEveryFileAsAFreshOne) {
 }
 
 // Uncompressed float EXRs are read by our own decoder (at memory speed): files OpenEXR wrote
-// without compression, with an alpha channel, a data window away from the origin and decreasing
-// line order, decode to exactly OpenEXR's values; half, compressed and damaged files are left to
+// without compression, with an alpha channel, a data window away from the origin inside a larger
+// display window (the image is the display window) and decreasing line order, decode to exactly
+// OpenEXR's values; half, compressed and damaged files are left to
 // OpenEXR (false), and a damaged file still gets an error naming it.
 TEST(ImageIO, UncompressedExrDecodesAsOpenExrReadsIt) {
   const std::string dir = test::tmp_dir("img");
@@ -152,8 +156,10 @@ TEST(ImageIO, UncompressedExrDecodesAsOpenExrReadsIt) {
     write(path, Imf::NO_COMPRESSION, Imf::FLOAT, order);
     Image ours;
     ASSERT_TRUE(decode_exr_uncompressed(read_text_file(path), path, 0, 0, &ours));
-    EXPECT_EQ(ours.width, 19);
-    EXPECT_EQ(ours.height, 11);
+    EXPECT_EQ(ours.width, 29);
+    EXPECT_EQ(ours.height, 21);
+    EXPECT_EQ(ours.at(4, 7, 0), 0.f);   // left of the data window
+    EXPECT_EQ(ours.at(5, 7, 0), 3.f);   // its first value, cos 0 * 3
     EXPECT_EQ(ours.channels, 3);
     EXPECT_EQ(ours.px, openexr_pixels(path, {"R", "G", "B"}));
     EXPECT_EQ(read_image(path).image.px, ours.px);
@@ -172,6 +178,51 @@ TEST(ImageIO, UncompressedExrDecodesAsOpenExrReadsIt) {
   EXPECT_FALSE(decode_exr_uncompressed(read_text_file(zip), zip, 0, 0, &img));
   EXPECT_EQ(read_image(zip).image.px, openexr_pixels(zip, {"R", "G", "B"}));
   EXPECT_EQ(read_image(half).image.px, openexr_pixels(half, {"R", "G", "B"}));
+}
+
+// A data window inside or reaching past the display window (as other tools write: a crop to the
+// object, an overscan): the image is the display window, zeros where there is no data, the data
+// window's values in place, read by our decoder (uncompressed) and through OpenEXR (zip) alike.
+// They were read as the data window alone, so a cropped geometry buffer lost its registration.
+TEST(ImageIO, ADataWindowIsPlacedInItsDisplayWindow) {
+  const std::string dir = test::tmp_dir("img");
+  // Display window (0, 0)..(5, 3); data windows inside it and reaching past it on three sides.
+  for (const Imath::Box2i& data : {Imath::Box2i({1, 1}, {3, 2}), Imath::Box2i({-2, 1}, {4, 6})})
+    for (Imf::Compression comp : {Imf::NO_COMPRESSION, Imf::ZIP_COMPRESSION}) {
+      const std::string path = dir + "/window.exr";
+      Imf::Header header(Imath::Box2i({0, 0}, {5, 3}), data);
+      header.compression() = comp;
+      header.channels().insert("R", Imf::Channel(Imf::FLOAT));
+      const int w = data.max.x - data.min.x + 1, h = data.max.y - data.min.y + 1;
+      std::vector<float> px(static_cast<size_t>(w) * h);
+      for (size_t i = 0; i < px.size(); ++i) px[i] = float(i + 1);
+      Imf::FrameBuffer fb;
+      fb.insert("R", Imf::Slice(Imf::FLOAT,
+                                reinterpret_cast<char*>(px.data()) -
+                                    (data.min.x + static_cast<long>(data.min.y) * w) * 4,
+                                4, 4 * w));
+      {
+        Imf::OutputFile out(path.c_str(), header);
+        out.setFrameBuffer(fb);
+        out.writePixels(h);
+      }
+      Image ours;
+      EXPECT_EQ(decode_exr_uncompressed(read_text_file(path), path, 6, 4, &ours),
+                comp == Imf::NO_COMPRESSION);
+      const Image r = read_image(path, 6, 4).image;
+      ASSERT_EQ(r.width, 6);
+      ASSERT_EQ(r.height, 4);
+      for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 6; ++x) {
+          const bool in = data.intersects(Imath::V2i(x, y));
+          EXPECT_EQ(r.at(x, y, 0),
+                    in ? px[(y - data.min.y) * static_cast<size_t>(w) + x - data.min.x] : 0.f)
+              << x << " " << y;
+        }
+      if (comp == Imf::NO_COMPRESSION) {
+        EXPECT_EQ(ours.px, r.px);
+      }
+    }
 }
 
 TEST(ImageIO, Png16RoundTripWithinHalfAStep) {
