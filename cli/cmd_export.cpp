@@ -71,8 +71,9 @@ Command add_export(CLI::App& app) {
                           s.maps.levels, s.stack_max_abs_error);
           if (s.fiber_stack.levels > 0)
             std::snprintf(stack + std::strlen(stack), sizeof stack - std::strlen(stack),
-                          "; F from %d levels, vs the full model max abs %.3g",
-                          s.fiber_stack.levels, s.fiber_stack.max_abs_error);
+                          "; F from %d levels, vs the full model max abs %.3g, RMS %.2g",
+                          s.fiber_stack.levels, s.fiber_stack.max_abs_error,
+                          s.fiber_stack.rms_error);
           std::printf(
               "  maps per fragment (shaders/aniso_maps.*, the browser viewer):%s%s%s%s%s%s%s%s\n",
               s.maps.kd ? " k_d" : "", s.maps.ks ? " k_s" : "", s.maps.fiber ? " fiber" : "",

@@ -537,27 +537,41 @@ double viewer_against_preview(const std::string& root, const std::string& materi
 
 // The three.js viewer in headless Chromium (SwiftShader WebGL) renders the frame `aniso preview`
 // renders with the same options: mean absolute difference at most 2 % of full scale.
+// The fiber model over the sphere's mathematical topology (s_math per fragment from the sample
+// sphere's position) likewise, and at least 3x as far from the same material at one s.
 TEST(Export, BrowserViewerMatchesThePreview) {
-  for (bool fiber : {false, true}) {
-    const std::string root = test::tmp_dir(fiber ? "fiber" : "line");
+  for (const char* kind : {"line", "fiber", "fiber-sphere-topology"}) {
+    const std::string root = test::tmp_dir(kind);
+    const bool fiber = std::string(kind) != "line";
+    const bool sphere = std::string(kind) == "fiber-sphere-topology";
     Material m = brushed();
     if (fiber) {
       m.model = Model::kFiber;
       m.topology = UniformS{0.3};
     }
-    write_json_file(root + "/m.json", [&] {
+    auto write = [&](const Material& x, const std::string& path) {
       nlohmann::json j;
-      material_to_json(m, &j);
-      return j;
-    }());
+      material_to_json(x, &j);
+      write_json_file(path, j);
+    };
+    write(m, root + "/one_s.json");
+    if (sphere) m.topology = MathematicalS{MathTopology::kSphere};
+    write(m, root + "/m.json");
     double lit = 0;
     const double mad = viewer_against_preview(root, root + "/m.json", root + "/m.json", &lit);
     std::printf(
-        "%s model: browser viewer vs aniso preview, 200x160: mean abs difference %.4f of "
-        "full scale (mean value %.3f)\n",
-        fiber ? "fiber" : "line", mad, lit);
+        "%s: browser viewer vs aniso preview, 200x160: mean abs difference %.4f of full scale "
+        "(mean value %.3f)\n",
+        kind, mad, lit);
     EXPECT_LE(mad, 0.02);
     EXPECT_GT(lit, 0.1);
+    if (sphere) {
+      double lit_one_s = 0;
+      const double mad_one_s =
+          viewer_against_preview(root, root + "/m.json", root + "/one_s.json", &lit_one_s);
+      std::printf("%s: vs the preview at one s %.4f\n", kind, mad_one_s);
+      EXPECT_GE(mad_one_s, 3 * mad);
+    }
   }
 }
 

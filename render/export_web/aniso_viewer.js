@@ -102,9 +102,9 @@ async function loadSphere(psiDeg) {
 
 const VERTEX = `
 in vec3 fiber;
-out vec3 vN; out vec3 vT; out vec2 vUV;
+out vec3 vN; out vec3 vT; out vec2 vUV; out vec3 vP;
 void main() {
-  vN = normal; vT = fiber; vUV = uv;
+  vN = normal; vT = fiber; vUV = uv; vP = position;
   gl_Position = projectionMatrix * modelViewMatrix * vec4(position, 1.0);
 }`;
 
@@ -112,15 +112,24 @@ void main() {
 // fiber model shaders/aniso_fiber.glsl, for a material with maps shaders/aniso_maps.glsl) summed
 // over the light and the fill light, sRGB-encoded.
 const FRAGMENT_MAIN = `
-uniform vec3 kd; uniform vec3 ks; uniform float topologyS;
+uniform vec3 kd; uniform vec3 ks; uniform float topologyS; uniform int sphereTopology;
 uniform vec3 L0; uniform float E0; uniform vec3 L1; uniform float E1; uniform vec3 V;
-in vec3 vN; in vec3 vT; in vec2 vUV;
+in vec3 vN; in vec3 vT; in vec2 vUV; in vec3 vP;
 out vec4 fragColor;
+// The sphere's mathematical topology (MODELS.md §4, geometry/topology.cpp): meridian fibers
+// compressed by 1 / sin(polar angle), the in-cycle rule c' = c / 2^floor(log2 c), s = acos(1/c')
+// / 60 deg; the sample sphere is centred at the origin, its poles on z.
+float sphereSmath(vec3 P) {
+  float c = 1.0 / max(length(P.xy) / max(length(P), 1e-12), 1e-6);
+  float cp = c / exp2(floor(log2(c)));
+  return acos(1.0 / cp) / (3.14159265358979 / 3.0);
+}
 vec3 radiance(vec3 N, vec3 T, vec3 L, float E) {
+  float s = sphereTopology == 1 ? sphereSmath(vP) : topologyS;  // with a topology map: s_math
 #if defined(ANISO_NPHI) && defined(ANISO_VIEWER_MAPS)
-  return anisoFiberRadianceMapped(N, T, vUV, L, V, topologyS, kd, ks, vec3(E));
+  return anisoFiberRadianceMapped(N, T, vUV, L, V, s, kd, ks, vec3(E));
 #elif defined(ANISO_NPHI)
-  return anisoFiberRadiance(N, T, L, V, topologyS, kd, ks, vec3(E));
+  return anisoFiberRadiance(N, T, L, V, s, kd, ks, vec3(E));
 #elif defined(ANISO_VIEWER_MAPS)
   return anisoRadianceMapped(N, T, vUV, L, V, kd, ks, vec3(E));
 #else
@@ -159,14 +168,18 @@ export async function start(q) {
   const info = await (await fetch('../export.json')).json();
   const m = info.material;
   const fiber = info.model === 'fiber';
-  // The fiber model's topology: one s, a map of s, or a topology map over a flat sample (s_math
-  // 0); the viewer's sphere has no mathematical topology of a torus or a sphere's meridians.
+  // The fiber model's topology: one s, a map of s, a topology map, the sphere's mathematical
+  // topology (alone or under a topology map: s_math per fragment, else 0, a flat sample's); the
+  // viewer has the sample sphere only, so not a torus's.
   const topo = m.topology || {};
-  if (fiber && typeof topo.s !== 'number' && !topo.s_map &&
-      !(topo.map && (topo.mathematical || 'none') === 'none'))
-    throw new Error('the browser viewer draws fiber materials with one topology s, a map of s or ' +
-                    'a topology map over a flat sample (this one has a mathematical topology: ' +
-                    'use aniso view)');
+  const math = topo.mathematical || 'none';
+  if (fiber && typeof topo.s !== 'number' && !topo.s_map && !topo.map && math !== 'sphere')
+    throw new Error('the browser viewer draws fiber materials with one topology s, a map of s, a ' +
+                    'topology map or the sphere\'s mathematical topology (this one has a ' +
+                    math + '\'s: use aniso view)');
+  if (fiber && math === 'torus')
+    throw new Error('the browser viewer has the sample sphere, not a torus for this material\'s ' +
+                    'mathematical topology: use aniso view --shape torus');
   const shape = q.get('shape') || 'sphere';
   if (shape !== 'sphere') throw new Error('shape ' + shape + ': the viewer has the sample sphere only');
   const [W, H] = (q.get('size') || `${innerWidth}x${innerHeight}`).split('x').map(Number);
@@ -196,6 +209,7 @@ export async function start(q) {
     anisoDiffuse: { value: tableTexture(D, floatLinear) },
     anisoSpecular: { value: tableTexture(S, floatLinear) },
     topologyS: { value: fiber && typeof topo.s === 'number' ? topo.s : 0 },  // else s_math 0
+    sphereTopology: { value: fiber && math === 'sphere' ? 1 : 0 },
     kd: { value: new THREE.Vector3(...m.kd) }, ks: { value: new THREE.Vector3(...m.ks) },
     L0: { value: new THREE.Vector3() }, E0: { value: 1 },
     L1: { value: new THREE.Vector3() }, E1: { value: fill },
