@@ -39,7 +39,8 @@ void check_declared_size(const std::string& path, long long w, long long h, int 
                 std::to_string(expect_w) + "x" + std::to_string(expect_h));
 }
 
-Image read_exr(const std::string& path, int expect_w, int expect_h);
+Image read_exr(const std::string& path, int expect_w, int expect_h,
+               const std::vector<uint8_t>* rows);
 
 Image read_exr_openexr(const std::string& path, int expect_w, int expect_h) {
   try {
@@ -168,7 +169,7 @@ bool uncompressed_float_header(ByteReader* r, std::vector<RawChannel>* ch, int32
 }  // namespace
 
 bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, int expect_w,
-                             int expect_h, Image* out) {
+                             int expect_h, Image* out, const std::vector<uint8_t>* rows) {
   ByteReader r{bytes};
   std::vector<RawChannel> ch;
   int32_t box[4] = {0, 0, 0, 0}, disp[4] = {0, 0, 0, 0};
@@ -181,6 +182,10 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
                   h = static_cast<long long>(box[3]) - box[1] + 1;
   check_declared_size(path, w, h, 0, 0);
   const bool whole = std::equal(box, box + 4, disp);
+  if (rows && rows->size() != static_cast<size_t>(H)) return false;
+  auto wanted = [&](long long y) {  // a row of the data window the caller asks for
+    return y >= disp[1] && y <= disp[3] && (!rows || (*rows)[y - disp[1]]);
+  };
   // The channels read_exr_openexr picks (R[, G[, B]] or Y), each its place in the file's list.
   auto find = [&](const char* n) {
     for (size_t k = 0; k < ch.size(); ++k)
@@ -211,18 +216,22 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
   img.px.resize(static_cast<size_t>(W) * H * nc);
   // A data window smaller than the display window: zeros around it (the allocation may be
   // reused); one that reaches past it: the part inside.
-  if (!whole) std::fill(img.px.begin(), img.px.end(), 0.f);
+  if (!whole || rows) std::fill(img.px.begin(), img.px.end(), 0.f);
   const long long xa = std::max<long long>(box[0], disp[0]), xb = std::min<long long>(box[2], disp[2]);
   std::vector<uint8_t> seen(static_cast<size_t>(h), 0);
   for (long long k = 0; k < h; ++k) {
     uint64_t offset = 0;
     int32_t y = 0, size = 0;
     if (!r.get(&offset) || offset > bytes.size()) return false;
+    // The offset table lists the blocks by increasing y, whatever order they are stored in: a
+    // row not asked for is not looked at (its block may not have been read).
+    if (rows && !wanted(box[1] + k)) continue;
     ByteReader block{bytes, static_cast<size_t>(offset)};
     if (!block.get(&y) || !block.get(&size) || static_cast<size_t>(size) != line ||
-        bytes.size() - block.at < line || y < box[1] || y > box[3] || seen[y - box[1]]++)
+        bytes.size() - block.at < line || y < box[1] || y > box[3] || seen[y - box[1]]++ ||
+        (rows && y != box[1] + k))
       return false;
-    if (y < disp[1] || y > disp[3]) continue;
+    if (!wanted(y)) continue;
     const char* src = bytes.data() + block.at;
     float* dst = img.px.data() + static_cast<size_t>(y - disp[1]) * W * nc;
     for (size_t c = 0; c < nc; ++c)
@@ -279,7 +288,45 @@ namespace {
 // Uncompressed float EXRs (what synth writes by default) at memory speed; everything else, and
 // anything our reader does not follow, through OpenEXR. The header is looked at first, so a
 // compressed file is read once (by OpenEXR), not twice.
-Image read_exr(const std::string& path, int expect_w, int expect_h) {
+// Of an uncompressed EXR whose header and offset table are in `head`: the header and table, and
+// the blocks of the rows `rows` asks for (the offset table's entry k is row box[1] + k), read
+// into *bytes at their places in the file (runs of adjacent blocks in one read); the rest of
+// *bytes holds whatever it held. False where the table is not in `head` or the file cannot be
+// read as it says.
+bool read_exr_rows(const std::string& path, const std::string& head, size_t table_at,
+                   const int32_t box[4], const int32_t disp[4], size_t line,
+                   const std::vector<uint8_t>& rows, size_t file_size, std::string* bytes) {
+  const long long h = static_cast<long long>(box[3]) - box[1] + 1;
+  if (h < 1 || table_at + 8 * static_cast<size_t>(h) > head.size()) return false;
+  std::vector<std::pair<uint64_t, uint64_t>> runs;  // [from, to) in the file
+  for (long long k = 0; k < h; ++k) {
+    const long long y = box[1] + k;
+    if (y < disp[1] || y > disp[3] || !rows[y - disp[1]]) continue;
+    uint64_t at = 0;
+    std::memcpy(&at, head.data() + table_at + 8 * k, 8);
+    const uint64_t end = at + 8 + line;
+    if (at > file_size || end > file_size) return false;
+    if (!runs.empty() && runs.back().second == at)
+      runs.back().second = end;
+    else
+      runs.push_back({at, end});
+  }
+  bytes->resize(file_size);
+  std::memcpy(bytes->data(), head.data(), std::min(head.size(), file_size));
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return false;
+  bool ok = true;
+  for (const auto& [from, to] : runs) {
+    if (from < head.size() && to <= head.size()) continue;  // already there
+    ok = ok && std::fseek(f, static_cast<long>(from), SEEK_SET) == 0 &&
+         std::fread(bytes->data() + from, 1, to - from, f) == to - from;
+  }
+  std::fclose(f);
+  return ok;
+}
+
+Image read_exr(const std::string& path, int expect_w, int expect_h,
+               const std::vector<uint8_t>* rows) {
   constexpr size_t kHeaderBytes = 64 << 10, kMaxDirect = size_t(1) << 30;
   std::error_code ec;
   const auto size = std::filesystem::file_size(path, ec);
@@ -295,6 +342,12 @@ Image read_exr(const std::string& path, int expect_w, int expect_h) {
     if (reuse) {
       std::lock_guard<std::mutex> lock(reuse->mu);
       if (!reuse->spare.empty()) img.px = std::move(reuse->spare.back()), reuse->spare.pop_back();
+    }
+    const size_t line = static_cast<size_t>(box[2] - box[0] + 1) * ch.size() * sizeof(float);
+    const long long H = static_cast<long long>(disp[3]) - disp[1] + 1;
+    if (rows && static_cast<long long>(rows->size()) == H && box[2] >= box[0] &&
+        read_exr_rows(path, head, r.at, box, disp, line, *rows, size, &bytes)) {
+      if (decode_exr_uncompressed(bytes, path, expect_w, expect_h, &img, rows)) return img;
     }
     read_file_into(path, kMaxDirect, &bytes);
     if (decode_exr_uncompressed(bytes, path, expect_w, expect_h, &img)) return img;
@@ -401,7 +454,8 @@ void set_exr_compression(const std::string& name) {
     throw Error("EXR compression must be zip, piz or none (got '" + name + "')");
 }
 
-LoadedImage read_image(const std::string& path, int expect_w, int expect_h) {
+LoadedImage read_image(const std::string& path, int expect_w, int expect_h,
+                       const std::vector<uint8_t>* rows) {
   std::error_code ec;
   const auto st = std::filesystem::status(path, ec);
   if (!std::filesystem::exists(st)) throw Error(path + ": file not found");
@@ -409,7 +463,7 @@ LoadedImage read_image(const std::string& path, int expect_w, int expect_h) {
     throw Error(path + ": not a regular file (a folder, device or FIFO is not read)");
   LoadedImage out;
   if (lower_ext(path) == ".exr") {
-    out.image = read_exr(path, expect_w, expect_h);
+    out.image = read_exr(path, expect_w, expect_h, rows);
     return out;
   }
   const SizeCheck check = [&](long long w, long long h) {

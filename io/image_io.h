@@ -24,8 +24,11 @@ inline constexpr long long kMaxImageSide = 65536;
 inline constexpr long long kMaxImagePixels = 1LL << 26;  // 8192 x 8192
 
 // Reads an image; with expect_w > 0 its declared size must be expect_w x expect_h (checked
-// before decoding).
-LoadedImage read_image(const std::string& path, int expect_w = 0, int expect_h = 0);
+// before decoding). With `rows` (one entry per row of the image), an uncompressed float EXR has
+// only the rows whose entry is non-zero read from its file and decoded, the others 0 (a capture's
+// rows without a sample pixel); every other file is read whole.
+LoadedImage read_image(const std::string& path, int expect_w = 0, int expect_h = 0,
+                       const std::vector<uint8_t>* rows = nullptr);
 
 // EXR compression for everything written after the call: "zip" (default, zlib level 1), "piz",
 // "none". Throws on another name.
@@ -41,8 +44,11 @@ void encode_exr_uncompressed(const Image& img, const ByteSink& sink);
 // for anything else (compressed, half, tiled, several parts, a malformed offset or block), which
 // read_image hands to OpenEXR (*out may then have lost its allocation). Throws only on a declared
 // size outside the limits or not the expected one.
+// With `rows` (one per row of the display window), only the rows whose entry is non-zero are
+// decoded, and only their blocks are read from `bytes` (the others 0).
 bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, int expect_w,
-                             int expect_h, Image* out);
+                             int expect_h, Image* out,
+                             const std::vector<uint8_t>* rows = nullptr);
 
 // While one is alive, uncompressed EXRs are read through one buffer per thread, reused file after
 // file, and decoded into the allocations of images given back. A 2048^2 RGB view is 48 MB, above

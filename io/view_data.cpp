@@ -1,6 +1,7 @@
 // Reading one view of a capture set into per-pixel linear values and geometry (FORMAT.md):
 // the image decoded by the set's colour statement, the geometry from buffers or a traced mesh,
 // and every masked pixel sorted into usable, saturated or not finite.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -31,9 +32,21 @@ double decode_code(double v, const ColorSpec& c) {
 
 namespace {
 
+// 1 for each row of a w x h mask that holds a sample pixel (every row where the mask is not w x h).
+std::vector<uint8_t> mask_rows(const std::vector<uint8_t>& mask, int w, int h) {
+  std::vector<uint8_t> rows(static_cast<size_t>(h), 1);
+  if (mask.size() != static_cast<size_t>(w) * h) return rows;
+  for (int y = 0; y < h; ++y) {
+    const uint8_t* m = mask.data() + static_cast<size_t>(y) * w;
+    rows[y] = std::any_of(m, m + w, [](uint8_t b) { return b != 0; });
+  }
+  return rows;
+}
+
+// `rows`: only those rows are read (where the file allows; the others 0).
 Image need_buffer(const std::string& path, int channels, const Intrinsics& k,
-                  const std::string& what) {
-  Image b = read_image(path, k.width, k.height).image;
+                  const std::string& what, const std::vector<uint8_t>* rows = nullptr) {
+  Image b = read_image(path, k.width, k.height, rows).image;
   if (b.width != k.width || b.height != k.height)
     throw Error(path + ": " + what + " buffer is " + std::to_string(b.width) + "x" +
                 std::to_string(b.height) + ", camera is " + std::to_string(k.width) + "x" +
@@ -67,12 +80,13 @@ double TopologyMap::sample(double u, double v) const {
 namespace {
 
 // The view's image, checked against the camera and the set's colour statement.
-LoadedImage read_view_image(const CaptureSet& s, const ViewSpec& v, const std::string& ctx) {
+LoadedImage read_view_image(const CaptureSet& s, const ViewSpec& v, const std::string& ctx,
+                            const std::vector<uint8_t>* rows) {
   const Intrinsics& k = v.camera;
   const std::string img_path = join_path(s.dir, v.image);
   LoadedImage li;
   try {
-    li = read_image(img_path, k.width, k.height);
+    li = read_image(img_path, k.width, k.height, rows);
   } catch (const Error& e) {
     throw Error(ctx + ".image: " + e.what());
   }
@@ -113,15 +127,18 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
   const GeometrySpec& g = v.geometry;
   ViewGeometry d;
   d.mask.assign(static_cast<size_t>(k.width) * k.height, 1);
-  d.P = need_buffer(join_path(s.dir, g.position), 3, k, "position");
-  d.N = need_buffer(join_path(s.dir, g.normal), 3, k, "normal");
-  d.U = need_buffer(join_path(s.dir, g.tangent), 3, k, "tangent");
+  // The mask first: the buffers' rows without a sample pixel are not read (nothing reads a pixel
+  // off the mask; they hold 0).
   if (!g.mask.empty()) {
     const Image m = need_buffer(join_path(s.dir, g.mask), 1, k, "mask");
     for (size_t p = 0; p < d.mask.size(); ++p) d.mask[p] = m.px[p * m.channels] != 0.f;
   }
+  const std::vector<uint8_t> rows = mask_rows(d.mask, k.width, k.height);
+  d.P = need_buffer(join_path(s.dir, g.position), 3, k, "position", &rows);
+  d.N = need_buffer(join_path(s.dir, g.normal), 3, k, "normal", &rows);
+  d.U = need_buffer(join_path(s.dir, g.tangent), 3, k, "tangent", &rows);
   if (!g.topology.empty()) {
-    const Image t = need_buffer(join_path(s.dir, g.topology), 1, k, "topology");
+    const Image t = need_buffer(join_path(s.dir, g.topology), 1, k, "topology", &rows);
     d.smath = Image(k.width, k.height, 1, 0.f);
     for (size_t p = 0; p < d.mask.size(); ++p) {
       const float val = t.px[p * t.channels];
@@ -132,7 +149,7 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
     }
   }
   if (!g.uv.empty()) {
-    Image uv = need_buffer(join_path(s.dir, g.uv), 2, k, "uv");
+    Image uv = need_buffer(join_path(s.dir, g.uv), 2, k, "uv", &rows);
     if (uv.channels == 2) {
       d.uv = std::move(uv);
     } else {
@@ -252,8 +269,6 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
   const std::string ctx = s.file + ": views[" + std::to_string(i) + "]";
   ViewData d;
   d.eye = v.world_from_camera.translation();
-  LoadedImage li = read_view_image(s, v, ctx);
-  d.channels = li.image.channels;
   const GeometrySpec& g = v.geometry;
   if (!g.mesh.empty()) {
     auto geo = std::make_shared<ViewGeometry>();
@@ -279,6 +294,11 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
                             std::to_string(k.height);
     d.geo = cache ? cache->get(key, load) : std::make_shared<const ViewGeometry>(load());
   }
+  // Only the image's rows that hold a sample pixel: every other pixel reads 0 (classify_pixels),
+  // and a tilted plate's rows are half of a 2048^2 frame's.
+  const std::vector<uint8_t> rows = mask_rows(d.geo->mask, k.width, k.height);
+  LoadedImage li = read_view_image(s, v, ctx, &rows);
+  d.channels = li.image.channels;
   classify_pixels(s, std::move(li), &d);
   return d;
 }
