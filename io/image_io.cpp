@@ -216,7 +216,14 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
   img.px.resize(static_cast<size_t>(W) * H * nc);
   // A data window smaller than the display window: zeros around it (the allocation may be
   // reused); one that reaches past it: the part inside.
-  if (!whole || rows) std::fill(img.px.begin(), img.px.end(), 0.f);
+  if (!whole) {
+    std::fill(img.px.begin(), img.px.end(), 0.f);
+  } else if (rows) {  // the rows not asked for
+    for (long long y = 0; y < H; ++y)
+      if (!(*rows)[y])
+        std::fill_n(img.px.begin() + static_cast<size_t>(y) * W * nc, static_cast<size_t>(W) * nc,
+                    0.f);
+  }
   const long long xa = std::max<long long>(box[0], disp[0]), xb = std::min<long long>(box[2], disp[2]);
   std::vector<uint8_t> seen(static_cast<size_t>(h), 0);
   for (long long k = 0; k < h; ++k) {

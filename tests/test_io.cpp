@@ -246,6 +246,11 @@ TEST(ImageIO, OnlyTheRowsAskedForAreRead) {
   set_exr_compression("none");
   write_exr(dir + "/ours.exr", a);
   expect_rows(a, read_image(dir + "/ours.exr", 23, 17, &rows).image, "ours");
+  {  // into an allocation given back holding the whole image: the rows not asked for are 0 again
+    ExrReadBuffers buffers;
+    buffers.give_back(read_image(dir + "/ours.exr").image);
+    expect_rows(a, read_image(dir + "/ours.exr", 23, 17, &rows).image, "reused");
+  }
   // Row 8's block damaged (its y field): not asked for, not read; asked for, the file is read
   // whole and refused as before (OpenEXR names it).
   std::string bytes = read_text_file(dir + "/ours.exr");
