@@ -78,8 +78,8 @@ Command add_export(CLI::App& app) {
               "  maps per fragment (shaders/aniso_maps.*, the browser viewer):%s%s%s%s%s%s%s%s\n",
               s.maps.kd ? " k_d" : "", s.maps.ks ? " k_s" : "", s.maps.fiber ? " fiber" : "",
               s.maps.n ? " n" : "", s.maps.s_map ? " s" : "",
-              s.maps.topology_map ? " topology-map" : "",
-              s.maps.amplitude ? " amplitude" : "", stack);
+              s.maps.topology_map ? " topology-map" : "", s.maps.amplitude ? " amplitude" : "",
+              stack);
         }
         for (const std::string& w : s.warnings)
           std::fprintf(stderr, "export: WARNING: %s\n", w.c_str());

@@ -79,6 +79,7 @@ struct ViewGeometry {
   Image uv;       // 2 channels, when the set has a uv buffer (empty otherwise)
   std::vector<uint8_t> mask;
   std::vector<uint8_t> finite;  // 1 where P, N, U (and uv, where there is one) are all finite
+  std::vector<uint8_t> rows;    // 1 for each row that holds a mask pixel: the rows read of a view
   float smath_at(size_t p) const { return smath.empty() ? 0.f : smath.px[p]; }
   float mapv_at(size_t p) const { return mapv.empty() ? 0.f : mapv.px[p]; }
 };

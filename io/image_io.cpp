@@ -115,8 +115,8 @@ struct RawChannel {
 
 // The header of a single-part scanline EXR: its channels, compression and data window; false on
 // anything else (tiles, deep data, several parts, a malformed attribute).
-bool parse_exr_header(ByteReader* r, std::vector<RawChannel>* ch, int* compression,
-                      int32_t box[4], int32_t display[4]) {
+bool parse_exr_header(ByteReader* r, std::vector<RawChannel>* ch, int* compression, int32_t box[4],
+                      int32_t display[4]) {
   int32_t magic = 0, version = 0;
   if (!r->get(&magic) || magic != 20000630 || !r->get(&version)) return false;
   if ((version & 0xff) != 2 || (version & (0x200 | 0x800 | 0x1000))) return false;
@@ -224,7 +224,8 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
         std::fill_n(img.px.begin() + static_cast<size_t>(y) * W * nc, static_cast<size_t>(W) * nc,
                     0.f);
   }
-  const long long xa = std::max<long long>(box[0], disp[0]), xb = std::min<long long>(box[2], disp[2]);
+  const long long xa = std::max<long long>(box[0], disp[0]),
+                  xb = std::min<long long>(box[2], disp[2]);
   std::vector<uint8_t> seen(static_cast<size_t>(h), 0);
   for (long long k = 0; k < h; ++k) {
     uint64_t offset = 0;

@@ -47,8 +47,7 @@ void encode_exr_uncompressed(const Image& img, const ByteSink& sink);
 // With `rows` (one per row of the display window), only the rows whose entry is non-zero are
 // decoded, and only their blocks are read from `bytes` (the others 0).
 bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, int expect_w,
-                             int expect_h, Image* out,
-                             const std::vector<uint8_t>* rows = nullptr);
+                             int expect_h, Image* out, const std::vector<uint8_t>* rows = nullptr);
 
 // While one is alive, uncompressed EXRs are read through one buffer per thread, reused file after
 // file, and decoded into the allocations of images given back. A 2048^2 RGB view is 48 MB, above

@@ -133,12 +133,12 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
     const Image m = need_buffer(join_path(s.dir, g.mask), 1, k, "mask");
     for (size_t p = 0; p < d.mask.size(); ++p) d.mask[p] = m.px[p * m.channels] != 0.f;
   }
-  const std::vector<uint8_t> rows = mask_rows(d.mask, k.width, k.height);
-  d.P = need_buffer(join_path(s.dir, g.position), 3, k, "position", &rows);
-  d.N = need_buffer(join_path(s.dir, g.normal), 3, k, "normal", &rows);
-  d.U = need_buffer(join_path(s.dir, g.tangent), 3, k, "tangent", &rows);
+  d.rows = mask_rows(d.mask, k.width, k.height);
+  d.P = need_buffer(join_path(s.dir, g.position), 3, k, "position", &d.rows);
+  d.N = need_buffer(join_path(s.dir, g.normal), 3, k, "normal", &d.rows);
+  d.U = need_buffer(join_path(s.dir, g.tangent), 3, k, "tangent", &d.rows);
   if (!g.topology.empty()) {
-    const Image t = need_buffer(join_path(s.dir, g.topology), 1, k, "topology", &rows);
+    const Image t = need_buffer(join_path(s.dir, g.topology), 1, k, "topology", &d.rows);
     d.smath = Image(k.width, k.height, 1, 0.f);
     for (size_t p = 0; p < d.mask.size(); ++p) {
       const float val = t.px[p * t.channels];
@@ -149,7 +149,7 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
     }
   }
   if (!g.uv.empty()) {
-    Image uv = need_buffer(join_path(s.dir, g.uv), 2, k, "uv", &rows);
+    Image uv = need_buffer(join_path(s.dir, g.uv), 2, k, "uv", &d.rows);
     if (uv.channels == 2) {
       d.uv = std::move(uv);
     } else {
@@ -280,6 +280,7 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
       throw Error(ctx + ".geometry.mesh: " + e.what());
     }
     mark_finite(geo.get());
+    geo->rows = mask_rows(geo->mask, k.width, k.height);
     d.geo = std::move(geo);
   } else {
     auto load = [&] {
@@ -295,9 +296,9 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
     d.geo = cache ? cache->get(key, load) : std::make_shared<const ViewGeometry>(load());
   }
   // Only the image's rows that hold a sample pixel: every other pixel reads 0 (classify_pixels),
-  // and a tilted plate's rows are half of a 2048^2 frame's.
-  const std::vector<uint8_t> rows = mask_rows(d.geo->mask, k.width, k.height);
-  LoadedImage li = read_view_image(s, v, ctx, &rows);
+  // and a tilted plate's rows are half of a 2048^2 frame's. Found once per geometry, which a
+  // fixed camera's views share.
+  LoadedImage li = read_view_image(s, v, ctx, &d.geo->rows);
   d.channels = li.image.channels;
   classify_pixels(s, std::move(li), &d);
   return d;

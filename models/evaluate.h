@@ -28,6 +28,16 @@ inline LineParamsT<double> line_params(const Material& m) {
   return p;
 }
 
+// The line part of a fiber material in the fiber's own frame: psi 0, and no second fiber or
+// isotropic term (the fiber model has neither), as its baked tables hold it.
+inline LineParamsT<double> fiber_frame_params(const Material& m) {
+  LineParamsT<double> p = line_params(m);
+  p.psi = 0;
+  p.second = false;
+  p.isotropic = false;
+  return p;
+}
+
 class Evaluator {
  public:
   explicit Evaluator(const Material& m, FiberAccuracy acc = {})

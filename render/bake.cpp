@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/random_dir.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
@@ -235,19 +236,10 @@ FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, 
   }();
   constexpr int kSamples = 20000;
   for (int it = 0; it < kSamples; ++it) {
-    auto unit = [&]() {
-      const double x = g(rng), y = g(rng), z = std::abs(g(rng)),
-                   l = std::sqrt(x * x + y * y + z * z);
-      return LocalDir{x / l, y / l, z / l};
-    };
-    const LocalDir L = unit(), V = unit();
+    const LocalDir L = random_upper_dir(rng, g), V = random_upper_dir(rng, g);
     const double s = u(rng);
     double ref[3], baked[3];
-    LineParamsT<double> p = line_params(m);
-    p.psi = 0;
-    p.second = false;
-    p.isotropic = false;
-    fiber_reflectance(p, s, L, V, FiberAccuracy{}, ref);
+    fiber_reflectance(fiber_frame_params(m), s, L, V, FiberAccuracy{}, ref);
     fiber_baked_eval(line_only, line, fb, L, V, s, baked);
     for (int c = 0; c < 3; ++c) {
       const double e = std::abs(baked[c] - ref[c]);
@@ -264,19 +256,25 @@ FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, 
   return fb;
 }
 
+bool fiber_coords(const LocalDir& L, const LocalDir& V, FiberCoords* c) {
+  if (!(L.n > 0) || !(V.n > 0)) return false;
+  c->a = L.u, c->b = V.u;
+  const double sL = std::hypot(L.w, L.n), sV = std::hypot(V.w, V.n);
+  c->phi_l = std::atan2(L.w, L.n), c->phi_v = std::atan2(V.w, V.n);
+  const double g0 = sL * sV - c->a * c->b;
+  c->kappa = g0 > 0 ? 2 * sL * sV / g0 : std::numeric_limits<double>::infinity();
+  return true;
+}
+
 void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBakeTables& fb,
                       const LocalDir& L, const LocalDir& V, double s, double out[3]) {
   out[0] = out[1] = out[2] = 0;
-  if (!(L.n > 0) || !(V.n > 0)) return;
-  const double a = L.u, b = V.u;
-  const double sL = std::hypot(L.w, L.n), sV = std::hypot(V.w, V.n);
-  const double phi_l = std::atan2(L.w, L.n), phi_v = std::atan2(V.w, V.n);
-  const double g0 = sL * sV - a * b;
-  const double kappa = g0 > 0 ? 2 * sL * sV / g0 : std::numeric_limits<double>::infinity();
+  FiberCoords fc;
+  if (!fiber_coords(L, V, &fc)) return;
   double G, F;
-  fiber_factors(fb, fb.F.data(), phi_l, phi_v, s, kappa, &G, &F);
-  const double Dl = lookup_bilinear(line.diffuse, a, b, 0, line.index);
-  const double Sl = lookup_bilinear(line.specular, a, b, 0, line.index);
+  fiber_factors(fb, fb.F.data(), fc.phi_l, fc.phi_v, s, fc.kappa, &G, &F);
+  const double Dl = lookup_bilinear(line.diffuse, fc.a, fc.b, 0, line.index);
+  const double Sl = lookup_bilinear(line.specular, fc.a, fc.b, 0, line.index);
   for (int c = 0; c < 3; ++c) out[c] = m.kd[c] * Dl * G + m.ks[c] * Sl * F;
 }
 

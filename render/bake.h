@@ -86,6 +86,13 @@ void fiber_baked_eval(const Material& m, const BakeTables& line, const FiberBake
 
 // F's tables at one n, in FiberBakeTables::F's layout (nphi * nphi * ns * nk floats at F).
 void bake_fiber_F(double n, int nphi, int ns, int nk, float* F);
+// Where L and V (fiber frame) fall in the tables: the line tables' a = <L,T>, b = <V,T>, the
+// in-plane angles and kappa (as the shaders' anisoFiberAt); false where either is below the
+// surface.
+struct FiberCoords {
+  double a = 0, b = 0, phi_l = 0, phi_v = 0, kappa = 0;
+};
+bool fiber_coords(const LocalDir& L, const LocalDir& V, FiberCoords* c);
 // G and F at the in-plane angles, topology s and kappa, multi-linear in the tables: G from fb,
 // F from `Ftab` in fb.F's layout (fb.F itself, or a level of a FiberStack).
 void fiber_factors(const FiberBakeTables& fb, const float* Ftab, double phi_l, double phi_v,

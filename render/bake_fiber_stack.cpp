@@ -2,11 +2,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <random>
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/random_dir.h"
 #include "models/evaluate.h"
 #include "models/fiber_model.h"
 #include "render/bake.h"
@@ -53,18 +53,10 @@ FiberStack bake_fiber_stack(const Material& m, const FiberBakeTables& fb, const 
   double sum2 = 0;
   constexpr int kSamples = 20000;
   for (int it = 0; it < kSamples; ++it) {
-    auto unit = [&]() {
-      const double x = g(rng), y = g(rng), z = std::abs(g(rng)),
-                   l = std::sqrt(x * x + y * y + z * z);
-      return LocalDir{x / l, y / l, z / l};
-    };
-    const LocalDir L = unit(), V = unit();
+    const LocalDir L = random_upper_dir(rng, g), V = random_upper_dir(rng, g);
     const double s = u(rng), n = std::exp(fs.logn0 + u(rng) * (fs.logn1 - fs.logn0));
-    LineParamsT<double> p = line_params(m);
+    LineParamsT<double> p = fiber_frame_params(m);
     p.n = n;
-    p.psi = 0;
-    p.second = false;
-    p.isotropic = false;
     double ref[3], baked[3];
     fiber_reflectance(p, s, L, V, FiberAccuracy{}, ref);
     fiber_stack_eval(m, line, st, fb, fs, L, V, s, n, baked);
@@ -84,21 +76,17 @@ void fiber_stack_eval(const Material& m, const BakeTables& line, const SpecularS
                       const FiberBakeTables& fb, const FiberStack& fs, const LocalDir& L,
                       const LocalDir& V, double s, double n, double out[3]) {
   out[0] = out[1] = out[2] = 0;
-  if (!(L.n > 0) || !(V.n > 0)) return;
-  const double a = L.u, b = V.u;
-  const double sL = std::hypot(L.w, L.n), sV = std::hypot(V.w, V.n);
-  const double phi_l = std::atan2(L.w, L.n), phi_v = std::atan2(V.w, V.n);
-  const double g0 = sL * sV - a * b;
-  const double kappa = g0 > 0 ? 2 * sL * sV / g0 : std::numeric_limits<double>::infinity();
+  FiberCoords fc;
+  if (!fiber_coords(L, V, &fc)) return;
   int k0;
   double w;
   level_of(n, fs.logn0, fs.log_step(), fs.levels, &k0, &w);
   double G, F0, F1 = 0;
-  fiber_factors(fb, fs.level(k0), phi_l, phi_v, s, kappa, &G, &F0);
-  if (fs.levels > 1) fiber_factors(fb, fs.level(k0 + 1), phi_l, phi_v, s, kappa, &G, &F1);
+  fiber_factors(fb, fs.level(k0), fc.phi_l, fc.phi_v, s, fc.kappa, &G, &F0);
+  if (fs.levels > 1) fiber_factors(fb, fs.level(k0 + 1), fc.phi_l, fc.phi_v, s, fc.kappa, &G, &F1);
   const double F = F0 + w * (F1 - F0);
-  const double Dl = lookup_bilinear(line.diffuse, a, b, 0, line.index);
-  const double Sl = stack_lookup(st, a, b, n);
+  const double Dl = lookup_bilinear(line.diffuse, fc.a, fc.b, 0, line.index);
+  const double Sl = stack_lookup(st, fc.a, fc.b, n);
   for (int c = 0; c < 3; ++c) out[c] = m.kd[c] * Dl * G + m.ks[c] * Sl * F;
 }
 

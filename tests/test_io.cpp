@@ -158,8 +158,8 @@ TEST(ImageIO, UncompressedExrDecodesAsOpenExrReadsIt) {
     ASSERT_TRUE(decode_exr_uncompressed(read_text_file(path), path, 0, 0, &ours));
     EXPECT_EQ(ours.width, 29);
     EXPECT_EQ(ours.height, 21);
-    EXPECT_EQ(ours.at(4, 7, 0), 0.f);   // left of the data window
-    EXPECT_EQ(ours.at(5, 7, 0), 3.f);   // its first value, cos 0 * 3
+    EXPECT_EQ(ours.at(4, 7, 0), 0.f);  // left of the data window
+    EXPECT_EQ(ours.at(5, 7, 0), 3.f);  // its first value, cos 0 * 3
     EXPECT_EQ(ours.channels, 3);
     EXPECT_EQ(ours.px, openexr_pixels(path, {"R", "G", "B"}));
     EXPECT_EQ(read_image(path).image.px, ours.px);

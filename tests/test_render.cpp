@@ -9,6 +9,7 @@
 
 #include "core/color.h"
 #include "core/error.h"
+#include "core/random_dir.h"
 #include "datasets_synth/presets.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -588,12 +589,7 @@ double stack_against_single_n(const Material& m, const BakeTables& line, const S
     Material line_only = one;
     line_only.model = Model::kLine;
     for (int it = 0; it < 4000; ++it) {
-      auto unit = [&]() {
-        const double x = g(rng), y = g(rng), z = std::abs(g(rng)),
-                     l = std::sqrt(x * x + y * y + z * z);
-        return LocalDir{x / l, y / l, z / l};
-      };
-      const LocalDir L = unit(), V = unit();
+      const LocalDir L = random_upper_dir(rng, g), V = random_upper_dir(rng, g);
       const double s = u(rng);
       double a[3], b[3];
       fiber_stack_eval(line_only, line, st, fb, fs, L, V, s, one.n, a);
