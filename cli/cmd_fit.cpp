@@ -41,6 +41,11 @@ void print_report(FILE* o, const FitResult& r) {
   if (!p.global_from.empty())
     std::fprintf(o, "fit: global fit from %s (--global: not fitted here); load %.3f s\n",
                  p.global_from.c_str(), p.seconds_load);
+  if (p.maps_bands > 1)
+    std::fprintf(o,
+                 "fit: --maps in %d bands of texel rows (records ~%.1f MB in all, --maps-memory "
+                 "%g MB at once)\n",
+                 p.maps_bands, p.maps_record_bytes / 1e6, r.report.maps_memory_mb);
   else
     std::fprintf(
         o,
@@ -293,6 +298,12 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
                   "counted, warned about and marked undetermined (the global values kept)")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
+  fit->add_option("--maps-memory", fo.maps_memory_mb,
+                  "--maps with --global: the records (60 bytes a pixel and light) held at once, "
+                  "in MB; the texel rows are fitted in as many bands as that takes, each band "
+                  "reading only its rows of the views (the same maps as one band, bit for bit)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.001, 1e9));
   fit->add_option("--global", a->global,
                   "--maps: take the global fit (every texel's start, and the values of texels the "
                   "data do not determine) from this material, an earlier `aniso fit` of the same "

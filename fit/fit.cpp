@@ -15,6 +15,7 @@
 #include "core/timer.h"
 #include "fit/map_holes.h"
 #include "fit/maps.h"
+#include "fit/maps_bands.h"
 #include "fit/solve.h"
 #include "fit/start.h"
 #include "io/files.h"
@@ -87,8 +88,9 @@ void warn_weak_texels(const TexelMaps& m, FitReport* rep) {
 
 // --maps after the global fit `global` (the fiber model's quadrature order and s with it); the
 // misfit warning and the count of undetermined texels go to the report.
+// With `bands`, os is band 0's observations and the bands are loaded and fitted one by one.
 void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global, int fiber_order,
-                    double s, FitReport* rep, FitResult* res) {
+                    double s, FitReport* rep, FitResult* res, MapsInBands* bands = nullptr) {
   TexelMapOptions to;
   to.w = opt.maps_w, to.h = opt.maps_h, to.rows = tile_rows(opt);
   to.ceres = opt.maps_ceres;
@@ -98,7 +100,8 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
   to.progress = opt.progress;
   to.fiber_order = fiber_order;
   to.s = s;
-  res->maps = fit_texel_maps(os, global, to);
+  res->maps = bands ? bands->fit(global, to, rep) : fit_texel_maps(os, global, to);
+  const double noise = bands ? bands->pixel_noise() : os.pixel_noise;
   // The misfit check judged the one global parameter set; say what the maps leave.
   for (auto& w : rep->warnings)
     if (w.rfind("the model does not describe the data", 0) == 0) {
@@ -106,9 +109,9 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
       std::snprintf(buf, sizeof buf,
                     "one parameter set for the whole sample does not describe the data (residual "
                     "RMS %.3g); with the maps the residual RMS is %.3g (noise of the images %.3g)",
-                    rep->rms, res->maps.rms, os.pixel_noise);
+                    rep->rms, res->maps.rms, noise);
       w = buf;
-      if (res->maps.rms > 2 * os.pixel_noise && os.pixel_noise > 0)
+      if (res->maps.rms > 2 * noise && noise > 0)
         w += ": the maps do not describe the data either (try more texels, or check the set)";
     }
   size_t determined = 0;
@@ -174,8 +177,8 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
 // --global: the global fit read from an earlier run's material; only the maps are fitted here
 // (the fiber model's quadrature order: --fiber-order, else the one that fit chose from the whole
 // set's noise, else 8: it is not chosen again from a tile's share of the data).
-FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& opt,
-                               FitReport rep) {
+FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& opt, FitReport rep,
+                               MapsInBands* bands) {
   std::unique_ptr<ModelFit> m =
       model == Model::kFiber ? make_fiber_fit(opt, os) : make_line_fit(opt);
   check_fit_request(os, opt, *m);
@@ -211,7 +214,7 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
     topo = t->amplitude;
     res.material.topology = TopologyMapRef{os.topology_map, t->amplitude, os.topology_mathematical};
   }
-  add_texel_maps(os, opt, c, rep.fiber_order, topo, &rep, &res);
+  add_texel_maps(os, opt, c, rep.fiber_order, topo, &rep, &res, bands);
   rep.seconds += seconds_since(t0);
   res.report = rep;
   return res;
@@ -229,8 +232,8 @@ void quiet_library_logs() {
   (void)once;
 }
 
-FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& rep,
-                      const RGB& ka) {
+FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& rep, const RGB& ka,
+                      MapsInBands* bands = nullptr) {
   quiet_library_logs();
   if (opt.global) {
     const Model given = opt.global->material.model;
@@ -253,7 +256,7 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
                                                     : ": it was fitted without a topology "
                                                       "map and this capture names one") +
                   ": give the global fit of this capture");
-    return maps_on_given_global(given, os, opt, rep);
+    return maps_on_given_global(given, os, opt, rep, bands);
   }
   if (opt.model != FitModel::kAuto)
     return fit_one_model(opt.model == FitModel::kFiber ? Model::kFiber : Model::kLine, os, opt, rep,
@@ -344,6 +347,17 @@ size_t export_observations(const CaptureSet& set, const FitOptions& opt, const s
 FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
   const auto t0 = Clock::now();
   FitReport rep;
+  if (opt.global && opt.maps_w > 0) {  // the maps alone: band by band of texel rows
+    MapsInBands bands(set, opt);
+    rep.maps_bands = bands.count();
+    rep.maps_record_bytes = bands.record_bytes();
+    rep.maps_memory_mb = opt.maps_memory_mb;
+    const ObsSet& os = bands.load_first(&rep);
+    rep.seconds_load = seconds_since(t0);
+    FitResult r = solve_model(os, opt, rep, {0, 0, 0}, &bands);
+    r.report.seconds = seconds_since(t0);
+    return r;
+  }
   const ObsSet os = capture_observations(set, opt, &rep);
   rep.seconds_load = seconds_since(t0);
   FitResult r = solve_model(os, opt, rep, {0, 0, 0});

@@ -75,6 +75,9 @@ struct FitOptions {
   double maps_smooth = 0;
   int maps_sweeps = 10;
   int maps_iterations = kTexelIterations;  // --maps-iterations: each texel's solver
+  // --maps-memory MB: with --global, the records held at once; the texel rows are fitted in as
+  // many bands as that takes (fit/band_load.h), each reading only its rows of the views.
+  double maps_memory_mb = 512;
   // --global MATERIAL: the global fit (every texel's start, and the values of the texels the data
   // do not determine) taken from an earlier fit instead of fitted here. With --tile, the tile then
   // keeps only the observations whose uv falls in its rows (and its --smooth band): a tile's
@@ -104,9 +107,27 @@ struct TexelMaps {
   size_t fitted = 0;  // texels with a problem solved
   // of those, texels whose solver stopped at --maps-iterations (marked undetermined)
   size_t not_converged = 0;
-  double rms = 0;  // residual RMS over the solved texels' observations
+  double rms = 0;                 // residual RMS over the solved texels' observations
+  double sum_sq = 0, values = 0;  // its sum of squares and count (bands of rows add up)
   double seconds = 0;
 };
+
+// The per-texel arrays of a TexelMaps (per-texel count `k`), as tiles name them.
+struct TexelArray {
+  const char* key;
+  int k;
+  std::vector<double> TexelMaps::*d;
+};
+inline const TexelArray kTexelArrays[] = {{"kd", 3, &TexelMaps::kd},
+                                          {"ks", 3, &TexelMaps::ks},
+                                          {"n", 1, &TexelMaps::n},
+                                          {"psi_deg", 1, &TexelMaps::psi_deg},
+                                          {"kd_sigma", 3, &TexelMaps::kd_sigma},
+                                          {"ks_sigma", 3, &TexelMaps::ks_sigma},
+                                          {"n_sigma", 1, &TexelMaps::n_sigma},
+                                          {"psi_sigma_deg", 1, &TexelMaps::psi_sigma_deg},
+                                          {"s", 1, &TexelMaps::s},  // the fiber model's (or empty)
+                                          {"s_sigma", 1, &TexelMaps::s_sigma}};
 
 struct FitReport {
   size_t views = 0, pixels = 0, observations = 0;  // observations = pixels x channels
@@ -116,6 +137,11 @@ struct FitReport {
   // tiles, which hold only their rows, leave out exactly what one run over all rows would.
   double implausible_limit = 0;
   size_t outside_tile = 0;  // --global with --tile: pixels whose uv falls in another tile's rows
+  // --maps with --global: the bands of texel rows it was fitted in (--maps-memory), and the
+  // records' bytes one load of every pixel would have held (estimated from view 0's mask).
+  int maps_bands = 0;
+  size_t maps_record_bytes = 0;
+  double maps_memory_mb = 0;  // --maps-memory
   int iterations = 0;
   double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0,
          seconds_covariance = 0;

@@ -180,13 +180,14 @@ void bin_by_band(const std::vector<uint32_t, RecordAllocator<uint32_t>>& texel, 
   });
 }
 
-TexelBins texel_bins(const ObsSet& os, size_t t_begin, size_t t_end) {
+// *bins (its index array's allocation reused) for the texels [t_begin, t_end).
+void texel_bins(const ObsSet& os, size_t t_begin, size_t t_end, TexelBins* out) {
   if (os.obs.size() >= UINT32_MAX) throw Error("fit --maps: 2^32 pixels or more; use --subsample");
   const size_t B = t_end - t_begin;
   // Texel t is entry t - t_begin, in 32 bits: a texel before t_begin wraps past every entry, as
   // does kNoTexel (a grid has at most 16384^2 texels, so t_end is far below 2^32).
   const auto first = static_cast<uint32_t>(t_begin);
-  TexelBins bins;
+  TexelBins& bins = *out;
   std::vector<size_t> band_at;
   const size_t parts = static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
   const int shift = band_shift(B, parts);
@@ -208,10 +209,16 @@ TexelBins texel_bins(const ObsSet& os, size_t t_begin, size_t t_end) {
     }
     std::copy(sorted.begin(), sorted.end(), bins.idx.begin() + static_cast<std::ptrdiff_t>(j0));
   });
-  return bins;
 }
 
 }  // namespace
+
+struct TexelScratch {
+  TexelBins bins;
+  TexelResults first;
+};
+
+std::shared_ptr<TexelScratch> texel_scratch() { return std::make_shared<TexelScratch>(); }
 
 TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -228,7 +235,12 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   const int band0 = o.rows.band0, band1 = o.rows.band1;
   const size_t t_begin = static_cast<size_t>(band0) * w, t_end = static_cast<size_t>(band1) * w;
   const size_t B = t_end - t_begin;
-  const TexelBins bins = texel_bins(os, t_begin, t_end);
+  TexelScratch own;  // a plain fit's, freed with it
+  TexelScratch& scratch = o.scratch ? *o.scratch : own;
+  // Bands: room for the largest band at once (mapped pages, only those written touched).
+  scratch.bins.idx.reserve(std::max(os.obs.capacity(), os.obs.size()));
+  texel_bins(os, t_begin, t_end, &scratch.bins);
+  const TexelBins& bins = scratch.bins;
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
   auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
     if (o.fiber_order > 0)
@@ -242,14 +254,18 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   start.s = o.s;
   // Every texel alone, each entry written first by the thread that solves it (~170 MB for a
   // 1024^2 map: filling it with the start ahead of the threads took ~0.1 s of one core).
-  TexelResults first(B);
+  TexelResults& first = scratch.first;
+  if (o.scratch) first.reserve(static_cast<size_t>(h) * w);  // every band's room at once
+  first.resize(B);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, B, 4), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t b = r.begin(); b < r.end(); ++b, bar.advance())
       first[b] = bins.size(b) >= kMinTexelPixels ? solve(b, start, nullptr) : start;
   });
   const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
   // Without sweeps `first` is the result as it is (a copy would be 200 bytes a texel to fault in).
-  TexelResults now = m.sweeps > 0 ? first : std::move(first);
+  TexelResults copy;
+  if (m.sweeps > 0) copy = first;
+  TexelResults& now = m.sweeps > 0 ? copy : first;
   const BandGrid grid{w, band0, band1};
   for (int sweep = 0; sweep < m.sweeps; ++sweep) {
     TexelResults next = now;
@@ -277,9 +293,33 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
     }
     put_texel(now[b], t, global, o.s, texel_topology_key(os.topology), &m);
   }
+  m.sum_sq = sr, m.values = sv;
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return m;
+}
+
+void join_band(const TexelMaps& part, int row0, int row1, TexelMaps* whole) {
+  const size_t w = static_cast<size_t>(part.w);
+  if (whole->pixels.empty()) {  // the first band: the whole's shape from it
+    *whole = TexelMaps{};
+    whole->w = part.w, whole->h = part.h, whole->row0 = row0, whole->row1 = row1;
+    whole->smooth = part.smooth, whole->sweeps = part.sweeps, whole->s_key = part.s_key;
+    size_maps(static_cast<size_t>(row1 - row0) * w, !part.s.empty(), whole);
+  }
+  if (part.row0 < row0 || part.row1 > row1 || part.w != whole->w)
+    throw Error("fit --maps: a band's rows outside the maps'");
+  const size_t at = static_cast<size_t>(part.row0 - row0) * w;
+  for (const auto& arr : kTexelArrays)
+    std::copy((part.*arr.d).begin(), (part.*arr.d).end(), (whole->*arr.d).begin() + arr.k * at);
+  std::copy(part.pixels.begin(), part.pixels.end(), whole->pixels.begin() + at);
+  std::copy(part.determined.begin(), part.determined.end(), whole->determined.begin() + at);
+  whole->fitted += part.fitted;
+  whole->not_converged += part.not_converged;
+  whole->sum_sq += part.sum_sq;
+  whole->values += part.values;
+  whole->rms = whole->values > 0 ? std::sqrt(whole->sum_sq / whole->values) : 0;
+  whole->seconds += part.seconds;
 }
 
 }  // namespace aniso::fitting

@@ -18,6 +18,11 @@ struct TileRows {
 };
 TileRows tile_rows(const FitOptions& opt);
 
+// What a fit in bands (fit/maps_bands.h) reuses from band to band: the bins' indices and the
+// texels' results, their pages touched by the first band and written over by the others.
+struct TexelScratch;
+std::shared_ptr<TexelScratch> texel_scratch();
+
 struct TexelMapOptions {
   int w = 0, h = 0;    // the grid
   TileRows rows;       // the rows to fit and to hold (tile_rows)
@@ -35,10 +40,15 @@ struct TexelMapOptions {
   int fiber_order = 0;
   double s = 0;
   int max_iterations = kTexelIterations;  // --maps-iterations: per texel solve (LM or Ceres)
+  TexelScratch* scratch = nullptr;        // bands: storage reused (else fresh)
 };
 
 // Fits texel rows [rows.band0, rows.band1) of a w x h grid and returns rows [row0, row1), each
 // texel by a hand-written Levenberg-Marquardt, or by Ceres (the reference).
 TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOptions& o);
+
+// A band's maps `part` (its rows [part.row0, part.row1)) placed in `whole`, the maps of rows
+// [row0, row1) (shaped by the first band placed in it); counts, sums and times added.
+void join_band(const TexelMaps& part, int row0, int row1, TexelMaps* whole);
 
 }  // namespace aniso::fitting

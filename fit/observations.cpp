@@ -1,5 +1,6 @@
 #include "fit/observations.h"
 
+#include <sys/mman.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
@@ -9,9 +10,11 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <mutex>
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "fit/band_load.h"
 #include "fit/maps.h"
 #include "fit/pixel_records.h"
 #include "io/files.h"
@@ -20,6 +23,14 @@
 #include "io/material_io.h"
 
 namespace aniso::fitting {
+
+void* map_pages(size_t bytes) {
+  void* p = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE,
+                   MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+  if (p == MAP_FAILED) throw std::bad_alloc();
+  return p;
+}
+void unmap_pages(void* p, size_t bytes) { ::munmap(p, bytes); }
 
 namespace {
 
@@ -38,12 +49,20 @@ void for_each_kept(const Kept& keep, ObsSet* os, F f) {
   if (keep.topo) f(os->topo, 2);
 }
 
+// Record i's texel on the maps' grid, -1 for none (ObsSet::kNoTexel).
+long texel_index(const ObsSet& os, size_t i) {
+  const uint32_t t = os.texel[i];
+  return t == ObsSet::kNoTexel ? -1 : static_cast<long>(t);
+}
+
 // Values far above anything else in the set (hot pixels, a broken writer's 1e30) would steer the
 // closed-form start and the noise estimate before any robust loss can act: a pixel with a value
 // above kImplausible times the 90th percentile of all values is left out and counted (a real
 // highlight is brighter than most pixels, but not 10^4 times brighter than the brightest tenth).
 // `given` > 0: that limit instead (a --global fit's, for the maps after it).
-void drop_implausible(const Kept& keep, ObsSet* os, FitReport* rep, double given) {
+// `band`: only the records of texels it owns are counted (a band's reach is another band's).
+void drop_implausible(const Kept& keep, const UvBand& band, ObsSet* os, FitReport* rep,
+                      double given) {
   double limit = given;
   if (!(limit > 0)) {
     if (os->obs.size() < 100) return;
@@ -66,13 +85,15 @@ void drop_implausible(const Kept& keep, ObsSet* os, FitReport* rep, double given
   size_t kept = 0;
   for (size_t i = 0; i < os->obs.size(); ++i) {
     const Observation& o = os->obs[i];
-    if (!(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)) continue;
+    if (!(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)) {
+      rep->implausible += !band.banded || band.owns(texel_index(*os, i));
+      continue;
+    }
     for_each_kept(keep, os, [&](auto& v, size_t per) {
       std::copy_n(v.begin() + per * i, per, v.begin() + per * kept);
     });
     os->obs[kept++] = o;
   }
-  rep->implausible += os->obs.size() - kept;
   os->obs.resize(kept);
   for_each_kept(keep, os, [&](auto& v, size_t per) { v.resize(per * kept); });
 }
@@ -119,14 +140,16 @@ void choose_topology(const CaptureSet& set, const FitOptions& opt, ObsSet* os) {
 // kMostNoiseDifferences: enough for a median (its relative spread ~1 / sqrt(count)), little time
 // and memory (every 4th row of 64 views of 2048^2 was ~90 million values, 360 MB at the load's
 // peak, and a serial median). Zeros are clipped values.
-void add_neighbour_differences(const ViewData& d, size_t views, std::vector<float>* diffs) {
+// With `first` (bands), only the rows band `band` is the first to read.
+void add_neighbour_differences(const ViewData& d, size_t views, const std::vector<int>* first,
+                               int band, std::vector<float>* diffs) {
   constexpr double kMostNoiseDifferences = 1 << 22;
   const double all_rows = 3.0 * views * d.rgb.width * d.rgb.height;
   const int step = std::max(4, static_cast<int>(std::ceil(all_rows / kMostNoiseDifferences)));
   for (int y = 0; y < d.rgb.height; y += step)
-    for (int x = 0; x + 2 < d.rgb.width; ++x) {
+    for (int x = 0; x + 2 < d.rgb.width && (!first || (*first)[y] == band); ++x) {
       const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
-      if (d.use[p] && d.use[p + 1] && d.use[p + 2])
+      if (d.usable(p) && d.usable(p + 1) && d.usable(p + 2))
         for (int c = 0; c < d.channels; ++c) {
           const float a = d.rgb.px[3 * p + c], b = d.rgb.px[3 * (p + 1) + c],
                       e = d.rgb.px[3 * (p + 2) + c];
@@ -231,9 +254,116 @@ double pixel_noise(std::vector<float>* diffs) {
 
 }  // namespace
 
-ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep_out) {
+// What lives from one load of views to the next: one for a plain load; with bands, one for all
+// of them (fit/maps_bands.cpp), so that a fixed camera's geometry is decoded once, the file
+// buffers and decoded images are reused, and the records' arrays keep their pages.
+struct LoadState {
+  GeometryCache geometry;  // a fixed camera's buffers decoded once, shared by every view
+  // File buffers and decoded images reused view after view, until the last view is loaded.
+  std::unique_ptr<ExrReadBuffers> read_buffers = std::make_unique<ExrReadBuffers>();
+  std::vector<float> diffs;  // float: these are differences of float pixels
+  TopologyMap map;
+  bool map_loaded = false;
+  // Bands: the plan and, per geometry, the rows each band reads.
+  std::vector<UvBand> bands;
+  struct GeoRows {
+    std::shared_ptr<const ViewGeometry> geo;  // held: its address names no other geometry
+    std::vector<std::vector<uint8_t>> rows;   // per band: 1 for a row with a pixel it keeps
+    std::vector<int> first;                   // per row: the first band to read it (-1: none)
+    size_t outside = 0;  // pixels on the stride grid outside --tile's texels (a frame defined)
+  };
+  std::mutex geo_mutex;
+  std::vector<std::unique_ptr<GeoRows>> geo_rows;
+  size_t band = 0;  // the band being loaded
+  // The room reserved once for every band (mapped pages: only what a band writes is touched):
+  // records and lights of one load of every pixel, as estimated (BandLoader::record_bytes).
+  size_t reserve_obs = 0, reserve_lights = 0;
+  // Views' pixel states (ViewData::use) given back, for the views after them.
+  std::mutex use_mutex;
+  std::vector<std::vector<uint8_t>> spare_use;
+};
+
+namespace {
+
+// The rows every band reads of geometry g: the rows holding a mask pixel whose texel it keeps.
+// One pass over the pixels, each texel row's bands (an interval: a band's rows and its reach)
+// looked up.
+std::unique_ptr<LoadState::GeoRows> band_rows(const std::shared_ptr<const ViewGeometry>& geo,
+                                              const std::vector<UvBand>& bands, int stride) {
+  const ViewGeometry& g = *geo;
+  const UvBand& b0 = bands.front();
+  const int W = g.P.width, H = g.P.height;
+  auto r = std::make_unique<LoadState::GeoRows>();
+  r->geo = geo;
+  r->rows.assign(bands.size(), std::vector<uint8_t>(static_cast<size_t>(H), 0));
+  r->first.assign(static_cast<size_t>(H), -1);
+  std::vector<std::pair<int, int>> of_row(static_cast<size_t>(b0.h), {1, 0});  // [lo, hi]
+  for (size_t j = 0; j < bands.size(); ++j)
+    for (long t = bands[j].k0; t < bands[j].k1; t += b0.w) {
+      auto& [lo, hi] = of_row[static_cast<size_t>(t / b0.w)];
+      if (lo > hi) lo = static_cast<int>(j);
+      hi = static_cast<int>(j);
+    }
+  for (int y = 0; y < H; ++y) {
+    bool no_texel = false;  // a pixel whose uv is outside [0, 1)^2: the first band's (no tile)
+    for (int x = 0; x < W; ++x) {
+      const size_t p = static_cast<size_t>(y) * W + x;
+      if (!g.mask[p]) continue;
+      const long t = texel_of(g.uv.px[2 * p], g.uv.px[2 * p + 1], b0.w, b0.h);
+      // Another tile's pixel (its rows', counted there; its reach's are read, not counted).
+      if (b0.tile && !(t >= b0.tile_o0 && t < b0.tile_o1))
+        r->outside += g.finite[p] && x % stride == 0 && y % stride == 0;
+      if (t < 0) {
+        no_texel |= !b0.tile;
+        continue;
+      }
+      if (!b0.in_tile(t)) continue;
+      const auto [a, b] = of_row[static_cast<size_t>(t / b0.w)];
+      for (int j = a; j <= b; ++j) r->rows[j][y] |= bands[j].keeps(t);
+    }
+    if (no_texel) r->rows[0][y] = 1;
+    for (size_t j = 0; j < bands.size() && r->first[y] < 0; ++j)
+      if (r->rows[j][y]) r->first[y] = static_cast<int>(j);
+  }
+  return r;
+}
+
+// The band rows of geometry `geo`, found once per geometry (views sharing one share them).
+const LoadState::GeoRows& rows_of(LoadState* st, const std::shared_ptr<const ViewGeometry>& geo,
+                                  int stride) {
+  std::lock_guard<std::mutex> lock(st->geo_mutex);
+  for (const auto& e : st->geo_rows)
+    if (e->geo == geo) return *e;
+  st->geo_rows.push_back(band_rows(geo, st->bands, stride));
+  return *st->geo_rows.back();
+}
+
+// Of a band's rows: the pixels it owns that are left out (saturated, not finite), counted.
+void count_left_out(const ViewData& d, const UvBand& band, FitReport* rep) {
+  const int w = d.rgb.width;
+  for (int y = 0; y < d.rgb.height; ++y)
+    for (int x = 0; x < w && d.rows[y]; ++x) {
+      const size_t p = static_cast<size_t>(y) * w + x;
+      const uint8_t u = d.use[p];
+      if (u != ViewData::kSaturated && u != ViewData::kNonfinite) continue;
+      if (!band.owns(band.texel(d, x, y))) continue;
+      (u == ViewData::kSaturated ? rep->saturated : rep->nonfinite) += 1;
+    }
+}
+
+// The views' records into *os (its arrays emptied first, their allocations kept): every pixel
+// (no bands), or band st->band of st->bands. The report's counts are added to *rep_out.
+void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, ObsSet* os_out,
+                FitReport* rep_out) {
   if (opt.subsample < 1) throw Error("fit: --subsample must be at least 1");
-  ObsSet os;
+  ObsSet& os = *os_out;
+  os.obs.clear(), os.lights.clear(), os.uv.clear(), os.texel.clear(), os.topo.clear();
+  try {
+    os.obs.reserve(st->reserve_obs);
+    os.lights.reserve(st->reserve_lights);
+    os.texel.reserve(opt.maps_w > 0 ? st->reserve_obs : 0);
+  } catch (const std::bad_alloc&) {  // the arrays grow as they are written instead
+  }
   FitReport& rep = *rep_out;
   rep.views = set.views.size();
   choose_topology(set, opt, &os);
@@ -243,21 +373,30 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
         throw Error(set.file + ": views[" + std::to_string(i) +
                     "]: --maps needs texture "
                     "coordinates: a \"uv\" buffer in every view's geometry");
-  TopologyMap map;
-  if (os.topology == TopologyMode::kAmplitude) map = load_topology_map(os.topology_map);
-  Progress bar("fit: loading views", set.views.size(), opt.progress);
+  if (os.topology == TopologyMode::kAmplitude && !st->map_loaded)
+    st->map = load_topology_map(os.topology_map), st->map_loaded = true;
+  const bool banded = !st->bands.empty();
+  UvBand band;
+  if (banded) band = st->bands.at(st->band);
+  band.w = opt.maps_w, band.h = opt.maps_h;
+  std::string what = "fit: loading views";
+  if (st->bands.size() > 1)
+    what = "fit: band " + std::to_string(st->band + 1) + "/" + std::to_string(st->bands.size()) +
+           ": loading views";
+  Progress bar(what, set.views.size(), opt.progress);
   std::atomic<size_t> grey_views{0};
-  std::vector<float> neighbour_diffs;  // float: these are differences of float pixels
   // Views are decoded a few at a time on the solver's threads; then the batch's room is made in
   // the set's arrays and each view's thread writes its records in place (no copy, and the new
   // pages are touched on both cores), the gaps closed in view order.
   const size_t batch = 2 * static_cast<size_t>(std::max(1, opt.threads)), n = set.views.size();
-  GeometryCache geometry;  // a fixed camera's buffers decoded once, shared by every view
-  // File buffers and decoded images reused view after view, until the last view is loaded.
-  auto read_buffers = std::make_unique<ExrReadBuffers>();
   tbb::task_arena arena(std::max(1, opt.threads));
-  const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &map : nullptr;
-  const UvBand band = uv_band(opt);
+  const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &st->map : nullptr;
+  // A band reads the rows with a pixel it keeps; the noise takes each row once, from the first
+  // band to read it (the same differences as one load of every row).
+  const ViewRows rows =
+      [&](const std::shared_ptr<const ViewGeometry>& g) -> const std::vector<uint8_t>& {
+    return rows_of(st, g, opt.subsample).rows[st->band];
+  };
   // Both checked for uv above.
   const Kept keep{
       opt.topology_texels > 0, opt.maps_w > 0,
@@ -268,12 +407,26 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
-        p.d = load_view(set, i, tmap, &geometry);
+        {
+          std::lock_guard<std::mutex> lock(st->use_mutex);
+          if (!st->spare_use.empty())
+            p.d.use = std::move(st->spare_use.back()), st->spare_use.pop_back();
+        }
+        load_view_into(set, i, &p.d, tmap, &st->geometry, banded ? &rows : nullptr);
         grey_views += p.d.channels == 1;
-        add_neighbour_differences(p.d, n, &p.diffs);
-        p.rep.masked_out = static_cast<size_t>(p.d.rgb.width) * p.d.rgb.height - p.d.mask_pixels;
-        p.rep.saturated = p.d.saturated;
-        p.rep.nonfinite = p.d.nonfinite;
+        const size_t pixels = static_cast<size_t>(p.d.rgb.width) * p.d.rgb.height;
+        if (!banded) {
+          add_neighbour_differences(p.d, n, nullptr, 0, &p.diffs);
+          p.rep.masked_out = pixels - p.d.mask_pixels;
+          p.rep.saturated = p.d.saturated;
+          p.rep.nonfinite = p.d.nonfinite;
+        } else {
+          const LoadState::GeoRows& r = rows_of(st, p.d.geo, opt.subsample);
+          add_neighbour_differences(p.d, n, &r.first, static_cast<int>(st->band), &p.diffs);
+          if (band.first) p.rep.masked_out = pixels - p.d.geo->mask_count;
+          if (band.first) p.rep.outside_tile = r.outside;
+          count_left_out(p.d, band, &p.rep);
+        }
         p.bound = usable_on_grid(p.d, opt.subsample, band);
       });
     });
@@ -283,29 +436,110 @@ ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitRep
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
         add_pixel_observations(p.d, set.views[i], opt.subsample, band, &p.slot, &p.rep);
-        read_buffers->give_back(std::move(p.d.rgb));
+        st->read_buffers->give_back(std::move(p.d.rgb));
+        {
+          std::lock_guard<std::mutex> lock(st->use_mutex);
+          st->spare_use.push_back(std::move(p.d.use));
+        }
         p.d = ViewData{};
         bar.advance();
       });
     });
-    close_gaps(&parts, obs_start, light_start, keep, &os, &rep, &neighbour_diffs);
+    close_gaps(&parts, obs_start, light_start, keep, &os, &rep, &st->diffs);
+    // Geometries no view holds any more: their rows go (a fixed camera's stays in the cache).
+    std::lock_guard<std::mutex> lock(st->geo_mutex);
+    auto& g = st->geo_rows;
+    g.erase(
+        std::remove_if(g.begin(), g.end(), [](const auto& e) { return e->geo.use_count() == 1; }),
+        g.end());
   }
-  read_buffers.reset();
-  // The implausible values and the noise estimate are independent: side by side.
+  // The implausible values and the noise estimate are independent: side by side. With bands, the
+  // noise waits for the last band's rows.
   const double given = opt.global ? opt.global->implausible_limit : 0;
-  tbb::parallel_invoke([&] { drop_implausible(keep, &os, &rep, given); },
-                       [&] { os.pixel_noise = pixel_noise(&neighbour_diffs); });
+  tbb::parallel_invoke([&] { drop_implausible(keep, band, &os, &rep, given); },
+                       [&] { os.pixel_noise = banded ? 0 : pixel_noise(&st->diffs); });
   // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
   os.grey = grey_views == set.views.size();
-  rep.pixels = os.obs.size();
-  rep.observations = os.obs.size() * (os.grey ? 1 : 3);
-  if (set.ambient[0] != 0 || set.ambient[1] != 0 || set.ambient[2] != 0)
+  // A band counts the pixels of the texels it owns (its reach's are the next band's).
+  size_t pixels = os.obs.size();
+  if (banded) {
+    pixels = 0;
+    for (size_t i = 0; i < os.obs.size(); ++i) pixels += band.owns(texel_index(os, i));
+  }
+  rep.pixels += pixels;
+  rep.observations += pixels * (os.grey ? 1 : 3);
+  if (band.first && (set.ambient[0] != 0 || set.ambient[1] != 0 || set.ambient[2] != 0))
     rep.warnings.push_back(
         set.file + ": its ambient " + jsonu::to_json(set.ambient).dump() +
         " is not fitted: k_a is taken as 0 and the values as the lights' sum alone (a sample that "
         "reflects the ambient light shows it as a higher k_d)");
+}
+
+}  // namespace
+
+ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep) {
+  LoadState st;
+  ObsSet os;
+  load_views(set, opt, &st, &os, rep);
   return os;
 }
+
+struct BandLoader::Impl {
+  const CaptureSet& set;
+  FitOptions opt;
+  LoadState st;
+  ObsSet os;
+};
+
+BandLoader::BandLoader(const CaptureSet& set, const FitOptions& opt)
+    : impl_(new Impl{set, opt, {}, {}}) {}
+
+size_t BandLoader::record_bytes() {
+  const CaptureSet& set = impl_->set;
+  const FitOptions& opt = impl_->opt;
+  LoadState& st = impl_->st;
+  if (set.views.empty()) return 0;
+  ObsSet os;
+  choose_topology(set, opt, &os);
+  if (os.topology == TopologyMode::kAmplitude && !st.map_loaded)
+    st.map = load_topology_map(os.topology_map), st.map_loaded = true;
+  const ViewSpec& v = set.views[0];
+  size_t pixels = static_cast<size_t>(v.camera.width) * v.camera.height;
+  if (v.geometry.mesh.empty())  // a mesh is traced per view: the frame's pixels, not its mask
+    pixels = load_view_geometry(set, 0, os.topology == TopologyMode::kAmplitude ? &st.map : nullptr,
+                                &st.geometry)
+                 ->mask_count;
+  const size_t per =
+      sizeof(Observation) + v.lights.size() * sizeof(ObsLight) + sizeof(uint32_t) +
+      (opt.topology_texels > 0 ? 2 * sizeof(float) : 0) +
+      (os.topology == TopologyMode::kAmplitude || os.topology == TopologyMode::kMathematical
+           ? 2 * sizeof(float)
+           : 0);
+  const size_t s2 = static_cast<size_t>(opt.subsample) * opt.subsample;
+  const size_t each = pixels / std::max<size_t>(1, s2);
+  st.reserve_obs = set.views.size() * each;
+  st.reserve_lights = 0;
+  for (const ViewSpec& view : set.views) st.reserve_lights += view.lights.size() * each;
+  return st.reserve_obs * per;
+}
+
+void BandLoader::plan(std::vector<UvBand> bands) {
+  if (bands.empty()) throw Error("fit: no bands to load");
+  impl_->st.bands = std::move(bands);
+}
+
+BandLoader::~BandLoader() = default;
+
+const ObsSet& BandLoader::load(size_t j, FitReport* rep) {
+  if (j >= impl_->st.bands.size()) throw Error("fit: no band " + std::to_string(j));
+  impl_->st.band = j;
+  load_views(impl_->set, impl_->opt, &impl_->st, &impl_->os, rep);
+  return impl_->os;
+}
+
+const ObsSet& BandLoader::observations() const { return impl_->os; }
+
+double BandLoader::pixel_noise() { return fitting::pixel_noise(&impl_->st.diffs); }
 
 ObsSet table_observations(const SampleTable& t, const FitOptions& opt, FitReport* rep) {
   if (t.values == SampleTable::Values::kNone)

@@ -43,8 +43,17 @@ static_assert(sizeof(ObsLight) == 24 && sizeof(Observation) == 32, "records as c
 // How the fiber model's topology enters: one s for the whole sample, the map amplitude A on top
 // of per-pixel s_math and map values, s_math alone (nothing to fit), or a map of s over uv.
 enum class TopologyMode { kGlobalS, kAmplitude, kMathematical, kTexels };
+// Pages of anonymous memory, mapped without reserving them (a page costs only once written):
+// what a record array of kMappedBytes or more is allocated in.
+inline constexpr size_t kMappedBytes = size_t{32} << 20;
+void* map_pages(size_t bytes);  // throws std::bad_alloc where the mapping fails
+void unmap_pages(void* p, size_t bytes);
+
 // std::allocator, except that resize() leaves new records unwritten: the loader grows the arrays
-// by a batch of views and the views' threads write their records in place.
+// by a batch of views and the views' threads write their records in place. A large array is
+// mapped pages: reserved room costs nothing until written, so the loader of bands (fit/band_load.h)
+// reserves the whole set's room once and every band writes over the pages the band before it
+// touched, instead of a bigger band moving the arrays to fresh pages.
 template <class T>
 struct RecordAllocator : std::allocator<T> {
   template <class U>
@@ -54,6 +63,16 @@ struct RecordAllocator : std::allocator<T> {
   RecordAllocator() = default;
   template <class U>
   RecordAllocator(const RecordAllocator<U>&) noexcept {}
+  T* allocate(size_t n) {
+    if (n * sizeof(T) < kMappedBytes) return std::allocator<T>::allocate(n);
+    return static_cast<T*>(map_pages(n * sizeof(T)));
+  }
+  void deallocate(T* p, size_t n) {
+    if (n * sizeof(T) < kMappedBytes)
+      std::allocator<T>::deallocate(p, n);
+    else
+      unmap_pages(p, n * sizeof(T));
+  }
   template <class U>
   void construct(U*) noexcept {}
   template <class U, class... A>

@@ -6,31 +6,22 @@
 
 namespace aniso::fitting {
 
-UvBand uv_band(const FitOptions& opt) {
-  UvBand b;
-  if (opt.maps_w == 0) return b;
-  b.w = opt.maps_w, b.h = opt.maps_h;
-  if (!opt.global || opt.tile_count == 0) return b;
-  const TileRows r = tile_rows(opt);
-  b.on = true;
-  b.t0 = static_cast<long>(r.band0) * b.w, b.t1 = static_cast<long>(r.band1) * b.w;
-  return b;
-}
-
 size_t usable_on_grid(const ViewData& d, int stride, const UvBand& band) {
   size_t n = 0;
   for (int y = 0; y < d.rgb.height; y += stride)
-    for (int x = 0; x < d.rgb.width; x += stride)
-      n += d.use[static_cast<size_t>(y) * d.rgb.width + x] && band.keeps(d, x, y);
+    for (int x = 0; x < d.rgb.width && d.rows[y]; x += stride) {
+      const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
+      n += d.usable(p) && (!band.banded || band.keeps(band.texel(d, x, y)));
+    }
   return n;
 }
 
 namespace {
 
 // Pixel (x, y)'s record (texel t), its V and the `lit` lights already in out->lights from
-// out->num_lights on; or counted as unlit where no light reaches it.
+// out->num_lights on; or, where no light reaches it, counted as unlit (by the band that owns it).
 void put_record(const ViewData& d, int x, int y, long t, const LocalDir& V, size_t lit,
-                RecordSlot* out, FitReport* rep) {
+                const UvBand& band, RecordSlot* out, FitReport* rep) {
   const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
   const ViewGeometry& g = *d.geo;
   Observation o;
@@ -39,7 +30,7 @@ void put_record(const ViewData& d, int x, int y, long t, const LocalDir& V, size
   o.num_lights = static_cast<uint32_t>(lit);
   for (int k = 0; k < 3; ++k) o.y[k] = d.rgb.at(x, y, k);
   if (o.num_lights == 0) {
-    ++rep->unlit;  // no light reaches it: it constrains nothing that is fitted
+    rep->unlit += band.owns(t);  // no light reaches it: it constrains nothing that is fitted
     return;
   }
   if (out->uv)
@@ -52,12 +43,12 @@ void put_record(const ViewData& d, int x, int y, long t, const LocalDir& V, size
 }
 
 // One pixel in double, one at a time: any lights.
-void add_pixel(const ViewData& d, const ViewSpec& v, int x, int y, long t, RecordSlot* out,
-               FitReport* rep) {
+void add_pixel(const ViewData& d, const ViewSpec& v, int x, int y, long t, const UvBand& band,
+               RecordSlot* out, FitReport* rep) {
   const ViewGeometry& g = *d.geo;
   SurfacePoint sp;
   if (!frame_at(g.P, g.N, g.U, x, y, &sp)) {
-    ++rep->nonfinite;
+    rep->nonfinite += band.owns(t);
     return;
   }
   size_t lit = 0;
@@ -72,13 +63,13 @@ void add_pixel(const ViewData& d, const ViewSpec& v, int x, int y, long t, Recor
     for (int k = 0; k < 3; ++k) ol.E[k] = v.exposure * E[k];
     out->lights[out->num_lights + lit++] = ol;
   }
-  put_record(d, x, y, t, to_local(sp, normalize(d.eye - sp.P)), lit, out, rep);
+  put_record(d, x, y, t, to_local(sp, normalize(d.eye - sp.P)), lit, band, out, rep);
 }
 
 // Up to four pixels (xs[0..n), row y) under one point light, in lanes (fit/pixel_frames.h: the
 // same bits as add_pixel); the records in the pixels' order.
 void add_pixel_quad(const ViewData& d, const ViewSpec& v, int y, const int* xs, const long* ts,
-                    int n, RecordSlot* out, FitReport* rep) {
+                    int n, const UvBand& band, RecordSlot* out, FitReport* rep) {
   const ViewGeometry& g = *d.geo;
   PixelQuad q;
   for (int l = 0; l < 4; ++l) {
@@ -90,7 +81,7 @@ void add_pixel_quad(const ViewData& d, const ViewSpec& v, int y, const int* xs, 
   pixel_quad(d.eye, light, &q);
   for (int l = 0; l < n; ++l) {
     if (!q.frame_ok[l]) {
-      ++rep->nonfinite;
+      rep->nonfinite += band.owns(ts[l]);
       continue;
     }
     size_t lit = 0;
@@ -103,7 +94,7 @@ void add_pixel_quad(const ViewData& d, const ViewSpec& v, int y, const int* xs, 
       out->lights[out->num_lights] = ol;
       lit = 1;
     }
-    put_record(d, xs[l], y, ts[l], q.V[l], lit, out, rep);
+    put_record(d, xs[l], y, ts[l], q.V[l], lit, band, out, rep);
   }
 }
 
@@ -118,22 +109,19 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, co
   long ts[4];
   for (int y = 0; y < h; y += stride) {
     int n = 0;
-    for (int x = 0; x < w; x += stride) {
+    for (int x = 0; x < w && d.rows[y]; x += stride) {
       const size_t p = static_cast<size_t>(y) * w + x;
-      if (!d.use[p]) continue;
+      if (!d.usable(p)) continue;
       const long t = band.w > 0 ? band.texel(d, x, y) : -1;
-      if (!band.keeps(t)) {
-        ++rep->outside_tile;
-        continue;
-      }
+      if (!band.keeps(t)) continue;
       if (!quads) {
-        add_pixel(d, v, x, y, t, out, rep);
+        add_pixel(d, v, x, y, t, band, out, rep);
         continue;
       }
       xs[n] = x, ts[n] = t;
-      if (++n == 4) add_pixel_quad(d, v, y, xs, ts, n, out, rep), n = 0;
+      if (++n == 4) add_pixel_quad(d, v, y, xs, ts, n, band, out, rep), n = 0;
     }
-    if (n > 0) add_pixel_quad(d, v, y, xs, ts, n, out, rep);
+    if (n > 0) add_pixel_quad(d, v, y, xs, ts, n, band, out, rep);
   }
 }
 

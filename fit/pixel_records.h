@@ -22,26 +22,36 @@ struct RecordSlot {
   size_t num_obs = 0, num_lights = 0;  // written
 };
 
-// --maps: the w x h grid of the maps (w = 0 without), and with --global and --tile the texels
-// [t0, t1) whose observations the tile keeps (its rows and its --smooth band); every pixel where
-// the band is off.
+// --maps: the w x h grid of the maps (w = 0 without). With --global the maps are fitted band by
+// band of texel rows (fit/maps_bands.cpp; one band where the records fit in --maps-memory) and a
+// band's load keeps only the pixels of its texels: [k0, k1), its rows with the --smooth reach on
+// either side, within --tile's [t0, t1) where `tile` (its rows [tile_o0, tile_o1) and their
+// reach; the pixels outside its rows are other tiles'). It counts pixels (kept, left out, unlit)
+// only for its own texels [o0, o1): every pixel is counted by one band, and by one tile. A pixel
+// with no texel (uv outside [0, 1)^2) is the first band's, or another tile's.
 struct UvBand {
-  bool on = false;
   int w = 0, h = 0;
-  long t0 = 0, t1 = 0;
+  bool banded = false;
+  bool tile = false;
+  long t0 = 0, t1 = 0, tile_o0 = 0, tile_o1 = 0;
+  bool first = true;
+  long k0 = 0, k1 = 0, o0 = 0, o1 = 0;
   long texel(const ViewData& d, int x, int y) const {
     return texel_of(d.geo->uv.at(x, y, 0), d.geo->uv.at(x, y, 1), w, h);
   }
-  bool keeps(long t) const { return !on || (t >= t0 && t < t1); }
-  bool keeps(const ViewData& d, int x, int y) const { return !on || keeps(texel(d, x, y)); }
+  bool in_tile(long t) const { return !tile || (t >= t0 && t < t1); }
+  // A pixel of texel t is one of this band's observations.
+  bool keeps(long t) const { return !banded || (t >= 0 ? t >= k0 && t < k1 : first && !tile); }
+  // ... and this band counts it (saturated, not finite, unlit) where it is left out.
+  bool owns(long t) const { return !banded || (t >= 0 ? t >= o0 && t < o1 : first && !tile); }
 };
 
 // The band of fit `opt` (--maps, --global, --tile).
 UvBand uv_band(const FitOptions& opt);
-// The usable pixels on the stride grid (in the tile's band): the most records a view can give.
+// The usable pixels on the stride grid that the band keeps: the most records a view can give.
 size_t usable_on_grid(const ViewData& d, int stride, const UvBand& band);
-// View d's usable pixels on the stride grid in its band, as records in *out (the others counted
-// in *rep: outside the tile, a frame the buffers do not define, unlit).
+// View d's usable pixels on the stride grid that the band keeps, as records in *out (the others
+// counted in *rep: a frame the buffers do not define, unlit).
 void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, const UvBand& band,
                             RecordSlot* out, FitReport* rep);
 

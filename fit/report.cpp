@@ -166,6 +166,7 @@ jsonu::json report_json(const FitReport& p) {
   if (!p.global_from.empty()) j["global_from"] = p.global_from;
   if (p.fiber_order > 0) j["fiber_order"] = p.fiber_order;
   if (p.outside_tile > 0) j["skipped"]["outside_tile"] = p.outside_tile;
+  if (p.maps_bands > 0) j["maps_bands"] = p.maps_bands;
   if (p.implausible_limit > 0) j["implausible_limit"] = p.implausible_limit;
   if (!p.model_selection.empty()) j["model_selection"] = p.model_selection;
   if (!p.warnings.empty()) j["warnings"] = p.warnings;
@@ -269,27 +270,6 @@ void write_fit(const std::string& path, const FitResult& r) {
   }
   write_json_file(path, j);
 }
-
-namespace {
-
-// The per-texel arrays of a TexelMaps (per-texel count `k`).
-struct TexelArray {
-  const char* key;
-  int k;
-  std::vector<double> TexelMaps::*d;
-};
-const TexelArray kTexelArrays[] = {{"kd", 3, &TexelMaps::kd},
-                                   {"ks", 3, &TexelMaps::ks},
-                                   {"n", 1, &TexelMaps::n},
-                                   {"psi_deg", 1, &TexelMaps::psi_deg},
-                                   {"kd_sigma", 3, &TexelMaps::kd_sigma},
-                                   {"ks_sigma", 3, &TexelMaps::ks_sigma},
-                                   {"n_sigma", 1, &TexelMaps::n_sigma},
-                                   {"psi_sigma_deg", 1, &TexelMaps::psi_sigma_deg},
-                                   {"s", 1, &TexelMaps::s},  // the fiber model's (or empty)
-                                   {"s_sigma", 1, &TexelMaps::s_sigma}};
-
-}  // namespace
 
 void write_maps_tile(const std::string& path, const FitResult& r, const FitOptions& opt) {
   const TexelMaps& t = r.maps;  // its arrays hold the tile's rows

@@ -80,6 +80,7 @@ struct ViewGeometry {
   std::vector<uint8_t> mask;
   std::vector<uint8_t> finite;  // 1 where P, N, U (and uv, where there is one) are all finite
   std::vector<uint8_t> rows;    // 1 for each row that holds a mask pixel: the rows read of a view
+  size_t mask_count = 0;        // pixels on the mask
   float smath_at(size_t p) const { return smath.empty() ? 0.f : smath.px[p]; }
   float mapv_at(size_t p) const { return mapv.empty() ? 0.f : mapv.px[p]; }
 };
@@ -89,7 +90,15 @@ struct ViewGeometry {
 struct ViewData {
   Image rgb;  // 3 channels, linear, black level removed
   std::shared_ptr<const ViewGeometry> geo;
-  std::vector<uint8_t> use;  // 1 = pixel is an observation
+  // Per pixel, what it is (PixelUse): an observation (kUsable), left out (kSaturated,
+  // kNonfinite), or neither: off the mask, or in a row not read (kOff).
+  enum PixelUse : uint8_t { kOff = 0, kUsable = 1, kSaturated = 2, kNonfinite = 3 };
+  std::vector<uint8_t> use;
+  bool usable(size_t p) const { return use[p] == kUsable; }
+  // The rows read of the image (one entry per row): the geometry's rows with a mask pixel, or the
+  // band a caller asked for (ViewRows); no pixel of another row is an observation.
+  std::vector<uint8_t> rows;
+  // Of the rows read: the mask's pixels, those left out as saturated or not finite, the usable.
   size_t mask_pixels = 0, saturated = 0, nonfinite = 0, used = 0;
   int channels = 3;  // of the image: 1 (grey, repeated into rgb) or 3
   Vec3 eye;          // camera centre in world coordinates
@@ -122,10 +131,27 @@ class GeometryCache {
   std::unique_ptr<Impl> impl_;
 };
 
+// View i's per-pixel geometry alone (as load_view reads it, through `cache` where given).
+std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& set, size_t i,
+                                                       const TopologyMap* map = nullptr,
+                                                       GeometryCache* cache = nullptr);
+
+// The rows of a view's image to read, given its geometry (one entry per row, non-zero = read): for
+// a caller that takes one band of the sample at a time. The image's other rows are neither read
+// nor written (they hold whatever a reused allocation held): their pixels are not classified and
+// none of them is an observation.
+using ViewRows =
+    std::function<const std::vector<uint8_t>&(const std::shared_ptr<const ViewGeometry>&)>;
+
 // Loads view i; per-pixel geometry comes from its buffers or by casting rays at its mesh.
 // `map` (the set's topology map, loaded once by the caller) fills ViewGeometry::mapv from the uv
-// buffer. With `cache`, buffers an earlier view also named are not decoded again.
+// buffer. With `cache`, buffers an earlier view also named are not decoded again. With `rows`,
+// only those rows of the image (else every row with a mask pixel, the others 0).
 ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nullptr,
-                   GeometryCache* cache = nullptr);
+                   GeometryCache* cache = nullptr, const ViewRows* rows = nullptr);
+// The same into *into, whose allocation of pixel states (ViewData::use) is reused: a 2048^2 view's
+// is 4 MB of fresh pages otherwise, view after view.
+void load_view_into(const CaptureSet& set, size_t i, ViewData* into, const TopologyMap* map,
+                    GeometryCache* cache, const ViewRows* rows);
 
 }  // namespace aniso

@@ -40,7 +40,7 @@ void check_declared_size(const std::string& path, long long w, long long h, int 
 }
 
 Image read_exr(const std::string& path, int expect_w, int expect_h,
-               const std::vector<uint8_t>* rows);
+               const std::vector<uint8_t>* rows, bool zero_others);
 
 Image read_exr_openexr(const std::string& path, int expect_w, int expect_h) {
   try {
@@ -169,7 +169,8 @@ bool uncompressed_float_header(ByteReader* r, std::vector<RawChannel>* ch, int32
 }  // namespace
 
 bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, int expect_w,
-                             int expect_h, Image* out, const std::vector<uint8_t>* rows) {
+                             int expect_h, Image* out, const std::vector<uint8_t>* rows,
+                             bool zero_others) {
   ByteReader r{bytes};
   std::vector<RawChannel> ch;
   int32_t box[4] = {0, 0, 0, 0}, disp[4] = {0, 0, 0, 0};
@@ -218,7 +219,7 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
   // reused); one that reaches past it: the part inside.
   if (!whole) {
     std::fill(img.px.begin(), img.px.end(), 0.f);
-  } else if (rows) {  // the rows not asked for
+  } else if (rows && zero_others) {  // the rows not asked for
     for (long long y = 0; y < H; ++y)
       if (!(*rows)[y])
         std::fill_n(img.px.begin() + static_cast<size_t>(y) * W * nc, static_cast<size_t>(W) * nc,
@@ -334,7 +335,7 @@ bool read_exr_rows(const std::string& path, const std::string& head, size_t tabl
 }
 
 Image read_exr(const std::string& path, int expect_w, int expect_h,
-               const std::vector<uint8_t>* rows) {
+               const std::vector<uint8_t>* rows, bool zero_others) {
   constexpr size_t kHeaderBytes = 64 << 10, kMaxDirect = size_t(1) << 30;
   std::error_code ec;
   const auto size = std::filesystem::file_size(path, ec);
@@ -355,7 +356,8 @@ Image read_exr(const std::string& path, int expect_w, int expect_h,
     const long long H = static_cast<long long>(disp[3]) - disp[1] + 1;
     if (rows && static_cast<long long>(rows->size()) == H && box[2] >= box[0] &&
         read_exr_rows(path, head, r.at, box, disp, line, *rows, size, &bytes)) {
-      if (decode_exr_uncompressed(bytes, path, expect_w, expect_h, &img, rows)) return img;
+      if (decode_exr_uncompressed(bytes, path, expect_w, expect_h, &img, rows, zero_others))
+        return img;
     }
     read_file_into(path, kMaxDirect, &bytes);
     if (decode_exr_uncompressed(bytes, path, expect_w, expect_h, &img)) return img;
@@ -463,7 +465,7 @@ void set_exr_compression(const std::string& name) {
 }
 
 LoadedImage read_image(const std::string& path, int expect_w, int expect_h,
-                       const std::vector<uint8_t>* rows) {
+                       const std::vector<uint8_t>* rows, bool zero_others) {
   std::error_code ec;
   const auto st = std::filesystem::status(path, ec);
   if (!std::filesystem::exists(st)) throw Error(path + ": file not found");
@@ -471,7 +473,7 @@ LoadedImage read_image(const std::string& path, int expect_w, int expect_h,
     throw Error(path + ": not a regular file (a folder, device or FIFO is not read)");
   LoadedImage out;
   if (lower_ext(path) == ".exr") {
-    out.image = read_exr(path, expect_w, expect_h, rows);
+    out.image = read_exr(path, expect_w, expect_h, rows, zero_others);
     return out;
   }
   const SizeCheck check = [&](long long w, long long h) {

@@ -26,9 +26,12 @@ inline constexpr long long kMaxImagePixels = 1LL << 26;  // 8192 x 8192
 // Reads an image; with expect_w > 0 its declared size must be expect_w x expect_h (checked
 // before decoding). With `rows` (one entry per row of the image), an uncompressed float EXR has
 // only the rows whose entry is non-zero read from its file and decoded, the others 0 (a capture's
-// rows without a sample pixel); every other file is read whole.
+// rows without a sample pixel); every other file is read whole. `zero_others` false: the rows not
+// asked for are not written at all (a reused allocation's old values; for a reader that reads a
+// band of rows file after file and looks at nothing else, where zeroing the rest cost more than
+// the read).
 LoadedImage read_image(const std::string& path, int expect_w = 0, int expect_h = 0,
-                       const std::vector<uint8_t>* rows = nullptr);
+                       const std::vector<uint8_t>* rows = nullptr, bool zero_others = true);
 
 // EXR compression for everything written after the call: "zip" (default, zlib level 1), "piz",
 // "none". Throws on another name.
@@ -45,9 +48,11 @@ void encode_exr_uncompressed(const Image& img, const ByteSink& sink);
 // read_image hands to OpenEXR (*out may then have lost its allocation). Throws only on a declared
 // size outside the limits or not the expected one.
 // With `rows` (one per row of the display window), only the rows whose entry is non-zero are
-// decoded, and only their blocks are read from `bytes` (the others 0).
+// decoded, and only their blocks are read from `bytes` (the others 0, or with `zero_others`
+// false not written).
 bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, int expect_w,
-                             int expect_h, Image* out, const std::vector<uint8_t>* rows = nullptr);
+                             int expect_h, Image* out, const std::vector<uint8_t>* rows = nullptr,
+                             bool zero_others = true);
 
 // While one is alive, uncompressed EXRs are read through one buffer per thread, reused file after
 // file, and decoded into the allocations of images given back. A 2048^2 RGB view is 48 MB, above

@@ -32,15 +32,18 @@ double decode_code(double v, const ColorSpec& c) {
 
 namespace {
 
-// 1 for each row of a w x h mask that holds a sample pixel (every row where the mask is not w x h).
-std::vector<uint8_t> mask_rows(const std::vector<uint8_t>& mask, int w, int h) {
-  std::vector<uint8_t> rows(static_cast<size_t>(h), 1);
-  if (mask.size() != static_cast<size_t>(w) * h) return rows;
+// g->rows: 1 for each row of a w x h mask that holds a sample pixel (every row where the mask is
+// not w x h); g->mask_count: the mask's pixels.
+void mask_rows(int w, int h, ViewGeometry* g) {
+  const std::vector<uint8_t>& mask = g->mask;
+  g->rows.assign(static_cast<size_t>(h), 1);
+  g->mask_count = static_cast<size_t>(
+      std::count_if(mask.begin(), mask.end(), [](uint8_t b) { return b != 0; }));
+  if (mask.size() != static_cast<size_t>(w) * h) return;
   for (int y = 0; y < h; ++y) {
     const uint8_t* m = mask.data() + static_cast<size_t>(y) * w;
-    rows[y] = std::any_of(m, m + w, [](uint8_t b) { return b != 0; });
+    g->rows[y] = std::any_of(m, m + w, [](uint8_t b) { return b != 0; });
   }
-  return rows;
 }
 
 // `rows`: only those rows are read (where the file allows; the others 0).
@@ -81,12 +84,12 @@ namespace {
 
 // The view's image, checked against the camera and the set's colour statement.
 LoadedImage read_view_image(const CaptureSet& s, const ViewSpec& v, const std::string& ctx,
-                            const std::vector<uint8_t>* rows) {
+                            const std::vector<uint8_t>* rows, bool zero_others) {
   const Intrinsics& k = v.camera;
   const std::string img_path = join_path(s.dir, v.image);
   LoadedImage li;
   try {
-    li = read_image(img_path, k.width, k.height, rows);
+    li = read_image(img_path, k.width, k.height, rows, zero_others);
   } catch (const Error& e) {
     throw Error(ctx + ".image: " + e.what());
   }
@@ -133,7 +136,7 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
     const Image m = need_buffer(join_path(s.dir, g.mask), 1, k, "mask");
     for (size_t p = 0; p < d.mask.size(); ++p) d.mask[p] = m.px[p * m.channels] != 0.f;
   }
-  d.rows = mask_rows(d.mask, k.width, k.height);
+  mask_rows(k.width, k.height, &d);
   d.P = need_buffer(join_path(s.dir, g.position), 3, k, "position", &d.rows);
   d.N = need_buffer(join_path(s.dir, g.normal), 3, k, "normal", &d.rows);
   d.U = need_buffer(join_path(s.dir, g.tangent), 3, k, "tangent", &d.rows);
@@ -168,10 +171,10 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
   return d;
 }
 
-// Decodes the masked pixels to linear and sorts them: usable, saturated or not finite (value or
-// geometry). An RGB image is decoded in place (no second copy of the view); pixels outside the
-// mask read 0.
-void classify_pixels(const CaptureSet& s, LoadedImage li, ViewData* d) {
+// Decodes the masked pixels of the rows d->rows to linear and sorts them: usable, saturated or
+// not finite (value or geometry). An RGB image is decoded in place (no second copy of the view);
+// pixels outside the mask read 0. `all_rows`: every row is looked at (rows not read hold 0).
+void classify_pixels(const CaptureSet& s, LoadedImage li, bool all_rows, ViewData* d) {
   const ViewGeometry& g = *d->geo;
   const std::vector<uint8_t>& mask = g.mask;
   const Image& raw = li.image;
@@ -191,7 +194,7 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, ViewData* d) {
   // A float RGB image is linear as it is: its values stay where they were decoded.
   const bool as_is = li.bits == 0 && in.channels == 3;
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
+    for (int x = 0; x < w && (all_rows || d->rows[y]); ++x) {
       const size_t p = static_cast<size_t>(y) * w + x;
       if (!mask[p]) {
         for (int c = 0; c < 3; ++c) d->rgb.at(x, y, c) = 0.f;
@@ -212,13 +215,15 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, ViewData* d) {
       }
       if (!ok) {
         ++d->nonfinite;
+        d->use[p] = ViewData::kNonfinite;
         continue;
       }
       if (saturated) {
         ++d->saturated;
+        d->use[p] = ViewData::kSaturated;
         continue;
       }
-      d->use[p] = 1;
+      d->use[p] = ViewData::kUsable;
       ++d->used;
     }
 }
@@ -263,12 +268,12 @@ std::shared_ptr<const ViewGeometry> GeometryCache::get(const std::string& key,
   return e->geo;
 }
 
-ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, GeometryCache* cache) {
+std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& s, size_t i,
+                                                       const TopologyMap* map,
+                                                       GeometryCache* cache) {
   const ViewSpec& v = s.views.at(i);
   const Intrinsics& k = v.camera;
   const std::string ctx = s.file + ": views[" + std::to_string(i) + "]";
-  ViewData d;
-  d.eye = v.world_from_camera.translation();
   const GeometrySpec& g = v.geometry;
   if (!g.mesh.empty()) {
     auto geo = std::make_shared<ViewGeometry>();
@@ -280,28 +285,49 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
       throw Error(ctx + ".geometry.mesh: " + e.what());
     }
     mark_finite(geo.get());
-    geo->rows = mask_rows(geo->mask, k.width, k.height);
-    d.geo = std::move(geo);
-  } else {
-    auto load = [&] {
-      try {
-        return read_geometry_buffers(s, v, map);
-      } catch (const Error& e) {
-        throw Error(ctx + ".geometry: " + e.what());
-      }
-    };
-    const std::string key = g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
-                            g.topology + '\n' + g.uv + '\n' + std::to_string(k.width) + 'x' +
-                            std::to_string(k.height);
-    d.geo = cache ? cache->get(key, load) : std::make_shared<const ViewGeometry>(load());
+    mask_rows(k.width, k.height, geo.get());
+    return geo;
   }
+  auto load = [&] {
+    try {
+      return read_geometry_buffers(s, v, map);
+    } catch (const Error& e) {
+      throw Error(ctx + ".geometry: " + e.what());
+    }
+  };
+  const std::string key = g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
+                          g.topology + '\n' + g.uv + '\n' + std::to_string(k.width) + 'x' +
+                          std::to_string(k.height);
+  return cache ? cache->get(key, load) : std::make_shared<const ViewGeometry>(load());
+}
+
+ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, GeometryCache* cache,
+                   const ViewRows* rows) {
+  ViewData d;
+  load_view_into(s, i, &d, map, cache, rows);
+  return d;
+}
+
+void load_view_into(const CaptureSet& s, size_t i, ViewData* into, const TopologyMap* map,
+                    GeometryCache* cache, const ViewRows* rows) {
+  const ViewSpec& v = s.views.at(i);
+  const Intrinsics& k = v.camera;
+  const std::string ctx = s.file + ": views[" + std::to_string(i) + "]";
+  std::vector<uint8_t> use = std::move(into->use);  // its allocation, for this view's
+  *into = ViewData{};
+  ViewData& d = *into;
+  d.use = std::move(use);
+  d.eye = v.world_from_camera.translation();
+  d.geo = load_view_geometry(s, i, map, cache);
   // Only the image's rows that hold a sample pixel: every other pixel reads 0 (classify_pixels),
   // and a tilted plate's rows are half of a 2048^2 frame's. Found once per geometry, which a
-  // fixed camera's views share.
-  LoadedImage li = read_view_image(s, v, ctx, &d.geo->rows);
+  // fixed camera's views share. Or the caller's band of them, the others left as they are.
+  d.rows = rows ? (*rows)(d.geo) : d.geo->rows;
+  if (d.rows.size() != static_cast<size_t>(k.height))
+    throw Error(ctx + ": the rows asked for are not the image's");
+  LoadedImage li = read_view_image(s, v, ctx, &d.rows, rows == nullptr);
   d.channels = li.image.channels;
-  classify_pixels(s, std::move(li), &d);
-  return d;
+  classify_pixels(s, std::move(li), rows == nullptr, &d);
 }
 
 }  // namespace aniso

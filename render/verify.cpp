@@ -68,7 +68,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     const RGB amb{m.ka[0] * set.ambient[0], m.ka[1] * set.ambient[1], m.ka[2] * set.ambient[2]};
     for (int y = 0; y < d.rgb.height; ++y)
       for (int x = 0; x < d.rgb.width; ++x) {
-        if (!d.use[static_cast<size_t>(y) * d.rgb.width + x]) continue;
+        if (!d.usable(static_cast<size_t>(y) * d.rgb.width + x)) continue;
         SurfacePoint sp;
         if (!frame_at(g.P, g.N, g.U, x, y, &sp)) continue;
         double I[3];

@@ -177,6 +177,61 @@ TEST(FitMaps, TilesFromAFullGlobalFitReproduceThePlainRun) {
         << k << ": the merged fiber-model map differs from the untiled one";
 }
 
+// --maps with --global in bands of texel rows (--maps-memory): each band reads only its rows of
+// the views, yet the maps equal one band's byte for byte (with --smooth, whose reach each band
+// fits too, and within a --tile), and the report counts every pixel once: the same pixels,
+// skipped pixels (saturated ones here) and noise of the images as one band.
+TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
+  const std::string dir = test::tmp_dir("bands");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  test::edit_json(dir + "/set/capture.json", [](auto& j) { j["color"]["saturation"] = 0.35; });
+  r = test::run_cli("fit " + dir + "/set --subsample 2 --out " + dir + "/global.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string maps =
+      " --maps 8x6 --global " + dir + "/global.json --smooth 1 " + "--smooth-sweeps 1";
+  auto report = [](const std::string& f, bool tile) {
+    const auto j = nlohmann::json::parse(read_text_file(f));
+    return tile ? j["fit"]["report"] : j["report"];
+  };
+  r = test::run_cli("fit " + dir + "/set" + maps + " --out " + dir + "/one.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("bands of texel rows"), std::string::npos) << r.output;
+  for (const char* mem : {"0.3", "0.01"}) {  // a few bands; one band per texel row (6)
+    const std::string out = dir + "/b" + std::string(mem) + ".json";
+    r = test::run_cli("fit " + dir + "/set" + maps + " --maps-memory " + mem + " --out " + out);
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find(std::string(mem) == "0.3" ? "bands of texel rows" : "in 6 bands"),
+              std::string::npos)
+        << r.output;
+    EXPECT_EQ(r.output.find("in 1 bands"), std::string::npos) << r.output;
+    const std::string stem = out.substr(0, out.size() - 5);
+    for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma",
+                          "fiber_sigma", "coverage", "determined"})
+      EXPECT_TRUE(read_text_file(dir + "/one_" + k + ".exr") ==
+                  read_text_file(stem + "_" + k + ".exr"))
+          << mem << " MB, " << k << ": the maps in bands differ from one band's";
+    const auto a = report(dir + "/one.json", false), b = report(out, false);
+    for (const char* k : {"pixels", "observations", "skipped", "warnings"})
+      EXPECT_EQ(a[k], b[k]) << mem << " MB: " << k;
+  }
+  const auto one = report(dir + "/one.json", false);
+  EXPECT_GT(one["skipped"]["saturated"].get<size_t>(), 0u) << one.dump();
+  EXPECT_NE(one["warnings"].dump().find("noise of the images"), std::string::npos) << one.dump();
+  // A tile in bands: the same tile, values and counts, as the tile in one band.
+  r = test::run_cli("fit " + dir + "/set" + maps + " --tile 1/2 --out " + dir + "/t.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set" + maps + " --tile 1/2 --maps-memory 0.01 --out " + dir +
+                    "/tb.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto t = nlohmann::json::parse(read_text_file(dir + "/t.json")),
+             tb = nlohmann::json::parse(read_text_file(dir + "/tb.json"));
+  EXPECT_EQ(t["values"], tb["values"]);
+  for (const char* k : {"pixels", "skipped", "maps_bands"})
+    EXPECT_EQ(t["fit"]["report"][k] == tb["fit"]["report"][k], std::string(k) != "maps_bands") << k;
+  EXPECT_EQ(tb["fit"]["report"]["maps_bands"], 3) << tb["fit"]["report"].dump();
+}
+
 }  // namespace
 }  // namespace aniso
 

@@ -332,7 +332,7 @@ TEST(Trust, LinearValuesBelowTheBlackLevelKeepTheirSign) {
   const ViewData d = load_view(set, 0);
   float lo = 0;
   for (size_t p = 0; p < d.use.size(); ++p)
-    if (d.use[p]) lo = std::min(lo, d.rgb.px[3 * p]);
+    if (d.usable(p)) lo = std::min(lo, d.rgb.px[3 * p]);
   EXPECT_LT(lo, -0.1f);  // clipping to 0 would bias dark, noisy pixels upward
 }
 

@@ -1,0 +1,39 @@
+// fit/ internal: a capture's observations band by band of the maps' texel rows (--maps with
+// --global, fit/maps_bands.cpp): one band's records at a time.
+#pragma once
+#include <cstddef>
+#include <memory>
+#include <vector>
+
+#include "fit/observations.h"
+#include "fit/pixel_records.h"
+
+namespace aniso::fitting {
+
+// Loads the bands in order, each into the same arrays (their pages touched once, not once per
+// band), reading of each view only the rows with a pixel the band keeps; a fixed camera's geometry
+// is decoded once for all bands. Every pixel is counted (left out, unlit) by one band, and the
+// images' noise comes from every row once: after the last band, the counts added up and the noise
+// are those of one load of every pixel.
+class BandLoader {
+ public:
+  BandLoader(const CaptureSet& set, const FitOptions& opt);
+  ~BandLoader();
+  BandLoader(const BandLoader&) = delete;
+  BandLoader& operator=(const BandLoader&) = delete;
+  // The bytes of the records one load of every pixel would hold, from view 0's mask (the others
+  // taken to be alike; its geometry stays decoded for the bands).
+  size_t record_bytes();
+  void plan(std::vector<UvBand> bands);  // before the first load
+  // Band j's observations, in place of the band before's; its counts added to *rep.
+  const ObsSet& load(size_t j, FitReport* rep);
+  const ObsSet& observations() const;  // the band loaded last
+  // The images' noise from every band's rows (ObsSet::pixel_noise): after the last band.
+  double pixel_noise();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace aniso::fitting

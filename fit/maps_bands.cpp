@@ -1,0 +1,70 @@
+// --maps with --global in bands of texel rows (fit/maps_bands.h): the records of one band at a
+// time, in arrays whose pages are touched once; the maps the same as one band's.
+#include "fit/maps_bands.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/error.h"
+
+namespace aniso::fitting {
+
+MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
+    : loader_(set, opt), all_(tile_rows(opt)) {
+  if (!(opt.maps_memory_mb > 0)) throw Error("fit: --maps-memory must be above 0 (MB)");
+  bytes_ = loader_.record_bytes();
+  const int rows = all_.row1 - all_.row0;
+  const double bands = std::ceil(static_cast<double>(bytes_) / (opt.maps_memory_mb * 1e6));
+  const int k = std::clamp(static_cast<int>(std::min(bands, 1e6)), 1, std::max(1, rows));
+  const int reach = opt.maps_smooth > 0 ? opt.maps_sweeps : 0;
+  const long w = opt.maps_w;
+  std::vector<UvBand> plan;
+  for (int j = 0; j < k; ++j) {
+    TileRows r;
+    r.row0 = all_.row0 + static_cast<int>(static_cast<long>(rows) * j / k);
+    r.row1 = all_.row0 + static_cast<int>(static_cast<long>(rows) * (j + 1) / k);
+    r.band0 = std::max(0, r.row0 - reach);
+    r.band1 = std::min(opt.maps_h, r.row1 + reach);
+    rows_.push_back(r);
+    UvBand b;
+    b.w = opt.maps_w, b.h = opt.maps_h;
+    b.banded = true;
+    b.tile = opt.tile_count > 0;
+    b.t0 = all_.band0 * w, b.t1 = all_.band1 * w;
+    b.tile_o0 = all_.row0 * w, b.tile_o1 = all_.row1 * w;
+    b.first = j == 0;
+    b.k0 = r.band0 * w, b.k1 = r.band1 * w;
+    b.o0 = r.row0 * w, b.o1 = r.row1 * w;
+    plan.push_back(b);
+  }
+  loader_.plan(std::move(plan));
+}
+
+TexelMaps MapsInBands::fit(const Core& global, const TexelMapOptions& to, FitReport* rep) {
+  TexelMaps whole;
+  for (int j = 0; j < count(); ++j) {
+    if (j > 0) {
+      const auto t0 = std::chrono::steady_clock::now();
+      FitReport band_rep;
+      loader_.load(static_cast<size_t>(j), &band_rep);
+      rep->pixels += band_rep.pixels;
+      rep->observations += band_rep.observations;
+      rep->masked_out += band_rep.masked_out;
+      rep->saturated += band_rep.saturated;
+      rep->nonfinite += band_rep.nonfinite;
+      rep->unlit += band_rep.unlit;
+      rep->implausible += band_rep.implausible;
+      rep->outside_tile += band_rep.outside_tile;
+      rep->seconds_load +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    TexelMapOptions tb = to;
+    tb.rows = rows_[static_cast<size_t>(j)];
+    tb.scratch = scratch_.get();
+    join_band(fit_texel_maps(loader_.observations(), global, tb), all_.row0, all_.row1, &whole);
+  }
+  return whole;
+}
+
+}  // namespace aniso::fitting

@@ -1,0 +1,32 @@
+// fit/ internal: --maps with --global, the texel rows fitted band by band (fit/maps_bands.cpp).
+#pragma once
+#include <vector>
+
+#include "fit/band_load.h"
+#include "fit/maps.h"
+
+namespace aniso::fitting {
+
+// The rows of the maps (a --tile's, or all) in bands of about --maps-memory of records each:
+// band j's load keeps the pixels of its rows and their --smooth reach, and its texels are fitted
+// as a tile of those rows is (fit/maps.h tile_rows: the same maps, byte for byte, as one band).
+class MapsInBands {
+ public:
+  MapsInBands(const CaptureSet& set, const FitOptions& opt);
+  int count() const { return static_cast<int>(rows_.size()); }
+  size_t record_bytes() const { return bytes_; }  // of one load of every pixel (estimated)
+  const ObsSet& load_first(FitReport* rep) { return loader_.load(0, rep); }
+  // Every band's texels (band 0 loaded by load_first, the others loaded here, their counts and
+  // load time added to *rep), joined into the maps of the options' rows.
+  TexelMaps fit(const Core& global, const TexelMapOptions& to, FitReport* rep);
+  double pixel_noise() { return loader_.pixel_noise(); }  // after fit
+
+ private:
+  BandLoader loader_;
+  TileRows all_;
+  std::vector<TileRows> rows_;
+  size_t bytes_ = 0;
+  std::shared_ptr<TexelScratch> scratch_ = texel_scratch();
+};
+
+}  // namespace aniso::fitting
