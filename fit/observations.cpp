@@ -368,11 +368,18 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
   rep.views = set.views.size();
   choose_topology(set, opt, &os);
   if (opt.maps_w > 0)
-    for (size_t i = 0; i < set.views.size(); ++i)
+    for (size_t i = 0; i < set.views.size(); ++i) {
       if (set.views[i].geometry.uv.empty())
         throw Error(set.file + ": views[" + std::to_string(i) +
                     "]: --maps needs texture "
                     "coordinates: a \"uv\" buffer in every view's geometry");
+      // A mesh is traced for position, normal and tangent alone: its uv buffer would not be read.
+      if (!set.views[i].geometry.mesh.empty())
+        throw Error(set.file + ": views[" + std::to_string(i) +
+                    "].geometry: --maps reads texture coordinates from the \"uv\" buffer beside "
+                    "the position, normal and tangent buffers; a \"mesh\" view's are not traced "
+                    "(write its buffers, as capture_sim does)");
+    }
   if (os.topology == TopologyMode::kAmplitude && !st->map_loaded)
     st->map = load_topology_map(os.topology_map), st->map_loaded = true;
   const bool banded = !st->bands.empty();

@@ -230,6 +230,16 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
   for (const char* k : {"pixels", "skipped", "maps_bands"})
     EXPECT_EQ(t["fit"]["report"][k] == tb["fit"]["report"][k], std::string(k) != "maps_bands") << k;
   EXPECT_EQ(tb["fit"]["report"]["maps_bands"], 3) << tb["fit"]["report"].dump();
+  // A view whose geometry is a traced mesh has no uv to bin by (its uv buffer is not what is
+  // traced): refused by name, before anything is read.
+  test::edit_json(dir + "/set/capture.json", [](auto& j) {
+    j["views"][1]["geometry"] = j["geometry"];  // the set's shared buffers
+    j["views"][1]["geometry"]["mesh"] = "plate.obj";
+  });
+  r = test::run_cli("fit " + dir + "/set" + maps + " --out " + dir + "/mesh.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("views[1].geometry: --maps reads texture coordinates"), std::string::npos)
+      << r.output;
 }
 
 }  // namespace
