@@ -261,6 +261,15 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   }
   write_fit(out, r);
   print_report(o, r);
+  // A plain --maps fit holds every pixel's record at once (for the global fit): say how to bound
+  // that when it is more than the bands would hold.
+  const double record_mb = 60e-6 * static_cast<double>(r.report.pixels);
+  if (fo.maps_w > 0 && !fo.global && record_mb > fo.maps_memory_mb)
+    std::fprintf(o,
+                 "fit: note: the maps held ~%.0f MB of records at once (every pixel, for the "
+                 "global fit); given a global fit (--global %s: this one's global values), `fit "
+                 "--maps` loads and fits band by band, at most --maps-memory (%g MB) at once\n",
+                 record_mb, out.c_str(), fo.maps_memory_mb);
   std::fprintf(o, "fit: wrote %s\n", out.c_str());
   std::fprintf(o, "%s", describe_fit(r).c_str());
   if (!truth.empty())

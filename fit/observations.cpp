@@ -49,20 +49,12 @@ void for_each_kept(const Kept& keep, ObsSet* os, F f) {
   if (keep.topo) f(os->topo, 2);
 }
 
-// Record i's texel on the maps' grid, -1 for none (ObsSet::kNoTexel).
-long texel_index(const ObsSet& os, size_t i) {
-  const uint32_t t = os.texel[i];
-  return t == ObsSet::kNoTexel ? -1 : static_cast<long>(t);
-}
-
 // Values far above anything else in the set (hot pixels, a broken writer's 1e30) would steer the
 // closed-form start and the noise estimate before any robust loss can act: a pixel with a value
 // above kImplausible times the 90th percentile of all values is left out and counted (a real
 // highlight is brighter than most pixels, but not 10^4 times brighter than the brightest tenth).
 // `given` > 0: that limit instead (a --global fit's, for the maps after it).
-// `band`: only the records of texels it owns are counted (a band's reach is another band's).
-void drop_implausible(const Kept& keep, const UvBand& band, ObsSet* os, FitReport* rep,
-                      double given) {
+void drop_implausible(const Kept& keep, ObsSet* os, FitReport* rep, double given) {
   double limit = given;
   if (!(limit > 0)) {
     if (os->obs.size() < 100) return;
@@ -86,7 +78,7 @@ void drop_implausible(const Kept& keep, const UvBand& band, ObsSet* os, FitRepor
   for (size_t i = 0; i < os->obs.size(); ++i) {
     const Observation& o = os->obs[i];
     if (!(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= limit)) {
-      rep->implausible += !band.banded || band.owns(texel_index(*os, i));
+      ++rep->implausible;
       continue;
     }
     for_each_kept(keep, os, [&](auto& v, size_t per) {
@@ -207,6 +199,8 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
     rep->nonfinite += p.rep.nonfinite;
     rep->unlit += p.rep.unlit;
     rep->outside_tile += p.rep.outside_tile;
+    rep->pixels += p.rep.pixels;
+    rep->implausible += p.rep.implausible;
     p = ViewPart{};
   }
   os->obs.resize(o_end);
@@ -216,7 +210,7 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
 
 // Room in the set's arrays for a batch of views from view b0 on (each view's usable pixels and as
 // many lights each), and each view's slot in it; *obs_start, *light_start: where the batch begins.
-void make_room(const CaptureSet& set, size_t b0, size_t batches_left, Kept keep,
+void make_room(const CaptureSet& set, size_t b0, size_t batches_left, Kept keep, double implausible,
                std::vector<ViewPart>* parts, ObsSet* os, size_t* obs_start, size_t* light_start) {
   size_t more_obs = 0, more_lights = 0;
   for (size_t k = 0; k < parts->size(); ++k) {
@@ -237,6 +231,7 @@ void make_room(const CaptureSet& set, size_t b0, size_t batches_left, Kept keep,
                         keep.uv ? os->uv.data() + 2 * o_at : nullptr,
                         keep.texel ? os->texel.data() + o_at : nullptr,
                         keep.topo ? os->topo.data() + 2 * o_at : nullptr};
+    p.slot.implausible = implausible;
     o_at += p.bound;
     l_at += p.bound * set.views[b0 + k].lights.size();
   }
@@ -408,6 +403,8 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
   const Kept keep{
       opt.topology_texels > 0, opt.maps_w > 0,
       os.topology == TopologyMode::kAmplitude || os.topology == TopologyMode::kMathematical};
+  const double given = opt.global ? opt.global->implausible_limit : 0;
+  const size_t pixels_before = rep.pixels;
   for (size_t b0 = 0; b0 < n; b0 += batch) {
     const size_t b1 = std::min(n, b0 + batch);
     std::vector<ViewPart> parts(b1 - b0);
@@ -438,7 +435,8 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
       });
     });
     size_t obs_start, light_start;
-    make_room(set, b0, (n - b0 + batch - 1) / batch, keep, &parts, &os, &obs_start, &light_start);
+    make_room(set, b0, (n - b0 + batch - 1) / batch, keep, banded ? given : 0, &parts, &os,
+              &obs_start, &light_start);
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
@@ -460,20 +458,21 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
         std::remove_if(g.begin(), g.end(), [](const auto& e) { return e->geo.use_count() == 1; }),
         g.end());
   }
-  // The implausible values and the noise estimate are independent: side by side. With bands, the
-  // noise waits for the last band's rows.
-  const double given = opt.global ? opt.global->implausible_limit : 0;
-  tbb::parallel_invoke([&] { drop_implausible(keep, band, &os, &rep, given); },
-                       [&] { os.pixel_noise = banded ? 0 : pixel_noise(&st->diffs); });
+  // The implausible values and the noise estimate are independent: side by side. Bands left the
+  // implausible values out as they wrote the records (a --global fit's limit), and their noise
+  // waits for the last band's rows.
+  if (banded) {
+    rep.implausible_limit = given;
+  } else {
+    tbb::parallel_invoke([&] { drop_implausible(keep, &os, &rep, given); },
+                         [&] { os.pixel_noise = pixel_noise(&st->diffs); });
+  }
   // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
   os.grey = grey_views == set.views.size();
-  // A band counts the pixels of the texels it owns (its reach's are the next band's).
-  size_t pixels = os.obs.size();
-  if (banded) {
-    pixels = 0;
-    for (size_t i = 0; i < os.obs.size(); ++i) pixels += band.owns(texel_index(os, i));
-  }
-  rep.pixels += pixels;
+  // A band counts the pixels of the texels it owns (its reach's are the next band's), as it
+  // writes them.
+  const size_t pixels = banded ? rep.pixels - pixels_before : os.obs.size();
+  rep.pixels = pixels_before + pixels;
   rep.observations += pixels * (os.grey ? 1 : 3);
   if (band.first && (set.ambient[0] != 0 || set.ambient[1] != 0 || set.ambient[2] != 0))
     rep.warnings.push_back(

@@ -1,6 +1,9 @@
 // A view's pixels to records (fit/pixel_records.h).
 #include "fit/pixel_records.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "core/frame.h"
 #include "fit/pixel_frames.h"
 
@@ -33,6 +36,12 @@ void put_record(const ViewData& d, int x, int y, long t, const LocalDir& V, size
     rep->unlit += band.owns(t);  // no light reaches it: it constrains nothing that is fitted
     return;
   }
+  if (out->implausible > 0 &&
+      !(std::max({std::abs(o.y[0]), std::abs(o.y[1]), std::abs(o.y[2])}) <= out->implausible)) {
+    rep->implausible += band.owns(t);
+    return;
+  }
+  rep->pixels += band.owns(t);
   if (out->uv)
     for (int c = 0; c < 2; ++c) out->uv[2 * out->num_obs + c] = g.uv.px[2 * p + c];
   if (out->texel) out->texel[out->num_obs] = t < 0 ? ObsSet::kNoTexel : static_cast<uint32_t>(t);

@@ -20,6 +20,9 @@ struct RecordSlot {
   uint32_t* texel = nullptr;           // one per observation, where kept
   float* topo = nullptr;               // two per observation, where kept
   size_t num_obs = 0, num_lights = 0;  // written
+  // Bands: a value above this (a --global fit's limit) is left out as implausible here, where
+  // one load of every pixel drops it afterwards (0: not here).
+  double implausible = 0;
 };
 
 // --maps: the w x h grid of the maps (w = 0 without). With --global the maps are fitted band by
