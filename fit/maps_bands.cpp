@@ -31,6 +31,7 @@ MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
     b.w = opt.maps_w, b.h = opt.maps_h;
     b.banded = true;
     b.tile = opt.tile_count > 0;
+    b.first_tile = opt.tile_index == 0;
     b.t0 = all_.band0 * w, b.t1 = all_.band1 * w;
     b.tile_o0 = all_.row0 * w, b.tile_o1 = all_.row1 * w;
     b.first = j == 0;

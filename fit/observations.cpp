@@ -300,7 +300,7 @@ std::unique_ptr<LoadState::GeoRows> band_rows(const std::shared_ptr<const ViewGe
       hi = static_cast<int>(j);
     }
   for (int y = 0; y < H; ++y) {
-    bool no_texel = false;  // a pixel whose uv is outside [0, 1)^2: the first band's (no tile)
+    bool no_texel = false;  // a pixel whose uv is outside [0, 1)^2: the first band's
     for (int x = 0; x < W; ++x) {
       const size_t p = static_cast<size_t>(y) * W + x;
       if (!g.mask[p]) continue;
@@ -308,8 +308,8 @@ std::unique_ptr<LoadState::GeoRows> band_rows(const std::shared_ptr<const ViewGe
       // Another tile's pixel (its rows', counted there; its reach's are read, not counted).
       if (b0.tile && !(t >= b0.tile_o0 && t < b0.tile_o1))
         r->outside += g.finite[p] && x % stride == 0 && y % stride == 0;
-      if (t < 0) {
-        no_texel |= !b0.tile;
+      if (t < 0) {  // read for its counts by the first band (of the first tile)
+        no_texel |= b0.first_tile;
         continue;
       }
       if (!b0.in_tile(t)) continue;

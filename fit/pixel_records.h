@@ -31,11 +31,12 @@ struct RecordSlot {
 // either side, within --tile's [t0, t1) where `tile` (its rows [tile_o0, tile_o1) and their
 // reach; the pixels outside its rows are other tiles'). It counts pixels (kept, left out, unlit)
 // only for its own texels [o0, o1): every pixel is counted by one band, and by one tile. A pixel
-// with no texel (uv outside [0, 1)^2) is the first band's, or another tile's.
+// with no texel (uv outside [0, 1)^2) is the first band's (of the first tile, which counts it but
+// keeps no record of it).
 struct UvBand {
   int w = 0, h = 0;
   bool banded = false;
-  bool tile = false;
+  bool tile = false, first_tile = true;
   long t0 = 0, t1 = 0, tile_o0 = 0, tile_o1 = 0;
   bool first = true;
   long k0 = 0, k1 = 0, o0 = 0, o1 = 0;
@@ -46,7 +47,7 @@ struct UvBand {
   // A pixel of texel t is one of this band's observations.
   bool keeps(long t) const { return !banded || (t >= 0 ? t >= k0 && t < k1 : first && !tile); }
   // ... and this band counts it (saturated, not finite, unlit) where it is left out.
-  bool owns(long t) const { return !banded || (t >= 0 ? t >= o0 && t < o1 : first && !tile); }
+  bool owns(long t) const { return !banded || (t >= 0 ? t >= o0 && t < o1 : first && first_tile); }
 };
 
 // The band of fit `opt` (--maps, --global, --tile).

@@ -191,6 +191,10 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
     Image img = read_image(dir + "/set/images/003.exr").image;
     for (size_t p = 0; p < img.px.size(); p += 3 * 29) img.px[p] = -1e5f;  // not saturated
     write_exr(dir + "/set/images/003.exr", img);
+    // and texture coordinates past the grid: no texel (some saturated, counted once)
+    Image uv = read_image(dir + "/set/geometry/all_uv.exr").image;
+    for (size_t p = 0; p < uv.px.size(); p += uv.channels * 7) uv.px[p] = 1.5f;
+    write_exr(dir + "/set/geometry/all_uv.exr", uv);
   }
   r = test::run_cli("fit " + dir + "/set --subsample 2 --out " + dir + "/global.json");
   ASSERT_EQ(r.status, 0) << r.output;
@@ -242,6 +246,17 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
   for (const char* k : {"pixels", "skipped", "maps_bands"})
     EXPECT_EQ(t["fit"]["report"][k] == tb["fit"]["report"][k], std::string(k) != "maps_bands") << k;
   EXPECT_EQ(tb["fit"]["report"]["maps_bands"], 3) << tb["fit"]["report"].dump();
+  // The two tiles count every saturated or non-finite pixel once between them (those with no
+  // texel: the first tile), as one untiled run does. (A pixel with no texel is no tile's record,
+  // so none checks it for light or plausibility: it is outside every tile, as it always was.)
+  r = test::run_cli("fit " + dir + "/set" + maps + " --tile 0/2 --maps-memory 0.01 --out " + dir +
+                    "/t0.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto t0 = nlohmann::json::parse(read_text_file(dir + "/t0.json"))["fit"]["report"];
+  for (const char* k : {"saturated", "nonfinite"})
+    EXPECT_EQ(t0["skipped"][k].get<size_t>() + tb["fit"]["report"]["skipped"][k].get<size_t>(),
+              one["skipped"][k].get<size_t>())
+        << k;
   // A view whose geometry is a traced mesh has no uv to bin by (its uv buffer is not what is
   // traced): refused by name, before anything is read.
   test::edit_json(dir + "/set/capture.json", [](auto& j) {
