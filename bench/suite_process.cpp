@@ -233,6 +233,52 @@ json maps_entry(const std::string& work, bool quick, int views) {
   return e;
 }
 
+// --maps with --global band by band (--maps-memory at an eighth of the records) against one band,
+// on maps_entry's set and global fit (made there first): the whole process and its peak memory
+// (median of three each), and whether the maps are the same bytes.
+json bands_entry(const std::string& work, bool quick, int views) {
+  const std::string stem = join_path(work, "swirl" + std::to_string(quick ? 8 : views));
+  const std::string dir = stem + "_set", global = stem + "_global.json";
+  const std::string grid = quick ? "8x8" : "64x64";
+  auto fit = [&](const std::string& out, const std::string& memory) {
+    std::vector<std::string> a = {"fit", dir, "--maps", grid, "--global", global, "--out", out};
+    if (!memory.empty()) a.insert(a.end(), {"--maps-memory", memory});
+    return median_of_three(a);
+  };
+  const Run one = fit(stem + "_one.json", "");
+  double records_mb = NAN;
+  int bands = 0;
+  if (one.ok) {
+    const auto j = jsonu::json::parse(read_text_file(stem + "_one.json"), nullptr, false);
+    records_mb = 60e-6 * j["report"].value("pixels", 0.0);  // 60 bytes a pixel and light
+  }
+  const std::string memory = std::to_string(std::max(0.001, records_mb / 8));
+  const Run banded = fit(stem + "_bands.json", memory);
+  bool same = one.ok && banded.ok;
+  if (banded.ok) {
+    const auto j = jsonu::json::parse(read_text_file(stem + "_bands.json"), nullptr, false);
+    bands = j["report"].value("maps_bands", 0);
+    for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma",
+                          "fiber_sigma", "coverage", "determined"})
+      same = same && read_text_file(stem + "_one_" + k + ".exr") ==
+                         read_text_file(stem + "_bands_" + k + ".exr");
+  }
+  json e = entry("fit",
+                 "whole process: fit --maps " + grid + " --global on swirl-plate (" +
+                     std::to_string(quick ? 8 : views) + " views), in " + std::to_string(bands) +
+                     " bands of texel rows (--maps-memory an eighth of the records) vs one band",
+                 banded.seconds, one.seconds, "s", NAN);
+  e["peak_rss_kb"] = {{"bands", banded.max_rss_kb}, {"one_band", one.max_rss_kb}};
+  e["records_mb"] = records_mb;
+  e["maps_identical"] = same;
+  std::printf(
+      "bench fit: --maps %s --global in %d bands: %.3f s (%ld kB) vs one band %.3f s (%ld kB); "
+      "maps %s\n",
+      grid.c_str(), bands, banded.seconds, banded.max_rss_kb, one.seconds, one.max_rss_kb,
+      same ? "the same bytes" : "DIFFER");
+  return e;
+}
+
 }  // namespace
 
 json bench_fit_process(const std::string& work, bool quick) {
@@ -309,6 +355,7 @@ json bench_fit_process(const std::string& work, bool quick) {
   }
   out.push_back(maps_entry(work, quick, 16));
   if (!quick) out.push_back(maps_entry(work, quick, 64));
+  out.push_back(bands_entry(work, quick, 64));
   out.push_back(fiber_entry(work, quick, "fiber-flat", "fiber"));
   out.push_back(fiber_entry(work, quick, "brushed-metal", "fiber"));
   out.push_back(fiber_entry(work, quick, "brushed-metal", "auto"));
