@@ -353,12 +353,6 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
   if (opt.subsample < 1) throw Error("fit: --subsample must be at least 1");
   ObsSet& os = *os_out;
   os.obs.clear(), os.lights.clear(), os.uv.clear(), os.texel.clear(), os.topo.clear();
-  try {
-    os.obs.reserve(st->reserve_obs);
-    os.lights.reserve(st->reserve_lights);
-    os.texel.reserve(opt.maps_w > 0 ? st->reserve_obs : 0);
-  } catch (const std::bad_alloc&) {  // the arrays grow as they are written instead
-  }
   FitReport& rep = *rep_out;
   rep.views = set.views.size();
   choose_topology(set, opt, &os);
@@ -403,6 +397,12 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
   const Kept keep{
       opt.topology_texels > 0, opt.maps_w > 0,
       os.topology == TopologyMode::kAmplitude || os.topology == TopologyMode::kMathematical};
+  try {  // bands: room for every band at once (BandLoader::record_bytes; 0 otherwise)
+    os.obs.reserve(st->reserve_obs);
+    os.lights.reserve(st->reserve_lights);
+    for_each_kept(keep, &os, [&](auto& v, size_t per) { v.reserve(per * st->reserve_obs); });
+  } catch (const std::bad_alloc&) {  // the arrays grow as they are written instead
+  }
   const double given = opt.global ? opt.global->implausible_limit : 0;
   const size_t pixels_before = rep.pixels;
   for (size_t b0 = 0; b0 < n; b0 += batch) {
