@@ -38,14 +38,14 @@ void print_report(FILE* o, const FitResult& r) {
       p.observations, p.pixels, p.views, p.masked_out, p.saturated, p.nonfinite, p.unlit,
       p.implausible);
   if (!p.start.empty()) std::fprintf(o, "fit: start %s\n", p.start.c_str());
-  if (!p.global_from.empty())
-    std::fprintf(o, "fit: global fit from %s (--global: not fitted here); load %.3f s\n",
-                 p.global_from.c_str(), p.seconds_load);
   if (p.maps_bands > 1)
     std::fprintf(o,
                  "fit: --maps in %d bands of texel rows (records ~%.1f MB in all, --maps-memory "
                  "%g MB at once)\n",
                  p.maps_bands, p.maps_record_bytes / 1e6, r.report.maps_memory_mb);
+  if (!p.global_from.empty())
+    std::fprintf(o, "fit: global fit from %s (--global: not fitted here); load %.3f s\n",
+                 p.global_from.c_str(), p.seconds_load);
   else
     std::fprintf(
         o,

@@ -207,6 +207,7 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
   r = test::run_cli("fit " + dir + "/set" + maps + " --out " + dir + "/one.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_EQ(r.output.find("bands of texel rows"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("iterations (none)"), std::string::npos) << r.output;  // no global fit
   // Without --global every record is held at once: past --maps-memory, the way round is named.
   r = test::run_cli("fit " + dir + "/set --maps 8x6 --maps-memory 0.01 --out " + dir +
                     "/plain.json");
