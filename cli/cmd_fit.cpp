@@ -43,6 +43,12 @@ void print_report(FILE* o, const FitResult& r) {
                  "fit: --maps in %d bands of texel rows (records ~%.1f MB in all, --maps-memory "
                  "%g MB at once)\n",
                  p.maps_bands, p.maps_record_bytes / 1e6, r.report.maps_memory_mb);
+  if (p.maps_bands > 1 && p.maps_own_geometries > 0)
+    std::fprintf(o,
+                 "fit: note: %zu geometries (a camera per view): every band reads each again, "
+                 "%d times in all; a larger --maps-memory, where memory allows, reads them fewer "
+                 "times\n",
+                 p.maps_own_geometries, p.maps_bands);
   if (!p.global_from.empty())
     std::fprintf(o, "fit: global fit from %s (--global: not fitted here); load %.3f s\n",
                  p.global_from.c_str(), p.seconds_load);

@@ -352,6 +352,7 @@ FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
     rep.maps_bands = bands.count();
     rep.maps_record_bytes = bands.record_bytes();
     rep.maps_memory_mb = opt.maps_memory_mb;
+    rep.maps_own_geometries = bands.own_geometries();
     const ObsSet& os = bands.load_first(&rep);
     rep.seconds_load = seconds_since(t0);
     FitResult r = solve_model(os, opt, rep, {0, 0, 0}, &bands);

@@ -141,7 +141,8 @@ struct FitReport {
   // records' bytes one load of every pixel would have held (estimated from view 0's mask).
   int maps_bands = 0;
   size_t maps_record_bytes = 0;
-  double maps_memory_mb = 0;  // --maps-memory
+  double maps_memory_mb = 0;       // --maps-memory
+  size_t maps_own_geometries = 0;  // views with geometry of their own, read again by every band
   int iterations = 0;
   double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0,
          seconds_covariance = 0;

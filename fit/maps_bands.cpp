@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <set>
+#include <string>
 
 #include "core/error.h"
 
@@ -14,6 +16,13 @@ MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
     : loader_(set, opt), all_(tile_rows(opt)) {
   if (!(opt.maps_memory_mb > 0)) throw Error("fit: --maps-memory must be above 0 (MB)");
   bytes_ = loader_.record_bytes();
+  std::set<std::string> geometries;
+  for (const ViewSpec& v : set.views) {
+    const GeometrySpec& g = v.geometry;
+    geometries.insert(g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
+                      g.uv + '\n' + g.topology);
+  }
+  own_geometries_ = geometries.size() > 1 ? geometries.size() : 0;
   const int rows = all_.row1 - all_.row0;
   const double bands = std::ceil(static_cast<double>(bytes_) / (opt.maps_memory_mb * 1e6));
   const int k = std::clamp(static_cast<int>(std::min(bands, 1e6)), 1, std::max(1, rows));

@@ -15,6 +15,8 @@ class MapsInBands {
   MapsInBands(const CaptureSet& set, const FitOptions& opt);
   int count() const { return static_cast<int>(rows_.size()); }
   size_t record_bytes() const { return bytes_; }  // of one load of every pixel (estimated)
+  // Views with geometry of their own (not one fixed camera's): every band reads it again.
+  size_t own_geometries() const { return own_geometries_; }
   const ObsSet& load_first(FitReport* rep) { return loader_.load(0, rep); }
   // Every band's texels (band 0 loaded by load_first, the others loaded here, their counts and
   // load time added to *rep), joined into the maps of the options' rows.
@@ -25,7 +27,7 @@ class MapsInBands {
   BandLoader loader_;
   TileRows all_;
   std::vector<TileRows> rows_;
-  size_t bytes_ = 0;
+  size_t bytes_ = 0, own_geometries_ = 0;
   std::shared_ptr<TexelScratch> scratch_ = texel_scratch();
 };
 

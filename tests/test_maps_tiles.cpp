@@ -258,6 +258,22 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
     EXPECT_EQ(t0["skipped"][k].get<size_t>() + tb["fit"]["report"]["skipped"][k].get<size_t>(),
               one["skipped"][k].get<size_t>())
         << k;
+  EXPECT_EQ(r.output.find("a camera per view"), std::string::npos) << r.output;
+  // A view with geometry of its own (here the same buffers under other names): every band reads
+  // it again, which the fit says; the maps are the same.
+  for (const char* b : {"all_P.exr", "all_N.exr", "all_U.exr", "all_uv.exr", "all_mask.png"})
+    std::filesystem::copy_file(dir + "/set/geometry/" + b, dir + "/set/geometry/v1_" + b);
+  test::edit_json(dir + "/set/capture.json", [](auto& j) {
+    j["views"][1]["geometry"] = j["geometry"];
+    for (auto& [k, v] : j["views"][1]["geometry"].items())
+      v = "geometry/v1_" + v.template get<std::string>().substr(9);
+  });
+  r = test::run_cli("fit " + dir + "/set" + maps + " --maps-memory 0.01 --out " + dir + "/g.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("2 geometries (a camera per view): every band reads each again"),
+            std::string::npos)
+      << r.output;
+  EXPECT_TRUE(read_text_file(dir + "/g_fiber.exr") == read_text_file(dir + "/b0.01_fiber.exr"));
   // A view whose geometry is a traced mesh has no uv to bin by (its uv buffer is not what is
   // traced): refused by name, before anything is read.
   test::edit_json(dir + "/set/capture.json", [](auto& j) {
