@@ -322,9 +322,10 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
   fit->add_option("--global", a->global,
                   "--maps: take the global fit (every texel's start, and the values of texels the "
                   "data do not determine) from this material, an earlier `aniso fit` of the same "
-                  "capture (a --subsample of it will do), instead of fitting it; with --tile the "
-                  "tile then keeps only the pixels whose uv falls in its rows: its memory is its "
-                  "share of the sample");
+                  "capture (a --subsample of it will do), instead of fitting it; the maps are "
+                  "then loaded and fitted band by band of texel rows (--maps-memory), and with "
+                  "--tile the tile reads and keeps only the pixels whose uv falls in its rows: "
+                  "its memory is its share of the sample");
   fit->add_flag("--mpi", a->mpi,
                 "with --maps, under mpirun: every rank fits one tile of the texels (rank i of N "
                 "is tile i/N) and rank 0 merges them into --out (the same files as one run). "
