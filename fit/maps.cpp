@@ -97,19 +97,18 @@ bool smoothing_prior(const TexelResults& now, const TexelResults& first, const B
 
 }  // namespace
 
-TileRows tile_rows(const FitOptions& opt) {
-  TileRows r{0, opt.maps_h, 0, opt.maps_h};
-  if (opt.tile_count > 0) {
-    const long h = opt.maps_h;
-    r.row0 = static_cast<int>(h * opt.tile_index / opt.tile_count);
-    r.row1 = static_cast<int>(h * (opt.tile_index + 1) / opt.tile_count);
-  }
+TileRows rows_with_reach(int row0, int row1, const FitOptions& opt) {
   // Smoothing: a tile also fits `sweeps` rows beyond its band; after that many sweeps the error
   // of the missing rows beyond has moved in by as many rows and stops short of the band.
   const int reach = opt.maps_smooth > 0 ? opt.maps_sweeps : 0;
-  r.band0 = std::max(0, r.row0 - reach);
-  r.band1 = std::min(opt.maps_h, r.row1 + reach);
-  return r;
+  return {row0, row1, std::max(0, row0 - reach), std::min(opt.maps_h, row1 + reach)};
+}
+
+TileRows tile_rows(const FitOptions& opt) {
+  if (opt.tile_count == 0) return rows_with_reach(0, opt.maps_h, opt);
+  const long h = opt.maps_h;
+  return rows_with_reach(static_cast<int>(h * opt.tile_index / opt.tile_count),
+                         static_cast<int>(h * (opt.tile_index + 1) / opt.tile_count), opt);
 }
 
 namespace {
@@ -238,7 +237,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   TexelScratch own;  // a plain fit's, freed with it
   TexelScratch& scratch = o.scratch ? *o.scratch : own;
   // Bands: room for the largest band at once (mapped pages, only those written touched).
-  scratch.bins.idx.reserve(std::max(os.obs.capacity(), os.obs.size()));
+  scratch.bins.idx.reserve(os.obs.capacity());
   texel_bins(os, t_begin, t_end, &scratch.bins);
   const TexelBins& bins = scratch.bins;
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);

@@ -17,6 +17,8 @@ struct TileRows {
   int row0 = 0, row1 = 0, band0 = 0, band1 = 0;
 };
 TileRows tile_rows(const FitOptions& opt);
+// Rows [row0, row1) and the band fitted for them (their --smooth reach on either side).
+TileRows rows_with_reach(int row0, int row1, const FitOptions& opt);
 
 // What a fit in bands (fit/maps_bands.h) reuses from band to band: the bins' indices and the
 // texels' results, their pages touched by the first band and written over by the others.

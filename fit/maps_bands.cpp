@@ -17,24 +17,17 @@ MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
   if (!(opt.maps_memory_mb > 0)) throw Error("fit: --maps-memory must be above 0 (MB)");
   bytes_ = loader_.record_bytes();
   std::set<std::string> geometries;
-  for (const ViewSpec& v : set.views) {
-    const GeometrySpec& g = v.geometry;
-    geometries.insert(g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
-                      g.uv + '\n' + g.topology);
-  }
+  for (const ViewSpec& v : set.views) geometries.insert(geometry_key(v));
   own_geometries_ = geometries.size() > 1 ? geometries.size() : 0;
   const int rows = all_.row1 - all_.row0;
   const double bands = std::ceil(static_cast<double>(bytes_) / (opt.maps_memory_mb * 1e6));
   const int k = std::clamp(static_cast<int>(std::min(bands, 1e6)), 1, std::max(1, rows));
-  const int reach = opt.maps_smooth > 0 ? opt.maps_sweeps : 0;
   const long w = opt.maps_w;
   std::vector<UvBand> plan;
   for (int j = 0; j < k; ++j) {
-    TileRows r;
-    r.row0 = all_.row0 + static_cast<int>(static_cast<long>(rows) * j / k);
-    r.row1 = all_.row0 + static_cast<int>(static_cast<long>(rows) * (j + 1) / k);
-    r.band0 = std::max(0, r.row0 - reach);
-    r.band1 = std::min(opt.maps_h, r.row1 + reach);
+    const TileRows r =
+        rows_with_reach(all_.row0 + static_cast<int>(static_cast<long>(rows) * j / k),
+                        all_.row0 + static_cast<int>(static_cast<long>(rows) * (j + 1) / k), opt);
     rows_.push_back(r);
     UvBand b;
     b.w = opt.maps_w, b.h = opt.maps_h;
@@ -58,14 +51,8 @@ TexelMaps MapsInBands::fit(const Core& global, const TexelMapOptions& to, FitRep
       const auto t0 = std::chrono::steady_clock::now();
       FitReport band_rep;
       loader_.load(static_cast<size_t>(j), &band_rep);
-      rep->pixels += band_rep.pixels;
+      add_counts(band_rep, rep);
       rep->observations += band_rep.observations;
-      rep->masked_out += band_rep.masked_out;
-      rep->saturated += band_rep.saturated;
-      rep->nonfinite += band_rep.nonfinite;
-      rep->unlit += band_rep.unlit;
-      rep->implausible += band_rep.implausible;
-      rep->outside_tile += band_rep.outside_tile;
       rep->seconds_load +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }

@@ -14,7 +14,7 @@
 
 #include "core/error.h"
 #include "core/progress.h"
-#include "fit/band_load.h"
+#include "fit/load_views.h"
 #include "fit/maps.h"
 #include "fit/pixel_records.h"
 #include "io/files.h"
@@ -23,6 +23,16 @@
 #include "io/material_io.h"
 
 namespace aniso::fitting {
+
+void add_counts(const FitReport& from, FitReport* to) {
+  to->pixels += from.pixels;
+  to->masked_out += from.masked_out;
+  to->saturated += from.saturated;
+  to->nonfinite += from.nonfinite;
+  to->unlit += from.unlit;
+  to->implausible += from.implausible;
+  to->outside_tile += from.outside_tile;
+}
 
 void* map_pages(size_t bytes) {
   void* p = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE,
@@ -90,9 +100,8 @@ void drop_implausible(const Kept& keep, ObsSet* os, FitReport* rep, double given
   for_each_kept(keep, os, [&](auto& v, size_t per) { v.resize(per * kept); });
 }
 
-// The fiber model's topology from what the set carries: a map means its amplitude is fitted over
-// the per-pixel mathematical topology (0 where no buffer); a topology buffer alone fixes s; else
-// one s (or, with --topology-map N, an N x N map of s over uv).
+}  // namespace
+
 void choose_topology(const CaptureSet& set, const FitOptions& opt, ObsSet* os) {
   const bool has_map = !set.topology_map.empty();
   if (has_map) {
@@ -126,6 +135,8 @@ void choose_topology(const CaptureSet& set, const FitOptions& opt, ObsSet* os) {
   os->topology = TopologyMode::kTexels;
   os->texels = opt.topology_texels;
 }
+
+namespace {
 
 // Second differences of three horizontal neighbours (a - 2b + c cancels the shading's gradient)
 // on every 4th row, or sparser rows where a set of `views` such views would give more than
@@ -194,13 +205,7 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
     o_end += p.slot.num_obs;
     l_end += p.slot.num_lights;
     diffs->insert(diffs->end(), p.diffs.begin(), p.diffs.end());
-    rep->masked_out += p.rep.masked_out;
-    rep->saturated += p.rep.saturated;
-    rep->nonfinite += p.rep.nonfinite;
-    rep->unlit += p.rep.unlit;
-    rep->outside_tile += p.rep.outside_tile;
-    rep->pixels += p.rep.pixels;
-    rep->implausible += p.rep.implausible;
+    add_counts(p.rep, rep);
     p = ViewPart{};
   }
   os->obs.resize(o_end);
@@ -237,8 +242,8 @@ void make_room(const CaptureSet& set, size_t b0, size_t batches_left, Kept keep,
   }
 }
 
-// sigma of one pixel: the robust sigma of the differences a - 2b + c, over sqrt(1 + 4 + 1); 0
-// without any.
+}  // namespace
+
 double pixel_noise(std::vector<float>* diffs) {
   if (diffs->empty()) return 0;
   for (float& v : *diffs) v = std::abs(v);
@@ -247,107 +252,6 @@ double pixel_noise(std::vector<float>* diffs) {
   return 1.4826 * *mid / std::sqrt(6.0);
 }
 
-}  // namespace
-
-// What lives from one load of views to the next: one for a plain load; with bands, one for all
-// of them (fit/maps_bands.cpp), so that a fixed camera's geometry is decoded once, the file
-// buffers and decoded images are reused, and the records' arrays keep their pages.
-struct LoadState {
-  GeometryCache geometry;  // a fixed camera's buffers decoded once, shared by every view
-  // File buffers and decoded images reused view after view, until the last view is loaded.
-  std::unique_ptr<ExrReadBuffers> read_buffers = std::make_unique<ExrReadBuffers>();
-  std::vector<float> diffs;  // float: these are differences of float pixels
-  TopologyMap map;
-  bool map_loaded = false;
-  // Bands: the plan and, per geometry, the rows each band reads.
-  std::vector<UvBand> bands;
-  struct GeoRows {
-    std::shared_ptr<const ViewGeometry> geo;  // held: its address names no other geometry
-    std::vector<std::vector<uint8_t>> rows;   // per band: 1 for a row with a pixel it keeps
-    std::vector<int> first;                   // per row: the first band to read it (-1: none)
-    size_t outside = 0;  // pixels on the stride grid outside --tile's texels (a frame defined)
-  };
-  std::mutex geo_mutex;
-  std::vector<std::unique_ptr<GeoRows>> geo_rows;
-  size_t band = 0;  // the band being loaded
-  // The room reserved once for every band (mapped pages: only what a band writes is touched):
-  // records and lights of one load of every pixel, as estimated (BandLoader::record_bytes).
-  size_t reserve_obs = 0, reserve_lights = 0;
-  // Views' pixel states (ViewData::use) given back, for the views after them.
-  std::mutex use_mutex;
-  std::vector<std::vector<uint8_t>> spare_use;
-};
-
-namespace {
-
-// The rows every band reads of geometry g: the rows holding a mask pixel whose texel it keeps.
-// One pass over the pixels, each texel row's bands (an interval: a band's rows and its reach)
-// looked up.
-std::unique_ptr<LoadState::GeoRows> band_rows(const std::shared_ptr<const ViewGeometry>& geo,
-                                              const std::vector<UvBand>& bands, int stride) {
-  const ViewGeometry& g = *geo;
-  const UvBand& b0 = bands.front();
-  const int W = g.P.width, H = g.P.height;
-  auto r = std::make_unique<LoadState::GeoRows>();
-  r->geo = geo;
-  r->rows.assign(bands.size(), std::vector<uint8_t>(static_cast<size_t>(H), 0));
-  r->first.assign(static_cast<size_t>(H), -1);
-  std::vector<std::pair<int, int>> of_row(static_cast<size_t>(b0.h), {1, 0});  // [lo, hi]
-  for (size_t j = 0; j < bands.size(); ++j)
-    for (long t = bands[j].k0; t < bands[j].k1; t += b0.w) {
-      auto& [lo, hi] = of_row[static_cast<size_t>(t / b0.w)];
-      if (lo > hi) lo = static_cast<int>(j);
-      hi = static_cast<int>(j);
-    }
-  for (int y = 0; y < H; ++y) {
-    bool no_texel = false;  // a pixel whose uv is outside [0, 1)^2: the first band's
-    for (int x = 0; x < W; ++x) {
-      const size_t p = static_cast<size_t>(y) * W + x;
-      if (!g.mask[p]) continue;
-      const long t = texel_of(g.uv.px[2 * p], g.uv.px[2 * p + 1], b0.w, b0.h);
-      // Another tile's pixel (its rows', counted there; its reach's are read, not counted).
-      if (b0.tile && !(t >= b0.tile_o0 && t < b0.tile_o1))
-        r->outside += g.finite[p] && x % stride == 0 && y % stride == 0;
-      if (t < 0) {  // read for its counts by the first band (of the first tile)
-        no_texel |= b0.first_tile;
-        continue;
-      }
-      if (!b0.in_tile(t)) continue;
-      const auto [a, b] = of_row[static_cast<size_t>(t / b0.w)];
-      for (int j = a; j <= b; ++j) r->rows[j][y] |= bands[j].keeps(t);
-    }
-    if (no_texel) r->rows[0][y] = 1;
-    for (size_t j = 0; j < bands.size() && r->first[y] < 0; ++j)
-      if (r->rows[j][y]) r->first[y] = static_cast<int>(j);
-  }
-  return r;
-}
-
-// The band rows of geometry `geo`, found once per geometry (views sharing one share them).
-const LoadState::GeoRows& rows_of(LoadState* st, const std::shared_ptr<const ViewGeometry>& geo,
-                                  int stride) {
-  std::lock_guard<std::mutex> lock(st->geo_mutex);
-  for (const auto& e : st->geo_rows)
-    if (e->geo == geo) return *e;
-  st->geo_rows.push_back(band_rows(geo, st->bands, stride));
-  return *st->geo_rows.back();
-}
-
-// Of a band's rows: the pixels it owns that are left out (saturated, not finite), counted.
-void count_left_out(const ViewData& d, const UvBand& band, FitReport* rep) {
-  const int w = d.rgb.width;
-  for (int y = 0; y < d.rgb.height; ++y)
-    for (int x = 0; x < w && d.rows[y]; ++x) {
-      const size_t p = static_cast<size_t>(y) * w + x;
-      const uint8_t u = d.use[p];
-      if (u != ViewData::kSaturated && u != ViewData::kNonfinite) continue;
-      if (!band.owns(band.texel(d, x, y))) continue;
-      (u == ViewData::kSaturated ? rep->saturated : rep->nonfinite) += 1;
-    }
-}
-
-// The views' records into *os (its arrays emptied first, their allocations kept): every pixel
-// (no bands), or band st->band of st->bands. The report's counts are added to *rep_out.
 void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, ObsSet* os_out,
                 FitReport* rep_out) {
   if (opt.subsample < 1) throw Error("fit: --subsample must be at least 1");
@@ -427,8 +331,8 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
         } else {
           const LoadState::GeoRows& r = rows_of(st, p.d.geo, opt.subsample);
           add_neighbour_differences(p.d, n, &r.first, static_cast<int>(st->band), &p.diffs);
-          if (band.first) p.rep.masked_out = pixels - p.d.geo->mask_count;
-          if (band.first) p.rep.outside_tile = r.outside;
+          if (band.first)
+            p.rep.masked_out = pixels - p.d.geo->mask_count, p.rep.outside_tile = r.outside;
           count_left_out(p.d, band, &p.rep);
         }
         p.bound = usable_on_grid(p.d, opt.subsample, band);
@@ -481,71 +385,12 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
         "reflects the ambient light shows it as a higher k_d)");
 }
 
-}  // namespace
-
 ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep) {
   LoadState st;
   ObsSet os;
   load_views(set, opt, &st, &os, rep);
   return os;
 }
-
-struct BandLoader::Impl {
-  const CaptureSet& set;
-  FitOptions opt;
-  LoadState st;
-  ObsSet os;
-};
-
-BandLoader::BandLoader(const CaptureSet& set, const FitOptions& opt)
-    : impl_(new Impl{set, opt, {}, {}}) {}
-
-size_t BandLoader::record_bytes() {
-  const CaptureSet& set = impl_->set;
-  const FitOptions& opt = impl_->opt;
-  LoadState& st = impl_->st;
-  if (set.views.empty()) return 0;
-  ObsSet os;
-  choose_topology(set, opt, &os);
-  if (os.topology == TopologyMode::kAmplitude && !st.map_loaded)
-    st.map = load_topology_map(os.topology_map), st.map_loaded = true;
-  const ViewSpec& v = set.views[0];
-  size_t pixels = static_cast<size_t>(v.camera.width) * v.camera.height;
-  if (v.geometry.mesh.empty())  // a mesh is traced per view: the frame's pixels, not its mask
-    pixels = load_view_geometry(set, 0, os.topology == TopologyMode::kAmplitude ? &st.map : nullptr,
-                                &st.geometry)
-                 ->mask_count;
-  const size_t per =
-      sizeof(Observation) + v.lights.size() * sizeof(ObsLight) + sizeof(uint32_t) +
-      (opt.topology_texels > 0 ? 2 * sizeof(float) : 0) +
-      (os.topology == TopologyMode::kAmplitude || os.topology == TopologyMode::kMathematical
-           ? 2 * sizeof(float)
-           : 0);
-  const size_t s2 = static_cast<size_t>(opt.subsample) * opt.subsample;
-  const size_t each = pixels / std::max<size_t>(1, s2);
-  st.reserve_obs = set.views.size() * each;
-  st.reserve_lights = 0;
-  for (const ViewSpec& view : set.views) st.reserve_lights += view.lights.size() * each;
-  return st.reserve_obs * per;
-}
-
-void BandLoader::plan(std::vector<UvBand> bands) {
-  if (bands.empty()) throw Error("fit: no bands to load");
-  impl_->st.bands = std::move(bands);
-}
-
-BandLoader::~BandLoader() = default;
-
-const ObsSet& BandLoader::load(size_t j, FitReport* rep) {
-  if (j >= impl_->st.bands.size()) throw Error("fit: no band " + std::to_string(j));
-  impl_->st.band = j;
-  load_views(impl_->set, impl_->opt, &impl_->st, &impl_->os, rep);
-  return impl_->os;
-}
-
-const ObsSet& BandLoader::observations() const { return impl_->os; }
-
-double BandLoader::pixel_noise() { return fitting::pixel_noise(&impl_->st.diffs); }
 
 ObsSet table_observations(const SampleTable& t, const FitOptions& opt, FitReport* rep) {
   if (t.values == SampleTable::Values::kNone)

@@ -108,6 +108,8 @@ struct ObsSet {
 };
 
 ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep);
+// The loader's pixel counts of `from` (pixels, and those left out, by reason) added to *to.
+void add_counts(const FitReport& from, FitReport* to);
 // A table's rows; with --maps and u, v columns, each row's texel.
 ObsSet table_observations(const SampleTable& table, const FitOptions& opt, FitReport* rep);
 

@@ -131,6 +131,10 @@ class GeometryCache {
   std::unique_ptr<Impl> impl_;
 };
 
+// What names a view's geometry buffers (and its size): views with equal keys share one decoded
+// geometry (a fixed camera).
+std::string geometry_key(const ViewSpec& v);
+
 // View i's per-pixel geometry alone (as load_view reads it, through `cache` where given).
 std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& set, size_t i,
                                                        const TopologyMap* map = nullptr,

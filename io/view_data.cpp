@@ -268,6 +268,13 @@ std::shared_ptr<const ViewGeometry> GeometryCache::get(const std::string& key,
   return e->geo;
 }
 
+std::string geometry_key(const ViewSpec& v) {
+  const GeometrySpec& g = v.geometry;
+  return g.mesh + '\n' + g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
+         g.topology + '\n' + g.uv + '\n' + std::to_string(v.camera.width) + 'x' +
+         std::to_string(v.camera.height);
+}
+
 std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& s, size_t i,
                                                        const TopologyMap* map,
                                                        GeometryCache* cache) {
@@ -295,10 +302,7 @@ std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& s, size
       throw Error(ctx + ".geometry: " + e.what());
     }
   };
-  const std::string key = g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
-                          g.topology + '\n' + g.uv + '\n' + std::to_string(k.width) + 'x' +
-                          std::to_string(k.height);
-  return cache ? cache->get(key, load) : std::make_shared<const ViewGeometry>(load());
+  return cache ? cache->get(geometry_key(v), load) : std::make_shared<const ViewGeometry>(load());
 }
 
 ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, GeometryCache* cache,

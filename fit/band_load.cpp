@@ -1,0 +1,140 @@
+// A capture's observations band by band of the maps' texel rows (fit/band_load.h): which rows
+// of a geometry each band reads, the counts a band owns, and the loader that keeps its state from
+// band to band.
+#include "fit/band_load.h"
+
+#include <algorithm>
+#include <string>
+#include <utility>
+
+#include "core/error.h"
+#include "fit/load_views.h"
+
+namespace aniso::fitting {
+
+namespace {
+
+// The rows every band reads of geometry g: the rows holding a mask pixel whose texel it keeps.
+// One pass over the pixels, each texel row's bands (an interval: a band's rows and its reach)
+// looked up.
+std::unique_ptr<LoadState::GeoRows> band_rows(const std::shared_ptr<const ViewGeometry>& geo,
+                                              const std::vector<UvBand>& bands, int stride) {
+  const ViewGeometry& g = *geo;
+  const UvBand& b0 = bands.front();
+  const int W = g.P.width, H = g.P.height;
+  auto r = std::make_unique<LoadState::GeoRows>();
+  r->geo = geo;
+  r->rows.assign(bands.size(), std::vector<uint8_t>(static_cast<size_t>(H), 0));
+  r->first.assign(static_cast<size_t>(H), -1);
+  std::vector<std::pair<int, int>> of_row(static_cast<size_t>(b0.h), {1, 0});  // [lo, hi]
+  for (size_t j = 0; j < bands.size(); ++j)
+    for (long t = bands[j].k0; t < bands[j].k1; t += b0.w) {
+      auto& [lo, hi] = of_row[static_cast<size_t>(t / b0.w)];
+      if (lo > hi) lo = static_cast<int>(j);
+      hi = static_cast<int>(j);
+    }
+  for (int y = 0; y < H; ++y) {
+    bool no_texel = false;  // a pixel whose uv is outside [0, 1)^2: the first band's
+    for (int x = 0; x < W; ++x) {
+      const size_t p = static_cast<size_t>(y) * W + x;
+      if (!g.mask[p]) continue;
+      const long t = texel_of(g.uv.px[2 * p], g.uv.px[2 * p + 1], b0.w, b0.h);
+      // Another tile's pixel (its rows', counted there; its reach's are read, not counted).
+      if (b0.tile && !(t >= b0.tile_o0 && t < b0.tile_o1))
+        r->outside += g.finite[p] && x % stride == 0 && y % stride == 0;
+      if (t < 0) {  // read for its counts by the first band (of the first tile)
+        no_texel |= b0.first_tile;
+        continue;
+      }
+      if (!b0.in_tile(t)) continue;
+      const auto [a, b] = of_row[static_cast<size_t>(t / b0.w)];
+      for (int j = a; j <= b; ++j) r->rows[j][y] = 1;  // the bands keeping texel row t / w
+    }
+    if (no_texel) r->rows[0][y] = 1;
+    for (size_t j = 0; j < bands.size() && r->first[y] < 0; ++j)
+      if (r->rows[j][y]) r->first[y] = static_cast<int>(j);
+  }
+  return r;
+}
+
+}  // namespace
+
+const LoadState::GeoRows& rows_of(LoadState* st, const std::shared_ptr<const ViewGeometry>& geo,
+                                  int stride) {
+  std::lock_guard<std::mutex> lock(st->geo_mutex);
+  for (const auto& e : st->geo_rows)
+    if (e->geo == geo) return *e;
+  st->geo_rows.push_back(band_rows(geo, st->bands, stride));
+  return *st->geo_rows.back();
+}
+
+void count_left_out(const ViewData& d, const UvBand& band, FitReport* rep) {
+  const int w = d.rgb.width;
+  for (int y = 0; y < d.rgb.height; ++y)
+    for (int x = 0; x < w && d.rows[y]; ++x) {
+      const size_t p = static_cast<size_t>(y) * w + x;
+      const uint8_t u = d.use[p];
+      if (u != ViewData::kSaturated && u != ViewData::kNonfinite) continue;
+      if (!band.owns(band.texel(d, x, y))) continue;
+      (u == ViewData::kSaturated ? rep->saturated : rep->nonfinite) += 1;
+    }
+}
+
+struct BandLoader::Impl {
+  const CaptureSet& set;
+  FitOptions opt;
+  LoadState st;
+  ObsSet os;
+};
+
+BandLoader::BandLoader(const CaptureSet& set, const FitOptions& opt)
+    : impl_(new Impl{set, opt, {}, {}}) {}
+
+size_t BandLoader::record_bytes() {
+  const CaptureSet& set = impl_->set;
+  const FitOptions& opt = impl_->opt;
+  LoadState& st = impl_->st;
+  if (set.views.empty()) return 0;
+  ObsSet os;
+  choose_topology(set, opt, &os);
+  if (os.topology == TopologyMode::kAmplitude && !st.map_loaded)
+    st.map = load_topology_map(os.topology_map), st.map_loaded = true;
+  const ViewSpec& v = set.views[0];
+  size_t pixels = static_cast<size_t>(v.camera.width) * v.camera.height;
+  if (v.geometry.mesh.empty())  // a mesh is traced per view: the frame's pixels, not its mask
+    pixels = load_view_geometry(set, 0, os.topology == TopologyMode::kAmplitude ? &st.map : nullptr,
+                                &st.geometry)
+                 ->mask_count;
+  const size_t per =
+      sizeof(Observation) + v.lights.size() * sizeof(ObsLight) + sizeof(uint32_t) +
+      (opt.topology_texels > 0 ? 2 * sizeof(float) : 0) +
+      (os.topology == TopologyMode::kAmplitude || os.topology == TopologyMode::kMathematical
+           ? 2 * sizeof(float)
+           : 0);
+  const size_t s2 = static_cast<size_t>(opt.subsample) * opt.subsample;
+  const size_t each = pixels / std::max<size_t>(1, s2);
+  st.reserve_obs = set.views.size() * each;
+  st.reserve_lights = 0;
+  for (const ViewSpec& view : set.views) st.reserve_lights += view.lights.size() * each;
+  return st.reserve_obs * per;
+}
+
+void BandLoader::plan(std::vector<UvBand> bands) {
+  if (bands.empty()) throw Error("fit: no bands to load");
+  impl_->st.bands = std::move(bands);
+}
+
+BandLoader::~BandLoader() = default;
+
+const ObsSet& BandLoader::load(size_t j, FitReport* rep) {
+  if (j >= impl_->st.bands.size()) throw Error("fit: no band " + std::to_string(j));
+  impl_->st.band = j;
+  load_views(impl_->set, impl_->opt, &impl_->st, &impl_->os, rep);
+  return impl_->os;
+}
+
+const ObsSet& BandLoader::observations() const { return impl_->os; }
+
+double BandLoader::pixel_noise() { return fitting::pixel_noise(&impl_->st.diffs); }
+
+}  // namespace aniso::fitting

@@ -1,0 +1,64 @@
+// fit/ internal: the loader of a capture's views (fit/observations.cpp) and what it shares with
+// the loader of bands (fit/band_load.cpp).
+#pragma once
+#include <cstddef>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "fit/observations.h"
+#include "fit/pixel_records.h"
+#include "io/capture.h"
+#include "io/image_io.h"
+
+namespace aniso::fitting {
+
+// What lives from one load of views to the next: one for a plain load; with bands, one for all
+// of them (fit/maps_bands.cpp), so that a fixed camera's geometry is decoded once, the file
+// buffers and decoded images are reused, and the records' arrays keep their pages.
+struct LoadState {
+  GeometryCache geometry;  // a fixed camera's buffers decoded once, shared by every view
+  // File buffers and decoded images reused view after view, until the last view is loaded.
+  std::unique_ptr<ExrReadBuffers> read_buffers = std::make_unique<ExrReadBuffers>();
+  std::vector<float> diffs;  // float: these are differences of float pixels
+  TopologyMap map;
+  bool map_loaded = false;
+  // Bands: the plan and, per geometry, the rows each band reads.
+  std::vector<UvBand> bands;
+  struct GeoRows {
+    std::shared_ptr<const ViewGeometry> geo;  // held: its address names no other geometry
+    std::vector<std::vector<uint8_t>> rows;   // per band: 1 for a row with a pixel it keeps
+    std::vector<int> first;                   // per row: the first band to read it (-1: none)
+    size_t outside = 0;  // pixels on the stride grid outside --tile's texels (a frame defined)
+  };
+  std::mutex geo_mutex;
+  std::vector<std::unique_ptr<GeoRows>> geo_rows;
+  size_t band = 0;  // the band being loaded
+  // The room reserved once for every band (mapped pages: only what a band writes is touched):
+  // records and lights of one load of every pixel, as estimated (BandLoader::record_bytes).
+  size_t reserve_obs = 0, reserve_lights = 0;
+  // Views' pixel states (ViewData::use) given back, for the views after them.
+  std::mutex use_mutex;
+  std::vector<std::vector<uint8_t>> spare_use;
+};
+
+// The fiber model's topology from what the set carries: a map means its amplitude is fitted over
+// the per-pixel mathematical topology (0 where no buffer); a topology buffer alone fixes s; else
+// one s (or, with --topology-map N, an N x N map of s over uv).
+void choose_topology(const CaptureSet& set, const FitOptions& opt, ObsSet* os);
+// sigma of one pixel: the robust sigma of the differences a - 2b + c, over sqrt(1 + 4 + 1); 0
+// without any.
+double pixel_noise(std::vector<float>* diffs);
+// The views' records into *os (its arrays emptied first, their allocations kept): every pixel
+// (no bands), or band st->band of st->bands. The report's counts are added to *rep.
+void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, ObsSet* os,
+                FitReport* rep);
+
+// Bands (fit/band_load.cpp): the rows of geometry `geo` each band reads, found once per geometry
+// (views sharing one share them); and, of a band's rows, the pixels it owns that are left out
+// (saturated, not finite), counted.
+const LoadState::GeoRows& rows_of(LoadState* st, const std::shared_ptr<const ViewGeometry>& geo,
+                                  int stride);
+void count_left_out(const ViewData& d, const UvBand& band, FitReport* rep);
+
+}  // namespace aniso::fitting
