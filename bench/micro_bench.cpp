@@ -7,6 +7,9 @@
 #include <random>
 #include <vector>
 
+#include "fit/line_simd.h"
+#include "fit/start.h"
+#include "fit/texel_simd.h"
 #include "models/evaluate.h"
 #include "models/fiber_model.h"
 #include "models/fiber_reference.h"
@@ -118,6 +121,58 @@ void BM_Bake(benchmark::State& st) {
     benchmark::DoNotOptimize(bake_line(m, static_cast<int>(st.range(0))).combined.px.data());
 }
 BENCHMARK(BM_Bake)->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond);
+
+// One texel of --maps in float lanes (fit/texel_simd.h): the pass with J^T J and J^T r, and the
+// eight start nodes, over `range(0)` observations under one grey light (80: the mean texel of a
+// 1024^2 map from 64 views of 2048^2).
+fitting::TexelLanes texel_lanes_of(size_t count) {
+  const auto v = dirs(count, 6), l = dirs(count, 7);
+  fitting::TexelLanes t;
+  t.count = count;
+  t.groups = (count + 7) / 8;
+  t.f.assign(t.groups * fitting::TexelLanes::kRows * 8, 0.f);
+  t.grey_light = true;
+  for (size_t j = 0; j < count; ++j) {
+    const double E = 16.0 * l[j].n, y = 0.2 * E + 0.1;
+    const double row[fitting::TexelLanes::kRows] = {v[j].u, v[j].w, l[j].u, l[j].w, l[j].n, E,
+                                                    E,      E,      y,      y,      y,      1};
+    for (int k = 0; k < fitting::TexelLanes::kRows; ++k)
+      t.f[((j / 8) * fitting::TexelLanes::kRows + k) * 8 + j % 8] = static_cast<float>(row[k]);
+  }
+  return t;
+}
+
+void BM_TexelPassF32(benchmark::State& st) {
+  if (!fitting::line_simd_enabled()) return st.SkipWithError("no AVX2 and FMA");
+  const fitting::TexelLanes t = texel_lanes_of(static_cast<size_t>(st.range(0)));
+  const double kd[3] = {0.2, 0.2, 0.2}, ks[3] = {0.6, 0.6, 0.6};
+  const fitting::LinePixelParams p{kd, ks, 40.0, std::cos(0.5), std::sin(0.5)};
+  for (auto _ : st) {
+    fitting::ChannelSums<8> s;
+    fitting::texel_pass_f32(t, p, true, &s);
+    benchmark::DoNotOptimize(s);
+  }
+  st.counters["ns_per_obs"] =
+      benchmark::Counter(static_cast<double>(st.iterations() * st.range(0)),
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_TexelPassF32)->Arg(80)->Arg(640);
+
+void BM_TexelNodesF32(benchmark::State& st) {
+  if (!fitting::line_simd_enabled()) return st.SkipWithError("no AVX2 and FMA");
+  const fitting::TexelLanes t = texel_lanes_of(static_cast<size_t>(st.range(0)));
+  double psi[8];  // the start grid's first eight nodes
+  for (int k = 0; k < 8; ++k) psi[k] = fitting::texel_grid_angle(4 * k);
+  for (auto _ : st) {
+    fitting::KdKsSums sums[8];
+    fitting::texel_nodes_f32(t, psi, 7, sums);
+    benchmark::DoNotOptimize(sums);
+  }
+  st.counters["ns_per_obs"] =
+      benchmark::Counter(static_cast<double>(st.iterations() * st.range(0)),
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_TexelNodesF32)->Arg(80)->Arg(640);
 
 }  // namespace
 

@@ -1,5 +1,7 @@
 #include "fit/texel_simd.h"
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -67,10 +69,13 @@ ANISO_AVX2_INLINE void vsin(v8f a, v8f* s, v8f* ds) {
   *ds = select(zero, splat(0.f), select(near, splat(-2.f * chord) * a, -a / root));
 }
 
+// The eight lanes' sum in double: the halves widened and added, then pairwise (eight additions
+// in a row were a chain of 32 cycles, ~100 of them a pass).
 ANISO_AVX2_INLINE double hsum(v8f v) {
-  double s = 0;
-  for (int i = 0; i < 8; ++i) s += v[i];
-  return s;
+  const __m256d a = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(__m256(v))),
+                                  _mm256_cvtps_pd(_mm256_extractf128_ps(__m256(v), 1)));
+  const __m128d b = _mm_add_pd(_mm256_castpd256_pd128(a), _mm256_extractf128_pd(a, 1));
+  return _mm_cvtsd_f64(_mm_add_sd(b, _mm_unpackhi_pd(b, b)));
 }
 
 // One group of the lanes: rows in TexelLanes' order.
@@ -105,6 +110,20 @@ struct GroupTerms {
 
 constexpr size_t kPassBlock = 16;  // groups: their terms (4 KiB) stay in L1
 
+// The products col_i col_j, i in [i0, i1), j >= i, into grey_h[t0 ..] (grey_jac_sums).
+template <int i0, int i1, int t0>
+ANISO_AVX2_INLINE void grey_sweep(const v8f (*col)[5], size_t count, LaneSums* acc) {
+  constexpr int n = (i1 - i0) * (11 - i0 - i1) / 2;  // 9 and 6
+  v8f h[n];
+  for (int k = 0; k < n; ++k) h[k] = acc->grey_h[t0 + k];
+  for (size_t b = 0; b < count; ++b) {
+    int tt = 0;
+    for (int i = i0; i < i1; ++i)
+      for (int j = i; j < 5; ++j) h[tt++] += col[b][i] * col[b][j];
+  }
+  for (int k = 0; k < n; ++k) acc->grey_h[t0 + k] = h[k];
+}
+
 // pass_f32's J^T J and J^T r sums over the block's groups where every light is grey. Channel k's
 // row of J is (a, b, ks_k c, kd_k d + ks_k e) with a = W sL, b = W S, c = W dS/dlog n,
 // d = W dD/dpsi and e = W dS/dx dx/dpsi the same in the three channels: J^T J takes the 15
@@ -120,17 +139,8 @@ ANISO_AVX2_INLINE void grey_jac_sums(const TexelLanes& t, size_t g0, size_t coun
     col[b][3] = w * e.dD_dpsi, col[b][4] = w * (e.dS_dx * e.dx_dpsi);
   }
   // The products in two sweeps (9 and 6 sums) that fit the registers, then each channel's five.
-  for (const auto [i0, i1, t0] : {std::array<int, 3>{0, 2, 0}, std::array<int, 3>{2, 5, 9}}) {
-    const int n = i0 == 0 ? 9 : 6;  // the sweep's sums: grey_h[t0 .. t0 + n)
-    v8f h[9];
-    for (int k = 0; k < n; ++k) h[k] = acc->grey_h[t0 + k];
-    for (size_t b = 0; b < count; ++b) {
-      int tt = 0;
-      for (int i = i0; i < i1; ++i)
-        for (int j = i; j < 5; ++j) h[tt++] += col[b][i] * col[b][j];
-    }
-    for (int k = 0; k < n; ++k) acc->grey_h[t0 + k] = h[k];
-  }
+  grey_sweep<0, 2, 0>(col, count, acc);
+  grey_sweep<2, 5, 9>(col, count, acc);
   for (int k = 0; k < 3; ++k) {
     v8f g[5];
     for (int i = 0; i < 5; ++i) g[i] = acc->grey_g[k][i];
@@ -167,8 +177,15 @@ ANISO_AVX2 void grey_assemble(const LaneSums& acc, const float kd[3], const floa
 // bench sets by at most 1.1e-3 sigma).
 ANISO_AVX2 void pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac,
                          ChannelSums<8>* sums) {
-  LaneSums acc;
-  std::memset(&acc, 0, sizeof acc);
+  LaneSums acc;  // only the sums this pass adds to are zeroed (all of them were 2.3 KB a pass)
+  acc.cost = splat(0.f);
+  if (jac && t.grey_light) {
+    std::memset(acc.grey_h, 0, sizeof acc.grey_h);
+    std::memset(acc.grey_g, 0, sizeof acc.grey_g);
+  } else if (jac) {
+    std::memset(acc.h, 0, sizeof acc.h);
+    std::memset(acc.g, 0, sizeof acc.g);
+  }
   const v8f c = splat(static_cast<float>(p.c)), sn = splat(static_cast<float>(p.sn));
   const v8f n = splat(static_cast<float>(p.n)), one = splat(1.f), zero = splat(0.f);
   v8f kd[3], ks[3];
@@ -178,6 +195,10 @@ ANISO_AVX2 void pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac
   GroupTerms terms[kBlock];
   for (size_t g0 = 0; g0 < t.groups; g0 += kBlock) {
     const size_t count = std::min(kBlock, t.groups - g0);
+    // In three sweeps over the block, each short enough for the core to run several groups at
+    // once: the lobe's chain (dot products, square roots, log, exp) is ~160 cycles of latency a
+    // group, and one loop over it left the core waiting on it (2x the time). The sweeps pass
+    // their values through `terms` (L1): x in S, x or 1 in dS_dx, log of that in dS_dlogn.
     for (size_t b = 0; b < count; ++b) {
       const Group q = load_group(t.f.data() + (g0 + b) * TexelLanes::kRows * 8);
       GroupTerms& e = terms[b];
@@ -187,15 +208,21 @@ ANISO_AVX2 void pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac
       vsin(bv, &sV, &dsV);
       vsin(a, &e.sL, &dsL);
       const v8f x = e.sL * sV - a * bv;
-      const v8i lit = x > zero;
-      const v8f xs = select(lit, x, one), lx = vlog(xs);
-      e.S = select(lit, vexp(n * lx), zero);
-      e.dS_dx = n * e.S / xs, e.dS_dlogn = e.S * n * lx;
+      e.S = x;
+      e.dS_dx = select(x > zero, x, one);
       e.dx_dpsi = (dsL * sV - bv) * da + (e.sL * dsV - a) * db;
       e.dD_dpsi = dsL * da;
+    }
+    for (size_t b = 0; b < count; ++b) terms[b].dS_dlogn = vlog(terms[b].dS_dx);
+    for (size_t b = 0; b < count; ++b) {
+      const float* g = t.f.data() + (g0 + b) * TexelLanes::kRows * 8;
+      GroupTerms& e = terms[b];
+      const v8f xs = e.dS_dx, lx = e.dS_dlogn;
+      e.S = select(e.S > zero, vexp(n * lx), zero);
+      e.dS_dx = n * e.S / xs, e.dS_dlogn = e.S * n * lx;
       for (int k = 0; k < 3; ++k) {
         // A padding lane has W = y = 0: its r and v are 0, no mask needed.
-        e.r[k] = q.W[k] * (kd[k] * e.sL + ks[k] * e.S) - q.y[k];
+        e.r[k] = load8(g + 8 * (5 + k)) * (kd[k] * e.sL + ks[k] * e.S) - load8(g + 8 * (8 + k));
         acc.cost += e.r[k] * e.r[k];
       }
     }
@@ -247,28 +274,48 @@ ANISO_AVX2_INLINE void grey_node_sums(const TexelLanes& t, size_t j0, size_t cou
                                       const v8f* xs, v8f dd[3], v8f ds[3], v8f ss[3], v8f dy[3],
                                       v8f sy[3]) {
   auto row = [&](size_t j, int k) { return t.f[((j / 8) * TexelLanes::kRows + k) * 8 + j % 8]; };
-  v8f sdd = dd[0], sds = ds[0], sss = ss[0];
-  v8f sdy[3] = {dy[0], dy[1], dy[2]}, ssy[3] = {sy[0], sy[1], sy[2]};
+  // In two sweeps of five and four sums: nine at once did not fit the registers with their
+  // operands, and a sum kept in memory waited on its own store every observation.
+  v8f sdd = dd[0], sds = ds[0], sss = ss[0], sdy = dy[0], ssy = sy[0];
   for (size_t b = 0; b < count; ++b) {
-    const v8f w = splat(row(j0 + b, 5));
+    const v8f w = splat(row(j0 + b, 5)), y = splat(row(j0 + b, 8));
     const v8f dcol = w * sLs[b], scol = w * xs[b];
     sdd += dcol * dcol;
     sds += dcol * scol;
     sss += scol * scol;
-    for (int ch = 0; ch < 3; ++ch) {
-      const v8f y = splat(row(j0 + b, 8 + ch));
-      sdy[ch] += dcol * y;
-      ssy[ch] += scol * y;
-    }
+    sdy += dcol * y;
+    ssy += scol * y;
   }
-  dd[0] = sdd, ds[0] = sds, ss[0] = sss;
-  for (int ch = 0; ch < 3; ++ch) dy[ch] = sdy[ch], sy[ch] = ssy[ch];
+  dd[0] = sdd, ds[0] = sds, ss[0] = sss, dy[0] = sdy, sy[0] = ssy;
+  v8f sdy1 = dy[1], ssy1 = sy[1], sdy2 = dy[2], ssy2 = sy[2];
+  for (size_t b = 0; b < count; ++b) {
+    const v8f w = splat(row(j0 + b, 5)), y1 = splat(row(j0 + b, 9)), y2 = splat(row(j0 + b, 10));
+    const v8f dcol = w * sLs[b], scol = w * xs[b];
+    sdy1 += dcol * y1;
+    ssy1 += scol * y1;
+    sdy2 += dcol * y2;
+    ssy2 += scol * y2;
+  }
+  dy[1] = sdy1, sy[1] = ssy1, dy[2] = sdy2, sy[2] = ssy2;
 }
 
 ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, KdKsSums out[8]) {
+  // cos and sin of the grid's angles once (16 calls a texel were ~9 % of the nodes' time).
+  static const std::array<std::array<float, 2>, 32> grid = [] {
+    std::array<std::array<float, 2>, 32> g;
+    for (int m = 0; m < 32; ++m)
+      g[m] = {static_cast<float>(std::cos(texel_grid_angle(m))),
+              static_cast<float>(std::sin(texel_grid_angle(m)))};
+    return g;
+  }();
   v8f c, sn;
-  for (int i = 0; i < 8; ++i)
-    c[i] = static_cast<float>(std::cos(psi[i])), sn[i] = static_cast<float>(std::sin(psi[i]));
+  for (int i = 0; i < 8; ++i) {
+    const long m = std::lround(psi[i] * 32 / M_PI);
+    if (m >= 0 && m < 32 && psi[i] == texel_grid_angle(static_cast<int>(m)))
+      c[i] = grid[m][0], sn[i] = grid[m][1];
+    else
+      c[i] = static_cast<float>(std::cos(psi[i])), sn[i] = static_cast<float>(std::sin(psi[i]));
+  }
   const v8f zero = splat(0.f);
   // Node i's sums over the texel's observations, lane i; the observations go one at a time (a
   // group's lane j splatted), in blocks: first each one's sin(L) and x^n at the eight nodes, then
@@ -288,10 +335,21 @@ ANISO_AVX2 void nodes_f32(const TexelLanes& t, const double psi[8], int log2n, K
       v8f sV, unused;
       vsin(bv, &sV, &unused);
       vsin(a, &sLs[b], &unused);
-      v8f x = vmax(sLs[b] * sV - a * bv, zero);
-      for (int i = 0; i < log2n; ++i) x *= x;
-      xs[b] = x;
+      xs[b] = vmax(sLs[b] * sV - a * bv, zero);
     }
+    // x^n by squaring, eight observations' chains side by side in registers: inside the loop
+    // above each observation's chain of log2n products was most of the time, and a sweep over
+    // the block per product waited on its stores.
+    size_t b = 0;
+    for (; b + 8 <= count; b += 8) {
+      v8f r[8];
+      for (int u = 0; u < 8; ++u) r[u] = xs[b + u];
+      for (int i = 0; i < log2n; ++i)
+        for (int u = 0; u < 8; ++u) r[u] *= r[u];
+      for (int u = 0; u < 8; ++u) xs[b + u] = r[u];
+    }
+    for (; b < count; ++b)
+      for (int i = 0; i < log2n; ++i) xs[b] *= xs[b];
     if (t.grey_light) {
       grey_node_sums(t, j0, count, sLs, xs, dd, ds, ss, dy, sy);
       continue;

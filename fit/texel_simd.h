@@ -6,6 +6,7 @@
 // in double at the end of the pass. The double 4-lane pass (fit/line_simd.h) stays the global
 // fit's and the reference of the tests.
 #pragma once
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -34,6 +35,10 @@ bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* o
 // The texel's pass at p (no robust loss, as every texel's fit): cost, and the J^T J and J^T r
 // sums with `jac`.
 void texel_pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac, ChannelSums<8>* s);
+
+// The start grid's angles: m pi / 32, m in [0, 32) (texel_nodes_f32 has their cos and sin in a
+// table).
+inline double texel_grid_angle(int m) { return m * M_PI / 32; }
 
 // Eight start nodes at once, psi[i] in lane i (n = 2^log2n, x^n by squaring): line_nodes_simd's
 // sums (fit/line_simd.h) from the lanes.

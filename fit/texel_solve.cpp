@@ -40,7 +40,8 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
       line_nodes_cost(os, idx, psi, 8, log2n, fit);
     }
   };
-  for (int k = 0; k < 8; ++k) psi[k] = k * M_PI / 8;
+  // On the grid of texel_grid_angle: m = 4k, then m of the best two +-1, +-2 (modulo a half turn).
+  for (int k = 0; k < 8; ++k) psi[k] = texel_grid_angle(4 * k);
   nodes();
   int b1 = 0, b2 = -1;
   for (int k = 1; k < 8; ++k)
@@ -50,10 +51,10 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
   double best = fit[b1].cost;
   c->psi = psi[b1];
   set_start_kd_ks(fit[b1].kd, fit[b1].ks, c);
-  const double p1 = psi[b1], p2 = psi[b2];
-  const double off[4] = {-M_PI / 16, -M_PI / 32, M_PI / 32, M_PI / 16};
+  const int off[4] = {-2, -1, 1, 2};
   for (int k = 0; k < 4; ++k)
-    psi[k] = wrap_half_turn(p1 + off[k]), psi[4 + k] = wrap_half_turn(p2 + off[k]);
+    psi[k] = texel_grid_angle((4 * b1 + off[k] + 32) % 32),
+    psi[4 + k] = texel_grid_angle((4 * b2 + off[k] + 32) % 32);
   nodes();
   for (int k = 0; k < 8; ++k)
     if (fit[k].cost < best) {
