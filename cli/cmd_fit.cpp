@@ -45,9 +45,9 @@ void print_report(FILE* o, const FitResult& r) {
                  p.maps_bands, p.maps_record_bytes / 1e6, r.report.maps_memory_mb);
   if (p.maps_bands > 1 && p.maps_own_geometries > 0)
     std::fprintf(o,
-                 "fit: note: %zu geometries (a camera per view): every band reads each again, "
-                 "%d times in all; a larger --maps-memory, where memory allows, reads them fewer "
-                 "times\n",
+                 "fit: note: %zu geometries (a camera per view): every band reads each again "
+                 "(the first band whole, the later ones their own rows of it), %d times in all; a "
+                 "larger --maps-memory, where memory allows, reads them fewer times\n",
                  p.maps_own_geometries, p.maps_bands);
   if (!p.global_from.empty())
     std::fprintf(o, "fit: global fit from %s (--global: not fitted here); load %.3f s\n",

@@ -17,13 +17,11 @@ namespace {
 // The rows every band reads of geometry g: the rows holding a mask pixel whose texel it keeps.
 // One pass over the pixels, each texel row's bands (an interval: a band's rows and its reach)
 // looked up.
-std::unique_ptr<LoadState::GeoRows> band_rows(const std::shared_ptr<const ViewGeometry>& geo,
+std::unique_ptr<LoadState::GeoRows> band_rows(const ViewGeometry& g,
                                               const std::vector<UvBand>& bands, int stride) {
-  const ViewGeometry& g = *geo;
   const UvBand& b0 = bands.front();
   const int W = g.P.width, H = g.P.height;
   auto r = std::make_unique<LoadState::GeoRows>();
-  r->geo = geo;
   r->rows.assign(bands.size(), std::vector<uint8_t>(static_cast<size_t>(H), 0));
   r->first.assign(static_cast<size_t>(H), -1);
   std::vector<std::pair<int, int>> of_row(static_cast<size_t>(b0.h), {1, 0});  // [lo, hi]
@@ -59,13 +57,13 @@ std::unique_ptr<LoadState::GeoRows> band_rows(const std::shared_ptr<const ViewGe
 
 }  // namespace
 
-const LoadState::GeoRows& rows_of(LoadState* st, const std::shared_ptr<const ViewGeometry>& geo,
+const LoadState::GeoRows* rows_of(LoadState* st, const std::string& key, const ViewGeometry* geo,
                                   int stride) {
   std::lock_guard<std::mutex> lock(st->geo_mutex);
-  for (const auto& e : st->geo_rows)
-    if (e->geo == geo) return *e;
-  st->geo_rows.push_back(band_rows(geo, st->bands, stride));
-  return *st->geo_rows.back();
+  auto it = st->geo_rows.find(key);
+  if (it != st->geo_rows.end()) return it->second.get();
+  if (!geo) return nullptr;
+  return (st->geo_rows[key] = band_rows(*geo, st->bands, stride)).get();
 }
 
 void count_left_out(const ViewData& d, const UvBand& band, FitReport* rep) {

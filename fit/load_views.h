@@ -2,8 +2,10 @@
 // the loader of bands (fit/band_load.cpp).
 #pragma once
 #include <cstddef>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <vector>
 
 #include "fit/observations.h"
@@ -23,17 +25,19 @@ struct LoadState {
   std::vector<float> diffs;  // float: these are differences of float pixels
   TopologyMap map;
   bool map_loaded = false;
-  // Bands: the plan and, per geometry, the rows each band reads.
+  // Bands: the plan and, per geometry (by its key, io/capture.h geometry_key), the rows each
+  // band reads, found from the whole geometry by the first band and kept for the others: a view
+  // whose geometry no other view shares reads only those rows of it in every later band.
   std::vector<UvBand> bands;
   struct GeoRows {
-    std::shared_ptr<const ViewGeometry> geo;  // held: its address names no other geometry
-    std::vector<std::vector<uint8_t>> rows;   // per band: 1 for a row with a pixel it keeps
-    std::vector<int> first;                   // per row: the first band to read it (-1: none)
+    std::vector<std::vector<uint8_t>> rows;  // per band: 1 for a row with a pixel it keeps
+    std::vector<int> first;                  // per row: the first band to read it (-1: none)
     size_t outside = 0;  // pixels on the stride grid outside --tile's texels (a frame defined)
   };
   std::mutex geo_mutex;
-  std::vector<std::unique_ptr<GeoRows>> geo_rows;
-  size_t band = 0;  // the band being loaded
+  std::map<std::string, std::unique_ptr<GeoRows>> geo_rows;
+  std::map<std::string, size_t> views_of_geometry;  // views per geometry key
+  size_t band = 0;                                  // the band being loaded
   // The room reserved once for every band (mapped pages: only what a band writes is touched):
   // records and lights of one load of every pixel, as estimated (BandLoader::record_bytes).
   size_t reserve_obs = 0, reserve_lights = 0;
@@ -54,10 +58,11 @@ double pixel_noise(std::vector<float>* diffs);
 void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, ObsSet* os,
                 FitReport* rep);
 
-// Bands (fit/band_load.cpp): the rows of geometry `geo` each band reads, found once per geometry
-// (views sharing one share them); and, of a band's rows, the pixels it owns that are left out
+// Bands (fit/band_load.cpp): the rows each band reads of the geometry with key `key`, found once
+// from `geo` (whole: the first band's) and kept (views sharing one share them); null where not
+// found yet and geo is null. And, of a band's rows, the pixels it owns that are left out
 // (saturated, not finite), counted.
-const LoadState::GeoRows& rows_of(LoadState* st, const std::shared_ptr<const ViewGeometry>& geo,
+const LoadState::GeoRows* rows_of(LoadState* st, const std::string& key, const ViewGeometry* geo,
                                   int stride);
 void count_left_out(const ViewData& d, const UvBand& band, FitReport* rep);
 

@@ -292,11 +292,10 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
   tbb::task_arena arena(std::max(1, opt.threads));
   const TopologyMap* tmap = os.topology == TopologyMode::kAmplitude ? &st->map : nullptr;
   // A band reads the rows with a pixel it keeps; the noise takes each row once, from the first
-  // band to read it (the same differences as one load of every row).
-  const ViewRows rows =
-      [&](const std::shared_ptr<const ViewGeometry>& g) -> const std::vector<uint8_t>& {
-    return rows_of(st, g, opt.subsample).rows[st->band];
-  };
+  // band to read it (the same differences as one load of every row). A view whose geometry no
+  // other view shares reads, after the first band, only those rows of its geometry too.
+  if (banded && st->views_of_geometry.empty())
+    for (const ViewSpec& v : set.views) ++st->views_of_geometry[geometry_key(v)];
   // Both checked for uv above.
   const Kept keep{
       opt.topology_texels > 0, opt.maps_w > 0,
@@ -320,7 +319,18 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
           if (!st->spare_use.empty())
             p.d.use = std::move(st->spare_use.back()), st->spare_use.pop_back();
         }
-        load_view_into(set, i, &p.d, tmap, &st->geometry, banded ? &rows : nullptr);
+        const std::string key = banded ? geometry_key(set.views[i]) : std::string();
+        const ViewRows rows =
+            [&](const std::shared_ptr<const ViewGeometry>& g) -> const std::vector<uint8_t>& {
+          return rows_of(st, key, g.get(), opt.subsample)->rows[st->band];
+        };
+        const LoadState::GeoRows* known = banded && st->band > 0 &&
+                                                  set.views[i].geometry.mesh.empty() &&
+                                                  st->views_of_geometry.at(key) == 1
+                                              ? rows_of(st, key, nullptr, opt.subsample)
+                                              : nullptr;
+        load_view_into(set, i, &p.d, tmap, &st->geometry, banded ? &rows : nullptr,
+                       known ? &known->rows[st->band] : nullptr);
         grey_views += p.d.channels == 1;
         const size_t pixels = static_cast<size_t>(p.d.rgb.width) * p.d.rgb.height;
         if (!banded) {
@@ -329,7 +339,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
           p.rep.saturated = p.d.saturated;
           p.rep.nonfinite = p.d.nonfinite;
         } else {
-          const LoadState::GeoRows& r = rows_of(st, p.d.geo, opt.subsample);
+          const LoadState::GeoRows& r = *rows_of(st, key, p.d.geo.get(), opt.subsample);
           add_neighbour_differences(p.d, n, &r.first, static_cast<int>(st->band), &p.diffs);
           if (band.first)
             p.rep.masked_out = pixels - p.d.geo->mask_count, p.rep.outside_tile = r.outside;
@@ -355,12 +365,6 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
       });
     });
     close_gaps(&parts, obs_start, light_start, keep, &os, &rep, &st->diffs);
-    // Geometries no view holds any more: their rows go (a fixed camera's stays in the cache).
-    std::lock_guard<std::mutex> lock(st->geo_mutex);
-    auto& g = st->geo_rows;
-    g.erase(
-        std::remove_if(g.begin(), g.end(), [](const auto& e) { return e->geo.use_count() == 1; }),
-        g.end());
   }
   // The implausible values and the noise estimate are independent: side by side. Bands left the
   // implausible values out as they wrote the records (a --global fit's limit), and their noise

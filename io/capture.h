@@ -147,6 +147,13 @@ std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& set, si
 using ViewRows =
     std::function<const std::vector<uint8_t>&(const std::shared_ptr<const ViewGeometry>&)>;
 
+// View i's geometry buffers (not a mesh) read in `rows` alone (of its mask's rows, which
+// ViewGeometry::rows then holds): a band's rows of a geometry no other view shares, read band after
+// band. Not cached; its buffers' allocations go back to the ExrReadBuffers alive when it goes.
+std::shared_ptr<const ViewGeometry> load_view_geometry_rows(const CaptureSet& set, size_t i,
+                                                            const TopologyMap* map,
+                                                            const std::vector<uint8_t>& rows);
+
 // Loads view i; per-pixel geometry comes from its buffers or by casting rays at its mesh.
 // `map` (the set's topology map, loaded once by the caller) fills ViewGeometry::mapv from the uv
 // buffer. With `cache`, buffers an earlier view also named are not decoded again. With `rows`,
@@ -155,7 +162,10 @@ ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nul
                    GeometryCache* cache = nullptr, const ViewRows* rows = nullptr);
 // The same into *into, whose allocation of pixel states (ViewData::use) is reused: a 2048^2 view's
 // is 4 MB of fresh pages otherwise, view after view.
+// With `geometry_rows` (one entry per row), the view's geometry buffers are read in those rows
+// alone (load_view_geometry_rows), not through the cache.
 void load_view_into(const CaptureSet& set, size_t i, ViewData* into, const TopologyMap* map,
-                    GeometryCache* cache, const ViewRows* rows);
+                    GeometryCache* cache, const ViewRows* rows,
+                    const std::vector<uint8_t>* geometry_rows = nullptr);
 
 }  // namespace aniso

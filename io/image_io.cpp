@@ -275,12 +275,22 @@ struct ExrReadBuffers::Impl {
   std::vector<std::vector<float>> spare;  // decoded images' allocations given back
 };
 
-void ExrReadBuffers::give_back(Image&& img) {
-  if (!impl_ || img.px.empty()) return;
-  std::lock_guard<std::mutex> lock(impl_->mu);
-  constexpr size_t kMostSpare = 16;  // kept at most (a loader has 2 per thread in flight)
-  if (impl_->spare.size() < kMostSpare) impl_->spare.push_back(std::move(img.px));
+namespace {
+
+void keep_spare(ExrReadBuffers::Impl* impl, Image&& img) {
+  if (!impl || img.px.empty()) return;
+  std::lock_guard<std::mutex> lock(impl->mu);
+  // Kept at most: a loader has 2 images per thread in flight, and a band's rows of views' own
+  // geometry four buffers a view.
+  constexpr size_t kMostSpare = 24;
+  if (impl->spare.size() < kMostSpare) impl->spare.push_back(std::move(img.px));
 }
+
+}  // namespace
+
+void ExrReadBuffers::give_back(Image&& img) { keep_spare(impl_.get(), std::move(img)); }
+
+void give_back_to_read_buffers(Image&& img) { keep_spare(g_read_buffers.load(), std::move(img)); }
 
 ExrReadBuffers::ExrReadBuffers() : impl_(std::make_unique<Impl>()) {
   Impl* none = nullptr;
@@ -348,11 +358,17 @@ Image read_exr(const std::string& path, int expect_w, int expect_h,
     ExrReadBuffers::Impl* reuse = g_read_buffers.load();
     std::string fresh;
     std::string& bytes = reuse ? reuse->files.local() : fresh;
-    if (reuse) {
-      std::lock_guard<std::mutex> lock(reuse->mu);
-      if (!reuse->spare.empty()) img.px = std::move(reuse->spare.back()), reuse->spare.pop_back();
-    }
     const size_t line = static_cast<size_t>(box[2] - box[0] + 1) * ch.size() * sizeof(float);
+    if (reuse) {  // a spare allocation large enough if there is one (no copy on growing), else any
+      const size_t need =
+          line / sizeof(float) * static_cast<size_t>(std::max(0, box[3] - box[1] + 1));
+      std::lock_guard<std::mutex> lock(reuse->mu);
+      auto& sp = reuse->spare;
+      auto it =
+          std::find_if(sp.begin(), sp.end(), [&](const auto& v) { return v.capacity() >= need; });
+      if (it == sp.end() && !sp.empty()) it = sp.end() - 1;
+      if (it != sp.end()) img.px = std::move(*it), sp.erase(it);
+    }
     const long long H = static_cast<long long>(disp[3]) - disp[1] + 1;
     if (rows && static_cast<long long>(rows->size()) == H && box[2] >= box[0] &&
         read_exr_rows(path, head, r.at, box, disp, line, *rows, size, &bytes)) {

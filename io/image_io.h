@@ -74,6 +74,10 @@ class ExrReadBuffers {
   std::unique_ptr<Impl> impl_;
 };
 
+// An image's allocation handed to the ExrReadBuffers alive, if one is (else freed with it): for
+// images whose owner cannot reach the loader's, such as a band's rows of a view's geometry.
+void give_back_to_read_buffers(Image&& img);
+
 // Float EXR with channels R[,G[,B]] (1, 2 or 3 channels). Written atomically.
 void write_exr(const std::string& path, const Image& img);
 

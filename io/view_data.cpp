@@ -46,10 +46,12 @@ void mask_rows(int w, int h, ViewGeometry* g) {
   }
 }
 
-// `rows`: only those rows are read (where the file allows; the others 0).
+// `rows`: only those rows are read (where the file allows; the others 0, or as the reused
+// allocation left them without `zero_others`).
 Image need_buffer(const std::string& path, int channels, const Intrinsics& k,
-                  const std::string& what, const std::vector<uint8_t>* rows = nullptr) {
-  Image b = read_image(path, k.width, k.height, rows).image;
+                  const std::string& what, const std::vector<uint8_t>* rows = nullptr,
+                  bool zero_others = true) {
+  Image b = read_image(path, k.width, k.height, rows, zero_others).image;
   if (b.width != k.width || b.height != k.height)
     throw Error(path + ": " + what + " buffer is " + std::to_string(b.width) + "x" +
                 std::to_string(b.height) + ", camera is " + std::to_string(k.width) + "x" +
@@ -109,23 +111,36 @@ LoadedImage read_view_image(const CaptureSet& s, const ViewSpec& v, const std::s
   return li;
 }
 
+// Calls f(p) for every pixel p of the rows g.rows holds (every pixel without `only_rows`).
+template <class F>
+void for_rows(const ViewGeometry& g, int w, bool only_rows, F f) {
+  for (size_t y = 0; y < g.rows.size(); ++y)
+    if (!only_rows || g.rows[y])
+      for (size_t p = y * w, end = p + w; p < end; ++p) f(p);
+}
+
 // g->finite: 1 where the pixel's position, normal, tangent (and uv, where the set has one) are
 // finite. Once per geometry, where every view sharing it checked the same ten values again.
-void mark_finite(ViewGeometry* g) {
+// With `only_rows`, in g->rows alone (0 elsewhere: the buffers hold no values there).
+void mark_finite(int w, bool only_rows, ViewGeometry* g) {
   auto finite3 = [](const Image& im, size_t p) {  // a buffer may hold more than three channels
     const float* v = &im.px[p * im.channels];
     return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
   };
   g->finite.assign(g->mask.size(), 0);
-  for (size_t p = 0; p < g->mask.size(); ++p)
+  for_rows(*g, w, only_rows, [&](size_t p) {
     g->finite[p] =
         (g->uv.empty() || (std::isfinite(g->uv.px[2 * p]) && std::isfinite(g->uv.px[2 * p + 1]))) &&
         finite3(g->P, p) && finite3(g->N, p) && finite3(g->U, p);
+  });
 }
 
 // Per-pixel geometry from the view's buffers: P, N, U, the mask, s_math, uv and the topology
-// map's value at uv.
-ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const TopologyMap* map) {
+// map's value at uv. With `only_rows` (one entry per row): the buffers other than the mask are
+// read in those rows alone (of the mask's), their other rows not written (a reused allocation's
+// old values: nothing reads them), and g.rows says which were read.
+ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const TopologyMap* map,
+                                   const std::vector<uint8_t>* only_rows = nullptr) {
   const Intrinsics& k = v.camera;
   const GeometrySpec& g = v.geometry;
   ViewGeometry d;
@@ -137,37 +152,47 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
     for (size_t p = 0; p < d.mask.size(); ++p) d.mask[p] = m.px[p * m.channels] != 0.f;
   }
   mask_rows(k.width, k.height, &d);
-  d.P = need_buffer(join_path(s.dir, g.position), 3, k, "position", &d.rows);
-  d.N = need_buffer(join_path(s.dir, g.normal), 3, k, "normal", &d.rows);
-  d.U = need_buffer(join_path(s.dir, g.tangent), 3, k, "tangent", &d.rows);
+  const bool part = only_rows != nullptr;
+  if (part) {
+    if (only_rows->size() != d.rows.size()) throw Error("the rows asked for are not the buffers'");
+    for (size_t y = 0; y < d.rows.size(); ++y) d.rows[y] = d.rows[y] && (*only_rows)[y];
+  }
+  auto buffer = [&](const std::string& file, int channels, const char* what) {
+    return need_buffer(join_path(s.dir, file), channels, k, what, &d.rows, !part);
+  };
+  d.P = buffer(g.position, 3, "position");
+  d.N = buffer(g.normal, 3, "normal");
+  d.U = buffer(g.tangent, 3, "tangent");
   if (!g.topology.empty()) {
-    const Image t = need_buffer(join_path(s.dir, g.topology), 1, k, "topology", &d.rows);
+    const Image t = buffer(g.topology, 1, "topology");
     d.smath = Image(k.width, k.height, 1, 0.f);
-    for (size_t p = 0; p < d.mask.size(); ++p) {
+    for_rows(d, k.width, part, [&](size_t p) {
       const float val = t.px[p * t.channels];
       if (d.mask[p] && !(val >= 0.f && val <= 1.f))
         throw Error(join_path(s.dir, g.topology) + ": topology value " + std::to_string(val) +
                     " outside [0, 1]");
       d.smath.px[p] = val;
-    }
+    });
   }
   if (!g.uv.empty()) {
-    Image uv = need_buffer(join_path(s.dir, g.uv), 2, k, "uv", &d.rows);
+    Image uv = buffer(g.uv, 2, "uv");
     if (uv.channels == 2) {
       d.uv = std::move(uv);
     } else {
       d.uv = Image(k.width, k.height, 2);
-      for (size_t p = 0; p < d.mask.size(); ++p)
+      for_rows(d, k.width, part, [&](size_t p) {
         for (int c = 0; c < 2; ++c) d.uv.px[2 * p + c] = uv.px[p * uv.channels + c];
+      });
     }
   }
-  mark_finite(&d);
+  mark_finite(k.width, part, &d);
   if (!map) return d;
   if (d.uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
   d.mapv = Image(k.width, k.height, 1, 0.f);
-  for (size_t p = 0; p < d.mask.size(); ++p)
+  for_rows(d, k.width, part, [&](size_t p) {
     if (d.mask[p] && std::isfinite(d.uv.px[2 * p]) && std::isfinite(d.uv.px[2 * p + 1]))
       d.mapv.px[p] = static_cast<float>(map->sample(d.uv.px[2 * p], d.uv.px[2 * p + 1]));
+  });
   return d;
 }
 
@@ -291,8 +316,8 @@ std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& s, size
     } catch (const Error& e) {
       throw Error(ctx + ".geometry.mesh: " + e.what());
     }
-    mark_finite(geo.get());
     mask_rows(k.width, k.height, geo.get());
+    mark_finite(k.width, false, geo.get());
     return geo;
   }
   auto load = [&] {
@@ -305,6 +330,28 @@ std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& s, size
   return cache ? cache->get(geometry_key(v), load) : std::make_shared<const ViewGeometry>(load());
 }
 
+std::shared_ptr<const ViewGeometry> load_view_geometry_rows(const CaptureSet& s, size_t i,
+                                                            const TopologyMap* map,
+                                                            const std::vector<uint8_t>& rows) {
+  const ViewSpec& v = s.views.at(i);
+  if (!v.geometry.mesh.empty()) throw Error("a traced mesh's geometry is not read by rows");
+  ViewGeometry g;
+  try {
+    g = read_geometry_buffers(s, v, map, &rows);
+  } catch (const Error& e) {
+    throw Error(s.file + ": views[" + std::to_string(i) + "].geometry: " + e.what());
+  }
+  // Its buffers' allocations go back to the read buffers for the next view's (a band reads every
+  // view's: fresh ones were the kernel zeroing pages, most of such a load's time).
+  return std::shared_ptr<const ViewGeometry>(new ViewGeometry(std::move(g)),
+                                             [](const ViewGeometry* p) {
+                                               auto* q = const_cast<ViewGeometry*>(p);
+                                               for (Image* im : {&q->P, &q->N, &q->U, &q->uv})
+                                                 give_back_to_read_buffers(std::move(*im));
+                                               delete p;
+                                             });
+}
+
 ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, GeometryCache* cache,
                    const ViewRows* rows) {
   ViewData d;
@@ -313,7 +360,8 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
 }
 
 void load_view_into(const CaptureSet& s, size_t i, ViewData* into, const TopologyMap* map,
-                    GeometryCache* cache, const ViewRows* rows) {
+                    GeometryCache* cache, const ViewRows* rows,
+                    const std::vector<uint8_t>* geometry_rows) {
   const ViewSpec& v = s.views.at(i);
   const Intrinsics& k = v.camera;
   const std::string ctx = s.file + ": views[" + std::to_string(i) + "]";
@@ -322,7 +370,8 @@ void load_view_into(const CaptureSet& s, size_t i, ViewData* into, const Topolog
   ViewData& d = *into;
   d.use = std::move(use);
   d.eye = v.world_from_camera.translation();
-  d.geo = load_view_geometry(s, i, map, cache);
+  d.geo = geometry_rows ? load_view_geometry_rows(s, i, map, *geometry_rows)
+                        : load_view_geometry(s, i, map, cache);
   // Only the image's rows that hold a sample pixel: every other pixel reads 0 (classify_pixels),
   // and a tilted plate's rows are half of a 2048^2 frame's. Found once per geometry, which a
   // fixed camera's views share. Or the caller's band of them, the others left as they are.

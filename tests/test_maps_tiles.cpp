@@ -260,7 +260,8 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
         << k;
   EXPECT_EQ(r.output.find("a camera per view"), std::string::npos) << r.output;
   // A view with geometry of its own (here the same buffers under other names): every band reads
-  // it again, which the fit says; the maps are the same.
+  // it again, which the fit says, the bands after the first only their rows of it; the maps and
+  // counts are the same, in a tile too.
   for (const char* b : {"all_P.exr", "all_N.exr", "all_U.exr", "all_uv.exr", "all_mask.png"})
     std::filesystem::copy_file(dir + "/set/geometry/" + b, dir + "/set/geometry/v1_" + b);
   test::edit_json(dir + "/set/capture.json", [](auto& j) {
@@ -273,7 +274,21 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
   EXPECT_NE(r.output.find("2 geometries (a camera per view): every band reads each again"),
             std::string::npos)
       << r.output;
-  EXPECT_TRUE(read_text_file(dir + "/g_fiber.exr") == read_text_file(dir + "/b0.01_fiber.exr"));
+  for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
+                        "coverage", "determined"})
+    EXPECT_TRUE(read_text_file(dir + "/g_" + k + ".exr") ==
+                read_text_file(dir + "/b0.01_" + k + ".exr"))
+        << k << ": a view's own geometry read by rows gives other maps";
+  const auto g = report(dir + "/g.json", false);
+  for (const char* k : {"pixels", "observations", "skipped", "warnings"})
+    EXPECT_EQ(g[k], one[k]) << k;
+  r = test::run_cli("fit " + dir + "/set" + maps + " --tile 1/2 --maps-memory 0.01 --out " + dir +
+                    "/tg.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto tg = nlohmann::json::parse(read_text_file(dir + "/tg.json"));
+  EXPECT_EQ(tg["values"], t["values"]);
+  EXPECT_EQ(tg["fit"]["report"]["pixels"], t["fit"]["report"]["pixels"]);
+  EXPECT_EQ(tg["fit"]["report"]["skipped"], t["fit"]["report"]["skipped"]);
   // A view whose geometry is a traced mesh has no uv to bin by (its uv buffer is not what is
   // traced): refused by name, before anything is read.
   test::edit_json(dir + "/set/capture.json", [](auto& j) {
