@@ -123,8 +123,9 @@ void BM_Bake(benchmark::State& st) {
 BENCHMARK(BM_Bake)->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond);
 
 // One texel of --maps in float lanes (fit/texel_simd.h): the pass with J^T J and J^T r, and the
-// eight start nodes, over `range(0)` observations under one grey light (80: the mean texel of a
-// 1024^2 map from 64 views of 2048^2).
+// eight start nodes (n = 2^4, the power of two nearest that set's global n, 15.7), over
+// `range(0)` observations under one grey light (80: the mean texel of a 1024^2 map from 64 views
+// of 2048^2).
 fitting::TexelLanes texel_lanes_of(size_t count) {
   const auto v = dirs(count, 6), l = dirs(count, 7);
   fitting::TexelLanes t;
@@ -165,7 +166,7 @@ void BM_TexelNodesF32(benchmark::State& st) {
   for (int k = 0; k < 8; ++k) psi[k] = fitting::texel_grid_angle(4 * k);
   for (auto _ : st) {
     fitting::KdKsSums sums[8];
-    fitting::texel_nodes_f32(t, psi, 7, sums);
+    fitting::texel_nodes_f32(t, psi, 4, sums);
     benchmark::DoNotOptimize(sums);
   }
   st.counters["ns_per_obs"] =
