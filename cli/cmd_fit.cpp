@@ -49,6 +49,14 @@ void print_report(FILE* o, const FitResult& r) {
                  "(the first band whole, the later ones their own rows of it), %d times in all; a "
                  "larger --maps-memory, where memory allows, reads them fewer times\n",
                  p.maps_own_geometries, p.maps_bands);
+  if (p.global_subsample > 0)
+    std::fprintf(o,
+                 "fit: the records of every pixel (~%.0f MB) pass --maps-memory (%g MB): the "
+                 "global fit below ran first on 1 pixel in %d along x and y (--subsample %d), "
+                 "then the maps on every pixel, band by band (--global with a global fit of your "
+                 "own, or a larger --maps-memory, instead)\n",
+                 p.maps_record_bytes / 1e6, p.maps_memory_mb, p.global_subsample,
+                 p.global_subsample);
   if (!p.global_from.empty())
     std::fprintf(o, "fit: global fit from %s (--global: not fitted here); load %.3f s\n",
                  p.global_from.c_str(), p.seconds_load);
@@ -270,7 +278,8 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   // A plain --maps fit holds every pixel's record at once (for the global fit): say how to bound
   // that when it is more than the bands would hold.
   const double record_mb = 60e-6 * static_cast<double>(r.report.pixels);
-  if (fo.maps_w > 0 && !fo.global && record_mb > fo.maps_memory_mb)
+  if (fo.maps_w > 0 && !fo.global && r.report.global_subsample == 0 &&
+      record_mb > fo.maps_memory_mb)
     std::fprintf(o,
                  "fit: note: the maps held ~%.0f MB of records at once (every pixel, for the "
                  "global fit); given a global fit (--global %s: this one's global values), `fit "
@@ -314,9 +323,11 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
   fit->add_option("--maps-memory", fo.maps_memory_mb,
-                  "--maps with --global: the records (60 bytes a pixel and light) held at once, "
-                  "in MB; the texel rows are fitted in as many bands as that takes, each band "
-                  "reading only its rows of the views (the same maps as one band, bit for bit)")
+                  "--maps: the records (60 bytes a pixel and light) held at once, in MB; with "
+                  "--global the texel rows are fitted in as many bands as that takes, each band "
+                  "reading only its rows of the views (the same maps as one band, bit for bit); "
+                  "without, where every pixel's records would pass it, the global fit runs "
+                  "first on a --subsample that fits, then the maps in bands")
       ->capture_default_str()
       ->check(CLI::Range(0.001, 1e9));
   fit->add_option("--global", a->global,

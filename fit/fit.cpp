@@ -344,7 +344,67 @@ size_t export_observations(const CaptureSet& set, const FitOptions& opt, const s
   return n;
 }
 
+namespace {
+
+// A plain --maps fit (no --global, no --tile) whose records would pass --maps-memory: the every
+// k-th pixel in x and y (k > 1) at which they fit it, for the global fit; 0 where they fit as
+// they are, or the fit is not one the maps in bands can follow (optional terms, --topology-map).
+int global_subsample_for(const CaptureSet& set, const FitOptions& opt) {
+  if (opt.maps_w == 0 || opt.global || opt.tile_count > 0 || opt.fit_isotropic || opt.fit_second ||
+      opt.topology_texels > 0 || set.views.empty())
+    return 0;
+  for (const ViewSpec& v : set.views)
+    if (!v.geometry.mesh.empty()) return 0;  // refused under --maps, by the plain load's check
+  const double bytes = static_cast<double>(BandLoader(set, opt).record_bytes());
+  const double budget = opt.maps_memory_mb * 1e6;
+  if (bytes <= budget) return 0;
+  return static_cast<int>(std::ceil(std::sqrt(bytes / budget)));
+}
+
+// fit_capture's plain --maps past --maps-memory: the global fit on every k-th pixel (k from
+// global_subsample_for), handed to the maps as --global would hand it (band by band of texel
+// rows); the result reads as one fit: the global fit's iterations, solver, RMS and choice of
+// model, the load times added, and the subsample said.
+FitResult maps_after_subsampled_global(const CaptureSet& set, const FitOptions& opt, int k) {
+  const auto t0 = Clock::now();
+  FitOptions g = opt;
+  g.maps_w = g.maps_h = 0;
+  g.maps_smooth = 0;
+  g.subsample = opt.subsample * k;
+  const FitResult gr = fit_capture(set, g);
+  FitOptions m = opt;
+  m.global = given_global(fit_text(gr), "this fit's global fit", set.dir);
+  if (opt.model == FitModel::kAuto)
+    m.model = gr.material.model == Model::kFiber ? FitModel::kFiber : FitModel::kLine;
+  FitResult r = fit_capture(set, m);
+  FitReport& rep = r.report;
+  const FitReport& grep = gr.report;
+  rep.global_from.clear();
+  r.fixed.erase("global_fit");
+  rep.global_subsample = g.subsample;
+  rep.start = grep.start;
+  rep.iterations = grep.iterations;
+  rep.solver = grep.solver;
+  rep.termination = grep.termination;
+  rep.loss = grep.loss;
+  rep.rms = grep.rms;
+  rep.covariance = grep.covariance;
+  rep.seconds_load += grep.seconds_load;
+  rep.seconds_start = grep.seconds_start;
+  rep.seconds_solve = grep.seconds_solve;
+  rep.seconds_covariance = grep.seconds_covariance;
+  rep.model_selection = grep.model_selection;
+  rep.model_summaries = grep.model_summaries;
+  for (const auto& [key, why] : gr.undetermined) r.undetermined.emplace(key, why);
+  rep.seconds = seconds_since(t0);
+  return r;
+}
+
+}  // namespace
+
 FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
+  if (const int k = global_subsample_for(set, opt))
+    return maps_after_subsampled_global(set, opt, k);
   const auto t0 = Clock::now();
   FitReport rep;
   if (opt.global && opt.maps_w > 0) {  // the maps alone: band by band of texel rows

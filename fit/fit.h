@@ -143,6 +143,9 @@ struct FitReport {
   size_t maps_record_bytes = 0;
   double maps_memory_mb = 0;       // --maps-memory
   size_t maps_own_geometries = 0;  // views with geometry of their own, read again by every band
+  // --maps without --global whose records would pass --maps-memory: the global fit ran first on
+  // every k-th pixel in x and y (this k, with --subsample's), the maps then band by band (0: not).
+  int global_subsample = 0;
   int iterations = 0;
   double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0,
          seconds_covariance = 0;

@@ -208,11 +208,38 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_EQ(r.output.find("bands of texel rows"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("iterations (none)"), std::string::npos) << r.output;  // no global fit
-  // Without --global every record is held at once: past --maps-memory, the way round is named.
+  // Without --global, records past --maps-memory: the global fit first on a --subsample that
+  // fits, then the maps band by band from it, said so; the same maps, bit for bit, as those two
+  // steps run by hand (`fit --subsample k`, then `fit --maps --global`).
   r = test::run_cli("fit " + dir + "/set --maps 8x6 --maps-memory 0.01 --out " + dir +
                     "/plain.json");
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("given a global fit (--global"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("the global fit below ran first on 1 pixel in"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("iterations ("), std::string::npos) << r.output;  // its global fit
+  EXPECT_EQ(r.output.find("held ~"), std::string::npos) << r.output;
+  const auto plain = nlohmann::json::parse(read_text_file(dir + "/plain.json"));
+  const int k = plain["report"].value("global_subsample", 0);
+  EXPECT_GT(k, 1) << plain["report"].dump();
+  EXPECT_GT(plain["report"].value("maps_bands", 0), 1) << plain["report"].dump();
+  EXPECT_FALSE(plain["report"].contains("global_from")) << plain["report"].dump();
+  r = test::run_cli("fit " + dir + "/set --subsample " + std::to_string(k) + " --out " + dir +
+                    "/gk.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --maps-memory 0.01 --global " + dir +
+                    "/gk.json --out " + dir + "/byhand.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* m : {"kd", "ks", "n", "fiber", "kd_sigma", "fiber_sigma", "coverage"})
+    EXPECT_TRUE(read_text_file(dir + "/plain_" + m + ".exr") ==
+                read_text_file(dir + "/byhand_" + m + ".exr"))
+        << m << ": the maps after the subsampled global fit differ from the two steps by hand";
+  const auto gk = nlohmann::json::parse(read_text_file(dir + "/gk.json"));
+  for (const char* key : {"kd", "ks", "n", "fiber_angle_deg"})
+    EXPECT_EQ(plain[key], gk[key]) << key << ": the global values are the subsampled fit's";
+  // With a --maps-memory they fit in, the global fit takes every pixel, as before.
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --out " + dir + "/whole.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("ran first on 1 pixel"), std::string::npos) << r.output;
   for (const char* mem : {"0.3", "0.01"}) {  // a few bands; one band per texel row (6)
     const std::string out = dir + "/b" + std::string(mem) + ".json";
     r = test::run_cli("fit " + dir + "/set" + maps + " --maps-memory " + mem + " --out " + out);
