@@ -113,7 +113,8 @@ LoadedImage read_view_image(const CaptureSet& s, const ViewSpec& v, const std::s
 
 // Calls f(p) for every pixel p of the rows g.rows holds (every pixel without `only_rows`).
 template <class F>
-void for_rows(const ViewGeometry& g, int w, bool only_rows, F f) {
+void for_rows(const ViewGeometry& g, bool only_rows, F f) {
+  const size_t w = g.rows.empty() ? 0 : g.mask.size() / g.rows.size();
   for (size_t y = 0; y < g.rows.size(); ++y)
     if (!only_rows || g.rows[y])
       for (size_t p = y * w, end = p + w; p < end; ++p) f(p);
@@ -122,13 +123,13 @@ void for_rows(const ViewGeometry& g, int w, bool only_rows, F f) {
 // g->finite: 1 where the pixel's position, normal, tangent (and uv, where the set has one) are
 // finite. Once per geometry, where every view sharing it checked the same ten values again.
 // With `only_rows`, in g->rows alone (0 elsewhere: the buffers hold no values there).
-void mark_finite(int w, bool only_rows, ViewGeometry* g) {
+void mark_finite(bool only_rows, ViewGeometry* g) {
   auto finite3 = [](const Image& im, size_t p) {  // a buffer may hold more than three channels
     const float* v = &im.px[p * im.channels];
     return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
   };
   g->finite.assign(g->mask.size(), 0);
-  for_rows(*g, w, only_rows, [&](size_t p) {
+  for_rows(*g, only_rows, [&](size_t p) {
     g->finite[p] =
         (g->uv.empty() || (std::isfinite(g->uv.px[2 * p]) && std::isfinite(g->uv.px[2 * p + 1]))) &&
         finite3(g->P, p) && finite3(g->N, p) && finite3(g->U, p);
@@ -166,7 +167,7 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
   if (!g.topology.empty()) {
     const Image t = buffer(g.topology, 1, "topology");
     d.smath = Image(k.width, k.height, 1, 0.f);
-    for_rows(d, k.width, part, [&](size_t p) {
+    for_rows(d, part, [&](size_t p) {
       const float val = t.px[p * t.channels];
       if (d.mask[p] && !(val >= 0.f && val <= 1.f))
         throw Error(join_path(s.dir, g.topology) + ": topology value " + std::to_string(val) +
@@ -180,16 +181,16 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
       d.uv = std::move(uv);
     } else {
       d.uv = Image(k.width, k.height, 2);
-      for_rows(d, k.width, part, [&](size_t p) {
+      for_rows(d, part, [&](size_t p) {
         for (int c = 0; c < 2; ++c) d.uv.px[2 * p + c] = uv.px[p * uv.channels + c];
       });
     }
   }
-  mark_finite(k.width, part, &d);
+  mark_finite(part, &d);
   if (!map) return d;
   if (d.uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
   d.mapv = Image(k.width, k.height, 1, 0.f);
-  for_rows(d, k.width, part, [&](size_t p) {
+  for_rows(d, part, [&](size_t p) {
     if (d.mask[p] && std::isfinite(d.uv.px[2 * p]) && std::isfinite(d.uv.px[2 * p + 1]))
       d.mapv.px[p] = static_cast<float>(map->sample(d.uv.px[2 * p], d.uv.px[2 * p + 1]));
   });
@@ -293,6 +294,20 @@ std::shared_ptr<const ViewGeometry> GeometryCache::get(const std::string& key,
   return e->geo;
 }
 
+namespace {
+
+// read_geometry_buffers of view i, its errors named by the view.
+ViewGeometry read_view_geometry_buffers(const CaptureSet& s, size_t i, const TopologyMap* map,
+                                        const std::vector<uint8_t>* only_rows = nullptr) {
+  try {
+    return read_geometry_buffers(s, s.views.at(i), map, only_rows);
+  } catch (const Error& e) {
+    throw Error(s.file + ": views[" + std::to_string(i) + "].geometry: " + e.what());
+  }
+}
+
+}  // namespace
+
 std::string geometry_key(const ViewSpec& v) {
   const GeometrySpec& g = v.geometry;
   return g.mesh + '\n' + g.position + '\n' + g.normal + '\n' + g.tangent + '\n' + g.mask + '\n' +
@@ -317,30 +332,19 @@ std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& s, size
       throw Error(ctx + ".geometry.mesh: " + e.what());
     }
     mask_rows(k.width, k.height, geo.get());
-    mark_finite(k.width, false, geo.get());
+    mark_finite(false, geo.get());
     return geo;
   }
-  auto load = [&] {
-    try {
-      return read_geometry_buffers(s, v, map);
-    } catch (const Error& e) {
-      throw Error(ctx + ".geometry: " + e.what());
-    }
-  };
+  auto load = [&] { return read_view_geometry_buffers(s, i, map); };
   return cache ? cache->get(geometry_key(v), load) : std::make_shared<const ViewGeometry>(load());
 }
 
 std::shared_ptr<const ViewGeometry> load_view_geometry_rows(const CaptureSet& s, size_t i,
                                                             const TopologyMap* map,
                                                             const std::vector<uint8_t>& rows) {
-  const ViewSpec& v = s.views.at(i);
-  if (!v.geometry.mesh.empty()) throw Error("a traced mesh's geometry is not read by rows");
-  ViewGeometry g;
-  try {
-    g = read_geometry_buffers(s, v, map, &rows);
-  } catch (const Error& e) {
-    throw Error(s.file + ": views[" + std::to_string(i) + "].geometry: " + e.what());
-  }
+  if (!s.views.at(i).geometry.mesh.empty())
+    throw Error("a traced mesh's geometry is not read by rows");
+  ViewGeometry g = read_view_geometry_buffers(s, i, map, &rows);
   // Its buffers' allocations go back to the read buffers for the next view's (a band reads every
   // view's: fresh ones were the kernel zeroing pages, most of such a load's time).
   return std::shared_ptr<const ViewGeometry>(new ViewGeometry(std::move(g)),
