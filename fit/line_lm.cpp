@@ -16,7 +16,8 @@
 namespace aniso::fitting {
 
 void line_chunk(const ObsSet& os, const size_t* idx, size_t begin, size_t end,
-                const LinePixelParams& p, const RobustLoss& loss, bool jac, ChannelSums<8>* s) {
+                const LinePixelParams& p, const RobustLoss& loss, bool jac, ChannelSums<8>* s,
+                HuberCurvature<8>* curv) {
   // Pixels with one light go four at a time where the CPU can (fit/line_simd.h); the rest, and
   // Cauchy's loss, one at a time.
   const bool simd = line_simd_enabled() && loss.kind != FitLoss::kCauchy;
@@ -39,9 +40,13 @@ void line_chunk(const ObsSet& os, const size_t* idx, size_t begin, size_t end,
         row.shared[k][0] = d.dlogn[k];
         row.shared[k][1] = d.dpsi[k];
       }
-      s->add(row, loss, jac);
+      const double w = s->add(row, loss, jac);
+      if (jac && curv) {
+        const double r2 = row.r[0] * row.r[0] + row.r[1] * row.r[1] + row.r[2] * row.r[2];
+        curv->add(row, loss.huber_curvature(r2, w));
+      }
     }
-    if (m) line_pass_simd(os, ids, m, p, loss, jac, s);
+    if (m) line_pass_simd(os, ids, m, p, loss, jac, s, curv);
   }
 }
 
@@ -53,9 +58,10 @@ FusedSums<8> pass(const ObsSet& os, const std::vector<size_t>* subset, const Vec
   const double kd[3] = {x(0), x(1), x(2)}, ks[3] = {x(3), x(4), x(5)};
   const LinePixelParams p{kd, ks, std::exp(x(6)), std::cos(x(7)), std::sin(x(7))};
   const size_t n = subset ? subset->size() : os.obs.size();
-  return fused_pass_chunks<8>(n, jac, arena, [&](size_t begin, size_t end, ChannelSums<8>* s) {
-    line_chunk(os, subset ? subset->data() : nullptr, begin, end, p, loss, jac, s);
-  });
+  return fused_pass_chunks<8>(
+      n, jac, arena, [&](size_t begin, size_t end, ChannelSums<8>* s, HuberCurvature<8>* curv) {
+        line_chunk(os, subset ? subset->data() : nullptr, begin, end, p, loss, jac, s, curv);
+      });
 }
 
 }  // namespace

@@ -25,9 +25,11 @@ void unpack_core(const Vec8& x, Core* c);
 void core_bounds(Vec8* lo, Vec8* hi);
 
 // Adds observations idx[begin .. end) (idx null: begin .. end themselves) at p to *s: robust cost,
-// and with `jac` the channels' J^T W J and J^T W r. The one loop of every line-model pass.
+// and with `jac` the channels' J^T W J and J^T W r (and, given `curv`, Huber's curvature). The one
+// loop of every line-model pass.
 void line_chunk(const ObsSet& os, const size_t* idx, size_t begin, size_t end,
-                const LinePixelParams& p, const RobustLoss& loss, bool jac, ChannelSums<8>* s);
+                const LinePixelParams& p, const RobustLoss& loss, bool jac, ChannelSums<8>* s,
+                HuberCurvature<8>* curv = nullptr);
 
 // Solves from `c` (updated in place) over the observations in `subset` (null: all), at most
 // `max_iterations` steps on `threads` threads.

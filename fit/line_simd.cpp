@@ -97,6 +97,13 @@ struct LaneSums {
   v4d h[3][10], g[3][4], cost, rss;
 };
 
+// Per-lane HuberCurvature of a chunk.
+struct LaneCurvature {
+  v4d c[36];
+};
+
+ANISO_AVX2_INLINE bool any(v4i m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
+
 // The four observations' values, lane by lane.
 struct Lanes {
   v4d Vu, Vw, Lu, Lw, Ln, E[3], y[3], mask;
@@ -129,7 +136,7 @@ ANISO_AVX2_INLINE void gather(const ObsSet& os, const size_t* idx, size_t count,
 }
 
 ANISO_AVX2 void group(const Lanes& q, const LinePixelParams& p, const RobustLoss& loss, bool jac,
-                      LaneSums* acc) {
+                      LaneCurvature* curv, LaneSums* acc) {
   const v4d c = splat(p.c), sn = splat(p.sn), n = splat(p.n);
   const v4d one = splat(1.0), minus = splat(-1.0);
   const v4d b = vmin(vmax(c * q.Vu + sn * q.Vw, minus), one), db = c * q.Vw - sn * q.Vu;
@@ -156,9 +163,10 @@ ANISO_AVX2 void group(const Lanes& q, const LinePixelParams& p, const RobustLoss
   }
   const v4d r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
   v4d rho = r2, wt = one;
+  v4i far{};
   if (loss.kind == FitLoss::kHuber) {
     const v4d A = splat(loss.a), out = vsqrt(vmax(r2, splat(1e-300)));
-    const v4i far = r2 > A * A;
+    far = r2 > A * A;
     rho = select(far, splat(2 * loss.a) * out - A * A, r2);
     wt = select(far, A / out, one);
   }
@@ -174,6 +182,18 @@ ANISO_AVX2 void group(const Lanes& q, const LinePixelParams& p, const RobustLoss
       for (int j = i; j < 4; ++j) acc->h[k][t++] += wv * v[k][j];
     }
   }
+  if (!curv || !any(far)) return;
+  const v4d A = splat(loss.a);
+  const v4d coef = select(far, wt / r2 * vmin(vsqrt(r2) / A - splat(1.0), splat(1.0)), splat(0.0));
+  v4d u[8];
+  for (int k = 0; k < 3; ++k) u[k] = r[k] * v[k][0], u[3 + k] = r[k] * v[k][1];
+  for (int j = 0; j < 2; ++j)
+    u[6 + j] = r[0] * v[0][2 + j] + r[1] * v[1][2 + j] + r[2] * v[2][2 + j];
+  int t = 0;
+  for (int i = 0; i < 8; ++i) {
+    const v4d cu = coef * u[i];
+    for (int j = i; j < 8; ++j) curv->c[t++] += cu * u[j];
+  }
 }
 
 // The lane sums into the chunk's: lane by lane, a fixed order.
@@ -188,15 +208,20 @@ ANISO_AVX2 void add_lanes(const LaneSums& acc, ChannelSums<8>* sums) {
 
 ANISO_AVX2 void pass_avx2(const ObsSet& os, const size_t* idx, size_t count,
                           const LinePixelParams& p, const RobustLoss& loss, bool jac,
-                          ChannelSums<8>* sums) {
+                          ChannelSums<8>* sums, HuberCurvature<8>* curv) {
   LaneSums acc;
   std::memset(&acc, 0, sizeof acc);
   Lanes q;
+  LaneCurvature lc;
+  LaneCurvature* with = jac && curv && loss.kind == FitLoss::kHuber ? &lc : nullptr;
+  if (with) std::memset(&lc, 0, sizeof lc);
   for (size_t i = 0; i < count; i += 4) {
     gather(os, idx + i, count - i, &q);
-    group(q, p, loss, jac, &acc);
+    group(q, p, loss, jac, with, &acc);
   }
   add_lanes(acc, sums);
+  if (with)
+    for (int t = 0; t < 36; ++t) curv->c[t] += hsum(lc.c[t]);
 }
 
 // Four floats of row k of a group of eight, as doubles.
@@ -219,7 +244,7 @@ ANISO_AVX2 void lanes_pass_avx2(const TexelLanes& t, const LinePixelParams& p, b
       q.Vu = row4(g, 0), q.Vw = row4(g, 1), q.Lu = row4(g, 2), q.Lw = row4(g, 3);
       for (int k = 0; k < 3; ++k) q.E[k] = row4(g, 5 + k), q.y[k] = row4(g, 8 + k);
       q.mask = row4(g, 11);
-      group(q, p, none, jac, &acc);
+      group(q, p, none, jac, nullptr, &acc);
     }
   add_lanes(acc, sums);
 }
@@ -347,8 +372,9 @@ bool line_simd_enabled() { return g_simd_on.load() && cpu_has_avx2(); }
 void set_line_simd(bool on) { g_simd_on = on; }
 
 void line_pass_simd(const ObsSet& os, const size_t* idx, size_t count, const LinePixelParams& p,
-                    const RobustLoss& loss, bool jac, ChannelSums<8>* sums) {
-  pass_avx2(os, idx, count, p, loss, jac, sums);
+                    const RobustLoss& loss, bool jac, ChannelSums<8>* sums,
+                    HuberCurvature<8>* curv) {
+  pass_avx2(os, idx, count, p, loss, jac, sums, curv);
 }
 
 void line_pass_lanes(const TexelLanes& t, const LinePixelParams& p, bool jac,

@@ -18,9 +18,11 @@ namespace aniso::fitting {
 bool line_simd_enabled();
 void set_line_simd(bool on);
 
-// Adds observations idx[0 .. count), each with exactly one light, to *sums.
+// Adds observations idx[0 .. count), each with exactly one light, to *sums (and, given `curv`,
+// Huber's curvature).
 void line_pass_simd(const ObsSet& os, const size_t* idx, size_t count, const LinePixelParams& p,
-                    const RobustLoss& loss, bool jac, ChannelSums<8>* sums);
+                    const RobustLoss& loss, bool jac, ChannelSums<8>* sums,
+                    HuberCurvature<8>* curv = nullptr);
 
 struct TexelLanes;
 // The same over a texel's transposed rows (fit/texel_simd.h), in double, without a robust loss:

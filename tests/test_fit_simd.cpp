@@ -97,10 +97,11 @@ void compare_passes(bool chord) {
       const LinePixelParams p{kd, ks, n, std::cos(psi), std::sin(psi)};
       const RobustLoss loss{kind, 0.1};
       ChannelSums<8> lanes, scalar;
+      HuberCurvature<8> lanes_c, scalar_c;
       set_line_simd(true);
-      line_chunk(os, nullptr, 0, os.obs.size(), p, loss, true, &lanes);
+      line_chunk(os, nullptr, 0, os.obs.size(), p, loss, true, &lanes, &lanes_c);
       set_line_simd(false);
-      line_chunk(os, nullptr, 0, os.obs.size(), p, loss, true, &scalar);
+      line_chunk(os, nullptr, 0, os.obs.size(), p, loss, true, &scalar, &scalar_c);
       set_line_simd(true);
       auto near = [&](double a, double b) {
         EXPECT_NEAR(a, b, (chord ? 1e-9 : 1e-11) * (1 + std::abs(b)))
@@ -112,6 +113,16 @@ void compare_passes(bool chord) {
         for (int t = 0; t < 10; ++t) near(lanes.h[k][t], scalar.h[k][t]);
         for (int a = 0; a < 4; ++a) near(lanes.g[k][a], scalar.g[k][a]);
       }
+      // Huber's curvature outside its core (fit/fused_lm.h), present only under Huber.
+      double sum = 0;
+      for (int t = 0; t < HuberCurvature<8>::kTri; ++t) {
+        near(lanes_c.c[t], scalar_c.c[t]);
+        sum += std::abs(scalar_c.c[t]);
+      }
+      if (kind == FitLoss::kHuber)
+        EXPECT_GT(sum, 0) << "no observation outside the core at n " << n;
+      else
+        EXPECT_EQ(sum, 0);
     }
 }
 
