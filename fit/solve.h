@@ -20,6 +20,7 @@ struct Solution {
   std::vector<double> sqrt_w;  // reweighting weights: the problem's blocks point at them
   double rss = 0;              // of the final problem's residuals
   double values = 0;           // measured values: pixels x channels (x 1 for grey)
+  double weights_change = 0;   // reweighting: the largest change of a weight in its last round
 };
 
 // Starts the model, solves, and fills the report's start, noise, loss, iterations, RMS, BIC,

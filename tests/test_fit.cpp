@@ -325,6 +325,23 @@ TEST(FitFiber, SampleTableWithTopologyColumn) {
 namespace aniso {
 namespace {
 
+// The largest |a - b| / sigma over k_d, k_s, n and psi of two fits, each checked under `limit`.
+double worst_in_sigma(const FitResult& ra, const FitResult& rb, double limit) {
+  double worst = 0;
+  auto near = [&](double a, double b, double sigma) {
+    const double d = std::abs(a - b) / sigma;
+    worst = std::max(worst, d);
+    EXPECT_LT(d, limit) << a << " vs " << b << " (sigma " << sigma << ")";
+  };
+  for (int k = 0; k < 3; ++k) {
+    near(ra.material.kd[k], rb.material.kd[k], ra.sigma.at("kd")[k]);
+    near(ra.material.ks[k], rb.material.ks[k], ra.sigma.at("ks")[k]);
+  }
+  near(ra.material.n, rb.material.n, ra.sigma.at("n")[0]);
+  near(ra.material.fiber_angle_deg, rb.material.fiber_angle_deg, ra.sigma.at("fiber_angle_deg")[0]);
+  return worst;
+}
+
 // The three solvers of the plain line model land on the same estimate and the same
 // uncertainties: the fused Levenberg-Marquardt (the default: one pass over the observations per
 // step, fit/line_lm.h), Ceres on 256-pixel blocks with analytic derivatives and Huber by
@@ -345,20 +362,9 @@ TEST(FitPaths, FusedSolverAndCeresReachTheSameMinimum) {
   for (const FitOptions* o : {&chunked, &per_pixel}) {
     const FitResult rb = fit_capture(set, *o);
     EXPECT_EQ(rb.report.solver, "ceres");
-    double worst = 0;  // |difference| / sigma over every number
-    auto near = [&](double a, double b, double sigma, double rel) {
-      const double d = std::abs(a - b) / sigma;
-      worst = std::max(worst, d);
-      EXPECT_LT(d, rel) << a << " vs " << b << " (sigma " << sigma << ")";
-    };
-    for (int k = 0; k < 3; ++k) {
-      near(ra.material.kd[k], rb.material.kd[k], ra.sigma.at("kd")[k], 0.1);
-      near(ra.material.ks[k], rb.material.ks[k], ra.sigma.at("ks")[k], 0.1);
+    const double worst = worst_in_sigma(ra, rb, 0.1);
+    for (int k = 0; k < 3; ++k)
       EXPECT_NEAR(ra.sigma.at("kd")[k], rb.sigma.at("kd")[k], 0.05 * rb.sigma.at("kd")[k]);
-    }
-    near(ra.material.n, rb.material.n, ra.sigma.at("n")[0], 0.1);
-    near(ra.material.fiber_angle_deg, rb.material.fiber_angle_deg,
-         ra.sigma.at("fiber_angle_deg")[0], 0.1);
     std::printf("fused LM vs Ceres (%s): largest difference %.4f sigma; solve %.4f s vs %.4f s\n",
                 o->chunked ? "256-pixel blocks" : "per pixel", worst, ra.report.seconds_solve,
                 rb.report.seconds_solve);
@@ -387,6 +393,32 @@ TEST(FitPaths, FusedSolverAndCeresReachTheSameMinimum) {
 
 namespace aniso {
 namespace {
+
+// Where one material does not describe the sample (a swirled plate fitted globally: residual RMS
+// 11x the noise), many pixels lie outside Huber's core. The fused solver's steps use the cost's
+// own curvature there (fit/fused_lm.h, HuberCurvature), and Ceres' reweighted rounds go on until
+// the weights settle to 1e-4: both converge and land on the same minimum within a tenth of sigma.
+// Before, Ceres stopped after 6 rounds 0.13 sigma off in n and 0.2 in psi, and said CONVERGENCE.
+TEST(FitPaths, FusedAndCeresAgreeWhereManyPixelsLieOutsideHubersCore) {
+  const std::string dir = test::tmp_dir("set");
+  PresetOptions p = small(16, 64);
+  p.noise = 0.01;
+  simulate_capture(make_preset("swirl-plate", p), dir);
+  const CaptureSet set = read_capture(dir);
+  FitOptions fused = quiet(), ceres = quiet();
+  ceres.ceres_solver = true;
+  const FitResult ra = fit_capture(set, fused), rb = fit_capture(set, ceres);
+  EXPECT_EQ(ra.report.solver, "fused LM");
+  EXPECT_EQ(rb.report.solver, "ceres");
+  EXPECT_GT(ra.report.rms, 5 * ra.report.pixel_noise) << "the set should be one the model misfits";
+  for (const FitResult* r : {&ra, &rb}) {
+    EXPECT_EQ(r->report.termination, "CONVERGENCE") << r->report.solver;
+    for (const std::string& w : r->report.warnings)
+      EXPECT_EQ(w.find("may not be the minimum"), std::string::npos) << w;
+  }
+  std::printf("swirl: fused LM %d iterations, Ceres %d; largest difference %.4f sigma\n",
+              ra.report.iterations, rb.report.iterations, worst_in_sigma(ra, rb, 0.1));
+}
 
 // --topology-map N: a per-texel map of s over uv, recovered texel by texel on a flat sample whose
 // topology varies over its surface; the map is written beside the material.
