@@ -270,6 +270,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
                  fo.tile_index, fo.tile_count, r.maps.row0, r.maps.row1 - 1, r.maps.w, r.maps.h,
                  r.maps.fitted, r.maps.seconds, r.report.pixels, r.report.outside_tile,
                  r.report.seconds_load, out.c_str());
+    for (const std::string& w : r.report.warnings) std::fprintf(o, "fit: WARNING: %s\n", w.c_str());
     if (!g_mpi_rank) std::fprintf(o, "fit: then: aniso merge TILE.json... --out material.json\n");
     return 0;
   }

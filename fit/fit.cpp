@@ -29,9 +29,15 @@ namespace {
 
 using Clock = SteadyClock;
 
+constexpr const char* kNoObservations =
+    "fit: no usable observations (empty mask, all pixels saturated, non-finite or unlit)";
+
 // Refuses what cannot be fitted before any work: options that do not go together, no data, more
-// parameters than values.
-void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& m) {
+// parameters than values. `maps_alone` (--maps with --global): nothing global is fitted, and `os`
+// is the first band's or the tile's share, which may hold nothing (a sphere's uv leaves rows
+// empty): the maps' caller checks the whole instead.
+void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& m,
+                       bool maps_alone = false) {
   if (m.model() == Model::kFiber && (opt.fit_isotropic || opt.fit_second))
     throw Error("fit: --fit-isotropic and --fit-second-fiber are available with --model line only");
   if (os.topology == TopologyMode::kTexels && m.model() != Model::kFiber)
@@ -46,9 +52,8 @@ void check_fit_request(const ObsSet& os, const FitOptions& opt, const ModelFit& 
     throw Error(
         "fit: --maps needs texture coordinates: a capture set with \"uv\" buffers, or a sample "
         "table with u, v columns");
-  if (os.obs.empty())
-    throw Error(
-        "fit: no usable observations (empty mask, all pixels saturated, non-finite or unlit)");
+  if (maps_alone) return;
+  if (os.obs.empty()) throw Error(kNoObservations);
   if (os.obs.size() * (os.grey ? 1 : 3) <= m.parameters())
     throw Error("fit: " + std::to_string(os.obs.size()) + " observations cannot determine " +
                 std::to_string(m.parameters()) + " parameters");
@@ -181,7 +186,7 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
                                MapsInBands* bands) {
   std::unique_ptr<ModelFit> m =
       model == Model::kFiber ? make_fiber_fit(opt, os) : make_line_fit(opt);
-  check_fit_request(os, opt, *m);
+  check_fit_request(os, opt, *m, true);
   const auto t0 = Clock::now();
   FitResult res;
   res.material = opt.global->material;
@@ -215,6 +220,14 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
     res.material.topology = TopologyMapRef{os.topology_map, t->amplitude, os.topology_mathematical};
   }
   add_texel_maps(os, opt, c, rep.fiber_order, topo, &rep, &res, bands);
+  if (rep.observations == 0) {
+    if (opt.tile_count == 0) throw Error(kNoObservations);
+    rep.warnings.push_back("tile " + std::to_string(opt.tile_index) + "/" +
+                           std::to_string(opt.tile_count) +
+                           ": no usable pixel's uv falls in its texel rows (the sample's uv "
+                           "leaves them empty): every texel of it is undetermined, with the "
+                           "global values");
+  }
   rep.seconds += seconds_since(t0);
   res.report = rep;
   return res;

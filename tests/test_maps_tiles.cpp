@@ -52,6 +52,51 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   EXPECT_NE(r.output.find("--maps"), std::string::npos) << r.output;
 }
 
+// A sphere's uv leaves texel rows without a pixel (the far side of the ball): a tile of only such
+// rows writes its tile, every texel undetermined, and says why, instead of failing for want of
+// observations (which failed an MPI job or a Slurm array on any sphere, torus or disc); the merge
+// is still the untiled run byte for byte, as are 16 bands of one row, the last ones empty.
+TEST(FitMaps, ATileWhoseRowsNoPixelReachesIsWrittenUndetermined) {
+  const std::string dir = test::tmp_dir("tiles");
+  auto r = test::run_cli("synth satin-ball " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --subsample 2 --out " + dir + "/global.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string maps = " --maps 16x16 --global " + dir + "/global.json";
+  r = test::run_cli("fit " + dir + "/set" + maps + " --out " + dir + "/whole.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::string tiles;
+  for (int i = 0; i < 4; ++i) {
+    const std::string t = dir + "/t" + std::to_string(i) + ".json";
+    r = test::run_cli("fit " + dir + "/set" + maps + " --tile " + std::to_string(i) + "/4 --out " +
+                      t);
+    ASSERT_EQ(r.status, 0) << r.output;
+    if (i == 3) {
+      EXPECT_NE(r.output.find("0 texels solved"), std::string::npos) << r.output;
+      EXPECT_NE(r.output.find("no usable pixel's uv falls in its texel rows"), std::string::npos)
+          << r.output;
+    }
+    tiles += " " + t;
+  }
+  r = test::run_cli("merge" + tiles + " --out " + dir + "/merged.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // In 16 bands (one texel row each).
+  r = test::run_cli("fit " + dir + "/set" + maps + " --maps-memory 0.05 --out " + dir +
+                    "/bands.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("in 16 bands"), std::string::npos) << r.output;
+  for (const char* k :
+       {"kd", "ks", "n", "fiber", "kd_sigma", "n_sigma", "coverage", "determined"}) {
+    const std::string a = read_text_file(dir + "/whole_" + k + ".exr");
+    EXPECT_TRUE(a == read_text_file(dir + "/merged_" + k + ".exr")) << k << ": merged";
+    EXPECT_TRUE(a == read_text_file(dir + "/bands_" + k + ".exr")) << k << ": bands";
+  }
+  // A capture with no usable pixel at all is still refused.
+  r = test::run_cli("fit " + dir + "/set" + maps + " --out " + dir + "/x.json --subsample 1024");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("no usable observations"), std::string::npos) << r.output;
+}
+
 // --global with --tile: the global fit comes from an earlier run (here on a subsample) and each
 // tile keeps only the pixels whose uv falls in its rows and its --smooth band: its records are its
 // share of the sample, and the merge still equals an untiled run with that global fit, byte for
