@@ -83,10 +83,29 @@ struct BandLoader::Impl {
   FitOptions opt;
   LoadState st;
   ObsSet os;
+  std::vector<double> row_bytes;
 };
 
 BandLoader::BandLoader(const CaptureSet& set, const FitOptions& opt)
-    : impl_(new Impl{set, opt, {}, {}}) {}
+    : impl_(new Impl{set, opt, {}, {}, {}}) {}
+
+namespace {
+
+// The mask pixels of g on the grid of `stride` by texel row of a w x h map (outside: row 0).
+std::vector<double> pixels_by_row(const ViewGeometry& g, int stride, int w, int h) {
+  std::vector<double> n(static_cast<size_t>(std::max(h, 1)), 0.0);
+  const int W = g.P.width, H = g.P.height;
+  for (int y = 0; y < H; y += stride)
+    for (int x = 0; x < W && g.rows[y]; x += stride) {
+      const size_t p = static_cast<size_t>(y) * W + x;
+      if (!g.mask[p]) continue;
+      const long t = g.uv.empty() ? -1 : texel_of(g.uv.px[2 * p], g.uv.px[2 * p + 1], w, h);
+      n[t < 0 ? 0 : static_cast<size_t>(t / w)] += 1;
+    }
+  return n;
+}
+
+}  // namespace
 
 size_t BandLoader::record_bytes() {
   const CaptureSet& set = impl_->set;
@@ -99,10 +118,14 @@ size_t BandLoader::record_bytes() {
     st.map = load_topology_map(os.topology_map), st.map_loaded = true;
   const ViewSpec& v = set.views[0];
   size_t pixels = static_cast<size_t>(v.camera.width) * v.camera.height;
-  if (v.geometry.mesh.empty())  // a mesh is traced per view: the frame's pixels, not its mask
-    pixels = load_view_geometry(set, 0, os.topology == TopologyMode::kAmplitude ? &st.map : nullptr,
-                                &st.geometry)
-                 ->mask_count;
+  impl_->row_bytes.clear();
+  std::vector<double> by_row;
+  if (v.geometry.mesh.empty()) {  // a mesh is traced per view: the frame's pixels, not its mask
+    const auto g = load_view_geometry(
+        set, 0, os.topology == TopologyMode::kAmplitude ? &st.map : nullptr, &st.geometry);
+    pixels = g->mask_count;
+    if (opt.maps_w > 0) by_row = pixels_by_row(*g, opt.subsample, opt.maps_w, opt.maps_h);
+  }
   const size_t per =
       sizeof(Observation) + v.lights.size() * sizeof(ObsLight) + sizeof(uint32_t) +
       (opt.topology_texels > 0 ? 2 * sizeof(float) : 0) +
@@ -114,8 +137,15 @@ size_t BandLoader::record_bytes() {
   st.reserve_obs = set.views.size() * each;
   st.reserve_lights = 0;
   for (const ViewSpec& view : set.views) st.reserve_lights += view.lights.size() * each;
-  return st.reserve_obs * per;
+  const size_t bytes = st.reserve_obs * per;
+  double on_grid = 0;
+  for (double n : by_row) on_grid += n;
+  if (on_grid > 0)
+    for (double n : by_row) impl_->row_bytes.push_back(static_cast<double>(bytes) * n / on_grid);
+  return bytes;
 }
+
+const std::vector<double>& BandLoader::row_bytes() const { return impl_->row_bytes; }
 
 void BandLoader::plan(std::vector<UvBand> bands) {
   if (bands.empty()) throw Error("fit: no bands to load");

@@ -12,6 +12,39 @@
 
 namespace aniso::fitting {
 
+// The bands' rows [row0, row1) over the rows of all_. Given the records' bytes by texel row, each
+// band takes rows while its records, its --smooth reach's included, stay within --maps-memory (a
+// row alone above it is a band of its own): a sphere's uv crowds its pixels into some rows, and
+// equal rows held up to 2.2x the budget at once in 4 bands of satin-ball. Without (a mesh traced
+// per view), as many bands of equal rows as the whole estimate takes.
+std::vector<std::pair<int, int>> MapsInBands::band_limits(const std::vector<double>& row_bytes,
+                                                          const FitOptions& opt) const {
+  const int rows = all_.row1 - all_.row0;
+  const double budget = opt.maps_memory_mb * 1e6;
+  std::vector<std::pair<int, int>> out;
+  if (row_bytes.size() != static_cast<size_t>(opt.maps_h)) {
+    const double bands = std::ceil(static_cast<double>(bytes_) / budget);
+    const int k = std::clamp(static_cast<int>(std::min(bands, 1e6)), 1, std::max(1, rows));
+    for (int j = 0; j < k; ++j)
+      out.emplace_back(all_.row0 + static_cast<int>(static_cast<long>(rows) * j / k),
+                       all_.row0 + static_cast<int>(static_cast<long>(rows) * (j + 1) / k));
+    return out;
+  }
+  std::vector<double> before(row_bytes.size() + 1, 0.0);  // prefix sums
+  for (size_t i = 0; i < row_bytes.size(); ++i) before[i + 1] = before[i] + row_bytes[i];
+  auto held = [&](int a, int b) {  // rows [a, b) and their reach
+    const TileRows r = rows_with_reach(a, b, opt);
+    return before[static_cast<size_t>(r.band1)] - before[static_cast<size_t>(r.band0)];
+  };
+  for (int a = all_.row0; a < all_.row1;) {
+    int b = a + 1;
+    while (b < all_.row1 && held(a, b + 1) <= budget) ++b;
+    out.emplace_back(a, b);
+    a = b;
+  }
+  return out;
+}
+
 MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
     : loader_(set, opt), all_(tile_rows(opt)) {
   if (!(opt.maps_memory_mb > 0)) throw Error("fit: --maps-memory must be above 0 (MB)");
@@ -19,15 +52,10 @@ MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
   std::set<std::string> geometries;
   for (const ViewSpec& v : set.views) geometries.insert(geometry_key(v));
   own_geometries_ = geometries.size() > 1 ? geometries.size() : 0;
-  const int rows = all_.row1 - all_.row0;
-  const double bands = std::ceil(static_cast<double>(bytes_) / (opt.maps_memory_mb * 1e6));
-  const int k = std::clamp(static_cast<int>(std::min(bands, 1e6)), 1, std::max(1, rows));
   const long w = opt.maps_w;
   std::vector<UvBand> plan;
-  for (int j = 0; j < k; ++j) {
-    const TileRows r =
-        rows_with_reach(all_.row0 + static_cast<int>(static_cast<long>(rows) * j / k),
-                        all_.row0 + static_cast<int>(static_cast<long>(rows) * (j + 1) / k), opt);
+  for (const auto& [row0, row1] : band_limits(loader_.row_bytes(), opt)) {
+    const TileRows r = rows_with_reach(row0, row1, opt);
     rows_.push_back(r);
     UvBand b;
     b.w = opt.maps_w, b.h = opt.maps_h;
@@ -36,12 +64,18 @@ MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
     b.first_tile = opt.tile_index == 0;
     b.t0 = all_.band0 * w, b.t1 = all_.band1 * w;
     b.tile_o0 = all_.row0 * w, b.tile_o1 = all_.row1 * w;
-    b.first = j == 0;
+    b.first = rows_.size() == 1;
     b.k0 = r.band0 * w, b.k1 = r.band1 * w;
     b.o0 = r.row0 * w, b.o1 = r.row1 * w;
     plan.push_back(b);
   }
   loader_.plan(std::move(plan));
+}
+
+const ObsSet& MapsInBands::load_first(FitReport* rep) {
+  const ObsSet& os = loader_.load(0, rep);
+  rep->maps_band_peak_bytes = held_bytes(os);
+  return os;
 }
 
 TexelMaps MapsInBands::fit(const Core& global, const TexelMapOptions& to, FitReport* rep) {
@@ -53,6 +87,8 @@ TexelMaps MapsInBands::fit(const Core& global, const TexelMapOptions& to, FitRep
       loader_.load(static_cast<size_t>(j), &band_rep);
       add_counts(band_rep, rep);
       rep->observations += band_rep.observations;
+      rep->maps_band_peak_bytes =
+          std::max(rep->maps_band_peak_bytes, held_bytes(loader_.observations()));
       rep->seconds_load +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }

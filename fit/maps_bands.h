@@ -1,5 +1,6 @@
 // fit/ internal: --maps with --global, the texel rows fitted band by band (fit/maps_bands.cpp).
 #pragma once
+#include <utility>
 #include <vector>
 
 #include "fit/band_load.h"
@@ -17,13 +18,16 @@ class MapsInBands {
   size_t record_bytes() const { return bytes_; }  // of one load of every pixel (estimated)
   // Views with geometry of their own (not one fixed camera's): every band reads it again.
   size_t own_geometries() const { return own_geometries_; }
-  const ObsSet& load_first(FitReport* rep) { return loader_.load(0, rep); }
+  // Band 0's observations (rep->maps_band_peak_bytes: what they hold).
+  const ObsSet& load_first(FitReport* rep);
   // Every band's texels (band 0 loaded by load_first, the others loaded here, their counts and
   // load time added to *rep), joined into the maps of the options' rows.
   TexelMaps fit(const Core& global, const TexelMapOptions& to, FitReport* rep);
   double pixel_noise() { return loader_.pixel_noise(); }  // after fit
 
  private:
+  std::vector<std::pair<int, int>> band_limits(const std::vector<double>& row_bytes,
+                                               const FitOptions& opt) const;
   BandLoader loader_;
   TileRows all_;
   std::vector<TileRows> rows_;

@@ -389,6 +389,11 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
         "reflects the ambient light shows it as a higher k_d)");
 }
 
+size_t held_bytes(const ObsSet& os) {
+  return os.obs.size() * sizeof(Observation) + os.lights.size() * sizeof(ObsLight) +
+         (os.uv.size() + os.topo.size()) * sizeof(float) + os.texel.size() * sizeof(uint32_t);
+}
+
 ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep) {
   LoadState st;
   ObsSet os;

@@ -108,6 +108,9 @@ struct ObsSet {
 };
 
 ObsSet capture_observations(const CaptureSet& set, const FitOptions& opt, FitReport* rep);
+// The bytes os's records hold (observations, lights, and the per-observation uv, texel and
+// topology arrays), as --maps-memory counts them.
+size_t held_bytes(const ObsSet& os);
 // The loader's pixel counts of `from` (pixels, and those left out, by reason) added to *to.
 void add_counts(const FitReport& from, FitReport* to);
 // A table's rows; with --maps and u, v columns, each row's texel.
