@@ -249,7 +249,7 @@ constexpr double kLastStepInSigma = 0.1;
 // robust weights still moving), consecutive steps point the same way and shrink by a steady ratio
 // r: the rest of that geometric series, step / (1 - r), is tried first, and kept only if it
 // lowers the cost (else the plain step is taken). Direction and ratio in the metric of diag(H). A
-// ratio above kMaxRatio is taken as kMaxRatio (a jump of 20 steps, not an unbounded one).
+// ratio above kMaxRatio is taken as kMaxRatio (a jump of 100 steps, not an unbounded one).
 template <int P>
 bool extrapolate(const MatP<P>& H, const VecP<P>& step, const VecP<P>& prev, VecP<P>* trial) {
   constexpr double kSameDirection = 0.98, kMaxRatio = 0.99, kMinRatio = 0.05;
