@@ -24,9 +24,10 @@ class BandLoader {
   // The bytes of the records one load of every pixel would hold, from view 0's mask (the others
   // taken to be alike; its geometry stays decoded for the bands).
   size_t record_bytes();
-  // After record_bytes: those bytes by texel row of the maps (the rows of view 0's mask pixels'
-  // uv, a pixel outside [0, 1)^2 counted in row 0); empty where view 0's geometry is a mesh,
-  // traced per view (its rows unknown before the views are traced).
+  // After record_bytes: the records' bytes by texel row of the maps, from every view's mask pixels'
+  // uv (a pixel outside [0, 1)^2 counted in row 0; each geometry read once more where views have
+  // their own); empty where a view's geometry is a mesh, traced per view (its rows unknown before
+  // the views are traced).
   const std::vector<double>& row_bytes() const;
   void plan(std::vector<UvBand> bands);  // before the first load
   // Band j's observations, in place of the band before's; its counts added to *rep.
