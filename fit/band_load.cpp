@@ -86,11 +86,15 @@ struct BandLoader::Impl {
   FitOptions opt;
   LoadState st;
   ObsSet os;
+  // record_bytes' view 0 geometry and bytes a pixel, for row_bytes (counted when first asked).
+  std::shared_ptr<const ViewGeometry> g0;
+  size_t per = 0;
+  bool counted = false;
   std::vector<double> row_bytes;
 };
 
 BandLoader::BandLoader(const CaptureSet& set, const FitOptions& opt)
-    : impl_(new Impl{set, opt, {}, {}, {}}) {}
+    : impl_(new Impl{set, opt, {}, {}, {}, 0, false, {}}) {}
 
 namespace {
 
@@ -149,15 +153,12 @@ size_t BandLoader::record_bytes() {
     st.map = load_topology_map(os.topology_map), st.map_loaded = true;
   const ViewSpec& v = set.views[0];
   size_t pixels = static_cast<size_t>(v.camera.width) * v.camera.height;
-  impl_->row_bytes.clear();
-  std::vector<double> by_row;
+  impl_->g0.reset();
+  impl_->counted = false;
   if (v.geometry.mesh.empty()) {  // a mesh is traced per view: the frame's pixels, not its mask
-    const auto g = load_view_geometry(
+    impl_->g0 = load_view_geometry(
         set, 0, os.topology == TopologyMode::kAmplitude ? &st.map : nullptr, &st.geometry);
-    pixels = g->mask_count;
-    bool meshes = false;  // a traced mesh's rows are not known before it is traced
-    for (const ViewSpec& view : set.views) meshes = meshes || !view.geometry.mesh.empty();
-    if (opt.maps_w > 0 && !meshes) by_row = pixels_by_row_all(set, opt, *g);
+    pixels = impl_->g0->mask_count;
   }
   const size_t per =
       sizeof(Observation) + v.lights.size() * sizeof(ObsLight) + sizeof(uint32_t) +
@@ -170,11 +171,22 @@ size_t BandLoader::record_bytes() {
   st.reserve_obs = set.views.size() * each;
   st.reserve_lights = 0;
   for (const ViewSpec& view : set.views) st.reserve_lights += view.lights.size() * each;
-  for (double n : by_row) impl_->row_bytes.push_back(n * static_cast<double>(per));
+  impl_->per = per;
   return st.reserve_obs * per;
 }
 
-const std::vector<double>& BandLoader::row_bytes() const { return impl_->row_bytes; }
+const std::vector<double>& BandLoader::row_bytes() {
+  Impl& m = *impl_;
+  if (m.counted) return m.row_bytes;
+  m.counted = true;
+  m.row_bytes.clear();
+  bool meshes = false;  // a traced mesh's rows are not known before it is traced
+  for (const ViewSpec& view : m.set.views) meshes = meshes || !view.geometry.mesh.empty();
+  if (!m.g0 || meshes || m.opt.maps_w <= 0) return m.row_bytes;
+  for (double n : pixels_by_row_all(m.set, m.opt, *m.g0))
+    m.row_bytes.push_back(n * static_cast<double>(m.per));
+  return m.row_bytes;
+}
 
 void BandLoader::plan(std::vector<UvBand> bands) {
   if (bands.empty()) throw Error("fit: no bands to load");

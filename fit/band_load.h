@@ -26,9 +26,10 @@ class BandLoader {
   size_t record_bytes();
   // After record_bytes: the records' bytes by texel row of the maps, from every view's mask pixels'
   // uv (a pixel outside [0, 1)^2 counted in row 0; each geometry read once more where views have
-  // their own); empty where a view's geometry is a mesh, traced per view (its rows unknown before
-  // the views are traced).
-  const std::vector<double>& row_bytes() const;
+  // their own), counted when first asked (a caller that wants the estimate alone pays nothing);
+  // empty where a view's geometry is a mesh, traced per view (its rows unknown before the views
+  // are traced).
+  const std::vector<double>& row_bytes();
   void plan(std::vector<UvBand> bands);  // before the first load
   // Band j's observations, in place of the band before's; its counts added to *rep.
   const ObsSet& load(size_t j, FitReport* rep);
