@@ -79,54 +79,6 @@ struct ObsRow {
   double r[3], dkd[3], dks[3], shared[3][P - 6];
 };
 
-// A chunk's sums while it runs: per channel k, the upper triangle of J^T W J and J^T W r over that
-// channel's nonzero columns (k_d[k], k_s[k], the shared ones) at fixed places, so the per-pixel
-// update is straight-line code; scattered into the P x P sums once per chunk.
-template <int P>
-struct ChannelSums {
-  static constexpr int kNz = P - 4, kTri = kNz * (kNz + 1) / 2;
-  double h[3][kTri] = {}, g[3][kNz] = {};
-  double cost = 0, rss = 0;
-
-  // Returns the observation's weight.
-  double add(const ObsRow<P>& d, const RobustLoss& loss, bool jac) {
-    const double r2 = d.r[0] * d.r[0] + d.r[1] * d.r[1] + d.r[2] * d.r[2];
-    double rho, w;
-    loss.eval(r2, &rho, &w);
-    cost += rho;
-    rss += w * r2;
-    if (!jac) return w;
-    for (int k = 0; k < 3; ++k) {
-      double v[kNz];
-      v[0] = d.dkd[k], v[1] = d.dks[k];
-      for (int j = 0; j < P - 6; ++j) v[2 + j] = d.shared[k][j];
-      int t = 0;
-      for (int a = 0; a < kNz; ++a) {
-        const double wv = w * v[a];
-        g[k][a] += wv * d.r[k];
-        for (int b = a; b < kNz; ++b) h[k][t++] += wv * v[b];
-      }
-    }
-    return w;
-  }
-
-  // Adds these sums to s (H's upper triangle).
-  void scatter(FusedSums<P>* s) const {
-    s->cost += cost;
-    s->rss += rss;
-    for (int k = 0; k < 3; ++k) {
-      int col[kNz];
-      col[0] = k, col[1] = 3 + k;
-      for (int j = 0; j < P - 6; ++j) col[2 + j] = 6 + j;
-      int t = 0;
-      for (int a = 0; a < kNz; ++a) {
-        s->g(col[a]) += g[k][a];
-        for (int b = a; b < kNz; ++b) s->H(col[a], col[b]) += h[k][t++];
-      }
-    }
-  }
-};
-
 // Huber's curvature that the reweighting leaves out. Outside its quadratic core Huber's rho(|r|^2)
 // grows as |r|, which has no curvature along r: there an observation's exact Gauss-Newton matrix
 // is rho' J^T (I - r r^T / |r|^2) J, not the rho' J^T J that the weights give (and that Ceres uses
@@ -160,6 +112,55 @@ struct HuberCurvature {
     int t = 0;
     for (int a = 0; a < P; ++a)
       for (int b = a; b < P; ++b) s->C(a, b) += c[t++];
+  }
+};
+
+// A chunk's sums while it runs: per channel k, the upper triangle of J^T W J and J^T W r over that
+// channel's nonzero columns (k_d[k], k_s[k], the shared ones) at fixed places, so the per-pixel
+// update is straight-line code; scattered into the P x P sums once per chunk.
+template <int P>
+struct ChannelSums {
+  static constexpr int kNz = P - 4, kTri = kNz * (kNz + 1) / 2;
+  double h[3][kTri] = {}, g[3][kNz] = {};
+  double cost = 0, rss = 0;
+
+  // With `jac` and `curv`, also Huber's curvature of the observation.
+  void add(const ObsRow<P>& d, const RobustLoss& loss, bool jac,
+           HuberCurvature<P>* curv = nullptr) {
+    const double r2 = d.r[0] * d.r[0] + d.r[1] * d.r[1] + d.r[2] * d.r[2];
+    double rho, w;
+    loss.eval(r2, &rho, &w);
+    cost += rho;
+    rss += w * r2;
+    if (!jac) return;
+    if (curv) curv->add(d, loss.huber_curvature(r2, w));
+    for (int k = 0; k < 3; ++k) {
+      double v[kNz];
+      v[0] = d.dkd[k], v[1] = d.dks[k];
+      for (int j = 0; j < P - 6; ++j) v[2 + j] = d.shared[k][j];
+      int t = 0;
+      for (int a = 0; a < kNz; ++a) {
+        const double wv = w * v[a];
+        g[k][a] += wv * d.r[k];
+        for (int b = a; b < kNz; ++b) h[k][t++] += wv * v[b];
+      }
+    }
+  }
+
+  // Adds these sums to s (H's upper triangle).
+  void scatter(FusedSums<P>* s) const {
+    s->cost += cost;
+    s->rss += rss;
+    for (int k = 0; k < 3; ++k) {
+      int col[kNz];
+      col[0] = k, col[1] = 3 + k;
+      for (int j = 0; j < P - 6; ++j) col[2 + j] = 6 + j;
+      int t = 0;
+      for (int a = 0; a < kNz; ++a) {
+        s->g(col[a]) += g[k][a];
+        for (int b = a; b < kNz; ++b) s->H(col[a], col[b]) += h[k][t++];
+      }
+    }
   }
 };
 

@@ -40,11 +40,7 @@ void line_chunk(const ObsSet& os, const size_t* idx, size_t begin, size_t end,
         row.shared[k][0] = d.dlogn[k];
         row.shared[k][1] = d.dpsi[k];
       }
-      const double w = s->add(row, loss, jac);
-      if (jac && curv) {
-        const double r2 = row.r[0] * row.r[0] + row.r[1] * row.r[1] + row.r[2] * row.r[2];
-        curv->add(row, loss.huber_curvature(r2, w));
-      }
+      s->add(row, loss, jac, curv);
     }
     if (m) line_pass_simd(os, ids, m, p, loss, jac, s, curv);
   }
