@@ -26,7 +26,11 @@ struct FitArgs {
   std::string in, out, truth, maps, tile, global, maps_solver = "lm", solver = "fused";
   std::string compression = "none";  // the maps' EXRs
   bool mpi = false;
-  FitOptions fo;
+  FitOptions fo = [] {
+    FitOptions o;
+    o.threads = default_fit_threads();  // every core this process may use
+    return o;
+  }();
 };
 
 void print_report(FILE* o, const FitResult& r) {
@@ -398,7 +402,9 @@ Command add_fit(CLI::App& app) {
                   "map of s use)")
       ->check(CLI::IsMember({"fused", "ceres"}))
       ->default_str("fused");
-  fit->add_option("--threads", fo.threads, "solver threads")
+  fit->add_option("--threads", fo.threads,
+                  "threads for every phase of the fit: loading the views, the solve, the maps' "
+                  "texels (default: the cores this process may use)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
   fit->add_option("--fiber-order", fo.fiber_order,

@@ -4,8 +4,11 @@
 // fit/report.cpp.
 #include "fit/fit.h"
 
+#include <tbb/info.h>
+#include <tbb/task_arena.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -413,9 +416,7 @@ FitResult maps_after_subsampled_global(const CaptureSet& set, const FitOptions& 
   return r;
 }
 
-}  // namespace
-
-FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
+FitResult fit_capture_here(const CaptureSet& set, const FitOptions& opt) {
   if (const int k = global_subsample_for(set, opt))
     return maps_after_subsampled_global(set, opt, k);
   const auto t0 = Clock::now();
@@ -439,13 +440,34 @@ FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
   return r;
 }
 
-FitResult fit_table(const SampleTable& t, const FitOptions& opt) {
+FitResult fit_table_here(const SampleTable& t, const FitOptions& opt) {
   const auto t0 = Clock::now();
   FitReport rep;
   const ObsSet os = table_observations(t, opt, &rep);
   FitResult r = solve_model(os, opt, rep, {0, 0, 0});
   r.report.seconds = seconds_since(t0);
   return r;
+}
+
+// Every phase of a fit in one arena of --threads: the maps' texels, the band planning and the
+// holes' fill ran in TBB's default arena, on every core of the machine whatever --threads said
+// (an --mpi rank or a Slurm task sharing a node took all its cores).
+template <class F>
+FitResult on_threads(const FitOptions& opt, F f) {
+  tbb::task_arena arena(std::max(1, opt.threads));
+  return arena.execute(f);
+}
+
+}  // namespace
+
+int default_fit_threads() { return std::max(1, tbb::info::default_concurrency()); }
+
+FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
+  return on_threads(opt, [&] { return fit_capture_here(set, opt); });
+}
+
+FitResult fit_table(const SampleTable& t, const FitOptions& opt) {
+  return on_threads(opt, [&] { return fit_table_here(t, opt); });
 }
 
 }  // namespace aniso

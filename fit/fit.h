@@ -46,7 +46,7 @@ struct FitOptions {
   bool fit_second = false;
   int subsample = 1;  // use every k-th pixel in x and y
   int max_iterations = 200;
-  int threads = 2;
+  int threads = 2;  // every phase of the fit: loading, solving, the maps' texels
   FitLoss loss = FitLoss::kHuber;
   bool progress = true;
   // fiber model: Gauss-Legendre order per specular panel (0: chosen from the noise,
@@ -110,6 +110,7 @@ struct TexelMaps {
   double rms = 0;                 // residual RMS over the solved texels' observations
   double sum_sq = 0, values = 0;  // its sum of squares and count (bands of rows add up)
   double seconds = 0;
+  int threads = 0;  // the threads its texels were solved on (--threads)
 };
 
 // The per-texel arrays of a TexelMaps (per-texel count `k`), as tiles name them.
@@ -199,6 +200,9 @@ struct FitResult {
   std::vector<double> s_texels, s_texel_sigma;
 };
 
+// The threads a fit may use here: the cores this process may run on (its CPU affinity and
+// cgroup's quota, as TBB reads them): --threads' default.
+int default_fit_threads();
 FitResult fit_capture(const CaptureSet& set, const FitOptions& opt);
 FitResult fit_table(const SampleTable& table, const FitOptions& opt);
 

@@ -295,6 +295,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   m.sum_sq = sr, m.values = sv;
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  m.threads = tbb::this_task_arena::max_concurrency();
   return m;
 }
 
@@ -319,6 +320,7 @@ void join_band(const TexelMaps& part, int row0, int row1, TexelMaps* whole) {
   whole->values += part.values;
   whole->rms = whole->values > 0 ? std::sqrt(whole->sum_sq / whole->values) : 0;
   whole->seconds += part.seconds;
+  whole->threads = std::max(whole->threads, part.threads);
 }
 
 }  // namespace aniso::fitting

@@ -269,6 +269,7 @@ void write_fit(const std::string& path, const FitResult& r) {
   if (r.maps.w > 0) {
     add_maps(path, r.maps, &j);
     j["report"]["time_breakdown_s"]["texels"] = r.maps.seconds;  // the maps' own phase
+    j["report"]["maps_threads"] = r.maps.threads;
   }
   write_json_file(path, j);
 }

@@ -15,7 +15,8 @@ namespace aniso {
 namespace {
 
 // --tile i/N and `aniso merge`: three tiles joined give the untiled run's map files byte for byte;
-// a missing or foreign tile is refused. (The Slurm script: FitMaps.TilesGivenTheGlobalFit...)
+// a missing or foreign tile is refused; --threads 1 gives the same bytes on one thread. (The Slurm
+// script: FitMaps.TilesGivenTheGlobalFit...)
 TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   const std::string dir = test::tmp_dir("tiles");
   auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
@@ -40,6 +41,16 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   }
   const Material m = read_material(dir + "/merged.json");
   EXPECT_TRUE(m.maps.fiber && m.maps.kd);
+  // --threads holds for the texels too (they ran on every core of the machine), with the same
+  // maps byte for byte.
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --threads 1 --out " + dir + "/one.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto one = nlohmann::json::parse(read_text_file(dir + "/one.json"));
+  EXPECT_EQ(one["report"]["maps_threads"], 1);
+  for (const char* k : {"kd", "n", "fiber", "coverage"})
+    EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
+                read_text_file(dir + "/one_" + k + ".exr"))
+        << k;
   r = test::run_cli("merge " + dir + "/t0.json " + dir + "/t2.json --out " + dir + "/bad.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("tile 1 of 3 is missing"), std::string::npos) << r.output;
