@@ -44,6 +44,10 @@ struct LoadState {
   // Views' pixel states (ViewData::use) given back, for the views after them.
   std::mutex use_mutex;
   std::vector<std::vector<uint8_t>> spare_use;
+  // The pixels that views sharing a geometry share in the load being made, by geometry key (null:
+  // they do not apply); found by the first of its views, let go at the end of the load.
+  std::mutex shared_mutex;
+  std::map<std::string, std::unique_ptr<const SharedPixels>> shared;
 };
 
 // The fiber model's topology from what the set carries: a map means its amplitude is fitted over

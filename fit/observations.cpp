@@ -168,7 +168,23 @@ struct ViewPart {
   std::vector<float> diffs;
   size_t bound = 0;  // usable pixels on the stride grid
   RecordSlot slot{nullptr, nullptr, 0};
+  const SharedPixels* shared = nullptr;  // the pixels it shares with views of its geometry
 };
+
+// The pixels view d (of geometry `key`, which `views` views name) shares with the others of its
+// geometry and eye in this load, found by the first to ask; null where there is nothing to share
+// (its geometry its own, or other than one point light: add_pixel_observations' own cases) or
+// its eye is not theirs.
+const SharedPixels* shared_of(LoadState* st, const std::string& key, size_t views,
+                              const ViewData& d, const ViewSpec& v, int stride,
+                              const UvBand& band) {
+  if (views < 2 || v.lights.size() != 1 || v.lights[0].type != Light::Type::kPoint) return nullptr;
+  std::lock_guard<std::mutex> lock(st->shared_mutex);
+  auto it = st->shared.find(key);
+  if (it == st->shared.end()) it = st->shared.emplace(key, shared_pixels(d, stride, band)).first;
+  const SharedPixels* sp = it->second.get();
+  return sp && sp->eye.x == d.eye.x && sp->eye.y == d.eye.y && sp->eye.z == d.eye.z ? sp : nullptr;
+}
 
 // Grows an array by `more` unwritten records; before the first batch, room for as many again for
 // every batch still to come (one allocation where every view sees the sample alike).
@@ -294,7 +310,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
   // A band reads the rows with a pixel it keeps; the noise takes each row once, from the first
   // band to read it (the same differences as one load of every row). A view whose geometry no
   // other view shares reads, after the first band, only those rows of its geometry too.
-  if (banded && st->views_of_geometry.empty())
+  if (st->views_of_geometry.empty())
     for (const ViewSpec& v : set.views) ++st->views_of_geometry[geometry_key(v)];
   // Both checked for uv above.
   const Kept keep{
@@ -319,7 +335,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
           if (!st->spare_use.empty())
             p.d.use = std::move(st->spare_use.back()), st->spare_use.pop_back();
         }
-        const std::string key = banded ? geometry_key(set.views[i]) : std::string();
+        const std::string key = geometry_key(set.views[i]);
         const ViewRows rows =
             [&](const std::shared_ptr<const ViewGeometry>& g) -> const std::vector<uint8_t>& {
           return rows_of(st, key, g.get(), opt.subsample)->rows[st->band];
@@ -345,7 +361,12 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
             p.rep.masked_out = pixels - p.d.geo->mask_count, p.rep.outside_tile = r.outside;
           count_left_out(p.d, band, &p.rep);
         }
-        p.bound = usable_on_grid(p.d, opt.subsample, band);
+        p.shared = set.views[i].geometry.mesh.empty()
+                       ? shared_of(st, key, st->views_of_geometry.at(key), p.d, set.views[i],
+                                   opt.subsample, band)
+                       : nullptr;
+        p.bound =
+            p.shared ? usable_shared(p.d, *p.shared) : usable_on_grid(p.d, opt.subsample, band);
       });
     });
     size_t obs_start, light_start;
@@ -354,7 +375,10 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
     arena.execute([&] {
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
-        add_pixel_observations(p.d, set.views[i], opt.subsample, band, &p.slot, &p.rep);
+        if (p.shared)
+          add_shared_observations(p.d, set.views[i], *p.shared, band, &p.slot, &p.rep);
+        else
+          add_pixel_observations(p.d, set.views[i], opt.subsample, band, &p.slot, &p.rep);
         st->read_buffers->give_back(std::move(p.d.rgb));
         {
           std::lock_guard<std::mutex> lock(st->use_mutex);
@@ -366,6 +390,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
     });
     close_gaps(&parts, obs_start, light_start, keep, &os, &rep, &st->diffs);
   }
+  st->shared.clear();
   // The implausible values and the noise estimate are independent: side by side. Bands left the
   // implausible values out as they wrote the records (a --global fit's limit), and their noise
   // waits for the last band's rows.

@@ -53,7 +53,11 @@ ANISO_AVX2_ONLY_INLINE void put_local(const V3& d, const V3& U, const V3& W, con
   for (int l = 0; l < 4; ++l) out[l] = {u[l], w[l], n[l]};
 }
 
-ANISO_AVX2_ONLY void quad(const Vec3& eye, const Light& light, PixelQuad* q) {
+ANISO_AVX2_ONLY_INLINE void store3(const V3& v, double (&a)[3][4]) {
+  for (int l = 0; l < 4; ++l) a[0][l] = v.x[l], a[1][l] = v.y[l], a[2][l] = v.z[l];
+}
+
+ANISO_AVX2_ONLY void frame_quad(const Vec3& eye, PixelQuad* q) {
   const V3 P = load3(q->P), N_in = load3(q->N), U_in = load3(q->U);
   // make_frame
   const V3 N = vnormalize(N_in);
@@ -66,6 +70,13 @@ ANISO_AVX2_ONLY void quad(const Vec3& eye, const Light& light, PixelQuad* q) {
   const V3 W = {N.y * U.z - N.z * U.y, N.z * U.x - N.x * U.z, N.x * U.y - N.y * U.x};
   // V = normalize(eye - P)
   put_local(vnormalize(sub(from(eye), P)), U, W, N, q->V);
+  store3(U, q->fU), store3(W, q->fW), store3(N, q->fN);
+  const int okm = _mm256_movemask_pd(__m256d(ok));
+  for (int l = 0; l < 4; ++l) q->frame_ok[l] = (okm >> l) & 1;
+}
+
+ANISO_AVX2_ONLY void light_quad(const Light& light, PixelQuad* q) {
+  const V3 P = load3(q->P), U = load3(q->fU), W = load3(q->fW), N = load3(q->fN);
   // light_at, a point light
   const V3 dl = sub(from(light.position), P);
   const v4d r = vsqrt(vdot(dl, dl));
@@ -75,15 +86,19 @@ ANISO_AVX2_ONLY void quad(const Vec3& eye, const Light& light, PixelQuad* q) {
   const v4d f = splat(1.0) / att;
   const v4d lit = v4d(_mm256_and_pd(__m256d(gt(r, splat(0.0))), __m256d(gt(att, splat(0.0)))));
   put_local(L, U, W, N, q->L);
-  const int okm = _mm256_movemask_pd(__m256d(ok)), litm = _mm256_movemask_pd(__m256d(lit));
-  for (int l = 0; l < 4; ++l)
-    q->f[l] = f[l], q->frame_ok[l] = (okm >> l) & 1, q->lit[l] = (litm >> l) & 1;
+  const int litm = _mm256_movemask_pd(__m256d(lit));
+  for (int l = 0; l < 4; ++l) q->f[l] = f[l], q->lit[l] = (litm >> l) & 1;
 }
 
 }  // namespace
 
 bool pixel_quads_enabled() { return line_simd_enabled(); }
 
-void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q) { quad(eye, point, q); }
+void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q) {
+  frame_quad(eye, q);
+  light_quad(point, q);
+}
+void pixel_frame_quad(const Vec3& eye, PixelQuad* q) { frame_quad(eye, q); }
+void pixel_light_quad(const Light& point, PixelQuad* q) { light_quad(point, q); }
 
 }  // namespace aniso::fitting

@@ -14,10 +14,14 @@ namespace aniso::fitting {
 struct PixelQuad {
   // In, per lane: the buffers' position, normal and tangent (their floats as doubles).
   double P[3][4], N[3][4], U[3][4];
-  // Out, per lane: whether the buffers define a frame (make_frame's test); V and L in it; the
-  // light's attenuation factor 1 / att; whether the light reaches the point (r > 0, att > 0).
+  // Out of the frame's part, in to the light's: whether the buffers define a frame (make_frame's
+  // test), its axes and V in it.
   bool frame_ok[4];
-  LocalDir V[4], L[4];
+  double fU[3][4], fW[3][4], fN[3][4];
+  LocalDir V[4];
+  // Out of the light's part, per lane: L in the frame; the light's attenuation factor 1 / att;
+  // whether the light reaches the point (r > 0, att > 0).
+  LocalDir L[4];
   double f[4];
   bool lit[4];
 };
@@ -25,7 +29,12 @@ struct PixelQuad {
 // False where the CPU has no AVX2 or the lanes are switched off (set_line_simd): the scalar
 // forms then.
 bool pixel_quads_enabled();
-// Fills q's outputs from its inputs for a camera at `eye` and one point light.
+// Fills q's outputs from its inputs for a camera at `eye` and one point light: the frame's part,
+// then the light's.
 void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q);
+// The frame's part alone (from P, N, U: frame_ok, the axes, V), and the light's alone (from P and
+// the axes: L, f, lit): views that share a geometry and an eye (a fixed camera) share the first.
+void pixel_frame_quad(const Vec3& eye, PixelQuad* q);
+void pixel_light_quad(const Light& point, PixelQuad* q);
 
 }  // namespace aniso::fitting

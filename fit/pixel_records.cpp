@@ -2,6 +2,7 @@
 #include "fit/pixel_records.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "core/frame.h"
@@ -75,19 +76,12 @@ void add_pixel(const ViewData& d, const ViewSpec& v, int x, int y, long t, const
   put_record(d, x, y, t, to_local(sp, normalize(d.eye - sp.P)), lit, band, out, rep);
 }
 
-// Up to four pixels (xs[0..n), row y) under one point light, in lanes (fit/pixel_frames.h: the
-// same bits as add_pixel); the records in the pixels' order.
-void add_pixel_quad(const ViewData& d, const ViewSpec& v, int y, const int* xs, const long* ts,
-                    int n, const UvBand& band, RecordSlot* out, FitReport* rep) {
-  const ViewGeometry& g = *d.geo;
-  PixelQuad q;
-  for (int l = 0; l < 4; ++l) {
-    const int x = xs[l < n ? l : n - 1];  // a short quad repeats its last pixel
-    for (int c = 0; c < 3; ++c)
-      q.P[c][l] = g.P.at(x, y, c), q.N[c][l] = g.N.at(x, y, c), q.U[c][l] = g.U.at(x, y, c);
-  }
+// The records of up to four pixels (xs[0..n), ys, texels ts) whose quad q holds their frames, V
+// and L under v's one point light, in the pixels' order.
+void put_quad(const ViewData& d, const ViewSpec& v, const PixelQuad& q, const int* xs,
+              const int* ys, const long* ts, int n, const UvBand& band, RecordSlot* out,
+              FitReport* rep) {
   const Light& light = v.lights[0];
-  pixel_quad(d.eye, light, &q);
   for (int l = 0; l < n; ++l) {
     if (!q.frame_ok[l]) {
       rep->nonfinite += band.owns(ts[l]);
@@ -103,8 +97,24 @@ void add_pixel_quad(const ViewData& d, const ViewSpec& v, int y, const int* xs, 
       out->lights[out->num_lights] = ol;
       lit = 1;
     }
-    put_record(d, xs[l], y, ts[l], q.V[l], lit, band, out, rep);
+    put_record(d, xs[l], ys[l], ts[l], q.V[l], lit, band, out, rep);
   }
+}
+
+// Up to four pixels (xs[0..n), row y) under one point light, in lanes (fit/pixel_frames.h: the
+// same bits as add_pixel); the records in the pixels' order.
+void add_pixel_quad(const ViewData& d, const ViewSpec& v, int y, const int* xs, const long* ts,
+                    int n, const UvBand& band, RecordSlot* out, FitReport* rep) {
+  const ViewGeometry& g = *d.geo;
+  PixelQuad q;
+  for (int l = 0; l < 4; ++l) {
+    const int x = xs[l < n ? l : n - 1];  // a short quad repeats its last pixel
+    for (int c = 0; c < 3; ++c)
+      q.P[c][l] = g.P.at(x, y, c), q.N[c][l] = g.N.at(x, y, c), q.U[c][l] = g.U.at(x, y, c);
+  }
+  pixel_quad(d.eye, v.lights[0], &q);
+  const int ys[4] = {y, y, y, y};
+  put_quad(d, v, q, xs, ys, ts, n, band, out, rep);
 }
 
 }  // namespace
@@ -132,6 +142,84 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, co
     }
     if (n > 0) add_pixel_quad(d, v, y, xs, ts, n, band, out, rep);
   }
+}
+
+namespace {
+std::atomic<bool> g_share{true};
+}  // namespace
+
+void set_shared_pixels(bool on) { g_share = on; }
+
+std::unique_ptr<const SharedPixels> shared_pixels(const ViewData& d, int stride,
+                                                  const UvBand& band) {
+  if (!pixel_quads_enabled() || !g_share) return nullptr;
+  const ViewGeometry& g = *d.geo;
+  const int w = d.rgb.width, h = d.rgb.height;
+  auto sp = std::make_unique<SharedPixels>();
+  sp->eye = d.eye;
+  for (int y = 0; y < h; y += stride)
+    for (int x = 0; x < w && d.rows[y]; x += stride) {
+      const size_t p = static_cast<size_t>(y) * w + x;
+      if (!g.mask[p] || !g.finite[p]) continue;  // never usable (ViewData::use)
+      const long t = band.w > 0 ? band.texel(d, x, y) : -1;
+      if (!band.keeps(t)) continue;
+      sp->x.push_back(x), sp->y.push_back(y), sp->t.push_back(t);
+    }
+  const size_t n = sp->x.size();
+  sp->frame.resize(n);
+  for (size_t i0 = 0; i0 < n; i0 += 4) {
+    PixelQuad q;
+    for (int l = 0; l < 4; ++l) {
+      const size_t i = std::min(i0 + l, n - 1);  // a short quad repeats its last pixel
+      for (int c = 0; c < 3; ++c)
+        q.P[c][l] = g.P.at(sp->x[i], sp->y[i], c), q.N[c][l] = g.N.at(sp->x[i], sp->y[i], c),
+        q.U[c][l] = g.U.at(sp->x[i], sp->y[i], c);
+    }
+    pixel_frame_quad(d.eye, &q);
+    for (size_t l = 0; l < 4 && i0 + l < n; ++l) {
+      SharedPixels::Frame& f = sp->frame[i0 + l];
+      for (int c = 0; c < 3; ++c)
+        f.P[c] = q.P[c][l], f.U[c] = q.fU[c][l], f.W[c] = q.fW[c][l], f.N[c] = q.fN[c][l];
+      f.V = q.V[l];
+      f.ok = q.frame_ok[l];
+    }
+  }
+  return sp;
+}
+
+size_t usable_shared(const ViewData& d, const SharedPixels& sp) {
+  const size_t w = static_cast<size_t>(d.rgb.width);
+  size_t n = 0;
+  for (size_t i = 0; i < sp.x.size(); ++i)
+    n += d.usable(static_cast<size_t>(sp.y[i]) * w + static_cast<size_t>(sp.x[i]));
+  return n;
+}
+
+void add_shared_observations(const ViewData& d, const ViewSpec& v, const SharedPixels& sp,
+                             const UvBand& band, RecordSlot* out, FitReport* rep) {
+  const size_t w = static_cast<size_t>(d.rgb.width);
+  PixelQuad q;
+  int xs[4], ys[4], n = 0;
+  long ts[4];
+  auto flush = [&] {
+    for (int l = n; l < 4; ++l)  // a short quad repeats its last pixel
+      for (int c = 0; c < 3; ++c)
+        q.P[c][l] = q.P[c][n - 1], q.fU[c][l] = q.fU[c][n - 1], q.fW[c][l] = q.fW[c][n - 1],
+        q.fN[c][l] = q.fN[c][n - 1];
+    pixel_light_quad(v.lights[0], &q);
+    put_quad(d, v, q, xs, ys, ts, n, band, out, rep);
+    n = 0;
+  };
+  for (size_t i = 0; i < sp.x.size(); ++i) {
+    if (!d.usable(static_cast<size_t>(sp.y[i]) * w + static_cast<size_t>(sp.x[i]))) continue;
+    const SharedPixels::Frame& f = sp.frame[i];
+    for (int c = 0; c < 3; ++c)
+      q.P[c][n] = f.P[c], q.fU[c][n] = f.U[c], q.fW[c][n] = f.W[c], q.fN[c][n] = f.N[c];
+    q.V[n] = f.V, q.frame_ok[n] = f.ok;
+    xs[n] = sp.x[i], ys[n] = sp.y[i], ts[n] = sp.t[i];
+    if (++n == 4) flush();
+  }
+  if (n > 0) flush();
 }
 
 }  // namespace aniso::fitting

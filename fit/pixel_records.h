@@ -3,7 +3,10 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <vector>
 
+#include "core/vec.h"
 #include "fit/maps.h"
 #include "fit/observations.h"
 #include "io/capture.h"
@@ -58,5 +61,33 @@ size_t usable_on_grid(const ViewData& d, int stride, const UvBand& band);
 // counted in *rep: a frame the buffers do not define, unlit).
 void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, const UvBand& band,
                             RecordSlot* out, FitReport* rep);
+
+// The pixels of a geometry that views share (a fixed camera) which a load keeps: on the stride
+// grid, in the rows it reads, on the mask with finite buffers, of a texel it keeps; in the order
+// add_pixel_observations takes them, each with its texel, its frame and V from `eye`. Found once
+// for every view of the geometry and eye, where each view found them again (the frames' square
+// roots and divisions and the texels' lookups were a sixth of a band's load).
+struct SharedPixels {
+  Vec3 eye;
+  std::vector<int> x, y;
+  std::vector<long> t;
+  struct Frame {
+    double P[3], U[3], W[3], N[3];
+    LocalDir V;
+    bool ok;
+  };
+  std::vector<Frame> frame;
+};
+// Null where pixel quads do not apply (pixel_quads_enabled() is false) or sharing is switched off
+// (set_shared_pixels, for tests comparing the two).
+void set_shared_pixels(bool on);
+std::unique_ptr<const SharedPixels> shared_pixels(const ViewData& d, int stride,
+                                                  const UvBand& band);
+// A view's records from the pixels it shares (its geometry and eye those of `sp`, its rows
+// those `sp` was found in, one point light): what usable_on_grid and add_pixel_observations give,
+// the same records in the same order.
+size_t usable_shared(const ViewData& d, const SharedPixels& sp);
+void add_shared_observations(const ViewData& d, const ViewSpec& v, const SharedPixels& sp,
+                             const UvBand& band, RecordSlot* out, FitReport* rep);
 
 }  // namespace aniso::fitting

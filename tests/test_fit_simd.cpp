@@ -7,16 +7,21 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 
 #include "core/frame.h"
 #include "fit/line_lm.h"
 #include "fit/line_simd.h"
+#include "fit/observations.h"
 #include "fit/pixel_frames.h"
+#include "fit/pixel_records.h"
 #include "fit/start.h"
 #include "fit/texel_sigmas.h"
 #include "fit/texel_simd.h"
+#include "io/capture.h"
+#include "test_util.h"
 
 namespace aniso::fitting {
 namespace {
@@ -385,6 +390,45 @@ TEST(FitPaths, PixelQuadsAreTheScalarFramesBitForBit) {
   std::printf("%zu pixels: %zu frames, %zu lit, bit for bit\n", checked, frames, lit);
   EXPECT_GT(lit, checked / 2);
   EXPECT_LT(frames, checked);
+}
+
+// Views that share a geometry and an eye (a fixed camera) share their pixels' texels, frames and V
+// (fit/pixel_records.h SharedPixels): their records against each view finding its own, bit for
+// bit, with saturated pixels left out, a view whose eye moved (its own frames), --subsample and
+// --maps' texels.
+TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
+  if (!pixel_quads_enabled()) GTEST_SKIP() << "no AVX2 on this CPU";
+  const std::string dir = test::tmp_dir("shared_pixels");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 96x80 --views 6");
+  ASSERT_EQ(r.status, 0) << r.output;
+  test::edit_json(dir + "/set/capture.json", [](auto& j) {
+    j["color"]["saturation"] = 0.35;                  // some pixels of every view left out
+    j["views"][4]["world_from_camera"][0][3] = 1e-3;  // an eye of its own
+  });
+  const CaptureSet set = read_capture(dir + "/set");
+  auto bytes = [](const auto& v) {
+    return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0]));
+  };
+  for (const int stride : {1, 2}) {
+    FitOptions opt;
+    opt.subsample = stride;
+    opt.maps_w = 24, opt.maps_h = 20;
+    opt.progress = false;
+    FitReport shared_rep, alone_rep;
+    const ObsSet shared = capture_observations(set, opt, &shared_rep);
+    set_shared_pixels(false);
+    const ObsSet alone = capture_observations(set, opt, &alone_rep);
+    set_shared_pixels(true);
+    ASSERT_GT(shared.obs.size(), 1000u);
+    EXPECT_GT(shared_rep.saturated, 100u);
+    EXPECT_TRUE(bytes(shared.obs) == bytes(alone.obs)) << "stride " << stride;
+    EXPECT_TRUE(bytes(shared.lights) == bytes(alone.lights)) << "stride " << stride;
+    EXPECT_TRUE(bytes(shared.texel) == bytes(alone.texel)) << "stride " << stride;
+    EXPECT_EQ(shared_rep.pixels, alone_rep.pixels);
+    EXPECT_EQ(shared_rep.saturated, alone_rep.saturated);
+    EXPECT_EQ(shared_rep.nonfinite, alone_rep.nonfinite);
+    EXPECT_EQ(shared_rep.unlit, alone_rep.unlit);
+  }
 }
 
 }  // namespace
