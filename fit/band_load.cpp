@@ -101,7 +101,8 @@ namespace {
 // The mask pixels of g on the grid of `stride` by texel row of a w x h map (outside: row 0).
 std::vector<double> pixels_by_row(const ViewGeometry& g, int stride, int w, int h) {
   std::vector<double> n(static_cast<size_t>(std::max(h, 1)), 0.0);
-  const int W = g.P.width, H = g.P.height;
+  const int H = static_cast<int>(g.rows.size());
+  const int W = H > 0 ? static_cast<int>(g.mask.size() / g.rows.size()) : 0;
   for (int y = 0; y < H; y += stride)
     for (int x = 0; x < W && g.rows[y]; x += stride) {
       const size_t p = static_cast<size_t>(y) * W + x;
@@ -114,8 +115,9 @@ std::vector<double> pixels_by_row(const ViewGeometry& g, int stride, int w, int 
 
 // Every view's pixels on the grid by texel row, from view 0's geometry g0 where every view shares
 // it (a fixed camera); where views have geometry of their own (an orbit), each spreads its pixels
-// over the rows its own way, and each geometry is read once more (one at a time on each thread):
-// by view 0's alone, the 32-view 512^2 orbit set's largest band at --maps-memory 20 held 23.7 MB.
+// over the rows its own way, and each geometry's mask and uv are read once more (one at a time on
+// each thread; its position, normal and tangent, three times the bytes, are not): by view 0's
+// alone, the 32-view 512^2 orbit set's largest band at --maps-memory 20 held 23.7 MB.
 std::vector<double> pixels_by_row_all(const CaptureSet& set, const FitOptions& opt,
                                       const ViewGeometry& g0) {
   std::map<std::string, std::pair<size_t, double>> of_key;  // a view of it, and its views
@@ -132,7 +134,7 @@ std::vector<double> pixels_by_row_all(const CaptureSet& set, const FitOptions& o
       counts[j] = pixels_by_row(g0, opt.subsample, opt.maps_w, opt.maps_h);
       return;
     }
-    counts[j] = pixels_by_row(*load_view_geometry(set, i), opt.subsample, opt.maps_w, opt.maps_h);
+    counts[j] = pixels_by_row(load_view_uv(set, i), opt.subsample, opt.maps_w, opt.maps_h);
   });
   std::vector<double> sum(static_cast<size_t>(std::max(opt.maps_h, 1)), 0.0);
   for (size_t j = 0; j < todo.size(); ++j)

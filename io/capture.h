@@ -140,6 +140,11 @@ std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& set, si
                                                        const TopologyMap* map = nullptr,
                                                        GeometryCache* cache = nullptr);
 
+// View i's mask (with ViewGeometry::rows) and uv buffer alone, the other buffers left empty and
+// not read: where the pixels fall on the maps' grid (a count of them by texel row, before any
+// band is read). Not a mesh's (its buffers are traced).
+ViewGeometry load_view_uv(const CaptureSet& set, size_t i);
+
 // The rows of a view's image to read, given its geometry (one entry per row, non-zero = read): for
 // a caller that takes one band of the sample at a time. The image's other rows are neither read
 // nor written (they hold whatever a reused allocation held): their pixels are not classified and

@@ -141,7 +141,8 @@ void mark_finite(bool only_rows, ViewGeometry* g) {
 // read in those rows alone (of the mask's), their other rows not written (a reused allocation's
 // old values: nothing reads them), and g.rows says which were read.
 ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const TopologyMap* map,
-                                   const std::vector<uint8_t>* only_rows = nullptr) {
+                                   const std::vector<uint8_t>* only_rows = nullptr,
+                                   bool uv_alone = false) {
   const Intrinsics& k = v.camera;
   const GeometrySpec& g = v.geometry;
   ViewGeometry d;
@@ -161,6 +162,22 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
   auto buffer = [&](const std::string& file, int channels, const char* what) {
     return need_buffer(join_path(s.dir, file), channels, k, what, &d.rows, !part);
   };
+  auto read_uv = [&] {
+    if (g.uv.empty()) return;
+    Image uv = buffer(g.uv, 2, "uv");
+    if (uv.channels == 2) {
+      d.uv = std::move(uv);
+    } else {
+      d.uv = Image(k.width, k.height, 2);
+      for_rows(d, part, [&](size_t p) {
+        for (int c = 0; c < 2; ++c) d.uv.px[2 * p + c] = uv.px[p * uv.channels + c];
+      });
+    }
+  };
+  if (uv_alone) {
+    read_uv();
+    return d;
+  }
   d.P = buffer(g.position, 3, "position");
   d.N = buffer(g.normal, 3, "normal");
   d.U = buffer(g.tangent, 3, "tangent");
@@ -175,17 +192,7 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
       d.smath.px[p] = val;
     });
   }
-  if (!g.uv.empty()) {
-    Image uv = buffer(g.uv, 2, "uv");
-    if (uv.channels == 2) {
-      d.uv = std::move(uv);
-    } else {
-      d.uv = Image(k.width, k.height, 2);
-      for_rows(d, part, [&](size_t p) {
-        for (int c = 0; c < 2; ++c) d.uv.px[2 * p + c] = uv.px[p * uv.channels + c];
-      });
-    }
-  }
+  read_uv();
   mark_finite(part, &d);
   if (!map) return d;
   if (d.uv.empty()) throw Error("a topology map needs the \"uv\" buffer");
@@ -298,9 +305,10 @@ namespace {
 
 // read_geometry_buffers of view i, its errors named by the view.
 ViewGeometry read_view_geometry_buffers(const CaptureSet& s, size_t i, const TopologyMap* map,
-                                        const std::vector<uint8_t>* only_rows = nullptr) {
+                                        const std::vector<uint8_t>* only_rows = nullptr,
+                                        bool uv_alone = false) {
   try {
-    return read_geometry_buffers(s, s.views.at(i), map, only_rows);
+    return read_geometry_buffers(s, s.views.at(i), map, only_rows, uv_alone);
   } catch (const Error& e) {
     throw Error(s.file + ": views[" + std::to_string(i) + "].geometry: " + e.what());
   }
@@ -337,6 +345,11 @@ std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& s, size
   }
   auto load = [&] { return read_view_geometry_buffers(s, i, map); };
   return cache ? cache->get(geometry_key(v), load) : std::make_shared<const ViewGeometry>(load());
+}
+
+ViewGeometry load_view_uv(const CaptureSet& s, size_t i) {
+  if (!s.views.at(i).geometry.mesh.empty()) throw Error("a traced mesh's uv is not read alone");
+  return read_view_geometry_buffers(s, i, nullptr, nullptr, true);
 }
 
 std::shared_ptr<const ViewGeometry> load_view_geometry_rows(const CaptureSet& s, size_t i,

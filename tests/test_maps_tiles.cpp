@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/material_io.h"
@@ -370,6 +371,14 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
   const auto g = report(dir + "/g.json", false);
   for (const char* k : {"pixels", "observations", "skipped", "warnings"})
     EXPECT_EQ(g[k], one[k]) << k;
+  {  // its pixels are counted by texel row from its mask and uv, read alone for the count
+    const CaptureSet set = read_capture(dir + "/set");
+    const ViewGeometry alone = load_view_uv(set, 1);
+    const auto whole = load_view_geometry(set, 1);
+    EXPECT_TRUE(alone.mask == whole->mask && alone.rows == whole->rows);
+    EXPECT_TRUE(alone.uv.px == whole->uv.px && alone.uv.channels == 2);
+    EXPECT_TRUE(alone.P.empty() && alone.N.empty() && alone.U.empty());
+  }
   r = test::run_cli("fit " + dir + "/set" + maps + " --tile 1/2 --maps-memory 0.01 --out " + dir +
                     "/tg.json");
   ASSERT_EQ(r.status, 0) << r.output;
