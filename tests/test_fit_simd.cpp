@@ -395,7 +395,7 @@ TEST(FitPaths, PixelQuadsAreTheScalarFramesBitForBit) {
 // Views that share a geometry and an eye (a fixed camera) share their pixels' texels, frames and V
 // (fit/pixel_records.h SharedPixels): their records against each view finding its own, bit for
 // bit, with saturated pixels left out, a view whose eye moved (its own frames), --subsample and
-// --maps' texels.
+// --maps' texels; and band by band, where they go in texel order, the same maps.
 TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
   if (!pixel_quads_enabled()) GTEST_SKIP() << "no AVX2 on this CPU";
   const std::string dir = test::tmp_dir("shared_pixels");
@@ -429,6 +429,27 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
     EXPECT_EQ(shared_rep.nonfinite, alone_rep.nonfinite);
     EXPECT_EQ(shared_rep.unlit, alone_rep.unlit);
   }
+  // With --global the maps load band by band, and a band's shared pixels go in texel order (each
+  // texel's observations in the order of each view alone): the same maps, bit for bit.
+  FitOptions g;
+  g.progress = false;
+  g.subsample = 2;
+  const FitResult global = fit_capture(set, g);
+  FitOptions opt;
+  opt.progress = false;
+  opt.maps_w = 24, opt.maps_h = 20;
+  opt.maps_memory_mb = 0.05;  // several bands
+  opt.global = given_global(fit_text(global), "global", set.dir);
+  const FitResult shared = fit_capture(set, opt);
+  set_shared_pixels(false);
+  const FitResult alone = fit_capture(set, opt);
+  set_shared_pixels(true);
+  EXPECT_GT(shared.report.maps_bands, 2u);
+  EXPECT_GT(shared.maps.fitted, 300u);
+  for (const auto& arr : kTexelArrays)
+    EXPECT_TRUE(bytes(shared.maps.*arr.d) == bytes(alone.maps.*arr.d)) << arr.key;
+  EXPECT_EQ(shared.maps.pixels, alone.maps.pixels);
+  EXPECT_EQ(shared.report.pixels, alone.report.pixels);
 }
 
 }  // namespace
