@@ -172,6 +172,11 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   res.fixed["ka"] = "not fitted: taken as 0 (a capture with an ambient says so in the warnings)";
   const auto t_cov = Clock::now();
   estimate_uncertainty(m.get(), os, opt, &sol, &res);
+  if (!sol.other_minimum.empty()) {  // a sigma about one of two answers says nothing
+    res.sigma.erase("fiber_angle_deg");
+    res.undetermined["fiber_angle_deg"] = sol.other_minimum;
+    rep.warnings.push_back("fiber_angle_deg: " + sol.other_minimum);
+  }
   rep.covariance = res.report.covariance;
   rep.seconds_covariance = seconds_since(t_cov);
   rep.fiber_order = m->quadrature_order();

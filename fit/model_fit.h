@@ -9,6 +9,7 @@
 #include <cmath>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,9 @@ class ModelFit {
  public:
   virtual ~ModelFit() = default;
   Core core;
+  // Set by start() where the model's grid has another valley (line_grid_start's `other`): the
+  // solver settles from there too, and says where the data cannot tell the two apart.
+  std::optional<Core> other;
 
   virtual Model model() const = 0;
   // Fitted numbers, the core's eight included.

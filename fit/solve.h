@@ -21,6 +21,8 @@ struct Solution {
   double rss = 0;              // of the final problem's residuals
   double values = 0;           // measured values: pixels x channels (x 1 for grey)
   double weights_change = 0;   // reweighting: the largest change of a weight in its last round
+  // Where another fiber direction fits the data as well (the start's second look): what it is.
+  std::string other_minimum;
 };
 
 // Starts the model, solves, and fills the report's start, noise, loss, iterations, RMS, BIC,

@@ -2,9 +2,11 @@
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <vector>
 
 #include "core/angles.h"
 #include "core/progress.h"
@@ -148,7 +150,7 @@ ObsSet compact(const ObsSet& os, const std::vector<size_t>& subset) {
 
 }  // namespace
 
-std::string line_grid_start(const ObsSet& os, Core* st, bool progress) {
+std::string line_grid_start(const ObsSet& os, Core* st, bool progress, std::optional<Core>* other) {
   Progress bar("fit: start grid (psi x n)", kGridPsi, progress);
   const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
   const ObsSet some = compact(os, subset);
@@ -170,23 +172,50 @@ std::string line_grid_start(const ObsSet& os, Core* st, bool progress) {
       bar.advance();
     }
   });
-  double best = std::numeric_limits<double>::infinity();
-  double best_psi = 0, best_logn = 0, best_kd[3] = {0, 0, 0}, best_ks[3] = {0, 0, 0};
-  for (int ip = 0; ip < kGridPsi; ++ip)
+  // Each psi's best node over n: the grid's costs as a function of psi (a half turn, cyclic).
+  struct Node {
+    double cost = std::numeric_limits<double>::infinity();
+    int in = 0;
+    double kd[3] = {0, 0, 0}, ks[3] = {0, 0, 0};
+  };
+  std::vector<Node> col(kGridPsi);
+  int ib = 0;
+  for (int ip = 0; ip < kGridPsi; ++ip) {
     for (int in = 0; in < kGridN; ++in) {
       double kd[3], ks[3];
       const double cost = sums[ip * kGridN + in].solve(kd, ks);
-      if (cost < best) {
-        best = cost;
-        best_psi = ip * M_PI / kGridPsi;
-        best_logn = (in + 1) * std::log(2.0);
-        std::copy(kd, kd + 3, best_kd);
-        std::copy(ks, ks + 3, best_ks);
+      if (cost < col[ip].cost) {
+        col[ip].cost = cost, col[ip].in = in;
+        std::copy(kd, kd + 3, col[ip].kd);
+        std::copy(ks, ks + 3, col[ip].ks);
       }
     }
-  st->psi = best_psi;
-  st->logn = best_logn;
-  set_start_kd_ks(best_kd, best_ks, st);
+    if (col[ip].cost < col[ib].cost) ib = ip;
+  }
+  auto to_core = [&](int ip, Core* c) {
+    c->psi = ip * M_PI / kGridPsi;
+    c->logn = (col[ip].in + 1) * std::log(2.0);
+    set_start_kd_ks(col[ip].kd, col[ip].ks, c);
+  };
+  to_core(ib, st);
+  if (other) {  // the lowest valley floor 3 columns (15 degrees) or more from the best
+    other->reset();
+    int io = -1;
+    for (int ip = 0; ip < kGridPsi; ++ip) {
+      const int d = std::abs(ip - ib), away = std::min(d, kGridPsi - d);
+      const double prev = col[(ip + kGridPsi - 1) % kGridPsi].cost;
+      const double next = col[(ip + 1) % kGridPsi].cost;
+      if (away >= 3 && col[ip].cost <= prev && col[ip].cost <= next &&
+          (io < 0 || col[ip].cost < col[io].cost))
+        io = ip;
+    }
+    if (io >= 0) {
+      Core c = *st;
+      to_core(io, &c);
+      *other = c;
+    }
+  }
+  const double best_psi = st->psi, best_logn = st->logn;
   char buf[160];
   std::snprintf(buf, sizeof buf, "grid psi=%.1f deg, n=%.0f (36 x 12 nodes on %zu pixels)",
                 rad_to_deg(best_psi), std::exp(best_logn), subset.size());

@@ -2,6 +2,7 @@
 // in k_d and k_s, so a grid over the non-linear parameters with k_d, k_s solved in closed form at
 // each node finds the basin of the global minimum without luck.
 #pragma once
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -65,7 +66,10 @@ void line_nodes_cost(const ObsSet& os, const std::vector<size_t>& subset, const 
 void set_start_kd_ks(const double kd[3], const double ks[3], Core* c);
 
 // Grid over psi (5 degree steps) and n (powers of 2 from 2 to 4096) with the line model's lobe
-// (the fiber model's peaks sit at the same place); k_d, k_s solved at every node.
-std::string line_grid_start(const ObsSet& os, Core* c, bool progress = false);
+// (the fiber model's peaks sit at the same place); k_d, k_s solved at every node. With `other`:
+// the best node of another valley of the grid's costs over psi (its lowest over n, 15 degrees or
+// more from the best node's psi), where there is one: the start of a second look (fit/solve.cpp).
+std::string line_grid_start(const ObsSet& os, Core* c, bool progress = false,
+                            std::optional<Core>* other = nullptr);
 
 }  // namespace aniso::fitting

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
 
 #include "core/angles.h"
 #include "core/error.h"
@@ -281,6 +283,70 @@ TEST(Trust, AModelThatDoesNotDescribeTheDataIsSaidPlainly) {
       j["report"]["residual_rms"].get<double>() / j["report"]["pixel_noise"].get<double>();
   EXPECT_GT(ratio, 0.7);
   EXPECT_LT(ratio, 1.4);
+}
+
+// Every view and light in one plane through the normal (an in-plane gonioreflectometer) cannot
+// tell psi from -psi: the two fit the readings equally. The fit says so, naming both, and gives
+// psi no sigma (it gave 150 deg +- 4e-7 deg for a truth of 30 deg, without a word); readings out
+// of that plane fit 30 deg with its sigma and say nothing of the kind.
+TEST(Trust, TwoFiberDirectionsThatFitAsWellAreBothNamed) {
+  const std::string dir = test::tmp_dir("in_plane");
+  write_text_file(dir + "/truth.json",
+                  R"({"format": "aniso-material", "version": 1, "model": "line",
+                      "kd": [0.2, 0.15, 0.1], "ks": [0.6, 0.6, 0.6], "n": 40,
+                      "fiber_angle_deg": 30})");
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::string plane = "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n", dome = plane;
+  for (int ti = 5; ti < 80; ti += 5)
+    for (int to = 5; to < 80; to += 5)
+      for (int k = 0; k < 4; ++k) {
+        plane += std::to_string(ti) + "," + std::to_string(k % 2 * 180) + "," + std::to_string(to) +
+                 "," + std::to_string(k / 2 * 180) + "\n";
+        dome += std::to_string(5 + 75 * u(rng)) + "," + std::to_string(360 * u(rng)) + "," +
+                std::to_string(5 + 75 * u(rng)) + "," + std::to_string(360 * u(rng)) + "\n";
+      }
+  for (const auto& [name, table] : {std::pair{"plane", plane}, std::pair{"dome", dome}}) {
+    const std::string t = dir + "/" + name;
+    write_text_file(t + ".csv", table);
+    auto r =
+        test::run_cli("eval " + dir + "/truth.json --table " + t + ".csv --out " + t + "_v.csv");
+    ASSERT_EQ(r.status, 0) << r.output;
+    // 1 % noise on every value
+    std::istringstream in(read_text_file(t + "_v.csv"));
+    std::string line, noisy;
+    std::getline(in, line);
+    noisy = line + "\n";
+    std::normal_distribution<double> g(0, 0.01);
+    while (std::getline(in, line)) {
+      std::vector<std::string> f;
+      std::stringstream ls(line);
+      for (std::string c; std::getline(ls, c, ',');) f.push_back(c);
+      ASSERT_EQ(f.size(), 7u) << line;
+      for (int c = 4; c < 7; ++c) f[c] = std::to_string(std::stod(f[c]) * (1 + g(rng)));
+      for (size_t c = 0; c < f.size(); ++c) noisy += f[c] + (c + 1 < f.size() ? "," : "\n");
+    }
+    write_text_file(t + "_v.csv", noisy);
+    r = test::run_cli("fit " + t + "_v.csv --out " + t + "_fit.json");
+    ASSERT_EQ(r.status, 0) << r.output;
+    const auto j = nlohmann::json::parse(read_text_file(t + "_fit.json"));
+    const double psi = j["fiber_angle_deg"].get<double>();
+    if (std::string(name) == "plane") {
+      EXPECT_NE(r.output.find("two fiber directions fit the data as well"), std::string::npos)
+          << r.output;
+      EXPECT_TRUE(std::abs(psi - 30) < 1 || std::abs(psi - 150) < 1) << psi;
+      ASSERT_TRUE(j["undetermined"].contains("fiber_angle_deg")) << j.dump(1);
+      const std::string why = j["undetermined"]["fiber_angle_deg"];
+      const size_t at = why.find("and psi = ");
+      ASSERT_NE(at, std::string::npos) << why;
+      EXPECT_NEAR(std::stod(why.substr(at + 10)), 180 - psi, 1) << why;  // the mirror
+      EXPECT_TRUE(j["uncertainty"]["fiber_angle_deg"].is_null()) << j.dump(1);
+    } else {
+      EXPECT_EQ(r.output.find("two fiber directions"), std::string::npos) << r.output;
+      EXPECT_NEAR(psi, 30, 1);
+      EXPECT_TRUE(j["uncertainty"]["fiber_angle_deg"].is_number()) << j.dump(1);
+    }
+  }
 }
 
 // The fit has no ambient term (k_a is taken as 0): a capture that states an ambient light gets a
