@@ -249,7 +249,7 @@ void set_param_bounds(ceres::Problem* pb, double* block, int index, const char* 
 // for a truth of 30 deg, without a word. *r: the residuals of the one taken.
 template <class Settle>
 std::string second_look(ModelFit* m, size_t pixels, size_t subset, Settle settle,
-                        std::vector<double>* r) {
+                        std::vector<double>* r, FitReport* rep) {
   auto sum_sq = [](const std::vector<double>& v) {
     double s = 0;
     for (double x : v) s += x * x;
@@ -270,6 +270,13 @@ std::string second_look(ModelFit* m, size_t pixels, size_t subset, Settle settle
   constexpr double kSameDeg = 1.0;  // the two settled in one valley
   const double apart = std::abs(std::remainder(second.psi - first.psi, M_PI));
   if (apart < deg_to_rad(kSameDeg)) return "";
+  if (take_second) {  // the grid's best node was in the worse valley
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "; settled from the grid's other valley too: psi=%.1f deg, lower",
+                  rad_to_deg(wrap_half_turn(second.psi)));
+    rep->start += buf;
+  }
   const double dof = std::max(1.0, static_cast<double>(r->size()) - 8.0);
   constexpr double kSigma2Floor = 1e-12;  // noise-free data: (1e-6)^2, the loss scale's floor
   const double s2 = std::max(std::min(c1, c2) / dof, kSigma2Floor);
@@ -306,7 +313,7 @@ Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* 
       return r;
     };
     std::vector<double> r = settle();
-    if (m->other) sol.other_minimum = second_look(m, os.obs.size(), subset.size(), settle, &r);
+    if (m->other) sol.other_minimum = second_look(m, os.obs.size(), subset.size(), settle, &r, rep);
     rep->noise_sigma = 1.4826 * median_abs(r);  // robust sigma (MAD) of the residuals
   }
   rep->seconds_start = seconds_since(t_start);
