@@ -165,22 +165,6 @@ std::unique_ptr<const SharedPixels> shared_pixels(const ViewData& d, int stride,
       if (!band.keeps(t)) continue;
       sp->x.push_back(x), sp->y.push_back(y), sp->t.push_back(t);
     }
-  // Bands (whose records only the texels read): in texel order, each texel's pixels in the order
-  // above, so each view writes a texel's records side by side. A texel's observations are then
-  // as many runs as views, not scattered over each view's rows: gathering them (texel_lanes) and
-  // binning them went 5.2 -> 4.6 s of the 2048^2 set's texel phase. Each texel's observations
-  // keep their order (view by view, then as above), so its sums, and the maps, are the same bits.
-  if (band.banded) {
-    std::vector<uint32_t> order(sp->x.size());
-    for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<uint32_t>(i);
-    auto key = [&](uint32_t i) { return static_cast<unsigned long>(sp->t[i]); };  // none: last
-    std::stable_sort(order.begin(), order.end(),
-                     [&](uint32_t a, uint32_t b) { return key(a) < key(b); });
-    SharedPixels sorted;
-    for (const uint32_t i : order)
-      sorted.x.push_back(sp->x[i]), sorted.y.push_back(sp->y[i]), sorted.t.push_back(sp->t[i]);
-    sp->x.swap(sorted.x), sp->y.swap(sorted.y), sp->t.swap(sorted.t);
-  }
   const size_t n = sp->x.size();
   sp->frame.resize(n);
   for (size_t i0 = 0; i0 < n; i0 += 4) {

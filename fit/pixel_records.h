@@ -64,8 +64,7 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, co
 
 // The pixels of a geometry that views share (a fixed camera) which a load keeps: on the stride
 // grid, in the rows it reads, on the mask with finite buffers, of a texel it keeps; in the order
-// add_pixel_observations takes them (a band's: in texel order, each texel's in that order), each
-// with its texel, its frame and V from `eye`. Found once
+// add_pixel_observations takes them, each with its texel, its frame and V from `eye`. Found once
 // for every view of the geometry and eye, where each view found them again (the frames' square
 // roots and divisions and the texels' lookups were a sixth of a band's load).
 struct SharedPixels {
@@ -86,7 +85,7 @@ std::unique_ptr<const SharedPixels> shared_pixels(const ViewData& d, int stride,
                                                   const UvBand& band);
 // A view's records from the pixels it shares (its geometry and eye those of `sp`, its rows
 // those `sp` was found in, one point light): what usable_on_grid and add_pixel_observations give,
-// the same records in the same order (a band's: in texel order, each texel's in the same order).
+// the same records in the same order.
 size_t usable_shared(const ViewData& d, const SharedPixels& sp);
 void add_shared_observations(const ViewData& d, const ViewSpec& v, const SharedPixels& sp,
                              const UvBand& band, RecordSlot* out, FitReport* rep);

@@ -395,7 +395,7 @@ TEST(FitPaths, PixelQuadsAreTheScalarFramesBitForBit) {
 // Views that share a geometry and an eye (a fixed camera) share their pixels' texels, frames and V
 // (fit/pixel_records.h SharedPixels): their records against each view finding its own, bit for
 // bit, with saturated pixels left out, a view whose eye moved (its own frames), --subsample and
-// --maps' texels; and band by band, where they go in texel order, the same maps.
+// --maps' texels; and band by band, the same maps.
 TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
   if (!pixel_quads_enabled()) GTEST_SKIP() << "no AVX2 on this CPU";
   const std::string dir = test::tmp_dir("shared_pixels");
@@ -429,8 +429,8 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
     EXPECT_EQ(shared_rep.nonfinite, alone_rep.nonfinite);
     EXPECT_EQ(shared_rep.unlit, alone_rep.unlit);
   }
-  // With --global the maps load band by band, and a band's shared pixels go in texel order (each
-  // texel's observations in the order of each view alone): the same maps, bit for bit.
+  // With --global the maps load band by band, each band's pixels shared: the same maps, bit for
+  // bit.
   FitOptions g;
   g.progress = false;
   g.subsample = 2;
