@@ -101,19 +101,24 @@ void put_quad(const ViewData& d, const ViewSpec& v, const PixelQuad& q, const in
   }
 }
 
+// The buffers' position, normal and tangent of up to four pixels (xs[0..n), ys) into q's lanes;
+// a short quad repeats its last pixel.
+void load_quad(const ViewGeometry& g, const int* xs, const int* ys, int n, PixelQuad* q) {
+  for (int l = 0; l < 4; ++l) {
+    const int x = xs[l < n ? l : n - 1], y = ys[l < n ? l : n - 1];
+    for (int c = 0; c < 3; ++c)
+      q->P[c][l] = g.P.at(x, y, c), q->N[c][l] = g.N.at(x, y, c), q->U[c][l] = g.U.at(x, y, c);
+  }
+}
+
 // Up to four pixels (xs[0..n), row y) under one point light, in lanes (fit/pixel_frames.h: the
 // same bits as add_pixel); the records in the pixels' order.
 void add_pixel_quad(const ViewData& d, const ViewSpec& v, int y, const int* xs, const long* ts,
                     int n, const UvBand& band, RecordSlot* out, FitReport* rep) {
-  const ViewGeometry& g = *d.geo;
-  PixelQuad q;
-  for (int l = 0; l < 4; ++l) {
-    const int x = xs[l < n ? l : n - 1];  // a short quad repeats its last pixel
-    for (int c = 0; c < 3; ++c)
-      q.P[c][l] = g.P.at(x, y, c), q.N[c][l] = g.N.at(x, y, c), q.U[c][l] = g.U.at(x, y, c);
-  }
-  pixel_quad(d.eye, v.lights[0], &q);
   const int ys[4] = {y, y, y, y};
+  PixelQuad q;
+  load_quad(*d.geo, xs, ys, n, &q);
+  pixel_quad(d.eye, v.lights[0], &q);
   put_quad(d, v, q, xs, ys, ts, n, band, out, rep);
 }
 
@@ -169,12 +174,7 @@ std::unique_ptr<const SharedPixels> shared_pixels(const ViewData& d, int stride,
   sp->frame.resize(n);
   for (size_t i0 = 0; i0 < n; i0 += 4) {
     PixelQuad q;
-    for (int l = 0; l < 4; ++l) {
-      const size_t i = std::min(i0 + l, n - 1);  // a short quad repeats its last pixel
-      for (int c = 0; c < 3; ++c)
-        q.P[c][l] = g.P.at(sp->x[i], sp->y[i], c), q.N[c][l] = g.N.at(sp->x[i], sp->y[i], c),
-        q.U[c][l] = g.U.at(sp->x[i], sp->y[i], c);
-    }
+    load_quad(g, &sp->x[i0], &sp->y[i0], static_cast<int>(std::min<size_t>(4, n - i0)), &q);
     pixel_frame_quad(d.eye, &q);
     for (size_t l = 0; l < 4 && i0 + l < n; ++l) {
       SharedPixels::Frame& f = sp->frame[i0 + l];

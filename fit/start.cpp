@@ -215,10 +215,9 @@ std::string line_grid_start(const ObsSet& os, Core* st, bool progress, std::opti
       *other = c;
     }
   }
-  const double best_psi = st->psi, best_logn = st->logn;
   char buf[160];
   std::snprintf(buf, sizeof buf, "grid psi=%.1f deg, n=%.0f (36 x 12 nodes on %zu pixels)",
-                rad_to_deg(best_psi), std::exp(best_logn), subset.size());
+                rad_to_deg(st->psi), std::exp(st->logn), subset.size());
   return buf;
 }
 
