@@ -115,7 +115,7 @@ class FiberFit : public ModelFit {
   // at every node (the nodes in parallel, each alone: the same start on any number of threads;
   // the specular integral at order 4, plenty to rank nodes). Then the quadrature order.
   std::string start(const ObsSet& os, bool progress) override {
-    const std::string line = line_grid_start(os, &core, progress);
+    const std::string line = line_grid_start(os, &core, progress, &other);
     const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
     std::vector<double> topo_values;
     if (mode_ == TopologyMode::kGlobalS || mode_ == TopologyMode::kTexels)
@@ -153,14 +153,21 @@ class FiberFit : public ModelFit {
     Node best = solve_nodes(&by_topology);
     std::vector<Node> by_n = {Node{best.t, logn0 - 0.7, 0, {}, {}},
                               Node{best.t, logn0 + 0.7, 0, {}, {}}};
-    const Node other = solve_nodes(&by_n);
-    if (other.cost < best.cost) best = other;
+    const Node by_n_best = solve_nodes(&by_n);
+    if (by_n_best.cost < best.cost) best = by_n_best;
     const double best_t = best.t;
     topo_[0] = best_t;
     if (mode_ == TopologyMode::kTexels)
       texels_.assign(static_cast<size_t>(texels_n_) * texels_n_, best_t);
     core.logn = best.logn;
     set_start_kd_ks(best.kd, best.ks, &core);
+    // The second look (fit/solve.cpp) from the other valley's psi with the topology, n, k_d and
+    // k_s found here: a mirror (psi -> -psi) looks the same to them.
+    if (other) {
+      const double psi_other = other->psi;
+      other = core;
+      other->psi = psi_other;
+    }
     char buf[300];
     std::snprintf(buf, sizeof buf, "; fiber: topology %s=%.2f, n=%.0f (%zu + 2 nodes)",
                   mode_ == TopologyMode::kAmplitude ? "A" : "s", best_t, std::exp(core.logn),
@@ -203,6 +210,15 @@ class FiberFit : public ModelFit {
   }
 
   double topology_value() const override { return topo_[0]; }
+  std::vector<double> own() const override {
+    std::vector<double> v = texels_;
+    v.push_back(topo_[0]);
+    return v;
+  }
+  void set_own(const std::vector<double>& v) override {
+    topo_[0] = v.back();
+    texels_.assign(v.begin(), v.end() - 1);
+  }
   int quadrature_order() const override { return acc_.order; }
 
   void residual(const ObsSet& os, size_t i, double r[3]) const override {

@@ -83,6 +83,10 @@ class ModelFit {
                            const FitOptions&, FusedSolve*) {
     return false;
   }
+  // The model's own numbers beyond the core (the fiber model's topology), saved and restored
+  // around the second look's settle so that each settle starts from, and keeps, its own.
+  virtual std::vector<double> own() const { return {}; }
+  virtual void set_own(const std::vector<double>&) {}
   // The fiber model's fitted topology value and quadrature order (for --maps; 0 otherwise).
   virtual double topology_value() const { return 0; }
   virtual int quadrature_order() const { return 0; }
