@@ -45,9 +45,10 @@ void print_report(FILE* o, const FitResult& r) {
   if (p.maps_bands > 1)
     std::fprintf(o,
                  "fit: --maps in %d bands of texel rows (records ~%.1f MB in all, --maps-memory "
-                 "%g MB at once; the largest band held %.1f MB)\n",
+                 "%g MB at once; the largest band held %.1f MB, %.1f MB of it the pixels its "
+                 "views share)\n",
                  p.maps_bands, p.maps_record_bytes / 1e6, r.report.maps_memory_mb,
-                 p.maps_band_peak_bytes / 1e6);
+                 p.maps_band_peak_bytes / 1e6, p.maps_band_shared_bytes / 1e6);
   if (p.maps_bands > 1 && p.maps_own_geometries > 0)
     std::fprintf(o,
                  "fit: note: %zu geometries (a camera per view): every band reads each again "

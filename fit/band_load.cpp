@@ -113,13 +113,15 @@ std::vector<double> pixels_by_row(const ViewGeometry& g, int stride, int w, int 
   return n;
 }
 
-// Every view's pixels on the grid by texel row, from view 0's geometry g0 where every view shares
-// it (a fixed camera); where views have geometry of their own (an orbit), each spreads its pixels
-// over the rows its own way, and each geometry's mask and uv are read once more (one at a time on
-// each thread; its position, normal and tangent, three times the bytes, are not): by view 0's
-// alone, the 32-view 512^2 orbit set's largest band at --maps-memory 20 held 23.7 MB.
-std::vector<double> pixels_by_row_all(const CaptureSet& set, const FitOptions& opt,
-                                      const ViewGeometry& g0) {
+// The bytes a load holds by texel row: every view's pixels on the grid by texel row times `per`,
+// and the pixels views of one geometry share (kSharedPixelBytes each), from view 0's geometry g0
+// where every view shares it (a fixed camera); where views have geometry of their own (an orbit),
+// each spreads its pixels over the rows its own way, and each geometry's mask and uv are read
+// once more (one at a time on each thread; its position, normal and tangent, three times the
+// bytes, are not): by view 0's alone, the 32-view 512^2 orbit set's largest band at
+// --maps-memory 20 held 23.7 MB.
+std::vector<double> bytes_by_row_all(const CaptureSet& set, const FitOptions& opt,
+                                     const ViewGeometry& g0, size_t per) {
   std::map<std::string, std::pair<size_t, double>> of_key;  // a view of it, and its views
   for (size_t i = 0; i < set.views.size(); ++i) {
     auto it = of_key.emplace(geometry_key(set.views[i]), std::make_pair(i, 0.0)).first;
@@ -137,8 +139,12 @@ std::vector<double> pixels_by_row_all(const CaptureSet& set, const FitOptions& o
     counts[j] = pixels_by_row(load_view_uv(set, i), opt.subsample, opt.maps_w, opt.maps_h);
   });
   std::vector<double> sum(static_cast<size_t>(std::max(opt.maps_h, 1)), 0.0);
-  for (size_t j = 0; j < todo.size(); ++j)
-    for (size_t r = 0; r < sum.size(); ++r) sum[r] += todo[j].second * counts[j][r];
+  for (size_t j = 0; j < todo.size(); ++j) {
+    const double views = todo[j].second;
+    const bool shares = shares_pixels(static_cast<size_t>(views), set.views[todo[j].first]);
+    const double each = views * static_cast<double>(per) + (shares ? kSharedPixelBytes : 0.0);
+    for (size_t r = 0; r < sum.size(); ++r) sum[r] += each * counts[j][r];
+  }
   return sum;
 }
 
@@ -185,8 +191,7 @@ const std::vector<double>& BandLoader::row_bytes() {
   bool meshes = false;  // a traced mesh's rows are not known before it is traced
   for (const ViewSpec& view : m.set.views) meshes = meshes || !view.geometry.mesh.empty();
   if (!m.g0 || meshes || m.opt.maps_w <= 0) return m.row_bytes;
-  for (double n : pixels_by_row_all(m.set, m.opt, *m.g0))
-    m.row_bytes.push_back(n * static_cast<double>(m.per));
+  m.row_bytes = bytes_by_row_all(m.set, m.opt, *m.g0, m.per);
   return m.row_bytes;
 }
 
@@ -205,6 +210,12 @@ const ObsSet& BandLoader::load(size_t j, FitReport* rep) {
 }
 
 const ObsSet& BandLoader::observations() const { return impl_->os; }
+
+size_t BandLoader::held_bytes() const {
+  return fitting::held_bytes(impl_->os) + impl_->st.shared_bytes;
+}
+
+size_t BandLoader::shared_bytes() const { return impl_->st.shared_bytes; }
 
 double BandLoader::pixel_noise() { return fitting::pixel_noise(&impl_->st.diffs); }
 

@@ -24,16 +24,21 @@ class BandLoader {
   // The bytes of the records one load of every pixel would hold, from view 0's mask (the others
   // taken to be alike; its geometry stays decoded for the bands).
   size_t record_bytes();
-  // After record_bytes: the records' bytes by texel row of the maps, from every view's mask pixels'
-  // uv (a pixel outside [0, 1)^2 counted in row 0; each geometry read once more where views have
-  // their own), counted when first asked (a caller that wants the estimate alone pays nothing);
-  // empty where a view's geometry is a mesh, traced per view (its rows unknown before the views
-  // are traced).
+  // After record_bytes: the records' bytes by texel row of the maps, and the bytes of the pixels
+  // views sharing a geometry share (SharedPixels, while a band loads), from every view's mask
+  // pixels' uv (a pixel outside [0, 1)^2 counted in row 0; each geometry read once more where views
+  // have their own), counted when first asked (a caller that wants the estimate alone pays
+  // nothing); empty where a view's geometry is a mesh, traced per view (its rows unknown before the
+  // views are traced).
   const std::vector<double>& row_bytes();
   void plan(std::vector<UvBand> bands);  // before the first load
   // Band j's observations, in place of the band before's; its counts added to *rep.
   const ObsSet& load(size_t j, FitReport* rep);
   const ObsSet& observations() const;  // the band loaded last
+  // What the band loaded last held at its load's end: its records (held_bytes) and the pixels
+  // its views shared while they were read (SharedPixels).
+  size_t held_bytes() const;
+  size_t shared_bytes() const;  // ... of it the shared pixels
   // The images' noise from every band's rows (ObsSet::pixel_noise): after the last band.
   double pixel_noise();
 

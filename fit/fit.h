@@ -142,9 +142,11 @@ struct FitReport {
   // records' bytes one load of every pixel would have held (estimated from view 0's mask).
   int maps_bands = 0;
   size_t maps_record_bytes = 0;
-  size_t maps_band_peak_bytes = 0;  // the records the largest band held (held_bytes)
-  double maps_memory_mb = 0;        // --maps-memory
-  size_t maps_own_geometries = 0;   // views with geometry of their own, read again by every band
+  // What the largest band held: its records (held_bytes) and its views' shared pixels.
+  size_t maps_band_peak_bytes = 0;
+  size_t maps_band_shared_bytes = 0;  // ... of it the shared pixels
+  double maps_memory_mb = 0;          // --maps-memory
+  size_t maps_own_geometries = 0;     // views with geometry of their own, read again by every band
   // --maps without --global whose records would pass --maps-memory: the global fit ran first on
   // every k-th pixel in x and y (this k, with --subsample's), the maps then band by band (0: not).
   int global_subsample = 0;

@@ -48,6 +48,7 @@ struct LoadState {
   // they do not apply); found by the first of its views, let go at the end of the load.
   std::mutex shared_mutex;
   std::map<std::string, std::unique_ptr<const SharedPixels>> shared;
+  size_t shared_bytes = 0;  // what they held, all of them, in the last load
 };
 
 // The fiber model's topology from what the set carries: a map means its amplitude is fitted over

@@ -74,7 +74,8 @@ MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
 
 const ObsSet& MapsInBands::load_first(FitReport* rep) {
   const ObsSet& os = loader_.load(0, rep);
-  rep->maps_band_peak_bytes = held_bytes(os);
+  rep->maps_band_peak_bytes = loader_.held_bytes();
+  rep->maps_band_shared_bytes = loader_.shared_bytes();
   return os;
 }
 
@@ -87,8 +88,9 @@ TexelMaps MapsInBands::fit(const Core& global, const TexelMapOptions& to, FitRep
       loader_.load(static_cast<size_t>(j), &band_rep);
       add_counts(band_rep, rep);
       rep->observations += band_rep.observations;
-      rep->maps_band_peak_bytes =
-          std::max(rep->maps_band_peak_bytes, held_bytes(loader_.observations()));
+      if (loader_.held_bytes() > rep->maps_band_peak_bytes)
+        rep->maps_band_peak_bytes = loader_.held_bytes(),
+        rep->maps_band_shared_bytes = loader_.shared_bytes();
       rep->seconds_load +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }

@@ -173,19 +173,18 @@ struct ViewPart {
 
 // The pixels view d (of geometry `key`, which `views` views name) shares with the others of its
 // geometry and eye in this load, found by the first to ask; null where there is nothing to share
-// (its geometry its own or shared by fewer than kShareFrom views, or other than one point light:
-// add_pixel_observations' own cases) or its eye is not theirs. SharedPixels' ~144 bytes a pixel
-// are at most 36 bytes a record from 4 views on (the records 56 bytes and more: BENCHMARKS.md's
-// bound is 112); two views of a large sample would have held 1.3 times their records more.
-constexpr size_t kShareFrom = 4;
+// (shares_pixels: its geometry its own or shared by fewer than kShareFrom views, or other than
+// one point light: add_pixel_observations' own cases) or its eye is not theirs.
 const SharedPixels* shared_of(LoadState* st, const std::string& key, size_t views,
                               const ViewData& d, const ViewSpec& v, int stride,
                               const UvBand& band) {
-  if (views < kShareFrom || v.lights.size() != 1 || v.lights[0].type != Light::Type::kPoint)
-    return nullptr;
+  if (!shares_pixels(views, v)) return nullptr;
   std::lock_guard<std::mutex> lock(st->shared_mutex);
   auto it = st->shared.find(key);
-  if (it == st->shared.end()) it = st->shared.emplace(key, shared_pixels(d, stride, band)).first;
+  if (it == st->shared.end()) {
+    it = st->shared.emplace(key, shared_pixels(d, stride, band)).first;
+    if (it->second) st->shared_bytes += it->second->bytes();
+  }
   const SharedPixels* sp = it->second.get();
   return sp && sp->eye.x == d.eye.x && sp->eye.y == d.eye.y && sp->eye.z == d.eye.z ? sp : nullptr;
 }
@@ -316,6 +315,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
   // other view shares reads, after the first band, only those rows of its geometry too.
   if (st->views_of_geometry.empty())
     for (const ViewSpec& v : set.views) ++st->views_of_geometry[geometry_key(v)];
+  st->shared_bytes = 0;
   // Both checked for uv above.
   const Kept keep{
       opt.topology_texels > 0, opt.maps_w > 0,

@@ -155,6 +155,11 @@ std::atomic<bool> g_share{true};
 
 void set_shared_pixels(bool on) { g_share = on; }
 
+bool shares_pixels(size_t views, const ViewSpec& v) {
+  return views >= kShareFrom && v.geometry.mesh.empty() && v.lights.size() == 1 &&
+         v.lights[0].type == Light::Type::kPoint && pixel_quads_enabled() && g_share;
+}
+
 std::unique_ptr<const SharedPixels> shared_pixels(const ViewData& d, int stride,
                                                   const UvBand& band) {
   if (!pixel_quads_enabled() || !g_share) return nullptr;

@@ -77,7 +77,22 @@ struct SharedPixels {
     bool ok;
   };
   std::vector<Frame> frame;
+  size_t bytes() const {  // what it holds
+    return (x.capacity() + y.capacity()) * sizeof(int) + t.capacity() * sizeof(long) +
+           frame.capacity() * sizeof(Frame);
+  }
 };
+// Views share their pixels where at least this many name one geometry (not a mesh) and each has
+// one point light: SharedPixels' ~144 bytes a pixel are then at most 36 bytes a record (the
+// records 56 bytes and more: BENCHMARKS.md's bound is 112); two views of a large sample would
+// have held 1.3 times their records more.
+constexpr size_t kShareFrom = 4;
+// Whether view v, one of `views` naming its geometry, shares its pixels (set_shared_pixels and the
+// CPU's pixel quads allowing).
+bool shares_pixels(size_t views, const ViewSpec& v);
+// The most a shared pixel holds (its arrays grown by doubling), for the bands' plan.
+constexpr size_t kSharedPixelBytes =
+    2 * (2 * sizeof(int) + sizeof(long)) + sizeof(SharedPixels::Frame);
 // Null where pixel quads do not apply (pixel_quads_enabled() is false) or sharing is switched off
 // (set_shared_pixels, for tests comparing the two).
 void set_shared_pixels(bool on);

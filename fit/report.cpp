@@ -168,6 +168,7 @@ jsonu::json report_json(const FitReport& p) {
   if (p.outside_tile > 0) j["skipped"]["outside_tile"] = p.outside_tile;
   if (p.maps_bands > 0) j["maps_bands"] = p.maps_bands;
   if (p.maps_bands > 0) j["maps_band_peak_bytes"] = p.maps_band_peak_bytes;
+  if (p.maps_bands > 0) j["maps_band_shared_bytes"] = p.maps_band_shared_bytes;
   if (p.global_subsample > 0) j["global_subsample"] = p.global_subsample;
   if (p.implausible_limit > 0) j["implausible_limit"] = p.implausible_limit;
   if (!p.model_selection.empty()) j["model_selection"] = p.model_selection;
