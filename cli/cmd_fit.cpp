@@ -45,7 +45,7 @@ void print_report(FILE* o, const FitResult& r) {
   if (p.maps_bands > 1)
     std::fprintf(o,
                  "fit: --maps in %d bands of texel rows (records ~%.1f MB in all, --maps-memory "
-                 "%g MB at once; the largest band held %.1f MB, %.1f MB of it the pixels its "
+                 "%g MB at once; the largest band held %.2f MB, %.2f MB of it the pixels its "
                  "views share)\n",
                  p.maps_bands, p.maps_record_bytes / 1e6, r.report.maps_memory_mb,
                  p.maps_band_peak_bytes / 1e6, p.maps_band_shared_bytes / 1e6);

@@ -122,13 +122,8 @@ std::vector<double> pixels_by_row(const ViewGeometry& g, int stride, int w, int 
 // --maps-memory 20 held 23.7 MB.
 std::vector<double> bytes_by_row_all(const CaptureSet& set, const FitOptions& opt,
                                      const ViewGeometry& g0, size_t per) {
-  std::map<std::string, std::pair<size_t, double>> of_key;  // a view of it, and its views
-  for (size_t i = 0; i < set.views.size(); ++i) {
-    auto it = of_key.emplace(geometry_key(set.views[i]), std::make_pair(i, 0.0)).first;
-    it->second.second += 1;
-  }
-  std::vector<std::pair<size_t, double>> todo;
-  for (const auto& [key, vn] : of_key) todo.push_back(vn);
+  std::vector<GeometryViews> todo;
+  for (const auto& [key, g] : geometry_views(set)) todo.push_back(g);
   std::vector<std::vector<double>> counts(todo.size());
   tbb::parallel_for(size_t{0}, todo.size(), [&](size_t j) {
     const size_t i = todo[j].first;
@@ -140,9 +135,10 @@ std::vector<double> bytes_by_row_all(const CaptureSet& set, const FitOptions& op
   });
   std::vector<double> sum(static_cast<size_t>(std::max(opt.maps_h, 1)), 0.0);
   for (size_t j = 0; j < todo.size(); ++j) {
-    const double views = todo[j].second;
-    const bool shares = shares_pixels(static_cast<size_t>(views), set.views[todo[j].first]);
-    const double each = views * static_cast<double>(per) + (shares ? kSharedPixelBytes : 0.0);
+    const size_t views = todo[j].views;
+    const bool shares = shares_pixels(views, set.views[todo[j].first]);
+    const double each =
+        static_cast<double>(views * per) + (shares ? static_cast<double>(kSharedPixelBytes) : 0.0);
     for (size_t r = 0; r < sum.size(); ++r) sum[r] += each * counts[j][r];
   }
   return sum;

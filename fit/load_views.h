@@ -36,7 +36,7 @@ struct LoadState {
   };
   std::mutex geo_mutex;
   std::map<std::string, std::unique_ptr<GeoRows>> geo_rows;
-  std::map<std::string, size_t> views_of_geometry;  // views per geometry key
+  std::map<std::string, GeometryViews> geometries;  // by geometry key
   size_t band = 0;                                  // the band being loaded
   // The room reserved once for every band (mapped pages: only what a band writes is touched):
   // records and lights of one load of every pixel, as estimated (BandLoader::record_bytes).

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <set>
 #include <string>
 
 #include "core/error.h"
@@ -49,9 +48,8 @@ MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
     : loader_(set, opt), all_(tile_rows(opt)) {
   if (!(opt.maps_memory_mb > 0)) throw Error("fit: --maps-memory must be above 0 (MB)");
   bytes_ = loader_.record_bytes();
-  std::set<std::string> geometries;
-  for (const ViewSpec& v : set.views) geometries.insert(geometry_key(v));
-  own_geometries_ = geometries.size() > 1 ? geometries.size() : 0;
+  const size_t geometries = geometry_views(set).size();
+  own_geometries_ = geometries > 1 ? geometries : 0;
   const long w = opt.maps_w;
   std::vector<UvBand> plan;
   for (const auto& [row0, row1] : band_limits(loader_.row_bytes(), opt)) {

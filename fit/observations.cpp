@@ -313,8 +313,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
   // A band reads the rows with a pixel it keeps; the noise takes each row once, from the first
   // band to read it (the same differences as one load of every row). A view whose geometry no
   // other view shares reads, after the first band, only those rows of its geometry too.
-  if (st->views_of_geometry.empty())
-    for (const ViewSpec& v : set.views) ++st->views_of_geometry[geometry_key(v)];
+  if (st->geometries.empty()) st->geometries = geometry_views(set);
   st->shared_bytes = 0;
   // Both checked for uv above.
   const Kept keep{
@@ -346,7 +345,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
         };
         const LoadState::GeoRows* known = banded && st->band > 0 &&
                                                   set.views[i].geometry.mesh.empty() &&
-                                                  st->views_of_geometry.at(key) == 1
+                                                  st->geometries.at(key).views == 1
                                               ? rows_of(st, key, nullptr, opt.subsample)
                                               : nullptr;
         load_view_into(set, i, &p.d, tmap, &st->geometry, banded ? &rows : nullptr,
@@ -366,7 +365,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
           count_left_out(p.d, band, &p.rep);
         }
         p.shared = set.views[i].geometry.mesh.empty()
-                       ? shared_of(st, key, st->views_of_geometry.at(key), p.d, set.views[i],
+                       ? shared_of(st, key, st->geometries.at(key).views, p.d, set.views[i],
                                    opt.subsample, band)
                        : nullptr;
         p.bound =

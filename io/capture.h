@@ -4,6 +4,7 @@
 #pragma once
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -134,6 +135,11 @@ class GeometryCache {
 // What names a view's geometry buffers (and its size): views with equal keys share one decoded
 // geometry (a fixed camera).
 std::string geometry_key(const ViewSpec& v);
+// The set's geometries by key: the first view that names each, and how many do.
+struct GeometryViews {
+  size_t first = 0, views = 0;
+};
+std::map<std::string, GeometryViews> geometry_views(const CaptureSet& set);
 
 // View i's per-pixel geometry alone (as load_view reads it, through `cache` where given).
 std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& set, size_t i,

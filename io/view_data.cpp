@@ -323,6 +323,13 @@ std::string geometry_key(const ViewSpec& v) {
          std::to_string(v.camera.height);
 }
 
+std::map<std::string, GeometryViews> geometry_views(const CaptureSet& set) {
+  std::map<std::string, GeometryViews> out;
+  for (size_t i = 0; i < set.views.size(); ++i)
+    out.emplace(geometry_key(set.views[i]), GeometryViews{i, 0}).first->second.views += 1;
+  return out;
+}
+
 std::shared_ptr<const ViewGeometry> load_view_geometry(const CaptureSet& s, size_t i,
                                                        const TopologyMap* map,
                                                        GeometryCache* cache) {
