@@ -14,8 +14,10 @@
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
 #include <half.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -25,6 +27,7 @@
 #include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
+#include "io/mapped_file.h"
 #include "io/material_io.h"
 #include "io/table.h"
 #include "test_util.h"
@@ -294,6 +297,31 @@ TEST(ImageIO, OnlyTheRowsAskedForAreRead) {
     }
   }
   set_exr_compression("zip");
+}
+
+// Uncompressed EXRs are read through a mapping of the file (io/mapped_file.h). A file another
+// program shortens meanwhile would stop the process with "Bus error" on reading past its new end:
+// it is an error naming the file instead, exit status 1.
+TEST(ImageIO, AMappedFileThatGetsShorterIsAnErrorNamingIt) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const std::string dir = test::tmp_dir("mapped");
+  const std::string path = dir + "/view.exr";
+  write_text_file(path, std::string(1 << 20, 'x'));
+  EXPECT_EXIT(
+      {
+        MappedFile m(path, 1 << 20);
+        if (m.empty()) std::_Exit(3);
+        if (::truncate(path.c_str(), 0) != 0) std::_Exit(4);
+        volatile char c = m.bytes()[600000];
+        (void)c;
+        std::_Exit(5);
+      },
+      ::testing::ExitedWithCode(1), "view.exr: the file got shorter while it was being read");
+  // A size other than the caller's, or no file: empty (read another way), nothing mapped.
+  write_text_file(path, std::string(1000, 'x'));
+  EXPECT_TRUE(MappedFile(path, 999).empty());
+  EXPECT_FALSE(MappedFile(path, 1000).empty());
+  EXPECT_TRUE(MappedFile(dir + "/none.exr", 1000).empty());
 }
 
 TEST(ImageIO, Png16RoundTripWithinHalfAStep) {
