@@ -69,14 +69,14 @@ const LoadState::GeoRows* rows_of(LoadState* st, const std::string& key, const V
   return (st->geo_rows[key] = band_rows(*geo, st->bands, stride)).get();
 }
 
-void count_left_out(const ViewData& d, const UvBand& band, FitReport* rep) {
+void count_left_out(const ViewData& d, const UvBand& band, int stride, FitReport* rep) {
   const int w = d.rgb.width;
-  for (int y = 0; y < d.rgb.height; ++y)
-    for (int x = 0; x < w && d.rows[y]; ++x) {
+  for (int y = 0; y < d.rgb.height; y += stride)
+    for (int x = 0; x < w && d.rows[y]; x += stride) {
       const size_t p = static_cast<size_t>(y) * w + x;
       const uint8_t u = d.use[p];
       if (u != ViewData::kSaturated && u != ViewData::kNonfinite) continue;
-      if (!band.owns(band.texel(d, x, y))) continue;
+      if (band.banded && !band.owns(band.texel(d, x, y))) continue;
       (u == ViewData::kSaturated ? rep->saturated : rep->nonfinite) += 1;
     }
 }

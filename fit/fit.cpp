@@ -110,6 +110,7 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
   to.s = s;
   res->maps = bands ? bands->fit(global, to, rep) : fit_texel_maps(os, global, to);
   const double noise = bands ? bands->pixel_noise() : os.pixel_noise;
+  if (!(rep->pixel_noise > 0)) rep->pixel_noise = noise;  // --global: the bands measured it
   // The misfit check judged the one global parameter set; say what the maps leave.
   for (auto& w : rep->warnings)
     if (w.rfind("the model does not describe the data", 0) == 0) {

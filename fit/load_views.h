@@ -36,6 +36,9 @@ struct LoadState {
   };
   std::mutex geo_mutex;
   std::map<std::string, std::unique_ptr<GeoRows>> geo_rows;
+  // Without bands, subsampled: per geometry, the rows of the stride grid and of the noise
+  // estimate (add_neighbour_differences) that hold a mask pixel: the only rows read.
+  std::map<std::string, std::unique_ptr<std::vector<uint8_t>>> grid_rows;
   std::map<std::string, GeometryViews> geometries;  // by geometry key
   size_t band = 0;                                  // the band being loaded
   // The room reserved once for every band (mapped pages: only what a band writes is touched):
@@ -65,10 +68,10 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
 
 // Bands (fit/band_load.cpp): the rows each band reads of the geometry with key `key`, found once
 // from `geo` (whole: the first band's) and kept (views sharing one share them); null where not
-// found yet and geo is null. And, of a band's rows, the pixels it owns that are left out
-// (saturated, not finite), counted.
+// found yet and geo is null. And, of a band's rows (or of every row without bands), the pixels on
+// the stride grid it owns that are left out (saturated, not finite), counted.
 const LoadState::GeoRows* rows_of(LoadState* st, const std::string& key, const ViewGeometry* geo,
                                   int stride);
-void count_left_out(const ViewData& d, const UvBand& band, FitReport* rep);
+void count_left_out(const ViewData& d, const UvBand& band, int stride, FitReport* rep);
 
 }  // namespace aniso::fitting

@@ -144,11 +144,30 @@ namespace {
 // and memory (every 4th row of 64 views of 2048^2 was ~90 million values, 360 MB at the load's
 // peak, and a serial median). Zeros are clipped values.
 // With `first` (bands), only the rows band `band` is the first to read.
+// The rows the noise estimate takes: every step-th, at most ~2^22 differences in all.
+int noise_row_step(size_t views, int w, int h) {
+  constexpr double kMostNoiseDifferences = 1 << 22;
+  const double all_rows = 3.0 * views * w * h;
+  return std::max(4, static_cast<int>(std::ceil(all_rows / kMostNoiseDifferences)));
+}
+
+// Without bands, subsampled: the rows of geometry g (key `key`) with a mask pixel on the stride
+// grid's rows or the noise estimate's, found once per geometry.
+const std::vector<uint8_t>& grid_rows_of(LoadState* st, const std::string& key,
+                                         const ViewGeometry& g, int stride, int noise_step) {
+  std::lock_guard<std::mutex> lock(st->geo_mutex);
+  auto& rows = st->grid_rows[key];
+  if (!rows) {
+    rows = std::make_unique<std::vector<uint8_t>>(g.rows);
+    for (size_t y = 0; y < rows->size(); ++y)
+      (*rows)[y] = (*rows)[y] && (y % stride == 0 || y % noise_step == 0);
+  }
+  return *rows;
+}
+
 void add_neighbour_differences(const ViewData& d, size_t views, const std::vector<int>* first,
                                int band, std::vector<float>* diffs) {
-  constexpr double kMostNoiseDifferences = 1 << 22;
-  const double all_rows = 3.0 * views * d.rgb.width * d.rgb.height;
-  const int step = std::max(4, static_cast<int>(std::ceil(all_rows / kMostNoiseDifferences)));
+  const int step = noise_row_step(views, d.rgb.width, d.rgb.height);
   for (int y = 0; y < d.rgb.height; y += step)
     for (int x = 0; x + 2 < d.rgb.width && (!first || (*first)[y] == band); ++x) {
       const size_t p = static_cast<size_t>(y) * d.rgb.width + x;
@@ -348,21 +367,30 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
                                                   st->geometries.at(key).views == 1
                                               ? rows_of(st, key, nullptr, opt.subsample)
                                               : nullptr;
-        load_view_into(set, i, &p.d, tmap, &st->geometry, banded ? &rows : nullptr,
+        // Subsampled without bands: only the rows of the grid and of the noise estimate.
+        const ViewRows grid =
+            [&](const std::shared_ptr<const ViewGeometry>& g) -> const std::vector<uint8_t>& {
+          const Intrinsics& k = set.views[i].camera;
+          return grid_rows_of(st, key, *g, opt.subsample, noise_row_step(n, k.width, k.height));
+        };
+        const bool on_grid = !banded && opt.subsample > 1 && set.views[i].geometry.mesh.empty();
+        load_view_into(set, i, &p.d, tmap, &st->geometry,
+                       banded    ? &rows
+                       : on_grid ? &grid
+                                 : nullptr,
                        known ? &known->rows[st->band] : nullptr);
         grey_views += p.d.channels == 1;
         const size_t pixels = static_cast<size_t>(p.d.rgb.width) * p.d.rgb.height;
         if (!banded) {
           add_neighbour_differences(p.d, n, nullptr, 0, &p.diffs);
-          p.rep.masked_out = pixels - p.d.mask_pixels;
-          p.rep.saturated = p.d.saturated;
-          p.rep.nonfinite = p.d.nonfinite;
+          p.rep.masked_out = pixels - p.d.geo->mask_count;
+          count_left_out(p.d, band, opt.subsample, &p.rep);
         } else {
           const LoadState::GeoRows& r = *rows_of(st, key, p.d.geo.get(), opt.subsample);
           add_neighbour_differences(p.d, n, &r.first, static_cast<int>(st->band), &p.diffs);
           if (band.first)
             p.rep.masked_out = pixels - p.d.geo->mask_count, p.rep.outside_tile = r.outside;
-          count_left_out(p.d, band, &p.rep);
+          count_left_out(p.d, band, opt.subsample, &p.rep);
         }
         p.shared = set.views[i].geometry.mesh.empty()
                        ? shared_of(st, key, st->geometries.at(key).views, p.d, set.views[i],

@@ -324,6 +324,23 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
   }
   const auto one = report(dir + "/one.json", false);
   EXPECT_GT(one["skipped"]["saturated"].get<size_t>(), 0u) << one.dump();
+  {  // --subsample without bands reads only the rows of its grid and of the noise estimate (every
+     // 4th here, not all on the grid of 3): the same noise as bands at that subsample, which read
+     // every row with a pixel, and the same left-out pixels, counted on the grid.
+    for (const std::string& extra : {std::string(), maps + " --maps-memory 0.01"}) {
+      r = test::run_cli("fit " + dir + "/set --subsample 3" + extra + " --out " + dir +
+                        (extra.empty() ? "/s3.json" : "/s3b.json"));
+      ASSERT_EQ(r.status, 0) << r.output;
+    }
+    const auto a = report(dir + "/s3.json", false), b = report(dir + "/s3b.json", false);
+    EXPECT_EQ(a["pixel_noise"], b["pixel_noise"]);
+    for (const char* k : {"saturated", "nonfinite"})
+      EXPECT_EQ(a["skipped"][k], b["skipped"][k]) << k;
+    EXPECT_GT(a["skipped"]["saturated"].get<size_t>(), 0u) << a.dump();
+    EXPECT_LT(a["skipped"]["saturated"].get<size_t>() * 4,
+              one["skipped"]["saturated"].get<size_t>())  // 1 pixel in 9
+        << a.dump();
+  }
   EXPECT_GT(one["skipped"]["implausible"].get<size_t>(), 0u) << one.dump();
   EXPECT_NE(one["warnings"].dump().find("noise of the images"), std::string::npos) << one.dump();
   // A tile in bands: the same tile, values and counts, as the tile in one band.
