@@ -138,13 +138,7 @@ void choose_topology(const CaptureSet& set, const FitOptions& opt, ObsSet* os) {
 
 namespace {
 
-// Second differences of three horizontal neighbours (a - 2b + c cancels the shading's gradient)
-// on every 4th row, or sparser rows where a set of `views` such views would give more than
-// kMostNoiseDifferences: enough for a median (its relative spread ~1 / sqrt(count)), little time
-// and memory (every 4th row of 64 views of 2048^2 was ~90 million values, 360 MB at the load's
-// peak, and a serial median). Zeros are clipped values.
-// With `first` (bands), only the rows band `band` is the first to read.
-// The rows the noise estimate takes: every step-th, at most ~2^22 differences in all.
+// The rows the noise estimate takes (add_neighbour_differences): every step-th.
 int noise_row_step(size_t views, int w, int h) {
   constexpr double kMostNoiseDifferences = 1 << 22;
   const double all_rows = 3.0 * views * w * h;
@@ -165,6 +159,12 @@ const std::vector<uint8_t>& grid_rows_of(LoadState* st, const std::string& key,
   return *rows;
 }
 
+// Second differences of three horizontal neighbours (a - 2b + c cancels the shading's gradient)
+// on every 4th row, or sparser rows where a set of `views` such views would give more than
+// kMostNoiseDifferences: enough for a median (its relative spread ~1 / sqrt(count)), little time
+// and memory (every 4th row of 64 views of 2048^2 was ~90 million values, 360 MB at the load's
+// peak, and a serial median). Zeros are clipped values.
+// With `first` (bands), only the rows band `band` is the first to read.
 void add_neighbour_differences(const ViewData& d, size_t views, const std::vector<int>* first,
                                int band, std::vector<float>* diffs) {
   const int step = noise_row_step(views, d.rgb.width, d.rgb.height);

@@ -54,8 +54,9 @@ bool decode_exr_uncompressed(const std::string& bytes, const std::string& path, 
                              int expect_h, Image* out, const std::vector<uint8_t>* rows = nullptr,
                              bool zero_others = true);
 
-// While one is alive, uncompressed EXRs are read through one buffer per thread, reused file after
-// file, and decoded into the allocations of images given back. A 2048^2 RGB view is 48 MB, above
+// While one is alive, uncompressed EXRs are decoded into the allocations of images given back
+// (and, where a file cannot be mapped, io/mapped_file.h, read through one buffer per thread, reused
+// file after file). A 2048^2 RGB view is 48 MB, above
 // glibc's largest mmap threshold (32 MB): every fresh buffer for it was new pages the kernel
 // zeroes first. The loader of a capture set holds one while it decodes views and gives back each
 // view's image when its records are written; the buffers go with it. One at a time (a second one
