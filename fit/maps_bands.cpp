@@ -70,10 +70,21 @@ MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
   loader_.plan(std::move(plan));
 }
 
+namespace {
+
+// The report keeps what the largest band held so far, and its shared pixels' part.
+void keep_peak(const BandLoader& loader, FitReport* rep) {
+  if (loader.held_bytes() <= rep->maps_band_peak_bytes) return;
+  rep->maps_band_peak_bytes = loader.held_bytes();
+  rep->maps_band_shared_bytes = loader.shared_bytes();
+}
+
+}  // namespace
+
 const ObsSet& MapsInBands::load_first(FitReport* rep) {
   const ObsSet& os = loader_.load(0, rep);
-  rep->maps_band_peak_bytes = loader_.held_bytes();
-  rep->maps_band_shared_bytes = loader_.shared_bytes();
+  rep->maps_band_peak_bytes = 0;
+  keep_peak(loader_, rep);
   return os;
 }
 
@@ -86,9 +97,7 @@ TexelMaps MapsInBands::fit(const Core& global, const TexelMapOptions& to, FitRep
       loader_.load(static_cast<size_t>(j), &band_rep);
       add_counts(band_rep, rep);
       rep->observations += band_rep.observations;
-      if (loader_.held_bytes() > rep->maps_band_peak_bytes)
-        rep->maps_band_peak_bytes = loader_.held_bytes(),
-        rep->maps_band_shared_bytes = loader_.shared_bytes();
+      keep_peak(loader_, rep);
       rep->seconds_load +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }

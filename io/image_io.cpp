@@ -383,11 +383,15 @@ Image read_exr(const std::string& path, int expect_w, int expect_h,
     const long long H = static_cast<long long>(disp[3]) - disp[1] + 1;
     // The file mapped: the rows asked for are decoded straight from the page cache, where
     // reading them into a buffer first cost the kernel's copy (5 % of a 2048^2 fit's samples).
+    // Where that fails, what the buffers below would try on the same bytes: the whole file, then
+    // OpenEXR (not the same decode again from a buffer).
     if (MappedFile m(path, size); !m.empty()) {
-      if (decode_exr_bytes(m.bytes(), path, expect_w, expect_h, &img,
-                           rows && static_cast<long long>(rows->size()) == H ? rows : nullptr,
-                           zero_others))
+      const std::vector<uint8_t>* asked =
+          rows && static_cast<long long>(rows->size()) == H ? rows : nullptr;
+      if (decode_exr_bytes(m.bytes(), path, expect_w, expect_h, &img, asked, zero_others) ||
+          (asked && decode_exr_bytes(m.bytes(), path, expect_w, expect_h, &img, nullptr, true)))
         return img;
+      return read_exr_openexr(path, expect_w, expect_h);
     }
     if (rows && static_cast<long long>(rows->size()) == H && box[2] >= box[0] &&
         read_exr_rows(path, head, r.at, box, disp, line, *rows, size, &bytes)) {
