@@ -105,11 +105,17 @@ void start_ray(const Vec3& eye, const Vec3& d, int l, RTCRayHit8* rh) {
   rh->hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
 }
 
+// The four buffers of a trace, as raw pointers (the compiler cannot keep a GBuffer's vector
+// pointers in registers across the float stores).
+struct GBufferOut {
+  float *P, *N, *U, *uv;
+};
+
 // Pixel p's buffers from a hit on triangle `prim` at barycentrics (b1, b2), distance t along the
 // ray (eye, d): the position from the ray (exact on the triangle), the attributes interpolated.
 // False (nothing written) where the ray meets the back of the surface: not a sample pixel.
 bool store_hit(const TriMesh& m, FiberField field, const Vec3& eye, const Vec3& d, unsigned prim,
-               double b1, double b2, float t, size_t p, GBuffer* g) {
+               double b1, double b2, float t, size_t p, const GBufferOut& g) {
   const auto& tri = m.tri[prim];
   const double b0 = 1.0 - b1 - b2;
   const Vec3 Nw = normalize(m.N[tri[0]] * b0 + m.N[tri[1]] * b1 + m.N[tri[2]] * b2);
@@ -117,16 +123,16 @@ bool store_hit(const TriMesh& m, FiberField field, const Vec3& eye, const Vec3& 
   const Vec3 Pw = eye + d * static_cast<double>(t);
   const Vec3 Uw = fiber_field_tangent(
       field, Pw, Nw, m.U[tri[0]] * b0 + m.U[tri[1]] * b1 + m.U[tri[2]] * b2, m.center, m.axis);
-  float* P = &g->P.px[3 * p];
-  float* N = &g->N.px[3 * p];
-  float* U = &g->U.px[3 * p];
+  float* P = g.P + 3 * p;
+  float* N = g.N + 3 * p;
+  float* U = g.U + 3 * p;
   for (int c = 0; c < 3; ++c) {
     P[c] = static_cast<float>(Pw[c]);
     N[c] = static_cast<float>(Nw[c]);
     U[c] = static_cast<float>(Uw[c]);
   }
   for (int c = 0; c < 2; ++c)
-    g->uv.px[2 * p + c] =
+    g.uv[2 * p + c] =
         static_cast<float>(m.uv[tri[0]][c] * b0 + m.uv[tri[1]][c] * b1 + m.uv[tri[2]][c] * b2);
   return true;
 }
@@ -151,36 +157,58 @@ void RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string& f
   const TriMesh& m = mesh_;
   const bool distorted = k.distorted();
   const FiberField field_kind = parse_fiber_field(field);
-  std::vector<double> ray_x(static_cast<size_t>(k.width));  // camera-space x of each column's ray
-  for (int x = 0; x < k.width; ++x) ray_x[x] = (x - k.cx) / k.fx;
+  const GBufferOut out_px{g.P.px.data(), g.N.px.data(), g.U.px.data(), g.uv.px.data()};
+  uint8_t* const hits = g.hit.data();
+  // A packet's directions in float, the lanes side by side (what Embree takes): a double
+  // normalize per lane was a sqrt-and-divide latency chain that cost more than Embree's own work
+  // on a primary ray (issue 11). Columns past the image's width are padded and never valid.
+  const int padded = (k.width + 7) / 8 * 8;
+  std::vector<float> ray_x(static_cast<size_t>(padded), 0.f);  // camera-space x of each column
+  for (int x = 0; x < k.width; ++x) ray_x[x] = static_cast<float>((x - k.cx) / k.fx);
+  float R[9];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) R[3 * r + c] = static_cast<float>(pose(r, c));
   tbb::parallel_for(tbb::blocked_range<int>(0, k.height), [&](const tbb::blocked_range<int>& rows) {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    alignas(32) RTCRayHit8 rh;
+    for (int l = 0; l < 8; ++l) start_ray(eye, Vec3(0, 0, 1), l, &rh);
     for (int y = rows.begin(); y < rows.end(); ++y) {
-      const double ray_y = (y - k.cy) / k.fy;
+      const float ray_y = static_cast<float>((y - k.cy) / k.fy);
       for (int x0 = 0; x0 < k.width; x0 += 8) {
         alignas(32) int valid[8];
-        alignas(32) RTCRayHit8 rh;
-        Vec3 dirs[8];
-        for (int l = 0; l < 8; ++l) {
-          const int x = x0 + l;
-          valid[l] = x < k.width ? -1 : 0;
-          Vec3 r(x < k.width ? ray_x[x] : 0.0, ray_y, 1.0);
-          if (distorted && !pixel_ray(k, x, y, &r)) valid[l] = 0;  // outside the lens model
-          dirs[l] = normalize(pose.dir(r));
-          start_ray(eye, dirs[l], l, &rh);
+        if (distorted) {
+          for (int l = 0; l < 8; ++l) {
+            const int x = x0 + l;
+            Vec3 r(x < k.width ? ray_x[x] : 0.0, ray_y, 1.0);
+            valid[l] = x < k.width && pixel_ray(k, x, y, &r) ? -1 : 0;  // inside the lens model
+            start_ray(eye, normalize(pose.dir(r)), l, &rh);
+          }
+        } else {
+          const float* rx = &ray_x[x0];
+          for (int l = 0; l < 8; ++l) {
+            const float dx = R[0] * rx[l] + R[1] * ray_y + R[2];
+            const float dy = R[3] * rx[l] + R[4] * ray_y + R[5];
+            const float dz = R[6] * rx[l] + R[7] * ray_y + R[8];
+            const float inv = 1.f / std::sqrt(dx * dx + dy * dy + dz * dz);
+            rh.ray.dir_x[l] = dx * inv, rh.ray.dir_y[l] = dy * inv, rh.ray.dir_z[l] = dz * inv;
+            rh.ray.tfar[l] = std::numeric_limits<float>::infinity();
+            rh.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
+            valid[l] = x0 + l < k.width ? -1 : 0;
+          }
         }
         rtcIntersect8(valid, impl_->scene, &ctx, &rh);
         for (int l = 0; l < 8 && x0 + l < k.width; ++l) {
           const size_t p = static_cast<size_t>(y) * k.width + x0 + l;
+          const Vec3 d(rh.ray.dir_x[l], rh.ray.dir_y[l], rh.ray.dir_z[l]);
           const bool hit = valid[l] && rh.hit.geomID[l] != RTC_INVALID_GEOMETRY_ID &&
-                           store_hit(m, field_kind, eye, dirs[l], rh.hit.primID[l], rh.hit.u[l],
-                                     rh.hit.v[l], rh.ray.tfar[l], p, &g);
-          g.hit[p] = hit;
+                           store_hit(m, field_kind, eye, d, rh.hit.primID[l], rh.hit.u[l],
+                                     rh.hit.v[l], rh.ray.tfar[l], p, out_px);
+          hits[p] = hit;
           if (hit) continue;
-          std::fill_n(&g.P.px[3 * p], 3, 0.f), std::fill_n(&g.N.px[3 * p], 3, 0.f);
-          std::fill_n(&g.U.px[3 * p], 3, 0.f), std::fill_n(&g.uv.px[2 * p], 2, 0.f);
+          std::fill_n(out_px.P + 3 * p, 3, 0.f), std::fill_n(out_px.N + 3 * p, 3, 0.f);
+          std::fill_n(out_px.U + 3 * p, 3, 0.f), std::fill_n(out_px.uv + 2 * p, 2, 0.f);
         }
       }
     }
