@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 
 #include "core/error.h"
 
@@ -39,18 +41,58 @@ GLuint compile(GLenum type, const char* src, const char* name) {
 
 }  // namespace
 
+namespace {
+
+// The first GPU among EGL's devices (EGL_EXT_device_enumeration, EGL_EXT_platform_device): a device
+// that is not Mesa's software renderer. EGL_NO_DEVICE_EXT where there is none, or ANISO_GL is
+// "software": then EGL's surfaceless platform, Mesa llvmpipe on the CPU.
+EGLDeviceEXT gpu_device() {
+  const char* want = std::getenv("ANISO_GL");
+  if (want && std::string(want) == "software") return EGL_NO_DEVICE_EXT;
+  if (!epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_device_enumeration") ||
+      !epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_platform_device"))
+    return EGL_NO_DEVICE_EXT;
+  EGLDeviceEXT devices[16];
+  EGLint n = 0;
+  if (!eglQueryDevicesEXT(16, devices, &n)) return EGL_NO_DEVICE_EXT;
+  for (EGLint i = 0; i < n; ++i) {
+    const char* ext = eglQueryDeviceStringEXT(devices[i], EGL_EXTENSIONS);
+    if (ext && std::strstr(ext, "EGL_MESA_device_software")) continue;
+    return devices[i];
+  }
+  return EGL_NO_DEVICE_EXT;
+}
+
+}  // namespace
+
 Context::Context() {
+  // A GPU where EGL lists one (NVIDIA's driver has no surfaceless platform, only devices), else
+  // the surfaceless platform. A GPU that cannot give the context leaves the surfaceless one.
+  std::string gpu_error;
+  if (const EGLDeviceEXT gpu = gpu_device(); gpu != EGL_NO_DEVICE_EXT) {
+    dpy_ = eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, gpu, nullptr);
+    gpu_error = dpy_ == EGL_NO_DISPLAY ? "no display on the GPU's EGL device" : open();
+    if (gpu_error.empty()) return;
+    gpu_error =
+        "; the GPU's EGL device: " + gpu_error + " (EGL error 0x" + hex(eglGetError()) + ")";
+    release();
+  }
   if (!epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_MESA_platform_surfaceless"))
-    fail("EGL_MESA_platform_surfaceless is not available");
+    fail("EGL_MESA_platform_surfaceless is not available" + gpu_error);
   dpy_ = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
-  if (dpy_ == EGL_NO_DISPLAY) fail("no surfaceless EGL display");
+  if (dpy_ == EGL_NO_DISPLAY) fail("no surfaceless EGL display" + gpu_error);
+  const std::string error = open();
+  if (!error.empty()) fail(error + gpu_error);
+}
+
+std::string Context::open() {
   EGLint major = 0, minor = 0;
-  if (!eglInitialize(dpy_, &major, &minor)) fail("eglInitialize failed");
-  if (!eglBindAPI(EGL_OPENGL_API)) fail("eglBindAPI(OpenGL) failed");
+  if (!eglInitialize(dpy_, &major, &minor)) return "eglInitialize failed";
+  if (!eglBindAPI(EGL_OPENGL_API)) return "eglBindAPI(OpenGL) failed";
   const EGLint cfg_attr[] = {EGL_SURFACE_TYPE, 0, EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
   EGLConfig cfg;
   EGLint n = 0;
-  if (!eglChooseConfig(dpy_, cfg_attr, &cfg, 1, &n) || n < 1) fail("no EGL config with OpenGL");
+  if (!eglChooseConfig(dpy_, cfg_attr, &cfg, 1, &n) || n < 1) return "no EGL config with OpenGL";
   const EGLint ctx_attr[] = {EGL_CONTEXT_MAJOR_VERSION,
                              3,
                              EGL_CONTEXT_MINOR_VERSION,
@@ -59,8 +101,9 @@ Context::Context() {
                              EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
                              EGL_NONE};
   ctx_ = eglCreateContext(dpy_, cfg, EGL_NO_CONTEXT, ctx_attr);
-  if (ctx_ == EGL_NO_CONTEXT) fail("cannot create an OpenGL 3.3 core context");
-  if (!eglMakeCurrent(dpy_, EGL_NO_SURFACE, EGL_NO_SURFACE, ctx_)) fail("eglMakeCurrent failed");
+  if (ctx_ == EGL_NO_CONTEXT) return "cannot create an OpenGL 3.3 core context";
+  if (!eglMakeCurrent(dpy_, EGL_NO_SURFACE, EGL_NO_SURFACE, ctx_)) return "eglMakeCurrent failed";
+  return "";
 }
 
 Context::~Context() { release(); }
@@ -76,8 +119,9 @@ void Context::release() {
 
 void Context::fail(const std::string& what) {
   const std::string msg =
-      "preview: cannot create a headless OpenGL context (EGL surfaceless, Mesa): " + what +
-      " (EGL error 0x" + hex(eglGetError()) + ")";
+      "preview: cannot create a headless OpenGL context (a GPU's EGL device, else EGL "
+      "surfaceless, Mesa): " +
+      what + " (EGL error 0x" + hex(eglGetError()) + ")";
   release();  // a constructor that throws runs no destructor
   throw Error(msg);
 }

@@ -1,5 +1,6 @@
 // render/ internal: the OpenGL plumbing of the preview, apart from what it draws. A headless
-// OpenGL 3.3 core context on EGL's surfaceless platform (Mesa llvmpipe or a GPU), programs from
+// OpenGL 3.3 core context on a GPU's EGL device where there is one, else EGL's surfaceless platform
+// (Mesa llvmpipe; ANISO_GL=software asks for it on a machine with a GPU), programs from
 // the embedded GLSL of render/shaders/, float textures and an off-screen float framebuffer, each
 // released by its destructor. Included by render/*.cpp only (epoxy is a large header).
 #pragma once
@@ -23,6 +24,8 @@ class Context {
   Context& operator=(const Context&) = delete;
 
  private:
+  // Initializes dpy_ and makes a 3.3 core context current on it: "" or what failed.
+  std::string open();
   [[noreturn]] void fail(const std::string& what);
   void release();
   EGLDisplay dpy_ = EGL_NO_DISPLAY;

@@ -483,6 +483,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   const auto t0 = std::chrono::steady_clock::now();
   for (int frame = 0; frame < std::max(1, opt.repeat); ++frame)
     res.passes = draw_frame(m, opt, ps, lk, buffers, cam, lights);
+  res.frames = std::max(1, opt.repeat);
   res.seconds_per_frame =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() /
       std::max(1, opt.repeat);

@@ -69,6 +69,7 @@ struct PreviewResult {
   int fiber_stack_levels = 0;
   double fiber_stack_seconds = 0, fiber_stack_error = 0, n_min = 0, n_max = 0;
   std::string renderer;  // GL_RENDERER
+  int frames = 0;        // frames timed (PreviewOptions::repeat, at least 1)
 };
 
 PreviewResult render_preview(const Material& m, const PreviewOptions& opt);
