@@ -70,6 +70,9 @@ const LoadState::GeoRows* rows_of(LoadState* st, const std::string& key, const V
 }
 
 void count_left_out(const ViewData& d, const UvBand& band, int stride, FitReport* rep) {
+  // What it counts is a part of what the view's load counted in the same rows: none there, none
+  // here (most views: no pass over their pixels).
+  if (d.saturated == 0 && d.nonfinite == 0) return;
   const int w = d.rgb.width;
   for (int y = 0; y < d.rgb.height; y += stride)
     for (int x = 0; x < w && d.rows[y]; x += stride) {

@@ -412,6 +412,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
           add_pixel_observations(p.d, set.views[i], opt.subsample, band, &p.slot, &p.rep);
         st->read_buffers->give_back(std::move(p.d.rgb));
         {
+          clear_pixel_states(&p.d);
           std::lock_guard<std::mutex> lock(st->use_mutex);
           st->spare_use.push_back(std::move(p.d.use));
         }

@@ -153,8 +153,8 @@ ViewGeometry load_view_uv(const CaptureSet& set, size_t i);
 
 // The rows of a view's image to read, given its geometry (one entry per row, non-zero = read): for
 // a caller that takes one band of the sample at a time. The image's other rows are neither read
-// nor written (they hold whatever a reused allocation held): their pixels are not classified and
-// none of them is an observation.
+// nor written (their values hold whatever a reused allocation held): their pixels are not
+// classified (ViewData::use kOff) and none of them is an observation.
 using ViewRows =
     std::function<const std::vector<uint8_t>&(const std::shared_ptr<const ViewGeometry>&)>;
 
@@ -172,11 +172,15 @@ std::shared_ptr<const ViewGeometry> load_view_geometry_rows(const CaptureSet& se
 ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nullptr,
                    GeometryCache* cache = nullptr, const ViewRows* rows = nullptr);
 // The same into *into, whose allocation of pixel states (ViewData::use) is reused: a 2048^2 view's
-// is 4 MB of fresh pages otherwise, view after view.
+// is 4 MB of fresh pages otherwise, view after view. That allocation is empty or all kOff (as
+// clear_pixel_states leaves it): only the rows read are written, not the whole image's.
 // With `geometry_rows` (one entry per row), the view's geometry buffers are read in those rows
 // alone (load_view_geometry_rows), not through the cache.
 void load_view_into(const CaptureSet& set, size_t i, ViewData* into, const TopologyMap* map,
                     GeometryCache* cache, const ViewRows* rows,
                     const std::vector<uint8_t>* geometry_rows = nullptr);
+// d->use all kOff again, for another view's load_view_into: the rows read are cleared, the only
+// ones whose states can be other than kOff (clearing the whole image's was 4 MB a view a band).
+void clear_pixel_states(ViewData* d);
 
 }  // namespace aniso

@@ -223,7 +223,8 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, bool all_rows, ViewDat
     d->rgb = Image(w, h, 3);
   }
   const Image& in = grey.empty() ? d->rgb : grey;
-  d->use.assign(mask.size(), 0);
+  // Empty, or all kOff (load_view_into): the rows not read stay kOff without being written.
+  if (d->use.size() != mask.size()) d->use.assign(mask.size(), ViewData::kOff);
   // A float RGB image is linear as it is: its values stay where they were decoded.
   const bool as_is = li.bits == 0 && in.channels == 3;
   for (int y = 0; y < h; ++y)
@@ -231,6 +232,7 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, bool all_rows, ViewDat
       const size_t p = static_cast<size_t>(y) * w + x;
       if (!mask[p]) {
         for (int c = 0; c < 3; ++c) d->rgb.at(x, y, c) = 0.f;
+        d->use[p] = ViewData::kOff;
         continue;
       }
       ++d->mask_pixels;
@@ -381,6 +383,12 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
   ViewData d;
   load_view_into(s, i, &d, map, cache, rows);
   return d;
+}
+
+void clear_pixel_states(ViewData* d) {
+  const size_t w = d->rows.empty() ? 0 : d->use.size() / d->rows.size();
+  for (size_t y = 0; y < d->rows.size(); ++y)
+    if (d->rows[y]) std::fill_n(d->use.begin() + static_cast<std::ptrdiff_t>(y * w), w, 0);
 }
 
 void load_view_into(const CaptureSet& s, size_t i, ViewData* into, const TopologyMap* map,

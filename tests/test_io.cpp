@@ -528,6 +528,63 @@ TEST(CaptureIO, DecodesSrgbPngAndSkipsSaturated) {
   EXPECT_EQ(d.used, 3u);
 }
 
+// A band's load classifies the pixels of its rows alone; the rows it does not read are kOff, also
+// in pixel states reused from another band's load once clear_pixel_states has cleared them.
+TEST(CaptureIO, ABandsLoadLeavesTheRowsItDoesNotReadOff) {
+  const std::string dir = test::tmp_dir("bandrows");
+  std::filesystem::create_directories(dir + "/g");
+  Image P(4, 4, 3), N(4, 4, 3), U(4, 4, 3), img(4, 4, 3, 0.5f);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 4; ++x) {
+      P.at(x, y, 0) = float(x), P.at(x, y, 1) = float(y);
+      N.at(x, y, 2) = 1;
+      U.at(x, y, 0) = 1;
+    }
+  for (int c = 0; c < 3; ++c) img.at(0, 0, c) = img.at(3, 2, c) = 2.f;  // saturated
+  write_exr(dir + "/g/P.exr", P);
+  write_exr(dir + "/g/N.exr", N);
+  write_exr(dir + "/g/U.exr", U);
+  write_exr(dir + "/img.exr", img);
+  std::ofstream(dir + "/capture.json") << R"({"format":"aniso-capture","version":1,
+    "camera":{"width":4,"height":4,"fx":10,"fy":10,"cx":1.5,"cy":1.5},
+    "color":{"encoding":"linear","saturation":1.0},
+    "geometry":{"position":"g/P.exr","normal":"g/N.exr","tangent":"g/U.exr"},
+    "views":[{"image":"img.exr","world_from_camera":[[1,0,0,0],[0,1,0,0],[0,0,1,-3],[0,0,0,1]],
+              "lights":[{"type":"directional","direction":[0,0,1],"irradiance":1}]}]})";
+  const CaptureSet s = read_capture(dir);
+  const std::vector<uint8_t> top{1, 1, 0, 0}, bottom{0, 0, 1, 1};
+  const ViewRows top_rows = [&](const std::shared_ptr<const ViewGeometry>&) -> const auto& {
+    return top;
+  };
+  const ViewRows bottom_rows = [&](const std::shared_ptr<const ViewGeometry>&) -> const auto& {
+    return bottom;
+  };
+  auto row_states = [](const ViewData& d, int y) {
+    return std::vector<uint8_t>(d.use.begin() + 4 * y, d.use.begin() + 4 * y + 4);
+  };
+  const std::vector<uint8_t> off(4, ViewData::kOff);
+  ViewData d;
+  load_view_into(s, 0, &d, nullptr, nullptr, &top_rows);
+  EXPECT_EQ(d.use[0], ViewData::kSaturated);
+  EXPECT_EQ(row_states(d, 1), std::vector<uint8_t>(4, ViewData::kUsable));
+  EXPECT_EQ(row_states(d, 2), off);
+  EXPECT_EQ(row_states(d, 3), off);
+  ViewData kept = d;  // not cleared: what a reused allocation would hold without clearing
+  clear_pixel_states(&d);
+  EXPECT_EQ(d.use, std::vector<uint8_t>(16, ViewData::kOff));
+  load_view_into(s, 0, &d, nullptr, nullptr, &bottom_rows);
+  const ViewData fresh = load_view(s, 0, nullptr, nullptr, &bottom_rows);
+  EXPECT_EQ(d.use, fresh.use);
+  EXPECT_EQ(row_states(d, 0), off);
+  EXPECT_EQ(row_states(d, 1), off);
+  EXPECT_EQ(d.use[2 * 4 + 3], ViewData::kSaturated);
+  EXPECT_EQ(d.saturated, 1u);
+  EXPECT_EQ(d.used, 7u);
+  // The check above can fail: without clear_pixel_states the first band's states stay.
+  load_view_into(s, 0, &kept, nullptr, nullptr, &bottom_rows);
+  EXPECT_EQ(kept.use[0], ViewData::kSaturated);
+}
+
 TEST(CaptureIO, WriteThenReadKeepsEverything) {
   const std::string dir = test::tmp_dir("cap");
   CaptureSet s;
