@@ -13,8 +13,8 @@ namespace aniso {
 
 namespace {
 
-thread_local const char* t_reading = nullptr;  // the file of the mapping this thread reads
-struct sigaction g_before;                     // SIGBUS's action before ours
+thread_local const MappedFile* t_reading = nullptr;  // the mappings this thread holds, innermost
+struct sigaction g_before;                           // SIGBUS's action before ours
 
 void say(const char* s) {
   for (size_t n = std::strlen(s); n > 0;) {
@@ -24,15 +24,17 @@ void say(const char* s) {
   }
 }
 
-// Async-signal-safe: write(2) and _exit only.
+// Async-signal-safe: write(2) and _exit only. A fault inside one of the thread's mappings is its
+// file's; any other goes to the action before ours.
 void on_bus(int sig, siginfo_t* info, void* context) {
-  if (const char* path = t_reading) {
-    say("aniso: error: ");
-    say(path);
-    say(": the file got shorter while it was being read (another program is writing it?); "
-        "stopped\n");
-    ::_exit(1);
-  }
+  for (const MappedFile* m = t_reading; m && info; m = m->outer())
+    if (m->holds(info->si_addr)) {
+      say("aniso: error: ");
+      say(m->path().c_str());
+      say(": the file got shorter while it was being read (another program is writing it?); "
+          "stopped\n");
+      ::_exit(1);
+    }
   if (g_before.sa_flags & SA_SIGINFO) {
     if (g_before.sa_sigaction) g_before.sa_sigaction(sig, info, context);
     return;
@@ -73,7 +75,7 @@ MappedFile::MappedFile(const std::string& path, size_t size) : path_(path) {
   ::close(fd);
   if (bytes_.empty()) return;
   outer_ = t_reading;
-  t_reading = path_.c_str();
+  t_reading = this;
 }
 
 MappedFile::~MappedFile() {
