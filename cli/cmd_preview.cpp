@@ -139,6 +139,10 @@ Command add_preview(CLI::App& app) {
   auto a = std::make_shared<PreviewArgs>();
   auto* prev = app.add_subcommand(
       "preview", "Render an object headless through OpenGL with the baked texture");
+  prev->footer(
+      "Renderer: a GPU where EGL lists one, else Mesa's llvmpipe on the CPU; the environment "
+      "variable ANISO_GL=auto (the default), gpu (a GPU or an error) or software (llvmpipe) "
+      "chooses. The line printed names the renderer used.");
   prev->add_option("MATERIAL", a->mat, "material file (or --bake)");
   prev->add_option("--bake", a->bake,
                    "render from a bake folder (what `aniso bake` wrote: its material and tables, "

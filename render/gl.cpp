@@ -39,16 +39,19 @@ GLuint compile(GLenum type, const char* src, const char* name) {
   return s;
 }
 
-}  // namespace
-
-namespace {
+// Which renderer ANISO_GL asks for: "auto" (unset: a GPU where EGL lists one, else llvmpipe),
+// "gpu" (a GPU or an error) or "software" (llvmpipe). Throws on anything else.
+std::string renderer_wanted() {
+  const char* env = std::getenv("ANISO_GL");
+  const std::string want = env && *env ? env : "auto";
+  if (want != "auto" && want != "gpu" && want != "software")
+    throw Error("ANISO_GL=" + want + ": expected auto, gpu or software");
+  return want;
+}
 
 // The first GPU among EGL's devices (EGL_EXT_device_enumeration, EGL_EXT_platform_device): a device
-// that is not Mesa's software renderer. EGL_NO_DEVICE_EXT where there is none, or ANISO_GL is
-// "software": then EGL's surfaceless platform, Mesa llvmpipe on the CPU.
+// that is not Mesa's software renderer; EGL_NO_DEVICE_EXT where there is none.
 EGLDeviceEXT gpu_device() {
-  const char* want = std::getenv("ANISO_GL");
-  if (want && std::string(want) == "software") return EGL_NO_DEVICE_EXT;
   if (!epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_device_enumeration") ||
       !epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_platform_device"))
     return EGL_NO_DEVICE_EXT;
@@ -67,15 +70,23 @@ EGLDeviceEXT gpu_device() {
 
 Context::Context() {
   // A GPU where EGL lists one (NVIDIA's driver has no surfaceless platform, only devices), else
-  // the surfaceless platform. A GPU that cannot give the context leaves the surfaceless one.
+  // the surfaceless platform (ANISO_GL: renderer_wanted). Under "auto" a GPU that cannot give the
+  // context leaves the surfaceless one.
+  const std::string want = renderer_wanted();
   std::string gpu_error;
-  if (const EGLDeviceEXT gpu = gpu_device(); gpu != EGL_NO_DEVICE_EXT) {
-    dpy_ = eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, gpu, nullptr);
-    gpu_error = dpy_ == EGL_NO_DISPLAY ? "no display on the GPU's EGL device" : open();
-    if (gpu_error.empty()) return;
-    gpu_error =
-        "; the GPU's EGL device: " + gpu_error + " (EGL error 0x" + hex(eglGetError()) + ")";
-    release();
+  if (want != "software") {
+    const EGLDeviceEXT gpu = gpu_device();
+    if (gpu == EGL_NO_DEVICE_EXT) {
+      gpu_error = "; EGL lists no GPU device";
+    } else {
+      dpy_ = eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, gpu, nullptr);
+      gpu_error = dpy_ == EGL_NO_DISPLAY ? "no display on the GPU's EGL device" : open();
+      if (gpu_error.empty()) return;
+      gpu_error =
+          "; the GPU's EGL device: " + gpu_error + " (EGL error 0x" + hex(eglGetError()) + ")";
+      release();
+    }
+    if (want == "gpu") fail("ANISO_GL=gpu" + gpu_error);
   }
   if (!epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_MESA_platform_surfaceless"))
     fail("EGL_MESA_platform_surfaceless is not available" + gpu_error);

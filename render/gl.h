@@ -1,6 +1,7 @@
 // render/ internal: the OpenGL plumbing of the preview, apart from what it draws. A headless
 // OpenGL 3.3 core context on a GPU's EGL device where there is one, else EGL's surfaceless platform
-// (Mesa llvmpipe; ANISO_GL=software asks for it on a machine with a GPU), programs from
+// (Mesa llvmpipe; ANISO_GL=software asks for it on a machine with a GPU, ANISO_GL=gpu for a GPU or
+// an error), programs from
 // the embedded GLSL of render/shaders/, float textures and an off-screen float framebuffer, each
 // released by its destructor. Included by render/*.cpp only (epoxy is a large header).
 #pragma once

@@ -181,6 +181,35 @@ TEST(BadInput, BadMaterialAndTable) {
                  dir + "/p.png");
 }
 
+// ANISO_GL picks the preview's renderer: an unknown value is an error naming it; "gpu" on a
+// machine whose EGL lists no GPU is an error saying so (where it lists one, the preview runs
+// there); "software" is llvmpipe.
+TEST(BadInput, TheRendererAskedForIsNamed) {
+  const std::string dir = test::tmp_dir("gl");
+  std::ofstream(dir + "/m.json") << R"({"format":"aniso-material","version":1,"kd":0.1,"ks":0.5,
+                                        "n":10,"fiber_angle_deg":0})";
+  const std::string args = "$A preview " + dir + "/m.json --size 16 --out " + dir;
+  test::RunResult r = test::sh("ANISO_GL=hardware " + args + "/a.png");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("ANISO_GL=hardware: expected auto, gpu or software"), std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(dir + "/a.png"));
+  r = test::sh("ANISO_GL=software " + args + "/s.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("on llvmpipe"), std::string::npos) << r.output;
+  const test::RunResult a = test::sh("ANISO_GL=auto " + args + "/auto.png");
+  ASSERT_EQ(a.status, 0) << a.output;
+  r = test::sh("ANISO_GL=gpu " + args + "/g.png");
+  if (a.output.find("on llvmpipe") != std::string::npos) {  // no GPU here
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.output.find("ANISO_GL=gpu; EGL lists no GPU device"), std::string::npos)
+        << r.output;
+    EXPECT_FALSE(fs::exists(dir + "/g.png"));
+  } else {
+    EXPECT_EQ(r.status, 0) << r.output;
+  }
+}
+
 TEST(BadInput, UnknownPresetAndOption) {
   const std::string dir = test::tmp_dir("x");
   expect_failure("synth velvet " + dir + "/set", {"velvet", "brushed-metal"}, dir + "/set");
