@@ -140,8 +140,9 @@ Command add_preview(CLI::App& app) {
   auto* prev = app.add_subcommand(
       "preview", "Render an object headless through OpenGL with the baked texture");
   prev->footer(
-      "Renderer: a GPU where EGL lists one, else Mesa's llvmpipe on the CPU; the environment "
-      "variable ANISO_GL=auto (the default), gpu (a GPU or an error) or software (llvmpipe) "
+      "Renderer: a GPU's EGL device where EGL lists one, else EGL's surfaceless platform (Mesa: "
+      "a GPU's render node or llvmpipe on the CPU). The environment variable ANISO_GL=auto (the "
+      "default), gpu (a GPU's device or an error) or software (Mesa's llvmpipe or an error) "
       "chooses. The line printed names the renderer used.");
   prev->add_option("MATERIAL", a->mat, "material file (or --bake)");
   prev->add_option("--bake", a->bake,

@@ -39,8 +39,8 @@ GLuint compile(GLenum type, const char* src, const char* name) {
   return s;
 }
 
-// Which renderer ANISO_GL asks for: "auto" (unset: a GPU where EGL lists one, else llvmpipe),
-// "gpu" (a GPU or an error) or "software" (llvmpipe). Throws on anything else.
+// Which renderer ANISO_GL asks for: "auto" (unset), "gpu" or "software" (Context's constructor
+// says what each takes). Throws on anything else.
 std::string renderer_wanted() {
   const char* env = std::getenv("ANISO_GL");
   const std::string want = env && *env ? env : "auto";
@@ -49,19 +49,23 @@ std::string renderer_wanted() {
   return want;
 }
 
-// The first GPU among EGL's devices (EGL_EXT_device_enumeration, EGL_EXT_platform_device): a device
-// that is not Mesa's software renderer; EGL_NO_DEVICE_EXT where there is none.
-EGLDeviceEXT gpu_device() {
-  if (!epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_device_enumeration") ||
-      !epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_platform_device"))
+// One of EGL's devices (EGL_EXT_device_base, or its parts EGL_EXT_device_enumeration and
+// EGL_EXT_device_query, with EGL_EXT_platform_device): the first GPU (a device other than Mesa's
+// software renderer) or, with `software`, Mesa's software renderer (llvmpipe); EGL_NO_DEVICE_EXT
+// where EGL lists none.
+EGLDeviceEXT egl_device(bool software) {
+  const bool devices = epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_device_base") ||
+                       (epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_device_enumeration") &&
+                        epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_device_query"));
+  if (!devices || !epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_platform_device"))
     return EGL_NO_DEVICE_EXT;
-  EGLDeviceEXT devices[16];
+  EGLDeviceEXT list[16];
   EGLint n = 0;
-  if (!eglQueryDevicesEXT(16, devices, &n)) return EGL_NO_DEVICE_EXT;
+  if (!eglQueryDevicesEXT(16, list, &n)) return EGL_NO_DEVICE_EXT;
   for (EGLint i = 0; i < n; ++i) {
-    const char* ext = eglQueryDeviceStringEXT(devices[i], EGL_EXTENSIONS);
-    if (ext && std::strstr(ext, "EGL_MESA_device_software")) continue;
-    return devices[i];
+    const char* ext = eglQueryDeviceStringEXT(list[i], EGL_EXTENSIONS);
+    const bool is_software = ext && std::strstr(ext, "EGL_MESA_device_software");
+    if (is_software == software) return list[i];
   }
   return EGL_NO_DEVICE_EXT;
 }
@@ -69,25 +73,24 @@ EGLDeviceEXT gpu_device() {
 }  // namespace
 
 Context::Context() {
-  // A GPU where EGL lists one (NVIDIA's driver has no surfaceless platform, only devices), else
-  // the surfaceless platform (ANISO_GL: renderer_wanted). Under "auto" a GPU that cannot give the
-  // context leaves the surfaceless one.
+  // ANISO_GL (renderer_wanted): "gpu" and "software" take that EGL device or fail; "auto" takes a
+  // GPU's device where EGL lists one, else (or where it cannot give the context) the surfaceless
+  // platform, whatever driver serves it (Mesa: a GPU's render node or llvmpipe; NVIDIA's too).
   const std::string want = renderer_wanted();
-  std::string gpu_error;
-  if (want != "software") {
-    const EGLDeviceEXT gpu = gpu_device();
-    if (gpu == EGL_NO_DEVICE_EXT) {
-      gpu_error = "; EGL lists no GPU device";
-    } else {
-      dpy_ = eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, gpu, nullptr);
-      gpu_error = dpy_ == EGL_NO_DISPLAY ? "no display on the GPU's EGL device" : open();
-      if (gpu_error.empty()) return;
-      gpu_error =
-          "; the GPU's EGL device: " + gpu_error + " (EGL error 0x" + hex(eglGetError()) + ")";
-      release();
-    }
-    if (want == "gpu") fail("ANISO_GL=gpu" + gpu_error);
+  const bool software = want == "software";
+  std::string device_error;
+  if (const EGLDeviceEXT device = egl_device(software); device == EGL_NO_DEVICE_EXT) {
+    device_error =
+        software ? "EGL lists no software renderer (Mesa's llvmpipe)" : "EGL lists no GPU device";
+  } else {
+    dpy_ = eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, device, nullptr);
+    device_error = dpy_ == EGL_NO_DISPLAY ? "no display on the EGL device" : open();
+    if (device_error.empty()) return;
+    device_error = "the EGL device: " + device_error + " (EGL error 0x" + hex(eglGetError()) + ")";
+    release();
   }
+  if (want != "auto") fail("ANISO_GL=" + want + ": " + device_error);
+  const std::string gpu_error = "; " + device_error;
   if (!epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_MESA_platform_surfaceless"))
     fail("EGL_MESA_platform_surfaceless is not available" + gpu_error);
   dpy_ = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
@@ -130,8 +133,7 @@ void Context::release() {
 
 void Context::fail(const std::string& what) {
   const std::string msg =
-      "preview: cannot create a headless OpenGL context (a GPU's EGL device, else EGL "
-      "surfaceless, Mesa): " +
+      "preview: cannot create a headless OpenGL context (EGL, ANISO_GL=auto|gpu|software): " +
       what + " (EGL error 0x" + hex(eglGetError()) + ")";
   release();  // a constructor that throws runs no destructor
   throw Error(msg);

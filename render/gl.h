@@ -1,9 +1,9 @@
 // render/ internal: the OpenGL plumbing of the preview, apart from what it draws. A headless
-// OpenGL 3.3 core context on a GPU's EGL device where there is one, else EGL's surfaceless platform
-// (Mesa llvmpipe; ANISO_GL=software asks for it on a machine with a GPU, ANISO_GL=gpu for a GPU or
-// an error), programs from
-// the embedded GLSL of render/shaders/, float textures and an off-screen float framebuffer, each
-// released by its destructor. Included by render/*.cpp only (epoxy is a large header).
+// OpenGL 3.3 core context on a GPU's EGL device where EGL lists one, else on EGL's surfaceless
+// platform (Mesa: a GPU's render node or llvmpipe); ANISO_GL=gpu or software asks for that device
+// or an error. Programs from the embedded GLSL of render/shaders/, float textures and an
+// off-screen float framebuffer, each released by its destructor. Included by render/*.cpp only
+// (epoxy is a large header).
 #pragma once
 #include <epoxy/egl.h>
 #include <epoxy/gl.h>
