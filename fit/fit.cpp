@@ -130,9 +130,10 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
     rep->warnings.push_back(
         "--maps: " + std::to_string(res->maps.determined.size() - determined) + " of " +
         std::to_string(res->maps.determined.size()) +
-        " texels are not determined by the data (too few pixels, psi's sigma over 10 deg, or a "
-        "solver that did not converge): they hold the global values with the prior's spread as "
-        "sigma (maps_uncertainty.determined = 0)");
+        " texels are not determined by the data (too few pixels, psi's sigma over 10 deg, two "
+        "fiber directions that fit a texel's data as well, or a solver that did not converge): "
+        "they hold the global values with the prior's spread as sigma "
+        "(maps_uncertainty.determined = 0)");
     size_t holes = 0;
     for (uint8_t b : interior_holes(res->maps)) holes += b;
     if (holes > 0)
