@@ -20,12 +20,6 @@ namespace aniso::fitting {
 
 namespace {
 
-// Grid over psi with k_d, k_s in closed form at the power of two nearest the global n (x^n by
-// squaring: this grid was most of the texel phase with a pow per pixel): the texel's start. With
-// `lanes`, eight nodes at a time in float (fit/texel_simd.h). Every 22.5 degrees, then 5.6 and
-// 11.25 degrees either side of the best two: 16 nodes, as many as a 15-degree grid with four
-// more around its best took, which ended in another basin than the truth's in 13 of 4096
-// texels of a swirl where this does in 2.
 // The start grid's best node at least kOtherValleyDeg from the start's psi (the texel's second
 // look: solve_texel_lm, solve_texel_ceres), with its cost and the best node's.
 constexpr double kOtherValleyDeg = 45;
@@ -34,6 +28,12 @@ struct OtherValley {
   double cost = INFINITY, best_cost = INFINITY;
 };
 
+// Grid over psi with k_d, k_s in closed form at the power of two nearest the global n (x^n by
+// squaring: this grid was most of the texel phase with a pow per pixel): the texel's start. With
+// `lanes`, eight nodes at a time in float (fit/texel_simd.h). Every 22.5 degrees, then 5.6 and
+// 11.25 degrees either side of the best two: 16 nodes, as many as a 15-degree grid with four
+// more around its best took, which ended in another basin than the truth's in 13 of 4096
+// texels of a swirl where this does in 2. With `other`, the best node of another valley too.
 void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes, Core* c,
                  OtherValley* other) {
   const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
@@ -57,9 +57,10 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
   for (int k = 0; k < 8; ++k)
     if (k != b1 && (b2 < 0 || fit[k].cost < fit[b2].cost)) b2 = k;
   const int off[4] = {-2, -1, 1, 2};
-  for (int k = 0; k < 4; ++k)
-    psi[8 + k] = texel_grid_angle((4 * b1 + off[k] + 32) % 32),
-            psi[12 + k] = texel_grid_angle((4 * b2 + off[k] + 32) % 32);
+  for (int k = 0; k < 4; ++k) {
+    psi[8 + k] = texel_grid_angle((4 * b1 + off[k] + 32) % 32);
+    psi[12 + k] = texel_grid_angle((4 * b2 + off[k] + 32) % 32);
+  }
   nodes(psi + 8, fit + 8);
   int best = b1;  // the first of equal costs, round one's before round two's
   for (int k = 8; k < 16; ++k)
