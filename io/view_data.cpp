@@ -388,7 +388,8 @@ ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, Geomet
 void clear_pixel_states(ViewData* d) {
   const size_t w = d->rows.empty() ? 0 : d->use.size() / d->rows.size();
   for (size_t y = 0; y < d->rows.size(); ++y)
-    if (d->rows[y]) std::fill_n(d->use.begin() + static_cast<std::ptrdiff_t>(y * w), w, 0);
+    if (d->rows[y])
+      std::fill_n(d->use.begin() + static_cast<std::ptrdiff_t>(y * w), w, ViewData::kOff);
 }
 
 void load_view_into(const CaptureSet& s, size_t i, ViewData* into, const TopologyMap* map,
