@@ -14,6 +14,7 @@
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
 #include <half.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -318,8 +319,9 @@ TEST(ImageIO, AMappedFileThatGetsShorterIsAnErrorNamingIt) {
         std::_Exit(5);
       },
       ::testing::ExitedWithCode(1), "view.exr: the file got shorter while it was being read");
-  // A SIGBUS that is not a fault in the mapping goes to the action before the handler's (here the
-  // default: the process ends by the signal), not reported as the file's.
+  // A SIGBUS that is not a fault in the mapping goes to the action before the handler's, not
+  // reported as the file's (exit 1): the default ends the process by the signal; a sanitizer that
+  // handles SIGBUS itself reports it and aborts.
   EXPECT_EXIT(
       {
         write_text_file(path, std::string(1 << 20, 'x'));
@@ -328,7 +330,7 @@ TEST(ImageIO, AMappedFileThatGetsShorterIsAnErrorNamingIt) {
         ::raise(SIGBUS);
         std::_Exit(5);
       },
-      ::testing::KilledBySignal(SIGBUS), "");
+      [](int status) { return WIFSIGNALED(status); }, "");
   // A size other than the caller's, or no file: empty (read another way), nothing mapped.
   write_text_file(path, std::string(1000, 'x'));
   EXPECT_TRUE(MappedFile(path, 999).empty());
