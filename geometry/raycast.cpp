@@ -181,7 +181,7 @@ void RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string& f
         if (distorted) {
           for (int l = 0; l < 8; ++l) {
             const int x = x0 + l;
-            Vec3 r(x < k.width ? ray_x[x] : 0.0, ray_y, 1.0);
+            Vec3 r(ray_x[x], ray_y, 1.0);                               // padded: 0 past the width
             valid[l] = x < k.width && pixel_ray(k, x, y, &r) ? -1 : 0;  // inside the lens model
             start_ray(eye, normalize(pose.dir(r)), l, &rh);
           }

@@ -309,6 +309,32 @@ void noisy_readings(const std::string& truth, const std::string& table, const st
   write_text_file(t + "_v.csv", noisy);
 }
 
+// Readings every `step` degrees of theta in and out, all in the plane phi = 0 / 180 (an in-plane
+// gonioreflectometer), and as many at random over the dome; each reading once per `spots` entry,
+// which ends its row (",u,v": a texel of --maps; "": no texture coordinates).
+struct PlaneAndDome {
+  std::string plane, dome;
+};
+PlaneAndDome in_plane_and_dome(int step, const std::vector<std::string>& spots,
+                               std::mt19937_64* rng) {
+  std::uniform_real_distribution<double> u(0, 1);
+  const bool uv = spots.size() > 1 || spots.at(0) != "";
+  PlaneAndDome t;
+  t.plane = t.dome =
+      std::string("theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg") + (uv ? ",u,v" : "") + "\n";
+  for (int ti = 5; ti < 80; ti += step)
+    for (int to = 5; to < 80; to += step)
+      for (int k = 0; k < 4; ++k)
+        for (const std::string& at : spots) {
+          t.plane += std::to_string(ti) + "," + std::to_string(k % 2 * 180) + "," +
+                     std::to_string(to) + "," + std::to_string(k / 2 * 180) + at + "\n";
+          t.dome += std::to_string(5 + 75 * u(*rng)) + "," + std::to_string(360 * u(*rng)) + "," +
+                    std::to_string(5 + 75 * u(*rng)) + "," + std::to_string(360 * u(*rng)) + at +
+                    "\n";
+        }
+  return t;
+}
+
 // Every view and light in one plane through the normal (an in-plane gonioreflectometer) cannot
 // tell psi from -psi: the two fit the readings equally. The fit says so, naming both, and gives
 // psi no sigma (it gave 150 deg +- 4e-7 deg for a truth of 30 deg, without a word; the fiber
@@ -320,17 +346,9 @@ void expect_in_plane_mirror_named(const std::string& model, const std::string& t
   const std::string dir = test::tmp_dir("in_plane_" + model);
   write_text_file(dir + "/truth.json", truth);
   std::mt19937_64 rng(5);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::string plane = "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n", dome = plane;
-  for (int ti = 5; ti < 80; ti += step)
-    for (int to = 5; to < 80; to += step)
-      for (int k = 0; k < 4; ++k) {
-        plane += std::to_string(ti) + "," + std::to_string(k % 2 * 180) + "," + std::to_string(to) +
-                 "," + std::to_string(k / 2 * 180) + "\n";
-        dome += std::to_string(5 + 75 * u(rng)) + "," + std::to_string(360 * u(rng)) + "," +
-                std::to_string(5 + 75 * u(rng)) + "," + std::to_string(360 * u(rng)) + "\n";
-      }
-  for (const auto& [name, table] : {std::pair{"plane", plane}, std::pair{"dome", dome}}) {
+  const PlaneAndDome tables = in_plane_and_dome(step, {""}, &rng);
+  for (const auto& [name, table] :
+       {std::pair{"plane", tables.plane}, std::pair{"dome", tables.dome}}) {
     SCOPED_TRACE(model + " " + name);
     const std::string t = dir + "/" + name;
     noisy_readings(dir + "/truth.json", table, t, &rng);
@@ -381,18 +399,10 @@ TEST(Trust, ATexelWhoseTwoFiberDirectionsFitAsWellIsNotDetermined) {
       "model": "line", "kd": [0.2, 0.15, 0.1], "ks": [0.6, 0.6, 0.6], "n": 40,
       "fiber_angle_deg": 30})");
   std::mt19937_64 rng(5);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::string plane = "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,u,v\n", dome = plane;
-  for (int ti = 5; ti < 80; ti += 5)
-    for (int to = 5; to < 80; to += 5)
-      for (int k = 0; k < 4; ++k)
-        for (const char* at : {",0.25,0.5\n", ",0.75,0.5\n"}) {  // two texels of a 2 x 1 map
-          plane += std::to_string(ti) + "," + std::to_string(k % 2 * 180) + "," +
-                   std::to_string(to) + "," + std::to_string(k / 2 * 180) + at;
-          dome += std::to_string(5 + 75 * u(rng)) + "," + std::to_string(360 * u(rng)) + "," +
-                  std::to_string(5 + 75 * u(rng)) + "," + std::to_string(360 * u(rng)) + at;
-        }
-  for (const auto& [name, table] : {std::pair{"plane", plane}, std::pair{"dome", dome}}) {
+  // The same readings in two texels of a 2 x 1 map.
+  const PlaneAndDome tables = in_plane_and_dome(5, {",0.25,0.5", ",0.75,0.5"}, &rng);
+  for (const auto& [name, table] :
+       {std::pair{"plane", tables.plane}, std::pair{"dome", tables.dome}}) {
     SCOPED_TRACE(name);
     const std::string t = dir + "/" + name;
     noisy_readings(dir + "/truth.json", table, t, &rng);
