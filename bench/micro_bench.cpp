@@ -131,7 +131,7 @@ fitting::TexelLanes texel_lanes_of(size_t count) {
   fitting::TexelLanes t;
   t.count = count;
   t.groups = (count + 7) / 8;
-  t.f.assign(t.groups * fitting::TexelLanes::kRows * 8, 0.f);
+  t.f.assign(fitting::TexelLanes::stored_groups(t.groups) * fitting::TexelLanes::kRows * 8, 0.f);
   t.grey_light = true;
   for (size_t j = 0; j < count; ++j) {
     const double E = 16.0 * l[j].n, y = 0.2 * E + 0.1;
@@ -143,8 +143,17 @@ fitting::TexelLanes texel_lanes_of(size_t count) {
   return t;
 }
 
+// range(1): the lanes' width, 8 (AVX2) or 16 (AVX-512, where the CPU has it).
+bool texel_width(benchmark::State& st) {
+  if (!fitting::line_simd_enabled()) return st.SkipWithError("no AVX2 and FMA"), false;
+  fitting::set_texel_avx512(st.range(1) == 16);
+  if (st.range(1) == 16 && !fitting::texel_avx512_enabled())
+    return st.SkipWithError("no AVX-512 on this CPU"), false;
+  return true;
+}
+
 void BM_TexelPassF32(benchmark::State& st) {
-  if (!fitting::line_simd_enabled()) return st.SkipWithError("no AVX2 and FMA");
+  if (!texel_width(st)) return;
   const fitting::TexelLanes t = texel_lanes_of(static_cast<size_t>(st.range(0)));
   const double kd[3] = {0.2, 0.2, 0.2}, ks[3] = {0.6, 0.6, 0.6};
   const fitting::LinePixelParams p{kd, ks, 40.0, std::cos(0.5), std::sin(0.5)};
@@ -157,10 +166,10 @@ void BM_TexelPassF32(benchmark::State& st) {
       benchmark::Counter(static_cast<double>(st.iterations() * st.range(0)),
                          benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_TexelPassF32)->Arg(80)->Arg(640);
+BENCHMARK(BM_TexelPassF32)->ArgsProduct({{80, 640}, {8, 16}});
 
 void BM_TexelNodesF32(benchmark::State& st) {
-  if (!fitting::line_simd_enabled()) return st.SkipWithError("no AVX2 and FMA");
+  if (!texel_width(st)) return;
   const fitting::TexelLanes t = texel_lanes_of(static_cast<size_t>(st.range(0)));
   double psi[8];  // the start grid's first eight nodes
   for (int k = 0; k < 8; ++k) psi[k] = fitting::texel_grid_angle(4 * k);
@@ -173,7 +182,7 @@ void BM_TexelNodesF32(benchmark::State& st) {
       benchmark::Counter(static_cast<double>(st.iterations() * st.range(0)),
                          benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_TexelNodesF32)->Arg(80)->Arg(640);
+BENCHMARK(BM_TexelNodesF32)->ArgsProduct({{80, 640}, {8, 16}});
 
 }  // namespace
 

@@ -21,8 +21,11 @@ struct KdKsSums;
 // per channel, and 1 for an observation or 0 for padding: 12 x 8 floats.
 struct TexelLanes {
   static constexpr int kRows = 12;
+  // The groups f holds: an even number, the last all zero where `groups` is odd (the sixteen-lane
+  // kernels read two groups at a time).
+  static size_t stored_groups(size_t groups) { return (groups + 1) / 2 * 2; }
   size_t groups = 0, count = 0;
-  std::vector<float> f;      // groups * kRows * 8
+  std::vector<float> f;      // stored_groups(groups) * kRows * 8
   double yy[3] = {0, 0, 0};  // sum of the squared values, per channel
   bool grey_light = false;   // every light's irradiance the same in the three channels
 };
@@ -31,6 +34,12 @@ struct TexelLanes {
 // line_simd_enabled() is false (no AVX2/FMA, or switched off) or an observation has other than
 // one light.
 bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out);
+
+// The sixteen-lane kernels (AVX-512F, DQ and VL) are used where the CPU has them, unless switched
+// off (set_texel_avx512, for the tests and the benchmark that compare the two widths); else eight
+// lanes (AVX2 and FMA).
+bool texel_avx512_enabled();
+void set_texel_avx512(bool on);
 
 // The texel's pass at p (no robust loss, as every texel's fit): cost, and the J^T J and J^T r
 // sums with `jac`.

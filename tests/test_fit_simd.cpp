@@ -191,17 +191,13 @@ TEST(FitPaths, FourGridColumnsAtOnceAsOneByOne) {
 namespace aniso::fitting {
 namespace {
 
-// A texel's float lanes (fit/texel_simd.h) against the double pass over the same records: the
-// cost, J^T J and J^T r to float's rounding (relative 1e-4 of each sum's scale), the double pass
-// from the lanes to double's, and eight start nodes at once as the double nodes (same cost to
-// 1e-4, the same best node).
-TEST(FitPaths, TexelFloatLanesAsTheDoublePass) {
-  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
-  const ObsSet os = random_set(false, 1);
+// Every third observation, less the last `drop`; returns the lanes' groups.
+size_t texel_lanes_as_the_double_pass(const ObsSet& os, size_t drop) {
   std::vector<size_t> idx;
   for (size_t i = 0; i < os.obs.size(); i += 3) idx.push_back(i);
+  idx.resize(idx.size() - drop);
   TexelLanes lanes;
-  ASSERT_TRUE(texel_lanes(os, idx, &lanes));
+  EXPECT_TRUE(texel_lanes(os, idx, &lanes));
   EXPECT_EQ(lanes.count, idx.size());
   const double kd[3] = {0.2, 0.3, 0.1}, ks[3] = {0.5, 0.4, 0.6};
   for (double n : {1.0, 40.0, 2000.0}) {
@@ -243,18 +239,63 @@ TEST(FitPaths, TexelFloatLanesAsTheDoublePass) {
     }
     EXPECT_EQ(best_f32, best_ref) << log2n;
   }
+  return lanes.groups;
 }
+
+// The texel tests below run once per lane width this CPU has: eight (AVX2), and sixteen
+// (AVX-512) where it has them. Restores the default on leaving.
+struct TexelWidths {
+  std::vector<bool> wide{false};
+  TexelWidths() {
+    set_texel_avx512(true);
+    if (texel_avx512_enabled()) wide.push_back(true);
+  }
+  ~TexelWidths() { set_texel_avx512(true); }
+};
+
+// A texel's float lanes (fit/texel_simd.h) against the double pass over the same records: the
+// cost, J^T J and J^T r to float's rounding (relative 1e-4 of each sum's scale), the double pass
+// from the lanes to double's, and eight start nodes at once as the double nodes (same cost to
+// 1e-4, the same best node); at either lane width, with an even and an odd number of groups.
+TEST(FitPaths, TexelFloatLanesAsTheDoublePass) {
+  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  const ObsSet os = random_set(false, 1);
+  const TexelWidths widths;
+  size_t groups[2] = {0, 0};
+  for (const bool wide : widths.wide)
+    for (const size_t drop : {0, 8}) {  // an even and an odd number of groups
+      SCOPED_TRACE(wide ? "sixteen lanes" : "eight lanes");
+      SCOPED_TRACE("less " + std::to_string(drop) + " observations");
+      set_texel_avx512(wide);
+      groups[drop > 0] = texel_lanes_as_the_double_pass(os, drop);
+    }
+  EXPECT_NE(groups[0] % 2, groups[1] % 2);
+}
+
+void grey_lights_as_three_channels(size_t count);
 
 // Under grey lights the start nodes share the channels' dd, ds, ss sums: the same numbers, bit for
 // bit, as the three channels summed apart (the lanes told their lights are not grey); the pass's
 // J^T J and J^T r come from products shared by the channels, as the double pass's to float's
-// rounding; a coloured light anywhere in the texel keeps the channels apart.
+// rounding; a coloured light anywhere in the texel keeps the channels apart. At either lane width,
+// with 77 observations (10 groups) and 67 (9: the sixteen lanes' last group half padding).
 TEST(FitPaths, TexelGreyLightsAsThreeChannels) {
   if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  const TexelWidths widths;
+  for (const bool wide : widths.wide)
+    for (const size_t count : {77, 67}) {  // not a whole number of groups or blocks
+      SCOPED_TRACE(wide ? "sixteen lanes" : "eight lanes");
+      SCOPED_TRACE(std::to_string(count) + " observations");
+      set_texel_avx512(wide);
+      grey_lights_as_three_channels(count);
+    }
+}
+
+void grey_lights_as_three_channels(size_t count) {
   ObsSet os = random_set(false, 1);
   for (ObsLight& l : os.lights) l.E[1] = l.E[2] = l.E[0];
   std::vector<size_t> idx;
-  for (size_t i = 0; i < 77; ++i) idx.push_back(i);  // not a whole number of groups or blocks
+  for (size_t i = 0; i < count; ++i) idx.push_back(i);
   TexelLanes grey;
   ASSERT_TRUE(texel_lanes(os, idx, &grey));
   ASSERT_TRUE(grey.grey_light);
