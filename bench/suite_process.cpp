@@ -233,6 +233,47 @@ json maps_entry(const std::string& work, bool quick, int views) {
   return e;
 }
 
+// The texel phase at the CPU's widest float lanes (16 with AVX-512) against eight (--maps-lanes
+// 8, AVX2: what a CPU without AVX-512 runs), on maps_entry's set and global fit (made there
+// first), alternated three times each (medians), and how far apart the maps land.
+json lanes_entry(const std::string& work, bool quick, int views) {
+  const std::string stem = join_path(work, "swirl" + std::to_string(quick ? 8 : views));
+  const std::string dir = stem + "_set", global = stem + "_global.json";
+  const std::string grid = quick ? "8x8" : "64x64";
+  std::vector<double> t[2];
+  int lanes[2] = {0, 0};
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 2; ++k) {
+      const std::string out = stem + (k == 0 ? "_widest.json" : "_eight.json");
+      std::vector<std::string> a = {"fit", dir, "--maps", grid, "--global", global, "--out", out};
+      if (k == 1) a.insert(a.end(), {"--maps-lanes", "8"});
+      if (!run_self(a).ok) continue;
+      t[k].push_back(texel_seconds(out));
+      const auto j = jsonu::json::parse(read_text_file(out), nullptr, false);
+      if (j.is_object()) lanes[k] = j["report"].value("maps_float_lanes", 0);
+    }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.size() == 3 ? v[1] : NAN;
+  };
+  const double ours = median(t[0]), eight = median(t[1]);
+  const double diff = std::isfinite(ours) && std::isfinite(eight)
+                          ? maps_difference(stem + "_widest", stem + "_eight")
+                          : NAN;
+  json e = entry("fit",
+                 "--maps " + grid + " texel phase on swirl-plate (" +
+                     std::to_string(quick ? 8 : views) + " views), " + std::to_string(lanes[0]) +
+                     " float lanes (the CPU's widest) vs 8 (--maps-lanes 8)",
+                 ours, eight, "s", NAN);
+  e["lanes"] = lanes[0];
+  e["largest_difference_sigma"] = std::isfinite(diff) ? json(diff) : json(nullptr);
+  std::printf(
+      "bench fit: --maps %s, %d float lanes %.3f s against 8 lanes %.3f s (%.2fx), %.4f "
+      "sigma apart\n",
+      grid.c_str(), lanes[0], ours, eight, eight / ours, diff);
+  return e;
+}
+
 // --maps with --global band by band (--maps-memory at an eighth of the records) against one band,
 // on maps_entry's set and global fit (made there first): the whole process and its peak memory
 // (median of three each), and whether the maps are the same bytes.
@@ -355,6 +396,7 @@ json bench_fit_process(const std::string& work, bool quick) {
   }
   out.push_back(maps_entry(work, quick, 16));
   if (!quick) out.push_back(maps_entry(work, quick, 64));
+  out.push_back(lanes_entry(work, quick, 64));
   out.push_back(bands_entry(work, quick, 64));
   out.push_back(fiber_entry(work, quick, "fiber-flat", "fiber"));
   out.push_back(fiber_entry(work, quick, "brushed-metal", "fiber"));

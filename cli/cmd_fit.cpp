@@ -24,6 +24,7 @@ namespace {
 
 struct FitArgs {
   std::string in, out, truth, maps, tile, global, maps_solver = "lm", solver = "fused";
+  std::string maps_lanes = "auto";
   std::string compression = "none";  // the maps' EXRs
   bool mpi = false;
   FitOptions fo = [] {
@@ -312,6 +313,13 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
                   "ceres (one Ceres problem per texel: the reference, slower)")
       ->check(CLI::IsMember({"lm", "ceres"}))
       ->default_str("lm");
+  fit->add_option("--maps-lanes", a->maps_lanes,
+                  "--maps, line model: the texels' float passes 8 floats a register (AVX2) or 16 "
+                  "(AVX-512); auto: the widest this CPU has. The two agree to float's rounding "
+                  "(~1e-3 sigma), not bit for bit: 8 reproduces a machine without AVX-512 "
+                  "(report.maps_float_lanes says which ran)")
+      ->check(CLI::IsMember({"auto", "8", "16"}))
+      ->default_str("auto");
   add_exr_compression(fit, &a->compression,
                       "--maps' files (a 1024^2 map's 10 files: 80 MB as none)");
   fit->add_option("--smooth", fo.maps_smooth,
@@ -422,6 +430,7 @@ Command add_fit(CLI::App& app) {
             if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h, "--maps");
             set_exr_compression(a->compression);
             a->fo.maps_ceres = a->maps_solver == "ceres";
+            a->fo.maps_lanes = a->maps_lanes == "auto" ? 0 : std::stoi(a->maps_lanes);
             a->fo.ceres_solver = a->solver == "ceres";
             if (!a->tile.empty()) parse_tile(a->tile, &a->fo);
             if (!a->global.empty()) {

@@ -21,6 +21,7 @@
 #include "fit/maps_bands.h"
 #include "fit/solve.h"
 #include "fit/start.h"
+#include "fit/texel_simd.h"
 #include "io/files.h"
 #include "models/params.h"
 
@@ -461,6 +462,9 @@ FitResult fit_table_here(const SampleTable& t, const FitOptions& opt) {
 // (an --mpi rank or a Slurm task sharing a node took all its cores).
 template <class F>
 FitResult on_threads(const FitOptions& opt, F f) {
+  fitting::set_texel_avx512(opt.maps_lanes != 8);
+  if (opt.maps_lanes == 16 && !fitting::texel_avx512_enabled())
+    throw Error("fit: --maps-lanes 16 needs AVX-512 (F, DQ and VL), which this CPU does not have");
   tbb::task_arena arena(std::max(1, opt.threads));
   return arena.execute(f);
 }

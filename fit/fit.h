@@ -75,6 +75,10 @@ struct FitOptions {
   double maps_smooth = 0;
   int maps_sweeps = 10;
   int maps_iterations = kTexelIterations;  // --maps-iterations: each texel's solver
+  // --maps-lanes: the line model's texel passes eight floats a register (AVX2) or sixteen
+  // (AVX-512, refused on a CPU without it); 0: the widest this CPU has. The maps of the two
+  // widths agree to float's rounding (~1e-3 sigma), not bit for bit.
+  int maps_lanes = 0;
   // --maps-memory MB: with --global, the records held at once; the texel rows are fitted in as
   // many bands as that takes (fit/band_load.h), each reading only its rows of the views.
   double maps_memory_mb = 512;
@@ -111,6 +115,7 @@ struct TexelMaps {
   double sum_sq = 0, values = 0;  // its sum of squares and count (bands of rows add up)
   double seconds = 0;
   int threads = 0;  // the threads its texels were solved on (--threads)
+  int lanes = 0;    // the float lanes of its line-model texels (16, 8; 0: none in float)
 };
 
 // The per-texel arrays of a TexelMaps (per-texel count `k`), as tiles name them.

@@ -20,6 +20,7 @@
 #include "core/angles.h"
 #include "core/progress.h"
 #include "fit/line_lm.h"
+#include "fit/texel_simd.h"
 #include "fit/texel_solve.h"
 #include "models/params.h"
 
@@ -296,6 +297,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   m.threads = tbb::this_task_arena::max_concurrency();
+  m.lanes = o.fiber_order == 0 && !o.ceres ? texel_float_lanes() : 0;  // the line model's LM
   return m;
 }
 
@@ -321,6 +323,7 @@ void join_band(const TexelMaps& part, int row0, int row1, TexelMaps* whole) {
   whole->rms = whole->values > 0 ? std::sqrt(whole->sum_sq / whole->values) : 0;
   whole->seconds += part.seconds;
   whole->threads = std::max(whole->threads, part.threads);
+  whole->lanes = std::max(whole->lanes, part.lanes);
 }
 
 }  // namespace aniso::fitting

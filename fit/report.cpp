@@ -271,6 +271,7 @@ void write_fit(const std::string& path, const FitResult& r) {
     add_maps(path, r.maps, &j);
     j["report"]["time_breakdown_s"]["texels"] = r.maps.seconds;  // the maps' own phase
     j["report"]["maps_threads"] = r.maps.threads;
+    j["report"]["maps_float_lanes"] = r.maps.lanes;
   }
   write_json_file(path, j);
 }

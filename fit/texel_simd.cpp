@@ -149,6 +149,8 @@ bool texel_avx512_enabled() { return g_avx512_on.load() && cpu_has_avx512(); }
 
 void set_texel_avx512(bool on) { g_avx512_on = on; }
 
+int texel_float_lanes() { return !line_simd_enabled() ? 0 : texel_avx512_enabled() ? 16 : 8; }
+
 void texel_pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac, ChannelSums<8>* s) {
   if (texel_avx512_enabled())
     x16::pass_f32(t, p, jac, s);

@@ -40,6 +40,8 @@ bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* o
 // lanes (AVX2 and FMA).
 bool texel_avx512_enabled();
 void set_texel_avx512(bool on);
+// 16 or 8 as above; 0 where texel_lanes refuses every texel (no AVX2 and FMA, or switched off).
+int texel_float_lanes();
 
 // The texel's pass at p (no robust loss, as every texel's fit): cost, and the J^T J and J^T r
 // sums with `jac`.

@@ -392,17 +392,37 @@ double worst_lm_against_ceres(const std::string& dir, const std::string& options
   return worst;
 }
 
+// At the CPU's widest float lanes and at eight (--maps-lanes 8: what a CPU without AVX-512 runs),
+// each against Ceres; report.maps_float_lanes says which ran. --maps-lanes 16 runs where the CPU
+// has AVX-512 and is refused, naming it, where it has not.
 TEST(FitMaps, LevenbergMarquardtReachesCeresMinimumPerTexel) {
   const std::string dir = test::tmp_dir("lm");
   auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
   ASSERT_EQ(r.status, 0) << r.output;
-  for (const std::string options : {"--maps 8x6", "--maps 8x6 --smooth 1 --smooth-sweeps 3"}) {
+  auto lanes = [&](const std::string& solver) {
+    const auto j = nlohmann::json::parse(read_text_file(dir + "/" + solver + ".json"));
+    return j["report"]["maps_float_lanes"].get<int>();
+  };
+  for (const std::string options :
+       {"--maps 8x6", "--maps 8x6 --maps-lanes 8", "--maps 8x6 --smooth 1 --smooth-sweeps 3"}) {
     size_t compared = 0;
     double sigma_ratio = 0;
     EXPECT_LT(worst_lm_against_ceres(dir, options, &compared, &sigma_ratio), 0.1) << options;
     EXPECT_GT(compared, 300u);
     std::printf("sigmas: worst relative difference %.2e\n", sigma_ratio);
     EXPECT_LT(sigma_ratio, 0.01) << options;
+    if (options.find("--maps-lanes 8") != std::string::npos)
+      EXPECT_EQ(lanes("lm"), 8);
+    else
+      EXPECT_TRUE(lanes("lm") == 8 || lanes("lm") == 16) << lanes("lm");
+    EXPECT_EQ(lanes("ceres"), 0);  // no texel in float lanes
+  }
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --maps-lanes 16 --out " + dir + "/wide.json");
+  if (r.status == 0) {
+    EXPECT_EQ(lanes("wide"), 16);
+  } else {
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find("--maps-lanes 16 needs AVX-512"), std::string::npos) << r.output;
   }
 }
 
