@@ -243,7 +243,7 @@ void set_param_bounds(ceres::Problem* pb, double* block, int index, const char* 
 
 // The start's second look: settled from the other valley of the start's grid too (m->other), the
 // fit goes on from the lower of the two; where the whole set would not tell them apart (their sums
-// of squares on the subset, scaled to the whole set's pixels, within 3 sigma), the other is
+// of squares on the subset, scaled to the whole set's pixels, within kAsWellSigma2), the other is
 // said. Without it, a set that cannot tell psi from -psi (every view and light in one plane
 // through the normal: an in-plane gonioreflectometer) gave psi = 150 deg with sigma 4e-7 deg
 // for a truth of 30 deg, without a word; the fiber model 150.04 deg +- 0.05 deg. Both settles
@@ -291,7 +291,7 @@ std::string second_look(ModelFit* m, const std::vector<double>& start_own, size_
   const double s2 = std::max(std::min(c1, c2) * per_value / dof, kSigma2Floor);
   const double whole =
       std::abs(c1 - c2) * per_value * static_cast<double>(pixels) / static_cast<double>(subset);
-  if (!(whole <= 9 * s2)) return "";
+  if (!(whole <= kAsWellSigma2 * s2)) return "";
   char buf[400];
   std::snprintf(buf, sizeof buf,
                 "two fiber directions fit the data as well: psi = %.2f deg (taken) and psi = %.2f "

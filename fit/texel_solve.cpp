@@ -92,12 +92,13 @@ bool texel_begin(const ObsSet& os, const std::vector<size_t>& idx, const TexelPr
 // The texel's second look (the global fit's, fit/solve.cpp): where the start grid's best node in
 // another valley (kOtherValleyDeg or more from the start) costs within kOtherValleyGate sigma^2 of
 // the best node, the texel is solved from there too (solve_from). Where both converged, more than
-// a degree apart, the lower minimum is taken, and where they are within 3 sigma of each other (9
-// sigma^2 in the sum of squares) the data do not tell the two directions apart: the texel is not
-// determined.
+// a degree apart, the lower minimum is taken, and where they are within kAsWellSigma2 sigma^2 of
+// each other in the sum of squares (fit/start.h) the data do not tell the two directions apart:
+// the texel is not determined; so too where the second stopped before converging no more than
+// that above the first (its sum of squares bounds its valley's from above).
 // Without it, satin-ball's orbit set at --maps 256x256 held 98 determined texels of 20185 with
 // psi more than 45 degrees off the truth, their sigma 0.04 to 10 degrees (median 1.6).
-constexpr double kOtherValleyGate = 9;
+constexpr double kOtherValleyGate = kAsWellSigma2;
 template <class SolveFrom>
 void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_from,
                        TexelResult* t) {
@@ -109,10 +110,14 @@ void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_
   if (std::abs(std::remainder(second.c.psi - t->c.psi, M_PI)) < deg_to_rad(kSameDeg)) return;
   // A first solve that did not converge stays undetermined: a second that did is not taken for it
   // (on satin-ball, 7 such texels converged in the other valley, psi ~83 degrees off).
-  if (!t->converged || !second.converged) return;
+  if (!t->converged) return;
   constexpr double kSigma2Floor = 1e-12;  // noise-free data
   const double s2 = std::max(std::min(t->rss, second.rss) / dof, kSigma2Floor);
-  const bool as_well = std::abs(t->rss - second.rss) <= 9 * s2;
+  if (!second.converged) {
+    if (second.rss - t->rss <= kAsWellSigma2 * s2) t->determined = false;
+    return;
+  }
+  const bool as_well = std::abs(t->rss - second.rss) <= kAsWellSigma2 * s2;
   if (second.rss < t->rss) *t = second;
   if (as_well) t->determined = false;
 }
