@@ -350,6 +350,13 @@ constexpr double kFloatStepInSigma = 0.05;
 // at 0.02, 0.0055; 4.1 float passes a texel against 4.0 and 5.0).
 constexpr double kTexelLastStepInSigma = 0.02;
 constexpr int kZigZagIterations = 20;
+// A ridge: where k_s and n trade off (a lobe seen only on its flank), the LM crawls along them,
+// each step a little lower, to its iteration limit, while k_d and psi stay put. Past
+// kRidgeIterations, a texel whose k_d and psi moved less than kRidgeSettledSigma of their
+// sigma over the last kRidgeWindow accepted steps is done: k_s and n keep the sigma the ridge gives
+// them (named where it passes their bounds' spread).
+constexpr int kRidgeIterations = 30, kRidgeWindow = 10;
+constexpr double kRidgeSettledSigma = 0.1;
 
 // The texel's objective at a point: the data's sum of squares with J^T J, J^T r, and the same
 // with the prior added. A trial point is evaluated with its derivatives at once: most steps are
@@ -385,6 +392,12 @@ struct TexelObjective {
     if (!e->have_hinv) e->hinv = texel_inverse_diagonal(e->h), e->have_hinv = true;
     return step_in_sigmas_d<8>(e->hinv, step, e->total, 3.0 * idx.size());
   }
+  // k_d (0-2) and psi (7) moved by less than kRidgeSettledSigma of their sigma.
+  bool ridge_settled(TexelEval* e, Vec8 moved) const {
+    moved.segment<4>(3).setZero();  // k_s, log n: the ridge
+    moved(7) = std::remainder(moved(7), M_PI);
+    return in_sigmas(e, moved) < kRidgeSettledSigma;
+  }
   Vec8 bounded(const Vec8& xn) const {
     Vec8 b = xn.cwiseMax(lo).cwiseMin(hi);
     b(7) = wrap_half_turn(b(7));
@@ -397,6 +410,8 @@ struct TexelObjective {
     evaluate(*x, cur);
     TexelEval trial;
     double lambda = 1e-3;
+    Vec8 window_start = *x;
+    int accepted = 0;
     for (int it = 0; it < max_iterations; ++it) {
       Mat8 a = cur->h;
       a.diagonal() += lambda * cur->h.diagonal().cwiseMax(1e-12);
@@ -419,6 +434,10 @@ struct TexelObjective {
         *cur = trial;
         lambda = std::max(lambda / 3, 1e-12);
         if (done) return true;
+        if (++accepted % kRidgeWindow == 0) {
+          if (it >= kRidgeIterations && ridge_settled(cur, *x - window_start)) return true;
+          window_start = *x;
+        }
       } else {
         if (in_float && size < 4 * stop) return true;  // within float's rounding of the cost
         lambda *= 4;
