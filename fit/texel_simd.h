@@ -1,10 +1,11 @@
-// fit/ internal: one texel of --maps eight observations at a time in float (AVX2 and FMA, chosen
-// at run time). A texel's start and its Levenberg-Marquardt read the same few hundred
-// observations ten times or more, so they are transposed once (TexelLanes: float, structure of
-// arrays, eight to a group) and every pass reads them straight from there; the lobe's exp and log
-// in 8-wide float. Sums are per lane in float (a texel's lane sums a few dozen terms) and added
-// in double at the end of the pass. The double 4-lane pass (fit/line_simd.h) stays the global
-// fit's and the reference of the tests.
+// fit/ internal: one texel of --maps eight observations at a time in float (AVX2 and FMA), or
+// sixteen (AVX-512), chosen at run time (fit/texel_kernels.inc holds the kernels for both). A
+// texel's start and its Levenberg-Marquardt read the same few hundred observations ten times or
+// more, so they are transposed once (TexelLanes: float, structure of arrays, eight to a group) and
+// every pass reads them straight from there; the lobe's exp and log in 8- or 16-wide float. Sums
+// are per lane in float (a texel's lane sums a few dozen terms) and added in double at the end of
+// the pass. The double 4-lane pass (fit/line_simd.h) stays the global fit's and the reference of
+// the tests.
 #pragma once
 #include <cmath>
 #include <cstddef>
