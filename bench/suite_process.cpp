@@ -89,6 +89,12 @@ Run run_self(const std::vector<std::string>& args) {
   return r;
 }
 
+// The middle of three timings; NaN unless all three ran.
+double middle_of_three(std::vector<double> t) {
+  std::sort(t.begin(), t.end());
+  return t.size() == 3 ? t[1] : NAN;
+}
+
 Run median_of_three(const std::vector<std::string>& args) {
   std::vector<Run> runs;
   for (int i = 0; i < 3; ++i) runs.push_back(run_self(args));
@@ -213,12 +219,11 @@ json maps_entry(const std::string& work, bool quick, int views) {
   std::vector<double> lm;
   for (int i = 0; i < 3; ++i)
     if (run_self(maps("lm")).ok) lm.push_back(texel_seconds(stem + "_lm.json"));
-  std::sort(lm.begin(), lm.end());
-  const double ours = lm.size() == 3 ? lm[1] : NAN;
+  const double ours = middle_of_three(lm);
   const bool ceres_ok = run_self(maps("ceres")).ok;
   const double ceres = ceres_ok ? texel_seconds(stem + "_ceres.json") : NAN;
   const double diff =
-      ceres_ok && lm.size() == 3 ? maps_difference(stem + "_lm", stem + "_ceres") : NAN;
+      ceres_ok && std::isfinite(ours) ? maps_difference(stem + "_lm", stem + "_ceres") : NAN;
   json e = entry("fit",
                  "--maps " + grid + " texel phase on swirl-plate (" + std::to_string(po.views) +
                      " views of " + std::to_string(po.width) +
@@ -252,11 +257,7 @@ json lanes_entry(const std::string& work, bool quick, int views) {
       const auto j = jsonu::json::parse(read_text_file(out), nullptr, false);
       if (j.is_object()) lanes[k] = j["report"].value("maps_float_lanes", 0);
     }
-  auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.size() == 3 ? v[1] : NAN;
-  };
-  const double ours = median(t[0]), eight = median(t[1]);
+  const double ours = middle_of_three(t[0]), eight = middle_of_three(t[1]);
   const double diff = std::isfinite(ours) && std::isfinite(eight)
                           ? maps_difference(stem + "_widest", stem + "_eight")
                           : NAN;
