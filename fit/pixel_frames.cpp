@@ -1,9 +1,13 @@
-// The loader's per-pixel geometry in four lanes (fit/pixel_frames.h). Only AVX2, never FMA: a
-// fused multiply-add rounds once where the scalar forms round twice, and the point of this file
-// is their bits. Every expression below follows its scalar original term by term.
+// The loader's per-pixel geometry in four lanes (fit/pixel_frames.h), and the light's part in
+// eight where the CPU has AVX-512F. Never a fused multiply-add: it rounds once where the scalar
+// forms round twice, and the point of this file is their bits (AVX2 has no FMA without asking;
+// AVX-512F has, so the file is built with -ffp-contract=off). Every expression below follows its
+// scalar original term by term.
 #include "fit/pixel_frames.h"
 
 #include <immintrin.h>
+
+#include <cstring>
 
 #include "fit/line_simd.h"
 
@@ -75,19 +79,90 @@ ANISO_AVX2_ONLY void frame_quad(const Vec3& eye, PixelQuad* q) {
   for (int l = 0; l < 4; ++l) q->frame_ok[l] = (okm >> l) & 1;
 }
 
+// light_at for a point light and to_local, over lanes of any width (VD a vector of doubles), in
+// two parts around the square root of *r2, which the caller takes in its own target: the first
+// gives dl = light - P and its squared length, the second L in the frame (U, W, N), the
+// attenuation factor f and *lit, all ones (a NaN) where the light reaches the point, else 0.
+// Inlined into the callers below, which give them their target; vectors pass by pointer only.
+template <class VD>
+__attribute__((always_inline)) inline void light_dist(const Light& light, const VD* P, VD* dl,
+                                                      VD* r2) {
+  dl[0] = light.position.x - P[0], dl[1] = light.position.y - P[1], dl[2] = light.position.z - P[2];
+  *r2 = dl[0] * dl[0] + dl[1] * dl[1] + dl[2] * dl[2];
+}
+template <class VD>
+__attribute__((always_inline)) inline void light_local(const Light& light, const VD* dl,
+                                                       const VD* r, const VD* U, const VD* W,
+                                                       const VD* N, VD* L_out, VD* f, VD* lit) {
+  const VD L[3] = {dl[0] / *r, dl[1] / *r, dl[2] / *r};
+  const VD att = light.attenuation[0] + light.attenuation[1] * *r + light.attenuation[2] * *r * *r;
+  *f = 1.0 / att;
+  *lit = (VD)((*r > 0.0) & (att > 0.0));
+  L_out[0] = L[0] * U[0] + L[1] * U[1] + L[2] * U[2];
+  L_out[1] = L[0] * W[0] + L[1] * W[1] + L[2] * W[2];
+  L_out[2] = L[0] * N[0] + L[1] * N[1] + L[2] * N[2];
+}
+
 ANISO_AVX2_ONLY void light_quad(const Light& light, PixelQuad* q) {
   const V3 P = load3(q->P), U = load3(q->fU), W = load3(q->fW), N = load3(q->fN);
-  // light_at, a point light
-  const V3 dl = sub(from(light.position), P);
-  const v4d r = vsqrt(vdot(dl, dl));
-  const V3 L = {dl.x / r, dl.y / r, dl.z / r};
-  const v4d att = splat(light.attenuation[0]) + splat(light.attenuation[1]) * r +
-                  splat(light.attenuation[2]) * r * r;
-  const v4d f = splat(1.0) / att;
-  const v4d lit = v4d(_mm256_and_pd(__m256d(gt(r, splat(0.0))), __m256d(gt(att, splat(0.0)))));
-  put_local(L, U, W, N, q->L);
+  const v4d Pv[3] = {P.x, P.y, P.z}, Uv[3] = {U.x, U.y, U.z}, Wv[3] = {W.x, W.y, W.z},
+            Nv[3] = {N.x, N.y, N.z};
+  v4d dl[3], r2, L[3], f, lit;
+  light_dist(light, Pv, dl, &r2);
+  const v4d r = vsqrt(r2);
+  light_local(light, dl, &r, Uv, Wv, Nv, L, &f, &lit);
   const int litm = _mm256_movemask_pd(__m256d(lit));
-  for (int l = 0; l < 4; ++l) q->f[l] = f[l], q->lit[l] = (litm >> l) & 1;
+  for (int l = 0; l < 4; ++l)
+    q->L[l] = {L[0][l], L[1][l], L[2][l]}, q->f[l] = f[l], q->lit[l] = (litm >> l) & 1;
+}
+
+// shared_light_lanes' lanes [at, at + width) of the rows from index i: their rows, then the
+// second part after the caller's square root of r2.
+template <class VD>
+__attribute__((always_inline)) inline void shared_rows(const Light& light, const double* frame,
+                                                       size_t padded, size_t i, VD* rows, VD* dl,
+                                                       VD* r2) {
+  for (int k = 0; k < 12; ++k) std::memcpy(&rows[k], frame + k * padded + i, sizeof(VD));
+  light_dist(light, rows, dl, r2);
+}
+template <class VD>
+__attribute__((always_inline)) inline void shared_out(const Light& light, const VD* rows,
+                                                      const VD* dl, const VD* r, int at,
+                                                      LightLanes* out) {
+  VD L[3], f, lit;
+  light_local(light, dl, r, rows + 3, rows + 6, rows + 9, L, &f, &lit);
+  constexpr int width = sizeof(VD) / sizeof(double);
+  for (int l = 0; l < width; ++l)
+    out->L[at + l] = {L[0][l], L[1][l], L[2][l]}, out->f[at + l] = f[l],
+                out->lit[at + l] = lit[l] != 0;
+}
+
+ANISO_AVX2_ONLY void shared_lanes_avx2(const Light& light, const double* frame, size_t padded,
+                                       size_t i, LightLanes* out) {
+  for (int at = 0; at < kSharedLanes; at += 4) {
+    v4d rows[12], dl[3], r2;
+    shared_rows(light, frame, padded, i + at, rows, dl, &r2);
+    const v4d r = vsqrt(r2);
+    shared_out(light, rows, dl, &r, at, out);
+  }
+}
+
+// Eight lanes in one (AVX-512F's fused multiply-add is not used: the file is built with
+// -ffp-contract=off, so a * b + c rounds twice as in the scalar form).
+typedef double v8d __attribute__((vector_size(64)));
+__attribute__((target("avx512f"))) void shared_lanes_avx512(const Light& light, const double* frame,
+                                                            size_t padded, size_t i,
+                                                            LightLanes* out) {
+  v8d rows[12], dl[3], r2;
+  shared_rows(light, frame, padded, i, rows, dl, &r2);
+  // The builtin itself: _mm512_sqrt_pd's undefined pass-through trips GCC 12's maybe-uninitialized.
+  const v8d r = __builtin_ia32_sqrtpd512_mask(r2, r2, 0xff, 4);
+  shared_out(light, rows, dl, &r, 0, out);
+}
+
+bool cpu_has_avx512f() {
+  static const bool has = __builtin_cpu_supports("avx512f");
+  return has;
 }
 
 }  // namespace
@@ -100,5 +175,13 @@ void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q) {
 }
 void pixel_frame_quad(const Vec3& eye, PixelQuad* q) { frame_quad(eye, q); }
 void pixel_light_quad(const Light& point, PixelQuad* q) { light_quad(point, q); }
+
+void shared_light_lanes(const Light& point, const double* frame, size_t padded, size_t i,
+                        LightLanes* out) {
+  if (cpu_has_avx512f())
+    shared_lanes_avx512(point, frame, padded, i, out);
+  else
+    shared_lanes_avx2(point, frame, padded, i, out);
+}
 
 }  // namespace aniso::fitting

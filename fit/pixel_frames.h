@@ -37,4 +37,17 @@ void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q);
 void pixel_frame_quad(const Vec3& eye, PixelQuad* q);
 void pixel_light_quad(const Light& point, PixelQuad* q);
 
+// The light's part for pixels whose position and frame are arrays (fit/pixel_records.h
+// SharedPixels: rows P x y z, U x y z, W x y z, N x y z, each `padded` long): kSharedLanes pixels
+// from index i at once (eight lanes of AVX-512 where the CPU has it, else two of four), the same
+// bits as pixel_light_quad.
+constexpr int kSharedLanes = 8;
+struct LightLanes {
+  LocalDir L[kSharedLanes];
+  double f[kSharedLanes];
+  bool lit[kSharedLanes];
+};
+void shared_light_lanes(const Light& point, const double* frame, size_t padded, size_t i,
+                        LightLanes* out);
+
 }  // namespace aniso::fitting

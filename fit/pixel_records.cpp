@@ -76,29 +76,37 @@ void add_pixel(const ViewData& d, const ViewSpec& v, int x, int y, long t, const
   put_record(d, x, y, t, to_local(sp, normalize(d.eye - sp.P)), lit, band, out, rep);
 }
 
+// Pixel (x, y)'s record (texel t) under v's one point light: its frame (`ok`: the buffers define
+// one), V and L in it, the light's attenuation factor f and whether it reaches the point (`lit`),
+// as fit/pixel_frames.h gives them.
+void put_lit(const ViewData& d, const ViewSpec& v, bool ok, const LocalDir& V, const LocalDir& L,
+             double f, bool lit, int x, int y, long t, const UvBand& band, RecordSlot* out,
+             FitReport* rep) {
+  if (!ok) {
+    rep->nonfinite += band.owns(t);
+    return;
+  }
+  const Light& light = v.lights[0];
+  size_t n_lit = 0;
+  const RGB E = {light.intensity[0] * f, light.intensity[1] * f, light.intensity[2] * f};
+  if (lit && (E[0] > 0 || E[1] > 0 || E[2] > 0) && L.n > 0.0) {
+    ObsLight ol;
+    ol.L = L;
+    for (int k = 0; k < 3; ++k) ol.E[k] = v.exposure * E[k];
+    out->lights[out->num_lights] = ol;
+    n_lit = 1;
+  }
+  put_record(d, x, y, t, V, n_lit, band, out, rep);
+}
+
 // The records of up to four pixels (xs[0..n), ys, texels ts) whose quad q holds their frames, V
 // and L under v's one point light, in the pixels' order.
 void put_quad(const ViewData& d, const ViewSpec& v, const PixelQuad& q, const int* xs,
               const int* ys, const long* ts, int n, const UvBand& band, RecordSlot* out,
               FitReport* rep) {
-  const Light& light = v.lights[0];
-  for (int l = 0; l < n; ++l) {
-    if (!q.frame_ok[l]) {
-      rep->nonfinite += band.owns(ts[l]);
-      continue;
-    }
-    size_t lit = 0;
-    const RGB E = {light.intensity[0] * q.f[l], light.intensity[1] * q.f[l],
-                   light.intensity[2] * q.f[l]};
-    if (q.lit[l] && (E[0] > 0 || E[1] > 0 || E[2] > 0) && q.L[l].n > 0.0) {
-      ObsLight ol;
-      ol.L = q.L[l];
-      for (int k = 0; k < 3; ++k) ol.E[k] = v.exposure * E[k];
-      out->lights[out->num_lights] = ol;
-      lit = 1;
-    }
-    put_record(d, xs[l], ys[l], ts[l], q.V[l], lit, band, out, rep);
-  }
+  for (int l = 0; l < n; ++l)
+    put_lit(d, v, q.frame_ok[l], q.V[l], q.L[l], q.f[l], q.lit[l], xs[l], ys[l], ts[l], band, out,
+            rep);
 }
 
 // The buffers' position, normal and tangent of up to four pixels (xs[0..n), ys) into q's lanes;
@@ -176,19 +184,27 @@ std::unique_ptr<const SharedPixels> shared_pixels(const ViewData& d, int stride,
       sp->x.push_back(x), sp->y.push_back(y), sp->t.push_back(t);
     }
   const size_t n = sp->x.size();
-  sp->frame.resize(n);
+  sp->padded = (n + kSharedLanes - 1) / kSharedLanes * kSharedLanes;
+  sp->frame.resize(SharedPixels::kSharedRows * sp->padded);
+  sp->V.resize(n);
+  sp->ok.resize(n);
   for (size_t i0 = 0; i0 < n; i0 += 4) {
     PixelQuad q;
     load_quad(g, &sp->x[i0], &sp->y[i0], static_cast<int>(std::min<size_t>(4, n - i0)), &q);
     pixel_frame_quad(d.eye, &q);
     for (size_t l = 0; l < 4 && i0 + l < n; ++l) {
-      SharedPixels::Frame& f = sp->frame[i0 + l];
-      for (int c = 0; c < 3; ++c)
-        f.P[c] = q.P[c][l], f.U[c] = q.fU[c][l], f.W[c] = q.fW[c][l], f.N[c] = q.fN[c][l];
-      f.V = q.V[l];
-      f.ok = q.frame_ok[l];
+      for (int c = 0; c < 3; ++c) {
+        const double at[4] = {q.P[c][l], q.fU[c][l], q.fW[c][l], q.fN[c][l]};
+        for (int k = 0; k < 4; ++k) sp->frame[(3 * k + c) * sp->padded + i0 + l] = at[k];
+      }
+      sp->V[i0 + l] = q.V[l];
+      sp->ok[i0 + l] = q.frame_ok[l];
     }
   }
+  for (int k = 0; k < SharedPixels::kSharedRows && n > 0; ++k)  // the padding repeats the last
+    std::fill(sp->frame.begin() + static_cast<std::ptrdiff_t>(k * sp->padded + n),
+              sp->frame.begin() + static_cast<std::ptrdiff_t>((k + 1) * sp->padded),
+              sp->frame[k * sp->padded + n - 1]);
   return sp;
 }
 
@@ -202,29 +218,25 @@ size_t usable_shared(const ViewData& d, const SharedPixels& sp) {
 
 void add_shared_observations(const ViewData& d, const ViewSpec& v, const SharedPixels& sp,
                              const UvBand& band, RecordSlot* out, FitReport* rep) {
-  const size_t w = static_cast<size_t>(d.rgb.width);
-  PixelQuad q;
-  int xs[4], ys[4], n = 0;
-  long ts[4];
-  auto flush = [&] {
-    for (int l = n; l < 4; ++l)  // a short quad repeats its last pixel
-      for (int c = 0; c < 3; ++c)
-        q.P[c][l] = q.P[c][n - 1], q.fU[c][l] = q.fU[c][n - 1], q.fW[c][l] = q.fW[c][n - 1],
-        q.fN[c][l] = q.fN[c][n - 1];
-    pixel_light_quad(v.lights[0], &q);
-    put_quad(d, v, q, xs, ys, ts, n, band, out, rep);
-    n = 0;
-  };
-  for (size_t i = 0; i < sp.x.size(); ++i) {
-    if (!d.usable(static_cast<size_t>(sp.y[i]) * w + static_cast<size_t>(sp.x[i]))) continue;
-    const SharedPixels::Frame& f = sp.frame[i];
-    for (int c = 0; c < 3; ++c)
-      q.P[c][n] = f.P[c], q.fU[c][n] = f.U[c], q.fW[c][n] = f.W[c], q.fN[c][n] = f.N[c];
-    q.V[n] = f.V, q.frame_ok[n] = f.ok;
-    xs[n] = sp.x[i], ys[n] = sp.y[i], ts[n] = sp.t[i];
-    if (++n == 4) flush();
+  const size_t w = static_cast<size_t>(d.rgb.width), n = sp.x.size();
+  LightLanes ll;
+  for (size_t i0 = 0; i0 < n; i0 += kSharedLanes) {
+    const size_t m = std::min<size_t>(kSharedLanes, n - i0);
+    bool use[kSharedLanes], any = false;
+    for (size_t l = 0; l < m; ++l) {
+      const size_t i = i0 + l;
+      use[l] = d.usable(static_cast<size_t>(sp.y[i]) * w + static_cast<size_t>(sp.x[i]));
+      any = any || use[l];
+    }
+    if (!any) continue;
+    shared_light_lanes(v.lights[0], sp.frame.data(), sp.padded, i0, &ll);
+    for (size_t l = 0; l < m; ++l)
+      if (use[l]) {
+        const size_t i = i0 + l;
+        put_lit(d, v, sp.ok[i] != 0, sp.V[i], ll.L[l], ll.f[l], ll.lit[l], sp.x[i], sp.y[i],
+                sp.t[i], band, out, rep);
+      }
   }
-  if (n > 0) flush();
 }
 
 }  // namespace aniso::fitting

@@ -71,19 +71,23 @@ struct SharedPixels {
   Vec3 eye;
   std::vector<int> x, y;
   std::vector<long> t;
-  struct Frame {
-    double P[3], U[3], W[3], N[3];
-    LocalDir V;
-    bool ok;
-  };
-  std::vector<Frame> frame;
+  // Per pixel, as arrays (kSharedRows of them, each `padded` long, the last pixel repeated to a
+  // multiple of kSharedLanes): the position and the frame's axes U, W, N, x y z each; a view's
+  // light reads them straight into its lanes (fit/pixel_frames.h shared_light_lanes), where a
+  // pixel's record of them was copied into a quad first.
+  static constexpr int kSharedRows = 12;
+  size_t padded = 0;
+  std::vector<double> frame;  // row k at frame[k * padded]
+  std::vector<LocalDir> V;
+  std::vector<uint8_t> ok;
+  const double* row(int k) const { return frame.data() + static_cast<size_t>(k) * padded; }
   size_t bytes() const {  // what it holds
     return (x.capacity() + y.capacity()) * sizeof(int) + t.capacity() * sizeof(long) +
-           frame.capacity() * sizeof(Frame);
+           frame.capacity() * sizeof(double) + V.capacity() * sizeof(LocalDir) + ok.capacity();
   }
 };
 // Views share their pixels where at least this many name one geometry (not a mesh) and each has
-// one point light: SharedPixels' ~144 bytes a pixel are then at most 36 bytes a record (the
+// one point light: SharedPixels' ~140 bytes a pixel are then at most 35 bytes a record (the
 // records 56 bytes and more: BENCHMARKS.md's bound is 112); two views of a large sample would
 // have held 1.3 times their records more.
 constexpr size_t kShareFrom = 4;
@@ -91,8 +95,9 @@ constexpr size_t kShareFrom = 4;
 // CPU's pixel quads allowing).
 bool shares_pixels(size_t views, const ViewSpec& v);
 // The most a shared pixel holds (its arrays grown by doubling), for the bands' plan.
-constexpr size_t kSharedPixelBytes =
-    2 * (2 * sizeof(int) + sizeof(long)) + sizeof(SharedPixels::Frame);
+constexpr size_t kSharedPixelBytes = 2 * (2 * sizeof(int) + sizeof(long)) +
+                                     SharedPixels::kSharedRows * sizeof(double) + sizeof(LocalDir) +
+                                     sizeof(uint8_t);
 // Null where pixel quads do not apply (pixel_quads_enabled() is false) or sharing is switched off
 // (set_shared_pixels, for tests comparing the two).
 void set_shared_pixels(bool on);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -60,6 +61,79 @@ void line_nodes_cost(const ObsSet& os, const std::vector<size_t>& subset, const 
     }
   for (; i < count; ++i)
     out[i].cost = line_node_cost(os, subset, psi[i], log2n, out[i].kd, out[i].ks);
+}
+
+namespace {
+
+typedef double v8d __attribute__((vector_size(64)));
+typedef long v8l __attribute__((vector_size(64)));
+#define ANISO_KDKS8 __attribute__((target("avx512f"), optimize("fp-contract=off")))
+
+// The sum of squares at (a, b): KdKsSums::solve's sse, term by term.
+ANISO_KDKS8 __attribute__((always_inline)) inline v8d sse8(v8d a, v8d b, v8d dd, v8d ds, v8d ss,
+                                                           v8d dy, v8d sy, v8d yy) {
+  return yy - 2 * a * dy - 2 * b * sy + a * a * dd + 2 * a * b * ds + b * b * ss;
+}
+ANISO_KDKS8 __attribute__((always_inline)) inline v8d pick8(v8l m, v8d a, v8d b) {
+  return m ? a : b;
+}
+
+// KdKsSums::solve's steps for eight nodes of one channel, a lane each: the same operations in the
+// same order (no fused multiply-add: the attribute's fp-contract=off), the candidates' choices as
+// masks.
+ANISO_KDKS8 void solve8_channel(const double (&f)[6][8], double* ba_out, double* bb_out,
+                                double* bc_out) {
+  v8d dd, ds, ss, dy, sy, yy;
+  std::memcpy(&dd, f[0], 64), std::memcpy(&ds, f[1], 64), std::memcpy(&ss, f[2], 64);
+  std::memcpy(&dy, f[3], 64), std::memcpy(&sy, f[4], 64), std::memcpy(&yy, f[5], 64);
+  const v8d zero = {0, 0, 0, 0, 0, 0, 0, 0};
+  v8d ba = zero, bb = zero, bc = sse8(zero, zero, dd, ds, ss, dy, sy, yy);
+  const v8d det = dd * ss - ds * ds;
+  {
+    const v8d a = (dy * ss - sy * ds) / det, b = (sy * dd - dy * ds) / det;
+    const v8d c = sse8(a, b, dd, ds, ss, dy, sy, yy);
+    const v8l take = (det > 1e-300) & (a >= 0.0) & (b >= 0.0) & (c < bc);
+    ba = pick8(take, a, ba), bb = pick8(take, b, bb), bc = pick8(take, c, bc);
+  }
+  {
+    const v8d q = dy / dd, a = pick8(q < 0.0, zero, q);
+    const v8d c = sse8(a, zero, dd, ds, ss, dy, sy, yy);
+    const v8l take = (dd > 0.0) & (c < bc);
+    ba = pick8(take, a, ba), bb = pick8(take, zero, bb), bc = pick8(take, c, bc);
+  }
+  {
+    const v8d q = sy / ss, b = pick8(q < 0.0, zero, q);
+    const v8d c = sse8(zero, b, dd, ds, ss, dy, sy, yy);
+    const v8l take = (ss > 0.0) & (c < bc);
+    ba = pick8(take, zero, ba), bb = pick8(take, b, bb), bc = pick8(take, c, bc);
+  }
+  std::memcpy(ba_out, &ba, 64), std::memcpy(bb_out, &bb, 64), std::memcpy(bc_out, &bc, 64);
+}
+
+bool kdks8_enabled() {
+  static const bool has = __builtin_cpu_supports("avx512f");
+  return has;
+}
+
+}  // namespace
+
+void solve_kd_ks8(const KdKsSums sums[8], NodeFit out[8]) {
+  if (!kdks8_enabled()) {
+    for (int k = 0; k < 8; ++k) out[k].cost = sums[k].solve(out[k].kd, out[k].ks);
+    return;
+  }
+  double cost[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  for (int ch = 0; ch < 3; ++ch) {
+    double f[6][8], ba[8], bb[8], bc[8];
+    for (int k = 0; k < 8; ++k) {
+      const KdKsSums& s = sums[k];
+      f[0][k] = s.dd[ch], f[1][k] = s.ds[ch], f[2][k] = s.ss[ch];
+      f[3][k] = s.dy[ch], f[4][k] = s.sy[ch], f[5][k] = s.yy[ch];
+    }
+    solve8_channel(f, ba, bb, bc);
+    for (int k = 0; k < 8; ++k) out[k].kd[ch] = ba[k], out[k].ks[ch] = bb[k], cost[k] += bc[k];
+  }
+  for (int k = 0; k < 8; ++k) out[k].cost = cost[k];
 }
 
 double KdKsSums::solve(double kd[3], double ks[3]) const {

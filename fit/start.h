@@ -69,6 +69,10 @@ double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, doubl
 struct NodeFit {
   double cost = 0, kd[3] = {0, 0, 0}, ks[3] = {0, 0, 0};
 };
+// Eight nodes' KdKsSums::solve at once: out[k]'s cost, k_d and k_s from sums[k], the same bits
+// (eight lanes of AVX-512 where the CPU has them, each lane the scalar form's operations in its
+// order; else node by node).
+void solve_kd_ks8(const KdKsSums sums[8], NodeFit out[8]);
 void line_nodes_cost(const ObsSet& os, const std::vector<size_t>& subset, const double* psi,
                      int count, int log2n, NodeFit* out);
 

@@ -43,7 +43,7 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
     if (lanes) {
       KdKsSums sums[8];
       texel_nodes_f32(*lanes, at, log2n, sums);
-      for (int k = 0; k < 8; ++k) out[k].cost = sums[k].solve(out[k].kd, out[k].ks);
+      solve_kd_ks8(sums, out);
     } else {
       line_nodes_cost(os, idx, at, 8, log2n, out);
     }

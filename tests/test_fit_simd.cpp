@@ -164,6 +164,47 @@ TEST(FitPaths, FourStartNodesAtOnceAsOneByOne) {
   }
 }
 
+// Eight nodes' closed-form k_d, k_s at once (solve_kd_ks8) against KdKsSums::solve node by node:
+// the same bits, over sums that take every branch (both columns, k_d or k_s alone, a negative
+// unconstrained solution, a singular 2x2, empty columns).
+TEST(FitPaths, EightNodesClosedFormAsOneByOne) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  int both = 0, kd_only = 0, ks_only = 0, none = 0;
+  for (int it = 0; it < 4000; ++it) {
+    KdKsSums sums[8];
+    for (int k = 0; k < 8; ++k)
+      for (int ch = 0; ch < 3; ++ch) {
+        KdKsSums& s = sums[k];
+        const double d = 1 + u(rng), e = u(rng), f = 1 + u(rng);
+        s.dd[ch] = d * d, s.ds[ch] = d * f * e, s.ss[ch] = f * f;
+        s.dy[ch] = u(rng), s.sy[ch] = u(rng);
+        s.yy[ch] = s.dy[ch] * s.dy[ch] + s.sy[ch] * s.sy[ch] + 2 + u(rng);
+        const int kind = (it + 3 * k + ch) % 9;
+        if (kind == 1) s.ds[ch] = std::sqrt(s.dd[ch] * s.ss[ch]);  // singular
+        if (kind == 2) s.dd[ch] = s.ds[ch] = s.dy[ch] = 0;         // no diffuse column
+        if (kind == 3) s.ss[ch] = s.ds[ch] = s.sy[ch] = 0;         // no specular column
+        if (kind == 4) s = KdKsSums{};                             // nothing at all
+      }
+    NodeFit lanes[8];
+    solve_kd_ks8(sums, lanes);
+    for (int k = 0; k < 8; ++k) {
+      double kd[3], ks[3];
+      const double cost = sums[k].solve(kd, ks);
+      ASSERT_TRUE(same(lanes[k].cost, cost))
+          << it << " " << k << ": " << lanes[k].cost << " " << cost;
+      for (int ch = 0; ch < 3; ++ch) {
+        ASSERT_TRUE(same(lanes[k].kd[ch], kd[ch]) && same(lanes[k].ks[ch], ks[ch])) << it;
+        (kd[ch] > 0 && ks[ch] > 0 ? both : kd[ch] > 0 ? kd_only : ks[ch] > 0 ? ks_only : none)++;
+      }
+    }
+  }
+  std::printf("k_d and k_s %d, k_d alone %d, k_s alone %d, neither %d: bit for bit\n", both,
+              kd_only, ks_only, none);
+  EXPECT_GT(std::min({both, kd_only, ks_only, none}), 1000);
+}
+
 // The start's grid over (psi, n) four columns at a time against one: the same node, k_d, k_s
 // and n on a set with one and three lights per pixel.
 TEST(FitPaths, FourGridColumnsAtOnceAsOneByOne) {
