@@ -95,6 +95,36 @@ void warn_weak_texels(const TexelMaps& m, FitReport* rep) {
                             "as measured (more views or larger texels help)");
 }
 
+// A texel whose residual RMS is more than kMisfitTimesNoise times the images' noise: its fit does
+// not describe its data (at 80 values a texel, chi^2 / dof of 4 is far past chance: its spread
+// under the noise is ~0.16), or its pixels are noisier than the images' median (bright pixels
+// under shot noise). Named by count and the worst, with the map to look at.
+constexpr double kMisfitTimesNoise = 2;
+void warn_misfit_texels(const TexelMaps& m, double noise, FitReport* rep) {
+  if (!(noise > 0)) return;
+  size_t misfit = 0, worst = 0;
+  for (size_t t = 0; t < m.residual.size(); ++t)
+    if (m.determined[t] && m.residual[t] > kMisfitTimesNoise * noise) {
+      if (misfit++ == 0 || m.residual[t] > m.residual[worst]) worst = t;
+    }
+  rep->maps_misfit_texels = misfit;
+  if (misfit == 0) return;
+  const size_t col = worst % static_cast<size_t>(m.w);
+  const size_t row = worst / static_cast<size_t>(m.w) + static_cast<size_t>(m.row0);
+  char buf[800];
+  std::snprintf(buf, sizeof buf,
+                "--maps: %zu determined texel%s fit their data with a residual RMS over %g times "
+                "the images' noise (%.3g; the worst %.3g, texel column %zu, row %zu): the model "
+                "does not describe %s (the material changes within a texel, as at an edge between "
+                "materials or where the fibers turn: a finer --maps resolves it; or a scratch, a "
+                "spot the views saw differently), or %s pixels are noisier than the images' "
+                "median (bright pixels under shot noise). maps_uncertainty.residual holds every "
+                "texel's RMS",
+                misfit, misfit == 1 ? "" : "s", kMisfitTimesNoise, noise, m.residual[worst], col,
+                row, misfit == 1 ? "it" : "them", misfit == 1 ? "its" : "their");
+  rep->warnings.push_back(buf);
+}
+
 // --maps after the global fit `global` (the fiber model's quadrature order and s with it); the
 // misfit warning and the count of undetermined texels go to the report.
 // With `bands`, os is band 0's observations and the bands are loaded and fitted one by one.
@@ -127,6 +157,7 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
   size_t determined = 0;
   for (uint8_t d : res->maps.determined) determined += d;
   warn_weak_texels(res->maps, rep);
+  warn_misfit_texels(res->maps, noise, rep);
   if (determined < res->maps.determined.size()) {
     rep->warnings.push_back(
         "--maps: " + std::to_string(res->maps.determined.size() - determined) + " of " +

@@ -101,6 +101,9 @@ struct TexelMaps {
   // What `s` holds: "s", or "amplitude": a topology map's amplitude A per texel (FORMAT.md
   // "Material maps": maps.s or maps.amplitude).
   std::string s_key = "s";
+  // The RMS of a solved texel's residuals (image units, every channel's value): against the
+  // images' noise, how well the model describes the texel; -1 where no problem was solved.
+  std::vector<double> residual;
   std::vector<int> pixels;          // observations (pixels) per texel
   std::vector<uint8_t> determined;  // 1 = fitted and determined by its data
   // The texel rows this result holds (a tile: a band of rows): every per-texel array above holds
@@ -133,7 +136,8 @@ inline const TexelArray kTexelArrays[] = {{"kd", 3, &TexelMaps::kd},
                                           {"n_sigma", 1, &TexelMaps::n_sigma},
                                           {"psi_sigma_deg", 1, &TexelMaps::psi_sigma_deg},
                                           {"s", 1, &TexelMaps::s},  // the fiber model's (or empty)
-                                          {"s_sigma", 1, &TexelMaps::s_sigma}};
+                                          {"s_sigma", 1, &TexelMaps::s_sigma},
+                                          {"residual", 1, &TexelMaps::residual}};
 
 struct FitReport {
   size_t views = 0, pixels = 0, observations = 0;  // observations = pixels x channels
@@ -150,8 +154,10 @@ struct FitReport {
   // What the largest band held: its records (held_bytes) and its views' shared pixels.
   size_t maps_band_peak_bytes = 0;
   size_t maps_band_shared_bytes = 0;  // ... of it the shared pixels
-  double maps_memory_mb = 0;          // --maps-memory
-  size_t maps_own_geometries = 0;     // views with geometry of their own, read again by every band
+  // --maps: determined texels whose residual RMS is over twice the images' noise (fit.cpp).
+  size_t maps_misfit_texels = 0;
+  double maps_memory_mb = 0;       // --maps-memory
+  size_t maps_own_geometries = 0;  // views with geometry of their own, read again by every band
   // --maps without --global whose records would pass --maps-memory: the global fit ran first on
   // every k-th pixel in x and y (this k, with --subsample's), the maps then band by band (0: not).
   int global_subsample = 0;

@@ -50,6 +50,7 @@ void put_texel(const TexelResult& res, size_t t, const Core& global, double s, c
     m->kd_sigma[3 * t + k] = res.determined ? res.sigma[k] : prior_sigma("kd");
     m->ks_sigma[3 * t + k] = res.determined ? res.sigma[3 + k] : prior_sigma("ks");
   }
+  m->residual[t] = res.values > 0 ? std::sqrt(res.rss / res.values) : -1;
   m->n[t] = std::exp(c.logn);
   m->n_sigma[t] = res.determined ? m->n[t] * res.sigma[6] : prior_sigma("n");
   m->psi_deg[t] = wrap_fiber_deg(rad_to_deg(c.psi));
@@ -117,7 +118,8 @@ namespace {
 // The result's arrays for rows [row0, row1) of the grid.
 void size_maps(size_t texels, bool fit_s, TexelMaps* m) {
   for (auto* v : {&m->kd, &m->ks, &m->kd_sigma, &m->ks_sigma}) v->assign(3 * texels, 0);
-  for (auto* v : {&m->n, &m->psi_deg, &m->n_sigma, &m->psi_sigma_deg}) v->assign(texels, 0);
+  for (auto* v : {&m->n, &m->psi_deg, &m->n_sigma, &m->psi_sigma_deg, &m->residual})
+    v->assign(texels, 0);
   if (fit_s) m->s.assign(texels, 0), m->s_sigma.assign(texels, 0);
   m->pixels.assign(texels, 0);
   m->determined.assign(texels, 0);

@@ -24,7 +24,7 @@ std::vector<std::string> map_files(const std::string& material_path) {
   std::vector<std::string> f;
   for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
                         "coverage", "determined", "s", "s_sigma", "amplitude", "amplitude_sigma",
-                        "topology_s"})  // the last: --topology-map's map of s
+                        "topology_s", "residual"})  // topology_s: --topology-map's map of s
     f.push_back(stem + "_" + k + ".exr");
   return f;
 }
@@ -102,6 +102,9 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
     put(s_file, 1, [&](size_t i, int) { return v.s[i]; });
     put(s_file + 1, 1, [&](size_t i, int) { return t.s_sigma[i]; });
   }
+  constexpr size_t kResidualFile = 15;
+  if (!t.residual.empty())  // (a merge of tiles from before it has none)
+    put(kResidualFile, 1, [&](size_t i, int) { return t.residual[i]; });
   tbb::parallel_for(size_t{0}, writes.size(), [&](size_t k) { writes[k](); });
   (*j)["maps"] = {{"kd", f[0]}, {"ks", f[1]}, {"n", f[2]}, {"fiber", f[3]}, {"wrap", "clamp"}};
   (*j)["maps_uncertainty"] = {
@@ -118,6 +121,13 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
        "prior's spread and the value the global one, or, for a texel no pixel reaches between "
        "texels that have pixels, the nearest determined texels' in its column (else row), "
        "interpolated"}};
+  if (!t.residual.empty()) {
+    (*j)["maps_uncertainty"]["residual"] = f[kResidualFile];
+    (*j)["maps_uncertainty"]["note"] =
+        (*j)["maps_uncertainty"]["note"].get<std::string>() +
+        "; residual: the RMS of a texel's residuals (image units, each channel a value; -1 where "
+        "no problem was solved), to hold against the images' noise (report.pixel_noise)";
+  }
   if (!t.s.empty()) {
     (*j)["maps"][t.s_key] = f[s_file];
     (*j)["maps_uncertainty"][t.s_key] = f[s_file + 1];
@@ -272,6 +282,7 @@ void write_fit(const std::string& path, const FitResult& r) {
     j["report"]["time_breakdown_s"]["texels"] = r.maps.seconds;  // the maps' own phase
     j["report"]["maps_threads"] = r.maps.threads;
     j["report"]["maps_float_lanes"] = r.maps.lanes;
+    j["report"]["maps_misfit_texels"] = r.report.maps_misfit_texels;
   }
   write_json_file(path, j);
 }

@@ -587,6 +587,76 @@ TEST(FitMaps, TexelsWhoseValuesTheDataDoNotKnowAreNamed) {
   }
 }
 
+// Every texel's residual RMS is written (maps_uncertainty.residual), and determined texels whose
+// RMS is over twice the images' noise are counted and warned about: none on a clean set of a
+// uniform sample (its residuals at the noise), the stained texels once a patch of every image is
+// brightened or darkened by half from view to view (a spot the views saw differently: no k_d,
+// k_s, n and psi describe it).
+TEST(FitMaps, TexelsTheModelDoesNotDescribeAreNamed) {
+  const std::string dir = test::tmp_dir("misfit");
+  const std::string set = dir + "/set", phrase = "times the images' noise";
+  auto r = test::run_cli("synth brushed-metal " + set + " --noise 0.01 --size 64x64 --views 16");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + set + " --subsample 2 --out " + dir + "/g.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  struct Run {
+    size_t misfit = 0, solved = 0, above = 0;
+    double noise = 0, median_ratio = NAN;
+    std::string output;
+  };
+  auto maps = [&](const std::string& name) {
+    Run run;
+    auto f = test::run_cli("fit " + set + " --maps 8x8 --global " + dir + "/g.json --out " + dir +
+                           "/" + name + ".json");
+    EXPECT_EQ(f.status, 0) << f.output;
+    run.output = f.output;
+    const auto j = nlohmann::json::parse(read_text_file(dir + "/" + name + ".json"));
+    run.misfit = j["report"]["maps_misfit_texels"].get<size_t>();
+    run.noise = j["report"]["pixel_noise"].get<double>();
+    EXPECT_EQ(j["maps_uncertainty"]["residual"], name + "_residual.exr");
+    const Image res = read_image(dir + "/" + name + "_residual.exr").image;
+    const Image det = read_image(dir + "/" + name + "_determined.exr").image;
+    std::vector<double> ratio;
+    for (size_t t = 0; t < res.px.size(); ++t) {
+      if (res.px[t] < 0) continue;  // not solved
+      ++run.solved;
+      ratio.push_back(res.px[t] / run.noise);
+      run.above += det.px[t] > 0.5 && res.px[t] > 2 * run.noise;
+    }
+    run.median_ratio = median(ratio);
+    return run;
+  };
+  const Run clean = maps("clean");
+  std::printf("clean: %zu texels solved, residual / noise median %.3f, %zu named\n", clean.solved,
+              clean.median_ratio, clean.misfit);
+  EXPECT_GT(clean.solved, 40u);
+  EXPECT_GT(clean.median_ratio, 0.8);
+  EXPECT_LT(clean.median_ratio, 1.25);
+  EXPECT_EQ(clean.misfit, 0u);
+  EXPECT_EQ(clean.output.find(phrase), std::string::npos) << clean.output;
+  // The stain: pixels [16, 32)^2 of every view, times 1.5 in even views and 0.5 in odd ones.
+  const CaptureSet cs = read_capture(set);
+  for (size_t v = 0; v < cs.views.size(); ++v) {
+    const std::string path = join_path(set, cs.views[v].image);
+    Image img = read_image(path).image;
+    for (int y = 16; y < 32; ++y)
+      for (int x = 16; x < 32; ++x)
+        for (int c = 0; c < img.channels; ++c) img.at(x, y, c) *= v % 2 ? 0.5f : 1.5f;
+    write_exr(path, img);
+  }
+  const Run stained = maps("stained");
+  std::printf("stained: %zu texels solved, %zu named (%zu determined over twice the noise)\n",
+              stained.solved, stained.misfit, stained.above);
+  EXPECT_GE(stained.misfit, 2u);
+  EXPECT_EQ(stained.misfit, stained.above);
+  EXPECT_LT(stained.misfit, stained.solved / 2);
+  EXPECT_NE(stained.output.find(std::to_string(stained.misfit) + " determined texels fit their "
+                                                                 "data with a residual RMS over 2 " +
+                                phrase),
+            std::string::npos)
+      << stained.output;
+}
+
 // A texel whose solver stops at its iteration limit is not a minimum: it is counted, warned about
 // and marked undetermined (global values, the prior's sigma), by the LM and by Ceres, and the
 // tile file carries the count to `aniso merge`.

@@ -35,7 +35,7 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   r = test::run_cli("merge" + tiles + " --out " + dir + "/merged.json");
   ASSERT_EQ(r.status, 0) << r.output;
   for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
-                        "coverage", "determined"}) {
+                        "coverage", "determined", "residual"}) {
     const std::string a = read_text_file(dir + "/whole_" + k + ".exr");
     const std::string b = read_text_file(dir + "/merged_" + k + ".exr");
     EXPECT_TRUE(a == b) << k << ": the merged map differs from the untiled one";
