@@ -6,11 +6,16 @@
 #include <ImfOutputFile.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <random>
 
 #include "datasets_synth/presets.h"
+#include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "test_util.h"
@@ -89,6 +94,75 @@ void write_raw_exr(const std::string& path, const Image& img) {
   fb.insert("B", Imf::Slice(Imf::FLOAT, base + 8, xs, ys));
   file.setFrameBuffer(fb);
   file.writePixels(img.height);
+}
+
+// A float image's pixels sorted against the definitions (off the mask: kOff and 0; a value or
+// the geometry not finite: kNonfinite; a value at or above the saturation: kSaturated; else
+// kUsable, its values as written), over rows of 37 pixels (two blocks of the sixteen-pixel
+// lanes and a tail) with every case at random places: NaN, +-Inf, values at, just under and
+// just over the saturation, a geometry not finite.
+TEST(BadInput, FloatPixelsAreSortedAsTheyAreDefined) {
+  const std::string dir = test::tmp_dir("classify");
+  std::filesystem::create_directories(dir + "/g");
+  const int W = 37, H = 6;
+  const float sat = 0.8f;
+  Image P(W, H, 3), N(W, H, 3), U(W, H, 3), img(W, H, 3), mask(W, H, 1);
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> pick(0, 19);
+  const float inf = std::numeric_limits<float>::infinity();
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      P.at(x, y, 0) = float(x), P.at(x, y, 1) = float(y);
+      N.at(x, y, 2) = 1;
+      U.at(x, y, 0) = 1;
+      if (pick(rng) == 0) N.at(x, y, 1) = NAN;  // geometry not finite
+      mask.at(x, y, 0) = pick(rng) < 4 ? 0.f : 1.f;
+      for (int c = 0; c < 3; ++c) {
+        const float special[8] = {
+            NAN, inf, -inf, sat, std::nextafter(sat, 0.f), std::nextafter(sat, 1.f), 3.f, -0.5f};
+        const int k = pick(rng);
+        img.at(x, y, c) = k < 8 ? special[k] : 0.05f * k;
+      }
+    }
+  write_exr(dir + "/g/P.exr", P);
+  write_raw_exr(dir + "/g/N.exr", N);
+  write_exr(dir + "/g/U.exr", U);
+  write_png(dir + "/g/mask.png", mask, 8);
+  write_raw_exr(dir + "/img.exr", img);
+  std::ofstream(dir + "/capture.json") << R"({"format":"aniso-capture","version":1,
+    "camera":{"width":37,"height":6,"fx":10,"fy":10,"cx":18,"cy":3},
+    "color":{"saturation":0.8},
+    "geometry":{"position":"g/P.exr","normal":"g/N.exr","tangent":"g/U.exr","mask":"g/mask.png"},
+    "views":[{"image":"img.exr","world_from_camera":[[1,0,0,0],[0,1,0,0],[0,0,1,-3],[0,0,0,1]],
+              "lights":[{"type":"directional","direction":[0,0,1],"irradiance":1}]}]})";
+  const ViewData d = load_view(read_capture(dir), 0);
+  size_t count[4] = {0, 0, 0, 0};
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t p = static_cast<size_t>(y) * W + x;
+      bool finite = std::isfinite(N.at(x, y, 1)), hot = false;
+      for (int c = 0; c < 3; ++c) {
+        finite = finite && std::isfinite(img.at(x, y, c));
+        hot = hot || img.at(x, y, c) >= sat;
+      }
+      const uint8_t want = mask.at(x, y, 0) == 0 ? ViewData::kOff
+                           : !finite             ? ViewData::kNonfinite
+                           : hot                 ? ViewData::kSaturated
+                                                 : ViewData::kUsable;
+      ASSERT_EQ(d.use[p], want) << "pixel " << x << ", " << y;
+      ++count[want];
+      for (int c = 0; c < 3; ++c) {
+        const float got = d.rgb.at(x, y, c), put = want == ViewData::kOff ? 0.f : img.at(x, y, c);
+        EXPECT_TRUE(std::memcmp(&got, &put, sizeof got) == 0) << x << ", " << y << " " << c;
+      }
+    }
+  std::printf("off %zu, usable %zu, saturated %zu, not finite %zu\n", count[0], count[1], count[2],
+              count[3]);
+  EXPECT_EQ(d.used, count[ViewData::kUsable]);
+  EXPECT_EQ(d.saturated, count[ViewData::kSaturated]);
+  EXPECT_EQ(d.nonfinite, count[ViewData::kNonfinite]);
+  EXPECT_EQ(d.mask_pixels, static_cast<size_t>(W * H) - count[ViewData::kOff]);
+  for (size_t k : count) EXPECT_GT(k, 10u);
 }
 
 TEST(BadInput, NanPixelsAreLeftOutAndAllNanFails) {
