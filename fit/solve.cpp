@@ -241,18 +241,9 @@ void set_param_bounds(ceres::Problem* pb, double* block, int index, const char* 
   pb->SetParameterUpperBound(block, index, p.fit_log ? std::log(p.hi) : p.hi);
 }
 
-// The start's second look: settled from the other valley of the start's grid too (m->other), the
-// fit goes on from the lower of the two; where the whole set would not tell them apart (their sums
-// of squares on the subset, scaled to the whole set's pixels, within kAsWellSigma2), the other is
-// said. Without it, a set that cannot tell psi from -psi (every view and light in one plane
-// through the normal: an in-plane gonioreflectometer) gave psi = 150 deg with sigma 4e-7 deg
-// for a truth of 30 deg, without a word; the fiber model 150.04 deg +- 0.05 deg. Both settles
-// start from the model's own numbers of the start (start_own: the fiber model's topology), and
-// the one taken keeps its own. *r: the residuals of the one taken.
-template <class Settle>
 std::string second_look(ModelFit* m, const std::vector<double>& start_own, size_t pixels,
-                        size_t subset, bool grey, Settle settle, std::vector<double>* r,
-                        FitReport* rep) {
+                        size_t subset, bool grey, const std::function<std::vector<double>()>& settle,
+                        std::vector<double>* r, FitReport* rep) {
   auto sum_sq = [](const std::vector<double>& v) {
     double s = 0;
     for (double x : v) s += x * x;

@@ -14,6 +14,7 @@
 #include "core/angles.h"
 #include "core/error.h"
 #include "datasets_synth/presets.h"
+#include "fit/solve.h"
 #include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -379,6 +380,60 @@ TEST(Trust, TwoFiberDirectionsThatFitAsWellAreBothNamed) {
       "model": "line", "kd": [0.2, 0.15, 0.1], "ks": [0.6, 0.6, 0.6], "n": 40,
       "fiber_angle_deg": 30})",
                                5);
+}
+
+// The start's second look (fit/solve.h second_look) on settles whose sums of squares the test
+// sets, the model a real line fit: a settle from the grid's other valley that ends lower is taken
+// (core and residuals) and said; one within 16 sigma^2 of the first is taken if lower and named as
+// fitting as well; a higher one leaves the first as it was; one that ends in the first's valley
+// says nothing. (Real sets reach the first branch where the start's grid finds its best node by
+// the mirror of the truth: 1 of 60 noisy sets of in-plane readings with six off the plane.)
+TEST(Trust, TheSecondLookTakesTheLowerValleyAndNamesATie) {
+  struct Case {
+    const char* what;
+    double second_psi_deg, second_value;  // where the second settle ends; its residuals' value
+    bool taken, as_well;
+  };
+  const Case cases[] = {{"lower", 151, 0.05, true, false},
+                        {"as well, lower", 151, 0.0999, true, true},
+                        {"as well, higher", 151, 0.1001, false, true},
+                        {"higher", 151, 0.2, false, false},
+                        {"the same valley", 30.4, 0.05, true, false}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    FitOptions opt;
+    auto m = fitting::make_line_fit(opt);
+    m->core.psi = deg_to_rad(30.0);  // the first settle's solution
+    fitting::Core other = m->core;
+    other.psi = deg_to_rad(155.0);  // the grid's node in the other valley
+    m->other = other;
+    const std::vector<double> first(300, 0.1), second(300, c.second_value);
+    std::vector<double> r = first;
+    FitReport rep;
+    // 300 residuals on a subset of 100 pixels of 1000: the sums' difference counts ten times.
+    const std::string said = fitting::second_look(
+        m.get(), {}, 1000, 100, false,
+        [&] {
+          EXPECT_NEAR(rad_to_deg(m->core.psi), 155, 1e-9);  // settled from the other valley
+          m->core.psi = deg_to_rad(c.second_psi_deg);
+          return second;
+        },
+        &r, &rep);
+    const bool apart = std::abs(c.second_psi_deg - 30) > 1;
+    EXPECT_NEAR(rad_to_deg(m->core.psi), c.taken ? c.second_psi_deg : 30, 1e-9);
+    EXPECT_EQ(r, c.taken ? second : first);
+    EXPECT_EQ(rep.start.find("settled from the grid's other valley too: psi=151.0 deg, lower") !=
+                  std::string::npos,
+              c.taken && apart)
+        << rep.start;
+    EXPECT_EQ(said.find("two fiber directions fit the data as well") != std::string::npos,
+              c.as_well && apart)
+        << said;
+    if (c.as_well) {  // the one not taken is named
+      EXPECT_NE(said.find(c.taken ? "psi = 30.00 deg" : "psi = 151.00 deg"), std::string::npos)
+          << said;
+    }
+  }
 }
 
 // The fiber model's second look: the same settle from the other valley, its topology s starting
