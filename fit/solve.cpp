@@ -242,8 +242,9 @@ void set_param_bounds(ceres::Problem* pb, double* block, int index, const char* 
 }
 
 std::string second_look(ModelFit* m, const std::vector<double>& start_own, size_t pixels,
-                        size_t subset, bool grey, const std::function<std::vector<double>()>& settle,
-                        std::vector<double>* r, FitReport* rep) {
+                        size_t subset, bool grey,
+                        const std::function<std::vector<double>()>& settle, std::vector<double>* r,
+                        FitReport* rep) {
   auto sum_sq = [](const std::vector<double>& v) {
     double s = 0;
     for (double x : v) s += x * x;

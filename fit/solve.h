@@ -42,8 +42,9 @@ Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* 
 // solution), then of the one taken; `pixels` of which `subset` were settled. Returns the message
 // naming the other where the two fit as well, else "".
 std::string second_look(ModelFit* m, const std::vector<double>& start_own, size_t pixels,
-                        size_t subset, bool grey, const std::function<std::vector<double>()>& settle,
-                        std::vector<double>* r, FitReport* rep);
+                        size_t subset, bool grey,
+                        const std::function<std::vector<double>()>& settle, std::vector<double>* r,
+                        FitReport* rep);
 
 // sigma, undetermined and the correlation matrix of every fitted number (MODELS.md §6).
 void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, Solution* sol,
