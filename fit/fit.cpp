@@ -142,47 +142,7 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
   res->maps = bands ? bands->fit(global, to, rep) : fit_texel_maps(os, global, to);
   const double noise = bands ? bands->pixel_noise() : os.pixel_noise;
   if (!(rep->pixel_noise > 0)) rep->pixel_noise = noise;  // --global: the bands measured it
-  // The misfit check judged the one global parameter set; say what the maps leave.
-  for (auto& w : rep->warnings)
-    if (w.rfind("the model does not describe the data", 0) == 0) {
-      char buf[200];
-      std::snprintf(buf, sizeof buf,
-                    "one parameter set for the whole sample does not describe the data (residual "
-                    "RMS %.3g); with the maps the residual RMS is %.3g (noise of the images %.3g)",
-                    rep->rms, res->maps.rms, noise);
-      w = buf;
-      if (res->maps.rms > 2 * noise && noise > 0)
-        w += ": the maps do not describe the data either (try more texels, or check the set)";
-    }
-  size_t determined = 0;
-  for (uint8_t d : res->maps.determined) determined += d;
-  warn_weak_texels(res->maps, rep);
-  warn_misfit_texels(res->maps, noise, rep);
-  if (determined < res->maps.determined.size()) {
-    rep->warnings.push_back(
-        "--maps: " + std::to_string(res->maps.determined.size() - determined) + " of " +
-        std::to_string(res->maps.determined.size()) +
-        " texels are not determined by the data (too few pixels, psi's sigma over 10 deg, two "
-        "fiber directions that fit a texel's data as well, or a solver that did not converge): "
-        "they hold the global values with the prior's spread as sigma "
-        "(maps_uncertainty.determined = 0)");
-    size_t holes = 0;
-    for (uint8_t b : interior_holes(res->maps)) holes += b;
-    if (holes > 0)
-      rep->warnings.push_back(
-          "--maps: " + std::to_string(holes) +
-          " texels inside the area the images cover got no pixel at all: the map is finer than "
-          "the images resolve there (texel rows or columns between pixel rows, as on the far side "
-          "of a tilted view). They stay undetermined and the maps give them the values of the "
-          "nearest determined texels in their column (or row), interpolated; a coarser --maps, "
-          "or views that see that part nearer the normal, give them data");
-  }
-  if (res->maps.not_converged > 0)
-    rep->warnings.push_back(
-        "--maps: " + std::to_string(res->maps.not_converged) + " texels stopped at " +
-        std::to_string(opt.maps_iterations) +
-        " iterations (--maps-iterations) before their solver converged: marked undetermined, "
-        "the global values kept");
+  add_maps_warnings(res->maps, noise, opt.maps_iterations, rep);
 }
 
 FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, FitReport rep,
@@ -345,6 +305,53 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
 }
 
 }  // namespace
+
+// The maps' part of the report (fit.h).
+void add_maps_warnings(const TexelMaps& m, double noise, int iterations, FitReport* rep) {
+  // The misfit check judged the one global parameter set; say what the maps leave.
+  constexpr const char* kGlobalMisfit[2] = {"the model does not describe the data",
+                                            "one parameter set for the whole sample"};
+  for (auto& w : rep->warnings)
+    if ((w.rfind(kGlobalMisfit[0], 0) == 0 || w.rfind(kGlobalMisfit[1], 0) == 0) && m.values > 0) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "one parameter set for the whole sample does not describe the data (residual "
+                    "RMS %.3g); with the maps the residual RMS is %.3g (noise of the images %.3g)",
+                    rep->rms, m.rms, noise);
+      w = buf;
+      if (m.rms > 2 * noise && noise > 0)
+        w += ": the maps do not describe the data either (try more texels, or check the set)";
+    }
+  size_t determined = 0;
+  for (uint8_t d : m.determined) determined += d;
+  warn_weak_texels(m, rep);
+  warn_misfit_texels(m, noise, rep);
+  if (determined < m.determined.size()) {
+    rep->warnings.push_back(
+        "--maps: " + std::to_string(m.determined.size() - determined) + " of " +
+        std::to_string(m.determined.size()) +
+        " texels are not determined by the data (too few pixels, psi's sigma over 10 deg, two "
+        "fiber directions that fit a texel's data as well, or a solver that did not converge): "
+        "they hold the global values with the prior's spread as sigma "
+        "(maps_uncertainty.determined = 0)");
+    size_t holes = 0;
+    for (uint8_t b : interior_holes(m)) holes += b;
+    if (holes > 0)
+      rep->warnings.push_back(
+          "--maps: " + std::to_string(holes) +
+          " texels inside the area the images cover got no pixel at all: the map is finer than "
+          "the images resolve there (texel rows or columns between pixel rows, as on the far side "
+          "of a tilted view). They stay undetermined and the maps give them the values of the "
+          "nearest determined texels in their column (or row), interpolated; a coarser --maps, "
+          "or views that see that part nearer the normal, give them data");
+  }
+  if (m.not_converged > 0)
+    rep->warnings.push_back(
+        "--maps: " + std::to_string(m.not_converged) + " texels stopped at " +
+        (iterations > 0 ? std::to_string(iterations) + " iterations (--maps-iterations)"
+                        : std::string("their iteration limit (--maps-iterations)")) +
+        " before their solver converged: marked undetermined, the global values kept");
+}
 
 const char* fit_model_name(FitModel m) {
   switch (m) {

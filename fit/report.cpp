@@ -303,6 +303,9 @@ void write_maps_tile(const std::string& path, const FitResult& r, const FitOptio
                          {"s_key", t.s_key},
                          {"fitted", t.fitted},
                          {"not_converged", t.not_converged},
+                         {"sum_sq", t.sum_sq},
+                         {"residual_values", t.values},
+                         {"maps_iterations", opt.maps_iterations},
                          {"seconds", t.seconds},
                          {"fit", fit_json(path, r)},
                          {"values", values}};
@@ -313,8 +316,9 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
   if (tiles.empty()) throw Error("merge: no tiles given");
   TexelMaps m;
   jsonu::json fit;
-  int count = -1;
+  int count = -1, iterations = 0;
   std::vector<int> seen;
+  std::vector<double> noise;  // each tile's measure of the images' noise
   for (const auto& path : tiles) try {
       const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
       const jsonu::Ctx c{path, ""};
@@ -372,6 +376,10 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       std::copy(det.begin(), det.end(), m.determined.begin() + a);
       m.fitted += j["fitted"].get<size_t>();
       m.not_converged += j.value("not_converged", size_t(0));  // absent in older tiles
+      m.sum_sq += j.value("sum_sq", 0.0),
+          m.values += j.value("residual_values", 0.0);  // (so too these)
+      iterations = j.value("maps_iterations", 0);
+      noise.push_back(j["fit"]["report"].value("pixel_noise", 0.0));
     } catch (const jsonu::json::exception& e) {
       throw Error(path + ": not a readable tile: " + e.what());
     }
@@ -380,6 +388,18 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       throw Error("merge: tile " + std::to_string(i) + " of " + std::to_string(count) +
                   " is missing: give every tile's file");
   fit["report"]["merged_from_tiles"] = count;
+  // The maps' warnings over the whole grid (tile 0's fit named its own rows' counts), the noise
+  // the tiles' median measure (each measured the rows it read).
+  m.rms = m.values > 0 ? std::sqrt(m.sum_sq / m.values) : 0;
+  std::nth_element(noise.begin(), noise.begin() + noise.size() / 2, noise.end());
+  FitReport rep;
+  rep.rms = fit["report"].value("residual_rms", 0.0);
+  for (const auto& w : fit["report"].value("warnings", jsonu::json::array()))
+    if (w.is_string() && w.get<std::string>().rfind("--maps: ", 0) != 0)
+      rep.warnings.push_back(w.get<std::string>());
+  add_maps_warnings(m, noise[noise.size() / 2], iterations, &rep);
+  fit["report"]["warnings"] = rep.warnings;
+  fit["report"]["maps_misfit_texels"] = rep.maps_misfit_texels;
   // A topology map's path is relative to the file that names it: the tile's folder then, the
   // merged material's now.
   if (fit.contains("topology") && fit["topology"].contains("map") &&

@@ -42,6 +42,19 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   }
   const Material m = read_material(dir + "/merged.json");
   EXPECT_TRUE(m.maps.fiber && m.maps.kd);
+  // The merged report counts the whole grid's texels, as the untiled run's does (it held tile 0's
+  // warnings: 10 texels the model does not describe, where the untiled run named 40 of 48).
+  auto maps_said = [](const std::string& path) {
+    const auto j = nlohmann::json::parse(read_text_file(path));
+    std::vector<std::string> said;
+    for (const auto& w : j["report"]["warnings"])
+      if (w.get<std::string>().rfind("--maps: ", 0) == 0) said.push_back(w.get<std::string>());
+    said.push_back("misfit " + j["report"]["maps_misfit_texels"].dump());
+    return said;
+  };
+  const std::vector<std::string> whole_said = maps_said(dir + "/whole.json");
+  EXPECT_GE(whole_said.size(), 2u);  // a warning, and the count
+  EXPECT_EQ(maps_said(dir + "/merged.json"), whole_said);
   // --threads holds for the texels too (they ran on every core of the machine), with the same
   // maps byte for byte.
   r = test::run_cli("fit " + dir + "/set --maps 8x6 --threads 1 --out " + dir + "/one.json");
