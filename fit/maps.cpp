@@ -260,8 +260,9 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   if (o.scratch) first.reserve(static_cast<size_t>(h) * w);  // every band's room at once
   first.resize(B);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, B, 4), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t b = r.begin(); b < r.end(); ++b, bar.advance())
+    for (size_t b = r.begin(); b < r.end(); ++b)
       first[b] = bins.size(b) >= kMinTexelPixels ? solve(b, start, nullptr) : start;
+    bar.advance(r.size());  // once a range: a shared counter bumped by every texel on both cores
   });
   const bool fit_s = o.fiber_order > 0 && os.topology != TopologyMode::kMathematical;
   // Without sweeps `first` is the result as it is (a copy would be 200 bytes a texel to fault in).
@@ -273,12 +274,13 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
     TexelResults next = now;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, B, 4),
                       [&](const tbb::blocked_range<size_t>& r) {
-                        for (size_t b = r.begin(); b < r.end(); ++b, bar.advance()) {
+                        for (size_t b = r.begin(); b < r.end(); ++b) {
                           TexelPrior prior;
                           if (first[b].determined &&
                               smoothing_prior(now, first, grid, b, o.smooth, fit_s, &prior))
                             next[b] = solve(b, now[b], &prior);
                         }
+                        bar.advance(r.size());
                       });
     now.swap(next);
   }
