@@ -376,8 +376,8 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       std::copy(det.begin(), det.end(), m.determined.begin() + a);
       m.fitted += j["fitted"].get<size_t>();
       m.not_converged += j.value("not_converged", size_t(0));  // absent in older tiles
-      m.sum_sq += j.value("sum_sq", 0.0),
-          m.values += j.value("residual_values", 0.0);  // (so too these)
+      m.sum_sq += j.value("sum_sq", 0.0);                      // (so too these three)
+      m.values += j.value("residual_values", 0.0);
       iterations = j.value("maps_iterations", 0);
       noise.push_back(j["fit"]["report"].value("pixel_noise", 0.0));
     } catch (const jsonu::json::exception& e) {
