@@ -650,8 +650,9 @@ TEST(FitMaps, TexelsTheModelDoesNotDescribeAreNamed) {
   EXPECT_GE(stained.misfit, 2u);
   EXPECT_EQ(stained.misfit, stained.above);
   EXPECT_LT(stained.misfit, stained.solved / 2);
-  EXPECT_NE(stained.output.find(std::to_string(stained.misfit) + " determined texels fit their "
-                                                                 "data with a residual RMS over 2 " +
+  EXPECT_NE(stained.output.find(std::to_string(stained.misfit) +
+                                " determined texels fit their "
+                                "data with a residual RMS over 2 " +
                                 phrase),
             std::string::npos)
       << stained.output;
