@@ -319,6 +319,11 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
   int count = -1, iterations = 0;
   std::vector<int> seen;
   std::vector<double> noise;  // each tile's measure of the images' noise
+  // With --global each tile counted the pixels of its own rows (kept, and left out by reason):
+  // their sums are the untiled run's. Without, every tile's counts are one global fit's.
+  bool own_counts = true;
+  jsonu::json counts = {{"pixels", 0},    {"observations", 0}, {"saturated", 0},
+                        {"nonfinite", 0}, {"unlit", 0},        {"implausible", 0}};
   for (const auto& path : tiles) try {
       const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
       const jsonu::Ctx c{path, ""};
@@ -379,7 +384,14 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       m.sum_sq += j.value("sum_sq", 0.0);                      // (so too these three)
       m.values += j.value("residual_values", 0.0);
       iterations = j.value("maps_iterations", 0);
-      noise.push_back(j["fit"]["report"].value("pixel_noise", 0.0));
+      const jsonu::json& tr = j["fit"]["report"];
+      noise.push_back(tr.value("pixel_noise", 0.0));
+      own_counts = own_counts && tr.contains("global_from");
+      for (const char* k : {"pixels", "observations"})
+        counts[k] = counts[k].get<size_t>() + tr.value(k, size_t(0));
+      for (const char* k : {"saturated", "nonfinite", "unlit", "implausible"})
+        counts[k] = counts[k].get<size_t>() +
+                    tr.value("skipped", jsonu::json::object()).value(k, size_t(0));
     } catch (const jsonu::json::exception& e) {
       throw Error(path + ": not a readable tile: " + e.what());
     }
@@ -388,6 +400,12 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       throw Error("merge: tile " + std::to_string(i) + " of " + std::to_string(count) +
                   " is missing: give every tile's file");
   fit["report"]["merged_from_tiles"] = count;
+  if (own_counts) {
+    for (const char* k : {"pixels", "observations"}) fit["report"][k] = counts[k];
+    for (const char* k : {"saturated", "nonfinite", "unlit", "implausible"})
+      fit["report"]["skipped"][k] = counts[k];
+    fit["report"]["skipped"].erase("outside_tile");  // each tile's: the others' rows
+  }
   // The maps' warnings over the whole grid (tile 0's fit named its own rows' counts), the noise
   // the tiles' median measure (each measured the rows it read).
   m.rms = m.values > 0 ? std::sqrt(m.sum_sq / m.values) : 0;

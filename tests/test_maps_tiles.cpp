@@ -174,6 +174,12 @@ TEST(FitMaps, TilesGivenTheGlobalFitKeepOnlyTheirRows) {
                 read_text_file(dir + "/merged_" + k + ".exr"))
         << k << ": the merged map differs from the untiled one";
   EXPECT_EQ(read_material(dir + "/merged.json").kd, read_material(dir + "/global.json").kd);
+  // Each tile counted its own rows' pixels: the merged report counts the untiled run's (it said
+  // tile 0's).
+  const auto merged_rep = report(dir + "/merged.json", false);
+  const auto whole_rep = report(dir + "/whole.json", false);
+  for (const char* k : {"pixels", "observations", "skipped"})
+    EXPECT_EQ(merged_rep[k], whole_rep[k]) << k;
   // The Slurm script (a global fit, a job array of tiles from it, a merge), run here job after
   // job, gives the same maps.
   r = test::sh("ANISO=\"$A\" GLOBAL_SUBSAMPLE=2 FIT_OPTIONS='--smooth 1 --smooth-sweeps 1' " +
