@@ -361,7 +361,8 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
                   "--model fiber, the topology s of a flat sample or, where the set has a "
                   "topology map, its amplitude A), WxH texels over the sample's "
                   "uv (written beside --out as EXR, FORMAT.md \"Material maps\", with per-texel "
-                  "sigma, coverage and a determined mask)");
+                  "sigma, coverage, a determined mask and each texel's residual RMS; texels "
+                  "whose residual is over twice the images' noise are named)");
 }
 
 Command add_fit(CLI::App& app) {
