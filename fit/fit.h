@@ -235,16 +235,16 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
                          const std::string& base_dir);
 void write_fit(const std::string& path, const FitResult& r);
 
-// --tile: a self-describing tile of a maps fit (format "aniso-maps-tile": the tile, the grid, its
-// rows, the global fit as write_fit writes it, and every texel's numbers, doubles written
-// exactly), and `aniso merge`: tiles covering every row once, of one grid and one global fit,
-// joined into the material and its maps: the same files as an untiled run, bit for bit.
 // The report's warnings about maps m, given the images' noise and --maps-iterations (0: not known):
 // the global misfit warning restated with the maps' RMS, and counts of texels whose values the
 // data know less well than the bounds, that the model does not describe (maps_misfit_texels),
 // that the data do not determine (and those between pixel rows), that stopped short. A fit's,
 // and the tiles' merge's over the whole grid.
 void add_maps_warnings(const TexelMaps& m, double noise, int iterations, FitReport* rep);
+// --tile: a self-describing tile of a maps fit (format "aniso-maps-tile": the tile, the grid, its
+// rows, the global fit as write_fit writes it, and every texel's numbers, doubles written
+// exactly), and `aniso merge`: tiles covering every row once, of one grid and one global fit,
+// joined into the material and its maps: the same files as an untiled run, bit for bit.
 void write_maps_tile(const std::string& path, const FitResult& r, const FitOptions& opt);
 void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& out);
 

@@ -9,6 +9,7 @@
 
 #include <cstring>
 
+#include "core/cpu.h"
 #include "fit/line_simd.h"
 
 namespace aniso::fitting {
@@ -158,11 +159,6 @@ __attribute__((target("avx512f"))) void shared_lanes_avx512(const Light& light, 
   // The builtin itself: _mm512_sqrt_pd's undefined pass-through trips GCC 12's maybe-uninitialized.
   const v8d r = __builtin_ia32_sqrtpd512_mask(r2, r2, 0xff, 4);
   shared_out(light, rows, dl, &r, 0, out);
-}
-
-bool cpu_has_avx512f() {
-  static const bool has = __builtin_cpu_supports("avx512f");
-  return has;
 }
 
 }  // namespace

@@ -80,7 +80,6 @@ struct SharedPixels {
   std::vector<double> frame;  // row k at frame[k * padded]
   std::vector<LocalDir> V;
   std::vector<uint8_t> ok;
-  const double* row(int k) const { return frame.data() + static_cast<size_t>(k) * padded; }
   size_t bytes() const {  // what it holds
     return (x.capacity() + y.capacity()) * sizeof(int) + t.capacity() * sizeof(long) +
            frame.capacity() * sizeof(double) + V.capacity() * sizeof(LocalDir) + ok.capacity();

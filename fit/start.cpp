@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/angles.h"
+#include "core/cpu.h"
 #include "core/progress.h"
 #include "fit/line_simd.h"
 #include "models/params.h"
@@ -110,15 +111,10 @@ ANISO_KDKS8 void solve8_channel(const double (&f)[6][8], double* ba_out, double*
   std::memcpy(ba_out, &ba, 64), std::memcpy(bb_out, &bb, 64), std::memcpy(bc_out, &bc, 64);
 }
 
-bool kdks8_enabled() {
-  static const bool has = __builtin_cpu_supports("avx512f");
-  return has;
-}
-
 }  // namespace
 
 void solve_kd_ks8(const KdKsSums sums[8], NodeFit out[8]) {
-  if (!kdks8_enabled()) {
+  if (!cpu_has_avx512f()) {
     for (int k = 0; k < 8; ++k) out[k].cost = sums[k].solve(out[k].kd, out[k].ks);
     return;
   }

@@ -333,7 +333,6 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, bool all_rows, ViewDat
           ok = false;
         else if (r >= sat)
           saturated = true;
-        if (as_is) continue;  // a finite float is finite and within float's range
         const double lin = li.bits ? decode_code(r, s.color) : r;
         if (!std::isfinite(lin) || std::abs(lin) > std::numeric_limits<float>::max()) ok = false;
         d->rgb.at(x, y, c) = static_cast<float>(lin);
