@@ -76,8 +76,7 @@ void warn_weak_texels(const TexelMaps& m, FitReport* rep) {
   };
   for (const auto& [key, sigmas, per] :
        {Param{"kd", &m.kd_sigma, 3}, Param{"ks", &m.ks_sigma, 3}, Param{"n", &m.n_sigma, 1}}) {
-    const ParamSpec& p = line_param(key);
-    const double spread = (p.hi - p.lo) / std::sqrt(12.0);
+    const double spread = line_param(key).spread();
     size_t weak = 0;
     for (size_t t = 0; t < m.determined.size(); ++t) {
       bool w = false;

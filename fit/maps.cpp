@@ -34,10 +34,7 @@ constexpr size_t kMinTexelPixels = 12;  // fewer: not even tried
 static_assert(std::is_trivially_copyable_v<TexelResult>, "written over unconstructed entries");
 using TexelResults = std::vector<TexelResult, RecordAllocator<TexelResult>>;
 
-double prior_sigma(const char* key) {
-  const ParamSpec& p = line_param(key);
-  return (p.hi - p.lo) / std::sqrt(12.0);
-}
+double prior_sigma(const char* key) { return line_param(key).spread(); }
 
 // values (`global`, `s`) with the prior's spread as sigma.
 void put_texel(const TexelResult& res, size_t t, const Core& global, double s, const char* s_param,

@@ -15,6 +15,7 @@
 #include "fit/start.h"
 #include "fit/texel_sigmas.h"
 #include "fit/texel_simd.h"
+#include "models/params.h"
 
 namespace aniso::fitting {
 
@@ -34,20 +35,25 @@ struct OtherValley {
 // 11.25 degrees either side of the best two: 16 nodes, as many as a 15-degree grid with four
 // more around its best took, which ended in another basin than the truth's in 13 of 4096
 // texels of a swirl where this does in 2. With `other`, the best node of another valley too.
+// Eight nodes psi[0 .. 8) at n = 2^log2n, k_d and k_s in closed form: in float from the lanes, or
+// from the records in double.
+void texel_nodes(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
+                 const double* psi, int log2n, NodeFit* out) {
+  if (lanes) {
+    KdKsSums sums[8];
+    texel_nodes_f32(*lanes, psi, log2n, sums);
+    solve_kd_ks8(sums, out);
+  } else {
+    line_nodes_cost(os, idx, psi, 8, log2n, out);
+  }
+}
+
 void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes, Core* c,
                  OtherValley* other) {
   const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
   double psi[16];
   NodeFit fit[16];
-  auto nodes = [&](double* at, NodeFit* out) {
-    if (lanes) {
-      KdKsSums sums[8];
-      texel_nodes_f32(*lanes, at, log2n, sums);
-      solve_kd_ks8(sums, out);
-    } else {
-      line_nodes_cost(os, idx, at, 8, log2n, out);
-    }
-  };
+  auto nodes = [&](double* at, NodeFit* out) { texel_nodes(os, idx, lanes, at, log2n, out); };
   // On the grid of texel_grid_angle: m = 4k, then m of the best two +-1, +-2 (modulo a half turn).
   for (int k = 0; k < 8; ++k) psi[k] = texel_grid_angle(4 * k);
   nodes(psi, fit);
@@ -122,6 +128,75 @@ void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_
   if (as_well) t->determined = false;
 }
 
+// Where the data do not know the texel's lobe (k_s in a channel, or n, with a sigma above its
+// bounds' spread), the curvature of the sum of squares at the minimum does not bound psi: a lobe
+// sharpened to a needle can be aimed at a pixel or two, its psi then "known" to a tenth of a degree
+// while other directions, each with its own k_s and n, fit the data nearly as well. Satin-ball's
+// orbit set at --maps 256x256 held three such texels, determined 77 to 83 degrees off the truth,
+// sigma 0.06 to 0.36 degrees (Ceres, the fitter of record, at the same minima): one whose sum of
+// squares with psi held anywhere from 105 to 135 degrees rose by under 7.2 sigma^2 (its minimum at
+// 103), one within 2.8 sigma^2 from 45 to 90 (its minimum at 82). So such a texel's psi is checked
+// by its profile: its sum of squares with psi held at every kProfileStepDeg from its minimum, first
+// at the best node of a grid over n (k_d, k_s in closed form), then, where that node is within
+// kProfileMarginSigma2 sigma^2 of deciding, solved with psi held from there (from the global fit's
+// k_s and n instead, a lobe turned away from every pixel had no slope to leave by). Where psi held
+// Delta away rises by no more than a sigma of kPsiUndeterminedDeg would give,
+// (Delta / kPsiUndeterminedDeg)^2 sigma^2 (at most the second look's kAsWellSigma2), the direction
+// is not known: the texel is not determined. On satin-ball 6 547 texels were checked so: where a
+// held solve ended within 16 sigma^2 of deciding it had lowered its node by at most 15 sigma^2, and
+// the margin leaves 227 of the ~66 000 held directions looked at to solve (the maps' time the
+// same).
+constexpr double kProfileStepDeg = 15;
+constexpr int kProfileHeld = 11;  // 180 / kProfileStepDeg - 1
+constexpr double kProfileMarginSigma2 = 2 * kAsWellSigma2;
+bool lobe_unknown(const TexelResult& t) {
+  const double ks = line_param("ks").spread(), n = line_param("n").spread();
+  return t.sigma[3] > ks || t.sigma[4] > ks || t.sigma[5] > ks ||
+         std::exp(t.c.logn) * t.sigma[6] > n;
+}
+template <class SolvePinned>
+void texel_psi_profile(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
+                       SolvePinned solve_pinned, TexelResult* t) {
+  if (!t->determined || !lobe_unknown(*t)) return;
+  double psi[16];
+  for (int k = 0; k < 16; ++k)
+    psi[k] = wrap_half_turn(t->c.psi + deg_to_rad(std::min(k + 1, kProfileHeld) * kProfileStepDeg));
+  NodeFit best[16];
+  int best_log2n[16];
+  for (int k = 0; k < 16; ++k) best[k].cost = INFINITY, best_log2n[k] = 1;
+  for (int log2n = 1; log2n <= 13; log2n += 2) {  // n = 2 .. 8192
+    NodeFit f[16];
+    texel_nodes(os, idx, lanes, psi, log2n, f);
+    texel_nodes(os, idx, lanes, psi + 8, log2n, f + 8);
+    for (int k = 0; k < kProfileHeld; ++k)
+      if (f[k].cost < best[k].cost) best[k] = f[k], best_log2n[k] = log2n;
+  }
+  const double dof = std::max(1.0, 3.0 * idx.size() - 8);
+  const double s2 = std::max(t->rss / dof, 1e-12);
+  double limit[kProfileHeld];
+  for (int k = 0; k < kProfileHeld; ++k) {
+    const double apart = std::min(k + 1, kProfileHeld - k) * kProfileStepDeg;
+    limit[k] = std::min(kAsWellSigma2, std::pow(apart / kPsiUndeterminedDeg, 2)) * s2;
+  }
+  // A node's sum of squares bounds the profile there from above: one within its limit decides.
+  for (int k = 0; k < kProfileHeld; ++k)
+    if (best[k].cost - t->rss <= limit[k]) {
+      t->determined = false;
+      return;
+    }
+  for (int k = 0; k < kProfileHeld; ++k) {
+    if (best[k].cost - t->rss > limit[k] + kProfileMarginSigma2 * s2) continue;
+    Core held;
+    held.psi = psi[k];
+    held.logn = best_log2n[k] * std::log(2.0);
+    set_start_kd_ks(best[k].kd, best[k].ks, &held);
+    if (solve_pinned(held).rss - t->rss <= limit[k]) {
+      t->determined = false;
+      return;
+    }
+  }
+}
+
 // --smooth's pull on psi toward its target, modulo a half turn (psi lives on Ceres' half-turn
 // manifold, so it may wrap past the target).
 class PsiPrior : public ceres::SizedCostFunction<1, 1> {
@@ -171,6 +246,7 @@ void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlock
   so.parameter_tolerance = 1e-12;
   ceres::Solver::Summary sum;
   ceres::Solve(so, pb, &sum);
+  t->rss = 2 * sum.final_cost;  // the sum of squares where the sigmas below are not to be had
   ceres::Problem::EvaluateOptions eo;
   eo.parameter_blocks = blocks;
   eo.residual_blocks = data;  // sigma from the texel's own data
@@ -232,7 +308,7 @@ namespace {
 
 // One texel with Ceres from `start` as it is: solve, then J^T J of its own problem.
 TexelResult texel_ceres_from(const ObsSet& os, const std::vector<size_t>& idx, const Core& start,
-                             const TexelPrior* prior, int max_iterations) {
+                             const TexelPrior* prior, int max_iterations, bool pin_psi = false) {
   TexelResult t;
   t.c = start;
   ceres::Problem::Options po;
@@ -248,6 +324,7 @@ TexelResult texel_ceres_from(const ObsSet& os, const std::vector<size_t>& idx, c
   pb.SetParameterBlockConstant(&dummy[0]);
   pb.SetParameterBlockConstant(&dummy[1]);
   set_core_bounds(&pb, &c);
+  if (pin_psi) pb.SetParameterBlockConstant(&c.psi);
   solve_and_sigmas(&pb, data, {c.kd, c.ks, &c.logn, &c.psi}, max_iterations, &t);
   return t;
 }
@@ -260,12 +337,17 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, 
   Core start = from;
   TexelLanes lanes;  // the same start as the LM path
   OtherValley other;
-  texel_begin(os, idx, prior, &lanes, &start, &other);
+  const bool f32 = texel_begin(os, idx, prior, &lanes, &start, &other);
   TexelResult t = texel_ceres_from(os, idx, start, prior, max_iterations);
-  if (!prior)
+  if (!prior) {
     texel_second_look(
         other, 3 * idx.size(),
         [&](const Core& c) { return texel_ceres_from(os, idx, c, nullptr, max_iterations); }, &t);
+    texel_psi_profile(
+        os, idx, f32 ? &lanes : nullptr,
+        [&](const Core& c) { return texel_ceres_from(os, idx, c, nullptr, max_iterations, true); },
+        &t);
+  }
   return t;
 }
 
@@ -377,6 +459,18 @@ struct TexelObjective {
   bool in_float;
   Vec8 lo, hi;
   int max_iterations;
+  bool pin_psi = false;  // psi held where it starts (the profile of texel_psi_profile)
+
+  // The step of the system a x = -g; with pin_psi, psi's row and column out of it (no step in psi).
+  Vec8 step_of(Mat8 a, const Vec8& g) const {
+    if (!pin_psi) return texel_solve(a, -g);
+    a.row(7).setZero();
+    a.col(7).setZero();
+    a(7, 7) = 1;
+    Vec8 step = texel_solve(a, -g);
+    step(7) = 0;
+    return step;
+  }
 
   void evaluate(const Vec8& at, TexelEval* e) const {
     e->have_hinv = false;
@@ -415,7 +509,7 @@ struct TexelObjective {
     for (int it = 0; it < max_iterations; ++it) {
       Mat8 a = cur->h;
       a.diagonal() += lambda * cur->h.diagonal().cwiseMax(1e-12);
-      const Vec8 step = texel_solve(a, -cur->g);
+      const Vec8 step = step_of(a, cur->g);
       const double size = in_sigmas(cur, step);
       if (size < stop) return true;
       const Vec8 xn = bounded(*x + step);
@@ -457,7 +551,7 @@ struct TexelObjective {
   bool polish(Vec8* x, TexelEval* cur, double taken) const {
     double last = kFloatStepInSigma;
     for (int it = 0; it < 4; ++it) {
-      const Vec8 step = texel_solve(cur->h, -cur->g);
+      const Vec8 step = step_of(cur->h, cur->g);
       const double size = in_sigmas(cur, step);
       if (size < kStepInSigma) return true;
       const Vec8 xn = *x + step;
@@ -477,10 +571,12 @@ namespace {
 
 // The LM of solve_texel_lm from `start` as it is.
 TexelResult texel_lm_from(const ObsSet& os, const std::vector<size_t>& idx, const Core& start,
-                          const TexelLanes* lanes, const TexelPrior* prior, int max_iterations) {
+                          const TexelLanes* lanes, const TexelPrior* prior, int max_iterations,
+                          bool pin_psi = false) {
   TexelResult t;
   t.c = start;
-  TexelObjective obj{os, idx, lanes, prior, lanes != nullptr, Vec8(), Vec8(), max_iterations};
+  TexelObjective obj{os,     idx,    lanes,          prior,  lanes != nullptr,
+                     Vec8(), Vec8(), max_iterations, pin_psi};
   core_bounds(&obj.lo, &obj.hi);
   Vec8 x = pack_core(t.c);
   TexelEval cur;
@@ -510,11 +606,18 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
   const bool f32 = texel_begin(os, idx, prior, &lanes, &start, &other);
   const TexelLanes* in_lanes = f32 ? &lanes : nullptr;
   TexelResult t = texel_lm_from(os, idx, start, in_lanes, prior, max_iterations);
-  if (!prior)
+  if (!prior) {
     texel_second_look(
         other, 3 * idx.size(),
         [&](const Core& c) { return texel_lm_from(os, idx, c, in_lanes, nullptr, max_iterations); },
         &t);
+    texel_psi_profile(
+        os, idx, in_lanes,
+        [&](const Core& c) {
+          return texel_lm_from(os, idx, c, in_lanes, nullptr, max_iterations, true);
+        },
+        &t);
+  }
   return t;
 }
 

@@ -3,6 +3,7 @@
 // fitter, the material reader, the CLI (`aniso params`), the bake and the docs all read this
 // table; nothing else states a bound.
 #pragma once
+#include <cmath>
 #include <string>
 #include <string_view>
 
@@ -19,6 +20,9 @@ struct ParamSpec {
   bool periodic;  // fiber angles live in [0, 180) degrees (MODELS.md §1)
   bool fit_log;   // fitted as log(value) (MODELS.md §6: log n, not n)
   std::string_view doc;
+  // The standard deviation of a value spread evenly over the bounds: what the bounds alone know
+  // of it (a sigma above this is no measurement).
+  double spread() const { return (hi - lo) / std::sqrt(12.0); }
 };
 
 // Line-lighting model, MODELS.md §3. Exponent bounds: n = 1 keeps x^n differentiable at x = 0;
