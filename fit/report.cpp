@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <functional>
 #include <limits>
+#include <numeric>
 
 #include "fit/fit.h"
 #include "fit/map_holes.h"
@@ -324,6 +325,10 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
   bool own_counts = true;
   jsonu::json counts = {{"pixels", 0},    {"observations", 0}, {"saturated", 0},
                         {"nonfinite", 0}, {"unlit", 0},        {"implausible", 0}};
+  // Each tile's own time (tile order) and the phases' sums: the work of the whole grid, where the
+  // report held tile 0's alone.
+  std::vector<double> tile_time;
+  jsonu::json phases = jsonu::json::object();
   for (const auto& path : tiles) try {
       const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
       const jsonu::Ctx c{path, ""};
@@ -386,6 +391,11 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       iterations = j.value("maps_iterations", 0);
       const jsonu::json& tr = j["fit"]["report"];
       noise.push_back(tr.value("pixel_noise", 0.0));
+      if (tile_time.empty()) tile_time.assign(n, 0.0);
+      tile_time[i] = tr.value("time_s", 0.0);
+      const jsonu::json breakdown = tr.value("time_breakdown_s", jsonu::json::object());
+      for (const auto& [k, v] : breakdown.items())
+        if (v.is_number()) phases[k] = phases.value(k, 0.0) + v.get<double>();
       own_counts = own_counts && tr.contains("global_from");
       for (const char* k : {"pixels", "observations"})
         counts[k] = counts[k].get<size_t>() + tr.value(k, size_t(0));
@@ -400,6 +410,9 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       throw Error("merge: tile " + std::to_string(i) + " of " + std::to_string(count) +
                   " is missing: give every tile's file");
   fit["report"]["merged_from_tiles"] = count;
+  fit["report"]["tile_time_s"] = tile_time;
+  fit["report"]["time_s"] = std::accumulate(tile_time.begin(), tile_time.end(), 0.0);
+  fit["report"]["time_breakdown_s"] = phases;
   if (own_counts) {
     for (const char* k : {"pixels", "observations"}) fit["report"][k] = counts[k];
     for (const char* k : {"saturated", "nonfinite", "unlit", "implausible"})

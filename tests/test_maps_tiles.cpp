@@ -42,6 +42,21 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   }
   const Material m = read_material(dir + "/merged.json");
   EXPECT_TRUE(m.maps.fiber && m.maps.kd);
+  // Its time is the tiles' work: their sum, each tile's own beside it (it was tile 0's alone).
+  {
+    const auto merged = nlohmann::json::parse(read_text_file(dir + "/merged.json"))["report"];
+    double sum = 0, load = 0;
+    for (int i = 0; i < 3; ++i) {
+      const auto t =
+          nlohmann::json::parse(read_text_file(dir + "/t" + std::to_string(i) + ".json"));
+      const auto& tr = t["fit"]["report"];
+      EXPECT_EQ(merged["tile_time_s"][i].get<double>(), tr["time_s"].get<double>());
+      sum += tr["time_s"].get<double>();
+      load += tr["time_breakdown_s"]["load"].get<double>();
+    }
+    EXPECT_NEAR(merged["time_s"].get<double>(), sum, 1e-12 * sum);
+    EXPECT_NEAR(merged["time_breakdown_s"]["load"].get<double>(), load, 1e-12 * load);
+  }
   // The merged report counts the whole grid's texels, as the untiled run's does (it held tile 0's
   // warnings: 10 texels the model does not describe, where the untiled run named 40 of 48).
   auto maps_said = [](const std::string& path) {
