@@ -7,6 +7,7 @@
 
 #include <immintrin.h>
 
+#include <atomic>
 #include <cstring>
 
 #include "core/cpu.h"
@@ -172,9 +173,15 @@ void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q) {
 void pixel_frame_quad(const Vec3& eye, PixelQuad* q) { frame_quad(eye, q); }
 void pixel_light_quad(const Light& point, PixelQuad* q) { light_quad(point, q); }
 
+namespace {
+std::atomic<bool> g_shared_avx512{true};
+}  // namespace
+
+void set_shared_lanes_avx512(bool on) { g_shared_avx512 = on; }
+
 void shared_light_lanes(const Light& point, const double* frame, size_t padded, size_t i,
                         LightLanes* out) {
-  if (cpu_has_avx512f())
+  if (g_shared_avx512.load(std::memory_order_relaxed) && cpu_has_avx512f())
     shared_lanes_avx512(point, frame, padded, i, out);
   else
     shared_lanes_avx2(point, frame, padded, i, out);

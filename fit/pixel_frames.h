@@ -49,5 +49,8 @@ struct LightLanes {
 };
 void shared_light_lanes(const Light& point, const double* frame, size_t padded, size_t i,
                         LightLanes* out);
+// The eight lanes of AVX-512 switched off (the two of four of AVX2 instead), for the tests that
+// hold both to the scalar form's bits on a CPU that has both.
+void set_shared_lanes_avx512(bool on);
 
 }  // namespace aniso::fitting

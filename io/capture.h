@@ -179,6 +179,10 @@ ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nul
 void load_view_into(const CaptureSet& set, size_t i, ViewData* into, const TopologyMap* map,
                     GeometryCache* cache, const ViewRows* rows,
                     const std::vector<uint8_t>* geometry_rows = nullptr);
+// The float images' pixels sixteen at a time (AVX-512 F, BW, VL and BMI2) where the CPU has them,
+// unless switched off (for the tests, which hold both forms to the definitions); else one at a
+// time.
+void set_classify_lanes(bool on);
 // d->use all kOff again, for another view's load_view_into: the rows read are cleared, the only
 // ones whose states can be other than kOff (clearing the whole image's was 4 MB a view a band).
 void clear_pixel_states(ViewData* d);

@@ -4,6 +4,7 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -211,10 +212,11 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
 // gathered to one a pixel by pext; the states stored as bytes under masks, the values off the
 // mask zeroed under their own. The same states, counts and values as the scalar loop.
 #define ANISO_CLASSIFY16 __attribute__((target("avx512f,avx512bw,avx512vl,bmi2")))
+std::atomic<bool> g_classify_lanes{true};
 bool classify16_enabled() {
   static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
                           __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("bmi2");
-  return has;
+  return has && g_classify_lanes.load(std::memory_order_relaxed);
 }
 ANISO_CLASSIFY16 void classify16(float* v, const uint8_t* mask, const uint8_t* finite, float sat_f,
                                  uint8_t* use, size_t* on, size_t* bad, size_t* saturated) {
@@ -353,6 +355,8 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, bool all_rows, ViewDat
 }
 
 }  // namespace
+
+void set_classify_lanes(bool on) { g_classify_lanes = on; }
 
 struct GeometryCache::Impl {
   // Not std::call_once: with GCC 12's libstdc++ a callable that throws leaves the flag stuck and

@@ -135,34 +135,40 @@ TEST(BadInput, FloatPixelsAreSortedAsTheyAreDefined) {
     "geometry":{"position":"g/P.exr","normal":"g/N.exr","tangent":"g/U.exr","mask":"g/mask.png"},
     "views":[{"image":"img.exr","world_from_camera":[[1,0,0,0],[0,1,0,0],[0,0,1,-3],[0,0,0,1]],
               "lights":[{"type":"directional","direction":[0,0,1],"irradiance":1}]}]})";
-  const ViewData d = load_view(read_capture(dir), 0);
-  size_t count[4] = {0, 0, 0, 0};
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const size_t p = static_cast<size_t>(y) * W + x;
-      bool finite = std::isfinite(N.at(x, y, 1)), hot = false;
-      for (int c = 0; c < 3; ++c) {
-        finite = finite && std::isfinite(img.at(x, y, c));
-        hot = hot || img.at(x, y, c) >= sat;
+  // Both forms where the CPU has the sixteen-pixel one (CI's AVX2 machines have only the other).
+  for (const bool lanes : {true, false}) {
+    SCOPED_TRACE(lanes ? "sixteen at a time where the CPU allows" : "one at a time");
+    set_classify_lanes(lanes);
+    const ViewData d = load_view(read_capture(dir), 0);
+    set_classify_lanes(true);
+    size_t count[4] = {0, 0, 0, 0};
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const size_t p = static_cast<size_t>(y) * W + x;
+        bool finite = std::isfinite(N.at(x, y, 1)), hot = false;
+        for (int c = 0; c < 3; ++c) {
+          finite = finite && std::isfinite(img.at(x, y, c));
+          hot = hot || img.at(x, y, c) >= sat;
+        }
+        const uint8_t want = mask.at(x, y, 0) == 0 ? ViewData::kOff
+                             : !finite             ? ViewData::kNonfinite
+                             : hot                 ? ViewData::kSaturated
+                                                   : ViewData::kUsable;
+        ASSERT_EQ(d.use[p], want) << "pixel " << x << ", " << y;
+        ++count[want];
+        for (int c = 0; c < 3; ++c) {
+          const float got = d.rgb.at(x, y, c), put = want == ViewData::kOff ? 0.f : img.at(x, y, c);
+          EXPECT_TRUE(std::memcmp(&got, &put, sizeof got) == 0) << x << ", " << y << " " << c;
+        }
       }
-      const uint8_t want = mask.at(x, y, 0) == 0 ? ViewData::kOff
-                           : !finite             ? ViewData::kNonfinite
-                           : hot                 ? ViewData::kSaturated
-                                                 : ViewData::kUsable;
-      ASSERT_EQ(d.use[p], want) << "pixel " << x << ", " << y;
-      ++count[want];
-      for (int c = 0; c < 3; ++c) {
-        const float got = d.rgb.at(x, y, c), put = want == ViewData::kOff ? 0.f : img.at(x, y, c);
-        EXPECT_TRUE(std::memcmp(&got, &put, sizeof got) == 0) << x << ", " << y << " " << c;
-      }
-    }
-  std::printf("off %zu, usable %zu, saturated %zu, not finite %zu\n", count[0], count[1], count[2],
-              count[3]);
-  EXPECT_EQ(d.used, count[ViewData::kUsable]);
-  EXPECT_EQ(d.saturated, count[ViewData::kSaturated]);
-  EXPECT_EQ(d.nonfinite, count[ViewData::kNonfinite]);
-  EXPECT_EQ(d.mask_pixels, static_cast<size_t>(W * H) - count[ViewData::kOff]);
-  for (size_t k : count) EXPECT_GT(k, 10u);
+    std::printf("off %zu, usable %zu, saturated %zu, not finite %zu\n", count[0], count[1],
+                count[2], count[3]);
+    EXPECT_EQ(d.used, count[ViewData::kUsable]);
+    EXPECT_EQ(d.saturated, count[ViewData::kSaturated]);
+    EXPECT_EQ(d.nonfinite, count[ViewData::kNonfinite]);
+    EXPECT_EQ(d.mask_pixels, static_cast<size_t>(W * H) - count[ViewData::kOff]);
+    for (size_t k : count) EXPECT_GT(k, 10u);
+  }
 }
 
 TEST(BadInput, NanPixelsAreLeftOutAndAllNanFails) {

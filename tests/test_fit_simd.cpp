@@ -491,13 +491,18 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
   auto bytes = [](const auto& v) {
     return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0]));
   };
-  for (const int stride : {1, 2}) {
+  // Each stride with the shared light in eight lanes of AVX-512 (where the CPU has it) and in two
+  // of four of AVX2.
+  for (const int stride : {1, 2, -1, -2}) {
+    SCOPED_TRACE(stride > 0 ? "AVX-512 where the CPU has it" : "AVX2");
     FitOptions opt;
-    opt.subsample = stride;
+    opt.subsample = std::abs(stride);
     opt.maps_w = 24, opt.maps_h = 20;
     opt.progress = false;
     FitReport shared_rep, alone_rep;
+    set_shared_lanes_avx512(stride > 0);
     const ObsSet shared = capture_observations(set, opt, &shared_rep);
+    set_shared_lanes_avx512(true);
     set_shared_pixels(false);
     const ObsSet alone = capture_observations(set, opt, &alone_rep);
     set_shared_pixels(true);
