@@ -38,8 +38,10 @@ struct FiberPull {
 // Solves from `c` and `*topo` (updated; the topology is fitted unless `mode` is mathematical)
 // over `subset` (null: all observations). With `pull`, its terms join the cost of every step;
 // out->info and out->rss are then still the data's own (the pull taken out at the solution).
+// `ridge_rule`: a texel's solve, done on a ridge of k_s and n (fit/fused_lm.h kRidgeIterations).
 void fiber_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
                     int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc,
-                    Core* c, double* topo, FusedSolve* out, const FiberPull* pull = nullptr);
+                    Core* c, double* topo, FusedSolve* out, const FiberPull* pull = nullptr,
+                    bool ridge_rule = false);
 
 }  // namespace aniso::fitting

@@ -246,6 +246,15 @@ double step_in_sigmas_p(const MatP<P>& H, const VecP<P>& step, double rss, doubl
 constexpr double kStepInSigma = 1e-3;
 constexpr double kLastStepInSigma = 0.1;
 
+// A ridge: where k_s and n trade off (a lobe seen only on its flank), a texel's LM crawls along
+// them, each step a little lower, to its iteration limit, while k_d and psi (and s) stay put. Past
+// kRidgeIterations, a texel whose k_d, psi (and s) moved less than kRidgeSettledSigma of their
+// sigma over the last kRidgeWindow accepted steps is done: k_s and n keep the sigma the ridge gives
+// them (named where it passes their bounds' spread). The line model's texel LM
+// (fit/texel_solve.cpp) and the fiber model's texels through fused_lm's `ridge_rule`.
+constexpr int kRidgeIterations = 30, kRidgeWindow = 10;
+constexpr double kRidgeSettledSigma = 0.1;
+
 // Where Gauss-Newton converges only linearly (a model that does not describe the data, or the
 // robust weights still moving), consecutive steps point the same way and shrink by a steady ratio
 // r: the rest of that geometric series, step / (1 - r), is tried first, and kept only if it
@@ -303,9 +312,11 @@ VecP<P> lm_step(const FusedSums<P>& s, double lambda) {
 
 // The Levenberg-Marquardt loop from *x (updated) within [lo, hi] (psi, coordinate 7, wrapped):
 // `pass(x, jac)` returns the sums at x. *cur ends as the sums at the solution.
+// With `ridge_rule`, a texel's: done on a ridge (kRidgeIterations).
 template <int P, class Pass>
 void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double values,
-              int max_iterations, VecP<P>* x, FusedSums<P>* cur, FusedSolve* out) {
+              int max_iterations, VecP<P>* x, FusedSums<P>* cur, FusedSolve* out,
+              bool ridge_rule = false) {
   constexpr double kRelativeDecrease = 1e-14;
   constexpr double kLambdaMax = 1e12;
   *x = x->cwiseMax(lo).cwiseMin(hi);
@@ -319,6 +330,8 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
     xn(7) = wrap_half_turn(xn(7));
     return xn;
   };
+  VecP<P> window_start = *x;  // the ridge rule's
+  int accepted = 0;
   for (int it = 0; it < max_iterations && cur->finite; ++it) {
     const VecP<P> step = lm_step<P>(*cur, damp.lambda);
     // A step too small to matter is not taken (nor evaluated: at this size the cost's change is
@@ -366,6 +379,17 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
       if (small_decrease) {
         out->converged = true;
         break;
+      }
+      if (ridge_rule && ++accepted % kRidgeWindow == 0) {
+        VecP<P> moved = *x - window_start;
+        moved.template segment<4>(3).setZero();  // k_s, log n: the ridge
+        moved(7) = std::remainder(moved(7), M_PI);
+        if (it >= kRidgeIterations &&
+            step_in_sigmas_p<P>(cur->H, moved, cur->rss, values) < kRidgeSettledSigma) {
+          out->converged = true;
+          break;
+        }
+        window_start = *x;
       }
     } else {
       prev.setZero();

@@ -332,7 +332,8 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   // of its 1 289 determined texels, sigma ~0.85 degrees (64 more 20-45 degrees off). So the fiber
   // model's own nodes every 22.5 degrees (and the global psi) are kept for the second look
   // (fiber_other_valley): none of its 1 114 determined texels is left more than 45 degrees off,
-  // 1 from 20 to 45, at twice the maps' time (19.7 -> 38.3 s).
+  // 1 from 20 to 45, at twice the maps' time (19.7 -> 38.3 s; 29.9 s with the ridge rule, which
+  // ends 286 of the 333 texel solves that had crawled to their iteration limit).
   if (nodes) {
     double kd[3], ks[3];
     nodes->start_cost = node(t.c.psi, t.s, kd, ks);
@@ -508,13 +509,7 @@ constexpr double kFloatStepInSigma = 0.05;
 // at 0.02, 0.0055; 4.1 float passes a texel against 4.0 and 5.0).
 constexpr double kTexelLastStepInSigma = 0.02;
 constexpr int kZigZagIterations = 20;
-// A ridge: where k_s and n trade off (a lobe seen only on its flank), the LM crawls along them,
-// each step a little lower, to its iteration limit, while k_d and psi stay put. Past
-// kRidgeIterations, a texel whose k_d and psi moved less than kRidgeSettledSigma of their
-// sigma over the last kRidgeWindow accepted steps is done: k_s and n keep the sigma the ridge gives
-// them (named where it passes their bounds' spread).
-constexpr int kRidgeIterations = 30, kRidgeWindow = 10;
-constexpr double kRidgeSettledSigma = 0.1;
+// A ridge (fit/fused_lm.h kRidgeIterations): k_s and n trading off, k_d and psi put.
 
 // The texel's objective at a point: the data's sum of squares with J^T J, J^T r, and the same
 // with the prior added. A trial point is evaluated with its derivatives at once: most steps are
@@ -713,7 +708,7 @@ TexelResult fiber_lm_from(const ObsSet& os, const std::vector<size_t>& idx,
     pull.w[8] = prior->ws, pull.b[8] = prior->bs;
   }
   fiber_lm_solve(os, &idx, FitLoss::kNone, 0, o.max_iterations, 1, os.topology, acc, &t.c, &t.s,
-                 &fs, prior ? &pull : nullptr);
+                 &fs, prior ? &pull : nullptr, true);
   const int P = os.topology == TopologyMode::kMathematical ? 8 : 9;
   const Eigen::MatrixXd info = Eigen::Map<const Eigen::MatrixXd>(fs.info.data(), P, P);
   texel_sigmas(info, fs.rss, 3.0 * idx.size(), &t);

@@ -236,7 +236,9 @@ TEST(FitMaps, FiberModelMapsRecoverTheTopologyPerTexel) {
 // start, is turned 35-47 degrees from the fibers across the sphere's middle, and the fiber solve
 // from there ended in another valley: 20 of 86 determined texels more than 45 degrees off, sigma
 // ~1 degree. The fiber model's own nodes give the second look its other valley (fit/texel_solve.cpp
-// fiber_other_valley): none is left more than 10 degrees off.
+// fiber_other_valley): none is left more than 10 degrees off. And the fiber texels' solves that
+// crawled along a ridge of k_s and n to their iteration limit (20 of 140 solved) end where k_d,
+// psi and s have settled (fit/fused_lm.h kRidgeIterations): 92 texels determined, 76 without.
 TEST(FitMaps, FiberTexelsWhereTheFibersClimbFindTheirOwnValley) {
   const std::string dir = test::tmp_dir("fiber_climb");
   const std::string out =
@@ -260,7 +262,7 @@ TEST(FitMaps, FiberTexelsWhereTheFibersClimbFindTheirOwnValley) {
       "fiber texels: %zu determined, %zu within 1 deg of the fibers, %zu over 10 deg; "
       "the worst %.2f deg\n",
       determined, within1, off10, worst);
-  EXPECT_GT(determined, 60u);
+  EXPECT_GT(determined, 85u);
   EXPECT_EQ(off10, 0u);
   EXPECT_GT(within1, determined * 9 / 10);
 }
