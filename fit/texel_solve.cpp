@@ -402,6 +402,26 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   return t;
 }
 
+// A fiber texel: its start, `solve_from(start, prior)` (the fused solver's or Ceres'), and without
+// a pull the second look from the fiber model's other valley.
+template <class SolveFrom>
+TexelResult fiber_texel(const ObsSet& os, const std::vector<size_t>& idx, const TexelResult& from,
+                        const TexelMapOptions& o, const TexelPrior* prior, SolveFrom solve_from) {
+  FiberNodes nodes;
+  const TexelResult start = fiber_texel_start(os, idx, from, o, prior, prior ? nullptr : &nodes);
+  TexelResult t = solve_from(start, prior);
+  if (!prior)
+    texel_second_look(
+        fiber_other_valley(nodes, t.c.psi), 3 * idx.size(),
+        [&](const Core& c) {
+          TexelResult s = start;
+          s.c = c;
+          return solve_from(s, nullptr);
+        },
+        &t);
+  return t;
+}
+
 }  // namespace
 
 namespace {
@@ -497,19 +517,9 @@ TexelResult fiber_ceres_from(const ObsSet& os, const std::vector<size_t>& idx,
 TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>& idx,
                                     const TexelResult& from, const TexelMapOptions& o,
                                     const TexelPrior* prior) {
-  FiberNodes nodes;
-  const TexelResult start = fiber_texel_start(os, idx, from, o, prior, prior ? nullptr : &nodes);
-  TexelResult t = fiber_ceres_from(os, idx, start, o, prior);
-  if (!prior)
-    texel_second_look(
-        fiber_other_valley(nodes, t.c.psi), 3 * idx.size(),
-        [&](const Core& c) {
-          TexelResult s = start;
-          s.c = c;
-          return fiber_ceres_from(os, idx, s, o, nullptr);
-        },
-        &t);
-  return t;
+  return fiber_texel(os, idx, from, o, prior, [&](const TexelResult& s, const TexelPrior* p) {
+    return fiber_ceres_from(os, idx, s, o, p);
+  });
 }
 
 namespace {
@@ -801,19 +811,9 @@ TexelResult fiber_lm_from(const ObsSet& os, const std::vector<size_t>& idx,
 TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
                               const TexelResult& from, const TexelMapOptions& o,
                               const TexelPrior* prior) {
-  FiberNodes nodes;
-  const TexelResult start = fiber_texel_start(os, idx, from, o, prior, prior ? nullptr : &nodes);
-  TexelResult t = fiber_lm_from(os, idx, start, o, prior);
-  if (!prior)
-    texel_second_look(
-        fiber_other_valley(nodes, t.c.psi), 3 * idx.size(),
-        [&](const Core& c) {
-          TexelResult s = start;
-          s.c = c;
-          return fiber_lm_from(os, idx, s, o, nullptr);
-        },
-        &t);
-  return t;
+  return fiber_texel(os, idx, from, o, prior, [&](const TexelResult& s, const TexelPrior* p) {
+    return fiber_lm_from(os, idx, s, o, p);
+  });
 }
 
 }  // namespace aniso::fitting
