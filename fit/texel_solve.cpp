@@ -29,12 +29,6 @@ struct OtherValley {
   double cost = INFINITY, best_cost = INFINITY;
 };
 
-// Grid over psi with k_d, k_s in closed form at the power of two nearest the global n (x^n by
-// squaring: this grid was most of the texel phase with a pow per pixel): the texel's start. With
-// `lanes`, eight nodes at a time in float (fit/texel_simd.h). Every 22.5 degrees, then 5.6 and
-// 11.25 degrees either side of the best two: 16 nodes, as many as a 15-degree grid with four
-// more around its best took, which ended in another basin than the truth's in 13 of 4096
-// texels of a swirl where this does in 2. With `other`, the best node of another valley too.
 // Eight nodes psi[0 .. 8) at n = 2^log2n, k_d and k_s in closed form: in float from the lanes, or
 // from the records in double.
 void texel_nodes(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
@@ -48,6 +42,12 @@ void texel_nodes(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
   }
 }
 
+// Grid over psi with k_d, k_s in closed form at the power of two nearest the global n (x^n by
+// squaring: this grid was most of the texel phase with a pow per pixel): the texel's start. With
+// `lanes`, eight nodes at a time in float (fit/texel_simd.h). Every 22.5 degrees, then 5.6 and
+// 11.25 degrees either side of the best two: 16 nodes, as many as a 15-degree grid with four
+// more around its best took, which ended in another basin than the truth's in 13 of 4096
+// texels of a swirl where this does in 2. With `other`, the best node of another valley too.
 void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes, Core* c,
                  OtherValley* other) {
   const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
@@ -144,8 +144,8 @@ void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_
 // (Delta / kPsiUndeterminedDeg)^2 sigma^2 (at most the second look's kAsWellSigma2), the direction
 // is not known: the texel is not determined. On satin-ball 6 547 texels were checked so: where a
 // held solve ended within 16 sigma^2 of deciding it had lowered its node by at most 15 sigma^2, and
-// the margin leaves 227 of the ~66 000 held directions looked at to solve (the maps' time the
-// same).
+// the margin leaves 227 of the ~66 000 held directions looked at to solve (the maps' time 1.00 ->
+// 1.08 s).
 constexpr double kProfileStepDeg = 15;
 constexpr int kProfileHeld = 11;  // 180 / kProfileStepDeg - 1
 constexpr double kProfileMarginSigma2 = 2 * kAsWellSigma2;
@@ -475,11 +475,11 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, 
   return t;
 }
 
-// The same for the fiber model: solve_texel_fiber's start (fiber_texel_start), the autodiff
-// residual of the global fit's Ceres path (fiber_pixel_cost), s bounded as there (fixed under a
-// mathematical topology), the pull on s as one more NormalPrior.
 namespace {
 
+// The same for the fiber model from `start` as it is: the autodiff residual of the global fit's
+// Ceres path (fiber_pixel_cost), s bounded as there (fixed under a mathematical topology), the
+// pull on s as one more NormalPrior.
 TexelResult fiber_ceres_from(const ObsSet& os, const std::vector<size_t>& idx,
                              const TexelResult& start, const TexelMapOptions& o,
                              const TexelPrior* prior) {
