@@ -272,11 +272,12 @@ class TexelRidgeCallback : public ceres::IterationCallback {
 };
 
 // Solves the texel's problem to double precision, then its sigmas from J^T J of the `data`
-// residuals alone (not the pull) over `blocks` (one column each, in order). With `ridge`, its rule
-// (the parameters updated every iteration for it to read), a stop by which is converged.
+// residuals alone (not the pull) over `blocks` (one column each, in order; `line_model`:
+// texel_sigmas' hold of n without a lobe). With `ridge`, its rule (the parameters updated every
+// iteration for it to read), a stop by which is converged.
 void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlockId>& data,
                       const std::vector<double*>& blocks, int max_iterations, TexelResult* t,
-                      ceres::IterationCallback* ridge = nullptr) {
+                      bool line_model, ceres::IterationCallback* ridge = nullptr) {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = max_iterations;
@@ -303,7 +304,7 @@ void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlock
     for (int a = J.rows[r]; a < J.rows[r + 1]; ++a)
       for (int b = J.rows[r]; b < J.rows[r + 1]; ++b)
         info(J.cols[a], J.cols[b]) += J.values[a] * J.values[b];
-  texel_sigmas(info, 2 * cost, J.num_rows, t);
+  texel_sigmas(info, 2 * cost, J.num_rows, t, line_model);
   mark_converged(sum.termination_type == ceres::CONVERGENCE ||
                      (ridge && sum.termination_type == ceres::USER_SUCCESS),
                  t);
@@ -448,7 +449,7 @@ TexelResult texel_ceres_from(const ObsSet& os, const std::vector<size_t>& idx, c
   TexelRidgeCallback ridge(os, idx, &c);
   // Not with a pull: the LM measures the steps with the pull in J^T J, which this rule does not
   // see (with it the two paths' --smooth maps differed by up to 0.14 sigma).
-  solve_and_sigmas(&pb, data, {c.kd, c.ks, &c.logn, &c.psi}, max_iterations, &t,
+  solve_and_sigmas(&pb, data, {c.kd, c.ks, &c.logn, &c.psi}, max_iterations, &t, true,
                    prior ? nullptr : &ridge);
   return t;
 }
@@ -508,7 +509,7 @@ TexelResult fiber_ceres_from(const ObsSet& os, const std::vector<size_t>& idx,
     pb.SetParameterBlockConstant(&t.s);
   std::vector<double*> blocks = {c.kd, c.ks, &c.logn, &c.psi};
   if (fit_s) blocks.push_back(&t.s);
-  solve_and_sigmas(&pb, data, blocks, o.max_iterations, &t);
+  solve_and_sigmas(&pb, data, blocks, o.max_iterations, &t, false);
   return t;
 }
 
@@ -738,14 +739,14 @@ TexelResult texel_lm_from(const ObsSet& os, const std::vector<size_t>& idx, cons
   const bool from_float = converged;  // cur's sums then float's
   if (!converged) converged = obj.run(kStepInSigma, &x, &cur, &taken);
   unpack_core(x, &t.c);
-  texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t);
+  texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t, true);
   // J^T J in float fails the rank test where a column is a few orders below the others (k_s at
   // 1e-4, no lobe: n's column is k_s times the lobe's): float's rounding of its sums is then not
   // small against them. In double the test is Ceres' (satin-ball at 256^2: 1 414 texels Ceres
   // determined and the LM did not, at the same minimum).
   if (from_float && t.sigma[7] == 0) {
     obj.evaluate(x, &cur);
-    texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t);
+    texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t, true);
   }
   mark_converged(converged, &t);
   return t;

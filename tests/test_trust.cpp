@@ -729,5 +729,19 @@ TEST(Trust, TheRankTestOfATexelWithoutALobeIsTakenInDouble) {
   EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
 }
 
+// (31, 98): 86 pixels, no lobe. The LM put k_s on its bound, 0, where n's column (k_s times the
+// lobe's) is zero and the rank test failed; Ceres kept k_s at the start's floor, 1e-4, and passed
+// it or not as rounding fell. Without a lobe n is held (texel_sigmas): both determine psi from the
+// diffuse term with the same sigma, and name n as not known.
+TEST(Trust, ATexelWithoutALobeHoldsItsExponent) {
+  const SatinBallTexel t = satin_ball_texel("31 98");
+  EXPECT_TRUE(t.lm.determined);
+  EXPECT_TRUE(t.ce.determined);
+  EXPECT_NEAR(t.lm.sigma[7], t.ce.sigma[7], 0.05 * t.ce.sigma[7]);
+  EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
+  for (const auto* r : {&t.lm, &t.ce})
+    EXPECT_GT(std::exp(r->c.logn) * r->sigma[6], line_param("n").spread());
+}
+
 }  // namespace
 }  // namespace aniso
