@@ -656,6 +656,17 @@ SatinBallTexel satin_ball_texel(const std::string& xy) {
   return t;
 }
 
+// Both paths determine the texel, psi within a tenth of Ceres' sigma of each other (and, with
+// sigma_tol, psi's sigmas within that fraction).
+void expect_both_determine_alike(const SatinBallTexel& t, double sigma_tol = 0) {
+  EXPECT_TRUE(t.ce.converged && t.ce.determined);
+  EXPECT_TRUE(t.lm.converged && t.lm.determined);
+  EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
+  if (sigma_tol > 0) {
+    EXPECT_NEAR(t.lm.sigma[7], t.ce.sigma[7], sigma_tol * t.ce.sigma[7]);
+  }
+}
+
 // A texel whose data do not know its lobe is not determined where psi held away from its minimum
 // fits the data nearly as well (its profile, fit/texel_solve.cpp). (105, 141) and (133, 135), 13
 // pixels each near the sphere's limb: a lobe sharpened toward a needle is aimed at a pixel or two,
@@ -694,10 +705,8 @@ TEST(Trust, ATexelWhoseLobeTheDataDoNotKnowIsCheckedByItsFibersProfile) {
 // Ceres ends where the LM does.
 TEST(Trust, CeresEndsARidgeTexelWhereTheLmDoes) {
   const SatinBallTexel t = satin_ball_texel("5 84");
-  EXPECT_TRUE(t.lm.converged && t.lm.determined);
-  EXPECT_TRUE(t.ce.converged && t.ce.determined);
   // The two end on the ridge's settled coordinates within a tenth of their sigma.
-  EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
+  expect_both_determine_alike(t);
   for (int c = 0; c < 3; ++c) EXPECT_LT(std::abs(t.lm.c.kd[c] - t.ce.c.kd[c]), 0.1 * t.ce.sigma[c]);
 }
 
@@ -710,11 +719,9 @@ TEST(Trust, AStepClampedToTheLobesCornerIsTakenAgainWithDamping) {
   const SatinBallTexel t = satin_ball_texel("219 63");
   const double s2 = t.ce.rss / (3.0 * t.idx.size() - 8);
   std::printf("LM's sum of squares %+.3f sigma^2 from Ceres'\n", (t.lm.rss - t.ce.rss) / s2);
-  EXPECT_TRUE(t.ce.determined);
-  EXPECT_TRUE(t.lm.determined);
+  expect_both_determine_alike(t);
   EXPECT_LT(t.lm.rss - t.ce.rss, 0.1 * s2);
   EXPECT_LT(std::exp(t.lm.c.logn), 1000.0);
-  EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
 }
 
 // (6, 103): 72 pixels with no lobe (k_s at 1e-4), psi from the diffuse term alone. Its J^T J summed
@@ -722,11 +729,7 @@ TEST(Trust, AStepClampedToTheLobesCornerIsTakenAgainWithDamping) {
 // small against it) and the LM left it undetermined at the minimum Ceres determines; a failed test
 // in float is taken again in double (1 414 such texels of that set).
 TEST(Trust, TheRankTestOfATexelWithoutALobeIsTakenInDouble) {
-  const SatinBallTexel t = satin_ball_texel("6 103");
-  EXPECT_TRUE(t.ce.determined);
-  EXPECT_TRUE(t.lm.determined);
-  EXPECT_NEAR(t.lm.sigma[7], t.ce.sigma[7], 0.01 * t.ce.sigma[7]);
-  EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
+  expect_both_determine_alike(satin_ball_texel("6 103"), 0.01);
 }
 
 // (31, 98): 86 pixels, no lobe. The LM put k_s on its bound, 0, where n's column (k_s times the
@@ -735,10 +738,7 @@ TEST(Trust, TheRankTestOfATexelWithoutALobeIsTakenInDouble) {
 // diffuse term with the same sigma, and name n as not known.
 TEST(Trust, ATexelWithoutALobeHoldsItsExponent) {
   const SatinBallTexel t = satin_ball_texel("31 98");
-  EXPECT_TRUE(t.lm.determined);
-  EXPECT_TRUE(t.ce.determined);
-  EXPECT_NEAR(t.lm.sigma[7], t.ce.sigma[7], 0.05 * t.ce.sigma[7]);
-  EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
+  expect_both_determine_alike(t, 0.05);
   for (const auto* r : {&t.lm, &t.ce})
     EXPECT_GT(std::exp(r->c.logn) * r->sigma[6], line_param("n").spread());
 }
