@@ -330,7 +330,8 @@ void add_maps_warnings(const TexelMaps& m, double noise, int iterations, FitRepo
         "--maps: " + std::to_string(m.determined.size() - determined) + " of " +
         std::to_string(m.determined.size()) +
         " texels are not determined by the data (too few pixels, psi's sigma over 10 deg, two "
-        "fiber directions that fit a texel's data as well, or a solver that did not converge): "
+        "fiber directions that fit a texel's data as well, a lobe the data do not know whose psi "
+        "held elsewhere fits nearly as well, or a solver that did not converge): "
         "they hold the global values with the prior's spread as sigma "
         "(maps_uncertainty.determined = 0)");
     size_t holes = 0;
