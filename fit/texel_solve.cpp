@@ -1,5 +1,6 @@
-// One texel of --maps (fit/texel_solve.h): its start (a grid over psi with k_d, k_s in closed
-// form; for the fiber model a grid over s too), its solve and its sigmas.
+// One texel of --maps (fit/texel_solve.h), the line model's: its start (a grid over psi with k_d,
+// k_s in closed form), its solve by the LM or by Ceres, and its sigmas (the fiber model's texels:
+// fit/texel_fiber.cpp; the checks after a solve both share: fit/texel_parts.h).
 #include "fit/texel_solve.h"
 
 #include <ceres/normal_prior.h>
@@ -9,28 +10,16 @@
 #include <cmath>
 
 #include "core/angles.h"
-#include "fit/fiber_lm.h"
 #include "fit/line_pixel.h"
 #include "fit/line_simd.h"
 #include "fit/start.h"
+#include "fit/texel_parts.h"
 #include "fit/texel_sigmas.h"
 #include "fit/texel_simd.h"
 #include "models/params.h"
 
 namespace aniso::fitting {
 
-namespace {
-
-// The start grid's best node at least kOtherValleyDeg from the start's psi (the texel's second
-// look: solve_texel_lm, solve_texel_ceres), with its cost and the best node's.
-constexpr double kOtherValleyDeg = 45;
-struct OtherValley {
-  Core c;
-  double cost = INFINITY, best_cost = INFINITY;
-};
-
-// Eight nodes psi[0 .. 8) at n = 2^log2n, k_d and k_s in closed form: in float from the lanes, or
-// from the records in double.
 void texel_nodes(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
                  const double* psi, int log2n, NodeFit* out) {
   if (lanes) {
@@ -41,6 +30,8 @@ void texel_nodes(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
     line_nodes_cost(os, idx, psi, 8, log2n, out);
   }
 }
+
+namespace {
 
 // Grid over psi with k_d, k_s in closed form at the power of two nearest the global n (x^n by
 // squaring: this grid was most of the texel phase with a pow per pixel): the texel's start. With
@@ -95,108 +86,6 @@ bool texel_begin(const ObsSet& os, const std::vector<size_t>& idx, const TexelPr
   return f32;
 }
 
-// The texel's second look (the global fit's, fit/solve.cpp): where the start grid's best node in
-// another valley (kOtherValleyDeg or more from the start) costs within kOtherValleyGate sigma^2 of
-// the best node, the texel is solved from there too (solve_from). Where both converged, more than
-// a degree apart, the lower minimum is taken, and where they are within kAsWellSigma2 sigma^2 of
-// each other in the sum of squares (fit/start.h) the data do not tell the two directions apart:
-// the texel is not determined; so too where the second stopped before converging no more than
-// that above the first (its sum of squares bounds its valley's from above).
-// Without it, satin-ball's orbit set at --maps 256x256 held 98 determined texels of 20185 with
-// psi more than 45 degrees off the truth, their sigma 0.04 to 10 degrees (median 1.6).
-constexpr double kOtherValleyGate = kAsWellSigma2;
-template <class SolveFrom>
-void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_from,
-                       TexelResult* t) {
-  if (!std::isfinite(other.cost)) return;
-  const double dof = std::max(1.0, static_cast<double>(values) - 8);
-  if (!(other.cost - other.best_cost <= kOtherValleyGate * other.best_cost / dof)) return;
-  TexelResult second = solve_from(other.c);
-  constexpr double kSameDeg = 1.0;  // the two settled in one valley
-  if (std::abs(std::remainder(second.c.psi - t->c.psi, M_PI)) < deg_to_rad(kSameDeg)) return;
-  // A first solve that did not converge stays undetermined: a second that did is not taken for it
-  // (on satin-ball, 7 such texels converged in the other valley, psi ~83 degrees off).
-  if (!t->converged) return;
-  constexpr double kSigma2Floor = 1e-12;  // noise-free data
-  const double s2 = std::max(std::min(t->rss, second.rss) / dof, kSigma2Floor);
-  if (!second.converged) {
-    if (second.rss - t->rss <= kAsWellSigma2 * s2) t->determined = false;
-    return;
-  }
-  const bool as_well = std::abs(t->rss - second.rss) <= kAsWellSigma2 * s2;
-  if (second.rss < t->rss) *t = second;
-  if (as_well) t->determined = false;
-}
-
-// Where the data do not know the texel's lobe (k_s in a channel, or n, with a sigma above its
-// bounds' spread), the curvature of the sum of squares at the minimum does not bound psi: a lobe
-// sharpened to a needle can be aimed at a pixel or two, its psi then "known" to a tenth of a degree
-// while other directions, each with its own k_s and n, fit the data nearly as well. Satin-ball's
-// orbit set at --maps 256x256 held three such texels, determined 77 to 83 degrees off the truth,
-// sigma 0.06 to 0.36 degrees (Ceres, the fitter of record, at the same minima): one whose sum of
-// squares with psi held anywhere from 105 to 135 degrees rose by under 7.2 sigma^2 (its minimum at
-// 103), one within 2.8 sigma^2 from 45 to 90 (its minimum at 82). So such a texel's psi is checked
-// by its profile: its sum of squares with psi held at every kProfileStepDeg from its minimum, first
-// at the best node of a grid over n (k_d, k_s in closed form), then, where that node is within
-// kProfileMarginSigma2 sigma^2 of deciding, solved with psi held from there (from the global fit's
-// k_s and n instead, a lobe turned away from every pixel had no slope to leave by). Where psi held
-// Delta away rises by no more than a sigma of kPsiUndeterminedDeg would give,
-// (Delta / kPsiUndeterminedDeg)^2 sigma^2 (at most the second look's kAsWellSigma2), the direction
-// is not known: the texel is not determined. On satin-ball 6 547 texels were checked so: where a
-// held solve ended within 16 sigma^2 of deciding it had lowered its node by at most 15 sigma^2, and
-// the margin leaves 227 of the ~66 000 held directions looked at to solve (the maps' time 1.00 ->
-// 1.08 s).
-constexpr double kProfileStepDeg = 15;
-constexpr int kProfileHeld = 11;  // 180 / kProfileStepDeg - 1
-constexpr double kProfileMarginSigma2 = 2 * kAsWellSigma2;
-bool lobe_unknown(const TexelResult& t) {
-  const double ks = line_param("ks").spread(), n = line_param("n").spread();
-  return t.sigma[3] > ks || t.sigma[4] > ks || t.sigma[5] > ks ||
-         std::exp(t.c.logn) * t.sigma[6] > n;
-}
-template <class SolvePinned>
-void texel_psi_profile(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
-                       SolvePinned solve_pinned, TexelResult* t) {
-  if (!t->determined || !lobe_unknown(*t)) return;
-  double psi[16];
-  for (int k = 0; k < 16; ++k)
-    psi[k] = wrap_half_turn(t->c.psi + deg_to_rad(std::min(k + 1, kProfileHeld) * kProfileStepDeg));
-  NodeFit best[16];
-  int best_log2n[16];
-  for (int k = 0; k < 16; ++k) best[k].cost = INFINITY, best_log2n[k] = 1;
-  for (int log2n = 1; log2n <= 13; log2n += 2) {  // n = 2 .. 8192
-    NodeFit f[16];
-    texel_nodes(os, idx, lanes, psi, log2n, f);
-    texel_nodes(os, idx, lanes, psi + 8, log2n, f + 8);
-    for (int k = 0; k < kProfileHeld; ++k)
-      if (f[k].cost < best[k].cost) best[k] = f[k], best_log2n[k] = log2n;
-  }
-  const double dof = std::max(1.0, 3.0 * idx.size() - 8);
-  const double s2 = std::max(t->rss / dof, 1e-12);
-  double limit[kProfileHeld];
-  for (int k = 0; k < kProfileHeld; ++k) {
-    const double apart = std::min(k + 1, kProfileHeld - k) * kProfileStepDeg;
-    limit[k] = std::min(kAsWellSigma2, std::pow(apart / kPsiUndeterminedDeg, 2)) * s2;
-  }
-  // A node's sum of squares bounds the profile there from above: one within its limit decides.
-  for (int k = 0; k < kProfileHeld; ++k)
-    if (best[k].cost - t->rss <= limit[k]) {
-      t->determined = false;
-      return;
-    }
-  for (int k = 0; k < kProfileHeld; ++k) {
-    if (best[k].cost - t->rss > limit[k] + kProfileMarginSigma2 * s2) continue;
-    Core held;
-    held.psi = psi[k];
-    held.logn = best_log2n[k] * std::log(2.0);
-    set_start_kd_ks(best[k].kd, best[k].ks, &held);
-    if (solve_pinned(held).rss - t->rss <= limit[k]) {
-      t->determined = false;
-      return;
-    }
-  }
-}
-
 // --smooth's pull on psi toward its target, modulo a half turn (psi lives on Ceres' half-turn
 // manifold, so it may wrap past the target).
 class PsiPrior : public ceres::SizedCostFunction<1, 1> {
@@ -218,7 +107,9 @@ Vec8 prior_diff(const TexelPrior& p, const Vec8& x) {
   return d;
 }
 
-// The pull toward the neighbours as Ceres terms: NormalPriors on k_d, k_s, log n, PsiPrior on psi.
+}  // namespace
+
+// NormalPriors on k_d, k_s, log n, PsiPrior on psi.
 void add_prior(const TexelPrior& prior, ceres::Problem* pb, Core* c) {
   const std::pair<double*, int> blocks[3] = {{c->kd, 0}, {c->ks, 3}, {&c->logn, 6}};
   for (const auto& [block, at] : blocks) {
@@ -230,6 +121,8 @@ void add_prior(const TexelPrior& prior, ceres::Problem* pb, Core* c) {
   }
   pb->AddResidualBlock(new PsiPrior(std::sqrt(prior.w(7)), prior.b(7)), nullptr, &c->psi);
 }
+
+namespace {
 
 double texel_pass(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
                   bool in_float, const Vec8& x, Mat8* info, Vec8* grad);
@@ -271,13 +164,11 @@ class TexelRidgeCallback : public ceres::IterationCallback {
   int accepted_ = 0;
 };
 
-// Solves the texel's problem to double precision, then its sigmas from J^T J of the `data`
-// residuals alone (not the pull) over `blocks` (one column each, in order; `line_model`:
-// texel_sigmas' hold of n without a lobe). With `ridge`, its rule (the parameters updated every
-// iteration for it to read), a stop by which is converged.
+}  // namespace
+
 void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlockId>& data,
                       const std::vector<double*>& blocks, int max_iterations, TexelResult* t,
-                      bool line_model, ceres::IterationCallback* ridge = nullptr) {
+                      bool line_model, ceres::IterationCallback* ridge) {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = max_iterations;
@@ -309,121 +200,6 @@ void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlock
                      (ridge && sum.termination_type == ceres::USER_SUCCESS),
                  t);
 }
-
-// The fiber model's nodes over psi (every 22.5 degrees, and the global psi) with k_d, k_s in closed
-// form, and the start's own cost.
-struct FiberNodes {
-  static constexpr int kCount = 9;
-  Core c[kCount];
-  double cost[kCount];
-  double start_cost = INFINITY;
-};
-
-// The second look's other valley of a fiber texel solved to psi: the best node kFiberOtherValleyDeg
-// or more from where the solve ended, not from where it started (from the line model's psi the
-// fiber solve can move 20-40 degrees, past the node of the valley it should have reached), and one
-// node step, not the line model's kOtherValleyDeg: with 45 degrees from the start, 13 of the
-// 64^2 set's 1 115 determined texels stayed more than 45 degrees off; from the end, 1 of 1 118
-// (and 18 from 20 to 45 degrees); one node step from the end, none of 1 114 (1 from 20 to 45).
-constexpr double kFiberOtherValleyDeg = 22.5;
-OtherValley fiber_other_valley(const FiberNodes& nodes, double psi) {
-  OtherValley o;
-  o.best_cost = nodes.start_cost;
-  for (int k = 0; k < FiberNodes::kCount; ++k)
-    if (std::abs(std::remainder(nodes.c[k].psi - psi, M_PI)) >= deg_to_rad(kFiberOtherValleyDeg) &&
-        nodes.cost[k] < o.cost)
-      o.cost = nodes.cost[k], o.c = nodes.c[k];
-  return o;
-}
-
-// The fiber model's texel start: psi from the line model's texel grid (where the fibers lie flat
-// the direction looks the same to both; the fiber model's own nodes, kept in `nodes`, check it),
-// n from `from`, then s over a grid (s varies over the sample: started from the
-// global s alone, texels far from it stopped in other minima, differently for the fused solver
-// and Ceres) with k_d, k_s in closed form at every node; with a pull, `from` as it is.
-TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
-                              const TexelResult& from, const TexelMapOptions& o,
-                              const TexelPrior* prior, FiberNodes* nodes) {
-  TexelResult t;
-  t.c = from.c;
-  t.s = from.s;
-  if (prior) return t;
-  // psi of the line model's own texel solve (its grid, then its LM: a few cheap passes), not of
-  // a grid node: fiber-flat-map has texels with two minima of the fiber model 0.66 sigma apart,
-  // and from a node 7.5 degrees off the fused solver and Ceres went to different ones.
-  t.c.psi = solve_texel_lm(os, idx, from.c, nullptr).c.psi;
-  FiberAccuracy acc;
-  acc.order = std::min(4, o.fiber_order);  // plenty to rank nodes, as the global start
-  const double n = std::exp(t.c.logn);
-  // s in [0, 1], or a topology map's amplitude A in [-2, 2] (models/params.h)
-  const bool amp = os.topology == TopologyMode::kAmplitude;
-  const bool math = os.topology == TopologyMode::kMathematical;
-  // The fiber model's own sum of squares at psi and topology value s, k_d and k_s in closed form.
-  auto node = [&](double psi, double s, double kd[3], double ks[3]) {
-    const double c = std::cos(psi), sn = std::sin(psi);
-    return solve_kd_ks(
-        os, idx,
-        [&](size_t i, const Observation& ob, double* dcol, double* scol) {
-          const double si = amp    ? topology_with_map(os.smath(i), s, os.mapv(i))
-                            : math ? os.smath(i)
-                                   : s;
-          fiber_columns(os, ob, c, sn, n, si, acc, dcol, scol);
-        },
-        kd, ks);
-  };
-  // The line model's psi is the fiber model's where the fibers lie flat; where they climb (a
-  // mathematical topology, a sphere's fibers toward its poles) the lobe it sees is turned from
-  // theirs: satin-sphere-fiber's orbit set (16 views of 256^2, --maps 64x64) gave psi 35-47 degrees
-  // off across the sphere's middle, and the fiber solve from there ended 45-90 degrees off in 299
-  // of its 1 289 determined texels, sigma ~0.85 degrees (64 more 20-45 degrees off). So the fiber
-  // model's own nodes every 22.5 degrees (and the global psi) are kept for the second look
-  // (fiber_other_valley): none of its 1 114 determined texels is left more than 45 degrees off,
-  // 1 from 20 to 45, at twice the maps' time (19.7 -> 38.3 s; 29.9 s with the ridge rule, which
-  // ends 286 of the 333 texel solves that had crawled to their iteration limit).
-  if (nodes) {
-    double kd[3], ks[3];
-    nodes->start_cost = node(t.c.psi, t.s, kd, ks);
-    for (int k = 0; k < FiberNodes::kCount; ++k) {
-      Core& c = nodes->c[k];
-      c = t.c;
-      c.psi = k < 8 ? k * M_PI / 8 : from.c.psi;
-      nodes->cost[k] = node(c.psi, t.s, kd, ks);
-      set_start_kd_ks(kd, ks, &c);
-    }
-  }
-  if (math) return t;  // s is not fitted
-  double best = INFINITY;
-  static constexpr double kS[5] = {0.1, 0.3, 0.5, 0.7, 0.9}, kA[5] = {-1.6, -0.8, 0.0, 0.8, 1.6};
-  const double* at = amp ? kA : kS;
-  for (const double s : {from.s, at[0], at[1], at[2], at[3], at[4]}) {
-    double kd[3], ks[3];
-    const double cost = node(t.c.psi, s, kd, ks);
-    if (cost < best) best = cost, t.s = s, set_start_kd_ks(kd, ks, &t.c);
-  }
-  return t;
-}
-
-// A fiber texel: its start, `solve_from(start, prior)` (the fused solver's or Ceres'), and without
-// a pull the second look from the fiber model's other valley.
-template <class SolveFrom>
-TexelResult fiber_texel(const ObsSet& os, const std::vector<size_t>& idx, const TexelResult& from,
-                        const TexelMapOptions& o, const TexelPrior* prior, SolveFrom solve_from) {
-  FiberNodes nodes;
-  const TexelResult start = fiber_texel_start(os, idx, from, o, prior, prior ? nullptr : &nodes);
-  TexelResult t = solve_from(start, prior);
-  if (!prior)
-    texel_second_look(
-        fiber_other_valley(nodes, t.c.psi), 3 * idx.size(),
-        [&](const Core& c) {
-          TexelResult s = start;
-          s.c = c;
-          return solve_from(s, nullptr);
-        },
-        &t);
-  return t;
-}
-
-}  // namespace
 
 namespace {
 
@@ -474,53 +250,6 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, 
         &t);
   }
   return t;
-}
-
-namespace {
-
-// The same for the fiber model from `start` as it is: the autodiff residual of the global fit's
-// Ceres path (fiber_pixel_cost), s bounded as there (fixed under a mathematical topology), the
-// pull on s as one more NormalPrior.
-TexelResult fiber_ceres_from(const ObsSet& os, const std::vector<size_t>& idx,
-                             const TexelResult& start, const TexelMapOptions& o,
-                             const TexelPrior* prior) {
-  TexelResult t = start;
-  ceres::Problem::Options po;
-  po.manifold_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem pb(po);
-  Core& c = t.c;
-  FiberAccuracy acc;
-  acc.order = o.fiber_order;
-  std::vector<ceres::ResidualBlockId> data;
-  for (size_t i : idx)
-    data.push_back(pb.AddResidualBlock(fiber_pixel_cost(os, i, os.topology, acc), nullptr, c.kd,
-                                       c.ks, &c.logn, &c.psi, &t.s));
-  const bool fit_s = os.topology != TopologyMode::kMathematical;
-  if (prior) add_prior(*prior, &pb, &c);
-  if (prior && fit_s && prior->ws > 0)
-    pb.AddResidualBlock(
-        new ceres::NormalPrior(Eigen::MatrixXd::Constant(1, 1, std::sqrt(prior->ws)),
-                               Eigen::VectorXd::Constant(1, prior->bs)),
-        nullptr, &t.s);
-  set_core_bounds(&pb, &c);
-  if (fit_s)
-    set_param_bounds(&pb, &t.s, 0, texel_topology_key(os.topology));
-  else
-    pb.SetParameterBlockConstant(&t.s);
-  std::vector<double*> blocks = {c.kd, c.ks, &c.logn, &c.psi};
-  if (fit_s) blocks.push_back(&t.s);
-  solve_and_sigmas(&pb, data, blocks, o.max_iterations, &t, false);
-  return t;
-}
-
-}  // namespace
-
-TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>& idx,
-                                    const TexelResult& from, const TexelMapOptions& o,
-                                    const TexelPrior* prior) {
-  return fiber_texel(os, idx, from, o, prior, [&](const TexelResult& s, const TexelPrior* p) {
-    return fiber_ceres_from(os, idx, s, o, p);
-  });
 }
 
 namespace {
@@ -712,7 +441,7 @@ namespace {
 // determined there too gave 2 fewer determined texels and took 0.15-0.3 s more of the ~1.5 s).
 constexpr double kCautiousLambda = 1;
 bool lobe_at_upper_bound(const Core& c) {
-  const double ks = line_param("ks").hi, n = line_param("n").hi;
+  static const double ks = line_param("ks").hi, n = line_param("n").hi;  // per texel
   return c.ks[0] >= ks || c.ks[1] >= ks || c.ks[2] >= ks || std::exp(c.logn) >= n * (1 - 1e-12);
 }
 
@@ -780,43 +509,6 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
         &t);
   }
   return t;
-}
-
-namespace {
-
-// The fiber model's fused solve of one texel from `start` as it is.
-TexelResult fiber_lm_from(const ObsSet& os, const std::vector<size_t>& idx,
-                          const TexelResult& start, const TexelMapOptions& o,
-                          const TexelPrior* prior) {
-  TexelResult t = start;
-  FiberAccuracy acc;
-  acc.order = o.fiber_order;
-  FusedSolve fs;
-  FiberPull pull;
-  if (prior) {
-    for (int k = 0; k < 8; ++k) pull.w[k] = prior->w(k), pull.b[k] = prior->b(k);
-    pull.w[8] = prior->ws, pull.b[8] = prior->bs;
-  }
-  fiber_lm_solve(os, &idx, FitLoss::kNone, 0, o.max_iterations, 1, os.topology, acc, &t.c, &t.s,
-                 &fs, prior ? &pull : nullptr, true);
-  const int P = os.topology == TopologyMode::kMathematical ? 8 : 9;
-  const Eigen::MatrixXd info = Eigen::Map<const Eigen::MatrixXd>(fs.info.data(), P, P);
-  texel_sigmas(info, fs.rss, 3.0 * idx.size(), &t);
-  mark_converged(fs.converged, &t);
-  return t;
-}
-
-}  // namespace
-
-// One texel of the fiber model: fiber_texel_start, then the fiber model's fused solve
-// (fit/fiber_lm.h: the global fit's solver, checked against Ceres there) on the texel alone, and
-// from the start's other valley too.
-TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
-                              const TexelResult& from, const TexelMapOptions& o,
-                              const TexelPrior* prior) {
-  return fiber_texel(os, idx, from, o, prior, [&](const TexelResult& s, const TexelPrior* p) {
-    return fiber_lm_from(os, idx, s, o, p);
-  });
 }
 
 }  // namespace aniso::fitting

@@ -1,0 +1,219 @@
+// The fiber model's texels of --maps (fit/texel_solve.h): the start (psi from the line model's
+// texel, then s over a grid, the fiber model's own nodes over psi kept for the second look), the
+// fused solve or Ceres from it, and the second look from the other valley.
+#include <ceres/normal_prior.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+
+#include "core/angles.h"
+#include "fit/fiber_lm.h"
+#include "fit/start.h"
+#include "fit/texel_parts.h"
+#include "fit/texel_sigmas.h"
+#include "fit/texel_solve.h"
+
+namespace aniso::fitting {
+
+namespace {
+
+// The fiber model's nodes over psi (every 22.5 degrees, and the global psi) with k_d, k_s in closed
+// form, and the start's own cost.
+struct FiberNodes {
+  static constexpr int kCount = 9;
+  Core c[kCount];
+  double cost[kCount];
+  double start_cost = INFINITY;
+};
+
+// The second look's other valley of a fiber texel solved to psi: the best node kFiberOtherValleyDeg
+// or more from where the solve ended, not from where it started (from the line model's psi the
+// fiber solve can move 20-40 degrees, past the node of the valley it should have reached), and one
+// node step, not the line model's kOtherValleyDeg: with 45 degrees from the start, 13 of the
+// 64^2 set's 1 115 determined texels stayed more than 45 degrees off; from the end, 1 of 1 118
+// (and 18 from 20 to 45 degrees); one node step from the end, none of 1 114 (1 from 20 to 45).
+constexpr double kFiberOtherValleyDeg = 22.5;
+OtherValley fiber_other_valley(const FiberNodes& nodes, double psi) {
+  OtherValley o;
+  o.best_cost = nodes.start_cost;
+  for (int k = 0; k < FiberNodes::kCount; ++k)
+    if (std::abs(std::remainder(nodes.c[k].psi - psi, M_PI)) >= deg_to_rad(kFiberOtherValleyDeg) &&
+        nodes.cost[k] < o.cost)
+      o.cost = nodes.cost[k], o.c = nodes.c[k];
+  return o;
+}
+
+// The fiber model's texel start: psi from the line model's texel grid (where the fibers lie flat
+// the direction looks the same to both; the fiber model's own nodes, kept in `nodes`, check it),
+// n from `from`, then s over a grid (s varies over the sample: started from the
+// global s alone, texels far from it stopped in other minima, differently for the fused solver
+// and Ceres) with k_d, k_s in closed form at every node; with a pull, `from` as it is.
+TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
+                              const TexelResult& from, const TexelMapOptions& o,
+                              const TexelPrior* prior, FiberNodes* nodes) {
+  TexelResult t;
+  t.c = from.c;
+  t.s = from.s;
+  if (prior) return t;
+  // psi of the line model's own texel solve (its grid, then its LM: a few cheap passes), not of
+  // a grid node: fiber-flat-map has texels with two minima of the fiber model 0.66 sigma apart,
+  // and from a node 7.5 degrees off the fused solver and Ceres went to different ones.
+  t.c.psi = solve_texel_lm(os, idx, from.c, nullptr).c.psi;
+  FiberAccuracy acc;
+  acc.order = std::min(4, o.fiber_order);  // plenty to rank nodes, as the global start
+  const double n = std::exp(t.c.logn);
+  // s in [0, 1], or a topology map's amplitude A in [-2, 2] (models/params.h)
+  const bool amp = os.topology == TopologyMode::kAmplitude;
+  const bool math = os.topology == TopologyMode::kMathematical;
+  // The fiber model's own sum of squares at psi and topology value s, k_d and k_s in closed form.
+  auto node = [&](double psi, double s, double kd[3], double ks[3]) {
+    const double c = std::cos(psi), sn = std::sin(psi);
+    return solve_kd_ks(
+        os, idx,
+        [&](size_t i, const Observation& ob, double* dcol, double* scol) {
+          const double si = amp    ? topology_with_map(os.smath(i), s, os.mapv(i))
+                            : math ? os.smath(i)
+                                   : s;
+          fiber_columns(os, ob, c, sn, n, si, acc, dcol, scol);
+        },
+        kd, ks);
+  };
+  // The line model's psi is the fiber model's where the fibers lie flat; where they climb (a
+  // mathematical topology, a sphere's fibers toward its poles) the lobe it sees is turned from
+  // theirs: satin-sphere-fiber's orbit set (16 views of 256^2, --maps 64x64) gave psi 35-47 degrees
+  // off across the sphere's middle, and the fiber solve from there ended 45-90 degrees off in 299
+  // of its 1 289 determined texels, sigma ~0.85 degrees (64 more 20-45 degrees off). So the fiber
+  // model's own nodes every 22.5 degrees (and the global psi) are kept for the second look
+  // (fiber_other_valley): none of its 1 114 determined texels is left more than 45 degrees off,
+  // 1 from 20 to 45, at twice the maps' time (19.7 -> 38.3 s; 29.9 s with the ridge rule, which
+  // ends 286 of the 333 texel solves that had crawled to their iteration limit).
+  if (nodes) {
+    double kd[3], ks[3];
+    nodes->start_cost = node(t.c.psi, t.s, kd, ks);
+    for (int k = 0; k < FiberNodes::kCount; ++k) {
+      Core& c = nodes->c[k];
+      c = t.c;
+      c.psi = k < 8 ? k * M_PI / 8 : from.c.psi;
+      nodes->cost[k] = node(c.psi, t.s, kd, ks);
+      set_start_kd_ks(kd, ks, &c);
+    }
+  }
+  if (math) return t;  // s is not fitted
+  double best = INFINITY;
+  static constexpr double kS[5] = {0.1, 0.3, 0.5, 0.7, 0.9}, kA[5] = {-1.6, -0.8, 0.0, 0.8, 1.6};
+  const double* at = amp ? kA : kS;
+  for (const double s : {from.s, at[0], at[1], at[2], at[3], at[4]}) {
+    double kd[3], ks[3];
+    const double cost = node(t.c.psi, s, kd, ks);
+    if (cost < best) best = cost, t.s = s, set_start_kd_ks(kd, ks, &t.c);
+  }
+  return t;
+}
+
+// A fiber texel: its start, `solve_from(start, prior)` (the fused solver's or Ceres'), and without
+// a pull the second look from the fiber model's other valley.
+template <class SolveFrom>
+TexelResult fiber_texel(const ObsSet& os, const std::vector<size_t>& idx, const TexelResult& from,
+                        const TexelMapOptions& o, const TexelPrior* prior, SolveFrom solve_from) {
+  FiberNodes nodes;
+  const TexelResult start = fiber_texel_start(os, idx, from, o, prior, prior ? nullptr : &nodes);
+  TexelResult t = solve_from(start, prior);
+  if (!prior)
+    texel_second_look(
+        fiber_other_valley(nodes, t.c.psi), 3 * idx.size(),
+        [&](const Core& c) {
+          TexelResult s = start;
+          s.c = c;
+          return solve_from(s, nullptr);
+        },
+        &t);
+  return t;
+}
+
+}  // namespace
+
+namespace {
+
+// The same for the fiber model from `start` as it is: the autodiff residual of the global fit's
+// Ceres path (fiber_pixel_cost), s bounded as there (fixed under a mathematical topology), the
+// pull on s as one more NormalPrior.
+TexelResult fiber_ceres_from(const ObsSet& os, const std::vector<size_t>& idx,
+                             const TexelResult& start, const TexelMapOptions& o,
+                             const TexelPrior* prior) {
+  TexelResult t = start;
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem pb(po);
+  Core& c = t.c;
+  FiberAccuracy acc;
+  acc.order = o.fiber_order;
+  std::vector<ceres::ResidualBlockId> data;
+  for (size_t i : idx)
+    data.push_back(pb.AddResidualBlock(fiber_pixel_cost(os, i, os.topology, acc), nullptr, c.kd,
+                                       c.ks, &c.logn, &c.psi, &t.s));
+  const bool fit_s = os.topology != TopologyMode::kMathematical;
+  if (prior) add_prior(*prior, &pb, &c);
+  if (prior && fit_s && prior->ws > 0)
+    pb.AddResidualBlock(
+        new ceres::NormalPrior(Eigen::MatrixXd::Constant(1, 1, std::sqrt(prior->ws)),
+                               Eigen::VectorXd::Constant(1, prior->bs)),
+        nullptr, &t.s);
+  set_core_bounds(&pb, &c);
+  if (fit_s)
+    set_param_bounds(&pb, &t.s, 0, texel_topology_key(os.topology));
+  else
+    pb.SetParameterBlockConstant(&t.s);
+  std::vector<double*> blocks = {c.kd, c.ks, &c.logn, &c.psi};
+  if (fit_s) blocks.push_back(&t.s);
+  solve_and_sigmas(&pb, data, blocks, o.max_iterations, &t, false);
+  return t;
+}
+
+}  // namespace
+
+TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>& idx,
+                                    const TexelResult& from, const TexelMapOptions& o,
+                                    const TexelPrior* prior) {
+  return fiber_texel(os, idx, from, o, prior, [&](const TexelResult& s, const TexelPrior* p) {
+    return fiber_ceres_from(os, idx, s, o, p);
+  });
+}
+
+namespace {
+
+// The fiber model's fused solve of one texel from `start` as it is.
+TexelResult fiber_lm_from(const ObsSet& os, const std::vector<size_t>& idx,
+                          const TexelResult& start, const TexelMapOptions& o,
+                          const TexelPrior* prior) {
+  TexelResult t = start;
+  FiberAccuracy acc;
+  acc.order = o.fiber_order;
+  FusedSolve fs;
+  FiberPull pull;
+  if (prior) {
+    for (int k = 0; k < 8; ++k) pull.w[k] = prior->w(k), pull.b[k] = prior->b(k);
+    pull.w[8] = prior->ws, pull.b[8] = prior->bs;
+  }
+  fiber_lm_solve(os, &idx, FitLoss::kNone, 0, o.max_iterations, 1, os.topology, acc, &t.c, &t.s,
+                 &fs, prior ? &pull : nullptr, true);
+  const int P = os.topology == TopologyMode::kMathematical ? 8 : 9;
+  const Eigen::MatrixXd info = Eigen::Map<const Eigen::MatrixXd>(fs.info.data(), P, P);
+  texel_sigmas(info, fs.rss, 3.0 * idx.size(), &t);
+  mark_converged(fs.converged, &t);
+  return t;
+}
+
+}  // namespace
+
+// One texel of the fiber model: fiber_texel_start, then the fiber model's fused solve
+// (fit/fiber_lm.h: the global fit's solver, checked against Ceres there) on the texel alone, and
+// from the start's other valley too.
+TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
+                              const TexelResult& from, const TexelMapOptions& o,
+                              const TexelPrior* prior) {
+  return fiber_texel(os, idx, from, o, prior, [&](const TexelResult& s, const TexelPrior* p) {
+    return fiber_lm_from(os, idx, s, o, p);
+  });
+}
+
+}  // namespace aniso::fitting

@@ -1,0 +1,146 @@
+// fit/ internal to the texel solvers (fit/texel_solve.cpp: the line model's; fit/texel_fiber.cpp:
+// the fiber model's): what a texel's solve shares with the others - the checks after it (the
+// second look at another valley, psi's profile), the start's nodes, and the Ceres problem's pull
+// and solve. Ceres and Eigen inside: included by those two files alone.
+#pragma once
+#include <ceres/iteration_callback.h>
+#include <ceres/problem.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "core/angles.h"
+#include "fit/start.h"
+#include "fit/texel_sigmas.h"
+#include "fit/texel_simd.h"
+#include "models/params.h"
+
+namespace aniso::fitting {
+
+// The start grid's best node at least kOtherValleyDeg from the start's psi (the texel's second
+// look: solve_texel_lm, solve_texel_ceres), with its cost and the best node's.
+constexpr double kOtherValleyDeg = 45;
+struct OtherValley {
+  Core c;
+  double cost = INFINITY, best_cost = INFINITY;
+};
+
+// Eight nodes psi[0 .. 8) at n = 2^log2n, k_d and k_s in closed form: in float from the lanes, or
+// from the records in double.
+void texel_nodes(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
+                 const double* psi, int log2n, NodeFit* out);
+
+// The texel's second look (the global fit's, fit/solve.cpp): where the start grid's best node in
+// another valley (kOtherValleyDeg or more from the start) costs within kOtherValleyGate sigma^2 of
+// the best node, the texel is solved from there too (solve_from). Where both converged, more than
+// a degree apart, the lower minimum is taken, and where they are within kAsWellSigma2 sigma^2 of
+// each other in the sum of squares (fit/start.h) the data do not tell the two directions apart:
+// the texel is not determined; so too where the second stopped before converging no more than
+// that above the first (its sum of squares bounds its valley's from above).
+// Without it, satin-ball's orbit set at --maps 256x256 held 98 determined texels of 20185 with
+// psi more than 45 degrees off the truth, their sigma 0.04 to 10 degrees (median 1.6).
+constexpr double kOtherValleyGate = kAsWellSigma2;
+template <class SolveFrom>
+void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_from,
+                       TexelResult* t) {
+  if (!std::isfinite(other.cost)) return;
+  const double dof = std::max(1.0, static_cast<double>(values) - 8);
+  if (!(other.cost - other.best_cost <= kOtherValleyGate * other.best_cost / dof)) return;
+  TexelResult second = solve_from(other.c);
+  constexpr double kSameDeg = 1.0;  // the two settled in one valley
+  if (std::abs(std::remainder(second.c.psi - t->c.psi, M_PI)) < deg_to_rad(kSameDeg)) return;
+  // A first solve that did not converge stays undetermined: a second that did is not taken for it
+  // (on satin-ball, 7 such texels converged in the other valley, psi ~83 degrees off).
+  if (!t->converged) return;
+  constexpr double kSigma2Floor = 1e-12;  // noise-free data
+  const double s2 = std::max(std::min(t->rss, second.rss) / dof, kSigma2Floor);
+  if (!second.converged) {
+    if (second.rss - t->rss <= kAsWellSigma2 * s2) t->determined = false;
+    return;
+  }
+  const bool as_well = std::abs(t->rss - second.rss) <= kAsWellSigma2 * s2;
+  if (second.rss < t->rss) *t = second;
+  if (as_well) t->determined = false;
+}
+
+// Where the data do not know the texel's lobe (k_s in a channel, or n, with a sigma above its
+// bounds' spread), the curvature of the sum of squares at the minimum does not bound psi: a lobe
+// sharpened to a needle can be aimed at a pixel or two, its psi then "known" to a tenth of a degree
+// while other directions, each with its own k_s and n, fit the data nearly as well. Satin-ball's
+// orbit set at --maps 256x256 held three such texels, determined 77 to 83 degrees off the truth,
+// sigma 0.06 to 0.36 degrees (Ceres, the fitter of record, at the same minima): one whose sum of
+// squares with psi held anywhere from 105 to 135 degrees rose by under 7.2 sigma^2 (its minimum at
+// 103), one within 2.8 sigma^2 from 45 to 90 (its minimum at 82). So such a texel's psi is checked
+// by its profile: its sum of squares with psi held at every kProfileStepDeg from its minimum, first
+// at the best node of a grid over n (k_d, k_s in closed form), then, where that node is within
+// kProfileMarginSigma2 sigma^2 of deciding, solved with psi held from there (from the global fit's
+// k_s and n instead, a lobe turned away from every pixel had no slope to leave by). Where psi held
+// Delta away rises by no more than a sigma of kPsiUndeterminedDeg would give,
+// (Delta / kPsiUndeterminedDeg)^2 sigma^2 (at most the second look's kAsWellSigma2), the direction
+// is not known: the texel is not determined. On satin-ball 6 547 texels were checked so: where a
+// held solve ended within 16 sigma^2 of deciding it had lowered its node by at most 15 sigma^2, and
+// the margin leaves 227 of the ~66 000 held directions looked at to solve (the maps' time 1.00 ->
+// 1.08 s).
+constexpr double kProfileStepDeg = 15;
+constexpr int kProfileHeld = 11;  // 180 / kProfileStepDeg - 1
+constexpr double kProfileMarginSigma2 = 2 * kAsWellSigma2;
+inline bool lobe_unknown(const TexelResult& t) {
+  static const double ks = line_param("ks").spread(), n = line_param("n").spread();  // per texel
+  return t.sigma[3] > ks || t.sigma[4] > ks || t.sigma[5] > ks ||
+         std::exp(t.c.logn) * t.sigma[6] > n;
+}
+template <class SolvePinned>
+void texel_psi_profile(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
+                       SolvePinned solve_pinned, TexelResult* t) {
+  if (!t->determined || !lobe_unknown(*t)) return;
+  double psi[16];
+  for (int k = 0; k < 16; ++k)
+    psi[k] = wrap_half_turn(t->c.psi + deg_to_rad(std::min(k + 1, kProfileHeld) * kProfileStepDeg));
+  NodeFit best[16];
+  int best_log2n[16];
+  for (int k = 0; k < 16; ++k) best[k].cost = INFINITY, best_log2n[k] = 1;
+  for (int log2n = 1; log2n <= 13; log2n += 2) {  // n = 2 .. 8192
+    NodeFit f[16];
+    texel_nodes(os, idx, lanes, psi, log2n, f);
+    texel_nodes(os, idx, lanes, psi + 8, log2n, f + 8);
+    for (int k = 0; k < kProfileHeld; ++k)
+      if (f[k].cost < best[k].cost) best[k] = f[k], best_log2n[k] = log2n;
+  }
+  const double dof = std::max(1.0, 3.0 * idx.size() - 8);
+  const double s2 = std::max(t->rss / dof, 1e-12);
+  double limit[kProfileHeld];
+  for (int k = 0; k < kProfileHeld; ++k) {
+    const double apart = std::min(k + 1, kProfileHeld - k) * kProfileStepDeg;
+    limit[k] = std::min(kAsWellSigma2, std::pow(apart / kPsiUndeterminedDeg, 2)) * s2;
+  }
+  // A node's sum of squares bounds the profile there from above: one within its limit decides.
+  for (int k = 0; k < kProfileHeld; ++k)
+    if (best[k].cost - t->rss <= limit[k]) {
+      t->determined = false;
+      return;
+    }
+  for (int k = 0; k < kProfileHeld; ++k) {
+    if (best[k].cost - t->rss > limit[k] + kProfileMarginSigma2 * s2) continue;
+    Core held;
+    held.psi = psi[k];
+    held.logn = best_log2n[k] * std::log(2.0);
+    set_start_kd_ks(best[k].kd, best[k].ks, &held);
+    if (solve_pinned(held).rss - t->rss <= limit[k]) {
+      t->determined = false;
+      return;
+    }
+  }
+}
+
+// The pull toward the neighbours (--smooth) as Ceres terms on the texel's core.
+void add_prior(const TexelPrior& prior, ceres::Problem* pb, Core* c);
+// Solves the texel's problem to double precision, then its sigmas from J^T J of the `data`
+// residuals alone (not the pull) over `blocks` (one column each, in order; `line_model`:
+// texel_sigmas' hold of n without a lobe). With `ridge`, its rule (the parameters updated every
+// iteration for it to read), a stop by which is converged.
+void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlockId>& data,
+                      const std::vector<double*>& blocks, int max_iterations, TexelResult* t,
+                      bool line_model, ceres::IterationCallback* ridge = nullptr);
+
+}  // namespace aniso::fitting
