@@ -84,7 +84,7 @@ double add_pull(const FiberPull& pull, const VecP<P>& x, FusedSums<P>* s) {
 template <int P>
 void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss& loss,
            int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc, Core* c,
-           double* topo, FusedSolve* out, const FiberPull* pull, bool ridge_rule) {
+           double* topo, FusedSolve* out, const FiberPull* pull, bool ridge_rule, double lambda0) {
   tbb::task_arena arena(std::max(1, threads));
   const FiberPass<P> pass{os, subset, mode, acc};
   VecP<P> lo, hi, x;
@@ -105,7 +105,8 @@ void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss
     if (pull) add_pull<P>(*pull, at, &s);
     return s;
   };
-  fused_lm<P>(evaluate, lo, hi, values, max_iterations, &x, &cur, out, ridge_rule);
+  fused_lm<P>(evaluate, lo, hi, values, max_iterations, &x, &cur, out, ridge_rule,
+              lambda0 > 0 ? lambda0 : NielsenDamping().lambda);
   if (pull) {  // the data's own J^T J and sum of squares at the solution
     out->rss -= add_pull<P>(*pull, x, nullptr);
     for (int k = 0; k < P; ++k) out->info[static_cast<size_t>(k) * (P + 1)] -= pull->w[k];
@@ -118,13 +119,15 @@ void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss
 
 void fiber_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
                     int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc,
-                    Core* c, double* topo, FusedSolve* out, const FiberPull* pull,
-                    bool ridge_rule) {
+                    Core* c, double* topo, FusedSolve* out, const FiberPull* pull, bool ridge_rule,
+                    double lambda0) {
   const RobustLoss l{loss, scale};
   if (mode == TopologyMode::kMathematical)
-    solve<8>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out, pull, ridge_rule);
+    solve<8>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out, pull, ridge_rule,
+             lambda0);
   else
-    solve<9>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out, pull, ridge_rule);
+    solve<9>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out, pull, ridge_rule,
+             lambda0);
 }
 
 }  // namespace aniso::fitting

@@ -312,17 +312,19 @@ VecP<P> lm_step(const FusedSums<P>& s, double lambda) {
 
 // The Levenberg-Marquardt loop from *x (updated) within [lo, hi] (psi, coordinate 7, wrapped):
 // `pass(x, jac)` returns the sums at x. *cur ends as the sums at the solution.
-// With `ridge_rule`, a texel's: done on a ridge (kRidgeIterations).
+// With `ridge_rule`, a texel's: done on a ridge (kRidgeIterations). `lambda0`: the first step's
+// damping.
 template <int P, class Pass>
 void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double values,
               int max_iterations, VecP<P>* x, FusedSums<P>* cur, FusedSolve* out,
-              bool ridge_rule = false) {
+              bool ridge_rule = false, double lambda0 = NielsenDamping().lambda) {
   constexpr double kRelativeDecrease = 1e-14;
   constexpr double kLambdaMax = 1e12;
   *x = x->cwiseMax(lo).cwiseMin(hi);
   *cur = pass(*x, true);
   out->passes = 1;
   NielsenDamping damp;
+  damp.lambda = lambda0;
   VecP<P> prev = VecP<P>::Zero();  // the last plain step taken
   double last = 0;                 // its size in sigmas (0: none yet)
   auto to = [&](const VecP<P>& s) {

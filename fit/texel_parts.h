@@ -40,9 +40,16 @@ void texel_nodes(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
 // that above the first (its sum of squares bounds its valley's from above).
 // Without it, satin-ball's orbit set at --maps 256x256 held 98 determined texels of 20185 with
 // psi more than 45 degrees off the truth, their sigma 0.04 to 10 degrees (median 1.6).
+// A first solve that stopped at its iteration limit where the second converged elsewhere is
+// solved on from where it stopped (`resume`) before the two are compared: its sum of squares
+// there bounds its valley's minimum only from above, so a second one lower is not yet the better
+// (on satin-ball 7 such second solves converged ~83 degrees off the truth), and left as it was,
+// the texel was lost where the second was right: satin-sphere-fiber's fiber texels started 100
+// degrees off (the line model's psi where the fibers climb) crawled without a lobe (k_s 0) to the
+// limit at a sum of squares 16 times the second's, which Ceres, converging there, then took.
 constexpr double kOtherValleyGate = kAsWellSigma2;
-template <class SolveFrom>
-void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_from,
+template <class SolveFrom, class Resume>
+void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_from, Resume resume,
                        TexelResult* t) {
   if (!std::isfinite(other.cost)) return;
   const double dof = std::max(1.0, static_cast<double>(values) - 8);
@@ -50,8 +57,11 @@ void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_
   TexelResult second = solve_from(other.c);
   constexpr double kSameDeg = 1.0;  // the two settled in one valley
   if (std::abs(std::remainder(second.c.psi - t->c.psi, M_PI)) < deg_to_rad(kSameDeg)) return;
-  // A first solve that did not converge stays undetermined: a second that did is not taken for it
-  // (on satin-ball, 7 such texels converged in the other valley, psi ~83 degrees off).
+  if (!t->converged && second.converged) {
+    const TexelResult more = resume(*t);
+    if (more.converged) *t = more;
+  }
+  // A first solve that did not converge stays undetermined: a second that did is not taken for it.
   if (!t->converged) return;
   constexpr double kSigma2Floor = 1e-12;  // noise-free data
   const double s2 = std::max(std::min(t->rss, second.rss) / dof, kSigma2Floor);
@@ -90,24 +100,25 @@ inline bool lobe_unknown(const TexelResult& t) {
   return t.sigma[3] > ks || t.sigma[4] > ks || t.sigma[5] > ks ||
          std::exp(t.c.logn) * t.sigma[6] > n;
 }
-template <class SolvePinned>
-void texel_psi_profile(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes,
-                       SolvePinned solve_pinned, TexelResult* t) {
+// `nodes(psi, log2n, out)`: the model's sum of squares at psi[0 .. kProfileHeld) with n = 2^log2n,
+// k_d and k_s in closed form (the rest of the texel's numbers as solved); `solve_pinned(c)`: the
+// texel solved from c with psi held. The line model's nodes: line_profile_nodes.
+template <class Nodes, class SolvePinned>
+void texel_psi_profile(size_t values, Nodes nodes, SolvePinned solve_pinned, TexelResult* t) {
   if (!t->determined || !lobe_unknown(*t)) return;
-  double psi[16];
-  for (int k = 0; k < 16; ++k)
-    psi[k] = wrap_half_turn(t->c.psi + deg_to_rad(std::min(k + 1, kProfileHeld) * kProfileStepDeg));
-  NodeFit best[16];
-  int best_log2n[16];
-  for (int k = 0; k < 16; ++k) best[k].cost = INFINITY, best_log2n[k] = 1;
+  double psi[kProfileHeld];
+  for (int k = 0; k < kProfileHeld; ++k)
+    psi[k] = wrap_half_turn(t->c.psi + deg_to_rad((k + 1) * kProfileStepDeg));
+  NodeFit best[kProfileHeld];
+  int best_log2n[kProfileHeld];
+  for (int k = 0; k < kProfileHeld; ++k) best[k].cost = INFINITY, best_log2n[k] = 1;
   for (int log2n = 1; log2n <= 13; log2n += 2) {  // n = 2 .. 8192
-    NodeFit f[16];
-    texel_nodes(os, idx, lanes, psi, log2n, f);
-    texel_nodes(os, idx, lanes, psi + 8, log2n, f + 8);
+    NodeFit f[kProfileHeld];
+    nodes(psi, log2n, f);
     for (int k = 0; k < kProfileHeld; ++k)
       if (f[k].cost < best[k].cost) best[k] = f[k], best_log2n[k] = log2n;
   }
-  const double dof = std::max(1.0, 3.0 * idx.size() - 8);
+  const double dof = std::max(1.0, static_cast<double>(values) - 8);
   const double s2 = std::max(t->rss / dof, 1e-12);
   double limit[kProfileHeld];
   for (int k = 0; k < kProfileHeld; ++k) {
@@ -122,7 +133,7 @@ void texel_psi_profile(const ObsSet& os, const std::vector<size_t>& idx, const T
     }
   for (int k = 0; k < kProfileHeld; ++k) {
     if (best[k].cost - t->rss > limit[k] + kProfileMarginSigma2 * s2) continue;
-    Core held;
+    Core held = t->c;
     held.psi = psi[k];
     held.logn = best_log2n[k] * std::log(2.0);
     set_start_kd_ks(best[k].kd, best[k].ks, &held);
@@ -131,6 +142,37 @@ void texel_psi_profile(const ObsSet& os, const std::vector<size_t>& idx, const T
       return;
     }
   }
+}
+// The line model's nodes for texel_psi_profile: texel_nodes eight at a time.
+inline auto line_profile_nodes(const ObsSet& os, const std::vector<size_t>& idx,
+                               const TexelLanes* lanes) {
+  return [&os, &idx, lanes](const double* psi, int log2n, NodeFit* out) {
+    double at[16];
+    for (int k = 0; k < 16; ++k) at[k] = psi[std::min(k, kProfileHeld - 1)];
+    NodeFit f[16];
+    texel_nodes(os, idx, lanes, at, log2n, f);
+    texel_nodes(os, idx, lanes, at + 8, log2n, f + 8);
+    std::copy(f, f + kProfileHeld, out);
+  };
+}
+
+// A lobe that ends at the top of k_s's or n's bounds may have got there in one step that jumped
+// the valley it was in: where k_s and n trade off along a ridge, a Gauss-Newton step far along it
+// is clamped to the bounds' corner, which can cost less than the point it left and more than the
+// ridge's own minimum. Satin-ball's texel (219, 63): from k_s 5.5, n 52 one step went to k_s 100,
+// n 10^4 and stayed (its J^T J there failing the rank test: not determined), where Ceres settled at
+// k_s 37, n 48, 1.2 sigma^2 lower. Such a texel, where it is not determined there, is solved again
+// from its start with the first step damped kCautiousLambda, not 1e-3, and the lower of the two
+// kept (on that set ~5 000 of 33 149 texels end at the top of the bounds; retrying those that are
+// determined there too gave 2 fewer determined texels and took 0.15-0.3 s more of the ~1.5 s).
+// The fiber model's fused solver (its first step damped 1e-4) did the same: satin-sphere-fiber's
+// orbit set (16 views of 256^2, --maps 64x64) had 78 texels Ceres determined that it ended at
+// n 10^4, some 1.8 times Ceres' sum of squares ((63, 15): 0.094 against 0.051); there every solve
+// of a texel (the first, the second look's, a resumed one) that ends so is taken again.
+constexpr double kCautiousLambda = 1;
+inline bool lobe_at_upper_bound(const Core& c) {
+  static const double ks = line_param("ks").hi, n = line_param("n").hi;  // per texel
+  return c.ks[0] >= ks || c.ks[1] >= ks || c.ks[2] >= ks || std::exp(c.logn) >= n * (1 - 1e-12);
 }
 
 // The pull toward the neighbours (--smooth) as Ceres terms on the texel's core.

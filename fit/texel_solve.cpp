@@ -241,11 +241,13 @@ TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, 
   const bool f32 = texel_begin(os, idx, prior, &lanes, &start, &other);
   TexelResult t = texel_ceres_from(os, idx, start, prior, max_iterations);
   if (!prior) {
+    auto from = [&](const Core& c) {
+      return texel_ceres_from(os, idx, c, nullptr, max_iterations);
+    };
     texel_second_look(
-        other, 3 * idx.size(),
-        [&](const Core& c) { return texel_ceres_from(os, idx, c, nullptr, max_iterations); }, &t);
+        other, 3 * idx.size(), from, [&](const TexelResult& r) { return from(r.c); }, &t);
     texel_psi_profile(
-        os, idx, f32 ? &lanes : nullptr,
+        3 * idx.size(), line_profile_nodes(os, idx, f32 ? &lanes : nullptr),
         [&](const Core& c) { return texel_ceres_from(os, idx, c, nullptr, max_iterations, true); },
         &t);
   }
@@ -430,21 +432,6 @@ struct TexelObjective {
 
 namespace {
 
-// A lobe that ends at the top of k_s's or n's bounds may have got there in one step that jumped
-// the valley it was in: where k_s and n trade off along a ridge, a Gauss-Newton step far along it
-// is clamped to the bounds' corner, which can cost less than the point it left and more than the
-// ridge's own minimum. Satin-ball's texel (219, 63): from k_s 5.5, n 52 one step went to k_s 100,
-// n 10^4 and stayed (its J^T J there failing the rank test: not determined), where Ceres settled at
-// k_s 37, n 48, 1.2 sigma^2 lower. Such a texel, where it is not determined there, is solved again
-// from its start with the first step damped kCautiousLambda, not 1e-3, and the lower of the two
-// kept (on that set ~5 000 of 33 149 texels end at the top of the bounds; retrying those that are
-// determined there too gave 2 fewer determined texels and took 0.15-0.3 s more of the ~1.5 s).
-constexpr double kCautiousLambda = 1;
-bool lobe_at_upper_bound(const Core& c) {
-  static const double ks = line_param("ks").hi, n = line_param("n").hi;  // per texel
-  return c.ks[0] >= ks || c.ks[1] >= ks || c.ks[2] >= ks || std::exp(c.logn) >= n * (1 - 1e-12);
-}
-
 // The LM of solve_texel_lm from `start` as it is.
 TexelResult texel_lm_from(const ObsSet& os, const std::vector<size_t>& idx, const Core& start,
                           const TexelLanes* lanes, const TexelPrior* prior, int max_iterations,
@@ -497,12 +484,13 @@ TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, con
     if (cautious.rss < t.rss) t = cautious;
   }
   if (!prior) {
+    auto from = [&](const Core& c) {
+      return texel_lm_from(os, idx, c, in_lanes, nullptr, max_iterations);
+    };
     texel_second_look(
-        other, 3 * idx.size(),
-        [&](const Core& c) { return texel_lm_from(os, idx, c, in_lanes, nullptr, max_iterations); },
-        &t);
+        other, 3 * idx.size(), from, [&](const TexelResult& r) { return from(r.c); }, &t);
     texel_psi_profile(
-        os, idx, in_lanes,
+        3 * idx.size(), line_profile_nodes(os, idx, in_lanes),
         [&](const Core& c) {
           return texel_lm_from(os, idx, c, in_lanes, nullptr, max_iterations, true);
         },
