@@ -132,14 +132,13 @@ TexelResult fiber_texel(const ObsSet& os, const std::vector<size_t>& idx, const 
   const TexelResult start = fiber_texel_start(os, idx, from, o, prior, prior ? nullptr : &nodes);
   TexelResult t = solve_from(start, prior, false);
   if (prior) return t;
-  auto from_core = [&](const Core& c, bool pin_psi) {
-    TexelResult s = start;
-    s.c = c;
-    return solve_from(s, nullptr, pin_psi);
-  };
   texel_second_look(
       fiber_other_valley(nodes, t.c.psi), 3 * idx.size(),
-      [&](const Core& c) { return from_core(c, false); },
+      [&](const Core& c) {
+        TexelResult s = start;
+        s.c = c;
+        return solve_from(s, nullptr, false);
+      },
       [&](const TexelResult& r) { return solve_from(r, nullptr, false); }, &t);
   FiberAccuracy acc;
   acc.order = o.fiber_order;
