@@ -128,24 +128,42 @@ constexpr double kNoLobeKs = 1e-4;
 
 // sigmas from J^T J (`info`: fixed 8 x 8, or dynamic) and the residual sum of squares at the
 // solution: the rank test on the eigenvalues of the column-scaled matrix, then the diagonal of its
-// inverse times s^2. Where the line model's solve found no lobe (k_s at or under kNoLobeKs in every
-// channel),
-// n is held - its column is k_s times the lobe's, zero at k_s 0 (the LM, on the bound) and 1e-4 of
-// the others at the start's floor (Ceres), either way failing the rank test: the others' sigmas
-// from the rest of the matrix, n's kUnmovedSigma. (Any other zero column still fails it: a lobe
-// at the bounds' corner lit by no pixel is not determined, and is solved again.) Satin-ball's
-// orbit set at 256^2: 26 005 -> 30 536 texels determined by the LM, 26 259 -> 30 581 by Ceres,
-// the two agreeing on all but 55; psi's error over its sigma above 3 in 0.34 % of them.
+// inverse times s^2. Where the solve found no lobe (k_s at or under kNoLobeKs in every channel),
+// `hold` says what is held (NoLobe):
+// the line model holds n - its column is k_s times the lobe's, zero at k_s 0 (the LM, on the
+// bound) and 1e-4 of the others at the start's floor (Ceres), either way failing the rank test: the
+// others' sigmas from the rest of the matrix, n's kUnmovedSigma. (Any other zero column still fails
+// it: a lobe at the bounds' corner lit by no pixel is not determined, and is solved again.)
+// Satin-ball's orbit set at 256^2: 26 005 -> 30 536 texels determined by the LM, 26 259 -> 30 581
+// by Ceres, the two agreeing on all but 55; psi's error over its sigma above 3 in 0.34 % of them.
+// The fiber model holds k_s too: without a lobe the cost does not depend on n, and its two solvers
+// left n at opposite bounds (the fused one at 10^4, Ceres at 1: silk-torus' texel (2, 3) of a 4 x 4
+// map, the same sum of squares), where k_s's column is a needle lit by a pixel or two or a broad
+// lobe (the fused one's k_s 28 and 29 in two channels, lighting no pixel); holding n alone
+// determined the texel in Ceres and failed the rank test in the LM. k_d, psi and s come from the
+// diffuse term alone, the same in both.
+enum class NoLobe { kNone, kHoldN, kHoldLobe };
 template <class M>
 void texel_sigmas(const M& info, double rss, double values, TexelResult* t,
-                  bool line_model = false) {
+                  NoLobe hold = NoLobe::kNone) {
   t->rss = rss;
   t->values = values;
   const int P = static_cast<int>(info.rows());
-  const bool no_lobe = line_model && std::max({t->c.ks[0], t->c.ks[1], t->c.ks[2]}) <= kNoLobeKs;
+  // The fiber model's lobe is also absent where it lights no pixel (a needle at n 10^4 aimed
+  // between them, its k_s anywhere: its column's sum of squares times k_s^2 nothing against rss).
+  auto absent = [&](int k) {
+    const double ks = t->c.ks[k];
+    return ks <= kNoLobeKs ||
+           (hold == NoLobe::kHoldLobe && !(ks * ks * info(3 + k, 3 + k) > 1e-12 * rss));
+  };
+  const bool no_lobe = hold != NoLobe::kNone && absent(0) && absent(1) && absent(2);
   int kept[9], Q = 0;
-  for (int k = 0; k < P; ++k)
-    if (!(no_lobe && (k == 6 || (k >= 3 && k < 6 && !(info(k, k) > 0))))) kept[Q++] = k;
+  for (int k = 0; k < P; ++k) {
+    const bool ks = k >= 3 && k < 6;
+    const bool held =
+        no_lobe && (k == 6 || (ks && (hold == NoLobe::kHoldLobe || !(info(k, k) > 0))));
+    if (!held) kept[Q++] = k;
+  }
   const double dof = values - Q;
   if (dof < 1) return;
   const double s2 = rss / dof;

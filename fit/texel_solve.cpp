@@ -168,9 +168,10 @@ class TexelRidgeCallback : public ceres::IterationCallback {
 
 void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlockId>& data,
                       const std::vector<double*>& blocks, int max_iterations, TexelResult* t,
-                      bool line_model, ceres::IterationCallback* ridge) {
+                      NoLobe hold, ceres::IterationCallback* ridge, double trust_radius) {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
+  if (trust_radius > 0) so.initial_trust_region_radius = trust_radius;
   so.max_num_iterations = max_iterations;
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
@@ -195,7 +196,7 @@ void solve_and_sigmas(ceres::Problem* pb, const std::vector<ceres::ResidualBlock
     for (int a = J.rows[r]; a < J.rows[r + 1]; ++a)
       for (int b = J.rows[r]; b < J.rows[r + 1]; ++b)
         info(J.cols[a], J.cols[b]) += J.values[a] * J.values[b];
-  texel_sigmas(info, 2 * cost, J.num_rows, t, line_model);
+  texel_sigmas(info, 2 * cost, J.num_rows, t, hold);
   mark_converged(sum.termination_type == ceres::CONVERGENCE ||
                      (ridge && sum.termination_type == ceres::USER_SUCCESS),
                  t);
@@ -225,7 +226,7 @@ TexelResult texel_ceres_from(const ObsSet& os, const std::vector<size_t>& idx, c
   TexelRidgeCallback ridge(os, idx, &c);
   // Not with a pull: the LM measures the steps with the pull in J^T J, which this rule does not
   // see (with it the two paths' --smooth maps differed by up to 0.14 sigma).
-  solve_and_sigmas(&pb, data, {c.kd, c.ks, &c.logn, &c.psi}, max_iterations, &t, true,
+  solve_and_sigmas(&pb, data, {c.kd, c.ks, &c.logn, &c.psi}, max_iterations, &t, NoLobe::kHoldN,
                    prior ? nullptr : &ridge);
   return t;
 }
@@ -455,14 +456,14 @@ TexelResult texel_lm_from(const ObsSet& os, const std::vector<size_t>& idx, cons
   const bool from_float = converged;  // cur's sums then float's
   if (!converged) converged = obj.run(kStepInSigma, &x, &cur, &taken);
   unpack_core(x, &t.c);
-  texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t, true);
+  texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t, NoLobe::kHoldN);
   // J^T J in float fails the rank test where a column is a few orders below the others (k_s at
   // 1e-4, no lobe: n's column is k_s times the lobe's): float's rounding of its sums is then not
   // small against them. In double the test is Ceres' (satin-ball at 256^2: 1 414 texels Ceres
   // determined and the LM did not, at the same minimum).
   if (from_float && t.sigma[7] == 0) {
     obj.evaluate(x, &cur);
-    texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t, true);
+    texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t, NoLobe::kHoldN);
   }
   mark_converged(converged, &t);
   return t;
