@@ -197,7 +197,8 @@ TexelResult fiber_ceres_from(const ObsSet& os, const std::vector<size_t>& idx,
   if (fit_s) blocks.push_back(&t.s);
   solve_and_sigmas(&pb, data, blocks, o.max_iterations, &t, NoLobe::kHoldLobe, nullptr,
                    cautious ? 1 / kCautiousLambda : 0);
-  // The fused solver's rule (fiber_lm_from): a lobe at the top of its bounds, taken again damped.
+  // The fused solver's rule (fiber_lm_from): a lobe at the top of its bounds or none, taken again
+  // damped.
   if (!prior && !cautious && fiber_lobe_suspect(t.c)) {
     const TexelResult again = fiber_ceres_from(os, idx, start, o, nullptr, pin_psi, true);
     if (again.rss < t.rss) return again;
@@ -219,11 +220,11 @@ TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>&
 namespace {
 
 // The fiber model's fused solve of one texel from `start` as it is; with pin_psi, psi held there.
-// Without a pull, a solve that ends with its lobe at the top of its bounds is taken again with its
-// first step damped kCautiousLambda (lobe_at_upper_bound), the lower kept: determined there or
-// not (a lobe lighting no pixel is determined by its diffuse term alone: satin-sphere-fiber's
-// (28, 16) ended at n 10^4, psi 10 degrees off, where damped it finds the fibers' lobe, n 25, psi
-// 1 degree off, its sum of squares 0.62 times).
+// Without a pull, a solve that ends with its lobe at the top of its bounds or without one
+// (fiber_lobe_suspect) is taken again with its first step damped kCautiousLambda, the lower kept,
+// determined there or not (without a lobe the diffuse term determines the texel: satin-sphere-
+// fiber's (28, 16) ended at n 10^4, psi 10 degrees off, where damped it finds the fibers' lobe,
+// n 25, psi 1 degree off, its sum of squares 0.62 times).
 constexpr double kPinWeight = 1e16;
 TexelResult fiber_lm_from(const ObsSet& os, const std::vector<size_t>& idx,
                           const TexelResult& start, const TexelMapOptions& o,

@@ -5,6 +5,7 @@
 #include <ImfOutputFile.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -765,13 +766,21 @@ TEST(Trust, ATexelWithoutALobeHoldsItsExponent) {
 struct FiberTexel {
   fitting::TexelResult lm, ce;
 };
+// A set's global fit as a texel's `from`: k_d, k_s, n, psi in degrees, and the topology value s.
+fitting::TexelResult global_fit(const std::array<double, 3>& kd, const std::array<double, 3>& ks,
+                                double n, double psi_deg, double s = 0) {
+  fitting::TexelResult g;
+  for (int c = 0; c < 3; ++c) g.c.kd[c] = kd[c], g.c.ks[c] = ks[c];
+  g.c.logn = std::log(n);
+  g.c.psi = deg_to_rad(psi_deg);
+  g.s = s;
+  return g;
+}
+
 FiberTexel satin_sphere_fiber_texel(const std::string& xy) {
-  fitting::TexelResult global;
-  const double kd[3] = {0.300001062, 0.0400200048, 0.0799987246};
-  const double ks[3] = {0.450147732, 0.399803027, 0.39984505};
-  for (int c = 0; c < 3; ++c) global.c.kd[c] = kd[c], global.c.ks[c] = ks[c];
-  global.c.logn = std::log(24.9983755);
-  global.c.psi = deg_to_rad(179.993047);
+  const fitting::TexelResult global =
+      global_fit({0.300001062, 0.0400200048, 0.0799987246}, {0.450147732, 0.399803027, 0.39984505},
+                 24.9983755, 179.993047);
   fitting::TexelMapOptions o;
   o.fiber_order = 6;  // the set's global fit's
   fitting::ObsSet os;
@@ -846,13 +855,9 @@ TEST(Trust, PsisSigmaIsAtLeastWhatItsProfileSays) {
 // determined it in Ceres and failed the rank test in the fused solver; the fiber model holds the
 // lobe (k_s and n): both determine psi, k_d and the amplitude A from the diffuse term alike.
 TEST(Trust, AFiberTexelWithoutALobeIsDeterminedAlikeByBothSolvers) {
-  fitting::TexelResult global;
-  const double kd[3] = {0.299824851, 0.219961812, 0.0600190792};
-  const double ks[3] = {0.551446197, 0.499735304, 0.348416654};
-  for (int c = 0; c < 3; ++c) global.c.kd[c] = kd[c], global.c.ks[c] = ks[c];
-  global.c.logn = std::log(29.9914518);
-  global.c.psi = deg_to_rad(90.0014156);
-  global.s = 0.801099171;  // the global fit's amplitude
+  const fitting::TexelResult global =  // s: the global fit's amplitude
+      global_fit({0.299824851, 0.219961812, 0.0600190792}, {0.551446197, 0.499735304, 0.348416654},
+                 29.9914518, 90.0014156, 0.801099171);
   fitting::TexelMapOptions o;
   o.fiber_order = 4;  // the set's global fit's
   o.s = global.s;
