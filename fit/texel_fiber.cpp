@@ -119,15 +119,27 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   return t;
 }
 
-// A fiber texel: its start, `solve_from(start, prior, pin_psi)` (the fused solver's or Ceres'), and
-// without a pull the second look from the fiber model's other valley and psi's profile where the
-// data do not know the lobe (texel_psi_profile, the fiber model's own nodes at the texel's s and
-// quadrature order). Satin-sphere-fiber's orbit set (16 views of 256^2, --maps 64x64) held
-// determined texels such as one with k_s 100 and n 10^4 (the bounds' corner), psi 10 degrees off
-// the truth with sigma 0.46.
+// A fiber texel: its start, `solve_from(start, prior, pin_psi, cautious)` (the fused solver's or
+// Ceres'; `cautious`: its first step damped kCautiousLambda), and without a pull the second look
+// from the fiber model's other valley and psi's profile where the data do not know the lobe
+// (texel_psi_profile, the fiber model's own nodes at the texel's s and quadrature order).
+// Satin-sphere-fiber's orbit set (16 views of 256^2, --maps 64x64) held determined texels such as
+// one with k_s 100 and n 10^4 (the bounds' corner), psi 10 degrees off the truth with sigma 0.46.
+// Every solve without a pull that ends with its lobe at the top of its bounds or without one
+// (fiber_lobe_suspect) is taken again cautiously from the same start, the lower kept, determined
+// there or not (without a lobe the diffuse term determines the texel: satin-sphere-fiber's
+// (28, 16) ended at n 10^4, psi 10 degrees off, where damped it finds the fibers' lobe, n 25, psi
+// 1 degree off, its sum of squares 0.62 times).
 template <class SolveFrom>
 TexelResult fiber_texel(const ObsSet& os, const std::vector<size_t>& idx, const TexelResult& from,
-                        const TexelMapOptions& o, const TexelPrior* prior, SolveFrom solve_from) {
+                        const TexelMapOptions& o, const TexelPrior* prior,
+                        SolveFrom solve_from_once) {
+  auto solve_from = [&](const TexelResult& begin, const TexelPrior* p, bool pin_psi) {
+    const TexelResult t = solve_from_once(begin, p, pin_psi, false);
+    if (p || !fiber_lobe_suspect(t.c)) return t;
+    const TexelResult again = solve_from_once(begin, nullptr, pin_psi, true);
+    return again.rss < t.rss ? again : t;
+  };
   FiberNodes nodes;
   const TexelResult start = fiber_texel_start(os, idx, from, o, prior, prior ? nullptr : &nodes);
   TexelResult t = solve_from(start, prior, false);
@@ -168,7 +180,7 @@ namespace {
 // pull on s as one more NormalPrior.
 TexelResult fiber_ceres_from(const ObsSet& os, const std::vector<size_t>& idx,
                              const TexelResult& start, const TexelMapOptions& o,
-                             const TexelPrior* prior, bool pin_psi = false, bool cautious = false) {
+                             const TexelPrior* prior, bool pin_psi, bool cautious) {
   TexelResult t = start;
   ceres::Problem::Options po;
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
@@ -197,12 +209,6 @@ TexelResult fiber_ceres_from(const ObsSet& os, const std::vector<size_t>& idx,
   if (fit_s) blocks.push_back(&t.s);
   solve_and_sigmas(&pb, data, blocks, o.max_iterations, &t, NoLobe::kHoldLobe, nullptr,
                    cautious ? 1 / kCautiousLambda : 0);
-  // The fused solver's rule (fiber_lm_from): a lobe at the top of its bounds or none, taken again
-  // damped.
-  if (!prior && !cautious && fiber_lobe_suspect(t.c)) {
-    const TexelResult again = fiber_ceres_from(os, idx, start, o, nullptr, pin_psi, true);
-    if (again.rss < t.rss) return again;
-  }
   return t;
 }
 
@@ -212,23 +218,19 @@ TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>&
                                     const TexelResult& from, const TexelMapOptions& o,
                                     const TexelPrior* prior) {
   return fiber_texel(os, idx, from, o, prior,
-                     [&](const TexelResult& s, const TexelPrior* p, bool pin_psi) {
-                       return fiber_ceres_from(os, idx, s, o, p, pin_psi);
+                     [&](const TexelResult& s, const TexelPrior* p, bool pin_psi, bool cautious) {
+                       return fiber_ceres_from(os, idx, s, o, p, pin_psi, cautious);
                      });
 }
 
 namespace {
 
-// The fiber model's fused solve of one texel from `start` as it is; with pin_psi, psi held there.
-// Without a pull, a solve that ends with its lobe at the top of its bounds or without one
-// (fiber_lobe_suspect) is taken again with its first step damped kCautiousLambda, the lower kept,
-// determined there or not (without a lobe the diffuse term determines the texel: satin-sphere-
-// fiber's (28, 16) ended at n 10^4, psi 10 degrees off, where damped it finds the fibers' lobe,
-// n 25, psi 1 degree off, its sum of squares 0.62 times).
+// The fiber model's fused solve of one texel from `start` as it is; with pin_psi, psi held there;
+// `cautious`: its first step damped kCautiousLambda (fiber_texel's retry).
 constexpr double kPinWeight = 1e16;
 TexelResult fiber_lm_from(const ObsSet& os, const std::vector<size_t>& idx,
                           const TexelResult& start, const TexelMapOptions& o,
-                          const TexelPrior* prior, bool pin_psi = false, double lambda0 = 0) {
+                          const TexelPrior* prior, bool pin_psi, bool cautious) {
   TexelResult t = start;
   FiberAccuracy acc;
   acc.order = o.fiber_order;
@@ -242,16 +244,11 @@ TexelResult fiber_lm_from(const ObsSet& os, const std::vector<size_t>& idx,
   // of its sum of squares and J^T J at the end).
   if (pin_psi) pull.w[7] = kPinWeight, pull.b[7] = t.c.psi;
   fiber_lm_solve(os, &idx, FitLoss::kNone, 0, o.max_iterations, 1, os.topology, acc, &t.c, &t.s,
-                 &fs, prior || pin_psi ? &pull : nullptr, true, lambda0);
+                 &fs, prior || pin_psi ? &pull : nullptr, true, cautious ? kCautiousLambda : 0);
   const int P = os.topology == TopologyMode::kMathematical ? 8 : 9;
   const Eigen::MatrixXd info = Eigen::Map<const Eigen::MatrixXd>(fs.info.data(), P, P);
   texel_sigmas(info, fs.rss, 3.0 * idx.size(), &t, NoLobe::kHoldLobe);
   mark_converged(fs.converged, &t);
-  if (!prior && lambda0 == 0 && fiber_lobe_suspect(t.c)) {
-    const TexelResult cautious =
-        fiber_lm_from(os, idx, start, o, nullptr, pin_psi, kCautiousLambda);
-    if (cautious.rss < t.rss) return cautious;
-  }
   return t;
 }
 
@@ -264,8 +261,8 @@ TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
                               const TexelResult& from, const TexelMapOptions& o,
                               const TexelPrior* prior) {
   return fiber_texel(os, idx, from, o, prior,
-                     [&](const TexelResult& s, const TexelPrior* p, bool pin_psi) {
-                       return fiber_lm_from(os, idx, s, o, p, pin_psi);
+                     [&](const TexelResult& s, const TexelPrior* p, bool pin_psi, bool cautious) {
+                       return fiber_lm_from(os, idx, s, o, p, pin_psi, cautious);
                      });
 }
 

@@ -120,10 +120,10 @@ void texel_psi_profile(size_t values, Nodes nodes, SolvePinned solve_pinned, Tex
   }
   const double dof = std::max(1.0, static_cast<double>(values) - 8);
   const double s2 = std::max(t->rss / dof, 1e-12);
-  double limit[kProfileHeld];
+  double apart[kProfileHeld], limit[kProfileHeld];  // degrees from the minimum, either way
   for (int k = 0; k < kProfileHeld; ++k) {
-    const double apart = std::min(k + 1, kProfileHeld - k) * kProfileStepDeg;
-    limit[k] = std::min(kAsWellSigma2, std::pow(apart / kPsiUndeterminedDeg, 2)) * s2;
+    apart[k] = std::min(k + 1, kProfileHeld - k) * kProfileStepDeg;
+    limit[k] = std::min(kAsWellSigma2, std::pow(apart[k] / kPsiUndeterminedDeg, 2)) * s2;
   }
   // A node's sum of squares bounds the profile there from above: one within its limit decides.
   for (int k = 0; k < kProfileHeld; ++k)
@@ -147,16 +147,14 @@ void texel_psi_profile(size_t values, Nodes nodes, SolvePinned solve_pinned, Tex
   }
   // Determined: psi's sigma is at least what the profile's rise within kProfileSigmaDeg of the
   // minimum says, Delta / sqrt(rise / sigma^2) (a rise of one sigma^2 a sigma away), where that is
-  // more than the curvature at the minimum says. Satin-sphere-fiber's fiber texel (29, 29): sigma
-  // 3.1 degrees from the curvature, psi held 15 degrees away rose by 2.55 sigma^2 (sigma 9.4), its
-  // psi 20.6 degrees off the truth. Within 30 degrees the limits above keep this under
-  // kPsiUndeterminedDeg.
+  // more than the curvature at the minimum says. Satin-sphere-fiber's fiber texel (9, 33): sigma
+  // 0.76 degrees from the curvature, psi 21.4 degrees off the truth; held 15 degrees away its sum
+  // of squares rose as a sigma of 4.9 degrees would have it. Within 30 degrees the limits above
+  // keep this under kPsiUndeterminedDeg.
   constexpr double kProfileSigmaDeg = 30;
-  for (int k = 0; k < kProfileHeld; ++k) {
-    const double apart = std::min(k + 1, kProfileHeld - k) * kProfileStepDeg;
-    if (apart <= kProfileSigmaDeg)
-      t->sigma[7] = std::max(t->sigma[7], deg_to_rad(apart) / std::sqrt(rise[k] / s2));
-  }
+  for (int k = 0; k < kProfileHeld; ++k)
+    if (apart[k] <= kProfileSigmaDeg)
+      t->sigma[7] = std::max(t->sigma[7], deg_to_rad(apart[k]) / std::sqrt(rise[k] / s2));
 }
 // The line model's nodes for texel_psi_profile: texel_nodes eight at a time.
 inline auto line_profile_nodes(const ObsSet& os, const std::vector<size_t>& idx,
@@ -182,9 +180,10 @@ inline auto line_profile_nodes(const ObsSet& os, const std::vector<size_t>& idx,
 // determined there too gave 2 fewer determined texels and took 0.15-0.3 s more of the ~1.5 s).
 // The fiber model's fused solver (its first step damped 1e-4) did the same: on satin-sphere-fiber's
 // orbit set (16 views of 256^2, --maps 64x64) texels Ceres determined ended at n 10^4, (63, 15) at
-// 1.8 times Ceres' sum of squares (0.094 against 0.051). There every solve of a texel (the first,
-// the second look's, a resumed one, a held one) that ends so is taken again: 863 solves, 93 of
-// them ending lower and determined; 1 416 -> 1 457 texels determined, the maps' time ~+35 %.
+// 1.8 times Ceres' sum of squares (0.094 against 0.051). There every solve of a texel, in both
+// solvers, is taken again so where fiber_lobe_suspect (fit/texel_fiber.cpp fiber_texel; retrying
+// the undetermined ones at the upper bounds alone: 863 solves, 93 of them ending lower and
+// determined, 1 416 -> 1 457 texels determined).
 constexpr double kCautiousLambda = 1;
 inline bool lobe_at_upper_bound(const Core& c) {
   static const double ks = line_param("ks").hi, n = line_param("n").hi;  // per texel
