@@ -205,8 +205,10 @@ TexelResult fiber_ceres_from(const ObsSet& os, const std::vector<size_t>& idx,
   else
     pb.SetParameterBlockConstant(&t.s);
   if (pin_psi) pb.SetParameterBlockConstant(&c.psi);
-  std::vector<double*> blocks = {c.kd, c.ks, &c.logn, &c.psi};
-  if (fit_s) blocks.push_back(&t.s);
+  // (not a push_back of s: GCC 12 misreads that as past the list's end, -Warray-bounds, once
+  // the sanitizer build's flags change what it inlines)
+  std::vector<double*> blocks = {c.kd, c.ks, &c.logn, &c.psi, &t.s};
+  if (!fit_s) blocks.pop_back();
   solve_and_sigmas(&pb, data, blocks, o.max_iterations, &t, NoLobe::kHoldLobe, nullptr,
                    cautious ? 1 / kCautiousLambda : 0);
   return t;
