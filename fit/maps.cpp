@@ -20,6 +20,7 @@
 #include "core/angles.h"
 #include "core/progress.h"
 #include "fit/line_lm.h"
+#include "fit/texel_sigmas.h"
 #include "fit/texel_simd.h"
 #include "fit/texel_solve.h"
 #include "models/params.h"
@@ -40,7 +41,14 @@ double prior_sigma(const char* key) { return line_param(key).spread(); }
 void put_texel(const TexelResult& res, size_t t, const Core& global, double s, const char* s_param,
                TexelMaps* m) {
   m->determined[t] = res.determined;
-  const Core& c = res.determined ? res.c : global;
+  // Without a lobe (texel_sigmas' NoLobe hold) the data do not move n, nor the fiber model's k_s:
+  // their sigma is past every spread, and their value is written as the global's n and k_s 0 (no
+  // lobe seen), not wherever the solver left them (the fused fiber solve a needle, k_s 28 at n
+  // 10^4 lighting no pixel, Ceres k_s 0 at n 1: silk-torus' texel (2, 3) of a 4 x 4 map).
+  Core c = res.determined ? res.c : global;
+  if (res.determined && res.sigma[6] >= kUnmovedSigma) c.logn = global.logn;
+  for (int k = 0; k < 3; ++k)
+    if (res.determined && res.sigma[3 + k] >= kUnmovedSigma) c.ks[k] = 0;
   for (int k = 0; k < 3; ++k) {
     m->kd[3 * t + k] = c.kd[k];
     m->ks[3 * t + k] = c.ks[k];

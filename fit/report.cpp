@@ -121,7 +121,8 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
        "coverage: pixels per texel; determined = 0: not determined by the data, sigma is the "
        "prior's spread and the value the global one, or, for a texel no pixel reaches between "
        "texels that have pixels, the nearest determined texels' in its column (else row), "
-       "interpolated"}};
+       "interpolated; a determined texel whose n sigma is float's largest showed no specular "
+       "lobe: its n is the global one (the fiber model's k_s 0, its sigma float's largest too)"}};
   if (!t.residual.empty()) {
     (*j)["maps_uncertainty"]["residual"] = f[kResidualFile];
     (*j)["maps_uncertainty"]["note"] =

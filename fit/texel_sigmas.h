@@ -1,5 +1,6 @@
 // A texel's sigmas and verdict from J^T J: the 8 x 8 block solve every texel LM step takes, the
-// rank test, the diagonal of the inverse. Eigen inside: included by fit/texel_solve.cpp alone.
+// rank test, the diagonal of the inverse. Eigen inside: included by the texel solvers' .cpp files
+// and fit/maps.cpp alone.
 #pragma once
 #include <Eigen/Dense>
 #include <algorithm>
