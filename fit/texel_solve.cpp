@@ -44,7 +44,8 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
   const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
   double psi[16];
   NodeFit fit[16];
-  auto nodes = [&](double* at, NodeFit* out) { texel_nodes(os, idx, lanes, at, log2n, out); };
+  auto nodes_at = [&](double* at, int l2, NodeFit* out) { texel_nodes(os, idx, lanes, at, l2, out); };
+  auto nodes = [&](double* at, NodeFit* out) { nodes_at(at, log2n, out); };
   // On the grid of texel_grid_angle: m = 4k, then m of the best two +-1, +-2 (modulo a half turn).
   for (int k = 0; k < 8; ++k) psi[k] = texel_grid_angle(4 * k);
   nodes(psi, fit);
@@ -64,6 +65,35 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
     if (fit[k].cost < fit[best].cost) best = k;
   c->psi = psi[best];
   set_start_kd_ks(fit[best].kd, fit[best].ks, c);
+  // A best node whose k_s the closed form put on its bound: a lobe at this n lighting next to no
+  // pixel, where the LM stays at its start (n's column all but zero, each step in n huge and
+  // rejected until the step is "small" in sigmas). Nodes within 22.5 degrees of it again at
+  // broader lobes (a quarter of n, and 2), the lowest kept (not the whole half turn: a broad
+  // lobe's nodes put 19 determined texels of satin-ball's 16 views at 128^2 in the wrong valley,
+  // more than 45 degrees off, where Trust.TexelsWhoseWrongValleyWinsByChanceAreFew allows 2):
+  // test Trust.AStartWhoseLobeLightsNoPixelIsLookedForAtBroaderLobes.
+  static const double ks_hi = line_param("ks").hi;
+  if (std::max({fit[best].ks[0], fit[best].ks[1], fit[best].ks[2]}) >= ks_hi) {
+    const int m_best = best < 8 ? 4 * best : 4 * (best < 12 ? b1 : b2) + off[(best - 8) % 4];
+    double near[8];
+    for (int k = 0; k < 8; ++k) near[k] = texel_grid_angle((m_best + k - 4 + 64) % 32);
+    double best_cost = fit[best].cost;
+    const int levels[2] = {std::max(1, log2n - 2), 1};
+    for (int i = 0; i < 2; ++i) {
+      const int broader = levels[i];
+      if (broader >= log2n || (i == 1 && levels[0] == 1)) continue;
+      NodeFit at[8];
+      nodes_at(near, broader, at);
+      int b = 0;
+      for (int k = 1; k < 8; ++k)
+        if (at[k].cost < at[b].cost) b = k;
+      if (!(at[b].cost < best_cost)) continue;
+      best_cost = at[b].cost;
+      c->psi = near[b];
+      c->logn = broader * std::log(2.0);
+      set_start_kd_ks(at[b].kd, at[b].ks, c);
+    }
+  }
   if (!other) return;
   other->best_cost = fit[best].cost;
   for (int k = 0; k < 16; ++k) {

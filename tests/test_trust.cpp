@@ -740,6 +740,20 @@ TEST(Trust, AStepClampedToTheLobesCornerIsTakenAgainWithDamping) {
   EXPECT_LT(std::exp(t.lm.c.logn), 1000.0);
 }
 
+// (189, 89): 79 pixels near the limb where a lobe at the global n (25) lights next to no pixel:
+// the start's closed form put k_s on its bound (100) in two channels, and the LM never left that
+// start (n's column all but zero, each step in n huge and rejected until the step was "small" in
+// sigmas): converged, it said, psi on the grid's node (0.00), its sum of squares 4.6 % above
+// Ceres' (n 1.4, psi 4 degrees away). Such a start's nodes are taken again at broader lobes.
+TEST(Trust, AStartWhoseLobeLightsNoPixelIsLookedForAtBroaderLobes) {
+  const SatinBallTexel t = satin_ball_texel("189 89");
+  const double s2 = t.ce.rss / (3.0 * t.idx.size() - 8);
+  std::printf("LM's sum of squares %+.3f sigma^2 from Ceres'\n", (t.lm.rss - t.ce.rss) / s2);
+  expect_both_determine_alike(t);
+  EXPECT_LT(t.lm.rss - t.ce.rss, 0.1 * s2);
+  EXPECT_LT(std::exp(t.lm.c.logn), 10.0);
+}
+
 // (6, 103): 72 pixels with no lobe (k_s at 1e-4), psi from the diffuse term alone. Its J^T J summed
 // in float failed the rank test (n's column is k_s times the lobe's, where float's rounding is not
 // small against it) and the LM left it undetermined at the minimum Ceres determines; a failed test
