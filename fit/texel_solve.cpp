@@ -44,7 +44,9 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
   const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
   double psi[16];
   NodeFit fit[16];
-  auto nodes_at = [&](double* at, int l2, NodeFit* out) { texel_nodes(os, idx, lanes, at, l2, out); };
+  auto nodes_at = [&](double* at, int l2, NodeFit* out) {
+    texel_nodes(os, idx, lanes, at, l2, out);
+  };
   auto nodes = [&](double* at, NodeFit* out) { nodes_at(at, log2n, out); };
   // On the grid of texel_grid_angle: m = 4k, then m of the best two +-1, +-2 (modulo a half turn).
   for (int k = 0; k < 8; ++k) psi[k] = texel_grid_angle(4 * k);

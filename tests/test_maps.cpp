@@ -500,7 +500,8 @@ TEST(FitMaps, FiberModelMapsFitTheTopologyMapAmplitudePerTexel) {
       return read_image(dir + "/" + solver + "_" + key + ".exr").image;
     };
     const Image n = map("n"), n_sigma = map("n_sigma"), ks = map("ks"), det = map("determined");
-    const double global_n = nlohmann::json::parse(read_text_file(dir + "/" + solver + ".json"))["n"];
+    const double global_n =
+        nlohmann::json::parse(read_text_file(dir + "/" + solver + ".json"))["n"];
     size_t no_lobe = 0;
     for (size_t t = 0; t < n.px.size(); ++t) {
       if (det.px[t] < 0.5 || !(n_sigma.px[t] >= std::numeric_limits<float>::max())) continue;
