@@ -67,6 +67,7 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
     if (fit[k].cost < fit[best].cost) best = k;
   c->psi = psi[best];
   set_start_kd_ks(fit[best].kd, fit[best].ks, c);
+  const Core grid = *c;  // at the grid's n: the other valley's nodes were taken there
   // A best node whose k_s the closed form put on its bound: a lobe at this n lighting next to no
   // pixel, where the LM stays at its start (n's column all but zero, each step in n huge and
   // rejected until the step is "small" in sigmas). Nodes within 22.5 degrees of it again at
@@ -102,7 +103,7 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
     const double apart = std::abs(std::remainder(psi[k] - psi[best], M_PI));
     if (apart >= deg_to_rad(kOtherValleyDeg) && fit[k].cost < other->cost) {
       other->cost = fit[k].cost;
-      other->c = *c;
+      other->c = grid;
       other->c.psi = psi[k];
       set_start_kd_ks(fit[k].kd, fit[k].ks, &other->c);
     }
