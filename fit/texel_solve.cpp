@@ -42,6 +42,7 @@ namespace {
 void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes, Core* c,
                  OtherValley* other) {
   const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
+  int m[16];  // each node's place on the grid of texel_grid_angle
   double psi[16];
   NodeFit fit[16];
   auto nodes_at = [&](double* at, int l2, NodeFit* out) {
@@ -49,7 +50,7 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
   };
   auto nodes = [&](double* at, NodeFit* out) { nodes_at(at, log2n, out); };
   // On the grid of texel_grid_angle: m = 4k, then m of the best two +-1, +-2 (modulo a half turn).
-  for (int k = 0; k < 8; ++k) psi[k] = texel_grid_angle(4 * k);
+  for (int k = 0; k < 8; ++k) m[k] = 4 * k, psi[k] = texel_grid_angle(m[k]);
   nodes(psi, fit);
   int b1 = 0, b2 = -1;
   for (int k = 1; k < 8; ++k)
@@ -58,8 +59,8 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
     if (k != b1 && (b2 < 0 || fit[k].cost < fit[b2].cost)) b2 = k;
   const int off[4] = {-2, -1, 1, 2};
   for (int k = 0; k < 4; ++k) {
-    psi[8 + k] = texel_grid_angle((4 * b1 + off[k] + 32) % 32);
-    psi[12 + k] = texel_grid_angle((4 * b2 + off[k] + 32) % 32);
+    m[8 + k] = (4 * b1 + off[k] + 32) % 32, m[12 + k] = (4 * b2 + off[k] + 32) % 32;
+    psi[8 + k] = texel_grid_angle(m[8 + k]), psi[12 + k] = texel_grid_angle(m[12 + k]);
   }
   nodes(psi + 8, fit + 8);
   int best = b1;  // the first of equal costs, round one's before round two's
@@ -77,9 +78,8 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
   // test Trust.AStartWhoseLobeLightsNoPixelIsLookedForAtBroaderLobes.
   static const double ks_hi = line_param("ks").hi;
   if (std::max({fit[best].ks[0], fit[best].ks[1], fit[best].ks[2]}) >= ks_hi) {
-    const int m_best = best < 8 ? 4 * best : 4 * (best < 12 ? b1 : b2) + off[(best - 8) % 4];
     double near[8];
-    for (int k = 0; k < 8; ++k) near[k] = texel_grid_angle((m_best + k - 4 + 64) % 32);
+    for (int k = 0; k < 8; ++k) near[k] = texel_grid_angle((m[best] + k - 4 + 32) % 32);
     double best_cost = fit[best].cost;
     const int levels[2] = {std::max(1, log2n - 2), 1};
     for (int i = 0; i < 2; ++i) {

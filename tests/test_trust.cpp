@@ -651,14 +651,23 @@ void golden_texel(const std::string& file, const std::string& xy, fitting::ObsSe
   for (size_t i = 0; i < idx->size(); ++i) (*idx)[i] = i;
 }
 
+// A set's global fit as a texel's `from`: k_d, k_s, n, psi in degrees, and the topology value s.
+fitting::TexelResult global_fit(const std::array<double, 3>& kd, const std::array<double, 3>& ks,
+                                double n, double psi_deg, double s = 0) {
+  fitting::TexelResult g;
+  for (int c = 0; c < 3; ++c) g.c.kd[c] = kd[c], g.c.ks[c] = ks[c];
+  g.c.logn = std::log(n);
+  g.c.psi = deg_to_rad(psi_deg);
+  g.s = s;
+  return g;
+}
+
 SatinBallTexel satin_ball_texel(const std::string& xy) {
   SatinBallTexel t;
   golden_texel("satin_ball_texels.txt", xy, &t.os, &t.idx);
-  const double kd[3] = {0.300018423, 0.0399848255, 0.0799991781};
-  const double ks[3] = {0.450004263, 0.399992798, 0.400027433};
-  for (int c = 0; c < 3; ++c) t.global.kd[c] = kd[c], t.global.ks[c] = ks[c];
-  t.global.logn = std::log(25.0016442);
-  t.global.psi = deg_to_rad(0.00130199818);
+  t.global = global_fit({0.300018423, 0.0399848255, 0.0799991781},
+                        {0.450004263, 0.399992798, 0.400027433}, 25.0016442, 0.00130199818)
+                 .c;
   t.lm = fitting::solve_texel_lm(t.os, t.idx, t.global, nullptr);
   t.ce = fitting::solve_texel_ceres(t.os, t.idx, t.global, nullptr);
   for (const auto* r : {&t.lm, &t.ce})
@@ -726,11 +735,6 @@ TEST(Trust, CeresEndsARidgeTexelWhereTheLmDoes) {
   for (int c = 0; c < 3; ++c) EXPECT_LT(std::abs(t.lm.c.kd[c] - t.ce.c.kd[c]), 0.1 * t.ce.sigma[c]);
 }
 
-// (219, 63): 134 pixels along a ridge of k_s and n. From k_s 5.5, n 52 one Gauss-Newton step went
-// far along the ridge and was clamped to the bounds' corner (k_s 100, n 10^4), lower than the point
-// it left but 1.2 sigma^2 above the ridge's minimum, where Ceres settles (k_s 37, n 48); at the
-// corner J^T J fails the rank test and the texel was not determined. A lobe that ends at the top of
-// its bounds is solved again with its first step damped.
 // Both determine the texel alike, the LM's sum of squares within a tenth of sigma^2 of Ceres', its
 // n under `n_under`.
 void expect_lm_at_ceres_minimum(const SatinBallTexel& t, double n_under) {
@@ -741,6 +745,11 @@ void expect_lm_at_ceres_minimum(const SatinBallTexel& t, double n_under) {
   EXPECT_LT(std::exp(t.lm.c.logn), n_under);
 }
 
+// (219, 63): 134 pixels along a ridge of k_s and n. From k_s 5.5, n 52 one Gauss-Newton step went
+// far along the ridge and was clamped to the bounds' corner (k_s 100, n 10^4), lower than the point
+// it left but 1.2 sigma^2 above the ridge's minimum, where Ceres settles (k_s 37, n 48); at the
+// corner J^T J fails the rank test and the texel was not determined. A lobe that ends at the top of
+// its bounds is solved again with its first step damped.
 TEST(Trust, AStepClampedToTheLobesCornerIsTakenAgainWithDamping) {
   expect_lm_at_ceres_minimum(satin_ball_texel("219 63"), 1000.0);
 }
@@ -780,17 +789,6 @@ TEST(Trust, ATexelWithoutALobeHoldsItsExponent) {
 struct FiberTexel {
   fitting::TexelResult lm, ce;
 };
-// A set's global fit as a texel's `from`: k_d, k_s, n, psi in degrees, and the topology value s.
-fitting::TexelResult global_fit(const std::array<double, 3>& kd, const std::array<double, 3>& ks,
-                                double n, double psi_deg, double s = 0) {
-  fitting::TexelResult g;
-  for (int c = 0; c < 3; ++c) g.c.kd[c] = kd[c], g.c.ks[c] = ks[c];
-  g.c.logn = std::log(n);
-  g.c.psi = deg_to_rad(psi_deg);
-  g.s = s;
-  return g;
-}
-
 FiberTexel satin_sphere_fiber_texel(const std::string& xy) {
   const fitting::TexelResult global =
       global_fit({0.300001062, 0.0400200048, 0.0799987246}, {0.450147732, 0.399803027, 0.39984505},
