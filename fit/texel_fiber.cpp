@@ -62,6 +62,38 @@ OtherValley fiber_other_valley(const FiberNodes& nodes, double psi) {
   return o;
 }
 
+// The start's nodes over the topology value: s in [0, 1], or a topology map's amplitude A in
+// [-2, 2] (models/params.h); topology_node_step apart.
+constexpr int kTopologyNodes = 5;
+const double* topology_nodes(TopologyMode m) {
+  static constexpr double kS[kTopologyNodes] = {0.1, 0.3, 0.5, 0.7, 0.9},
+                          kA[kTopologyNodes] = {-1.6, -0.8, 0.0, 0.8, 1.6};
+  return m == TopologyMode::kAmplitude ? kA : kS;
+}
+double topology_node_step(TopologyMode m) { return topology_nodes(m)[1] - topology_nodes(m)[0]; }
+
+// The second look over s, for the one over psi (fiber_other_valley): the best of the topology
+// nodes at the solved psi and n (k_d, k_s in closed form) at least three quarters of a node step
+// from the solved s, beside that node's cost at the solved s. The start picks s at the line
+// model's psi, which on fiber-flat-map lies 5 to 15 degrees from the fiber model's (80 off in one
+// texel): texel (1, 3) started at psi 17.8 took s 0.5 there and ended at s 0.63, n 35, its sum
+// of squares 1.9 times that of the minimum at s 0.35 (n 42), 0.55 degrees away in psi, that
+// a start at psi 21.9 reached; the one over psi, looking 22.5 degrees away, does not see it.
+OtherValley topology_other_valley(const ObsSet& os, const std::vector<size_t>& idx,
+                                  const FiberAccuracy& acc, const TexelResult& t, double* s) {
+  OtherValley o;
+  double kd[3], ks[3];
+  const double n = std::exp(t.c.logn);
+  o.best_cost = fiber_node(os, idx, acc, t.c.psi, n, t.s, kd, ks);
+  const double* at = topology_nodes(os.topology);
+  for (int k = 0; k < kTopologyNodes; ++k) {
+    if (std::abs(at[k] - t.s) < 0.75 * topology_node_step(os.topology)) continue;
+    const double cost = fiber_node(os, idx, acc, t.c.psi, n, at[k], kd, ks);
+    if (cost < o.cost) o.cost = cost, o.c = t.c, set_start_kd_ks(kd, ks, &o.c), *s = at[k];
+  }
+  return o;
+}
+
 // The fiber model's texel start: psi from the line model's texel grid (where the fibers lie flat
 // the direction looks the same to both; the fiber model's own nodes, kept in `nodes`, check it),
 // n from `from`, then s over a grid (s varies over the sample: started from the
@@ -81,8 +113,6 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   FiberAccuracy acc;
   acc.order = std::min(4, o.fiber_order);  // plenty to rank nodes, as the global start
   const double n = std::exp(t.c.logn);
-  // s in [0, 1], or a topology map's amplitude A in [-2, 2] (models/params.h)
-  const bool amp = os.topology == TopologyMode::kAmplitude;
   const bool math = os.topology == TopologyMode::kMathematical;
   auto node = [&](double psi, double s, double kd[3], double ks[3]) {
     return fiber_node(os, idx, acc, psi, n, s, kd, ks);
@@ -109,8 +139,7 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   }
   if (math) return t;  // s is not fitted
   double best = INFINITY;
-  static constexpr double kS[5] = {0.1, 0.3, 0.5, 0.7, 0.9}, kA[5] = {-1.6, -0.8, 0.0, 0.8, 1.6};
-  const double* at = amp ? kA : kS;
+  const double* at = topology_nodes(os.topology);
   for (const double s : {from.s, at[0], at[1], at[2], at[3], at[4]}) {
     double kd[3], ks[3];
     const double cost = node(t.c.psi, s, kd, ks);
@@ -120,9 +149,10 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
 }
 
 // A fiber texel: its start, `solve_from(start, prior, pin_psi, cautious)` (the fused solver's or
-// Ceres'; `cautious`: its first step damped kCautiousLambda), and without a pull the second look
-// from the fiber model's other valley and psi's profile where the data do not know the lobe
-// (texel_psi_profile, the fiber model's own nodes at the texel's s and quadrature order).
+// Ceres'; `cautious`: its first step damped kCautiousLambda), and without a pull the second looks
+// from the fiber model's other valley in psi and then in s (topology_other_valley), and psi's
+// profile where the data do not know the lobe (texel_psi_profile, the fiber model's own nodes at
+// the texel's s and quadrature order).
 // Satin-sphere-fiber's orbit set (16 views of 256^2, --maps 64x64) held determined texels such as
 // one with k_s 100 and n 10^4 (the bounds' corner), psi 10 degrees off the truth with sigma 0.46.
 // Every solve without a pull that ends with its lobe at the top of its bounds or without one
@@ -152,6 +182,19 @@ TexelResult fiber_texel(const ObsSet& os, const std::vector<size_t>& idx, const 
         return solve_from(s, nullptr, false);
       },
       [&](const TexelResult& r) { return solve_from(r, nullptr, false); }, &t);
+  if (os.topology != TopologyMode::kMathematical) {
+    FiberAccuracy nodes_acc;
+    nodes_acc.order = std::min(4, o.fiber_order);  // as the start's nodes
+    double other_s = t.s;
+    texel_second_look(
+        topology_other_valley(os, idx, nodes_acc, t, &other_s), 3 * idx.size(),
+        [&](const Core& c) {
+          TexelResult s = start;
+          s.c = c, s.s = other_s;
+          return solve_from(s, nullptr, false);
+        },
+        [&](const TexelResult& r) { return solve_from(r, nullptr, false); }, &t);
+  }
   FiberAccuracy acc;
   acc.order = o.fiber_order;
   const double s = t.s;

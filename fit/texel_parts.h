@@ -47,7 +47,34 @@ void texel_nodes(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
 // the texel was lost where the second was right: satin-sphere-fiber's fiber texels started 100
 // degrees off (the line model's psi where the fibers climb) crawled without a lobe (k_s 0) to the
 // limit at a sum of squares 16 times the second's, which Ceres, converging there, then took.
+// Two minima as good in one direction (within a degree), apart in the fiber model's topology value
+// s alone, leave the direction known: the texel stays determined, each of its sigmas widened to the
+// two minima's distance in that parameter (fiber-flat-map's texel (2, 4) of a 6 x 6 map: s 0.41
+// and 0.51, sigma 0.008 at either, psi 0.18 degrees apart, 2.4 sigma^2 between them).
 constexpr double kOtherValleyGate = kAsWellSigma2;
+
+// Two solves settled in one valley: psi within a degree and the topology value s (the fiber
+// model's; the line model's two solves keep the start's) within kSameS or two of b's sigmas.
+// Not psi alone: fiber-flat-map's texel (1, 3) has two minima of the fiber model 0.55 degrees
+// apart in psi, at s 0.35 and 0.63, the second's sum of squares 1.9 times the first's.
+inline bool same_direction(const TexelResult& a, const TexelResult& b) {
+  constexpr double kSameDeg = 1.0;
+  return std::abs(std::remainder(a.c.psi - b.c.psi, M_PI)) < deg_to_rad(kSameDeg);
+}
+inline bool same_valley(const TexelResult& a, const TexelResult& b) {
+  constexpr double kSameS = 0.02;
+  return same_direction(a, b) && std::abs(a.s - b.s) <= std::max(kSameS, 2 * b.sigma[8]);
+}
+// Two minima as good in one direction, apart in the topology value s alone: each sigma widened to
+// at least the two minima's distance in its parameter.
+inline void widen_sigmas(const TexelResult& other, TexelResult* t) {
+  const double apart[9] = {
+      other.c.kd[0] - t->c.kd[0], other.c.kd[1] - t->c.kd[1], other.c.kd[2] - t->c.kd[2],
+      other.c.ks[0] - t->c.ks[0], other.c.ks[1] - t->c.ks[1], other.c.ks[2] - t->c.ks[2],
+      other.c.logn - t->c.logn,   std::remainder(other.c.psi - t->c.psi, M_PI),
+      other.s - t->s};
+  for (int k = 0; k < 9; ++k) t->sigma[k] = std::max(t->sigma[k], std::abs(apart[k]));
+}
 template <class SolveFrom, class Resume>
 void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_from, Resume resume,
                        TexelResult* t) {
@@ -55,8 +82,7 @@ void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_
   const double dof = std::max(1.0, static_cast<double>(values) - 8);
   if (!(other.cost - other.best_cost <= kOtherValleyGate * other.best_cost / dof)) return;
   TexelResult second = solve_from(other.c);
-  constexpr double kSameDeg = 1.0;  // the two settled in one valley
-  if (std::abs(std::remainder(second.c.psi - t->c.psi, M_PI)) < deg_to_rad(kSameDeg)) return;
+  if (same_valley(second, *t)) return;
   if (!t->converged && second.converged) {
     const TexelResult more = resume(*t);
     if (more.converged) *t = more;
@@ -65,13 +91,20 @@ void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_
   if (!t->converged) return;
   constexpr double kSigma2Floor = 1e-12;  // noise-free data
   const double s2 = std::max(std::min(t->rss, second.rss) / dof, kSigma2Floor);
+  auto as_well_too = [&](const TexelResult& other) {
+    if (same_direction(other, *t))
+      widen_sigmas(other, t);
+    else
+      t->determined = false;
+  };
   if (!second.converged) {
-    if (second.rss - t->rss <= kAsWellSigma2 * s2) t->determined = false;
+    if (second.rss - t->rss <= kAsWellSigma2 * s2) as_well_too(second);
     return;
   }
   const bool as_well = std::abs(t->rss - second.rss) <= kAsWellSigma2 * s2;
+  const TexelResult first = *t;
   if (second.rss < t->rss) *t = second;
-  if (as_well) t->determined = false;
+  if (as_well) as_well_too(second.rss < first.rss ? first : second);
 }
 
 // Where the data do not know the texel's lobe (k_s in a channel, or n, with a sigma above its

@@ -861,6 +861,37 @@ TEST(Trust, PsisSigmaIsAtLeastWhatItsProfileSays) {
   }
 }
 
+// Fiber-flat-map's texel (1, 3) of a 6 x 6 map (tests/golden/fiber_flat_map_texels.txt), 96
+// pixels: two minima of the fiber model 0.55 degrees apart in psi, at s 0.35 (n 42) and s 0.63
+// (n 35), the second's sum of squares 1.9 times the first's. The start takes s at the line
+// model's psi, 8 to 12 degrees from the fiber model's here: from psi 17.8 (the line texel LM with
+// Ceres' damping floor) both solvers ended in the upper one, and the second look over psi (22.5
+// degrees away) did not see the lower. The look over s does.
+TEST(Trust, AFiberTexelsSecondLookFindsTheLowerTopologyValley) {
+  const fitting::TexelResult global =
+      global_fit({0.249231179, 0.179297809, 0.119486825}, {0.497521797, 0.500741592, 0.499588056},
+                 40.2278536, 30.0686962, 0.443070363);
+  fitting::TexelMapOptions o;
+  o.fiber_order = 4;  // the set's global fit's
+  o.s = global.s;
+  fitting::ObsSet os;
+  std::vector<size_t> idx;
+  golden_texel("fiber_flat_map_texels.txt", "1 3", &os, &idx);
+  const fitting::TexelResult lm = fitting::solve_texel_fiber(os, idx, global, o, nullptr);
+  const fitting::TexelResult ce = fitting::solve_texel_fiber_ceres(os, idx, global, o, nullptr);
+  for (const auto* r : {&lm, &ce})
+    std::printf("%s: psi %.3f deg +- %.3f, s %.4f +- %.4f, n %.3g, sum of squares %.6g; %s\n",
+                r == &lm ? "LM" : "Ceres", rad_to_deg(r->c.psi), rad_to_deg(r->sigma[7]), r->s,
+                r->sigma[8], std::exp(r->c.logn), r->rss,
+                r->determined ? "determined" : "not determined");
+  for (const auto* r : {&lm, &ce}) {
+    EXPECT_TRUE(r->converged && r->determined);
+    EXPECT_NEAR(r->s, 0.35, 0.05);  // the lower valley
+  }
+  EXPECT_LT(std::abs(lm.s - ce.s), 0.1 * ce.sigma[8]);
+  EXPECT_LT(std::abs(std::remainder(lm.c.psi - ce.c.psi, M_PI)), 0.1 * ce.sigma[7]);
+}
+
 // Silk-torus' texel (2, 3) of a 4 x 4 map, 82 pixels, no lobe: the same sum of squares in both
 // solvers, n at opposite bounds (the fused solver's 10^4 with k_s 28 and 29 in two channels, a
 // needle lighting no pixel; Ceres' 1 with k_s 0). Holding n alone (the line model's rule)
