@@ -789,26 +789,37 @@ TEST(Trust, ATexelWithoutALobeHoldsItsExponent) {
 struct FiberTexel {
   fitting::TexelResult lm, ce;
 };
-FiberTexel satin_sphere_fiber_texel(const std::string& xy) {
-  const fitting::TexelResult global =
-      global_fit({0.300001062, 0.0400200048, 0.0799987246}, {0.450147732, 0.399803027, 0.39984505},
-                 24.9983755, 179.993047);
+// A golden fiber texel (tests/golden/FILE, its topology as the file says) solved from `global` by
+// both solvers at quadrature order `order` (the set's global fit's), each printed.
+FiberTexel golden_fiber_texel(const std::string& file, const std::string& xy,
+                              fitting::TopologyMode topology, const fitting::TexelResult& global,
+                              int order) {
   fitting::TexelMapOptions o;
-  o.fiber_order = 6;  // the set's global fit's
+  o.fiber_order = order;
+  o.s = global.s;
   fitting::ObsSet os;
   std::vector<size_t> idx;
-  golden_texel("satin_sphere_fiber_texels.txt", xy, &os, &idx);
-  EXPECT_EQ(os.topology, fitting::TopologyMode::kMathematical);
+  golden_texel(file, xy, &os, &idx);
+  EXPECT_EQ(os.topology, topology) << file;
   FiberTexel t{fitting::solve_texel_fiber(os, idx, global, o, nullptr),
                fitting::solve_texel_fiber_ceres(os, idx, global, o, nullptr)};
   for (const auto* r : {&t.lm, &t.ce})
     std::printf(
-        "texel %s, %s: psi %.3f deg +- %.3f, n %.3g +- %.3g, k_s %.3g +- %.3g, sum of squares "
-        "%.6g; %s, %s\n",
+        "texel %s, %s: psi %.3f deg +- %.3f, n %.3g +- %.3g, k_s %.3g %.3g %.3g +- %.3g, s %.4f +- "
+        "%.4f, k_d %.4f, sum of squares %.6g; %s, %s\n",
         xy.c_str(), r == &t.lm ? "LM" : "Ceres", rad_to_deg(r->c.psi), rad_to_deg(r->sigma[7]),
-        std::exp(r->c.logn), std::exp(r->c.logn) * r->sigma[6], r->c.ks[0], r->sigma[3], r->rss,
+        std::exp(r->c.logn), std::exp(r->c.logn) * r->sigma[6], r->c.ks[0], r->c.ks[1], r->c.ks[2],
+        r->sigma[3], r->s, r->sigma[8], r->c.kd[0], r->rss,
         r->converged ? "converged" : "stopped", r->determined ? "determined" : "not determined");
   return t;
+}
+
+FiberTexel satin_sphere_fiber_texel(const std::string& xy) {
+  return golden_fiber_texel(
+      "satin_sphere_fiber_texels.txt", xy, fitting::TopologyMode::kMathematical,
+      global_fit({0.300001062, 0.0400200048, 0.0799987246}, {0.450147732, 0.399803027, 0.39984505},
+                 24.9983755, 179.993047),
+      6);
 }
 
 // Fiber texels whose data do not know the lobe, determined before the fiber model's texels had
@@ -868,22 +879,12 @@ TEST(Trust, PsisSigmaIsAtLeastWhatItsProfileSays) {
 // Ceres' damping floor) both solvers ended in the upper one, and the second look over psi (22.5
 // degrees away) did not see the lower. The look over s does.
 TEST(Trust, AFiberTexelsSecondLookFindsTheLowerTopologyValley) {
-  const fitting::TexelResult global =
+  const FiberTexel t = golden_fiber_texel(
+      "fiber_flat_map_texels.txt", "1 3", fitting::TopologyMode::kGlobalS,
       global_fit({0.249231179, 0.179297809, 0.119486825}, {0.497521797, 0.500741592, 0.499588056},
-                 40.2278536, 30.0686962, 0.443070363);
-  fitting::TexelMapOptions o;
-  o.fiber_order = 4;  // the set's global fit's
-  o.s = global.s;
-  fitting::ObsSet os;
-  std::vector<size_t> idx;
-  golden_texel("fiber_flat_map_texels.txt", "1 3", &os, &idx);
-  const fitting::TexelResult lm = fitting::solve_texel_fiber(os, idx, global, o, nullptr);
-  const fitting::TexelResult ce = fitting::solve_texel_fiber_ceres(os, idx, global, o, nullptr);
-  for (const auto* r : {&lm, &ce})
-    std::printf("%s: psi %.3f deg +- %.3f, s %.4f +- %.4f, n %.3g, sum of squares %.6g; %s\n",
-                r == &lm ? "LM" : "Ceres", rad_to_deg(r->c.psi), rad_to_deg(r->sigma[7]), r->s,
-                r->sigma[8], std::exp(r->c.logn), r->rss,
-                r->determined ? "determined" : "not determined");
+                 40.2278536, 30.0686962, 0.443070363),
+      4);
+  const fitting::TexelResult &lm = t.lm, &ce = t.ce;
   for (const auto* r : {&lm, &ce}) {
     EXPECT_TRUE(r->converged && r->determined);
     EXPECT_NEAR(r->s, 0.35, 0.05);  // the lower valley
@@ -898,24 +899,12 @@ TEST(Trust, AFiberTexelsSecondLookFindsTheLowerTopologyValley) {
 // determined it in Ceres and failed the rank test in the fused solver; the fiber model holds the
 // lobe (k_s and n): both determine psi, k_d and the amplitude A from the diffuse term alike.
 TEST(Trust, AFiberTexelWithoutALobeIsDeterminedAlikeByBothSolvers) {
-  const fitting::TexelResult global =  // s: the global fit's amplitude
+  const FiberTexel t = golden_fiber_texel(
+      "silk_torus_texels.txt", "2 3", fitting::TopologyMode::kAmplitude,  // s: the amplitude
       global_fit({0.299824851, 0.219961812, 0.0600190792}, {0.551446197, 0.499735304, 0.348416654},
-                 29.9914518, 90.0014156, 0.801099171);
-  fitting::TexelMapOptions o;
-  o.fiber_order = 4;  // the set's global fit's
-  o.s = global.s;
-  fitting::ObsSet os;
-  std::vector<size_t> idx;
-  golden_texel("silk_torus_texels.txt", "2 3", &os, &idx);
-  ASSERT_EQ(os.topology, fitting::TopologyMode::kAmplitude);
-  const fitting::TexelResult lm = fitting::solve_texel_fiber(os, idx, global, o, nullptr);
-  const fitting::TexelResult ce = fitting::solve_texel_fiber_ceres(os, idx, global, o, nullptr);
-  for (const auto* r : {&lm, &ce})
-    std::printf(
-        "%s: psi %.3f deg +- %.3f, A %.4f +- %.4f, k_d %.4f, n %.3g, k_s %.3g %.3g %.3g; %s\n",
-        r == &lm ? "LM" : "Ceres", rad_to_deg(r->c.psi), rad_to_deg(r->sigma[7]), r->s, r->sigma[8],
-        r->c.kd[0], std::exp(r->c.logn), r->c.ks[0], r->c.ks[1], r->c.ks[2],
-        r->determined ? "determined" : "not determined");
+                 29.9914518, 90.0014156, 0.801099171),
+      4);
+  const fitting::TexelResult &lm = t.lm, &ce = t.ce;
   EXPECT_TRUE(lm.determined && ce.determined);
   EXPECT_LT(std::abs(std::remainder(lm.c.psi - ce.c.psi, M_PI)), 0.1 * ce.sigma[7]);
   EXPECT_LT(std::abs(lm.s - ce.s), 0.1 * ce.sigma[8]);
