@@ -47,6 +47,10 @@ void texel_nodes(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
 // the texel was lost where the second was right: satin-sphere-fiber's fiber texels started 100
 // degrees off (the line model's psi where the fibers climb) crawled without a lobe (k_s 0) to the
 // limit at a sum of squares 16 times the second's, which Ceres, converging there, then took.
+// So too a second that stopped below the first: satin-sphere-fiber's (31, 22), the fused solve at
+// psi 115 degrees without a lobe, its second from the 0-degree node stopped at a fifth of that sum
+// of squares crawling toward n 1; the texel was left undetermined with the first's psi, where
+// solved on the second converges (psi 0.17 +- 0.37, Ceres 0.15 +- 0.33).
 // Two minima as good in one direction (within a degree), apart in the fiber model's topology value
 // s alone, leave the direction known: the texel stays determined, each of its sigmas widened to the
 // two minima's distance in that parameter (fiber-flat-map's texel (2, 4) of a 6 x 6 map: s 0.41
@@ -83,6 +87,10 @@ void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_
   if (!(other.cost - other.best_cost <= kOtherValleyGate * other.best_cost / dof)) return;
   TexelResult second = solve_from(other.c);
   if (same_valley(second, *t)) return;
+  if (!second.converged && second.rss < t->rss) {
+    const TexelResult more = resume(second);
+    if (more.rss <= second.rss) second = more;
+  }
   if (!t->converged && second.converged) {
     const TexelResult more = resume(*t);
     if (more.converged) *t = more;
@@ -223,10 +231,13 @@ inline bool lobe_at_upper_bound(const Core& c) {
   return c.ks[0] >= ks || c.ks[1] >= ks || c.ks[2] >= ks || std::exp(c.logn) >= n * (1 - 1e-12);
 }
 // The fiber model's solves are taken again so where they end at the lobe's upper bounds or without
-// a lobe (k_s at or under kNoLobeKs in every channel): Ceres, from satin-sphere-fiber's (28, 16),
-// ended with k_s 0 at n 2 450, psi 7.4 degrees off; damped, both solvers find the fibers' lobe.
-inline bool fiber_lobe_suspect(const Core& c) {
-  return lobe_at_upper_bound(c) || std::max({c.ks[0], c.ks[1], c.ks[2]}) <= kNoLobeKs;
+// a lobe (k_s at or under kNoLobeKs in every channel, or a lobe that lights no pixel: n held by
+// texel_sigmas): Ceres, from satin-sphere-fiber's (28, 16), ended with k_s 0 at n 2 450, psi 7.4
+// degrees off; damped, both solvers find the fibers' lobe.
+inline bool fiber_lobe_suspect(const TexelResult& t) {
+  const Core& c = t.c;
+  return lobe_at_upper_bound(c) || std::max({c.ks[0], c.ks[1], c.ks[2]}) <= kNoLobeKs ||
+         t.sigma[6] >= kUnmovedSigma;
 }
 
 // The pull toward the neighbours (--smooth) as Ceres terms on the texel's core.

@@ -844,14 +844,43 @@ TEST(Trust, AFiberTexelWhoseLobeTheDataDoNotKnowIsCheckedByItsProfile) {
 // (k_s 0, n 2 450), psi 10 and 7 degrees off; taken again damped, both find the fibers' lobe (n 25,
 // psi 1 degree off, 0.62 times the sum of squares). Both solvers determine them alike, near the
 // truth (psi 0).
+// Both solvers converged and determined the texel alike (psi within a tenth of Ceres' sigma), within
+// a degree of satin-sphere-fiber's truth (psi 0).
+void expect_fiber_texel_alike_near_truth(const FiberTexel& t) {
+  EXPECT_TRUE(t.ce.converged && t.ce.determined);
+  EXPECT_TRUE(t.lm.converged && t.lm.determined);
+  EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
+  EXPECT_LT(std::abs(std::remainder(rad_to_deg(t.lm.c.psi), 180.0)), 1.0);
+}
+
 TEST(Trust, AFiberTexelsStoppedOrCorneredSolveIsTakenOn) {
   for (const char* xy : {"37 15", "63 15", "28 16"}) {
     SCOPED_TRACE(std::string("texel ") + xy);
+    expect_fiber_texel_alike_near_truth(satin_sphere_fiber_texel(xy));
+  }
+}
+
+// Fiber texels whose solves settled without a lobe far above a fit with one, with the fused
+// solver damped as Ceres (its diagonal floored at 1e-6). (10, 2), 92 pixels: both solvers ended
+// with a needle lighting no pixel (n 7 710, held as no lobe) at 4 times the sum of squares of the
+// lobe at n 24; such a needle is suspect too, and taken again damped. (34, 16), 319 pixels: the
+// fused solve ended determined at n 3 644, psi 3.6 degrees off, 1.45 times Ceres' sum of squares,
+// and its damped retry there too; a solve still suspect after it is solved from the global fit's
+// lobe. (31, 22), 237 pixels: the fused solve ended at psi 115 degrees without a lobe, its second
+// look from the 0-degree node stopped below it at a fifth of its sum of squares and the texel was
+// left undetermined at 115; a second that stopped lower is solved on. Both solvers determine all
+// three alike, near the truth (psi 0).
+TEST(Trust, AFiberTexelWithoutALobeLooksForTheGlobalLobe) {
+  for (const char* xy : {"10 2", "34 16", "31 22"}) {
+    SCOPED_TRACE(std::string("texel ") + xy);
     const FiberTexel t = satin_sphere_fiber_texel(xy);
-    EXPECT_TRUE(t.ce.converged && t.ce.determined);
-    EXPECT_TRUE(t.lm.converged && t.lm.determined);
-    EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
-    EXPECT_LT(std::abs(std::remainder(rad_to_deg(t.lm.c.psi), 180.0)), 1.0);
+    expect_fiber_texel_alike_near_truth(t);
+    EXPECT_LT(t.lm.rss, 1.001 * t.ce.rss);
+    // a lobe the data know (n's relative sigma), but in (31, 22), where it is weak
+    if (std::string(xy) != "31 22") {
+      EXPECT_LT(t.lm.sigma[6], 0.2);
+      EXPECT_LT(t.ce.sigma[6], 0.2);
+    }
   }
 }
 
