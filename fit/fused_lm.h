@@ -296,17 +296,19 @@ struct NielsenDamping {
 
 // The damped step from the sums at the current point: with the cost's Gauss-Newton curvature
 // (FusedSums::step_matrix), or with J^T W J where that one is not positive definite once damped.
+// Damped by lambda times the diagonal floored at kMinDiagonal, Ceres' min_diagonal (it was 1e-300,
+// and the line texel LM's 1e-12; fit/texel_solve.cpp uses the same floor).
+constexpr double kMinDiagonal = 1e-6;
 template <int P>
 VecP<P> lm_step(const FusedSums<P>& s, double lambda) {
-  // Damped by lambda times the diagonal floored at Ceres' min_diagonal, 1e-6 (it was 1e-300): a
-  // column the data hardly see (n where a lobe lights next to no pixel) is damped too. Global fits
-  // are the same to the last digit (no column that small); satin-sphere-fiber's fiber texels
-  // (16 views of 256^2, --maps 64x64) against Ceres: psi more than 0.1 sigma apart 115 -> 58 of
-  // ~1 875, the RMS residual over 1.01 times Ceres' 6 -> 3 (Ceres' over the fused solver's 9 -> 3),
-  // but 4 texels left 1.1 to 2 times higher in a needle that lights no pixel, as Ceres was: what
-  // fit/texel_fiber.cpp fiber_texel's retries now take on (with them 59, 2 and 1).
+  // The floor: a column the data hardly see (n where a lobe lights next to no pixel) is damped
+  // too. Global fits are the same to the last digit (no column that small); satin-sphere-fiber's
+  // fiber texels (16 views of 256^2, --maps 64x64) against Ceres: psi more than 0.1 sigma apart
+  // 115 -> 58 of ~1 875, the RMS residual over 1.01 times Ceres' 6 -> 3 (Ceres' over the fused
+  // solver's 9 -> 3), but 4 texels left 1.1 to 2 times higher in a needle that lights no pixel, as
+  // Ceres was: what fit/texel_fiber.cpp fiber_texel's retries now take on (with them 59, 2, 1).
   auto damped = [lambda](MatP<P> a) {
-    a.diagonal() += lambda * a.diagonal().cwiseMax(1e-6);
+    a.diagonal() += lambda * a.diagonal().cwiseMax(kMinDiagonal);
     return a;
   };
   const Eigen::LDLT<MatP<P>> f(damped(s.step_matrix()));

@@ -86,8 +86,9 @@ OtherValley topology_other_valley(const ObsSet& os, const std::vector<size_t>& i
   const double n = std::exp(t.c.logn);
   o.best_cost = fiber_node(os, idx, acc, t.c.psi, n, t.s, kd, ks);
   const double* at = topology_nodes(os.topology);
+  const double near = 0.75 * topology_node_step(os.topology);
   for (int k = 0; k < kTopologyNodes; ++k) {
-    if (std::abs(at[k] - t.s) < 0.75 * topology_node_step(os.topology)) continue;
+    if (std::abs(at[k] - t.s) < near) continue;
     const double cost = fiber_node(os, idx, acc, t.c.psi, n, at[k], kd, ks);
     if (cost < o.cost) o.cost = cost, o.c = t.c, set_start_kd_ks(kd, ks, &o.c), *s = at[k];
   }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/angles.h"
+#include "fit/line_lm.h"
 #include "fit/start.h"
 #include "fit/texel_sigmas.h"
 #include "fit/texel_simd.h"
@@ -63,7 +64,7 @@ constexpr double kOtherValleyGate = kAsWellSigma2;
 // apart in psi, at s 0.35 and 0.63, the second's sum of squares 1.9 times the first's.
 inline bool same_direction(const TexelResult& a, const TexelResult& b) {
   constexpr double kSameDeg = 1.0;
-  return std::abs(std::remainder(a.c.psi - b.c.psi, M_PI)) < deg_to_rad(kSameDeg);
+  return fiber_deg_distance(rad_to_deg(a.c.psi), rad_to_deg(b.c.psi)) < kSameDeg;
 }
 inline bool same_valley(const TexelResult& a, const TexelResult& b) {
   constexpr double kSameS = 0.02;
@@ -72,12 +73,10 @@ inline bool same_valley(const TexelResult& a, const TexelResult& b) {
 // Two minima as good in one direction, apart in the topology value s alone: each sigma widened to
 // at least the two minima's distance in its parameter.
 inline void widen_sigmas(const TexelResult& other, TexelResult* t) {
-  const double apart[9] = {
-      other.c.kd[0] - t->c.kd[0], other.c.kd[1] - t->c.kd[1], other.c.kd[2] - t->c.kd[2],
-      other.c.ks[0] - t->c.ks[0], other.c.ks[1] - t->c.ks[1], other.c.ks[2] - t->c.ks[2],
-      other.c.logn - t->c.logn,   std::remainder(other.c.psi - t->c.psi, M_PI),
-      other.s - t->s};
-  for (int k = 0; k < 9; ++k) t->sigma[k] = std::max(t->sigma[k], std::abs(apart[k]));
+  Vec8 apart = pack_core(other.c) - pack_core(t->c);
+  apart(7) = std::remainder(apart(7), M_PI);
+  for (int k = 0; k < 8; ++k) t->sigma[k] = std::max(t->sigma[k], std::abs(apart(k)));
+  t->sigma[8] = std::max(t->sigma[8], std::abs(other.s - t->s));
 }
 template <class SolveFrom, class Resume>
 void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_from, Resume resume,
@@ -110,9 +109,8 @@ void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_
     return;
   }
   const bool as_well = std::abs(t->rss - second.rss) <= kAsWellSigma2 * s2;
-  const TexelResult first = *t;
-  if (second.rss < t->rss) *t = second;
-  if (as_well) as_well_too(second.rss < first.rss ? first : second);
+  if (second.rss < t->rss) std::swap(*t, second);  // `second` now the higher of the two
+  if (as_well) as_well_too(second);
 }
 
 // Where the data do not know the texel's lobe (k_s in a channel, or n, with a sigma above its

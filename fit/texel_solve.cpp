@@ -404,13 +404,13 @@ struct TexelObjective {
     Vec8 window_start = *x;
     int accepted = 0;
     for (int it = 0; it < max_iterations; ++it) {
-      // Damped by lambda times J^T J's diagonal, floored at kMinDiagonal (Ceres' min_diagonal):
-      // a parameter the data hardly see (n where a lobe lights next to no pixel) is damped too.
+      // Damped by lambda times J^T J's diagonal, floored at kMinDiagonal (fit/fused_lm.h: Ceres'
+      // min_diagonal): a parameter the data hardly see (n where a lobe lights next to no pixel) is
+      // damped too.
       // With 1e-12 such a column's steps stayed huge and were clamped at the bounds, lambda grew
       // until every step was a thousandth of a sigma, and the LM called its start converged:
       // satin-ball's orbit set (32 x 512^2, --maps 256x256) had 129 determined texels whose RMS
       // residual was over 1.01 times Ceres' from the same start, 25 with the floor.
-      constexpr double kMinDiagonal = 1e-6;
       Mat8 a = cur->h;
       a.diagonal() += lambda * cur->h.diagonal().cwiseMax(kMinDiagonal);
       const Vec8 step = step_of(a, cur->g);

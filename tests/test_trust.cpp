@@ -809,8 +809,8 @@ FiberTexel golden_fiber_texel(const std::string& file, const std::string& xy,
         "%.4f, k_d %.4f, sum of squares %.6g; %s, %s\n",
         xy.c_str(), r == &t.lm ? "LM" : "Ceres", rad_to_deg(r->c.psi), rad_to_deg(r->sigma[7]),
         std::exp(r->c.logn), std::exp(r->c.logn) * r->sigma[6], r->c.ks[0], r->c.ks[1], r->c.ks[2],
-        r->sigma[3], r->s, r->sigma[8], r->c.kd[0], r->rss,
-        r->converged ? "converged" : "stopped", r->determined ? "determined" : "not determined");
+        r->sigma[3], r->s, r->sigma[8], r->c.kd[0], r->rss, r->converged ? "converged" : "stopped",
+        r->determined ? "determined" : "not determined");
   return t;
 }
 
@@ -834,6 +834,15 @@ TEST(Trust, AFiberTexelWhoseLobeTheDataDoNotKnowIsCheckedByItsProfile) {
   }
 }
 
+// Both solvers converged and determined the texel alike (psi within a tenth of Ceres' sigma),
+// within a degree of satin-sphere-fiber's truth (psi 0).
+void expect_fiber_texel_alike_near_truth(const FiberTexel& t) {
+  EXPECT_TRUE(t.ce.converged && t.ce.determined);
+  EXPECT_TRUE(t.lm.converged && t.lm.determined);
+  EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
+  EXPECT_LT(std::abs(std::remainder(rad_to_deg(t.lm.c.psi), 180.0)), 1.0);
+}
+
 // Fiber texels whose solves stopped or were cornered. (37, 15), 290 pixels, started 100 degrees
 // off (the line model's psi where the fibers climb): the fused solve crawled without a lobe (k_s 0)
 // to its iteration limit at 16 times the sum of squares the second look then found, which was not
@@ -844,15 +853,6 @@ TEST(Trust, AFiberTexelWhoseLobeTheDataDoNotKnowIsCheckedByItsProfile) {
 // (k_s 0, n 2 450), psi 10 and 7 degrees off; taken again damped, both find the fibers' lobe (n 25,
 // psi 1 degree off, 0.62 times the sum of squares). Both solvers determine them alike, near the
 // truth (psi 0).
-// Both solvers converged and determined the texel alike (psi within a tenth of Ceres' sigma), within
-// a degree of satin-sphere-fiber's truth (psi 0).
-void expect_fiber_texel_alike_near_truth(const FiberTexel& t) {
-  EXPECT_TRUE(t.ce.converged && t.ce.determined);
-  EXPECT_TRUE(t.lm.converged && t.lm.determined);
-  EXPECT_LT(std::abs(std::remainder(t.lm.c.psi - t.ce.c.psi, M_PI)), 0.1 * t.ce.sigma[7]);
-  EXPECT_LT(std::abs(std::remainder(rad_to_deg(t.lm.c.psi), 180.0)), 1.0);
-}
-
 TEST(Trust, AFiberTexelsStoppedOrCorneredSolveIsTakenOn) {
   for (const char* xy : {"37 15", "63 15", "28 16"}) {
     SCOPED_TRACE(std::string("texel ") + xy);
