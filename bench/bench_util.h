@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "core/angles.h"
 #include "core/timer.h"
@@ -16,6 +17,12 @@ namespace aniso::benchutil {
 using jsonu::json;
 using Clock = SteadyClock;
 inline double since(Clock::time_point t) { return seconds_since(t); }
+
+// The median of a few timings (the upper one of an even count's middle two).
+inline double median_of(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
 
 inline json entry(const std::string& suite, const std::string& name, double ours, double baseline,
                   const std::string& unit, double error) {

@@ -1,3 +1,4 @@
+#include <ceres/jet.h>
 #include <embree3/rtcore.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -260,14 +261,62 @@ json bench_fit(const std::string& work, bool quick) {
 }
 
 // ------------------------------------------------------------------------------------------------
+// A light and view in the fiber's frame (lb, ln, vb, vn; a, b along T).
+struct FiberCase {
+  double lb, ln, vb, vn, a, b;
+};
+
+// The lobe's nodes in SIMD lanes (models/fiber_lobe_simd.h) against node by node (libm), one
+// fiber_DS of a double or of the fused fiber solver's Jet of three (d/d(log n, psi, s)) at the
+// default order 8: alternated three times each (medians), and how far apart the two land.
+template <class T>
+json lobe_lanes_entry(const std::vector<FiberCase>& cases, double n, bool quick) {
+  constexpr bool jet = !std::is_same_v<T, double>;
+  auto value = [](const T& x) {
+    if constexpr (jet)
+      return x.a;
+    else
+      return x;
+  };
+  std::vector<double> t[2], S[2];
+  for (int round = 0; round < 3; ++round)
+    for (int k = 0; k < 2; ++k) {
+      fiber_detail::set_lobe_lanes(k == 0);
+      S[k].assign(cases.size(), 0);
+      const int reps = quick ? 1 : 5;
+      const auto t0 = Clock::now();
+      for (int rep = 0; rep < reps; ++rep)
+        for (size_t i = 0; i < cases.size(); ++i) {
+          const FiberCase& c = cases[i];
+          T D, Sx, nj(n), s(0.5), a(c.a);
+          if constexpr (jet) nj.v[0] = 1, a.v[1] = 1, s.v[2] = 1;
+          fiber_DS(T(c.lb), T(c.ln), T(c.vb), T(c.vn), a, T(c.b), nj, s, FiberAccuracy{8}, &D, &Sx);
+          S[k][i] += value(Sx);
+        }
+      t[k].push_back(1e9 * since(t0) / (reps * cases.size()));
+    }
+  fiber_detail::set_lobe_lanes(true);
+  double diff = 0;
+  for (size_t i = 0; i < cases.size(); ++i)
+    diff = std::max(diff, std::abs(S[0][i] - S[1][i]) / std::max(std::abs(S[1][i]), 1e-3));
+  const double ours = median_of(t[0]), scalar = median_of(t[1]);
+  json e = entry("fiber",
+                 std::string("fiber model order 8, n=") + std::to_string(int(n)) +
+                     ": the lobe's nodes in " + std::to_string(fiber_detail::lobe_lanes()) +
+                     " lanes vs node by node, " + (jet ? "Jet of three" : "double"),
+                 ours, scalar, "ns/eval", diff);
+  e["error_definition"] = "max |S_lanes - S_scalar| / max(S_scalar, 1e-3) over the cases";
+  e["baseline_note"] = "the same fiber_DS with the nodes one by one (libm sin, cos, exp, log)";
+  std::printf("bench fiber: n=%g, %s: lanes %.0f ns/eval, node by node %.0f (%.2fx), %.1e apart\n",
+              n, jet ? "Jet of three" : "double", ours, scalar, scalar / ours, diff);
+  return e;
+}
+
 json bench_fiber(bool quick) {
   json out = json::array();
   std::mt19937_64 rng(7);
   std::normal_distribution<double> g;
-  struct Case {
-    double lb, ln, vb, vn, a, b;
-  };
-  std::vector<Case> cases;
+  std::vector<FiberCase> cases;
   const int ncases = quick ? 200 : 2000;
   for (int i = 0; i < ncases; ++i) {
     auto unit = [&]() {
@@ -282,7 +331,7 @@ json bench_fiber(bool quick) {
     std::vector<double> ref(cases.size());
     for (size_t i = 0; i < cases.size(); ++i) {
       double D;
-      const Case& c = cases[i];
+      const FiberCase& c = cases[i];
       fiber_DS(c.lb, c.ln, c.vb, c.vn, c.a, c.b, n, 0.5, FiberAccuracy{32}, &D, &ref[i]);
     }
     // Brute force: time per evaluation and its error at 24000 samples per fiber (a subset).
@@ -290,7 +339,7 @@ json bench_fiber(bool quick) {
     double brute_err = 0;
     const auto tb = Clock::now();
     for (size_t i = 0; i < nb; ++i) {
-      const Case& c = cases[i];
+      const FiberCase& c = cases[i];
       const auto r = reference::fiber_bruteforce(c.lb, c.ln, c.vb, c.vn, c.a, c.b, n, 0.5, 24000);
       brute_err = std::max(brute_err, std::abs(r.S - ref[i]) / std::max(ref[i], 1e-3));
     }
@@ -301,7 +350,7 @@ json bench_fiber(bool quick) {
       const auto t0 = Clock::now();
       for (int rep = 0; rep < reps; ++rep)
         for (size_t i = 0; i < cases.size(); ++i) {
-          const Case& c = cases[i];
+          const FiberCase& c = cases[i];
           double D, S;
           fiber_DS(c.lb, c.ln, c.vb, c.vn, c.a, c.b, n, 0.5, FiberAccuracy{order}, &D, &S);
           sink += S;
@@ -326,6 +375,10 @@ json bench_fiber(bool quick) {
         "bench fiber: n=%g: brute force %.0f us/eval (its error %.1e); see the orders in the "
         "output\n",
         n, brute_ns / 1e3, brute_err);
+    if (fiber_detail::lobe_lanes() > 0) {
+      out.push_back(lobe_lanes_entry<double>(cases, n, quick));
+      out.push_back(lobe_lanes_entry<ceres::Jet<double, 3>>(cases, n, quick));
+    }
   }
   return out;
 }

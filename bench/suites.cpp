@@ -88,12 +88,6 @@ json bench_bake(bool quick) {
   return out;
 }
 
-// The median of a few timings (the upper one of an even count's middle two).
-double median_of(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
-
 // ------------------------------------------------------------------------------------------------
 // A bare Embree loop over the same scene: the primary rays of every view and one shadow ray per
 // front-facing hit, no shading, no I/O.

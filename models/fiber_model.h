@@ -23,7 +23,9 @@
 //    visible-and-lit interval.
 //  - The specular lobe is integrated by Gauss-Legendre quadrature on panels placed around its
 //    peak phi_h at multiples of its width sigma = sqrt((s_L s_V - ab) / (4 n s_L s_V)), clipped to
-//    its support cos 2x > ab / (s_L s_V); accurate from n = 1 to 1e4.
+//    its support cos 2x > ab / (s_L s_V); accurate from n = 1 to 1e4. For a double and the fused
+//    solver's Jet of three, every panel's nodes are gathered and evaluated in SIMD lanes
+//    (models/fiber_lobe_simd.h); other scalars (Ceres' Jets) node by node.
 //  - Everything is templated on the scalar: with ceres::Jet the interval end points carry their
 //    derivatives, so the moving limits of the integrals (Leibniz terms) are differentiated too.
 //
@@ -33,6 +35,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "models/fiber_lobe_simd.h"
 #include "models/local_dir.h"
 #include "models/quadrature.h"
 #include "models/safe_math.h"
@@ -192,10 +195,43 @@ struct Lobe {
   bool relative_to_peak;
 };
 
-// Adds the lobe's integral over [slo, shi] to *ssum: Gauss-Legendre on panels split at
-// multiples of sigma around the peak.
+// x's value and derivatives into out[0 .. NV] (NV = JetDim<T>), at `stride` apart, and back.
+template <int NV, class T>
+void jet_out(const T& x, double* out, int stride = 1) {
+  if constexpr (NV == 0) {
+    out[0] = x;
+  } else {
+    out[0] = x.a;
+    for (int j = 0; j < NV; ++j) out[(1 + j) * stride] = x.v[j];
+  }
+}
+template <int NV, class T>
+T jet_in(const double* in) {
+  if constexpr (NV == 0) {
+    return in[0];
+  } else {
+    T x;
+    x.a = in[0];
+    for (int j = 0; j < NV; ++j) x.v[j] = in[1 + j];
+    return x;
+  }
+}
+
+// The lobe's nodes gathered so far evaluated in the lanes and added to *ssum.
 template <class T>
-void add_lobe_integral(const Lobe<T>& l, const T& slo, const T& shi, const GaussRule& gr, T* ssum) {
+void flush_lobe_nodes(LobeNodesOf<T>* nodes, T* ssum) {
+  constexpr int NV = JetDim<T>::value;
+  double sum[NV + 1] = {};
+  lobe_nodes_in_lanes(nodes, sum);
+  *ssum += jet_in<NV, T>(sum);
+}
+
+// Adds the lobe's integral over [slo, shi] to *ssum: Gauss-Legendre on panels split at
+// multiples of sigma around the peak. With `nodes` (a double or a Jet of three, the lanes on),
+// the panels' nodes are gathered there for the lanes instead (fiber_DS evaluates them).
+template <class T>
+void add_lobe_integral(const Lobe<T>& l, const T& slo, const T& shi, const GaussRule& gr, T* ssum,
+                       LobeNodesOf<T>* nodes = nullptr) {
   using std::exp;
   using std::log;
   static constexpr double kSplits[] = {-10, -5, -2.5, -1, 0, 1, 2.5, 5, 10};  // in sigmas
@@ -205,6 +241,21 @@ void add_lobe_integral(const Lobe<T>& l, const T& slo, const T& shi, const Gauss
     if (!(next > edge)) continue;
     const T e1 = tmin(next, shi);
     const T half = 0.5 * (e1 - edge), mid = 0.5 * (e1 + edge);
+    if constexpr (kLobeInLanes<T>) {
+      if (nodes) {
+        constexpr int NV = JetDim<T>::value;
+        if (nodes->count + gr.order > nodes->kMax) flush_lobe_nodes(nodes, ssum);
+        for (int q = 0; q < gr.order; ++q) {
+          const int i = nodes->count++;
+          jet_out<NV>(mid, &nodes->mid[0][i], nodes->kMax);
+          jet_out<NV>(half, &nodes->half[0][i], nodes->kMax);
+          nodes->x[i] = gr.x[q], nodes->w[i] = gr.w[q];
+        }
+        edge = e1;
+        if (!(edge < shi)) break;
+        continue;
+      }
+    }
     // At p = mid + t: cos 2(p - phi_h) and cos(p - phi_v) by the angle sums from the panel's
     // centre, so a node costs one sine and cosine of t (not two cosines).
     T ca, sa, cb, sb;
@@ -275,6 +326,19 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
   }
   const GaussRule& gr = gauss_legendre(acc.order);
   T dsum = T(0.0), ssum = T(0.0);
+  // The lobe's nodes for the lanes (models/fiber_lobe_simd.h), where they apply.
+  fiber_detail::LobeNodesOf<T> lanes_nodes, *nodes = nullptr;
+  if constexpr (fiber_detail::kLobeInLanes<T>) {
+    if (spec && fiber_detail::lobe_lanes_enabled()) {
+      constexpr int NV = fiber_detail::JetDim<T>::value;
+      nodes = &lanes_nodes;
+      nodes->count = 0;
+      nodes->relative_to_peak = relative_to_peak;
+      const T* lobe[6] = {&phi_h, &phi_v, &sLsV, &ab, &n, &g0};
+      double* at[6] = {nodes->phi_h, nodes->phi_v, nodes->sLsV, nodes->ab, nodes->n, nodes->g0};
+      for (int k = 0; k < 6; ++k) fiber_detail::jet_out<NV>(*lobe[k], at[k]);
+    }
+  }
   const T cx[2] = {T(0.0), P * 0.5}, cy[2] = {T(0.0), H};
   for (int f = 0; f < 2; ++f) {
     const auto vis = fiber_detail::unhidden_arcs(vx, vy, phi_v, cx[f], cy[f], P, H);
@@ -290,9 +354,10 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
         const T slo = tmax(lo, phi_h - xmax), shi = tmin(hi, phi_h + xmax);
         if (!(slo < shi)) continue;
         const fiber_detail::Lobe<T> lobe{phi_h, phi_v, sigma, sLsV, ab, n, g0, relative_to_peak};
-        fiber_detail::add_lobe_integral(lobe, slo, shi, gr, &ssum);
+        fiber_detail::add_lobe_integral(lobe, slo, shi, gr, &ssum, nodes);
       }
   }
+  if (nodes && nodes->count > 0) fiber_detail::flush_lobe_nodes(nodes, &ssum);
   if (!(W > T(0.0))) return;
   *D = sL * dsum / W;
   *S = ssum / W;

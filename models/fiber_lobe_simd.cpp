@@ -1,0 +1,82 @@
+// The lobe's quadrature nodes in double lanes (models/fiber_lobe_simd.h).
+#include "models/fiber_lobe_simd.h"
+
+#include <atomic>
+#include <cmath>
+#include <cstring>
+
+#include "models/quadrature.h"
+
+namespace aniso::fiber_detail {
+
+namespace {
+
+// The kernel at two widths (models/fiber_lobe_kernels.inc), always inlined into the entry points
+// below, each compiled for its instruction set: four lanes (AVX2) and eight (AVX-512). The mask
+// type is a vector of long, as GCC gives a comparison of doubles: with long long its selects went
+// lane by lane through general registers, and eight lanes under AVX2 compared lane by lane too.
+// The two widths add a lobe's nodes in other groupings, so their sums differ in the last bits.
+// No helper is ever called as a function, so the ABI of a vector return (GCC's -Wpsabi note)
+// never applies.
+#pragma GCC diagnostic ignored "-Wpsabi"
+#define LANES_INLINE __attribute__((always_inline)) inline
+namespace w4 {
+typedef double vd __attribute__((vector_size(32)));
+typedef long vl __attribute__((vector_size(32)));
+constexpr int kW = 4;
+#include "models/fiber_lobe_kernels.inc"
+}  // namespace w4
+namespace w8 {
+typedef double vd __attribute__((vector_size(64)));
+typedef long vl __attribute__((vector_size(64)));
+constexpr int kW = 8;
+#include "models/fiber_lobe_kernels.inc"
+}  // namespace w8
+
+#define LANES_AVX2 __attribute__((target("avx2,fma")))
+#define LANES_AVX512 __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma")))
+
+LANES_AVX2 void nodes0_avx2(LobeNodes<0>* nd, double* sum) { w4::lobe_nodes<0>(nd, sum); }
+LANES_AVX2 void nodes3_avx2(LobeNodes<3>* nd, double* sum) { w4::lobe_nodes<3>(nd, sum); }
+LANES_AVX512 void nodes0_avx512(LobeNodes<0>* nd, double* sum) { w8::lobe_nodes<0>(nd, sum); }
+LANES_AVX512 void nodes3_avx512(LobeNodes<3>* nd, double* sum) { w8::lobe_nodes<3>(nd, sum); }
+
+// 2: AVX-512 (F, DQ, VL), 1: AVX2 and FMA, 0: neither.
+int cpu_level() {
+  static const int level = [] {
+    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+        __builtin_cpu_supports("avx512vl"))
+      return 2;
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? 1 : 0;
+  }();
+  return level;
+}
+std::atomic<bool> g_lanes{true}, g_avx512{true};
+bool wide() { return cpu_level() == 2 && g_avx512.load(std::memory_order_relaxed); }
+
+}  // namespace
+
+void set_lobe_lanes(bool on) { g_lanes = on; }
+void set_lobe_avx512(bool on) { g_avx512 = on; }
+int lobe_lanes() { return !lobe_lanes_enabled() ? 0 : wide() ? 8 : 4; }
+bool lobe_lanes_enabled() { return g_lanes.load(std::memory_order_relaxed) && cpu_level() > 0; }
+
+bool lobe_nodes_in_lanes(LobeNodes<0>* nodes, double sum[1]) {
+  if (!lobe_lanes_enabled()) return false;
+  if (wide())
+    nodes0_avx512(nodes, sum);
+  else
+    nodes0_avx2(nodes, sum);
+  return true;
+}
+
+bool lobe_nodes_in_lanes(LobeNodes<3>* nodes, double sum[4]) {
+  if (!lobe_lanes_enabled()) return false;
+  if (wide())
+    nodes3_avx512(nodes, sum);
+  else
+    nodes3_avx2(nodes, sum);
+  return true;
+}
+
+}  // namespace aniso::fiber_detail
