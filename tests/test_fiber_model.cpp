@@ -85,7 +85,7 @@ TEST(FiberModel, LobeInLanesIsTheScalarLobe) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(0, 1);
   std::vector<Dirs> dirs = adversarial();
-  for (int i = 0; i < 1500; ++i) dirs.push_back(random_dirs(rng));
+  for (int i = 0; i < 500; ++i) dirs.push_back(random_dirs(rng));  // (a minute under ASan at 1 500)
   double worst = 0, worst_jet = 0;
   size_t lit = 0;
   struct Off {
@@ -140,7 +140,7 @@ TEST(FiberModel, LobeInLanesIsTheScalarLobe) {
       "lanes vs scalar nodes, %zu lit cases: worst difference of S %.2f, of the Jet's value "
       "and derivatives %.2f, of the tolerance\n",
       lit, worst, worst_jet);
-  EXPECT_GT(lit, 20000u * widths.size());
+  EXPECT_GT(lit, 10000u * widths.size());
   EXPECT_LT(worst, 1);
 }
 
