@@ -20,6 +20,7 @@ struct LobeNodes {
   static constexpr int kMax = 256;  // nodes held before they are evaluated (fiber_DS flushes)
   // The lobe (fiber_detail::Lobe): its peak phi_h, the view's angle phi_v, sLsV, ab, n, g0.
   double phi_h[kSize], phi_v[kSize], sLsV[kSize], ab[kSize], n[kSize], g0[kSize];
+  double cos_hv = 1, sin_hv = 0;  // of phi_h - phi_v (values)
   bool relative_to_peak = false;
   int count = 0;
   // Node i at mid + half x: mid[k][i], half[k][i] (k = 0 the value, 1 .. NV its derivatives).

@@ -334,6 +334,8 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
       nodes = &lanes_nodes;
       nodes->count = 0;
       nodes->relative_to_peak = relative_to_peak;
+      const double hv = ceres_value(phi_h) - ceres_value(phi_v);
+      nodes->cos_hv = std::cos(hv), nodes->sin_hv = std::sin(hv);
       const T* lobe[6] = {&phi_h, &phi_v, &sLsV, &ab, &n, &g0};
       double* at[6] = {nodes->phi_h, nodes->phi_v, nodes->sLsV, nodes->ab, nodes->n, nodes->g0};
       for (int k = 0; k < 6; ++k) fiber_detail::jet_out<NV>(*lobe[k], at[k]);
