@@ -1,12 +1,13 @@
 // The specular lobe's quadrature nodes in SIMD lanes (models/fiber_lobe_simd.cpp). fiber_DS
 // gathers the Gauss-Legendre nodes of every panel of its lobe (each node's panel centre and half
-// width, its abscissa and weight) and evaluates them eight at a time in double, for a double (no
-// derivatives) or a ceres::Jet of three (the fused fiber solver's: d/d(log n, psi, topology)).
-// Node by node each took four libm calls (sin, cos, log, exp: 70 % of a fiber texel's time), and
-// one panel's nodes alone were too few to keep the lanes busy. Polynomial sin, cos, exp and log,
-// within a few units in the last place of libm's (test FiberModel.LobeInLanesIsTheScalarLobe);
-// the same eight lanes on AVX2 and AVX-512 machines. Ceres' Jets (nine and twelve derivatives)
-// keep the scalar nodes: the fitter of record checks this path in the tests.
+// width, its abscissa and weight) and evaluates them eight (AVX-512) or four (AVX2) at a time in
+// double, for a double (no derivatives) or a ceres::Jet of three (the fused fiber solver's:
+// d/d(log n, psi, topology)). Node by node each took four libm calls (sin, cos, log, exp: 70 % of
+// a fiber texel's time), and one panel's nodes alone were too few to keep the lanes busy.
+// Polynomial sin, cos, exp and log, within a few units in the last place of libm's (test
+// FiberModel.LobeInLanesIsTheScalarLobe); the two widths group a lobe's sums differently, so they
+// agree to the last bits, not bit for bit. Ceres' Jets (nine and twelve derivatives) keep the
+// scalar nodes: the fitter of record checks this path in the tests.
 #pragma once
 #include <type_traits>
 
