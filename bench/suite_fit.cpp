@@ -272,12 +272,6 @@ struct FiberCase {
 template <class T>
 json lobe_lanes_entry(const std::vector<FiberCase>& cases, double n, bool quick) {
   constexpr bool jet = !std::is_same_v<T, double>;
-  auto value = [](const T& x) {
-    if constexpr (jet)
-      return x.a;
-    else
-      return x;
-  };
   std::vector<double> t[2], S[2];
   for (int round = 0; round < 3; ++round)
     for (int k = 0; k < 2; ++k) {
@@ -291,7 +285,7 @@ json lobe_lanes_entry(const std::vector<FiberCase>& cases, double n, bool quick)
           T D, Sx, nj(n), s(0.5), a(c.a);
           if constexpr (jet) nj.v[0] = 1, a.v[1] = 1, s.v[2] = 1;
           fiber_DS(T(c.lb), T(c.ln), T(c.vb), T(c.vn), a, T(c.b), nj, s, FiberAccuracy{8}, &D, &Sx);
-          S[k][i] += value(Sx);
+          S[k][i] += ceres_value(Sx);
         }
       t[k].push_back(1e9 * since(t0) / (reps * cases.size()));
     }

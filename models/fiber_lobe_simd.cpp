@@ -61,21 +61,11 @@ void set_lobe_avx512(bool on) { g_avx512 = on; }
 int lobe_lanes() { return !lobe_lanes_enabled() ? 0 : wide() ? 8 : 4; }
 bool lobe_lanes_enabled() { return g_lanes.load(std::memory_order_relaxed) && cpu_level() > 0; }
 
-namespace {
-template <int NV>
-bool run_lanes(LobeNodes<NV>* nodes, double* sum, void (*eight)(LobeNodes<NV>*, double*),
-               void (*four)(LobeNodes<NV>*, double*)) {
-  if (!lobe_lanes_enabled()) return false;
-  (wide() ? eight : four)(nodes, sum);
-  return true;
+void lobe_nodes_in_lanes(LobeNodes<0>* nodes, double sum[1]) {
+  (wide() ? nodes0_avx512 : nodes0_avx2)(nodes, sum);
 }
-}  // namespace
-
-bool lobe_nodes_in_lanes(LobeNodes<0>* nodes, double sum[1]) {
-  return run_lanes<0>(nodes, sum, nodes0_avx512, nodes0_avx2);
-}
-bool lobe_nodes_in_lanes(LobeNodes<3>* nodes, double sum[4]) {
-  return run_lanes<3>(nodes, sum, nodes3_avx512, nodes3_avx2);
+void lobe_nodes_in_lanes(LobeNodes<3>* nodes, double sum[4]) {
+  (wide() ? nodes3_avx512 : nodes3_avx2)(nodes, sum);
 }
 
 }  // namespace aniso::fiber_detail

@@ -28,10 +28,10 @@ struct LobeNodes {
   double mid[kSize][kMax], half[kSize][kMax], x[kMax], w[kMax];
 };
 
-// Adds the nodes' integral (value, then its derivatives) to sum and empties them; false (and
-// nothing done) where the CPU has no AVX2 and FMA or the lanes are switched off.
-bool lobe_nodes_in_lanes(LobeNodes<0>* nodes, double sum[1]);
-bool lobe_nodes_in_lanes(LobeNodes<3>* nodes, double sum[4]);
+// Adds the nodes' integral (value, then its derivatives) to sum and empties them. Only where
+// lobe_lanes_enabled() (the CPU has AVX2 and FMA): the caller gathers nodes only then.
+void lobe_nodes_in_lanes(LobeNodes<0>* nodes, double sum[1]);
+void lobe_nodes_in_lanes(LobeNodes<3>* nodes, double sum[4]);
 
 // For the tests and the benchmark that compare the lanes with the scalar nodes, and the four
 // lanes (AVX2) with the eight (AVX-512) where the CPU has both.
@@ -50,10 +50,14 @@ template <class T>
 struct JetDim<T, std::void_t<decltype(T::DIMENSION), decltype(T::a)>>
     : std::integral_constant<int, std::is_same_v<decltype(T::a), double> ? int(T::DIMENSION) : -1> {
 };
-// The scalars whose lobes go to the lanes, and their nodes' type (a stand-in for the others).
+// The scalars whose lobes go to the lanes, and their nodes' type (an empty stand-in for the
+// others).
 template <class T>
 inline constexpr bool kLobeInLanes = JetDim<T>::value == 0 || JetDim<T>::value == 3;
+struct NoLobeNodes {};
 template <class T>
-using LobeNodesOf = LobeNodes<kLobeInLanes<T> ? JetDim<T>::value : 0>;
+using LobeNodesOf =
+    std::conditional_t<kLobeInLanes<T>, LobeNodes<kLobeInLanes<T> ? JetDim<T>::value : 0>,
+                       NoLobeNodes>;
 
 }  // namespace aniso::fiber_detail

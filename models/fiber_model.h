@@ -226,6 +226,20 @@ void flush_lobe_nodes(LobeNodesOf<T>* nodes, T* ssum) {
   *ssum += jet_in<NV, T>(sum);
 }
 
+// The panel mid +- half's nodes into `nodes` (evaluated first where they would overflow them).
+template <class T>
+void add_panel_nodes(const T& mid, const T& half, const GaussRule& gr, LobeNodesOf<T>* nodes,
+                     T* ssum) {
+  constexpr int NV = JetDim<T>::value;
+  if (nodes->count + gr.order > nodes->kMax) flush_lobe_nodes(nodes, ssum);
+  for (int q = 0; q < gr.order; ++q) {
+    const int i = nodes->count++;
+    jet_out<NV>(mid, &nodes->mid[0][i], nodes->kMax);
+    jet_out<NV>(half, &nodes->half[0][i], nodes->kMax);
+    nodes->x[i] = gr.x[q], nodes->w[i] = gr.w[q];
+  }
+}
+
 // Adds the lobe's integral over [slo, shi] to *ssum: Gauss-Legendre on panels split at
 // multiples of sigma around the peak. With `nodes` (a double or a Jet of three, the lanes on),
 // the panels' nodes are gathered there for the lanes instead (fiber_DS evaluates them).
@@ -242,33 +256,23 @@ void add_lobe_integral(const Lobe<T>& l, const T& slo, const T& shi, const Gauss
     const T e1 = tmin(next, shi);
     const T half = 0.5 * (e1 - edge), mid = 0.5 * (e1 + edge);
     if constexpr (kLobeInLanes<T>) {
-      if (nodes) {
-        constexpr int NV = JetDim<T>::value;
-        if (nodes->count + gr.order > nodes->kMax) flush_lobe_nodes(nodes, ssum);
-        for (int q = 0; q < gr.order; ++q) {
-          const int i = nodes->count++;
-          jet_out<NV>(mid, &nodes->mid[0][i], nodes->kMax);
-          jet_out<NV>(half, &nodes->half[0][i], nodes->kMax);
-          nodes->x[i] = gr.x[q], nodes->w[i] = gr.w[q];
-        }
-        edge = e1;
-        if (!(edge < shi)) break;
-        continue;
-      }
+      if (nodes) add_panel_nodes(mid, half, gr, nodes, ssum);
     }
-    // At p = mid + t: cos 2(p - phi_h) and cos(p - phi_v) by the angle sums from the panel's
-    // centre, so a node costs one sine and cosine of t (not two cosines).
-    T ca, sa, cb, sb;
-    sin_cos(T(2.0 * (mid - l.phi_h)), &sa, &ca);
-    sin_cos(T(mid - l.phi_v), &sb, &cb);
-    for (int q = 0; q < gr.order; ++q) {
-      const T t = half * gr.x[q];
-      T ct, st;
-      sin_cos(t, &st, &ct);
-      const T g = l.sLsV * (ca * (1.0 - 2.0 * st * st) - sa * (2.0 * st * ct)) - l.ab;
-      if (g > T(0.0))
-        *ssum += half * gr.w[q] * exp(l.n * log(l.relative_to_peak ? g / l.g0 : g)) *
-                 (cb * ct - sb * st);
+    if (!nodes) {
+      // At p = mid + t: cos 2(p - phi_h) and cos(p - phi_v) by the angle sums from the panel's
+      // centre, so a node costs one sine and cosine of t (not two cosines).
+      T ca, sa, cb, sb;
+      sin_cos(T(2.0 * (mid - l.phi_h)), &sa, &ca);
+      sin_cos(T(mid - l.phi_v), &sb, &cb);
+      for (int q = 0; q < gr.order; ++q) {
+        const T t = half * gr.x[q];
+        T ct, st;
+        sin_cos(t, &st, &ct);
+        const T g = l.sLsV * (ca * (1.0 - 2.0 * st * st) - sa * (2.0 * st * ct)) - l.ab;
+        if (g > T(0.0))
+          *ssum += half * gr.w[q] * exp(l.n * log(l.relative_to_peak ? g / l.g0 : g)) *
+                   (cb * ct - sb * st);
+      }
     }
     edge = e1;
     if (!(edge < shi)) break;
@@ -326,7 +330,8 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
   }
   const GaussRule& gr = gauss_legendre(acc.order);
   T dsum = T(0.0), ssum = T(0.0);
-  // The lobe's nodes for the lanes (models/fiber_lobe_simd.h), where they apply.
+  // The lobe's nodes for the lanes (models/fiber_lobe_simd.h), where they apply (for any other
+  // scalar an empty stand-in, never used).
   fiber_detail::LobeNodesOf<T> lanes_nodes, *nodes = nullptr;
   if constexpr (fiber_detail::kLobeInLanes<T>) {
     if (spec && fiber_detail::lobe_lanes_enabled()) {
@@ -359,7 +364,9 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
         fiber_detail::add_lobe_integral(lobe, slo, shi, gr, &ssum, nodes);
       }
   }
-  if (nodes && nodes->count > 0) fiber_detail::flush_lobe_nodes(nodes, &ssum);
+  if constexpr (fiber_detail::kLobeInLanes<T>) {
+    if (nodes && nodes->count > 0) fiber_detail::flush_lobe_nodes(nodes, &ssum);
+  }
   if (!(W > T(0.0))) return;
   *D = sL * dsum / W;
   *S = ssum / W;
