@@ -125,7 +125,10 @@ void size_maps(size_t texels, bool fit_s, TexelMaps* m) {
   for (auto* v : {&m->kd, &m->ks, &m->kd_sigma, &m->ks_sigma}) v->assign(3 * texels, 0);
   for (auto* v : {&m->n, &m->psi_deg, &m->n_sigma, &m->psi_sigma_deg, &m->residual})
     v->assign(texels, 0);
-  if (fit_s) m->s.assign(texels, 0), m->s_sigma.assign(texels, 0);
+  if (fit_s)
+    m->s.assign(texels, 0), m->s_sigma.assign(texels, 0);
+  else
+    m->s.clear(), m->s_sigma.clear();
   m->pixels.assign(texels, 0);
   m->determined.assign(texels, 0);
 }
@@ -223,14 +226,22 @@ void texel_bins(const ObsSet& os, size_t t_begin, size_t t_end, TexelBins* out) 
 struct TexelScratch {
   TexelBins bins;
   TexelResults first;
+  TexelMaps maps;  // the band before's, its arrays' allocations for the next
 };
 
 std::shared_ptr<TexelScratch> texel_scratch() { return std::make_shared<TexelScratch>(); }
+
+void reuse_maps(TexelScratch* scratch, TexelMaps&& done) { scratch->maps = std::move(done); }
 
 TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const int w = o.w, h = o.h;
   TexelMaps m;
+  if (o.scratch) {  // the arrays of the band before (size_maps writes every entry over)
+    for (const auto& arr : kTexelArrays) (m.*arr.d).swap(o.scratch->maps.*arr.d);
+    m.pixels.swap(o.scratch->maps.pixels);
+    m.determined.swap(o.scratch->maps.determined);
+  }
   m.w = w;
   m.h = h;
   m.row0 = o.rows.row0;

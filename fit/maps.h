@@ -24,6 +24,10 @@ TileRows rows_with_reach(int row0, int row1, const FitOptions& opt);
 // texels' results, their pages touched by the first band and written over by the others.
 struct TexelScratch;
 std::shared_ptr<TexelScratch> texel_scratch();
+// A band's maps, once joined, handed back: the next band's fit_texel_maps writes its per-texel
+// arrays over theirs (a band's ~19 doubles a texel were fresh pages, faulted in and unmapped
+// again, band after band).
+void reuse_maps(TexelScratch* scratch, TexelMaps&& done);
 
 struct TexelMapOptions {
   int w = 0, h = 0;    // the grid

@@ -104,7 +104,9 @@ TexelMaps MapsInBands::fit(const Core& global, const TexelMapOptions& to, FitRep
     TexelMapOptions tb = to;
     tb.rows = rows_[static_cast<size_t>(j)];
     tb.scratch = scratch_.get();
-    join_band(fit_texel_maps(loader_.observations(), global, tb), all_.row0, all_.row1, &whole);
+    TexelMaps band = fit_texel_maps(loader_.observations(), global, tb);
+    join_band(band, all_.row0, all_.row1, &whole);
+    reuse_maps(scratch_.get(), std::move(band));
   }
   return whole;
 }
