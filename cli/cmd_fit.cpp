@@ -46,10 +46,11 @@ void print_report(FILE* o, const FitResult& r) {
   if (p.maps_bands > 1)
     std::fprintf(o,
                  "fit: --maps in %d bands of texel rows (records ~%.1f MB in all, --maps-memory "
-                 "%g MB at once; the largest band held %.2f MB, %.2f MB of it the pixels its "
-                 "views share)\n",
+                 "%g MB at once, at most %g MB of pixels the views share; the largest band held "
+                 "%.2f MB, %.2f MB of it the pixels its views share)\n",
                  p.maps_bands, p.maps_record_bytes / 1e6, r.report.maps_memory_mb,
-                 p.maps_band_peak_bytes / 1e6, p.maps_band_shared_bytes / 1e6);
+                 kMapsSharedBandBytes / 1e6, p.maps_band_peak_bytes / 1e6,
+                 p.maps_band_shared_bytes / 1e6);
   if (p.maps_bands > 1 && p.maps_own_geometries > 0)
     std::fprintf(o,
                  "fit: note: %zu geometries (a camera per view): every band reads each again "
@@ -340,7 +341,9 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
   fit->add_option("--maps-memory", fo.maps_memory_mb,
                   "--maps: the records (60 bytes a pixel and light) held at once, in MB; with "
                   "--global the texel rows are fitted in as many bands as that takes, each band "
-                  "reading only its rows of the views (the same maps as one band, bit for bit); "
+                  "reading only its rows of the views (the same maps as one band, bit for bit), "
+                  "and, where the views share one geometry (a fixed camera), at most 4 MB of its "
+                  "pixels a band, which every view reads again (in cache, not from memory); "
                   "without, where every pixel's records would pass it, the global fit runs "
                   "first on a --subsample that fits, then the maps in bands")
       ->capture_default_str()

@@ -93,11 +93,11 @@ struct BandLoader::Impl {
   std::shared_ptr<const ViewGeometry> g0;
   size_t per = 0;
   bool counted = false;
-  std::vector<double> row_bytes;
+  std::vector<double> row_bytes, shared_row_bytes;
 };
 
 BandLoader::BandLoader(const CaptureSet& set, const FitOptions& opt)
-    : impl_(new Impl{set, opt, {}, {}, {}, 0, false, {}}) {}
+    : impl_(new Impl{set, opt, {}, {}, {}, 0, false, {}, {}}) {}
 
 namespace {
 
@@ -123,8 +123,10 @@ std::vector<double> pixels_by_row(const ViewGeometry& g, int stride, int w, int 
 // once more (one at a time on each thread; its position, normal and tangent, three times the
 // bytes, are not): by view 0's alone, the 32-view 512^2 orbit set's largest band at
 // --maps-memory 20 held 23.7 MB.
+// *shared: of those, the shared pixels' by row.
 std::vector<double> bytes_by_row_all(const CaptureSet& set, const FitOptions& opt,
-                                     const ViewGeometry& g0, size_t per) {
+                                     const ViewGeometry& g0, size_t per,
+                                     std::vector<double>* shared) {
   std::vector<GeometryViews> todo;
   for (const auto& [key, g] : geometry_views(set)) todo.push_back(g);
   std::vector<std::vector<double>> counts(todo.size());
@@ -137,12 +139,15 @@ std::vector<double> bytes_by_row_all(const CaptureSet& set, const FitOptions& op
     counts[j] = pixels_by_row(load_view_uv(set, i), opt.subsample, opt.maps_w, opt.maps_h);
   });
   std::vector<double> sum(static_cast<size_t>(std::max(opt.maps_h, 1)), 0.0);
+  shared->assign(sum.size(), 0.0);
   for (size_t j = 0; j < todo.size(); ++j) {
     const size_t views = todo[j].views;
-    const bool shares = shares_pixels(views, set.views[todo[j].first]);
-    const double each =
-        static_cast<double>(views * per) + (shares ? static_cast<double>(kSharedPixelBytes) : 0.0);
-    for (size_t r = 0; r < sum.size(); ++r) sum[r] += each * counts[j][r];
+    const double own = shares_pixels(views, set.views[todo[j].first])
+                           ? static_cast<double>(kSharedPixelBytes)
+                           : 0.0;
+    const double each = static_cast<double>(views * per) + own;
+    for (size_t r = 0; r < sum.size(); ++r)
+      sum[r] += each * counts[j][r], (*shared)[r] += own * counts[j][r];
   }
   return sum;
 }
@@ -187,11 +192,17 @@ const std::vector<double>& BandLoader::row_bytes() {
   if (m.counted) return m.row_bytes;
   m.counted = true;
   m.row_bytes.clear();
+  m.shared_row_bytes.clear();
   bool meshes = false;  // a traced mesh's rows are not known before it is traced
   for (const ViewSpec& view : m.set.views) meshes = meshes || !view.geometry.mesh.empty();
   if (!m.g0 || meshes || m.opt.maps_w <= 0) return m.row_bytes;
-  m.row_bytes = bytes_by_row_all(m.set, m.opt, *m.g0, m.per);
+  m.row_bytes = bytes_by_row_all(m.set, m.opt, *m.g0, m.per, &m.shared_row_bytes);
   return m.row_bytes;
+}
+
+const std::vector<double>& BandLoader::shared_row_bytes() {
+  row_bytes();
+  return impl_->shared_row_bytes;
 }
 
 void BandLoader::plan(std::vector<UvBand> bands) {

@@ -31,6 +31,8 @@ class BandLoader {
   // nothing); empty where a view's geometry is a mesh, traced per view (its rows unknown before the
   // views are traced).
   const std::vector<double>& row_bytes();
+  // Of row_bytes, the shared pixels' (0 in rows no view shares; empty where row_bytes is).
+  const std::vector<double>& shared_row_bytes();
   void plan(std::vector<UvBand> bands);  // before the first load
   // Band j's observations, in place of the band before's; its counts added to *rep.
   const ObsSet& load(size_t j, FitReport* rep);

@@ -40,6 +40,14 @@ struct GivenGlobal {
 // --maps-iterations' default: the iterations each texel's solver (LM or Ceres) may take.
 constexpr int kTexelIterations = 100;
 
+// --maps with --global in bands: views that share a geometry (a fixed camera) each read its pixels
+// (fit/pixel_records.h SharedPixels: position and frame, ~150 bytes a pixel), so a band holds at
+// most this many bytes of them, which then stay in the last-level cache from view to view. The
+// 2048^2 swirl's 64 views at --maps-memory 512 held 17.6 MB of them a band, read from memory 64
+// times: the light's lanes (shared_light_lanes) took 793 samples of a run against 388 at 4.4 MB a
+// band, the load 1.36-1.40 s against 1.09-1.11 s.
+inline constexpr double kMapsSharedBandBytes = 4e6;
+
 struct FitOptions {
   FitModel model = FitModel::kLine;
   bool fit_isotropic = false;
@@ -82,6 +90,9 @@ struct FitOptions {
   // --maps-memory MB: with --global, the records held at once; the texel rows are fitted in as
   // many bands as that takes (fit/band_load.h), each reading only its rows of the views.
   double maps_memory_mb = 512;
+  // ... and at most this many bytes of the pixels views share a band (kMapsSharedBandBytes; the
+  // tests lower it).
+  double maps_shared_band_bytes = kMapsSharedBandBytes;
   // --global MATERIAL: the global fit (every texel's start, and the values of the texels the data
   // do not determine) taken from an earlier fit instead of fitted here. With --tile, the tile then
   // keeps only the observations whose uv falls in its rows (and its --smooth band): a tile's

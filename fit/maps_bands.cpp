@@ -13,11 +13,13 @@ namespace aniso::fitting {
 
 // The bands' rows [row0, row1) over the rows of all_. Given the records' bytes by texel row, each
 // band takes rows while its records, its --smooth reach's included, stay within --maps-memory (a
-// row alone above it is a band of its own): a sphere's uv crowds its pixels into some rows, and
-// equal rows held up to 2.2x the budget at once in 4 bands of satin-ball. Without (a mesh traced
-// per view), as many bands of equal rows as the whole estimate takes.
-std::vector<std::pair<int, int>> MapsInBands::band_limits(const std::vector<double>& row_bytes,
-                                                          const FitOptions& opt) const {
+// row alone above it is a band of its own) and the pixels its views share within
+// FitOptions::maps_shared_band_bytes: a sphere's uv crowds its pixels into some rows, and equal
+// rows held up to 2.2x the budget at once in 4 bands of satin-ball. Without (a mesh traced per
+// view), as many bands of equal rows as the whole estimate takes.
+std::vector<std::pair<int, int>> MapsInBands::band_limits(
+    const std::vector<double>& row_bytes, const std::vector<double>& shared_row_bytes,
+    const FitOptions& opt) const {
   const int rows = all_.row1 - all_.row0;
   const double budget = opt.maps_memory_mb * 1e6;
   std::vector<std::pair<int, int>> out;
@@ -29,15 +31,21 @@ std::vector<std::pair<int, int>> MapsInBands::band_limits(const std::vector<doub
                        all_.row0 + static_cast<int>(static_cast<long>(rows) * (j + 1) / k));
     return out;
   }
-  std::vector<double> before(row_bytes.size() + 1, 0.0);  // prefix sums
-  for (size_t i = 0; i < row_bytes.size(); ++i) before[i + 1] = before[i] + row_bytes[i];
-  auto held = [&](int a, int b) {  // rows [a, b) and their reach
+  // Prefix sums of the records' bytes and of the shared pixels'.
+  std::vector<double> before(row_bytes.size() + 1, 0.0), shared(row_bytes.size() + 1, 0.0);
+  for (size_t i = 0; i < row_bytes.size(); ++i) {
+    before[i + 1] = before[i] + row_bytes[i];
+    shared[i + 1] = shared[i] + (i < shared_row_bytes.size() ? shared_row_bytes[i] : 0.0);
+  }
+  auto fits = [&](int a, int b) {  // rows [a, b) and their reach within both budgets
     const TileRows r = rows_with_reach(a, b, opt);
-    return before[static_cast<size_t>(r.band1)] - before[static_cast<size_t>(r.band0)];
+    const auto b0 = static_cast<size_t>(r.band0), b1 = static_cast<size_t>(r.band1);
+    return before[b1] - before[b0] <= budget &&
+           shared[b1] - shared[b0] <= opt.maps_shared_band_bytes;
   };
   for (int a = all_.row0; a < all_.row1;) {
     int b = a + 1;
-    while (b < all_.row1 && held(a, b + 1) <= budget) ++b;
+    while (b < all_.row1 && fits(a, b + 1)) ++b;
     out.emplace_back(a, b);
     a = b;
   }
@@ -52,7 +60,8 @@ MapsInBands::MapsInBands(const CaptureSet& set, const FitOptions& opt)
   own_geometries_ = geometries > 1 ? geometries : 0;
   const long w = opt.maps_w;
   std::vector<UvBand> plan;
-  for (const auto& [row0, row1] : band_limits(loader_.row_bytes(), opt)) {
+  for (const auto& [row0, row1] :
+       band_limits(loader_.row_bytes(), loader_.shared_row_bytes(), opt)) {
     const TileRows r = rows_with_reach(row0, row1, opt);
     rows_.push_back(r);
     UvBand b;

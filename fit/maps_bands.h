@@ -27,6 +27,7 @@ class MapsInBands {
 
  private:
   std::vector<std::pair<int, int>> band_limits(const std::vector<double>& row_bytes,
+                                               const std::vector<double>& shared_row_bytes,
                                                const FitOptions& opt) const;
   BandLoader loader_;
   TileRows all_;

@@ -537,6 +537,21 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
     EXPECT_TRUE(bytes(shared.maps.*arr.d) == bytes(alone.maps.*arr.d)) << arr.key;
   EXPECT_EQ(shared.maps.pixels, alone.maps.pixels);
   EXPECT_EQ(shared.report.pixels, alone.report.pixels);
+  // Records that fit one band, but more shared pixels than a band may hold (fit/fit.h
+  // kMapsSharedBandBytes, lowered here): bands of rows whose shared pixels stay within it, the
+  // same maps as one band.
+  opt.maps_memory_mb = 512;
+  const FitResult one = fit_capture(set, opt);
+  EXPECT_EQ(one.report.maps_bands, 1);
+  ASSERT_GT(one.report.maps_band_shared_bytes, 4000u);
+  opt.maps_shared_band_bytes = static_cast<double>(one.report.maps_band_shared_bytes) / 4;
+  const FitResult capped = fit_capture(set, opt);
+  EXPECT_GE(capped.report.maps_bands, 4);
+  EXPECT_LE(capped.report.maps_band_shared_bytes, opt.maps_shared_band_bytes);
+  for (const auto& arr : kTexelArrays)
+    EXPECT_TRUE(bytes(capped.maps.*arr.d) == bytes(one.maps.*arr.d)) << arr.key;
+  EXPECT_EQ(capped.maps.pixels, one.maps.pixels);
+  EXPECT_EQ(capped.report.pixels, one.report.pixels);
 }
 
 }  // namespace
