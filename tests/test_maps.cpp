@@ -15,6 +15,7 @@
 #include "core/texture.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
+#include "fit/map_holes.h"
 #include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -841,6 +842,37 @@ TEST(FitMaps, TexelsBetweenPixelRowsAreNamed) {
   r = test::run_cli("fit " + dir + "/set --maps 48x48 --out " + dir + "/coarse.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_EQ(r.output.find("got no pixel"), std::string::npos) << r.output;
+}
+
+// interior_holes against its definition, texel by texel: an empty texel with a covered one on
+// both sides of it in its row, or in its column (random coverage, sparse to dense, odd shapes).
+TEST(FitMaps, InteriorHolesAsTheirDefinition) {
+  std::mt19937 rng(7);
+  size_t holes = 0;
+  for (const auto& [w, h] : {std::pair{1, 1}, {1, 9}, {9, 1}, {17, 5}, {64, 48}, {33, 70}})
+    for (const double p : {0.02, 0.2, 0.6, 0.97}) {
+      TexelMaps m;
+      m.w = w, m.row0 = 3, m.row1 = 3 + h;
+      m.pixels.assign(static_cast<size_t>(w) * h, 0);
+      std::bernoulli_distribution covered(p);
+      for (int& n : m.pixels) n = covered(rng) ? 1 + static_cast<int>(rng() % 5) : 0;
+      const std::vector<uint8_t> got = fitting::interior_holes(m);
+      ASSERT_EQ(got.size(), m.pixels.size());
+      auto at = [&](int x, int y) { return m.pixels[static_cast<size_t>(y) * w + x] > 0; };
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          bool left = false, right = false, up = false, down = false;
+          for (int k = 0; k < x; ++k) left = left || at(k, y);
+          for (int k = x + 1; k < w; ++k) right = right || at(k, y);
+          for (int k = 0; k < y; ++k) up = up || at(x, k);
+          for (int k = y + 1; k < h; ++k) down = down || at(x, k);
+          const bool hole = !at(x, y) && ((left && right) || (up && down));
+          EXPECT_EQ(got[static_cast<size_t>(y) * w + x], hole ? 1 : 0)
+              << w << "x" << h << " p " << p << " at " << x << "," << y;
+          holes += hole;
+        }
+    }
+  EXPECT_GT(holes, 1000u);
 }
 
 }  // namespace
