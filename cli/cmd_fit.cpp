@@ -22,6 +22,12 @@ namespace aniso::cli {
 
 namespace {
 
+std::string megabytes(double bytes) {  // as %g prints it
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", bytes / 1e6);
+  return buf;
+}
+
 struct FitArgs {
   std::string in, out, truth, maps, tile, global, maps_solver = "lm", solver = "fused";
   std::string maps_lanes = "auto";
@@ -342,10 +348,12 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
                   "--maps: the records (60 bytes a pixel and light) held at once, in MB; with "
                   "--global the texel rows are fitted in as many bands as that takes, each band "
                   "reading only its rows of the views (the same maps as one band, bit for bit), "
-                  "and, where the views share one geometry (a fixed camera), at most 4 MB of its "
-                  "pixels a band, which every view reads again (in cache, not from memory); "
-                  "without, where every pixel's records would pass it, the global fit runs "
-                  "first on a --subsample that fits, then the maps in bands")
+                  "and, where the views share one geometry (a fixed camera), at most " +
+                      megabytes(kMapsSharedBandBytes) +
+                      " MB of its pixels a band, which every view reads again (in cache, not from "
+                      "memory); "
+                      "without, where every pixel's records would pass it, the global fit runs "
+                      "first on a --subsample that fits, then the maps in bands")
       ->capture_default_str()
       ->check(CLI::Range(0.001, 1e9));
   fit->add_option("--global", a->global,
