@@ -187,6 +187,8 @@ size_t BandLoader::record_bytes() {
   return st.reserve_obs * per;
 }
 
+size_t BandLoader::record_pixels() const { return impl_->st.reserve_obs; }
+
 const std::vector<double>& BandLoader::row_bytes() {
   Impl& m = *impl_;
   if (m.counted) return m.row_bytes;

@@ -24,6 +24,7 @@ class BandLoader {
   // The bytes of the records one load of every pixel would hold, from view 0's mask (the others
   // taken to be alike; its geometry stays decoded for the bands).
   size_t record_bytes();
+  size_t record_pixels() const;  // after record_bytes: the pixels (records) it counted
   // After record_bytes: the records' bytes by texel row of the maps, and the bytes of the pixels
   // views sharing a geometry share (SharedPixels, while a band loads), from every view's mask
   // pixels' uv (a pixel outside [0, 1)^2 counted in row 0; each geometry read once more where views

@@ -409,18 +409,23 @@ size_t export_observations(const CaptureSet& set, const FitOptions& opt, const s
 namespace {
 
 // A plain --maps fit (no --global, no --tile) whose records would pass --maps-memory: the every
-// k-th pixel in x and y (k > 1) at which they fit it, for the global fit; 0 where they fit as
-// they are, or the fit is not one the maps in bands can follow (optional terms, --topology-map).
+// k-th pixel in x and y (k > 1) at which they fit it, and at which the global fit takes at most
+// FitOptions::maps_global_pixels (its values only start the texels and fill those the data do not
+// determine); 0 where they fit as they are, or the fit is not one the maps in bands can follow
+// (optional terms, --topology-map).
 int global_subsample_for(const CaptureSet& set, const FitOptions& opt) {
   if (opt.maps_w == 0 || opt.global || opt.tile_count > 0 || opt.fit_isotropic || opt.fit_second ||
       opt.topology_texels > 0 || set.views.empty())
     return 0;
   for (const ViewSpec& v : set.views)
     if (!v.geometry.mesh.empty()) return 0;  // refused under --maps, by the plain load's check
-  const double bytes = static_cast<double>(BandLoader(set, opt).record_bytes());
+  BandLoader loader(set, opt);
+  const double bytes = static_cast<double>(loader.record_bytes());
   const double budget = opt.maps_memory_mb * 1e6;
   if (bytes <= budget) return 0;
-  return static_cast<int>(std::ceil(std::sqrt(bytes / budget)));
+  const double pixels = static_cast<double>(loader.record_pixels());
+  return static_cast<int>(std::max(std::ceil(std::sqrt(bytes / budget)),
+                                   std::ceil(std::sqrt(pixels / opt.maps_global_pixels))));
 }
 
 // fit_capture's plain --maps past --maps-memory: the global fit on every k-th pixel (k from

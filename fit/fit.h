@@ -47,6 +47,12 @@ constexpr int kTexelIterations = 100;
 // times: the light's lanes (shared_light_lanes) took 793 samples of a run against 388 at 4.4 MB a
 // band, the load 1.36-1.40 s against 1.09-1.11 s.
 inline constexpr double kMapsSharedBandBytes = 4e6;
+// A plain --maps fit whose records pass --maps-memory fits its global values first on a
+// --subsample (fit/fit.cpp global_subsample_for) of at most this many pixels: they only start
+// the texels and fill those the data do not determine. The 2048^2 swirl's 75.8 M pixels at 1 in 3
+// (8.4 M, the records' budget alone) took 4.2 s of a 6.5 s run; at 1 in 9 (0.94 M) 0.6 s of
+// 4.2 s, its 1024^2 maps within 0.0018 sigma of those.
+inline constexpr double kMapsGlobalPixels = 1e6;
 
 struct FitOptions {
   FitModel model = FitModel::kLine;
@@ -93,6 +99,9 @@ struct FitOptions {
   // ... and at most this many bytes of the pixels views share a band (kMapsSharedBandBytes; the
   // tests lower it).
   double maps_shared_band_bytes = kMapsSharedBandBytes;
+  // Without --global, past --maps-memory: the global fit's most pixels (kMapsGlobalPixels; the
+  // tests lower it).
+  double maps_global_pixels = kMapsGlobalPixels;
   // --global MATERIAL: the global fit (every texel's start, and the values of the texels the data
   // do not determine) taken from an earlier fit instead of fitted here. With --tile, the tile then
   // keeps only the observations whose uv falls in its rows (and its --smooth band): a tile's

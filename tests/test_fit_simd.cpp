@@ -554,5 +554,46 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
   EXPECT_EQ(capped.report.pixels, one.report.pixels);
 }
 
+// A plain --maps fit past --maps-memory fits its global values first on a --subsample: the one
+// its records fit in, or a coarser one where that still holds more than maps_global_pixels
+// (fit/fit.h kMapsGlobalPixels, lowered here); the maps those of that global fit run by hand.
+TEST(FitMaps, APlainMapsFitTakesAtMostItsGlobalPixels) {
+  const std::string dir = test::tmp_dir("global_pixels");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 96x80 --views 6");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const CaptureSet set = read_capture(dir + "/set");
+  FitOptions opt;
+  opt.progress = false;
+  opt.maps_w = 24, opt.maps_h = 20;
+  opt.maps_memory_mb = 0.3;
+  opt.maps_global_pixels = 1e12;  // the records' budget alone
+  const FitResult by_memory = fit_capture(set, opt);
+  const int k0 = by_memory.report.global_subsample;
+  ASSERT_GE(k0, 2);
+  opt.maps_global_pixels = static_cast<double>(by_memory.report.pixels) / 40;
+  const FitResult capped = fit_capture(set, opt);
+  const int k = capped.report.global_subsample;
+  std::printf(
+      "%zu pixels: the global fit on 1 in %d by the records' budget, 1 in %d by at most "
+      "%.0f pixels\n",
+      by_memory.report.pixels, k0, k, opt.maps_global_pixels);
+  EXPECT_GE(k, 7);  // sqrt(40) = 6.3
+  FitOptions g;
+  g.progress = false;
+  g.subsample = k;
+  const FitResult global = fit_capture(set, g);
+  EXPECT_LE(static_cast<double>(global.report.pixels), opt.maps_global_pixels);
+  EXPECT_EQ(global.material.kd, capped.material.kd);
+  FitOptions by_hand = opt;
+  by_hand.global = given_global(fit_text(global), "global", set.dir);
+  const FitResult two_steps = fit_capture(set, by_hand);
+  auto bytes = [](const auto& v) {
+    return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0]));
+  };
+  ASSERT_GT(capped.maps.fitted, 300u);
+  for (const auto& arr : kTexelArrays)
+    EXPECT_TRUE(bytes(capped.maps.*arr.d) == bytes(two_steps.maps.*arr.d)) << arr.key;
+}
+
 }  // namespace
 }  // namespace aniso::fitting
