@@ -63,15 +63,20 @@ void print_report(FILE* o, const FitResult& r) {
                  "(the first band whole, the later ones their own rows of it), %d times in all; a "
                  "larger --maps-memory, where memory allows, reads them fewer times\n",
                  p.maps_own_geometries, p.maps_bands);
-  if (p.global_subsample > 0)
+  if (p.global_subsample > 0) {
+    char records[160] = "";
+    if (p.maps_record_bytes > p.maps_memory_mb * 1e6)
+      std::snprintf(records, sizeof records,
+                    "the records of every pixel (~%.0f MB) pass --maps-memory (%g MB): ",
+                    p.maps_record_bytes / 1e6, p.maps_memory_mb);
     std::fprintf(o,
-                 "fit: the records of every pixel (~%.0f MB) pass --maps-memory (%g MB): the "
-                 "global fit below ran first on 1 pixel in %d along x and y (--subsample %d: "
-                 "the records' budget, and at most %g M pixels, as its values only start the "
-                 "texels and fill those the data do not determine), then the maps on every "
-                 "pixel, band by band (--global with a global fit of your own instead)\n",
-                 p.maps_record_bytes / 1e6, p.maps_memory_mb, p.global_subsample,
-                 p.global_subsample, kMapsGlobalPixels / 1e6);
+                 "fit: %sthe global fit below ran first on 1 pixel in %d along x and y "
+                 "(--subsample %d: the records' budget, and at most %g M pixels, as its values "
+                 "only start the texels and fill those the data do not determine), then the maps "
+                 "on every pixel, band by band (--global with a global fit of your own "
+                 "instead)\n",
+                 records, p.global_subsample, p.global_subsample, kMapsGlobalPixels / 1e6);
+  }
   if (!p.global_from.empty())
     std::fprintf(o, "fit: global fit from %s (--global: not fitted here); load %.3f s\n",
                  p.global_from.c_str(), p.seconds_load);
@@ -353,9 +358,11 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
                       megabytes(kMapsSharedBandBytes) +
                       " MB of its pixels a band, which every view reads again (in cache, not from "
                       "memory); "
-                      "without, where every pixel's records would pass it, the global fit runs "
-                      "first on a --subsample that fits (and holds at most " +
-                      megabytes(kMapsGlobalPixels) + " M pixels), then the maps in bands")
+                      "without, where every pixel's records would pass it or the sample has more "
+                      "than " +
+                      megabytes(kMapsGlobalPixels) +
+                      " M pixels, the global fit runs first on a --subsample that fits both, then "
+                      "the maps in bands")
       ->capture_default_str()
       ->check(CLI::Range(0.001, 1e9));
   fit->add_option("--global", a->global,

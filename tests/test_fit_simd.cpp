@@ -556,7 +556,8 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
 
 // A plain --maps fit past --maps-memory fits its global values first on a --subsample: the one
 // its records fit in, or a coarser one where that still holds more than maps_global_pixels
-// (fit/fit.h kMapsGlobalPixels, lowered here); the maps those of that global fit run by hand.
+// (fit/fit.h kMapsGlobalPixels, lowered here), as does one within --maps-memory but past those
+// pixels; the maps those of that global fit run by hand.
 TEST(FitMaps, APlainMapsFitTakesAtMostItsGlobalPixels) {
   const std::string dir = test::tmp_dir("global_pixels");
   auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 96x80 --views 6");
@@ -593,6 +594,17 @@ TEST(FitMaps, APlainMapsFitTakesAtMostItsGlobalPixels) {
   ASSERT_GT(capped.maps.fitted, 300u);
   for (const auto& arr : kTexelArrays)
     EXPECT_TRUE(bytes(capped.maps.*arr.d) == bytes(two_steps.maps.*arr.d)) << arr.key;
+  // Records within --maps-memory: the global fit on every pixel where they are few enough, on
+  // the same subsample where they are not.
+  opt.maps_memory_mb = 512;
+  const double few = opt.maps_global_pixels;
+  opt.maps_global_pixels = 1e12;
+  EXPECT_EQ(fit_capture(set, opt).report.global_subsample, 0);
+  opt.maps_global_pixels = few;
+  const FitResult within = fit_capture(set, opt);
+  EXPECT_EQ(within.report.global_subsample, k);
+  for (const auto& arr : kTexelArrays)
+    EXPECT_TRUE(bytes(within.maps.*arr.d) == bytes(two_steps.maps.*arr.d)) << arr.key;
 }
 
 }  // namespace
