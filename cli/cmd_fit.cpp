@@ -22,9 +22,9 @@ namespace aniso::cli {
 
 namespace {
 
-std::string megabytes(double bytes) {  // as %g prints it
+std::string millions(double x) {  // x / 10^6 as %g prints it
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", bytes / 1e6);
+  std::snprintf(buf, sizeof buf, "%g", x / 1e6);
   return buf;
 }
 
@@ -355,12 +355,12 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
                   "--global the texel rows are fitted in as many bands as that takes, each band "
                   "reading only its rows of the views (the same maps as one band, bit for bit), "
                   "and, where the views share one geometry (a fixed camera), at most " +
-                      megabytes(kMapsSharedBandBytes) +
+                      millions(kMapsSharedBandBytes) +
                       " MB of its pixels a band, which every view reads again (in cache, not from "
                       "memory); "
                       "without, where every pixel's records would pass it or the sample has more "
                       "than " +
-                      megabytes(kMapsGlobalPixels) +
+                      millions(kMapsGlobalPixels) +
                       " M pixels, the global fit runs first on a --subsample that fits both, then "
                       "the maps in bands")
       ->capture_default_str()
