@@ -154,7 +154,7 @@ std::vector<double> bytes_by_row_all(const CaptureSet& set, const FitOptions& op
 
 }  // namespace
 
-size_t BandLoader::record_bytes() {
+size_t BandLoader::record_bytes(bool estimate_only) {
   const CaptureSet& set = impl_->set;
   const FitOptions& opt = impl_->opt;
   LoadState& st = impl_->st;
@@ -168,8 +168,11 @@ size_t BandLoader::record_bytes() {
   impl_->g0.reset();
   impl_->counted = false;
   if (v.geometry.mesh.empty()) {  // a mesh is traced per view: the frame's pixels, not its mask
-    impl_->g0 = load_view_geometry(
-        set, 0, os.topology == TopologyMode::kAmplitude ? &st.map : nullptr, &st.geometry);
+    impl_->g0 = estimate_only
+                    ? std::make_shared<const ViewGeometry>(load_view_uv(set, 0))
+                    : load_view_geometry(
+                          set, 0, os.topology == TopologyMode::kAmplitude ? &st.map : nullptr,
+                          &st.geometry);
     pixels = impl_->g0->mask_count;
   }
   const size_t per =

@@ -22,8 +22,9 @@ class BandLoader {
   BandLoader(const BandLoader&) = delete;
   BandLoader& operator=(const BandLoader&) = delete;
   // The bytes of the records one load of every pixel would hold, from view 0's mask (the others
-  // taken to be alike; its geometry stays decoded for the bands).
-  size_t record_bytes();
+  // taken to be alike; its geometry stays decoded for the bands). With `estimate_only`, from its
+  // mask and uv alone (row_bytes still counts): for a caller that loads no band.
+  size_t record_bytes(bool estimate_only = false);
   size_t record_pixels() const;  // after record_bytes: the pixels (records) it counted
   // After record_bytes: the records' bytes by texel row of the maps, and the bytes of the pixels
   // views sharing a geometry share (SharedPixels, while a band loads), from every view's mask
