@@ -87,14 +87,16 @@ std::string misfit_warning(const ObsSet& os, const FitReport& rep) {
   constexpr double kMisfitRatio = 2.0, kNoiseFreeFloor = 1e-4;
   const double noise = os.pixel_noise > 0 ? os.pixel_noise : rep.noise_sigma;
   if (!(rep.rms > kMisfitRatio * std::max(noise, kNoiseFreeFloor * signal))) return "";
-  char buf[512];
-  std::snprintf(buf, sizeof buf,
-                "the model does not describe the data: residual RMS %.3g is %.1fx the noise of "
-                "the images %.3g. Likely causes: a second fiber direction (woven cloth: "
-                "--fit-second-fiber), an isotropic term (--fit-isotropic), shadows or "
-                "interreflections, a wrong exposure or color.encoding, hot pixels. Check "
-                "`aniso verify CAPTURE MATERIAL --residuals DIR`.",
-                rep.rms, rep.rms / std::max(noise, 1e-300), noise);
+  char buf[768];
+  std::snprintf(
+      buf, sizeof buf,
+      "the model does not describe the data: residual RMS %.3g is %.1fx the noise of "
+      "the images %.3g. Likely causes: a material that varies over the sample (brushed "
+      "in swirls, woven in regions: fit maps with --maps WxH), a second fiber direction "
+      "(woven cloth: --fit-second-fiber), an isotropic term (--fit-isotropic), shadows or "
+      "interreflections, a wrong exposure or color.encoding, hot pixels. Check "
+      "`aniso verify CAPTURE MATERIAL --residuals DIR`.",
+      rep.rms, rep.rms / std::max(noise, 1e-300), noise);
   return buf;
 }
 

@@ -277,6 +277,7 @@ TEST(Trust, AModelThatDoesNotDescribeTheDataIsSaidPlainly) {
   EXPECT_NE(r.output.find("WARNING: the model does not describe the data"), std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find("--fit-second-fiber"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--maps WxH"), std::string::npos) << r.output;
   auto j = nlohmann::json::parse(read_text_file(dir + "/../m.json"));
   EXPECT_EQ(j["report"]["warnings"].size(), 1u);
   r = test::run_cli("fit " + dir + " --fit-second-fiber --out " + dir + "/../m.json");
