@@ -319,7 +319,11 @@ void add_maps_warnings(const TexelMaps& m, double noise, int iterations, FitRepo
                     rep->rms, m.rms, noise);
       w = buf;
       if (m.rms > 2 * noise && noise > 0)
-        w += ": the maps do not describe the data either (try more texels, or check the set)";
+        w += m.s.empty() ? ": the line model's maps do not describe the data either (try the fiber "
+                           "model: --model fiber, or --model auto to compare the two; more "
+                           "texels; or check the set)"
+                         : ": the maps do not describe the data either (try more texels, or check "
+                           "the set)";
     }
   size_t determined = 0;
   for (uint8_t d : m.determined) determined += d;

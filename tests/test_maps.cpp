@@ -715,6 +715,22 @@ TEST(FitMaps, TexelsTheModelDoesNotDescribeAreNamed) {
       << stained.output;
 }
 
+// The line model's maps of a fiber material leave residuals far above the noise: the warning
+// names the fiber model, which the fiber model's own maps do not need.
+TEST(FitMaps, LineMapsOfAFiberMaterialPointToTheFiberModel) {
+  const std::string dir = test::tmp_dir("fibermisfit");
+  const std::string set = dir + "/set", hint = "try the fiber model: --model fiber";
+  auto r = test::run_cli("synth satin-sphere-fiber " + set +
+                         " --rig orbit --views 8 --size 64x64 --noise 0.01");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + set + " --maps 16x16 --out " + dir + "/line.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find(hint), std::string::npos) << r.output;
+  r = test::run_cli("fit " + set + " --model fiber --maps 16x16 --out " + dir + "/fiber.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find(hint), std::string::npos) << r.output;
+}
+
 // A texel whose solver stops at its iteration limit is not a minimum: it is counted, warned about
 // and marked undetermined (global values, the prior's sigma), by the LM and by Ceres, and the
 // tile file carries the count to `aniso merge`.
