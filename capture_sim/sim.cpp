@@ -43,15 +43,18 @@ void refill(Image* img, int w, int h, int c, float v) {
 void shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, const Image& topo,
                 const Vec3& eye, const std::vector<Light>& lights, const RGB& ambient,
                 const RayScene& scene, bool force_shadows, std::atomic<size_t>* shadow_rays,
-                std::atomic<size_t>* light_evals, std::vector<uint8_t>* light_used, Image* img) {
+                std::atomic<size_t>* light_evals, std::vector<uint8_t>* light_used, Image* img,
+                double* brightest) {
   const int w = g.P.width, h = g.P.height;
   refill(img, w, h, 3, 0.f);
   Image& out = *img;
   const bool shadows = scene.mesh().can_self_shadow || force_shadows;
   std::vector<std::atomic<uint8_t>> used(lights.size());
   for (auto& u : used) u = 0;
+  std::atomic<float> peak{0.f};
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     ShadeCounters cnt;
+    float local_peak = 0.f;
     std::vector<uint8_t> local_used(lights.size(), 0);
     auto occluded = [&](const SurfacePoint& sp, const Vec3& L, double dist, ShadeCounters* c) {
       if (!shadows) return false;
@@ -73,8 +76,15 @@ void shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, 
         shade_point(local, sp, eye, lights,
                     {truth.ka[0] * ambient[0], truth.ka[1] * ambient[1], truth.ka[2] * ambient[2]},
                     topo.at(x, y, 0), occluded, I, &cnt, &local_used);
-        for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(I[c]);
+        for (int c = 0; c < 3; ++c) {
+          const float v = static_cast<float>(I[c]);
+          out.at(x, y, c) = v;
+          local_peak = std::max(local_peak, v);
+        }
       }
+    for (float seen = peak.load();
+         local_peak > seen && !peak.compare_exchange_weak(seen, local_peak);) {
+    }
     *shadow_rays += cnt.shadow_rays;
     *light_evals += cnt.light_evals;
     for (size_t i = 0; i < lights.size(); ++i)
@@ -82,6 +92,7 @@ void shade_view(const Evaluator& eval, const Material& truth, const GBuffer& g, 
   });
   light_used->resize(lights.size());
   for (size_t i = 0; i < lights.size(); ++i) (*light_used)[i] = used[i];
+  *brightest = peak.load();
 }
 
 void check_sim_options(const SimOptions& opt) {
@@ -269,12 +280,13 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
       using Images = Traced::Images;
       Image* img = tr->images == Images::kKeep ? &tr->radiance.emplace_back() : &tr->shaded[i % 2];
       std::vector<uint8_t> used;
+      double brightest = 0;  // the image's largest value (the pixels it does not shade are 0)
       const auto ts = std::chrono::steady_clock::now();
       shade_view(eval, opt.truth, g, tr->s[b], opt.rig[i].world_from_camera.translation(),
                  opt.rig[i].lights, opt.ambient, scene, opt.force_shadows, &shadow_rays,
-                 &light_evals, &used, img);
+                 &light_evals, &used, img, &brightest);
       st->seconds_shade += seconds_since(ts);
-      for (float v : img->px) st->white_level = std::max(st->white_level, static_cast<double>(v));
+      st->white_level = std::max(st->white_level, brightest);
       for (uint8_t u : used) st->lights_culled += u ? 0 : 1;
       for (uint8_t hit : g.hit) st->shaded_pixels += hit;
       const bool geometry =
