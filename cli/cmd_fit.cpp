@@ -22,6 +22,12 @@ namespace aniso::cli {
 
 namespace {
 
+// "st", "nd", "rd" or "th" after k (every 2nd, 3rd, 16th pixel).
+const char* ordinal_suffix(int k) {
+  if (k % 100 >= 11 && k % 100 <= 13) return "th";
+  return k % 10 == 1 ? "st" : k % 10 == 2 ? "nd" : k % 10 == 3 ? "rd" : "th";
+}
+
 std::string millions(double x) {  // x / 10^6 as %g prints it
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", x / 1e6);
@@ -80,14 +86,19 @@ void print_report(FILE* o, const FitResult& r) {
   if (!p.global_from.empty())
     std::fprintf(o, "fit: global fit from %s (--global: not fitted here); load %.3f s\n",
                  p.global_from.c_str(), p.seconds_load);
-  else
+  else {
+    char staged[96] = "";
+    if (p.staged_stride > 1)
+      std::snprintf(staged, sizeof staged, ", after %d on every %d%s pixel", p.staged_iterations,
+                    p.staged_stride, ordinal_suffix(p.staged_stride));
     std::fprintf(
         o,
-        "fit: %d iterations (%s), %s, loss %s, residual RMS %.3g, time %.3f s (load %.3f, start "
-        "%.3f, solve %.3f, covariance %.3f by %s)\n",
-        p.iterations, p.solver.c_str(), p.termination.c_str(), p.loss.c_str(), p.rms, p.seconds,
-        p.seconds_load, p.seconds_start, p.seconds_solve, p.seconds_covariance,
+        "fit: %d iterations (%s%s), %s, loss %s, residual RMS %.3g, time %.3f s (load %.3f, "
+        "start %.3f, solve %.3f, covariance %.3f by %s)\n",
+        p.iterations, p.solver.c_str(), staged, p.termination.c_str(), p.loss.c_str(), p.rms,
+        p.seconds, p.seconds_load, p.seconds_start, p.seconds_solve, p.seconds_covariance,
         p.covariance.c_str());
+  }
   if (r.maps.w > 0) {
     size_t det = 0;
     std::vector<double> sp;

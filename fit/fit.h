@@ -53,6 +53,14 @@ inline constexpr double kMapsSharedBandBytes = 4e6;
 // (8.4 M, the records' budget alone) took 4.2 s of a 6.5 s run; at 1 in 9 (0.94 M) 0.6 s of
 // 4.2 s, its 1024^2 maps within 0.0018 sigma of those.
 inline constexpr double kMapsGlobalPixels = 1e6;
+// The global fit's robust stage on a set of more than kStagedPixels pixels runs first on every
+// k-th pixel (k = pixels / kStagedPixels, at most kStagedStride), then on every pixel from the
+// point it reached: the same minimum (the solver's own stopping rule, on every pixel, decides
+// where it ends), in a few passes over every pixel instead of one per iteration. The 1024^2
+// swirl-plate's 64 views (19 M pixels, a model that does not fit it: 21 iterations) took 4.9 s
+// in that stage.
+inline constexpr double kStagedPixels = 1e6;
+inline constexpr int kStagedStride = 16;
 
 struct FitOptions {
   FitModel model = FitModel::kLine;
@@ -102,6 +110,9 @@ struct FitOptions {
   // Without --global, past --maps-memory: the global fit's most pixels (kMapsGlobalPixels; the
   // tests lower it).
   double maps_global_pixels = kMapsGlobalPixels;
+  // The robust stage's subsample first, past this many pixels (kStagedPixels; 0: never; the
+  // tests lower it).
+  double staged_pixels = kStagedPixels;
   // --global MATERIAL: the global fit (every texel's start, and the values of the texels the data
   // do not determine) taken from an earlier fit instead of fitted here. With --tile, the tile then
   // keeps only the observations whose uv falls in its rows (and its --smooth band): a tile's
@@ -182,6 +193,9 @@ struct FitReport {
   // every k-th pixel in x and y (this k, with --subsample's), the maps then band by band (0: not).
   int global_subsample = 0;
   int iterations = 0;
+  // The robust stage's first part on every k-th pixel (kStagedPixels): this k (0: none) and its
+  // iterations there (`iterations` counts those on every pixel).
+  int staged_stride = 0, staged_iterations = 0;
   double seconds = 0, seconds_load = 0, seconds_start = 0, seconds_solve = 0,
          seconds_covariance = 0;
   double rms = 0, noise_sigma = 0, loss_scale = 0;

@@ -175,6 +175,8 @@ jsonu::json report_json(const FitReport& p) {
                    {"parameters", p.parameters},
                    {"jacobian_evaluations", p.jacobian_evaluations}};
   if (!p.pass.empty()) j["pass"] = p.pass;
+  if (p.staged_stride > 1)
+    j["staged"] = {{"every_kth_pixel", p.staged_stride}, {"iterations", p.staged_iterations}};
   if (!p.global_from.empty()) j["global_from"] = p.global_from;
   if (p.fiber_order > 0) j["fiber_order"] = p.fiber_order;
   if (p.outside_tile > 0) j["skipped"]["outside_tile"] = p.outside_tile;

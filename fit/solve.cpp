@@ -208,9 +208,27 @@ std::vector<double> settle_with_ceres(ModelFit* m, const ObsSet& os,
   return r;
 }
 
-// Stage 2 by the model's fused solver; false (nothing changed) where it has none.
+// Stage 2 by the model's fused solver; false (nothing changed) where it has none. Past
+// opt.staged_pixels pixels it runs on every k-th pixel first (fit.h kStagedPixels), then on every
+// pixel from there.
 bool solve_fused(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* rep,
                  Solution* sol) {
+  const size_t n = os.obs.size();
+  const int stride =
+      opt.staged_pixels > 0 && static_cast<double>(n) > opt.staged_pixels
+          ? static_cast<int>(std::min<double>(kStagedStride, std::ceil(n / opt.staged_pixels)))
+          : 0;
+  if (stride > 1) {
+    // Every k-th pixel in the set's order (views after one another, rows within a view): spread
+    // over views and sample alike, and read in order.
+    std::vector<size_t> every_kth;
+    every_kth.reserve(n / stride + 1);
+    for (size_t i = 0; i < n; i += static_cast<size_t>(stride)) every_kth.push_back(i);
+    FusedSolve first;
+    if (!m->solve_fused(os, &every_kth, opt.loss, rep->loss_scale, opt, &first)) return false;
+    rep->staged_stride = stride;
+    rep->staged_iterations = first.iterations;
+  }
   FusedSolve f;
   if (!m->solve_fused(os, nullptr, opt.loss, rep->loss_scale, opt, &f)) return false;
   sol->information = f.info;
