@@ -208,17 +208,16 @@ std::vector<double> settle_with_ceres(ModelFit* m, const ObsSet& os,
   return r;
 }
 
-// Stage 2 by the model's fused solver; false (nothing changed) where it has none. Past
-// opt.staged_pixels pixels it runs on every k-th pixel first (fit.h kStagedPixels), then on every
-// pixel from there.
+// Stage 2 by the model's fused solver; false (nothing changed) where it has none. On a large set
+// it runs on every k-th pixel first (fit.h kStagedPixels), then on every pixel from there.
 bool solve_fused(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* rep,
                  Solution* sol) {
   const size_t n = os.obs.size();
   const int stride =
-      opt.staged_pixels > 0 && static_cast<double>(n) > opt.staged_pixels
-          ? static_cast<int>(std::min<double>(kStagedStride, std::ceil(n / opt.staged_pixels)))
+      opt.staged_pixels > 0
+          ? static_cast<int>(std::min<double>(kStagedStride, std::floor(n / opt.staged_pixels)))
           : 0;
-  if (stride > 1) {
+  if (stride >= kMinStagedStride) {
     // Every k-th pixel in the set's order (views after one another, rows within a view): spread
     // over views and sample alike, and read in order.
     std::vector<size_t> every_kth;
