@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <random>
 
 #include "core/angles.h"
@@ -143,23 +144,29 @@ void topology_images(const SimOptions& opt, const TopologyMap& map, const Image&
     }
 }
 
-// The geometry buffers of one pose under `dir`, named after `stem`.
-GeometrySpec write_geometry(const std::string& dir, const GBuffer& g, const Image& smath,
-                            const std::string& stem, bool with_topology) {
+// The geometry buffers of one pose under `dir`, named after `stem`: their names, and one job per
+// file in *jobs (each writes its file when called; g and smath must outlive them).
+GeometrySpec geometry_files(const std::string& dir, const GBuffer& g, const Image& smath,
+                            const std::string& stem, bool with_topology,
+                            std::vector<std::function<void()>>* jobs) {
   GeometrySpec gs;
   gs.position = "geometry/" + stem + "_P.exr";
   gs.normal = "geometry/" + stem + "_N.exr";
   gs.tangent = "geometry/" + stem + "_U.exr";
   gs.uv = "geometry/" + stem + "_uv.exr";
   gs.mask = "geometry/" + stem + "_mask.png";
-  write_exr(join_path(dir, gs.position), g.P);
-  write_exr(join_path(dir, gs.normal), g.N);
-  write_exr(join_path(dir, gs.tangent), g.U);
-  write_exr(join_path(dir, gs.uv), g.uv);
-  write_mask_png(join_path(dir, gs.mask), g.hit, g.P.width, g.P.height);
+  auto exr = [&](const std::string& rel, const Image& img) {
+    jobs->push_back([path = join_path(dir, rel), &img] { write_exr(path, img); });
+  };
+  exr(gs.position, g.P);
+  exr(gs.normal, g.N);
+  exr(gs.tangent, g.U);
+  exr(gs.uv, g.uv);
+  jobs->push_back(
+      [path = join_path(dir, gs.mask), &g] { write_mask_png(path, g.hit, g.P.width, g.P.height); });
   if (with_topology) {
     gs.topology = "geometry/" + stem + "_topology.exr";
-    write_exr(join_path(dir, gs.topology), smath);
+    exr(gs.topology, smath);
   }
   return gs;
 }
@@ -296,11 +303,20 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
         wait_writer();  // the other buffers are on disk
         const std::string name = tr->fixed_camera ? "all" : view_stem(i);
         GeometrySpec* spec = geometry ? &tr->geometry[tr->fixed_camera ? 0 : i] : nullptr;
-        writer.run([&dir, &opt, gp = &g, smath = &tr->smath[b], lv = &tr->levels, name, spec,
-                    with_topology, image, img, i] {
-          if (spec) *spec = write_geometry(dir, *gp, *smath, name, with_topology);
-          if (image) write_view_image(dir, opt, *lv, i, img);
-        });
+        std::vector<std::function<void()>> jobs;
+        if (spec) *spec = geometry_files(dir, g, tr->smath[b], name, with_topology, &jobs);
+        if (image)
+          jobs.push_back(
+              [&dir, &opt, lv = &tr->levels, img, i] { write_view_image(dir, opt, *lv, i, img); });
+        if (i + 1 < opt.rig.size()) {
+          writer.run([jobs = std::move(jobs)] {
+            for (const auto& job : jobs) job();
+          });
+        } else {
+          // The last view's files, nothing left to trace beside them: each its own task, so the
+          // wait below writes some of them on this thread too.
+          for (auto& job : jobs) writer.run(std::move(job));
+        }
       }
       bar.advance();
     }
