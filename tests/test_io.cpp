@@ -456,6 +456,30 @@ TEST(ImageIO, RefusesNonFiniteValues) {
   a.px[3] = NAN;
   EXPECT_THROW(write_exr(dir + "/nan.exr", a), Error);
   EXPECT_FALSE(std::filesystem::exists(dir + "/nan.exr"));
+  // Uncompressed (synth's default, our own encoder) too: a bad value in the last line leaves no
+  // file nor a temporary behind, and the message names the file.
+  set_exr_compression("none");
+  Image b(300, 400, 3, 0.25f);
+  for (const float bad : {NAN, INFINITY, -INFINITY}) {
+    b.at(299, 399, 2) = bad;
+    const std::string path = dir + "/late.exr";
+    try {
+      write_exr(path, b);
+      ADD_FAILURE() << "wrote " << bad;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(path + ": refusing to write a non-finite value"),
+                std::string::npos)
+          << e.what();
+    }
+    EXPECT_FALSE(std::filesystem::exists(path));
+  }
+  b.at(299, 399, 2) = 0.5f;
+  write_exr(dir + "/late.exr", b);  // the same image, finite: written and read back
+  EXPECT_EQ(read_image(dir + "/late.exr").image.px, b.px);
+  set_exr_compression("zip");
+  size_t files = 0;
+  for (const auto& f : std::filesystem::directory_iterator(dir)) files += f.is_regular_file();
+  EXPECT_EQ(files, 1u) << "a temporary was left";
 }
 
 TEST(MaterialIO, RoundTripAndPeriodicAngle) {
