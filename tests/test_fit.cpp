@@ -424,8 +424,9 @@ TEST(FitPaths, FusedAndCeresAgreeWhereManyPixelsLieOutsideHubersCore) {
 // (fit.h kStagedPixels; lowered here so that these small sets take that path): the minimum is
 // that of every pixel, as the unstaged solve's, within a twentieth of sigma (the swirled plate's
 // 0.0097 here: the two solvers' stopping rule leaves that much where the model misfits; the
-// subsample's own minimum lies sigma's apart), and Ceres' within a tenth. For a model that fits (brushed metal, line), one that does not (the swirled plate fitted
-// globally), and the fiber model (fiber-flat).
+// subsample's own minimum lies sigma's apart), and Ceres' within a tenth. For a model that fits
+// (brushed metal, line), one that does not (the swirled plate fitted globally), and the fiber model
+// (fiber-flat).
 TEST(FitPaths, TheStagedRobustStageReachesTheSameMinimum) {
   struct Case {
     const char* preset;
