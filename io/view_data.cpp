@@ -116,13 +116,19 @@ LoadedImage read_view_image(const CaptureSet& s, const ViewSpec& v, const std::s
   return li;
 }
 
-// Calls f(p) for every pixel p of the rows g.rows holds (every pixel without `only_rows`).
+// Calls f(p) for every pixel p of rows [y0, y1) that g.rows holds (every pixel without
+// `only_rows`).
 template <class F>
-void for_rows(const ViewGeometry& g, bool only_rows, F f) {
+void for_rows_in(const ViewGeometry& g, bool only_rows, size_t y0, size_t y1, F f) {
   const size_t w = g.rows.empty() ? 0 : g.mask.size() / g.rows.size();
-  for (size_t y = 0; y < g.rows.size(); ++y)
+  for (size_t y = y0; y < y1; ++y)
     if (!only_rows || g.rows[y])
       for (size_t p = y * w, end = p + w; p < end; ++p) f(p);
+}
+// ... of every row.
+template <class F>
+void for_rows(const ViewGeometry& g, bool only_rows, F f) {
+  for_rows_in(g, only_rows, 0, g.rows.size(), f);
 }
 
 // g->finite: 1 where the pixel's position, normal, tangent (and uv, where the set has one) are
@@ -134,16 +140,15 @@ void mark_finite(bool only_rows, ViewGeometry* g) {
     return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
   };
   g->finite.assign(g->mask.size(), 0);
-  const size_t w = g->rows.empty() ? 0 : g->mask.size() / g->rows.size();
-  // Rows side by side (a fixed camera's 2048^2 geometry: 4 M pixels before any view is read).
-  tbb::parallel_for(size_t{0}, g->rows.size(), size_t{64}, [&](size_t y0) {
-    for (size_t y = y0; y < std::min(y0 + 64, g->rows.size()); ++y) {
-      if (only_rows && !g->rows[y]) continue;
-      for (size_t p = y * w, end = p + w; p < end; ++p)
-        g->finite[p] = (g->uv.empty() ||
-                        (std::isfinite(g->uv.px[2 * p]) && std::isfinite(g->uv.px[2 * p + 1]))) &&
-                       finite3(g->P, p) && finite3(g->N, p) && finite3(g->U, p);
-    }
+  // Rows side by side, 64 at a time (a fixed camera's 2048^2 geometry: 4 M pixels before any view
+  // is read).
+  constexpr size_t kRows = 64;
+  tbb::parallel_for(size_t{0}, g->rows.size(), kRows, [&](size_t y0) {
+    for_rows_in(*g, only_rows, y0, std::min(y0 + kRows, g->rows.size()), [&](size_t p) {
+      g->finite[p] = (g->uv.empty() ||
+                      (std::isfinite(g->uv.px[2 * p]) && std::isfinite(g->uv.px[2 * p + 1]))) &&
+                     finite3(g->P, p) && finite3(g->N, p) && finite3(g->U, p);
+    });
   });
 }
 
