@@ -202,7 +202,10 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
   rep.global_from = opt.global->file;
   rep.solver = "none";
   rep.rms = opt.global->rms;
-  for (const auto& w : opt.global->warnings) rep.warnings.push_back(w);
+  // The file's warnings about its global values hold here too; those about its own maps or tile
+  // do not (this fit says its own): a --global that was a --maps fit printed each twice.
+  for (const auto& w : opt.global->warnings)
+    if (w.rfind("--maps", 0) != 0 && w.rfind("tile ", 0) != 0) rep.warnings.push_back(w);
   if (opt.global->views > 0 && opt.global->views != rep.views)
     rep.warnings.push_back("--global " + opt.global->file + " was fitted on " +
                            std::to_string(opt.global->views) + " views; this capture has " +

@@ -4,11 +4,14 @@
 // than four).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <set>
+#include <sstream>
 #include <string>
 
 #include "core/frame.h"
@@ -605,6 +608,42 @@ TEST(FitMaps, APlainMapsFitTakesAtMostItsGlobalPixels) {
   EXPECT_EQ(within.report.global_subsample, k);
   for (const auto& arr : kTexelArrays)
     EXPECT_TRUE(bytes(within.maps.*arr.d) == bytes(two_steps.maps.*arr.d)) << arr.key;
+}
+
+// A --global that was itself a --maps fit: its warnings about its global values come along, those
+// about its own maps do not (this fit says its own): each warning once.
+TEST(FitMaps, AGlobalFromAMapsFitLeavesItsMapsWarningsBehind) {
+  const std::string dir = test::tmp_dir("global_warnings");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 96x80 --views 6");
+  ASSERT_EQ(r.status, 0) << r.output;
+  auto warnings = [](const std::string& out) {
+    std::vector<std::string> w;
+    std::istringstream in(out);
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("fit: WARNING: ", 0) == 0) w.push_back(line.substr(14));
+    return w;
+  };
+  auto maps = [](const std::vector<std::string>& w) {
+    return std::count_if(w.begin(), w.end(),
+                         [](const std::string& s) { return s.rfind("--maps", 0) == 0; });
+  };
+  r = test::run_cli("fit " + dir + "/set --maps 24x20 --out " + dir + "/first.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto first = warnings(r.output);
+  ASSERT_GE(maps(first), 1) << r.output;
+  ASSERT_GT(first.size(), static_cast<size_t>(maps(first))) << r.output;  // the global's own
+  r = test::run_cli("fit " + dir + "/set --maps 24x20 --global " + dir + "/first.json --out " +
+                    dir + "/second.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto second = warnings(r.output);
+  EXPECT_EQ(maps(second), maps(first)) << r.output;
+  std::set<std::string> seen;
+  for (const std::string& w : second) EXPECT_TRUE(seen.insert(w).second) << "twice: " << w;
+  for (const std::string& w : first) {
+    if (w.rfind("--maps", 0) != 0) {
+      EXPECT_TRUE(seen.count(w)) << "not carried: " << w;
+    }
+  }
 }
 
 }  // namespace
