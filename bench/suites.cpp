@@ -155,89 +155,134 @@ double bare_embree_rays_per_s(const TriMesh& mesh, const SimOptions& so, size_t*
   return rays / dt;
 }
 
+// Removes `dir` if it is an aniso output (a folder of a run that stopped before its cleanup).
+void remove_output(const std::string& dir) {
+  if (std::filesystem::exists(join_path(dir, kOutputMarker))) std::filesystem::remove_all(dir);
+}
+
+// One scene of the capture entry and its runs.
+struct CaptureScene {
+  const char* shape;
+  SimOptions so;
+  std::string out_dir;
+  SimStats st;  // the last run's into a new folder
+  size_t bare_rays = 0;
+  std::vector<double> fresh, replacing, unwritten, bare, bare_setup;
+  std::string run_dir(int r) const { return out_dir + "." + std::to_string(r + 1); }
+};
+
+json capture_entry(const CaptureScene& c, int repeats) {
+  const double rays = static_cast<double>(c.st.primary_rays + c.st.shadow_rays);
+  const double ours = rays / median_of(c.fresh), ours_unwritten = rays / median_of(c.unwritten);
+  const double bare_rate = median_of(c.bare);
+  json e = entry(
+      "capture",
+      std::string("capture_sim rays/s (tracing, shading, noise, EXR writing) vs bare Embree, ") +
+          c.shape,
+      ours, bare_rate, "rays/s", NAN);
+  e["ratio"] = ours / bare_rate;  // ours relative to the bare loop (target >= 0.6)
+  e["ratio_definition"] = "ours / baseline";
+  e["repeats"] = repeats;
+  e["medians_of"] =
+      "repeats: a new folder, no file and the bare loop in turn, no file deleted between them or "
+      "before them; then replacing each of those folders";
+  e["rays"] = c.st.primary_rays + c.st.shadow_rays;
+  e["bare_rays"] = c.bare_rays;
+  e["seconds"] = median_of(c.fresh);
+  e["seconds_runs"] = c.fresh;
+  // The same run over the folder it wrote.
+  e["seconds_replacing_an_earlier_output"] = median_of(c.replacing);
+  // The same run writing nothing: what the files (the bare loop writes none) cost.
+  e["seconds_writing_no_files"] = median_of(c.unwritten);
+  e["ratio_writing_no_files"] = ours_unwritten / bare_rate;
+  // The bare loop's rate counts its ray loop alone; ours counts the whole run, its device, mesh
+  // and BVH build included. The same ratio with the bare program's own setup (device, buffers,
+  // BVH build: not the mesh's tessellation) in its time, for information: the target is judged
+  // on `ratio`.
+  const double bare_loop_s = static_cast<double>(c.bare_rays) / bare_rate;
+  e["bare_seconds_scene_setup"] = median_of(c.bare_setup);
+  e["ratio_with_the_bare_programs_setup"] =
+      ours * (bare_loop_s + median_of(c.bare_setup)) / static_cast<double>(c.bare_rays);
+  // The breakdown is the last run's into a new folder.
+  const SimStats& st = c.st;
+  e["seconds_breakdown"] = {
+      {"trace", st.seconds_trace},
+      {"shade", st.seconds_shade},
+      {"write", st.seconds_write},
+      {"other", st.seconds - st.seconds_trace - st.seconds_shade - st.seconds_write}};
+  target(&e, ">= 0.6x the bare Embree loop's rays per second", ours / bare_rate >= 0.6,
+         "writing the set's files (~3.7 MB a view: P, N, U, uv, mask, image) costs more than "
+         "tracing, shading and noise leave of the bare loop's time; see ratio_writing_no_files");
+  std::printf(
+      "bench capture: %s: ours %.2f Mrays/s (medians of %d: %.3f s into a new folder, %.3f s "
+      "replacing its output, %.3f s writing no file), bare Embree %.2f Mrays/s, ratio %.2f (%.2f "
+      "writing no file; %.2f with the bare program's %.1f ms of device and BVH build)\n",
+      c.shape, ours / 1e6, repeats, median_of(c.fresh), median_of(c.replacing),
+      median_of(c.unwritten), bare_rate / 1e6, ours / bare_rate, ours_unwritten / bare_rate,
+      e["ratio_with_the_bare_programs_setup"].get<double>(), 1e3 * median_of(c.bare_setup));
+  return e;
+}
+
 json bench_capture(const std::string& work, bool quick) {
-  json out = json::array();
+  // Each figure is the median of kRepeats runs, the kinds taken in turn (one run of each was
+  // 0.07-0.11 s and moved the ratio between 0.29 and 0.48 from one bench run to the next).
+  // No file is deleted before or between the runs into a new folder: each writes a folder of its
+  // own; an earlier bench's set is set aside by a rename (which frees no inode); what the bench
+  // removes (those, and all but one of this run's sets) goes after the last timing. On ext4
+  // without a journal (this machine's root) every file created searches past the inodes freed in
+  // the last 60-360 s: with a deletion of the bench's own before each run the sphere read 0.57,
+  // 0.54, 0.51 in three bench runs back to back (BENCHMARKS.md). Replacing an output costs its
+  // unlinking too: timed apart, after every run into a new folder.
+  const int kRepeats = quick ? 1 : 5;
+  std::vector<CaptureScene> scenes;
+  std::vector<std::string> to_remove;
   for (const char* shape : {"sphere", "torus"}) {
+    CaptureScene c;
+    c.shape = shape;
     PresetOptions po;
     po.views = quick ? 4 : 16;
     po.width = po.height = quick ? 96 : 256;
     po.progress = false;
-    SimOptions so = make_preset("brushed-metal", po);
-    so.shape = shape;
-    so.shape_options.torus_r = 0.6;
-    so.camera = frame_camera(po.width, po.height, 1.6, 4.0);
-    so.rig = rig_orbit(po.views, 4.0);  // a moving camera: every view traced
-    set_exr_compression("none");        // the synth default
-    // Each figure is the median of kRepeats runs, the four kinds taken in turn (one run of each
-    // was 0.07-0.11 s and moved the ratio between 0.29 and 0.48 from one bench run to the next).
-    // Into a new folder: the bench's own earlier output (it carries the marker) goes first,
-    // outside the timing. Replacing an output costs its unlinking too: timed apart, below.
-    const int kRepeats = quick ? 1 : 5;
-    const std::string out_dir = join_path(work, std::string("capture_") + shape);
-    SimOptions dry = so;  // the same views traced and shaded, no file written
-    dry.write_files = false;
-    const TriMesh mesh = make_shape(shape, so.shape_options);
-    SimStats st;
-    size_t bare_rays = 0;
-    std::vector<double> fresh, replacing, unwritten, bare, bare_setup;
-    for (int r = 0; r < kRepeats; ++r) {
-      if (std::filesystem::exists(join_path(out_dir, kOutputMarker)))
-        std::filesystem::remove_all(out_dir);
-      st = simulate_capture(so, out_dir);
-      fresh.push_back(st.seconds);
-      replacing.push_back(simulate_capture(so, out_dir).seconds);
-      unwritten.push_back(simulate_capture(dry, out_dir).seconds);
-      double setup = 0;
-      bare.push_back(bare_embree_rays_per_s(mesh, so, &bare_rays, &setup));
-      bare_setup.push_back(setup);
+    c.so = make_preset("brushed-metal", po);
+    c.so.shape = shape;
+    c.so.shape_options.torus_r = 0.6;
+    c.so.camera = frame_camera(po.width, po.height, 1.6, 4.0);
+    c.so.rig = rig_orbit(po.views, 4.0);  // a moving camera: every view traced
+    c.out_dir = join_path(work, std::string("capture_") + shape);
+    const std::string earlier = c.out_dir + ".earlier";
+    remove_output(earlier);
+    if (std::filesystem::exists(join_path(c.out_dir, kOutputMarker))) {
+      std::filesystem::rename(c.out_dir, earlier);
+      to_remove.push_back(earlier);
     }
-    const double rays = static_cast<double>(st.primary_rays + st.shadow_rays);
-    const double ours = rays / median_of(fresh), ours_unwritten = rays / median_of(unwritten);
-    const double bare_rate = median_of(bare);
-    json e = entry(
-        "capture",
-        std::string("capture_sim rays/s (tracing, shading, noise, EXR writing) vs bare Embree, ") +
-            shape,
-        ours, bare_rate, "rays/s", NAN);
-    e["ratio"] = ours / bare_rate;  // ours relative to the bare loop (target >= 0.6)
-    e["ratio_definition"] = "ours / baseline";
-    e["repeats"] = kRepeats;
-    e["medians_of"] = "repeats, the four kinds (new folder, replacing, no file, bare loop) in turn";
-    e["rays"] = st.primary_rays + st.shadow_rays;
-    e["bare_rays"] = bare_rays;
-    e["seconds"] = median_of(fresh);
-    e["seconds_runs"] = fresh;
-    // The same run over the folder it wrote.
-    e["seconds_replacing_an_earlier_output"] = median_of(replacing);
-    // The same run writing nothing: what the files (the bare loop writes none) cost.
-    e["seconds_writing_no_files"] = median_of(unwritten);
-    e["ratio_writing_no_files"] = ours_unwritten / bare_rate;
-    // The bare loop's rate counts its ray loop alone; ours counts the whole run, its device, mesh
-    // and BVH build included. The same ratio with the bare program's own setup (device, buffers,
-    // BVH build: not the mesh's tessellation) in its time, for information: the target is judged
-    // on `ratio`.
-    const double bare_loop_s = static_cast<double>(bare_rays) / bare_rate;
-    e["bare_seconds_scene_setup"] = median_of(bare_setup);
-    e["ratio_with_the_bare_programs_setup"] =
-        ours * (bare_loop_s + median_of(bare_setup)) / static_cast<double>(bare_rays);
-    // The breakdown is the last run's into a new folder.
-    e["seconds_breakdown"] = {
-        {"trace", st.seconds_trace},
-        {"shade", st.seconds_shade},
-        {"write", st.seconds_write},
-        {"other", st.seconds - st.seconds_trace - st.seconds_shade - st.seconds_write}};
-    target(&e, ">= 0.6x the bare Embree loop's rays per second", ours / bare_rate >= 0.6,
-           "writing the set's files (~3.7 MB a view: P, N, U, uv, mask, image) costs more than "
-           "tracing, shading and noise leave of the bare loop's time; see ratio_writing_no_files");
-    out.push_back(e);
-    std::printf(
-        "bench capture: %s: ours %.2f Mrays/s (medians of %d: %.3f s into a new folder, %.3f s "
-        "replacing its output, %.3f s writing no file), bare Embree %.2f Mrays/s, ratio %.2f (%.2f "
-        "writing no file; %.2f with the bare program's %.1f ms of device and BVH build)\n",
-        shape, ours / 1e6, kRepeats, median_of(fresh), median_of(replacing), median_of(unwritten),
-        bare_rate / 1e6, ours / bare_rate, ours_unwritten / bare_rate,
-        e["ratio_with_the_bare_programs_setup"].get<double>(), 1e3 * median_of(bare_setup));
+    for (int r = 0; r < kRepeats; ++r) remove_output(c.run_dir(r));
+    scenes.push_back(std::move(c));
   }
+  set_exr_compression("none");  // the synth default
+  for (CaptureScene& c : scenes) {
+    SimOptions dry = c.so;  // the same views traced and shaded, no file written
+    dry.write_files = false;
+    const TriMesh mesh = make_shape(c.shape, c.so.shape_options);
+    for (int r = 0; r < kRepeats; ++r) {
+      c.st = simulate_capture(c.so, c.run_dir(r));
+      c.fresh.push_back(c.st.seconds);
+      c.unwritten.push_back(simulate_capture(dry, c.run_dir(r)).seconds);
+      double setup = 0;
+      c.bare.push_back(bare_embree_rays_per_s(mesh, c.so, &c.bare_rays, &setup));
+      c.bare_setup.push_back(setup);
+    }
+  }
+  for (CaptureScene& c : scenes)
+    for (int r = 0; r < kRepeats; ++r) {
+      c.replacing.push_back(simulate_capture(c.so, c.run_dir(r)).seconds);
+      if (r > 0) to_remove.push_back(c.run_dir(r));
+    }
+  json out = json::array();
+  for (const CaptureScene& c : scenes) out.push_back(capture_entry(c, kRepeats));
+  // After the last timing: the earlier sets and this run's extra ones go; each scene's first set
+  // stays, as capture_<shape>.
+  for (const std::string& dir : to_remove) std::filesystem::remove_all(dir);
+  for (const CaptureScene& c : scenes) std::filesystem::rename(c.run_dir(0), c.out_dir);
   return out;
 }
 
