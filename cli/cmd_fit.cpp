@@ -113,6 +113,17 @@ void print_report(FILE* o, const FitResult& r) {
     if (r.maps.smooth > 0)
       std::fprintf(o, "fit: --smooth %g: %d Jacobi sweeps (sigma from each texel's data alone)\n",
                    r.maps.smooth, r.maps.sweeps);
+    if (p.fiber_order > 0 && p.fiber_order_errors.count > 0) {
+      std::string by;
+      for (int k = 1; k <= 16; ++k)
+        if (r.maps.texels_by_order[k] > 0)
+          by += (by.empty() ? "" : ", ") + std::to_string(r.maps.texels_by_order[k]) +
+                " at order " + std::to_string(k);
+      std::fprintf(o,
+                   "fit: --maps: fiber texels by quadrature order: %s (each the lowest its own "
+                   "values allow, from the global fit's errors; at most its order %d)\n",
+                   by.empty() ? "none solved" : by.c_str(), p.fiber_order);
+    }
   }
   for (const auto& [k, why] : r.undetermined)
     std::fprintf(o, "fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());

@@ -220,6 +220,7 @@ class FiberFit : public ModelFit {
     texels_.assign(v.begin(), v.end() - 1);
   }
   int quadrature_order() const override { return acc_.order; }
+  FiberOrderErrors quadrature_errors() const override { return order_errors_; }
 
   void residual(const ObsSet& os, size_t i, double r[3]) const override {
     const FiberResidual f(os, i, mode_, acc_);
@@ -305,6 +306,7 @@ class FiberFit : public ModelFit {
     const FiberOrderChoice ch =
         choose_fiber_order(os, subset, core, [&](size_t i) { return pixel_s(os, i, topo_[0]); });
     acc_.order = ch.order;
+    order_errors_ = ch.errors;
     return ch.note;
   }
 
@@ -318,6 +320,7 @@ class FiberFit : public ModelFit {
   const TopologyMode mode_;
   const int texels_n_;
   FiberAccuracy acc_;
+  FiberOrderErrors order_errors_;
   double topo_[1] = {0.5};      // s or the map amplitude A
   std::vector<double> texels_;  // kTexels: N x N values of s
 };

@@ -12,7 +12,7 @@ FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>&
   constexpr int kReference = 16, kSample = 400;
   constexpr int kOrders[] = {3, 4, 6, 8, 12};
   constexpr int kCount = sizeof kOrders / sizeof kOrders[0];
-  constexpr double kShare = 0.01;  // of noise / sqrt(N): the largest shift allowed, in sigma
+  constexpr double kShare = FiberOrderErrors::kShare;  // of noise / sqrt(N), in sigma
   FiberOrderChoice ch;
   if (!(os.pixel_noise > 0) || subset.empty()) {
     ch.note = "; quadrature order 8 (no noise estimate of the images: the default)";
@@ -44,8 +44,12 @@ FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>&
   }
   ch.order = kReference;
   ch.rms_error = 0;
+  static_assert(kCount <= FiberOrderErrors::kMaxOrders, "the orders tried fit the table");
+  ch.errors.noise = os.pixel_noise;
   for (int k = 0; k < kCount; ++k) {
     const double rms = std::sqrt(sq[k] / static_cast<double>(counted));
+    if (!std::isfinite(rms)) break;
+    ch.errors.order[k] = kOrders[k], ch.errors.rms[k] = rms, ch.errors.count = k + 1;
     if (rms <= tolerance) {
       ch.order = kOrders[k];
       ch.rms_error = rms;

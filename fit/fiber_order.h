@@ -16,8 +16,9 @@ namespace aniso::fitting {
 
 struct FiberOrderChoice {
   int order = 8;
-  double rms_error = 0;  // per value, of the order kept
-  std::string note;      // for the report's start line
+  double rms_error = 0;     // per value, of the order kept
+  std::string note;         // for the report's start line
+  FiberOrderErrors errors;  // every order's below the one kept (--maps' texels choose from them)
 };
 
 FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>& subset,

@@ -137,6 +137,7 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
   to.max_iterations = opt.maps_iterations;
   to.progress = opt.progress;
   to.fiber_order = fiber_order;
+  to.fiber_order_errors = rep->fiber_order_errors;
   to.s = s;
   res->maps = bands ? bands->fit(global, to, rep) : fit_texel_maps(os, global, to);
   const double noise = bands ? bands->pixel_noise() : os.pixel_noise;
@@ -173,6 +174,7 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   rep.covariance = res.report.covariance;
   rep.seconds_covariance = seconds_since(t_cov);
   rep.fiber_order = m->quadrature_order();
+  rep.fiber_order_errors = m->quadrature_errors();
   if (opt.maps_w > 0)
     add_texel_maps(os, opt, m->core, rep.fiber_order, m->topology_value(), &rep, &res);
   rep.seconds += seconds_since(t0);
@@ -214,7 +216,12 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
     rep.fiber_order = opt.fiber_order > 0 ? opt.fiber_order : opt.global->fiber_order;
     std::string why = opt.fiber_order > 0 ? "as given" : "the global fit's";
     if (rep.fiber_order <= 0) rep.fiber_order = 8, why = "the default: --fiber-order sets it";
+    if (opt.fiber_order == 0 && opt.global->fiber_order > 0)
+      rep.fiber_order_errors = opt.global->fiber_order_errors;
     rep.start = "texels: quadrature order " + std::to_string(rep.fiber_order) + " (" + why + ")";
+    if (rep.fiber_order_errors.count > 0)
+      rep.start +=
+          ", or lower where a texel's values allow it (the global fit's quadrature errors)";
   }
   // A topology map's amplitude: the global fit's A, over this capture's map (its path as the
   // fit of the capture names it, not as the global fit's file did).

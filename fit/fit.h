@@ -4,6 +4,7 @@
 // isotropic and second-fiber terms when asked. The start comes from a deterministic grid over
 // (psi, n) with k_d, k_s solved in closed form at each node, so it does not depend on luck.
 #pragma once
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -23,14 +24,38 @@ enum class FitLoss { kHuber, kCauchy, kNone };
 const char* fit_model_name(FitModel m);
 const char* fit_loss_name(FitLoss l);
 
+// The fiber model's quadrature error per value at each order its global fit tried (against order
+// 16, at its start; fit/fiber_order.h) and the images' noise it was held against. Each texel of
+// --maps takes from it the smallest order whose error stays under the same 1 % of noise /
+// sqrt(values) for its own values (about 38 times the global fit's allowance for a texel of 700
+// values in a set of a million): the global fit's order, or lower. Stored with the fit (report
+// fiber_order_errors), so tiles and --global runs choose as the plain run does.
+struct FiberOrderErrors {
+  static constexpr int kMaxOrders = 8;
+  static constexpr double kShare = 0.01;  // of noise / sqrt(values): the largest shift, in sigma
+  int count = 0;                          // 0: unknown (every texel at the global fit's order)
+  int order[kMaxOrders] = {};
+  double rms[kMaxOrders] = {};  // ascending orders
+  double noise = 0;
+  // The order for `values` values: the smallest listed under the allowance, at most `cap`.
+  int order_for(double values, int cap) const {
+    if (count == 0 || !(noise > 0) || !(values > 0)) return cap;
+    const double allowed = kShare * noise / std::sqrt(values);
+    for (int k = 0; k < count && order[k] < cap; ++k)
+      if (rms[k] <= allowed) return order[k];
+    return cap;
+  }
+};
+
 // A global fit given to --maps (--global, or rank 0's under `fit --mpi`): what an earlier fit's
 // file says, read by given_global.
 struct GivenGlobal {
   std::string file;  // where it came from, for messages and the report
   Material material;
   std::map<std::string, std::vector<double>> sigma;  // as its file recorded them
-  int fiber_order = 0;           // the quadrature order its fit chose (report.fiber_order)
-  double implausible_limit = 0;  // report.implausible_limit (0: compute it here, as before)
+  int fiber_order = 0;                  // the quadrature order its fit chose (report.fiber_order)
+  FiberOrderErrors fiber_order_errors;  // report.fiber_order_errors (absent: count 0)
+  double implausible_limit = 0;         // report.implausible_limit (0: compute it here, as before)
   // Its report's views, residual RMS and warnings (carried into this result's report).
   size_t views = 0;
   double rms = 0;
@@ -151,6 +176,8 @@ struct TexelMaps {
   double seconds = 0;
   int threads = 0;  // the threads its texels were solved on (--threads)
   int lanes = 0;    // the float lanes of its line-model texels (16, 8; 0: none in float)
+  // The fiber model's texels solved at each quadrature order (index: the order; FiberOrderErrors).
+  size_t texels_by_order[17] = {};
 };
 
 // The per-texel arrays of a TexelMaps (per-texel count `k`), as tiles name them.
@@ -208,9 +235,10 @@ struct FitReport {
   // two agree to ~1e-6 sigma, so a fit is reproduced exactly on a machine with the same pass.
   std::string pass;
   size_t residual_evaluations = 0, jacobian_evaluations = 0;
-  std::string start;        // the grid node the solve started from
-  std::string global_from;  // --global: the material the global fit was taken from
-  int fiber_order = 0;      // the fiber model's quadrature order (0: the line model)
+  std::string start;                    // the grid node the solve started from
+  std::string global_from;              // --global: the material the global fit was taken from
+  int fiber_order = 0;                  // the fiber model's quadrature order (0: the line model)
+  FiberOrderErrors fiber_order_errors;  // what its texels chose their orders from
   double rss = 0, bic = 0;
   size_t parameters = 0;
   std::string model_selection;  // --model auto: the comparison and why

@@ -260,10 +260,18 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   texel_bins(os, t_begin, t_end, &scratch.bins);
   const TexelBins& bins = scratch.bins;
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
+  // A fiber texel's quadrature order: the smallest its own values allow (FiberOrderErrors), at
+  // most the global fit's; the same in a plain run, its bands and tiles (the texel's pixels are).
+  auto order_of = [&](size_t b) {
+    return o.fiber_order_errors.order_for(3.0 * static_cast<double>(bins.size(b)), o.fiber_order);
+  };
   auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
-    if (o.fiber_order > 0)
-      return o.ceres ? solve_texel_fiber_ceres(os, bins.list(b), from, o, prior)
-                     : solve_texel_fiber(os, bins.list(b), from, o, prior);
+    if (o.fiber_order > 0) {
+      TexelMapOptions ot = o;
+      ot.fiber_order = order_of(b);
+      return o.ceres ? solve_texel_fiber_ceres(os, bins.list(b), from, ot, prior)
+                     : solve_texel_fiber(os, bins.list(b), from, ot, prior);
+    }
     return o.ceres ? solve_texel_ceres(os, bins.list(b), from.c, prior, o.max_iterations)
                    : solve_texel_lm(os, bins.list(b), from.c, prior, o.max_iterations);
   };
@@ -310,6 +318,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
     if (bins.size(b) >= kMinTexelPixels) {
       ++m.fitted, sr += now[b].rss, sv += now[b].values;
       if (!now[b].converged) ++m.not_converged;
+      if (o.fiber_order > 0) ++m.texels_by_order[order_of(b)];
     }
     put_texel(now[b], t, global, o.s, texel_topology_key(os.topology), &m);
   }
@@ -338,6 +347,7 @@ void join_band(const TexelMaps& part, int row0, int row1, TexelMaps* whole) {
   std::copy(part.determined.begin(), part.determined.end(), whole->determined.begin() + at);
   whole->fitted += part.fitted;
   whole->not_converged += part.not_converged;
+  for (int k = 0; k <= 16; ++k) whole->texels_by_order[k] += part.texels_by_order[k];
   whole->sum_sq += part.sum_sq;
   whole->values += part.values;
   whole->rms = whole->values > 0 ? std::sqrt(whole->sum_sq / whole->values) : 0;

@@ -44,6 +44,9 @@ struct TexelMapOptions {
   // The fiber model (fiber_order > 0: its quadrature order): every texel also fits s (a flat
   // sample's one topology value, `s` from the global fit) unless the topology is mathematical.
   int fiber_order = 0;
+  // Each texel's own order from these (FiberOrderErrors::order_for its values, at most
+  // fiber_order); count 0: every texel at fiber_order.
+  FiberOrderErrors fiber_order_errors;
   double s = 0;
   int max_iterations = kTexelIterations;  // --maps-iterations: per texel solve (LM or Ceres)
   TexelScratch* scratch = nullptr;        // bands: storage reused (else fresh)

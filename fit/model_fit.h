@@ -90,6 +90,8 @@ class ModelFit {
   // The fiber model's fitted topology value and quadrature order (for --maps; 0 otherwise).
   virtual double topology_value() const { return 0; }
   virtual int quadrature_order() const { return 0; }
+  // The quadrature errors per order its choice measured (count 0: the order was given).
+  virtual FiberOrderErrors quadrature_errors() const { return {}; }
   // The unweighted residual of observation i at the current parameters (for the weights).
   virtual void residual(const ObsSet&, size_t, double r[3]) const { r[0] = r[1] = r[2] = 0; }
   // Coordinates the data cannot fix at this solution: held constant in pb, named in res.

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <limits>
@@ -143,6 +144,60 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
          "(the pull would make it smaller: these are an upper bound)"}};
 }
 
+// The fiber texels solved at each quadrature order, as the report keeps them: {"4": 1201, ...};
+// and back (adding to *by).
+jsonu::json orders_json(const size_t (&by)[17]) {
+  jsonu::json j = jsonu::json::object();
+  for (int k = 0; k <= 16; ++k)
+    if (by[k] > 0) j[std::to_string(k)] = by[k];
+  return j;
+}
+void add_orders(const jsonu::json& j, size_t (*by)[17]) {
+  if (!j.is_object()) return;
+  for (const auto& [k, v] : j.items()) {
+    const int order = std::atoi(k.c_str());
+    if (order >= 1 && order <= 16 && v.is_number_unsigned()) (*by)[order] += v.get<size_t>();
+  }
+}
+
+// report.fiber_order_errors: the quadrature's error per value at each order the global fit tried,
+// and the noise it was held against (FiberOrderErrors); read back for --global and tiles.
+jsonu::json order_errors_json(const FiberOrderErrors& e) {
+  jsonu::json rms = jsonu::json::array();
+  for (int k = 0; k < e.count; ++k) rms.push_back({e.order[k], e.rms[k]});
+  return {{"noise", e.noise},
+          {"rms_per_value", rms},
+          {"note",
+           "the quadrature's RMS error per value against order 16 at the global fit's start, per "
+           "order tried; each --maps texel takes the smallest order whose error is under 1 % of "
+           "noise / sqrt(its values), at most fiber_order"}};
+}
+FiberOrderErrors order_errors_from(const jsonu::json& j, const std::string& file) {
+  const std::string key = file + ": report.fiber_order_errors";
+  FiberOrderErrors e;
+  if (!j.is_object() || !j.contains("noise") || !j["noise"].is_number() ||
+      !j.contains("rms_per_value") || !j["rms_per_value"].is_array())
+    throw Error(key + ": expected {\"noise\": number, \"rms_per_value\": [[order, rms], ...]}");
+  e.noise = j["noise"].get<double>();
+  if (!(std::isfinite(e.noise) && e.noise > 0)) throw Error(key + ".noise: not a positive number");
+  const jsonu::json& rms = j["rms_per_value"];
+  if (rms.size() > FiberOrderErrors::kMaxOrders)
+    throw Error(key + ".rms_per_value: more than " + std::to_string(FiberOrderErrors::kMaxOrders) +
+                " orders");
+  for (const auto& pair : rms) {
+    if (!pair.is_array() || pair.size() != 2 || !pair[0].is_number_integer() ||
+        !pair[1].is_number())
+      throw Error(key + ".rms_per_value: each entry is [order, rms]");
+    const int order = pair[0].get<int>();
+    const double r = pair[1].get<double>();
+    if (order < 1 || order > 16 || (e.count > 0 && order <= e.order[e.count - 1]))
+      throw Error(key + ".rms_per_value: orders from 1 to 16, ascending");
+    if (!(std::isfinite(r) && r >= 0)) throw Error(key + ".rms_per_value: an rms is not >= 0");
+    e.order[e.count] = order, e.rms[e.count] = r, ++e.count;
+  }
+  return e;
+}
+
 // The report's part of a material file: what the fit saw, how it went, where the time went.
 jsonu::json report_json(const FitReport& p) {
   jsonu::json j = {{"residual_rms", p.rms},
@@ -179,6 +234,8 @@ jsonu::json report_json(const FitReport& p) {
     j["staged"] = {{"every_kth_pixel", p.staged_stride}, {"iterations", p.staged_iterations}};
   if (!p.global_from.empty()) j["global_from"] = p.global_from;
   if (p.fiber_order > 0) j["fiber_order"] = p.fiber_order;
+  if (p.fiber_order_errors.count > 0)
+    j["fiber_order_errors"] = order_errors_json(p.fiber_order_errors);
   if (p.outside_tile > 0) j["skipped"]["outside_tile"] = p.outside_tile;
   if (p.maps_bands > 0) j["maps_bands"] = p.maps_bands;
   if (p.maps_bands > 0) j["maps_band_peak_bytes"] = p.maps_band_peak_bytes;
@@ -258,6 +315,8 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
   if (rep.is_object()) {
     const int order = rep.value("fiber_order", 0);
     if (order >= 1 && order <= 16) g.fiber_order = order;
+    if (rep.contains("fiber_order_errors"))
+      g.fiber_order_errors = order_errors_from(rep["fiber_order_errors"], file);
     g.views = rep.value("views", size_t(0));
     const double limit = rep.value("implausible_limit", 0.0);
     if (std::isfinite(limit) && limit > 0) g.implausible_limit = limit;
@@ -287,6 +346,8 @@ void write_fit(const std::string& path, const FitResult& r) {
     j["report"]["maps_threads"] = r.maps.threads;
     j["report"]["maps_float_lanes"] = r.maps.lanes;
     j["report"]["maps_misfit_texels"] = r.report.maps_misfit_texels;
+    if (r.report.fiber_order > 0)
+      j["report"]["maps_quadrature_orders"] = orders_json(r.maps.texels_by_order);
   }
   write_json_file(path, j);
 }
@@ -311,6 +372,7 @@ void write_maps_tile(const std::string& path, const FitResult& r, const FitOptio
                          {"residual_values", t.values},
                          {"maps_iterations", opt.maps_iterations},
                          {"seconds", t.seconds},
+                         {"quadrature_orders", orders_json(t.texels_by_order)},
                          {"fit", fit_json(path, r)},
                          {"values", values}};
   write_json_file(path, j);
@@ -391,6 +453,7 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       m.not_converged += j.value("not_converged", size_t(0));  // absent in older tiles
       m.sum_sq += j.value("sum_sq", 0.0);                      // (so too these three)
       m.values += j.value("residual_values", 0.0);
+      add_orders(j.value("quadrature_orders", jsonu::json::object()), &m.texels_by_order);
       iterations = j.value("maps_iterations", 0);
       const jsonu::json& tr = j["fit"]["report"];
       noise.push_back(tr.value("pixel_noise", 0.0));
@@ -434,6 +497,8 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
   add_maps_warnings(m, noise[noise.size() / 2], iterations, &rep);
   fit["report"]["warnings"] = rep.warnings;
   fit["report"]["maps_misfit_texels"] = rep.maps_misfit_texels;
+  if (fit["report"].contains("fiber_order"))
+    fit["report"]["maps_quadrature_orders"] = orders_json(m.texels_by_order);
   // A topology map's path is relative to the file that names it: the tile's folder then, the
   // merged material's now.
   if (fit.contains("topology") && fit["topology"].contains("map") &&

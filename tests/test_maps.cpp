@@ -269,6 +269,87 @@ TEST(FitMaps, FiberTexelsWhereTheFibersClimbFindTheirOwnValley) {
   EXPECT_GT(within1, determined * 9 / 10);
 }
 
+// A fiber texel's quadrature order (fit/fit.h FiberOrderErrors): the lowest whose error, as the
+// global fit measured it, stays under 1 % of noise / sqrt(the texel's values), never above the
+// global fit's. Its maps against those with every texel at the global fit's order: a shift of a
+// hundredth of sigma is what the rule allows, measured within a tenth in the worst texel.
+TEST(FitMaps, FiberTexelsTakeTheQuadratureOrderTheirValuesAllow) {
+  FiberOrderErrors e;
+  e.count = 3, e.noise = 0.0068;
+  e.order[0] = 3, e.order[1] = 4, e.order[2] = 6;
+  e.rms[0] = 2.5e-6, e.rms[1] = 1.6e-7, e.rms[2] = 2.3e-10;
+  EXPECT_EQ(e.order_for(1e6, 6), 6);   // the global fit's allowance: 6.8e-8
+  EXPECT_EQ(e.order_for(3000, 6), 4);  // 1.2e-6
+  EXPECT_EQ(e.order_for(700, 6), 3);   // 2.6e-6
+  EXPECT_EQ(e.order_for(700, 4), 3);
+  EXPECT_EQ(e.order_for(3000, 3), 3);                  // never above the cap
+  EXPECT_EQ(e.order_for(1e12, 4), 4);                  // none under the allowance: the cap
+  EXPECT_EQ(FiberOrderErrors{}.order_for(700, 6), 6);  // none known: the cap
+
+  const std::string dir = test::tmp_dir("fiber_orders");
+  auto r = test::run_cli("synth satin-sphere-fiber " + dir +
+                         "/set --rig orbit --views 8 --size 128x128 --noise 0.01");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --model fiber --out " + dir + "/g.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  auto report = [](const std::string& f) {
+    return nlohmann::json::parse(read_text_file(f))["report"];
+  };
+  const int order = report(dir + "/g.json")["fiber_order"];
+  ASSERT_TRUE(report(dir + "/g.json").contains("fiber_order_errors"));
+  const std::string maps = " --model fiber --maps 16x16 --global " + dir + "/g.json";
+  r = test::run_cli("fit " + dir + "/set" + maps + " --out " + dir + "/rule.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("fiber texels by quadrature order"), std::string::npos) << r.output;
+  size_t lower = 0, at_global = 0;
+  const nlohmann::json orders = report(dir + "/rule.json")["maps_quadrature_orders"];
+  for (const auto& [k, v] : orders.items()) {
+    EXPECT_LE(std::stoi(k), order);
+    (std::stoi(k) < order ? lower : at_global) += v.get<size_t>();
+  }
+  EXPECT_GT(lower, 20u);  // 56 of 140
+  r = test::run_cli("fit " + dir + "/set" + maps + " --fiber-order " + std::to_string(order) +
+                    " --out " + dir + "/all.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_FALSE(report(dir + "/all.json").contains("fiber_order_errors"));
+  auto img = [&](const std::string& name) { return read_image(dir + "/" + name + ".exr").image; };
+  const Image det = img("rule_determined"), det_all = img("all_determined");
+  const Image kd = img("rule_kd"), kd_all = img("all_kd"), kd_sigma = img("all_kd_sigma");
+  const Image fib = img("rule_fiber"), fib_all = img("all_fiber"),
+              fib_sigma = img("all_fiber_sigma");
+  std::vector<double> z;
+  size_t both = 0;
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) {
+      if (det.at(x, y, 0) < 0.5f || det_all.at(x, y, 0) < 0.5f) continue;
+      ++both;
+      for (int c = 0; c < 3; ++c)
+        z.push_back(std::abs(kd.at(x, y, c) - kd_all.at(x, y, c)) / kd_sigma.at(x, y, c));
+      auto psi = [&](const Image& f) {
+        return 0.5 * std::atan2(f.at(x, y, 1), f.at(x, y, 0)) * 180 / M_PI;
+      };
+      z.push_back(std::abs(std::remainder(psi(fib) - psi(fib_all), 180.0)) / fib_sigma.at(x, y, 0));
+    }
+  std::sort(z.begin(), z.end());
+  std::printf(
+      "fiber texels: %zu below the global fit's order %d, %zu at it; %zu determined in both: "
+      "k_d and psi apart median %.2g sigma, worst %.2g\n",
+      lower, order, at_global, both, z[z.size() / 2], z.back());
+  EXPECT_GT(both, 85u);
+  EXPECT_LT(z[z.size() / 2], 0.01);
+  EXPECT_LT(z.back(), 0.1);
+  // A --global whose table is not one: refused, the file and key named, nothing written.
+  nlohmann::json bad = nlohmann::json::parse(read_text_file(dir + "/g.json"));
+  bad["report"]["fiber_order_errors"]["noise"] = -1;
+  write_text_file(dir + "/bad.json", bad.dump());
+  r = test::run_cli("fit " + dir + "/set --model fiber --maps 16x16 --global " + dir +
+                    "/bad.json --out " + dir + "/never.json");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("bad.json: report.fiber_order_errors.noise"), std::string::npos)
+      << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/never.json"));
+}
+
 // --smooth with the fiber model: on a noisy satin sample (3 % noise, 16 x 16 texels over an 8 x 8
 // map of s, which varies fast: a light pull, 0.1) the pull toward the neighbours (k_d, k_s, n, psi
 // and s) brings s closer to the truth than every texel alone.
