@@ -330,9 +330,22 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
                  record_mb, out.c_str(), fo.maps_memory_mb);
   std::fprintf(o, "fit: wrote %s\n", out.c_str());
   std::fprintf(o, "%s", describe_fit(r).c_str());
-  if (!truth.empty())
-    std::fprintf(o, "against the truth (%s):\n%s", truth.c_str(),
-                 compare_to_truth(r, truth_m, nullptr).c_str());
+  if (!truth.empty()) {
+    // A truth that varies over the sample is met texel by texel; its scalar values are only the
+    // values its maps leave out, so one parameter set is not compared with them.
+    if (r.maps.w > 0)
+      std::fprintf(o, "against the truth (%s), texel by texel, %s", truth.c_str(),
+                   compare_maps_to_truth(r, truth_m, nullptr).c_str());
+    if (truth_m.maps.any() && r.maps.w == 0)
+      std::fprintf(o,
+                   "against the truth (%s): it varies over the sample (maps), so one parameter "
+                   "set is not compared with it; --maps WxH fits the sample texel by texel and "
+                   "compares every texel with the truth there\n",
+                   truth.c_str());
+    if (!truth_m.maps.any())
+      std::fprintf(o, "against the truth (%s):\n%s", truth.c_str(),
+                   compare_to_truth(r, truth_m, nullptr).c_str());
+  }
   return 0;
 }
 

@@ -10,6 +10,7 @@
 #include "fit/fit.h"
 #include "io/files.h"
 #include "io/image_io.h"
+#include "models/material_maps.h"
 #include "models/params.h"
 
 namespace aniso {
@@ -166,6 +167,75 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
   }
   if (errors) *errors = e;
   return tt.text();
+}
+
+namespace {
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+std::string compare_maps_to_truth(const FitResult& r, const Material& truth, MapTruthErrors* out) {
+  const TexelMaps& m = r.maps;
+  struct Column {
+    std::string name;
+    const char* unit;
+    std::vector<double> err, z;  // |error| (percent or degrees), |error| / sigma
+  };
+  std::vector<Column> cols;
+  for (const char* key : {"kd", "ks"})
+    for (int c = 0; c < 3; ++c) cols.push_back({std::string(key) + "." + "rgb"[c], "%", {}, {}});
+  cols.push_back({"n", "%", {}, {}});
+  cols.push_back({"fiber_angle_deg", "deg", {}, {}});
+  size_t determined = 0;
+  for (int row = m.row0; row < m.row1; ++row)
+    for (int col = 0; col < m.w; ++col) {
+      const size_t t = static_cast<size_t>(row - m.row0) * m.w + col;
+      if (!m.determined[t]) continue;
+      ++determined;
+      const Material at = material_at(truth, (col + 0.5) / m.w, (row + 0.5) / m.h);
+      auto put = [&](Column& c, double fit, double tv, double sigma, bool relative) {
+        const double d = std::abs(fit - tv);
+        c.err.push_back(relative && std::abs(tv) > 1e-12 ? 100 * d / std::abs(tv) : d);
+        if (sigma > 0 && std::isfinite(sigma)) c.z.push_back(d / sigma);
+      };
+      for (int c = 0; c < 3; ++c) {
+        put(cols[c], m.kd[3 * t + c], at.kd[c], m.kd_sigma[3 * t + c], true);
+        put(cols[3 + c], m.ks[3 * t + c], at.ks[c], m.ks_sigma[3 * t + c], true);
+      }
+      put(cols[6], m.n[t], at.n, m.n_sigma[t], true);
+      const double d = fiber_deg_distance(m.psi_deg[t], at.fiber_angle_deg);
+      cols[7].err.push_back(d);
+      if (m.psi_sigma_deg[t] > 0) cols[7].z.push_back(d / m.psi_sigma_deg[t]);
+    }
+  std::ostringstream o;
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "at the centres of the %zu determined texels of %dx%d%s:\n",
+                determined, m.w, m.row1 - m.row0 == m.h ? m.h : m.row1 - m.row0,
+                truth.maps.any() ? "" : " (the truth has no maps: one value for every texel)");
+  o << buf;
+  std::snprintf(buf, sizeof buf, "%-18s %14s %14s %15s\n", "parameter", "median |error|",
+                "90% |error|", "median err/sig");
+  o << buf;
+  MapTruthErrors e;
+  e.determined = determined;
+  for (const Column& c : cols) {
+    const double med = percentile(c.err, 0.5), p90 = percentile(c.err, 0.9),
+                 z = percentile(c.z, 0.5);
+    std::snprintf(buf, sizeof buf, "%-18s %10.3g %-3s %10.3g %-3s %15.2f\n", c.name.c_str(), med,
+                  c.unit, p90, c.unit, z);
+    o << buf;
+    if (c.name == "kd.r") e.kd_r_percent = med;
+    if (c.name == "n") e.n_percent = med;
+    if (c.name == "fiber_angle_deg") e.psi_deg = med, e.psi_sigmas = z;
+  }
+  if (out) *out = e;
+  return o.str();
 }
 
 }  // namespace aniso
