@@ -429,21 +429,6 @@ __attribute__((target_clones("avx2", "default"))) void planar_row(const float* r
     for (int x = 0; x < w; ++x) planar[k * w + x] = row[x * C + (C - 1 - k)];
 }
 
-__attribute__((target_clones("avx2", "default"))) bool finite_values(const float* v, size_t n) {
-  constexpr size_t kBlock = 1024;
-  for (size_t i = 0; i < n; i += kBlock) {
-    const size_t end = i + kBlock < n ? i + kBlock : n;
-    uint32_t bad = 0;
-    for (size_t j = i; j < end; ++j) {
-      uint32_t bits;
-      std::memcpy(&bits, &v[j], sizeof bits);
-      bad |= (bits & 0x7f800000u) == 0x7f800000u;
-    }
-    if (bad) return false;
-  }
-  return true;
-}
-
 }  // namespace
 
 void encode_exr_uncompressed(const Image& img, const ByteSink& sink) {
@@ -552,8 +537,7 @@ LoadedImage read_image(const std::string& path, int expect_w, int expect_h,
 
 void write_exr(const std::string& path, const Image& img) {
   if (img.channels < 1 || img.channels > 3) throw Error(path + ": EXR writer takes 1-3 channels");
-  if (!finite_values(img.px.data(), img.px.size()))
-    throw Error(path + ": refusing to write a non-finite value");
+  if (!all_finite(img.px)) throw Error(path + ": refusing to write a non-finite value");
   if (g_compression.load() == Imf::NO_COMPRESSION) {
     // At memory speed: OpenEXR's scanline writer took 84-116 ms for what writing the bytes
     // ourselves does in 8-12 ms (issue 11), in 64 KiB pieces; read back by OpenEXR in the tests.
