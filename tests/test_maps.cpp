@@ -303,18 +303,15 @@ TEST(FitMaps, FiberTexelsTakeTheQuadratureOrderTheirValuesAllow) {
   EXPECT_EQ(FiberOrderErrors{}.order_for(700, 6), 6);  // none known: the cap
 
   const std::string dir = test::tmp_dir("fiber_orders");
-  auto r = test::run_cli("synth satin-sphere-fiber " + dir +
-                         "/set --rig orbit --views 8 --size 128x128 --noise 0.01");
-  ASSERT_EQ(r.status, 0) << r.output;
-  r = test::run_cli("fit " + dir + "/set --model fiber --out " + dir + "/g.json");
-  ASSERT_EQ(r.status, 0) << r.output;
+  synth_and_fit(dir, "satin-sphere-fiber --rig orbit --views 8 --size 128x128 --noise 0.01",
+                "--model fiber", dir + "/g.json");
   auto report = [](const std::string& f) {
     return nlohmann::json::parse(read_text_file(f))["report"];
   };
   const int order = report(dir + "/g.json")["fiber_order"];
   ASSERT_TRUE(report(dir + "/g.json").contains("fiber_order_errors"));
   const std::string maps = " --model fiber --maps 16x16 --global " + dir + "/g.json";
-  r = test::run_cli("fit " + dir + "/set" + maps + " --out " + dir + "/rule.json");
+  auto r = test::run_cli("fit " + dir + "/set" + maps + " --out " + dir + "/rule.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("fiber texels by quadrature order"), std::string::npos) << r.output;
   size_t lower = 0, at_global = 0;
