@@ -335,7 +335,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
     // values its maps leave out, so one parameter set is not compared with them.
     if (r.maps.w > 0)
       std::fprintf(o, "against the truth (%s), texel by texel, %s", truth.c_str(),
-                   compare_maps_to_truth(r, truth_m, nullptr).c_str());
+                   compare_maps_to_truth(r, truth_m).c_str());
     if (truth_m.maps.any() && r.maps.w == 0)
       std::fprintf(o,
                    "against the truth (%s): it varies over the sample (maps), so one parameter "

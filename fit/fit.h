@@ -327,11 +327,6 @@ std::string compare_to_truth(const FitResult& r, const Material& truth, TruthErr
 // The maps of a --maps fit against the truth at every determined texel's centre (the truth's own
 // maps sampled there, or its one value): per parameter the median and 90th percentile of the
 // error (percent; degrees for the fiber angle) and the median error in sigmas.
-struct MapTruthErrors {
-  size_t determined = 0;
-  double kd_r_percent = NAN, n_percent = NAN, psi_deg = NAN, psi_sigmas = NAN;  // medians
-};
-std::string compare_maps_to_truth(const FitResult& r, const Material& truth,
-                                  MapTruthErrors* errors);
+std::string compare_maps_to_truth(const FitResult& r, const Material& truth);
 
 }  // namespace aniso

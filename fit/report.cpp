@@ -188,12 +188,12 @@ FiberOrderErrors order_errors_from(const jsonu::json& j, const std::string& file
     if (!pair.is_array() || pair.size() != 2 || !pair[0].is_number_integer() ||
         !pair[1].is_number())
       throw Error(key + ".rms_per_value: each entry is [order, rms]");
-    const int order = pair[0].get<int>();
+    const long long order = pair[0].get<long long>();
     const double r = pair[1].get<double>();
     if (order < 1 || order > 16 || (e.count > 0 && order <= e.order[e.count - 1]))
       throw Error(key + ".rms_per_value: orders from 1 to 16, ascending");
     if (!(std::isfinite(r) && r >= 0)) throw Error(key + ".rms_per_value: an rms is not >= 0");
-    e.order[e.count] = order, e.rms[e.count] = r, ++e.count;
+    e.order[e.count] = static_cast<int>(order), e.rms[e.count] = r, ++e.count;
   }
   return e;
 }

@@ -180,7 +180,7 @@ double percentile(std::vector<double> v, double q) {
 
 }  // namespace
 
-std::string compare_maps_to_truth(const FitResult& r, const Material& truth, MapTruthErrors* out) {
+std::string compare_maps_to_truth(const FitResult& r, const Material& truth) {
   const TexelMaps& m = r.maps;
   struct Column {
     std::string name;
@@ -213,28 +213,23 @@ std::string compare_maps_to_truth(const FitResult& r, const Material& truth, Map
       cols[7].err.push_back(d);
       if (m.psi_sigma_deg[t] > 0) cols[7].z.push_back(d / m.psi_sigma_deg[t]);
     }
+  if (determined == 0) return "no texel is determined: none to compare\n";
   std::ostringstream o;
   char buf[200];
   std::snprintf(buf, sizeof buf, "at the centres of the %zu determined texels of %dx%d%s:\n",
-                determined, m.w, m.row1 - m.row0 == m.h ? m.h : m.row1 - m.row0,
+                determined, m.w, m.row1 - m.row0,
                 truth.maps.any() ? "" : " (the truth has no maps: one value for every texel)");
   o << buf;
   std::snprintf(buf, sizeof buf, "%-18s %14s %14s %15s\n", "parameter", "median |error|",
                 "90% |error|", "median err/sig");
   o << buf;
-  MapTruthErrors e;
-  e.determined = determined;
   for (const Column& c : cols) {
     const double med = percentile(c.err, 0.5), p90 = percentile(c.err, 0.9),
                  z = percentile(c.z, 0.5);
     std::snprintf(buf, sizeof buf, "%-18s %10.3g %-3s %10.3g %-3s %15.2f\n", c.name.c_str(), med,
                   c.unit, p90, c.unit, z);
     o << buf;
-    if (c.name == "kd.r") e.kd_r_percent = med;
-    if (c.name == "n") e.n_percent = med;
-    if (c.name == "fiber_angle_deg") e.psi_deg = med, e.psi_sigmas = z;
   }
-  if (out) *out = e;
   return o.str();
 }
 
