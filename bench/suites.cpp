@@ -230,9 +230,10 @@ json bench_capture(const std::string& work, bool quick) {
   // own; an earlier bench's set is set aside by a rename (which frees no inode); what the bench
   // removes (those, and all but one of this run's sets) goes after the last timing. On ext4
   // without a journal (this machine's root) every file created searches past the inodes freed in
-  // the last 60-360 s: with a deletion of the bench's own before each run the sphere read 0.57,
-  // 0.54, 0.51 in three bench runs back to back (BENCHMARKS.md). Replacing an output costs its
-  // unlinking too: timed apart, after every run into a new folder.
+  // the last 60-360 s, the bench's own included; and on any file system the kernel's work left by
+  // runs just before shares the cores: a bench run right after another reads lower (BENCHMARKS.md,
+  // stops 43-44). Replacing an output costs its unlinking too: timed apart, after every run into
+  // a new folder.
   const int kRepeats = quick ? 1 : 5;
   std::vector<CaptureScene> scenes;
   std::vector<std::string> to_remove;
