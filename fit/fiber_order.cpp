@@ -48,8 +48,10 @@ FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>&
   ch.errors.noise = os.pixel_noise;
   for (int k = 0; k < kCount; ++k) {
     const double rms = std::sqrt(sq[k] / static_cast<double>(counted));
-    if (!std::isfinite(rms)) break;
-    ch.errors.order[k] = kOrders[k], ch.errors.rms[k] = rms, ch.errors.count = k + 1;
+    if (std::isfinite(rms)) {  // (a NaN is never kept, here as before)
+      FiberOrderErrors& e = ch.errors;
+      e.order[e.count] = kOrders[k], e.rms[e.count] = rms, ++e.count;
+    }
     if (rms <= tolerance) {
       ch.order = kOrders[k];
       ch.rms_error = rms;
