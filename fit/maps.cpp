@@ -269,8 +269,25 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
     if (o.fiber_order > 0) {
       TexelMapOptions ot = o;
       ot.fiber_order = order_of(b);
-      return o.ceres ? solve_texel_fiber_ceres(os, bins.list(b), from, ot, prior)
-                     : solve_texel_fiber(os, bins.list(b), from, ot, prior);
+      auto fiber = [&] {
+        TexelResult t = o.ceres ? solve_texel_fiber_ceres(os, bins.list(b), from, ot, prior)
+                                : solve_texel_fiber(os, bins.list(b), from, ot, prior);
+        t.quadrature_order = ot.fiber_order;
+        return t;
+      };
+      TexelResult t = fiber();
+      // The global fit measured the orders' errors at its own lobe; a texel's own (its n, k_s,
+      // psi, the views it has) may need more nodes: it is checked at its own solution against the
+      // global fit's order, and solved at that order where the lower one misses the allowance.
+      const double values = 3.0 * static_cast<double>(bins.size(b));
+      const double allowed =
+          FiberOrderErrors::kShare * o.fiber_order_errors.noise / std::sqrt(values);
+      if (ot.fiber_order < o.fiber_order &&
+          !fiber_order_holds(os, bins.list(b), t, ot.fiber_order, o.fiber_order, allowed)) {
+        ot.fiber_order = o.fiber_order;
+        t = fiber();
+      }
+      return t;
     }
     return o.ceres ? solve_texel_ceres(os, bins.list(b), from.c, prior, o.max_iterations)
                    : solve_texel_lm(os, bins.list(b), from.c, prior, o.max_iterations);
@@ -318,7 +335,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
     if (bins.size(b) >= kMinTexelPixels) {
       ++m.fitted, sr += now[b].rss, sv += now[b].values;
       if (!now[b].converged) ++m.not_converged;
-      if (o.fiber_order > 0) ++m.texels_by_order[order_of(b)];
+      if (o.fiber_order > 0) ++m.texels_by_order[now[b].quadrature_order];
     }
     put_texel(now[b], t, global, o.s, texel_topology_key(os.topology), &m);
   }

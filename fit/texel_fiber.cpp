@@ -17,21 +17,24 @@ namespace aniso::fitting {
 
 namespace {
 
+// The topology value the fiber model takes at observation i for the texel's value t (s, or a
+// topology map's amplitude; s_math under a mathematical topology).
+double pixel_topology(const ObsSet& os, size_t i, double t) {
+  if (os.topology == TopologyMode::kAmplitude) return topology_with_map(os.smath(i), t, os.mapv(i));
+  if (os.topology == TopologyMode::kMathematical) return os.smath(i);
+  return t;
+}
+
 // The fiber model's own sum of squares over the texel at psi, exponent n and topology value s
 // (amplitude or s by the set's topology; s_math per pixel under a mathematical one), k_d and k_s
 // in closed form.
 double fiber_node(const ObsSet& os, const std::vector<size_t>& idx, const FiberAccuracy& acc,
                   double psi, double n, double s, double kd[3], double ks[3]) {
-  const bool amp = os.topology == TopologyMode::kAmplitude;
-  const bool math = os.topology == TopologyMode::kMathematical;
   const double c = std::cos(psi), sn = std::sin(psi);
   return solve_kd_ks(
       os, idx,
       [&](size_t i, const Observation& ob, double* dcol, double* scol) {
-        const double si = amp    ? topology_with_map(os.smath(i), s, os.mapv(i))
-                          : math ? os.smath(i)
-                                 : s;
-        fiber_columns(os, ob, c, sn, n, si, acc, dcol, scol);
+        fiber_columns(os, ob, c, sn, n, pixel_topology(os, i, s), acc, dcol, scol);
       },
       kd, ks);
 }
@@ -320,6 +323,27 @@ TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
                      [&](const TexelResult& s, const TexelPrior* p, bool pin_psi, bool cautious) {
                        return fiber_lm_from(os, idx, s, o, p, pin_psi, cautious);
                      });
+}
+
+bool fiber_order_holds(const ObsSet& os, const std::vector<size_t>& idx, const TexelResult& t,
+                       int order, int reference, double allowed) {
+  if (idx.empty() || order >= reference) return true;
+  FiberAccuracy at, ref;
+  at.order = order, ref.order = reference;
+  const double c = std::cos(t.c.psi), sn = std::sin(t.c.psi), n = std::exp(t.c.logn);
+  double sq = 0;
+  for (size_t i : idx) {
+    const Observation& ob = os.obs[i];
+    const double si = pixel_topology(os, i, t.s);
+    double d[3] = {0, 0, 0}, s[3] = {0, 0, 0}, dr[3] = {0, 0, 0}, sr[3] = {0, 0, 0};
+    fiber_columns(os, ob, c, sn, n, si, at, d, s);
+    fiber_columns(os, ob, c, sn, n, si, ref, dr, sr);
+    for (int k = 0; k < 3; ++k) {
+      const double e = t.c.kd[k] * (d[k] - dr[k]) + t.c.ks[k] * (s[k] - sr[k]);
+      sq += e * e;
+    }
+  }
+  return std::sqrt(sq / (3.0 * static_cast<double>(idx.size()))) <= allowed;
 }
 
 }  // namespace aniso::fitting

@@ -24,6 +24,7 @@ struct TexelResult {
   // determined either: its numbers may be anywhere on the way.
   bool converged = true;
   double rss = 0, values = 0;
+  int quadrature_order = 0;  // a fiber texel's (fit/maps.cpp: its own values', checked)
 };
 
 // --smooth: a quadratic pull of x toward b with weights w (diagonal), added to the texel's sum
@@ -45,5 +46,12 @@ TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
 TexelResult solve_texel_fiber_ceres(const ObsSet& os, const std::vector<size_t>& idx,
                                     const TexelResult& from, const TexelMapOptions& o,
                                     const TexelPrior* prior);
+
+// Whether a fiber texel solved at quadrature order `order` holds at its own solution t: the RMS per
+// value of its model's difference from the model at order `reference`, over its observations,
+// within `allowed` (the global fit's errors per order were measured at its own lobe; a texel's
+// own may need more nodes).
+bool fiber_order_holds(const ObsSet& os, const std::vector<size_t>& idx, const TexelResult& t,
+                       int order, int reference, double allowed);
 
 }  // namespace aniso::fitting

@@ -16,6 +16,8 @@
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
 #include "fit/map_holes.h"
+#include "fit/observations.h"
+#include "fit/texel_solve.h"
 #include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -351,6 +353,24 @@ TEST(FitMaps, FiberTexelsTakeTheQuadratureOrderTheirValuesAllow) {
   EXPECT_GT(both, 85u);
   EXPECT_LT(z[z.size() / 2], 0.01);
   EXPECT_LT(z.back(), 0.1);
+  // The order checked at a texel's own solution (300 of the set's pixels at the truth): order 3
+  // misses the allowance of that many values, the global fit's order 4 and above meet it.
+  FitOptions fo;
+  fo.progress = false;
+  fo.model = FitModel::kFiber;
+  FitReport fr;
+  const fitting::ObsSet os = fitting::capture_observations(read_capture(dir + "/set"), fo, &fr);
+  std::vector<size_t> idx;
+  for (size_t i = 0; i < os.obs.size() && idx.size() < 300; i += 7) idx.push_back(i);
+  const Material truth = read_material(dir + "/set/truth.json");
+  fitting::TexelResult t;
+  for (int k = 0; k < 3; ++k) t.c.kd[k] = truth.kd[k], t.c.ks[k] = truth.ks[k];
+  t.c.psi = truth.fiber_angle_deg * M_PI / 180;
+  t.c.logn = std::log(truth.n);
+  t.s = truth.uniform_s();
+  const double allowed = 0.01 * os.pixel_noise / std::sqrt(3.0 * idx.size());
+  EXPECT_FALSE(fitting::fiber_order_holds(os, idx, t, 3, 16, allowed));
+  for (int q : {4, 6, 8}) EXPECT_TRUE(fitting::fiber_order_holds(os, idx, t, q, 16, allowed)) << q;
   // A --global whose table is not one: refused, the file and key named, nothing written.
   nlohmann::json bad = nlohmann::json::parse(read_text_file(dir + "/g.json"));
   bad["report"]["fiber_order_errors"]["noise"] = -1;
