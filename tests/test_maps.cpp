@@ -322,7 +322,7 @@ TEST(FitMaps, FiberTexelsTakeTheQuadratureOrderTheirValuesAllow) {
     EXPECT_LE(std::stoi(k), order);
     (std::stoi(k) < order ? lower : at_global) += v.get<size_t>();
   }
-  EXPECT_GT(lower, 20u);  // 56 of 140
+  EXPECT_GT(lower, 20u);  // 46 of 140 (56 by the errors alone, 10 taken back by the check)
   r = test::run_cli("fit " + dir + "/set" + maps + " --fiber-order " + std::to_string(order) +
                     " --out " + dir + "/all.json");
   ASSERT_EQ(r.status, 0) << r.output;
