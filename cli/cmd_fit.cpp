@@ -115,7 +115,7 @@ void print_report(FILE* o, const FitResult& r) {
                    r.maps.smooth, r.maps.sweeps);
     if (p.fiber_order > 0 && p.fiber_order_errors.count > 0) {
       std::string by;
-      for (int k = 1; k <= 16; ++k)
+      for (int k = 1; k <= FiberOrderErrors::kMaxOrder; ++k)
         if (r.maps.texels_by_order[k] > 0)
           by += (by.empty() ? "" : ", ") + std::to_string(r.maps.texels_by_order[k]) +
                 " at order " + std::to_string(k);

@@ -9,17 +9,17 @@ namespace aniso::fitting {
 
 FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>& subset,
                                     const Core& c, const std::function<double(size_t)>& s_of) {
-  constexpr int kReference = 16, kSample = 400;
+  constexpr int kReference = FiberOrderErrors::kMaxOrder, kSample = 400;
   constexpr int kOrders[] = {3, 4, 6, 8, 12};
   constexpr int kCount = sizeof kOrders / sizeof kOrders[0];
-  constexpr double kShare = FiberOrderErrors::kShare;  // of noise / sqrt(N), in sigma
   FiberOrderChoice ch;
   if (!(os.pixel_noise > 0) || subset.empty()) {
     ch.note = "; quadrature order 8 (no noise estimate of the images: the default)";
     return ch;
   }
   const double values = 3.0 * static_cast<double>(os.obs.size());
-  const double tolerance = kShare * os.pixel_noise / std::sqrt(values);
+  ch.errors.noise = os.pixel_noise;
+  const double tolerance = ch.errors.allowed(values);
   const double cp = std::cos(c.psi), sp = std::sin(c.psi), n = std::exp(c.logn);
   double sq[kCount] = {};
   size_t counted = 0;
@@ -45,7 +45,6 @@ FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>&
   ch.order = kReference;
   ch.rms_error = 0;
   static_assert(kCount <= FiberOrderErrors::kMaxOrders, "the orders tried fit the table");
-  ch.errors.noise = os.pixel_noise;
   for (int k = 0; k < kCount; ++k) {
     const double rms = std::sqrt(sq[k] / static_cast<double>(counted));
     if (std::isfinite(rms)) {  // (a NaN is never kept, here as before)
@@ -62,7 +61,8 @@ FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>&
   std::snprintf(buf, sizeof buf,
                 "; quadrature order %d (its error %.2g RMS per value against order %d, under "
                 "%.0f %% of noise %.3g / sqrt(%.0f values))",
-                ch.order, ch.rms_error, kReference, 100 * kShare, os.pixel_noise, values);
+                ch.order, ch.rms_error, kReference, 100 * FiberOrderErrors::kShare, os.pixel_noise,
+                values);
   ch.note = buf;
   return ch;
 }

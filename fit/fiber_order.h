@@ -16,9 +16,10 @@ namespace aniso::fitting {
 
 struct FiberOrderChoice {
   int order = 8;
-  double rms_error = 0;     // per value, of the order kept
-  std::string note;         // for the report's start line
-  FiberOrderErrors errors;  // every order's below the one kept (--maps' texels choose from them)
+  double rms_error = 0;  // per value, of the order kept
+  std::string note;      // for the report's start line
+  FiberOrderErrors
+      errors;  // each order's tried, up to the one kept (--maps' texels choose from them)
 };
 
 FiberOrderChoice choose_fiber_order(const ObsSet& os, const std::vector<size_t>& subset,

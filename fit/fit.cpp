@@ -207,7 +207,7 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
   // The file's warnings about its global values hold here too; those about its own maps or tile
   // do not (this fit says its own): a --global that was a --maps fit printed each twice.
   for (const auto& w : opt.global->warnings)
-    if (w.rfind("--maps", 0) != 0 && w.rfind("tile ", 0) != 0) rep.warnings.push_back(w);
+    if (!is_maps_warning(w) && w.rfind("tile ", 0) != 0) rep.warnings.push_back(w);
   if (opt.global->views > 0 && opt.global->views != rep.views)
     rep.warnings.push_back("--global " + opt.global->file + " was fitted on " +
                            std::to_string(opt.global->views) + " views; this capture has " +

@@ -31,18 +31,20 @@ const char* fit_loss_name(FitLoss l);
 // values in a set of a million): the global fit's order, or lower. Stored with the fit (report
 // fiber_order_errors), so tiles and --global runs choose as the plain run does.
 struct FiberOrderErrors {
+  static constexpr int kMaxOrder = 16;  // the highest quadrature order (the reference)
   static constexpr int kMaxOrders = 8;
   static constexpr double kShare = 0.01;  // of noise / sqrt(values): the largest shift, in sigma
   int count = 0;                          // 0: unknown (every texel at the global fit's order)
   int order[kMaxOrders] = {};
   double rms[kMaxOrders] = {};  // ascending orders
   double noise = 0;
+  // The error per value that `values` values allow at this noise.
+  double allowed(double values) const { return kShare * noise / std::sqrt(values); }
   // The order for `values` values: the smallest listed under the allowance, at most `cap`.
   int order_for(double values, int cap) const {
     if (count == 0 || !(noise > 0) || !(values > 0)) return cap;
-    const double allowed = kShare * noise / std::sqrt(values);
     for (int k = 0; k < count && order[k] < cap; ++k)
-      if (rms[k] <= allowed) return order[k];
+      if (rms[k] <= allowed(values)) return order[k];
     return cap;
   }
 };
@@ -177,7 +179,7 @@ struct TexelMaps {
   int threads = 0;  // the threads its texels were solved on (--threads)
   int lanes = 0;    // the float lanes of its line-model texels (16, 8; 0: none in float)
   // The fiber model's texels solved at each quadrature order (index: the order; FiberOrderErrors).
-  size_t texels_by_order[17] = {};
+  size_t texels_by_order[FiberOrderErrors::kMaxOrder + 1] = {};
 };
 
 // The per-texel arrays of a TexelMaps (per-texel count `k`), as tiles name them.
@@ -304,6 +306,9 @@ void write_fit(const std::string& path, const FitResult& r);
 // that the data do not determine (and those between pixel rows), that stopped short. A fit's,
 // and the tiles' merge's over the whole grid.
 void add_maps_warnings(const TexelMaps& m, double noise, int iterations, FitReport* rep);
+// Whether a warning is one of those counts (they all begin "--maps: "): a fit that reads another's
+// report (a --global, the tiles' merge) leaves them out and counts its own.
+inline bool is_maps_warning(const std::string& w) { return w.rfind("--maps: ", 0) == 0; }
 // --tile: a self-describing tile of a maps fit (format "aniso-maps-tile": the tile, the grid, its
 // rows, the global fit as write_fit writes it, and every texel's numbers, doubles written
 // exactly), and `aniso merge`: tiles covering every row once, of one grid and one global fit,

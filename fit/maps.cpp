@@ -260,15 +260,14 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   texel_bins(os, t_begin, t_end, &scratch.bins);
   const TexelBins& bins = scratch.bins;
   Progress bar("fit --maps: texels", B * (1 + m.sweeps), o.progress);
-  // A fiber texel's quadrature order: the smallest its own values allow (FiberOrderErrors), at
-  // most the global fit's; the same in a plain run, its bands and tiles (the texel's pixels are).
-  auto order_of = [&](size_t b) {
-    return o.fiber_order_errors.order_for(3.0 * static_cast<double>(bins.size(b)), o.fiber_order);
-  };
   auto solve = [&](size_t b, const TexelResult& from, const TexelPrior* prior) {
     if (o.fiber_order > 0) {
+      // A fiber texel's quadrature order: the smallest its own values allow (FiberOrderErrors), at
+      // most the global fit's; the same in a plain run, its bands and tiles (the texel's pixels
+      // are).
+      const double values = 3.0 * static_cast<double>(bins.size(b));
       TexelMapOptions ot = o;
-      ot.fiber_order = order_of(b);
+      ot.fiber_order = o.fiber_order_errors.order_for(values, o.fiber_order);
       auto fiber = [&] {
         TexelResult t = o.ceres ? solve_texel_fiber_ceres(os, bins.list(b), from, ot, prior)
                                 : solve_texel_fiber(os, bins.list(b), from, ot, prior);
@@ -279,11 +278,9 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
       // The global fit measured the orders' errors at its own lobe; a texel's own (its n, k_s,
       // psi, the views it has) may need more nodes: it is checked at its own solution against the
       // global fit's order, and solved at that order where the lower one misses the allowance.
-      const double values = 3.0 * static_cast<double>(bins.size(b));
-      const double allowed =
-          FiberOrderErrors::kShare * o.fiber_order_errors.noise / std::sqrt(values);
       if (ot.fiber_order < o.fiber_order &&
-          !fiber_order_holds(os, bins.list(b), t, ot.fiber_order, o.fiber_order, allowed)) {
+          !fiber_order_holds(os, bins.list(b), t, ot.fiber_order, o.fiber_order,
+                             o.fiber_order_errors.allowed(values))) {
         ot.fiber_order = o.fiber_order;
         t = fiber();
       }
@@ -364,7 +361,8 @@ void join_band(const TexelMaps& part, int row0, int row1, TexelMaps* whole) {
   std::copy(part.determined.begin(), part.determined.end(), whole->determined.begin() + at);
   whole->fitted += part.fitted;
   whole->not_converged += part.not_converged;
-  for (int k = 0; k <= 16; ++k) whole->texels_by_order[k] += part.texels_by_order[k];
+  for (int k = 0; k <= FiberOrderErrors::kMaxOrder; ++k)
+    whole->texels_by_order[k] += part.texels_by_order[k];
   whole->sum_sq += part.sum_sq;
   whole->values += part.values;
   whole->rms = whole->values > 0 ? std::sqrt(whole->sum_sq / whole->values) : 0;

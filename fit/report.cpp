@@ -146,17 +146,18 @@ void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
 
 // The fiber texels solved at each quadrature order, as the report keeps them: {"4": 1201, ...};
 // and back (adding to *by).
-jsonu::json orders_json(const size_t (&by)[17]) {
+constexpr int kMaxOrder = FiberOrderErrors::kMaxOrder;
+jsonu::json orders_json(const size_t (&by)[kMaxOrder + 1]) {
   jsonu::json j = jsonu::json::object();
-  for (int k = 0; k <= 16; ++k)
+  for (int k = 0; k <= kMaxOrder; ++k)
     if (by[k] > 0) j[std::to_string(k)] = by[k];
   return j;
 }
-void add_orders(const jsonu::json& j, size_t (*by)[17]) {
+void add_orders(const jsonu::json& j, size_t (*by)[kMaxOrder + 1]) {
   if (!j.is_object()) return;
   for (const auto& [k, v] : j.items()) {
     const int order = std::atoi(k.c_str());
-    if (order >= 1 && order <= 16 && v.is_number_unsigned()) (*by)[order] += v.get<size_t>();
+    if (order >= 1 && order <= kMaxOrder && v.is_number_unsigned()) (*by)[order] += v.get<size_t>();
   }
 }
 
@@ -190,7 +191,7 @@ FiberOrderErrors order_errors_from(const jsonu::json& j, const std::string& file
       throw Error(key + ".rms_per_value: each entry is [order, rms]");
     const long long order = pair[0].get<long long>();
     const double r = pair[1].get<double>();
-    if (order < 1 || order > 16 || (e.count > 0 && order <= e.order[e.count - 1]))
+    if (order < 1 || order > kMaxOrder || (e.count > 0 && order <= e.order[e.count - 1]))
       throw Error(key + ".rms_per_value: orders from 1 to 16, ascending");
     if (!(std::isfinite(r) && r >= 0)) throw Error(key + ".rms_per_value: an rms is not >= 0");
     e.order[e.count] = static_cast<int>(order), e.rms[e.count] = r, ++e.count;
@@ -492,7 +493,7 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
   FitReport rep;
   rep.rms = fit["report"].value("residual_rms", 0.0);
   for (const auto& w : fit["report"].value("warnings", jsonu::json::array()))
-    if (w.is_string() && w.get<std::string>().rfind("--maps: ", 0) != 0)
+    if (w.is_string() && !is_maps_warning(w.get<std::string>()))
       rep.warnings.push_back(w.get<std::string>());
   add_maps_warnings(m, noise[noise.size() / 2], iterations, &rep);
   fit["report"]["warnings"] = rep.warnings;

@@ -96,24 +96,12 @@ void remove_stale_temps(const fs::path& target) {
   }
 }
 
-void write_all(int fd, const char* data, size_t n, const std::string& what) {
-  while (n > 0) {
-    const ssize_t w = ::write(fd, data, n);
-    if (w < 0) {
-      if (errno == EINTR) continue;
-      throw Error(what + ": write failed: " + errno_text());
-    }
-    data += w;
-    n -= static_cast<size_t>(w);
-  }
-}
-
-// a (na bytes) then b (nb bytes) in as few calls as the kernel takes: one `writev`, usually.
+// a (na bytes) then b (nb bytes), in as few calls as the kernel takes: one `writev`, usually.
 void write_all_2(int fd, const char* a, size_t na, const char* b, size_t nb,
                  const std::string& what) {
-  while (na > 0) {
+  while (na + nb > 0) {
     iovec v[2] = {{const_cast<char*>(a), na}, {const_cast<char*>(b), nb}};
-    const ssize_t w = ::writev(fd, v, 2);
+    const ssize_t w = na > 0 ? ::writev(fd, v, 2) : ::write(fd, b, nb);
     if (w < 0) {
       if (errno == EINTR) continue;
       throw Error(what + ": write failed: " + errno_text());
@@ -123,7 +111,10 @@ void write_all_2(int fd, const char* a, size_t na, const char* b, size_t nb,
     a += from_a, na -= from_a, k -= from_a;
     b += k, nb -= k;
   }
-  write_all(fd, b, nb, what);
+}
+
+void write_all(int fd, const char* data, size_t n, const std::string& what) {
+  write_all_2(fd, nullptr, 0, data, n, what);
 }
 
 // Copies the finished temporary file into an existing special file (or stdout) in place.
