@@ -511,17 +511,14 @@ void run_bench(const std::string& suite, const std::string& out_path, const std:
   // The work folder is the bench's own: new, empty, or one it wrote before (its marker), unless
   // --force. It replaces the sets and files it writes there (obs_*.bin among them) on every run.
   try {
-    check_output_folder(work_dir);
+    check_output_folder(work_dir, OutputKind::kBenchWork);
   } catch (const Error& e) {
     throw Error(std::string(e.what()) +
                 " (bench --work: the bench writes its synthetic sets there and replaces them on "
                 "every run)");
   }
   std::filesystem::create_directories(work_dir);
-  if (!std::filesystem::exists(join_path(work_dir, kOutputMarker)))
-    write_text_file(join_path(work_dir, kOutputMarker),
-                    "{\"written_by\": \"aniso bench\", \"note\": \"the bench's work folder; aniso "
-                    "bench replaces what it holds\"}\n");
+  mark_folder(work_dir, OutputKind::kBenchWork);
   json entries = json::array();
   auto add = [&](const json& a) {
     for (const auto& e : a) entries.push_back(e);

@@ -411,7 +411,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
     st.seconds = seconds_since(t0);
     return st;
   }
-  write_folder_atomically(out_dir, [&](const std::string& dir) {
+  write_folder_atomically(out_dir, OutputKind::kCapture, [&](const std::string& dir) {
     Traced tr;
     using Images = Traced::Images;
     const double kept = 12.0 * opt.camera.width * opt.camera.height * opt.rig.size();

@@ -35,7 +35,7 @@ Command add_bake(CLI::App& app) {
             if (m.fiber())
               note_material_maps(m, "bake (the fiber model's tables; the maps are carried)");
             check_outputs_apart({a->out}, material_input_files(m, a->mat));
-            check_output_folder(a->out);
+            check_output_folder(a->out, OutputKind::kBake);
             const BakeTables t = bake_line(m, a->size, parse_index(a->index));
             FiberBakeTables fb;
             if (m.fiber()) {
@@ -56,7 +56,7 @@ Command add_bake(CLI::App& app) {
                   "evaluation over %zu samples: max abs %.3g (of S)\n",
                   std::exp(st.logn0), std::exp(st.logn1), st.levels, st.samples, st.max_abs_error);
             }
-            write_bake(a->out, m, t, command_line(), m.fiber() ? &fb : nullptr,
+            write_bake(a->out, m, t, shareable_command_line(a->out), m.fiber() ? &fb : nullptr,
                        stack ? &st : nullptr);
             std::printf(
                 "bake: %dx%d tables (%s index) in %.3f s -> %s; bilinear lookup vs direct "

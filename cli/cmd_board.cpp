@@ -49,11 +49,8 @@ Command add_board(CLI::App& app) {
             const std::string shoot =
                 a->shoot.empty() ? join_path(parent_dir(a->out), "shoot.json") : a->shoot;
             check_outputs_apart({a->out, shoot}, {});
-            std::error_code ec;
-            if (std::filesystem::exists(shoot, ec) && !force_overwrite())
-              throw Error(shoot +
-                          ": exists (it may hold your measurements); not replaced. "
-                          "Choose another --shoot, or --force");
+            check_output_file(a->out, OutputKind::kBoard);
+            check_output_file(shoot, OutputKind::kShoot);
             const Image img = render_board(spec, a->dpi);
             write_png(a->out, img, 8, a->dpi);
             nlohmann::json j;

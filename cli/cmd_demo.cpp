@@ -26,8 +26,10 @@ int run(const DemoArgs& a) {
   int w, h;
   parse_size(a.size, &w, &h);
   const std::string cap = join_path(a.out, "capture"), bake = join_path(a.out, "bake");
-  check_output_folder(cap);
-  check_output_folder(bake);
+  check_output_folder(cap, OutputKind::kCapture);
+  check_output_folder(bake, OutputKind::kBake);
+  check_output_file(join_path(a.out, "material.json"), OutputKind::kMaterial);
+  check_output_file(join_path(a.out, "preview.png"), OutputKind::kPreview);
   std::filesystem::create_directories(a.out);
   PresetOptions dp;
   dp.views = a.views;
@@ -46,7 +48,7 @@ int run(const DemoArgs& a) {
   std::printf("== 3/4 bake\n");
   const Material m = read_material(mat);
   const BakeTables t = bake_line(m, 256);
-  write_bake(bake, m, t, command_line());
+  write_bake(bake, m, t, shareable_command_line(bake));
   std::printf("   256x256 tables in %.3f s; lookup vs direct: max abs %.3g, RMS %.3g -> %s\n",
               t.seconds, t.max_abs_error, t.rms_error, bake.c_str());
   std::printf(

@@ -22,11 +22,13 @@ Command add_eval(CLI::App& app) {
       ->required();
   eval->add_option("--out", a->out, "table to write with r,g,b ('-' = standard output)")
       ->required();
+  add_force_flag(eval);
   return {eval, [a] {
             const Material m = read_material(a->mat);
             SampleTable t = read_table(a->table);
             if (!t.has_uv) note_material_maps(m, "eval (a table without u, v columns)");
             check_outputs_apart({a->out}, {a->mat, a->table});
+            check_output_file(a->out, OutputKind::kTable);
             evaluate_table(m, &t);
             write_table(a->out, t);
             // The table may be on standard output: the summary goes to the error stream.

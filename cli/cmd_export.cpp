@@ -39,7 +39,7 @@ Command add_export(CLI::App& app) {
         check_outputs_apart({a->out}, material_input_files(m, a->mat));
         ExportOptions o;
         o.size = a->size;
-        o.command = command_line();
+        o.command = shareable_command_line(a->out);
         const ExportSummary s = export_material(m, a->out, o);
         std::printf("export: %s model, %zu files in %.3f s -> %s\n", model_name(m.model),
                     s.files.size(), s.seconds, a->out.c_str());

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <memory>
 
 #include "cli/command.h"
@@ -134,6 +135,83 @@ void print_report(FILE* o, const FitResult& r) {
 }
 
 // --tile i/N into the options.
+// The views' cameras and poses (not their pixels, lights or file names), as a fingerprint.
+std::string capture_layout(const CaptureSet& set) {
+  std::string k = std::to_string(set.views.size());
+  auto add = [&](const auto& v) { k.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  for (const ViewSpec& v : set.views) {
+    add(v.world_from_camera.m);
+    const Intrinsics& c = v.camera;
+    for (double x : {double(c.width), double(c.height), c.fx, c.fy, c.cx, c.cy}) add(x);
+    add(c.distortion);
+  }
+  return text_fingerprint(k);
+}
+
+// Views that repeat an earlier one exactly (the same camera, pose, exposure, lights and geometry,
+// and the same image file or bytes): removed from *set, their indices returned. A repeated view
+// adds no information, but would count as new data and shrink every sigma by sqrt(copies).
+std::vector<size_t> drop_repeated_views(CaptureSet* set) {
+  auto add = [](std::string* k, const auto& v) {
+    k->append(reinterpret_cast<const char*>(&v), sizeof v);
+  };
+  std::map<std::string, std::vector<size_t>> by_key;  // view setup -> kept views with it
+  std::vector<size_t> dropped;
+  std::vector<ViewSpec> kept;
+  for (size_t i = 0; i < set->views.size(); ++i) {
+    const ViewSpec& v = set->views[i];
+    std::string k;
+    add(&k, v.world_from_camera.m);
+    add(&k, v.exposure);
+    const Intrinsics& c = v.camera;
+    for (double x : {double(c.width), double(c.height), c.fx, c.fy, c.cx, c.cy}) add(&k, x);
+    add(&k, c.distortion);
+    for (const Light& l : v.lights) {
+      add(&k, l.type);
+      for (const Vec3& p : {l.position, l.direction}) add(&k, p.x), add(&k, p.y), add(&k, p.z);
+      add(&k, l.intensity);
+      add(&k, l.attenuation);
+      add(&k, l.cutoff_deg);
+      add(&k, l.exponent);
+    }
+    const GeometrySpec& g = v.geometry;
+    for (const auto* s : {&g.position, &g.normal, &g.tangent, &g.mask, &g.uv, &g.topology, &g.mesh,
+                          &g.fiber_field})
+      k += *s + '\0';
+    const std::string image = join_path(set->dir, v.image);
+    bool repeat = false;
+    for (const size_t j : by_key[k]) {
+      const std::string other = join_path(set->dir, kept[j].image);
+      std::error_code ec;
+      repeat = std::filesystem::equivalent(image, other, ec) ||
+               (std::filesystem::file_size(image, ec) == std::filesystem::file_size(other, ec) &&
+                read_text_file(image, size_t(1) << 32) == read_text_file(other, size_t(1) << 32));
+      if (repeat) break;
+    }
+    if (repeat) {
+      dropped.push_back(i);
+      continue;
+    }
+    by_key[k].push_back(kept.size());
+    kept.push_back(v);
+  }
+  if (!dropped.empty()) set->views = std::move(kept);
+  return dropped;
+}
+
+// The options that change what a fit computes (not --threads, --tile, progress), as a fingerprint.
+std::string options_fingerprint(const FitOptions& fo) {
+  char text[512];
+  std::snprintf(text, sizeof text,
+                "model %d iso %d second %d subsample %d iterations %d loss %d order %d topo %d "
+                "ceres %d %d maps %dx%d ceres %d smooth %.17g %d maps_iterations %d",
+                static_cast<int>(fo.model), fo.fit_isotropic, fo.fit_second, fo.subsample,
+                fo.max_iterations, static_cast<int>(fo.loss), fo.fiber_order, fo.topology_texels,
+                fo.ceres_solver, fo.ceres_covariance, fo.maps_w, fo.maps_h, fo.maps_ceres,
+                fo.maps_smooth, fo.maps_sweeps, fo.maps_iterations);
+  return text_fingerprint(text);
+}
+
 void parse_tile(const std::string& tile, FitOptions* fo) {
   const auto slash = tile.find('/');
   try {
@@ -223,12 +301,12 @@ int run_fit_mpi(FitArgs& a) {
   if (a.out == "-")
     throw Error("fit --mpi: --maps writes map files beside the material: give --out a file");
   // The merged output must not replace an input: checked by every rank before any work.
-  std::vector<std::string> outputs = map_outputs(a.out);
-  outputs.push_back(a.out);
+  std::vector<std::string> outputs{a.out};
   if (lower_ext(a.in) != ".csv") {
     const CaptureSet set = read_capture(a.in);
     check_outputs_apart(outputs, capture_input_files(set));
   }
+  check_output_file(a.out, OutputKind::kMaterial);
   if (world->rank != 0) {
     if (!std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
     a.fo.progress = false;
@@ -272,6 +350,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
             const std::string& truth_path) {
   // Every input is read and checked before the (long) fit; the output never replaces one.
   std::vector<std::string> inputs{input};
+  std::vector<size_t> repeated;  // views that repeat an earlier one, left out
   std::string truth = truth_path;
   CaptureSet set;
   SampleTable table;
@@ -281,6 +360,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   } else {
     set = read_capture(input);
     for (const auto& f : capture_input_files(set)) inputs.push_back(f);
+    repeated = drop_repeated_views(&set);
     if (truth.empty() && !set.truth.empty()) truth = join_path(set.dir, set.truth);
   }
   if (fo.global) inputs.push_back(fo.global->file);
@@ -298,10 +378,41 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
     if (out == "-")
       throw Error(std::string("fit: ") + (fo.maps_w > 0 ? "--maps" : "--topology-map") +
                   " writes map files beside the material: give --out a file");
-    for (const auto& p : map_outputs(out)) outputs.push_back(p);
   }
+  if (fo.tile_count > fo.maps_h && fo.maps_h > 0)
+    throw Error("fit: --tile " + std::to_string(fo.tile_index) + "/" +
+                std::to_string(fo.tile_count) + ": the --maps grid has " +
+                std::to_string(fo.maps_h) + " texel rows, so at most " +
+                std::to_string(fo.maps_h) + " tiles (each holds whole rows)");
   check_outputs_apart(outputs, inputs);
-  const FitResult r = is_table ? fit_table(table, fo) : fit_capture(set, fo);
+  check_output_file(out, fo.tile_count > 0 ? OutputKind::kMapsTile : OutputKind::kMaterial);
+  // What this fit read and how: a --global material must be of the same capture, and the tiles of
+  // one merge must share both (merge compares them).
+  const std::string capture_fp =
+      is_table ? files_fingerprint({input}, parent_dir(input))
+               : files_fingerprint(capture_input_files(set), set.dir);
+  const std::string layout = is_table ? capture_fp : capture_layout(set);
+  if (fo.global && !fo.global->capture_layout.empty() && fo.global->capture_layout != layout)
+    throw Error("fit: --global " + fo.global->file + " was fitted to another capture (its " +
+                "views' cameras and poses differ: report.capture_layout " +
+                fo.global->capture_layout + ", this one's " + layout +
+                "): give the material fitted to " + input + ", or leave --global out");
+  FitResult r = is_table ? fit_table(table, fo) : fit_capture(set, fo);
+  r.report.capture_fingerprint = capture_fp;
+  r.report.capture_layout = layout;
+  if (!repeated.empty()) {
+    std::string list;
+    for (size_t k = 0; k < repeated.size() && k < 10; ++k)
+      list += (k ? ", " : "") + std::to_string(repeated[k]);
+    if (repeated.size() > 10) list += ", ...";
+    r.report.warnings.insert(
+        r.report.warnings.begin(),
+        std::to_string(repeated.size()) +
+            " views repeat an earlier view exactly (the same camera, pose, exposure, lights and "
+            "image): each was counted once, as repeats add no information but would shrink every "
+            "sigma by sqrt(copies) (views " + list + " of " + input + ")");
+  }
+  r.report.options_fingerprint = options_fingerprint(fo);
   // With `--out -` the material goes to standard output: everything said goes to stderr.
   FILE* o = out == "-" ? stderr : stdout;
   if (fo.tile_count > 0) {
@@ -434,9 +545,7 @@ Command add_fit(CLI::App& app) {
       ->default_str("line")
       ->transform(CLI::CheckedTransformer(models));
   fit->add_option("--out", a->out, "material file to write ('-' = standard output)")->required();
-  add_force_flag(fit,
-                 "--maps: replace files beside --out at the maps' names (OUT_kd.exr, ...) even "
-                 "where no earlier material at --out names them (never an input)");
+  add_force_flag(fit);
   fit->add_option(
       "--truth", a->truth,
       "ground-truth material: print every parameter's error (default: the set's truth)");

@@ -20,7 +20,7 @@ struct ImportArgs {
 
 int run(const ImportArgs& a) {
   const Shoot s = read_shoot(a.shoot);
-  check_output_folder(a.out);
+  check_output_folder(a.out, OutputKind::kImportedCapture);
   std::vector<std::string> inputs{a.shoot};
   for (const auto& p : s.photos)
     for (const auto& im : p.images) inputs.push_back(join_path(s.dir, im.file));

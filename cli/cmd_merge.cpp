@@ -22,15 +22,13 @@ Command add_merge(CLI::App& app) {
       "material and its maps: the same files as one untiled run");
   c->add_option("TILES", a->tiles, "every tile's file")->required();
   c->add_option("--out", a->out, "material file to write (its maps go beside it)")->required();
-  add_force_flag(c,
-                 "replace files beside --out at the maps' names (OUT_kd.exr, ...) even where no "
-                 "earlier material at --out names them (never an input)");
+  add_force_flag(c);
   add_exr_compression(c, &a->compression,
                       "the maps (as `fit --maps` writes them: the same default)");
   return {c, [a] {
-            std::vector<std::string> outputs = map_outputs(a->out);
-            outputs.push_back(a->out);
+            const std::vector<std::string> outputs{a->out};
             check_outputs_apart(outputs, a->tiles);
+            check_output_file(a->out, OutputKind::kMaterial);
             set_exr_compression(a->compression);
             merge_maps_tiles(a->tiles, a->out);
             std::printf("merge: %zu tiles -> %s (and its maps)\n", a->tiles.size(), a->out.c_str());

@@ -79,6 +79,15 @@ int run(const PreviewArgs& a) {
   inputs.push_back(a.map);
   if (lower_ext(a.shape) == ".obj") inputs.push_back(a.shape);
   check_outputs_apart({a.out, a.exr}, inputs);
+  const std::string ext = lower_ext(a.out);
+  if (a.out != "-" && ext != ".png" && ext != ".exr" && ext != ".jpg" && ext != ".jpeg")
+    throw Error("preview: --out " + a.out + ": writes .png (8-bit sRGB), .jpg (sRGB) or .exr "
+                "(linear float); give one of those extensions");
+  check_output_file(a.out, OutputKind::kPreview);
+  if (!a.exr.empty()) {
+    if (lower_ext(a.exr) != ".exr") throw Error("preview: --exr " + a.exr + ": give a .exr name");
+    check_output_file(a.exr, OutputKind::kPreview);
+  }
   PreviewOptions p;
   p.shape = a.shape;
   p.fiber_field = a.field;
@@ -112,8 +121,10 @@ int run(const PreviewArgs& a) {
   const Image img =
       a.turntable > 0 ? turntable(m, p, a.turntable, &r) : (r = render_preview(m, p)).rgb;
   // An .exr output is the linear float image; anything else an 8-bit sRGB PNG.
-  if (lower_ext(a.out) == ".exr")
+  if (ext == ".exr")
     write_exr(a.out, img);
+  else if (ext == ".jpg" || ext == ".jpeg")
+    write_jpeg(a.out, encode_srgb(img, a.exposure));
   else
     write_png(a.out, encode_srgb(img, a.exposure), 8);
   if (!a.exr.empty()) write_exr(a.exr, img);
@@ -182,6 +193,7 @@ Command add_preview(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(2, 8192));
   prev->add_option("--exr", a->exr, "also write the linear float image here");
+  add_force_flag(prev);
   prev->add_flag("--per-vertex", a->per_vertex,
                  "the paper's construction exactly: texture matrix per vertex, cosine table");
   prev->add_option("--topology-map", a->map,

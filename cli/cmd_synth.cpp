@@ -32,7 +32,7 @@ int run_photos(const SynthArgs& a) {
   if (a.app->count("--noise")) o.read_noise = a.po.noise;
   if (a.po.bits == 16) o.raw16 = true;
   o.dng = a.dng;
-  check_output_folder(a.out);
+  check_output_folder(a.out, OutputKind::kPhotoShoot);
   check_outputs_apart({a.out}, {a.truth});
   const PhotoShootStats st = simulate_photo_shoot(o, a.out);
   std::printf(
@@ -60,7 +60,7 @@ int run(const SynthArgs& a) {
   if (a.photos) return run_photos(a);
   PresetOptions po = a.po;
   parse_size(a.size, &po.width, &po.height);
-  check_output_folder(a.out);
+  check_output_folder(a.out, OutputKind::kCapture);
   check_outputs_apart({a.out}, {a.truth, po.topology_map_file, po.rig});
   set_exr_compression(a.compression);
   SimOptions so = make_preset(a.preset, po);

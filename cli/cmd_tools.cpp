@@ -5,6 +5,7 @@
 #include "bench/suites.h"
 #include "capture_sim/microgeometry.h"
 #include "cli/command.h"
+#include "io/files.h"
 #include "models/params.h"
 
 namespace aniso::cli {
@@ -23,6 +24,7 @@ Command add_microgeometry(CLI::App& app) {
                                    "and topology values");
   micro->add_option("--out", a->out, "CSV with model and measured D, S per configuration")
       ->required();
+  add_force_flag(micro);
   micro->add_option("--rays", a->rays, "primary rays per configuration")
       ->capture_default_str()
       ->check(CLI::Range(100, 100000000));
@@ -31,6 +33,7 @@ Command add_microgeometry(CLI::App& app) {
       ->check(CLI::Range(line_param("n").lo, line_param("n").hi));
   micro->add_option("--seed", a->seed, "seed of the ray jitter")->capture_default_str();
   return {micro, [a] {
+            check_output_file(a->out, OutputKind::kTable);
             const MicroSweepSummary m = micro_sweep(a->out, a->n, a->rays, a->seed, true);
             std::printf(
                 "microgeometry: %zu configurations (5 topology values x 144 direction pairs), "
@@ -64,11 +67,10 @@ Command add_bench(CLI::App& app) {
                    "folder for the synthetic sets it makes: new, empty or an earlier bench's "
                    "(replaced run after run)")
       ->capture_default_str();
-  add_force_flag(bench,
-                 "use a --work folder that holds files the bench did not write (they may be "
-                 "replaced)");
+  add_force_flag(bench);
   bench->add_flag("--quick", a->quick, "small sweeps (for tests)");
   return {bench, [a] {
+            check_output_file(a->out, OutputKind::kBenchResult);
             run_bench(a->suite, a->out, a->work, a->quick);
             return 0;
           }};

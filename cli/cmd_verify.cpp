@@ -31,7 +31,7 @@ Command add_verify(CLI::App& app) {
               std::vector<std::string> inputs = capture_input_files(set);
               for (const auto& f : material_input_files(m, a->mat)) inputs.push_back(f);
               check_outputs_apart({a->resid}, inputs);
-              check_output_folder(a->resid);
+              check_output_folder(a->resid, OutputKind::kResiduals);
             }
             const VerifyResult r = verify_capture(set, m, a->resid);
             std::printf("%-6s %8s %12s %12s %10s\n", "view", "pixels", "rms", "max_abs", "rel_rms");

@@ -58,6 +58,7 @@ Command add_view(CLI::App& app) {
   v->add_option("--light", a->light, "starting direction toward the light x,y,z");
   v->add_option("--screenshot", a->screenshot,
                 "render, save the window (panel included) as this PNG and exit (scripted use)");
+  add_force_flag(v);
   v->add_option("--show", a->show,
                 "starting display: tables (as an engine draws them), exact (the model on the "
                 "CPU) or error (|tables - exact| x 10)")
@@ -88,7 +89,10 @@ Command add_view(CLI::App& app) {
             o.screenshot_frames = a->frames;
             o.show = a->show == "exact" ? 1 : a->show == "error" ? 2 : 0;
             o.title = "aniso view: " + a->input;
-            if (!o.screenshot.empty()) check_outputs_apart({o.screenshot}, {a->input});
+            if (!o.screenshot.empty()) {
+              check_outputs_apart({o.screenshot}, {a->input});
+              check_output_file(o.screenshot, OutputKind::kScreenshot);
+            }
             run_viewer(m, o);
             if (!o.screenshot.empty()) std::printf("view: wrote %s\n", o.screenshot.c_str());
             return 0;

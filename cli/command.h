@@ -50,6 +50,9 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
 
 // The whole command line, recorded in outputs that say how they were made, and its words.
 const std::string& command_line();
+// The command as a person can share it, for an output at `out_dir`: the program as "aniso", and
+// every word that names an existing file or folder (or an absolute path) relative to out_dir.
+std::string shareable_command_line(const std::string& out_dir);
 const std::vector<std::string>& command_words();
 void set_command_line(int argc, char** argv);
 

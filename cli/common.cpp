@@ -22,6 +22,27 @@ std::vector<std::string> g_command_words;
 const std::string& command_line() { return g_command_line; }
 const std::vector<std::string>& command_words() { return g_command_words; }
 
+std::string shareable_command_line(const std::string& out_dir) {
+  namespace fs = std::filesystem;
+  auto relative = [&](const std::string& w) {
+    std::error_code ec;
+    if (w.empty() || w == "-" || (w[0] != '/' && !fs::exists(fs::symlink_status(w, ec))))
+      return w;
+    return relative_to(w, out_dir);
+  };
+  std::string line = "aniso";
+  for (size_t i = 1; i < g_command_words.size(); ++i) {
+    std::string w = g_command_words[i];
+    const size_t eq = w.rfind("--", 0) == 0 ? w.find('=') : std::string::npos;
+    if (eq != std::string::npos)
+      w = w.substr(0, eq + 1) + relative(w.substr(eq + 1));
+    else if (i > 1 && !w.empty() && w[0] != '-')
+      w = relative(w);
+    line += " " + w;
+  }
+  return line;
+}
+
 void set_command_line(int argc, char** argv) {
   g_command_line.clear();
   g_command_words.assign(argv, argv + argc);
@@ -87,9 +108,10 @@ void note_material_maps(const Material& m, const char* what) {
 void add_force_flag(CLI::App* sub, const char* help) {
   sub->add_flag_callback(
       "--force", [] { set_force_overwrite(true); },
-      help
-          ? help
-          : "replace an output folder even if it holds files aniso did not write (never an input)");
+      help ? help
+           : "where an output would be refused (a folder or file aniso did not write, one of "
+             "another kind, or one changed since), move what is there aside to NAME.aniso-old-N "
+             "and write the output: nothing is deleted, and an input is never replaced");
 }
 
 void load_material_maps(const Material& m, const std::string& map_override, PreviewOptions* p) {

@@ -47,6 +47,46 @@ bool explain_unknown_option(const CLI::App* sub, int argc, char** argv) {
   return false;
 }
 
+// A value outside an option's set (CLI11's "--model: Check fibre value in {auto->2,...} FAILED" or
+// "--loss: fibre not in {huber,...}"), said plainly with the closest allowed value.
+bool explain_bad_value(const CLI::App* sub, const std::string& what) {
+  const size_t colon = what.find(": "), open = what.find('{'), close = what.rfind('}');
+  if (colon == std::string::npos || open == std::string::npos || close == std::string::npos ||
+      close < open)
+    return false;
+  const std::string option = what.substr(0, colon);
+  std::string value;
+  if (const size_t c = what.find("Check ", colon); c != std::string::npos) {
+    const size_t e = what.find(" value in ", c);
+    if (e == std::string::npos) return false;
+    value = what.substr(c + 6, e - c - 6);
+  } else if (const size_t n = what.find(" not in ", colon); n != std::string::npos) {
+    value = what.substr(colon + 2, n - colon - 2);
+  } else {
+    return false;
+  }
+  std::vector<std::string> allowed;
+  std::string item;
+  for (size_t i = open + 1; i <= close; ++i) {
+    const char c = what[i];
+    if (c == ',' || c == '}') {
+      if (const size_t arrow = item.find("->"); arrow != std::string::npos) item.resize(arrow);
+      if (!item.empty()) allowed.push_back(item);
+      item.clear();
+    } else if (c != ' ') {
+      item += c;
+    }
+  }
+  if (allowed.empty()) return false;
+  std::string list;
+  for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+  const std::string best = closest(value, allowed);
+  std::fprintf(stderr, "aniso %s: %s: '%s' is not one of %s%s\n", sub->get_name().c_str(),
+               option.c_str(), value.c_str(), list.c_str(),
+               best.empty() ? "" : (" (did you mean '" + best + "'?)").c_str());
+  return true;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -95,6 +135,10 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     for (const auto& c : commands)
       if (c.sub->parsed() && explain_unknown_option(c.sub, argc, argv)) return 2;
+    if (dynamic_cast<const CLI::ValidationError*>(&e) ||
+        dynamic_cast<const CLI::ConversionError*>(&e))
+      for (const auto& c : commands)
+        if (c.sub->parsed() && explain_bad_value(c.sub, e.what())) return 2;
     return app.exit(e);
   }
 

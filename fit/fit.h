@@ -62,6 +62,7 @@ struct GivenGlobal {
   size_t views = 0;
   double rms = 0;
   std::vector<std::string> warnings;
+  std::string capture_layout;  // report.capture_layout ("" in older files)
 };
 
 // --maps-iterations' default: the iterations each texel's solver (LM or Ceres) may take.
@@ -201,6 +202,11 @@ inline const TexelArray kTexelArrays[] = {{"kd", 3, &TexelMaps::kd},
                                           {"residual", 1, &TexelMaps::residual}};
 
 struct FitReport {
+  // What the fit read and how: the capture's files (capture_fingerprint), its views' cameras and
+  // poses (capture_layout) and the options (options_fingerprint). A --global material must share
+  // the layout (its pixels may have been edited since); the tiles of one merge share all three.
+  // Empty when not known.
+  std::string capture_fingerprint, capture_layout, options_fingerprint;
   size_t views = 0, pixels = 0, observations = 0;  // observations = pixels x channels
   size_t masked_out = 0, saturated = 0, nonfinite = 0, unlit = 0;
   size_t implausible = 0;  // values above 1e4 x the 90th percentile: left out
@@ -250,14 +256,11 @@ struct FitReport {
   std::vector<std::string> model_summaries;  // --model auto: one line per model
 };
 
-// The map files `write_fit` puts beside a material file when the result has maps (--maps) or a
-// map of s (--topology-map).
+// The plain names of the map files `write_fit` puts beside a material file when the result has
+// maps (--maps) or a map of s (--topology-map). Each run writes them as one generation,
+// STEM_KEY.GEN.exr (io/files.h write_generation), named by the material it writes last; they
+// never replace a file.
 std::vector<std::string> map_files(const std::string& material_path);
-// Their paths, checked before any work: a file already at one of them is replaced only where it
-// is ours — the material already at material_path (an earlier fit or merge to the same --out)
-// names it in "maps" or "maps_uncertainty" — or with --force; anything else is a person's file
-// that the run was not asked to write, and is refused, named.
-std::vector<std::string> map_outputs(const std::string& material_path);
 
 struct FitResult {
   Material material;

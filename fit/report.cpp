@@ -31,41 +31,44 @@ std::vector<std::string> map_files(const std::string& material_path) {
   return f;
 }
 
-std::vector<std::string> map_outputs(const std::string& material_path) {
-  const std::string dir = parent_dir(material_path);
-  std::vector<std::string> paths, named;
-  // What an earlier material at this path names beside it (nothing, if it is not one).
-  if (std::filesystem::is_regular_file(material_path)) try {
-      const jsonu::json j = jsonu::json::parse(read_text_file(material_path));
-      for (const char* block : {"maps", "maps_uncertainty", "topology"})
-        if (j.is_object() && j.contains(block) && j[block].is_object())
-          for (const auto& [key, v] : j[block].items())
-            if (v.is_string() && key != "map") named.push_back(v.get<std::string>());
-    } catch (const std::exception&) {
-      named.clear();  // not a material: it names nothing
-    }
-  for (const auto& f : map_files(material_path)) {
-    const std::string p = join_path(dir, f);
-    std::error_code ec;
-    if (std::filesystem::exists(std::filesystem::symlink_status(p, ec)) && !force_overwrite() &&
-        std::find(named.begin(), named.end(), f) == named.end())
-      throw Error(p + ": exists, and " + material_path +
-                  " (an earlier fit's material) does not name it among its maps: it is not a map "
-                  "this command wrote, and --maps would replace it; move it, choose another --out, "
-                  "or give --force");
-    paths.push_back(p);
+namespace {
+
+// The file names an aniso material at `path` gives in its map blocks (none, if there is no file
+// there, it is not a material, or aniso did not write it).
+std::vector<std::string> named_maps(const std::string& path) {
+  std::vector<std::string> named;
+  if (!std::filesystem::is_regular_file(path) || stamped_kind(path) != "material") return named;
+  try {
+    const jsonu::json j = jsonu::json::parse(read_text_file(path));
+    for (const char* block : {"maps", "maps_uncertainty", "topology"})
+      if (j.is_object() && j.contains(block) && j[block].is_object())
+        for (const auto& [key, v] : j[block].items())
+          if (v.is_string() && key != "map") named.push_back(v.get<std::string>());
+  } catch (const std::exception&) {
+    named.clear();
   }
-  return paths;
+  return named;
 }
+
+// Every string value in the material's map blocks that is a plain name of this generation,
+// renamed to the name it has beside the material.
+void rename_maps(const std::map<std::string, std::string>& names, jsonu::json* j) {
+  for (const char* block : {"maps", "maps_uncertainty", "topology"})
+    if (j->contains(block) && (*j)[block].is_object())
+      for (auto& [key, v] : (*j)[block].items())
+        if (v.is_string() && names.count(v.get<std::string>()))
+          v = names.at(v.get<std::string>());
+}
+
+}  // namespace
 
 namespace {
 
-// --maps: the maps as FORMAT.md "Material maps" beside the material file, and their keys in j.
-void add_maps(const std::string& path, const TexelMaps& t, jsonu::json* j) {
-  if (path == "-")
-    throw Error("fit: --maps writes map files beside the material: give --out a file");
-  const std::vector<std::string> f = map_files(path);  // checked by map_outputs
-  const std::string dir = parent_dir(path);
+// --maps: the maps (docs/formats.md "Material maps") of the material at `path`, written into
+// `dir` under their plain names, and those names in j (write_material renames both).
+void add_maps(const std::string& path, const std::string& dir, const TexelMaps& t,
+              jsonu::json* j) {
+  const std::vector<std::string> f = map_files(path);
   const size_t N = static_cast<size_t>(t.w) * t.h;
   // Each file as one job: compressing them (zlib) one after the other took ~2 s of one core for
   // a 1024^2 map, the whole run's serial tail. The files are independent: written in parallel.
@@ -231,6 +234,9 @@ jsonu::json report_json(const FitReport& p) {
                    {"parameters", p.parameters},
                    {"jacobian_evaluations", p.jacobian_evaluations}};
   if (!p.pass.empty()) j["pass"] = p.pass;
+  if (!p.capture_fingerprint.empty()) j["capture_fingerprint"] = p.capture_fingerprint;
+  if (!p.capture_layout.empty()) j["capture_layout"] = p.capture_layout;
+  if (!p.options_fingerprint.empty()) j["options_fingerprint"] = p.options_fingerprint;
   if (p.staged_stride > 1)
     j["staged"] = {{"every_kth_pixel", p.staged_stride}, {"iterations", p.staged_iterations}};
   if (!p.global_from.empty()) j["global_from"] = p.global_from;
@@ -248,14 +254,14 @@ jsonu::json report_json(const FitReport& p) {
   return j;
 }
 
-// What write_fit writes, maps aside.
-jsonu::json fit_json(const std::string& path, const FitResult& r) {
+// What write_fit writes, maps aside. A map of s (--topology-map) goes into *s_map (R = s, G = its
+// sigma, -1 where undetermined) under the name the material gives it; without s_map it is written
+// beside the material at once (a tile's).
+jsonu::json fit_json(const std::string& path, const FitResult& r, Image* s_map = nullptr) {
   jsonu::json j;
   Material m = r.material;
   std::string s_map_path;
   if (!r.s_texels.empty()) {
-    // The map of s beside the material file (a name map_files lists, checked by map_outputs): R =
-    // s, G = its sigma (-1 where undetermined).
     std::string stem = std::filesystem::path(path).stem().string();
     m.topology = SMapRef{stem + "_topology_s.exr"};
     s_map_path = join_path(parent_dir(path), stem + "_topology_s.exr");
@@ -292,9 +298,31 @@ jsonu::json fit_json(const std::string& path, const FitResult& r) {
       img.px[2 * i] = static_cast<float>(r.s_texels[i]);
       img.px[2 * i + 1] = static_cast<float>(r.s_texel_sigma[i]);
     }
-    write_exr(s_map_path, img);
+    if (s_map)
+      *s_map = std::move(img);
+    else
+      write_exr(s_map_path, img);
   }
   return j;
+}
+
+// Writes the material j at `path` with the map files `fill` writes (plain names, into the folder
+// it is given) as one output: the maps as a new generation beside it, then the material naming
+// them, then the generation the material there before named is removed (io/files.h).
+void write_material(const std::string& path, jsonu::json* j,
+                    const std::function<void(const std::string&)>& fill) {
+  if (path == "-")
+    throw Error("fit: --maps and --topology-map write map files beside the material: give --out "
+                "a file");
+  const std::vector<std::string> earlier = named_maps(path);
+  const auto names = write_generation(path, fill);
+  rename_maps(names, j);
+  write_json_file(path, *j);
+  std::vector<std::string> now;
+  for (const auto& [plain, name] : names) now.push_back(name);
+  // What the material there names now (a concurrent run's) is kept as well.
+  for (const auto& n : named_maps(path)) now.push_back(n);
+  remove_generation(path, earlier, now);
 }
 
 }  // namespace
@@ -322,6 +350,8 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
     const double limit = rep.value("implausible_limit", 0.0);
     if (std::isfinite(limit) && limit > 0) g.implausible_limit = limit;
     g.rms = rep.value("residual_rms", 0.0);
+    if (rep.contains("capture_layout") && rep["capture_layout"].is_string())
+      g.capture_layout = rep["capture_layout"].get<std::string>();
     for (const auto& w : rep.value("warnings", jsonu::json::array()))
       if (w.is_string()) g.warnings.push_back(w);
   }
@@ -340,9 +370,13 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
 }
 
 void write_fit(const std::string& path, const FitResult& r) {
-  jsonu::json j = fit_json(path, r);
+  if (r.maps.w == 0 && r.s_texels.empty()) {
+    write_json_file(path, fit_json(path, r));
+    return;
+  }
+  Image s_map;
+  jsonu::json j = fit_json(path, r, &s_map);
   if (r.maps.w > 0) {
-    add_maps(path, r.maps, &j);
     j["report"]["time_breakdown_s"]["texels"] = r.maps.seconds;  // the maps' own phase
     j["report"]["maps_threads"] = r.maps.threads;
     j["report"]["maps_float_lanes"] = r.maps.lanes;
@@ -350,7 +384,12 @@ void write_fit(const std::string& path, const FitResult& r) {
     if (r.report.fiber_order > 0)
       j["report"]["maps_quadrature_orders"] = orders_json(r.maps.texels_by_order);
   }
-  write_json_file(path, j);
+  write_material(path, &j, [&](const std::string& dir) {
+    if (!r.s_texels.empty())
+      write_exr(join_path(dir, std::filesystem::path(path).stem().string() + "_topology_s.exr"),
+                s_map);
+    if (r.maps.w > 0) add_maps(path, dir, r.maps, &j);
+  });
 }
 
 void write_maps_tile(const std::string& path, const FitResult& r, const FitOptions& opt) {
@@ -395,8 +434,19 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
   // report held tile 0's alone.
   std::vector<double> tile_time;
   jsonu::json phases = jsonu::json::object();
+  // A grid is allocated from the first tile's header: the tiles' bytes bound it (a JSON value
+  // takes at least 2 bytes, and a texel has at least 5 values), so a damaged or forged tile
+  // cannot make the merge allocate past what it was given.
+  uintmax_t tile_bytes = 0;
+  for (const auto& path : tiles) {
+    std::error_code ec;
+    const uintmax_t b = std::filesystem::file_size(path, ec);
+    if (!ec) tile_bytes += b;
+  }
+  std::string capture_fp, options_fp;
+  constexpr size_t kMaxTileBytes = size_t(1) << 36;  // 64 GiB: the merge holds one tile at once
   for (const auto& path : tiles) try {
-      const jsonu::json j = jsonu::parse_file(read_text_file(path), path);
+      const jsonu::json j = jsonu::parse_file(read_text_file(path, kMaxTileBytes), path);
       const jsonu::Ctx c{path, ""};
       if (!j.is_object() || j.value("format", "") != "aniso-maps-tile")
         c.fail(
@@ -406,6 +456,29 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       const int r0 = j.at("rows").at(0), r1 = j.at("rows").at(1);
       if (n < 1 || n > 100000 || w < 1 || h < 1 || w > 16384 || h > 16384)
         c.fail("tile count or grid size out of range");
+      if (n > h)
+        c.at("tile").fail("a grid of " + std::to_string(h) + " texel rows is cut into at most " +
+                          std::to_string(h) + " tiles, not " + std::to_string(n));
+      if (!j.contains("values") || !j["values"].is_object())
+        c.at("values").fail("missing: not a whole tile");
+      if (!j.contains("fit") || !j["fit"].is_object()) c.at("fit").fail("missing: not a whole tile");
+      if (count < 0 && static_cast<uintmax_t>(w) * h * 10 > tile_bytes)
+        c.at("texels").fail("declares a " + std::to_string(w) + "x" + std::to_string(h) +
+                            " grid, more than the " + std::to_string(tiles.size()) +
+                            " tiles' " + std::to_string(tile_bytes) +
+                            " bytes can hold (a damaged tile, or tiles missing)");
+      const jsonu::json& rep0 = j["fit"].value("report", jsonu::json::object());
+      const std::string cfp = rep0.value("capture_fingerprint", "");
+      const std::string ofp = rep0.value("options_fingerprint", "");
+      if (count < 0) {
+        capture_fp = cfp, options_fp = ofp;
+      } else {
+        if (cfp != capture_fp)
+          c.fail("was fitted to another capture than " + tiles[0] +
+                 " (report.capture_fingerprint " + (cfp.empty() ? "absent" : cfp) + " vs " +
+                 (capture_fp.empty() ? "absent" : capture_fp) +
+                 "): tiles of one merge come from one capture");
+      }
       const double smooth = j.value("smooth", jsonu::json::array({0.0, 0})).at(0);
       const int sweeps = j.value("smooth", jsonu::json::array({0.0, 0})).at(1);
       if (count < 0) {
@@ -427,8 +500,11 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
                tiles[0]);
       if (smooth != m.smooth || sweeps != m.sweeps)
         c.at("smooth").fail("tiles of one merge must share --smooth and --smooth-sweeps");
+      if (ofp != options_fp)
+        c.fail("was fitted with other options than " + tiles[0] +
+               " (report.options_fingerprint): tiles of one merge share every option but --tile");
       for (const char* k : {"kd", "ks", "n", "fiber_angle_deg", "model"})
-        if (j["fit"][k] != fit[k])
+        if (j["fit"].value(k, jsonu::json()) != fit.value(k, jsonu::json()))
           c.fail("its global fit differs from " + tiles[0] + " (\"" + k +
                  "\"): tiles of one merge must come from the same capture and options");
       if (i < 0 || i >= n || seen[i]++) c.at("tile").fail("tile index repeated or out of range");
@@ -450,13 +526,13 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       if (px.size() != b - a || det.size() != b - a) c.at("values").fail("wrong length");
       std::copy(px.begin(), px.end(), m.pixels.begin() + a);
       std::copy(det.begin(), det.end(), m.determined.begin() + a);
-      m.fitted += j["fitted"].get<size_t>();
+      m.fitted += j.at("fitted").get<size_t>();
       m.not_converged += j.value("not_converged", size_t(0));  // absent in older tiles
       m.sum_sq += j.value("sum_sq", 0.0);                      // (so too these three)
       m.values += j.value("residual_values", 0.0);
       add_orders(j.value("quadrature_orders", jsonu::json::object()), &m.texels_by_order);
       iterations = j.value("maps_iterations", 0);
-      const jsonu::json& tr = j["fit"]["report"];
+      const jsonu::json tr = j["fit"].value("report", jsonu::json::object());
       noise.push_back(tr.value("pixel_noise", 0.0));
       if (tile_time.empty()) tile_time.assign(n, 0.0);
       tile_time[i] = tr.value("time_s", 0.0);
@@ -507,8 +583,7 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
     fit["topology"]["map"] =
         relative_to(join_path(parent_dir(tiles[0]), fit["topology"]["map"].get<std::string>()),
                     parent_dir(out));
-  add_maps(out, m, &fit);
-  write_json_file(out, fit);
+  write_material(out, &fit, [&](const std::string& dir) { add_maps(out, dir, m, &fit); });
 }
 
 }  // namespace aniso

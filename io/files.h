@@ -1,18 +1,27 @@
-// Files and folders the tool writes, and the rules that keep a person's files safe (issue 8):
+// Files and folders the tool writes, and the rules that keep a person's files safe
+// (README "Your files are safe"; tests/test_files.cpp):
 //
+//  - Every output has a kind (OutputKind). A folder output records its kind and every file it
+//    wrote (path, size, modification time) in its marker file; a file output carries its kind in
+//    a stamp inside the file ("aniso KIND": a JSON key, a PNG text chunk, an EXR attribute, a
+//    JPEG comment). An output replaces only an earlier output of its own kind that still holds
+//    exactly what aniso wrote; anything else is refused, naming the file, before the work starts.
+//  - `force`: what would be refused is moved aside (NAME.aniso-old-N), never deleted; the files an
+//    earlier output of the same kind wrote, unchanged, are replaced.
 //  - A file output is written to a temporary sibling and renamed over the target in one step, so
 //    a failed or killed run leaves the previous file as it was. A replaced file keeps its mode
 //    (and its owner where the process may set it). Every write is checked.
 //  - "-" means standard output. A target that exists and is not a regular file (a device, a FIFO,
 //    the pipe behind /dev/stdout) is written in place, never renamed over. A folder is refused.
 //  - A folder output is written beside the target and swapped in with one atomic exchange
-//    (renameat2 RENAME_EXCHANGE). It is written only if it does not exist, is empty, or holds the
-//    marker file of an earlier aniso output; anything else is refused unless `force` is set.
-//  - Temporary files and folders of killed runs (named after their dead process) are removed by
-//    the next run that writes the same target.
+//    (renameat2 RENAME_EXCHANGE); the earlier output's recorded files are then removed, and
+//    anything else found in it is moved aside, never deleted.
+//  - Temporaries of killed runs (named after their dead process) are cleaned by the next run that
+//    writes the same target, by the same rule: aniso's own files go, anything else is moved aside.
 //  - An output never replaces an input of the same command (check_outputs_apart).
 #pragma once
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -21,10 +30,43 @@ namespace aniso {
 // The marker file inside every folder this tool writes.
 inline constexpr const char* kOutputMarker = ".aniso-output";
 
-// Process-wide: may a folder output replace a folder holding files aniso did not write? Set
-// once by the CLI from `--force`; off by default.
+// What an output is. Its name ("bake", "material", ...) is what the marker and the stamps record.
+enum class OutputKind {
+  kCapture,          // synth
+  kImportedCapture,  // import
+  kPhotoShoot,       // synth --photos
+  kBake,
+  kExport,
+  kResiduals,  // verify --residuals
+  kBenchWork,  // bench --work: the bench's own folder, whose content changes run to run
+  kMaterial,   // fit, merge
+  kMapsTile,   // fit --tile
+  kTable,      // eval: a CSV carries no stamp, so an existing one is replaced only with force
+  kShoot,      // board --shoot: a skeleton a person fills in, so never replaced without force
+  kPreview,    // preview --out
+  kBoard,      // board --out
+  kScreenshot, // view --screenshot
+  kBenchResult,
+  kText,       // anything else a person names (reports, sweeps)
+};
+const char* kind_name(OutputKind kind);
+// Whether a file of this kind carries a stamp (a table and a shoot do not: never replaced).
+bool stamped(OutputKind kind);
+
+// Process-wide: may an output move aside what it would otherwise refuse to replace? Set once by
+// the CLI from `--force`; off by default.
 void set_force_overwrite(bool force);
 bool force_overwrite();
+
+// The text a file output of this path carries as its stamp: "aniso KIND" where the path was
+// claimed by check_output_file, "aniso" otherwise (files inside a folder output).
+std::string output_stamp(const std::string& path);
+// The same, empty for a path not claimed or of a kind that carries none (a JSON output's
+// "written_by" key).
+std::string json_stamp(const std::string& path);
+// The kind an existing file's stamp names ("material", "preview", ...; "" for a file that
+// carries no aniso stamp, or "aniso" for one with the stamp but no kind).
+std::string stamped_kind(const std::string& path);
 
 // Calls write(tmp) and moves the result to `path` (see the rules above); removes tmp and
 // rethrows if write throws. `write` must write a file at exactly the path it is given.
@@ -47,15 +89,50 @@ std::string read_text_file(const std::string& path, size_t max_bytes = size_t(25
 // after file touches no fresh pages).
 void read_file_into(const std::string& path, size_t max_bytes, std::string* out);
 
-// Throws unless `dir` may be (re)written by a folder output: it does not exist, is an empty
-// folder, or holds kOutputMarker; with force_overwrite() any folder. Call it before a long run.
-void check_output_folder(const std::string& dir);
+// Throws unless `dir` may be (re)written by a folder output of `kind`: it does not exist, is an
+// empty folder, or is an earlier output of that kind holding exactly the files it recorded. With
+// force_overwrite() anything passes (it is moved aside). Also throws when the folder could not
+// be created or written. Call it before a long run.
+void check_output_folder(const std::string& dir, OutputKind kind);
 
-// Writes a whole folder: fill(tmp_dir), then the marker, then one atomic swap into place. While
-// fill runs, files written under tmp_dir go straight to their names (the folder is private and
-// is discarded whole if fill fails): no per-file temporary and rename.
-void write_folder_atomically(const std::string& dir,
+// Writes a whole folder: fill(tmp_dir), then the marker (kind and files), then one atomic swap
+// into place. While fill runs, files written under tmp_dir go straight to their names (the folder
+// is private and is discarded whole if fill fails): no per-file temporary and rename.
+void write_folder_atomically(const std::string& dir, OutputKind kind,
                              const std::function<void(const std::string&)>& fill);
+
+// Writes `dir`'s marker: an output of `kind` holding the files there now.
+void mark_folder(const std::string& dir, OutputKind kind);
+
+// Throws unless `path` may be written as a file output of `kind`: it does not exist, is "-" or a
+// device or FIFO, or is a file whose stamp names the same kind; with force_overwrite() any file
+// (moved aside when written). Also throws when its folder could not be created or written. Claims
+// the path: its stamp and the same check at the moment it is replaced follow from here. Call it
+// before a long run.
+void check_output_file(const std::string& path, OutputKind kind);
+
+// The files that belong with one output file `owner` (a material's maps), written as one
+// generation: fill(dir) writes them under plain names ("m_kd.exr") into a private folder beside
+// `owner`; each then moves beside `owner` as STEM.GEN.EXT ("m_kd.1f3a9c07.exr"), GEN the first 8
+// hex digits of a hash of all their bytes (the same bytes give the same names), never replacing
+// a file. Returns plain name -> the name it has beside `owner`. Write `owner` naming them after
+// this, and remove the earlier generation (remove_generation) last: whatever kills or fills the
+// run, the owner read back names files of one run.
+std::map<std::string, std::string> write_generation(
+    const std::string& owner, const std::function<void(const std::string&)>& fill);
+// 16 hex digits that tell one set of input files from another: each file's name relative to
+// `base`, its size, and its first and last 64 KiB (copies of a capture elsewhere agree).
+std::string files_fingerprint(const std::vector<std::string>& files, const std::string& base);
+// 16 hex digits of a hash of `text`.
+std::string text_fingerprint(const std::string& text);
+
+// Whether `name` has the form write_generation gives (STEM.GEN.EXT, GEN 8 hex digits).
+bool is_generation_name(const std::string& name);
+// Removes the files `names` (relative to `owner`'s folder) of an earlier generation that `keep`
+// does not hold: only names of write_generation's form, and only EXR files whose stamp says
+// aniso wrote them.
+void remove_generation(const std::string& owner, const std::vector<std::string>& names,
+                       const std::vector<std::string>& keep);
 
 // Throws if an output (a file, or a folder that would be replaced) is, or contains, one of the
 // inputs: "OUT: is an input of this command (IN); choose another --out".

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "io/files.h"
 
 namespace aniso {
 
@@ -176,6 +177,14 @@ std::string png_bytes(const std::string& path, const unsigned char* data, int w,
     const auto ppm = static_cast<png_uint_32>(std::lround(dpi / 0.0254));
     png_set_pHYs(wr->png, wr->info, ppm, ppm, PNG_RESOLUTION_METER);
   }
+  // Who wrote it (io/files.h: an output replaces only its own kind).
+  std::string software = output_stamp(path);
+  png_text text{};
+  text.compression = PNG_TEXT_COMPRESSION_NONE;
+  text.key = const_cast<char*>("Software");
+  text.text = software.data();
+  text.text_length = software.size();
+  png_set_text(wr->png, wr->info, &text, 1);
   png_write_info(wr->png, wr->info);
   png_write_image(wr->png, wr->rows.data());
   png_write_end(wr->png, nullptr);
@@ -232,6 +241,14 @@ struct JpegError {
   std::longjmp(e->jump, 1);
 }
 
+// libjpeg's warnings (a truncated or corrupt file, which it decodes on with grey) are kept, not
+// printed: the reader refuses such a file, naming it.
+void jpeg_keep_warning(j_common_ptr cinfo, int level) {
+  if (level >= 0) return;  // trace messages
+  auto* e = reinterpret_cast<JpegError*>(cinfo->err);
+  if (e->mgr.num_warnings++ == 0) (*cinfo->err->format_message)(cinfo, e->text);
+}
+
 struct JpegRead {
   jpeg_decompress_struct cinfo;
   JpegError err;
@@ -250,6 +267,7 @@ LoadedImage decode_jpeg(const std::string& path, const SizeCheck& check) {
   const auto r = std::make_unique<JpegRead>();
   r->cinfo.err = jpeg_std_error(&r->err.mgr);
   r->err.mgr.error_exit = jpeg_error_to_jump;
+  r->err.mgr.emit_message = jpeg_keep_warning;
   if (setjmp(r->err.jump)) throw Error(path + ": cannot decode JPEG: " + r->err.text);
   jpeg_create_decompress(&r->cinfo);
   r->created = true;
@@ -272,7 +290,60 @@ LoadedImage decode_jpeg(const std::string& path, const SizeCheck& check) {
     put_row(r->row.data(), w, channels, 1.0 / 255, y, &r->out.image);
   }
   jpeg_finish_decompress(&r->cinfo);
+  if (r->err.mgr.num_warnings > 0)
+    throw Error(path + ": damaged JPEG (" + r->err.text +
+                "): libjpeg would fill the missing part with grey; copy or export the photo again");
   return std::move(r->out);
+}
+
+namespace {
+struct JpegWrite {
+  jpeg_compress_struct cinfo;
+  JpegError err;
+  unsigned char* mem = nullptr;
+  unsigned long size = 0;
+  bool created = false;
+  ~JpegWrite() {
+    if (created) jpeg_destroy_compress(&cinfo);
+    std::free(mem);
+  }
+};
+}  // namespace
+
+std::string encode_jpeg(const std::string& path, const Image& srgb, int quality) {
+  const int c = srgb.channels >= 3 ? 3 : 1;
+  std::vector<unsigned char> row(static_cast<size_t>(srgb.width) * c);
+  const auto w = std::make_unique<JpegWrite>();
+  w->cinfo.err = jpeg_std_error(&w->err.mgr);
+  w->err.mgr.error_exit = jpeg_error_to_jump;
+  if (setjmp(w->err.jump)) throw Error(path + ": cannot encode JPEG: " + w->err.text);
+  jpeg_create_compress(&w->cinfo);
+  w->created = true;
+  jpeg_mem_dest(&w->cinfo, &w->mem, &w->size);
+  w->cinfo.image_width = static_cast<JDIMENSION>(srgb.width);
+  w->cinfo.image_height = static_cast<JDIMENSION>(srgb.height);
+  w->cinfo.input_components = c;
+  w->cinfo.in_color_space = c == 3 ? JCS_RGB : JCS_GRAYSCALE;
+  jpeg_set_defaults(&w->cinfo);
+  jpeg_set_quality(&w->cinfo, quality, TRUE);
+  jpeg_start_compress(&w->cinfo, TRUE);
+  const std::string stamp = output_stamp(path);  // who wrote it, as a comment segment
+  jpeg_write_marker(&w->cinfo, JPEG_COM, reinterpret_cast<const JOCTET*>(stamp.data()),
+                    static_cast<unsigned>(stamp.size()));
+  while (w->cinfo.next_scanline < w->cinfo.image_height) {
+    const int y = static_cast<int>(w->cinfo.next_scanline);
+    for (int x = 0; x < srgb.width; ++x)
+      for (int k = 0; k < c; ++k) {
+        const float v = srgb.at(x, y, k);
+        if (!std::isfinite(v)) throw Error(path + ": refusing to write a non-finite value");
+        row[static_cast<size_t>(x) * c + k] = static_cast<unsigned char>(
+            std::lround(std::clamp(static_cast<double>(v), 0.0, 1.0) * 255.0));
+      }
+    JSAMPROW p = row.data();
+    jpeg_write_scanlines(&w->cinfo, &p, 1);
+  }
+  jpeg_finish_compress(&w->cinfo);
+  return std::string(reinterpret_cast<const char*>(w->mem), w->size);
 }
 
 // ---- TIFF --------------------------------------------------------------------------------------

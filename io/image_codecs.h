@@ -27,6 +27,8 @@ LoadedImage decode_tiff(const std::string& path, const SizeCheck& check);
 // PNG file bytes of values in [0, 1] (8 or 16 bit; 1 or 3 channels), with a pHYs chunk when
 // dpi > 0. `path` names the file in messages.
 std::string encode_png(const std::string& path, const Image& img, int bits, double dpi);
+// Baseline JPEG bytes of an image already in sRGB (values 0..1), at `quality` (1-100).
+std::string encode_jpeg(const std::string& path, const Image& srgb, int quality);
 // An 8-bit grey PNG of a mask: 255 where `on` is non-zero, else 0 (w x h entries, row by row).
 std::string encode_mask_png(const std::string& path, const std::vector<uint8_t>& on, int w, int h);
 

@@ -40,7 +40,9 @@ void set_exr_compression(const std::string& name);
 // The bytes of an uncompressed float EXR (scanline, channels R[,G[,B]]), written by hand: what
 // write_exr writes with compression "none". Handed to `sink` in pieces of at most ~64 KiB
 // after the header (a reused buffer: no fresh pages for a copy of the file).
-void encode_exr_uncompressed(const Image& img, const ByteSink& sink);
+// `software`: the header's "software" attribute (who wrote the file: io/files.h output_stamp).
+void encode_exr_uncompressed(const Image& img, const ByteSink& sink,
+                             const std::string& software = "aniso");
 
 // Decodes the bytes of an uncompressed single-part scanline EXR whose channels are all 32-bit
 // float into *out (channels as read_image gives them; out's allocation, if any, is reused); false
@@ -89,6 +91,8 @@ void write_png(const std::string& path, const Image& img, int bits, double dpi);
 
 // An 8-bit grey PNG mask: 255 where `on` is non-zero, else 0 (w x h, row by row). Unfiltered,
 // run-length deflated (libpng's adaptive filters buy a mask nothing and cost most of its time).
+// An 8-bit baseline JPEG of an image already in sRGB (values 0..1).
+void write_jpeg(const std::string& path, const Image& srgb, int quality = 92);
 void write_mask_png(const std::string& path, const std::vector<uint8_t>& on, int w, int h);
 
 // Linear radiance times `exposure`, clamped to [0, 1] and sRGB-encoded (for 8-bit previews).

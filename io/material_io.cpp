@@ -198,7 +198,7 @@ Material material_from_json(const json& j, const std::string& file) {
   jsonu::check_keys(j,
                     {"format", "version", "model", "kd", "ks", "n", "fiber_angle_deg", "ka",
                      "isotropic", "second_fiber", "topology", "uncertainty", "fixed",
-                     "undetermined", "report", "maps", "maps_uncertainty"},
+                     "undetermined", "report", "maps", "maps_uncertainty", "written_by"},
                     root);
   Material m;
   const std::string model = jsonu::str_or(j, "model", "line", root);
@@ -297,7 +297,11 @@ void material_to_json(const Material& m, json* out) {
 
 void write_json_file(const std::string& path, const json& j) {
   if (!finite_json(j)) throw Error(path + ": refusing to write a non-finite number");
-  write_text_file(path, j.dump(2) + "\n");
+  const std::string stamp = json_stamp(path);  // who wrote it (io/files.h)
+  std::string text = j.dump(2, ' ', false, json::error_handler_t::replace);
+  if (!stamp.empty() && j.is_object() && !j.empty() && !j.contains("written_by"))
+    text.insert(text.size() - 2, ",\n  \"written_by\": " + json(stamp).dump());  // the last key
+  write_text_file(path, text + "\n");
 }
 
 }  // namespace aniso

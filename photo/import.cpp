@@ -451,7 +451,7 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
                 " in the first); nothing written");
 
   const auto tw = Clock::now();
-  write_folder_atomically(out_dir, [&](const std::string& dir) {
+  write_folder_atomically(out_dir, OutputKind::kImportedCapture, [&](const std::string& dir) {
     Progress bar("import: writing views", s.photos.size(), o.progress);
     std::vector<ViewSpec> views(s.photos.size());
     tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {

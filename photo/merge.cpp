@@ -34,6 +34,14 @@ std::vector<Shot> read_bracket(const Shoot& s, size_t i, std::vector<RawInfo>* r
       raw_info->push_back(info);
     } else {
       shots.push_back({read_image(path), im.exposure, path});
+      if (!shots.back().li.bits) {
+        size_t bad = 0;
+        for (const float v : shots.back().li.image.px) bad += !std::isfinite(v);
+        if (bad > 0)
+          throw Error(path + ": " + std::to_string(bad) +
+                      " values are NaN or infinite; a float photo holds finite radiance (fix or "
+                      "export it again)");
+      }
     }
     const Shot& first = shots.front();
     const Shot& last = shots.back();

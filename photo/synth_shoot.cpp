@@ -288,7 +288,7 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
   for (int i = 0; i < o.photos; ++i) setups.push_back(photo_setup(o, i, centre, rng));
 
   PhotoShootStats st;
-  write_folder_atomically(out_dir, [&](const std::string& dir) {
+  write_folder_atomically(out_dir, OutputKind::kPhotoShoot, [&](const std::string& dir) {
     Progress bar("synth --photos: rendering", setups.size(), o.progress);
     nlohmann::json poses = nlohmann::json::array();
     for (int i = 0; i < o.photos; ++i) {

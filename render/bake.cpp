@@ -282,7 +282,7 @@ void write_bake(const std::string& dir, const Material& m, const BakeTables& t,
                 const std::string& command, const FiberBakeTables* fiber,
                 const SpecularStack* stack) {
   using jsonu::json;
-  write_folder_atomically(dir, [&](const std::string& tmp) {
+  write_folder_atomically(dir, OutputKind::kBake, [&](const std::string& tmp) {
     json files = json::object();
     auto emit = [&](const std::string& stem, const Image& img) {
       double maxv = 0;

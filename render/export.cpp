@@ -367,16 +367,9 @@ json measured_errors(const ExportSummary& s) {
   return e;
 }
 
-// An export goes only where nothing but an earlier export is (beyond the general output rules).
+// An export goes only where nothing but an earlier export is (io/files.h).
 void check_export_folder(const std::string& dir) {
-  namespace fs = std::filesystem;
-  check_output_folder(dir);
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec) || fs::is_empty(dir, ec)) return;
-  if (!fs::exists(fs::path(dir) / "export.json") && !force_overwrite())
-    throw Error(dir +
-                ": not empty and not an earlier aniso export (no export.json): choose a new "
-                "folder");
+  check_output_folder(dir, OutputKind::kExport);
 }
 
 }  // namespace
@@ -430,7 +423,7 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
   check_export_folder(dir);
   ExportSummary sum;
   sum.pbr = fit_gltf_pbr(m);
-  write_folder_atomically(dir, [&](const std::string& tmp) {
+  write_folder_atomically(dir, OutputKind::kExport, [&](const std::string& tmp) {
     json tables = write_tables(tmp, m, o, &sum);
     const json maps = write_maps(tmp, m, o, &sum, &tables);
     const ExportShaders sh =

@@ -128,7 +128,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     res.overall.max_abs = std::max(res.overall.max_abs, e.max_abs);
   }
   if (keep_residuals)  // one folder output, swapped in whole (io/files.h)
-    write_folder_atomically(residual_dir, [&](const std::string& dir) {
+    write_folder_atomically(residual_dir, OutputKind::kResiduals, [&](const std::string& dir) {
       for (size_t i = 0; i < resids.size(); ++i) {
         char name[48];
         std::snprintf(name, sizeof name, "residual_%03zu.exr", i);

@@ -481,7 +481,7 @@ TEST(FitFiber, PerTexelTopologyMap) {
   EXPECT_LT(e.kd_rel, 0.01);
   EXPECT_LT(e.n_rel, 0.02);
   write_fit(dir + "/out/m.json", r);
-  EXPECT_TRUE(std::filesystem::exists(dir + "/out/m_topology_s.exr"));
+  EXPECT_TRUE(std::filesystem::exists(test::map_of(dir + "/out/m", "topology_s")));
   const Material back = read_material(dir + "/out/m.json");
   EXPECT_NE(back.topology_as<SMapRef>(), nullptr);
   // Asked of a set without uv or with a topology map: a clear error.

@@ -680,7 +680,7 @@ TEST(Files, AFolderIsFilledInPlaceAndPublishedWhole) {
   namespace fs = std::filesystem;
   const std::string out = test::tmp_dir("staging") + "/set";
   const std::vector<uint8_t> on = {0, 1, 1, 0, 1, 0};
-  write_folder_atomically(out, [&](const std::string& tmp) {
+  write_folder_atomically(out, OutputKind::kBake, [&](const std::string& tmp) {
     write_text_file(tmp + "/a/b.txt", "first");
     write_mask_png(tmp + "/a/mask.png", on, 3, 2);
     EXPECT_FALSE(fs::exists(out));
@@ -692,7 +692,7 @@ TEST(Files, AFolderIsFilledInPlaceAndPublishedWhole) {
   const LoadedImage m = read_image(out + "/a/mask.png");
   ASSERT_EQ(m.image.px.size(), on.size());
   for (size_t i = 0; i < on.size(); ++i) EXPECT_EQ(m.image.px[i], on[i] ? 1.f : 0.f);
-  EXPECT_THROW(write_folder_atomically(out,
+  EXPECT_THROW(write_folder_atomically(out, OutputKind::kBake,
                                        [&](const std::string& tmp) {
                                          write_text_file(tmp + "/a/b.txt", "second");
                                          throw Error("stopped part way");

@@ -264,8 +264,8 @@ TEST(FitMaps, FiberTexelsWhereTheFibersClimbFindTheirOwnValley) {
   const std::string out =
       synth_and_fit(dir, "satin-sphere-fiber --rig orbit --views 8 --size 128x128 --noise 0.01",
                     "--model fiber --maps 16x16", dir + "/m.json");
-  const Image det = read_image(dir + "/m_determined.exr").image;
-  const Image fib = read_image(dir + "/m_fiber.exr").image;
+  const Image det = read_image(test::map_of(dir + "/m", "determined")).image;
+  const Image fib = read_image(test::map_of(dir + "/m", "fiber")).image;
   size_t determined = 0, off10 = 0, within1 = 0;
   double worst = 0;
   for (int y = 0; y < 16; ++y)
@@ -327,11 +327,14 @@ TEST(FitMaps, FiberTexelsTakeTheQuadratureOrderTheirValuesAllow) {
                     " --out " + dir + "/all.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_FALSE(report(dir + "/all.json").contains("fiber_order_errors"));
-  auto img = [&](const std::string& name) { return read_image(dir + "/" + name + ".exr").image; };
-  const Image det = img("rule_determined"), det_all = img("all_determined");
-  const Image kd = img("rule_kd"), kd_all = img("all_kd"), kd_sigma = img("all_kd_sigma");
-  const Image fib = img("rule_fiber"), fib_all = img("all_fiber"),
-              fib_sigma = img("all_fiber_sigma");
+  auto img = [&](const std::string& run, const std::string& key) {
+    return read_image(test::map_of(dir + "/" + run, key)).image;
+  };
+  const Image det = img("rule", "determined"), det_all = img("all", "determined");
+  const Image kd = img("rule", "kd"), kd_all = img("all", "kd"),
+              kd_sigma = img("all", "kd_sigma");
+  const Image fib = img("rule", "fiber"), fib_all = img("all", "fiber"),
+              fib_sigma = img("all", "fiber_sigma");
   std::vector<double> z;
   size_t both = 0;
   for (int y = 0; y < 16; ++y)
@@ -447,8 +450,8 @@ TEST(FitMaps, SmoothingBringsNoisyTexelsCloserToTheTruth) {
   r = test::run_cli("merge" + tiles + " --out " + dir + "/merged.json");
   ASSERT_EQ(r.status, 0) << r.output;
   for (const char* k : {"kd", "ks", "n", "fiber", "fiber_sigma", "determined"})
-    EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
-                read_text_file(dir + "/merged_" + k + ".exr"))
+    EXPECT_TRUE(read_text_file(test::map_of(dir + "/whole", k)) ==
+                read_text_file(test::map_of(dir + "/merged", k)))
         << k << ": the merged smoothed map differs from the untiled one";
   // --exr-compression zip (fit and merge alike): other bytes than the default's (none), the same
   // values.
@@ -458,9 +461,9 @@ TEST(FitMaps, SmoothingBringsNoisyTexelsCloserToTheTruth) {
   r = test::run_cli("merge" + tiles + " --exr-compression zip --out " + dir + "/zipmerged.json");
   ASSERT_EQ(r.status, 0) << r.output;
   for (const char* k : {"kd", "fiber_sigma"}) {
-    const std::string plain = dir + "/whole_" + k + ".exr", zip = dir + "/zip_" + k + ".exr";
+    const std::string plain = test::map_of(dir + "/whole", k), zip = test::map_of(dir + "/zip", k);
     EXPECT_NE(read_text_file(plain), read_text_file(zip)) << k;
-    EXPECT_EQ(read_text_file(zip), read_text_file(dir + "/zipmerged_" + k + ".exr")) << k;
+    EXPECT_EQ(read_text_file(zip), read_text_file(test::map_of(dir + "/zipmerged", k))) << k;
     EXPECT_EQ(read_image(plain).image.px, read_image(zip).image.px) << k;
   }
   r = test::run_cli("fit " + dir + "/set --maps 8x6 --tile 0/3 --out " + dir + "/plain0.json");
@@ -509,7 +512,7 @@ double worst_lm_against_ceres(const std::string& dir, const std::string& options
                 r.output.substr(r.output.find("fit: --maps")).substr(0, 100).c_str());
   }
   auto img = [&](const std::string& solver, const char* key) {
-    return read_image(dir + "/" + solver + "_" + key + ".exr").image;
+    return read_image(test::map_of(dir + "/" + solver, key)).image;
   };
   const Image det = img("ceres", "determined");
   double worst = 0;
@@ -612,7 +615,7 @@ TEST(FitMaps, FiberModelMapsFitTheTopologyMapAmplitudePerTexel) {
   // spread, by both solvers.
   for (const std::string solver : {"lm", "ceres"}) {
     auto map = [&](const char* key) {
-      return read_image(dir + "/" + solver + "_" + key + ".exr").image;
+      return read_image(test::map_of(dir + "/" + solver, key)).image;
     };
     const Image n = map("n"), n_sigma = map("n_sigma"), ks = map("ks"), det = map("determined");
     const double global_n =
@@ -659,8 +662,8 @@ TEST(FitMaps, FiberModelMapsFitTheTopologyMapAmplitudePerTexel) {
   r = test::run_cli("merge " + dir + "/tile0.json " + dir + "/tile1.json --out " + dir +
                     "/merged/lm.json");
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_TRUE(read_text_file(dir + "/lm_amplitude.exr") ==
-              read_text_file(dir + "/merged/lm_amplitude.exr"));
+  EXPECT_TRUE(read_text_file(test::map_of(dir + "/lm", "amplitude")) ==
+              read_text_file(test::map_of(dir + "/merged/lm", "amplitude")));
   EXPECT_NE(read_material(dir + "/merged/lm.json").topology_as<TopologyMapRef>(), nullptr);
   // A map of the amplitude without a topology map to apply it to is refused, naming the key.
   nlohmann::json bad = j;
@@ -680,44 +683,95 @@ TEST(FitMaps, FiberModelMapsFitTheTopologyMapAmplitudePerTexel) {
 namespace aniso {
 namespace {
 
-// The map files go beside --out under names the user did not give (m_kd.exr, ...): a file already
-// there that no earlier material at --out names is a person's, and the run refuses before any
-// work, naming it, and leaves it and --out as they were; its own maps of an earlier run it
-// replaces; --force replaces anything. The same for merge.
+// The map files go beside --out under names the user did not give: each run writes its maps as
+// one generation (m_kd.GEN.exr, ...) that never replaces a file, then the material naming them,
+// then removes the generation the earlier material named. A person's m_kd.exr is never touched;
+// a material of the person's own at --out is refused (not aniso's), its files kept.
 TEST(FitMaps, MapsBesideTheMaterialNeverReplaceAPersonsFile) {
   const std::string dir = test::tmp_dir("maps_files");
   auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 32x32 --views 4");
   ASSERT_EQ(r.status, 0) << r.output;
   write_text_file(dir + "/m_kd.exr", "my notes");
   r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/m.json");
-  EXPECT_EQ(r.status, 1) << r.output;
-  EXPECT_NE(r.output.find("m_kd.exr: exists"), std::string::npos) << r.output;
-  EXPECT_EQ(read_text_file(dir + "/m_kd.exr"), "my notes");
-  EXPECT_FALSE(std::filesystem::exists(dir + "/m.json"));
-  EXPECT_FALSE(std::filesystem::exists(dir + "/m_ks.exr"));
-  // A material of the person's own at --out names nothing: still refused.
-  write_text_file(dir + "/m.json", "{\"maps\": {\"kd\": \"other.exr\"}}");
-  r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/m.json");
-  EXPECT_EQ(r.status, 1) << r.output;
-  EXPECT_EQ(read_text_file(dir + "/m_kd.exr"), "my notes");
-  r = test::run_cli("merge " + dir + "/none.json --out " + dir + "/m.json");
-  EXPECT_EQ(r.status, 1) << r.output;
-  EXPECT_NE(r.output.find("m_kd.exr: exists"), std::string::npos) << r.output;
-  // --force: replaced.
-  r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/m.json --force");
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_EQ(read_image(dir + "/m_kd.exr").image.width, 4);
-  // Its own maps of that run, named by the m.json it wrote: replaced without --force.
-  r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/m.json");
-  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(read_text_file(dir + "/m_kd.exr"), "my notes");
+  const std::string first = test::map_of(dir + "/m", "kd");
+  EXPECT_TRUE(is_generation_name(std::filesystem::path(first).filename().string())) << first;
+  EXPECT_EQ(read_image(first).image.width, 4);
+  // Again with another grid: the new generation in, the old one out, the person's file kept.
+  r = test::run_cli("fit " + dir + "/set --maps 8x8 --out " + dir + "/m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(read_image(test::map_of(dir + "/m", "kd")).image.width, 8);
+  EXPECT_FALSE(std::filesystem::exists(first));
+  EXPECT_EQ(read_text_file(dir + "/m_kd.exr"), "my notes");
+  // A material of the person's own at --out: refused before any work, kept as it was.
+  write_text_file(dir + "/p.json", "{\"maps\": {\"kd\": \"other.exr\"}}");
+  r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/p.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("p.json: exists and was not written by aniso"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(read_text_file(dir + "/p.json"), "{\"maps\": {\"kd\": \"other.exr\"}}");
+  r = test::run_cli("merge " + dir + "/none.json --out " + dir + "/p.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  // --force: the person's material moved aside, not deleted.
+  r = test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/p.json --force");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(read_text_file(dir + "/p.aniso-old-1.json"), "{\"maps\": {\"kd\": \"other.exr\"}}");
+  EXPECT_EQ(read_image(test::map_of(dir + "/p", "kd")).image.width, 4);
   // --topology-map's map of s beside the material: the same rule.
   r = test::run_cli("synth fiber-flat-map " + dir + "/flat --size 32x32 --views 4");
   ASSERT_EQ(r.status, 0) << r.output;
   write_text_file(dir + "/f_topology_s.exr", "mine");
   r = test::run_cli("fit " + dir + "/flat --model fiber --topology-map 2 --out " + dir + "/f.json");
-  EXPECT_EQ(r.status, 1) << r.output;
-  EXPECT_NE(r.output.find("f_topology_s.exr: exists"), std::string::npos) << r.output;
+  EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_EQ(read_text_file(dir + "/f_topology_s.exr"), "mine");
+  EXPECT_EQ(read_image(test::map_of(dir + "/f", "topology_s")).image.width, 2);
+}
+
+// A material and its maps are one output: whatever kills a --maps fit, or races two of them to one
+// --out, the material read back names maps of one run, every one there, at its own grid.
+TEST(FitMaps, AMaterialAndItsMapsAreOneOutputThroughKillsAndRaces) {
+  const std::string dir = test::tmp_dir("maps_one");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 48x48 --views 6");
+  ASSERT_EQ(r.status, 0) << r.output;
+  auto consistent = [&](const std::string& why) {
+    const auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
+    const int w = j["maps_uncertainty"]["texels"][0];
+    size_t named = 0;
+    for (const char* block : {"maps", "maps_uncertainty"})
+      for (const auto& [k, v] : j[block].items()) {
+        if (!v.is_string() || lower_ext(v.get<std::string>()) != ".exr") continue;
+        ++named;
+        const std::string f = dir + "/" + v.get<std::string>();
+        ASSERT_TRUE(std::filesystem::exists(f)) << why << ": " << f;
+        EXPECT_EQ(read_image(f).image.width, w) << why << ": " << f;
+      }
+    EXPECT_GE(named, 10u) << why;
+  };
+  ASSERT_EQ(test::run_cli("fit " + dir + "/set --maps 4x4 --out " + dir + "/m.json").status, 0);
+  // kill -9 at moments across a run that replaces it (~40 ms here; the maps are written last).
+  int killed = 0;
+  for (int ms = 4; ms <= 60; ms += 4) {
+    const auto k = test::sh("$A fit " + dir + "/set --maps 24x24 --out " + dir +
+                            "/m.json >/dev/null 2>&1 & pid=$!; sleep " +
+                            std::to_string(ms / 1000.0) + "; kill -9 $pid 2>/dev/null; wait $pid");
+    killed += k.status != 0;
+    consistent("killed after " + std::to_string(ms) + " ms");
+  }
+  std::printf("kill -9 at 4..60 ms: %d of 15 runs killed before they finished\n", killed);
+  // Two fits to one --out at once: both succeed, and the material names one run's maps.
+  r = test::sh("$A fit " + dir + "/set --maps 8x8 --out " + dir + "/m.json >/dev/null & a=$!; $A fit " +
+               dir + "/set --maps 12x12 --out " + dir +
+               "/m.json >/dev/null & b=$!; wait $a && wait $b");
+  EXPECT_EQ(r.status, 0) << r.output;
+  consistent("two at once");
+  // A full disk while the maps are written: the earlier material and its maps stay whole.
+  const std::string before = read_text_file(dir + "/m.json");
+  r = test::sh("trap '' XFSZ; ulimit -f 2; $A fit " + dir + "/set --maps 16x16 --out " + dir +
+               "/m.json");
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_EQ(read_text_file(dir + "/m.json"), before);
+  consistent("full disk");
 }
 
 // A texel counts as determined by its direction; where its k_s is known less well than the
@@ -736,8 +790,8 @@ TEST(FitMaps, TexelsWhoseValuesTheDataDoNotKnowAreNamed) {
     r = test::run_cli("fit " + set + " --maps 8x8 --global " + set + "_g.json --out " + set +
                       "_m.json");
     ASSERT_EQ(r.status, 0) << r.output;
-    const Image det = read_image(set + "_m_determined.exr").image;
-    const Image ks_sigma = read_image(set + "_m_ks_sigma.exr").image;
+    const Image det = read_image(test::map_of(set + "_m", "determined")).image;
+    const Image ks_sigma = read_image(test::map_of(set + "_m", "ks_sigma")).image;
     const ParamSpec& p = line_param("ks");
     size_t weak = 0;
     for (size_t t = 0; t < det.px.size(); ++t) {
@@ -784,9 +838,10 @@ TEST(FitMaps, TexelsTheModelDoesNotDescribeAreNamed) {
     const auto j = nlohmann::json::parse(read_text_file(dir + "/" + name + ".json"));
     run.misfit = j["report"]["maps_misfit_texels"].get<size_t>();
     run.noise = j["report"]["pixel_noise"].get<double>();
-    EXPECT_EQ(j["maps_uncertainty"]["residual"], name + "_residual.exr");
-    const Image res = read_image(dir + "/" + name + "_residual.exr").image;
-    const Image det = read_image(dir + "/" + name + "_determined.exr").image;
+    EXPECT_EQ(j["maps_uncertainty"]["residual"].get<std::string>().rfind(name + "_residual.", 0),
+              0u);
+    const Image res = read_image(test::map_of(dir + "/" + name, "residual")).image;
+    const Image det = read_image(test::map_of(dir + "/" + name, "determined")).image;
     std::vector<double> ratio;
     for (size_t t = 0; t < res.px.size(); ++t) {
       if (res.px[t] < 0) continue;  // not solved
@@ -860,7 +915,7 @@ TEST(FitMaps, TexelsThatStopBeforeConvergingAreMarked) {
                         ".json");
       ASSERT_EQ(r.status, 0) << r.output;
       const bool warned = r.output.find("before their solver converged") != std::string::npos;
-      const Image det = read_image(out + "_determined.exr").image;
+      const Image det = read_image(test::map_of(out, "determined")).image;
       size_t determined = 0;
       for (float d : det.px) determined += d > 0.5f;
       std::printf("%s, %d iterations: %zu of 36 determined\n", solver.c_str(), iterations,
@@ -953,9 +1008,9 @@ TEST(FitMaps, TexelsBetweenPixelRowsAreNamed) {
   std::printf("--maps 64x64 on 16 views of 128x128: %ld texels between pixel rows\n", holes);
   EXPECT_GT(holes, 0);
   // Such a texel between two determined ones in its column holds their mean, not the global k_d.
-  const Image kd = read_image(dir + "/fine_kd.exr").image,
-              cov = read_image(dir + "/fine_coverage.exr").image,
-              det = read_image(dir + "/fine_determined.exr").image;
+  const Image kd = read_image(test::map_of(dir + "/fine", "kd")).image,
+              cov = read_image(test::map_of(dir + "/fine", "coverage")).image,
+              det = read_image(test::map_of(dir + "/fine", "determined")).image;
   const double global_kd = nlohmann::json::parse(read_text_file(dir + "/fine.json"))["kd"][0];
   size_t checked = 0;
   for (int y = 1; y + 1 < 64; ++y)

@@ -36,8 +36,8 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   ASSERT_EQ(r.status, 0) << r.output;
   for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
                         "coverage", "determined", "residual"}) {
-    const std::string a = read_text_file(dir + "/whole_" + k + ".exr");
-    const std::string b = read_text_file(dir + "/merged_" + k + ".exr");
+    const std::string a = read_text_file(test::map_of(dir + "/whole", k));
+    const std::string b = read_text_file(test::map_of(dir + "/merged", k));
     EXPECT_TRUE(a == b) << k << ": the merged map differs from the untiled one";
   }
   const Material m = read_material(dir + "/merged.json");
@@ -77,8 +77,8 @@ TEST(FitMaps, TilesMergeIntoTheUntiledMapsByteForByte) {
   const auto one = nlohmann::json::parse(read_text_file(dir + "/one.json"));
   EXPECT_EQ(one["report"]["maps_threads"], 1);
   for (const char* k : {"kd", "n", "fiber", "coverage"})
-    EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
-                read_text_file(dir + "/one_" + k + ".exr"))
+    EXPECT_TRUE(read_text_file(test::map_of(dir + "/whole", k)) ==
+                read_text_file(test::map_of(dir + "/one", k)))
         << k;
   r = test::run_cli("merge " + dir + "/t0.json " + dir + "/t2.json --out " + dir + "/bad.json");
   EXPECT_EQ(r.status, 1) << r.output;
@@ -134,9 +134,9 @@ TEST(FitMaps, ATileWhoseRowsNoPixelReachesIsWrittenUndetermined) {
   EXPECT_GT(rep["maps_band_shared_bytes"].get<double>(), 0.02e6);
   for (const char* k :
        {"kd", "ks", "n", "fiber", "kd_sigma", "n_sigma", "coverage", "determined"}) {
-    const std::string a = read_text_file(dir + "/whole_" + k + ".exr");
-    EXPECT_TRUE(a == read_text_file(dir + "/merged_" + k + ".exr")) << k << ": merged";
-    EXPECT_TRUE(a == read_text_file(dir + "/bands_" + k + ".exr")) << k << ": bands";
+    const std::string a = read_text_file(test::map_of(dir + "/whole", k));
+    EXPECT_TRUE(a == read_text_file(test::map_of(dir + "/merged", k))) << k << ": merged";
+    EXPECT_TRUE(a == read_text_file(test::map_of(dir + "/bands", k))) << k << ": bands";
   }
   // A capture with no usable pixel at all is still refused.
   r = test::run_cli("fit " + dir + "/set" + maps + " --out " + dir + "/x.json --subsample 1024");
@@ -185,8 +185,8 @@ TEST(FitMaps, TilesGivenTheGlobalFitKeepOnlyTheirRows) {
   ASSERT_EQ(r.status, 0) << r.output;
   for (const char* k :
        {"kd", "ks", "n", "fiber", "kd_sigma", "fiber_sigma", "coverage", "determined"})
-    EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
-                read_text_file(dir + "/merged_" + k + ".exr"))
+    EXPECT_TRUE(read_text_file(test::map_of(dir + "/whole", k)) ==
+                read_text_file(test::map_of(dir + "/merged", k)))
         << k << ": the merged map differs from the untiled one";
   EXPECT_EQ(read_material(dir + "/merged.json").kd, read_material(dir + "/global.json").kd);
   // Each tile counted its own rows' pixels: the merged report counts the untiled run's (it said
@@ -201,8 +201,8 @@ TEST(FitMaps, TilesGivenTheGlobalFitKeepOnlyTheirRows) {
                std::string(ANISO_SOURCE_DIR) + "/scripts/slurm_maps.sh local " + dir +
                "/set 8x6 3 " + dir + "/slurm");
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_TRUE(read_text_file(dir + "/slurm/material_fiber.exr") ==
-              read_text_file(dir + "/whole_fiber.exr"));
+  EXPECT_TRUE(read_text_file(test::map_of(dir + "/slurm/material", "fiber")) ==
+              read_text_file(test::map_of(dir + "/whole", "fiber")));
   r = test::run_cli("fit " + dir + "/set --global " + dir + "/global.json --out " + dir +
                     "/x.json");
   EXPECT_EQ(r.status, 1) << r.output;
@@ -250,8 +250,8 @@ TEST(FitMaps, TilesFromAFullGlobalFitReproduceThePlainRun) {
   r = test::run_cli("merge " + dir + "/p0.json " + dir + "/p1.json --out " + dir + "/pm.json");
   ASSERT_EQ(r.status, 0) << r.output;
   for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "fiber_sigma", "determined"})
-    EXPECT_TRUE(read_text_file(dir + "/plain_" + k + ".exr") ==
-                read_text_file(dir + "/pm_" + k + ".exr"))
+    EXPECT_TRUE(read_text_file(test::map_of(dir + "/plain", k)) ==
+                read_text_file(test::map_of(dir + "/pm", k)))
         << k << ": tiles from the full global fit differ from the plain untiled run";
   // The fiber model: its tiles take the global fit's s, quadrature order and quadrature errors
   // (each texel starts from its k_d, k_s, n and s, and takes the lowest order its own values
@@ -279,8 +279,8 @@ TEST(FitMaps, TilesFromAFullGlobalFitReproduceThePlainRun) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(read_text_file(dir + "/f0.json").find("(the global fit's)"), std::string::npos);
   for (const char* k : {"kd", "n", "fiber", "s", "s_sigma"})
-    EXPECT_TRUE(read_text_file(dir + "/fw_" + k + ".exr") ==
-                read_text_file(dir + "/fm_" + k + ".exr"))
+    EXPECT_TRUE(read_text_file(test::map_of(dir + "/fw", k)) ==
+                read_text_file(test::map_of(dir + "/fm", k)))
         << k << ": the merged fiber-model map differs from the untiled one";
   EXPECT_EQ(material_report(dir + "/fm.json")["maps_quadrature_orders"], orders);
 }
@@ -337,8 +337,8 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
                     "/gk.json --out " + dir + "/byhand.json");
   ASSERT_EQ(r.status, 0) << r.output;
   for (const char* m : {"kd", "ks", "n", "fiber", "kd_sigma", "fiber_sigma", "coverage"})
-    EXPECT_TRUE(read_text_file(dir + "/plain_" + m + ".exr") ==
-                read_text_file(dir + "/byhand_" + m + ".exr"))
+    EXPECT_TRUE(read_text_file(test::map_of(dir + "/plain", m)) ==
+                read_text_file(test::map_of(dir + "/byhand", m)))
         << m << ": the maps after the subsampled global fit differ from the two steps by hand";
   const auto gk = nlohmann::json::parse(read_text_file(dir + "/gk.json"));
   for (const char* key : {"kd", "ks", "n", "fiber_angle_deg"})
@@ -358,8 +358,8 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
     const std::string stem = out.substr(0, out.size() - 5);
     for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma",
                           "fiber_sigma", "coverage", "determined"})
-      EXPECT_TRUE(read_text_file(dir + "/one_" + k + ".exr") ==
-                  read_text_file(stem + "_" + k + ".exr"))
+      EXPECT_TRUE(read_text_file(test::map_of(dir + "/one", k)) ==
+                  read_text_file(test::map_of(stem, k)))
           << mem << " MB, " << k << ": the maps in bands differ from one band's";
     const auto a = report(dir + "/one.json", false), b = report(out, false);
     for (const char* k : {"pixels", "observations", "skipped", "warnings"})
@@ -427,8 +427,8 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
       << r.output;
   for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma", "fiber_sigma",
                         "coverage", "determined"})
-    EXPECT_TRUE(read_text_file(dir + "/g_" + k + ".exr") ==
-                read_text_file(dir + "/b0.01_" + k + ".exr"))
+    EXPECT_TRUE(read_text_file(test::map_of(dir + "/g", k)) ==
+                read_text_file(test::map_of(dir + "/b0.01", k)))
         << k << ": a view's own geometry read by rows gives other maps";
   const auto g = report(dir + "/g.json", false);
   for (const char* k : {"pixels", "observations", "skipped", "warnings"})
@@ -458,6 +458,73 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("views[1].geometry: --maps reads texture coordinates"), std::string::npos)
       << r.output;
+}
+
+// merge checks what it joins: tiles of two captures (each its own, or one --global across both)
+// are refused, as is a --global fitted to another capture; a grid cut finer than its rows is
+// refused up front with the largest N; a tile without its values, or one whose header claims a
+// grid its bytes cannot hold, is named without a crash or a huge allocation.
+TEST(FitMaps, MergeChecksWhatItJoins) {
+  const std::string dir = test::tmp_dir("merge_checks");
+  for (const char* s : {"a", "b"}) {
+    auto r = test::run_cli(std::string("synth swirl-plate ") + dir + "/" + s +
+                           " --noise 0.01 --size 32x32 --views 4 --seed " + (s[0] == 'a' ? "1" : "2"));
+    ASSERT_EQ(r.status, 0) << r.output;
+  }
+  auto r = test::run_cli("fit " + dir + "/a --maps 4x4 --tile 0/2 --out " + dir + "/a0.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/b --maps 4x4 --tile 1/2 --out " + dir + "/b1.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("merge " + dir + "/a0.json " + dir + "/b1.json --out " + dir + "/m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("b1.json: was fitted to another capture"), std::string::npos)
+      << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/m.json"));
+  // Other options than tile 0's.
+  r = test::run_cli("fit " + dir + "/a --maps 4x4 --tile 1/2 --subsample 2 --out " + dir +
+                    "/a1s.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("merge " + dir + "/a0.json " + dir + "/a1s.json --out " + dir + "/m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("other options"), std::string::npos) << r.output;
+  // Tiles of two captures that share one --global (the same rig: the global fits both): merge
+  // tells them apart by their files.
+  r = test::run_cli("fit " + dir + "/a --out " + dir + "/ga.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* t : {"a 0", "b 1"}) {
+    r = test::run_cli("fit " + dir + "/" + t[0] + " --maps 4x4 --tile " + t[2] + "/2 --global " +
+                      dir + "/ga.json --out " + dir + "/t" + t[0] + ".json");
+    ASSERT_EQ(r.status, 0) << r.output;
+  }
+  r = test::run_cli("merge " + dir + "/ta.json " + dir + "/tb.json --out " + dir + "/m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("tb.json: was fitted to another capture"), std::string::npos)
+      << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/m.json"));
+  // A global fit of another rig's capture: refused before the work.
+  r = test::run_cli("synth swirl-plate " + dir + "/c --noise 0.01 --size 32x32 --views 5");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/c --maps 4x4 --tile 1/2 --global " + dir + "/ga.json --out " +
+                    dir + "/cg1.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("was fitted to another capture"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("iterations"), std::string::npos) << r.output;
+  // N past the rows: refused with the largest N that works.
+  r = test::run_cli("fit " + dir + "/a --maps 4x4 --tile 0/40 --out " + dir + "/t.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("has 4 texel rows, so at most 4 tiles"), std::string::npos) << r.output;
+  // A tile without its values.
+  test::edit_json(dir + "/a0.json", [](auto& j) { j.erase("values"); });
+  r = test::run_cli("merge " + dir + "/a0.json --out " + dir + "/m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("values"), std::string::npos) << r.output;
+  // A 1 KB tile declaring a 16384^2 grid: named, nothing allocated for it.
+  write_text_file(dir + "/forged.json",
+                  R"({"format": "aniso-maps-tile", "tile": [0, 16384], "texels": [16384, 16384],
+                      "rows": [0, 1], "fit": {}, "values": {}})");
+  r = test::sh("ulimit -v 2000000; $A merge " + dir + "/forged.json --out " + dir + "/m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("texels: declares a 16384x16384 grid"), std::string::npos) << r.output;
 }
 
 }  // namespace
@@ -492,8 +559,8 @@ TEST(FitMaps, MpiRanksFitTheTilesAndRankZeroMerges) {
             "rank 0's global fit (fit --mpi)");
   EXPECT_EQ(r.output.find(" (0 in other tiles' rows left out"), std::string::npos) << r.output;
   for (const char* k : {"kd", "ks", "n", "fiber", "fiber_sigma", "coverage", "determined"})
-    EXPECT_TRUE(read_text_file(dir + "/whole_" + k + ".exr") ==
-                read_text_file(dir + "/mpi_" + k + ".exr"))
+    EXPECT_TRUE(read_text_file(test::map_of(dir + "/whole", k)) ==
+                read_text_file(test::map_of(dir + "/mpi", k)))
         << k << ": the MPI run's map differs from the untiled one";
   // A mistake is said once, by rank 0, and nothing is written.
   r = test::sh(mpirun + "\"$A\" fit " + dir + "/set --mpi --out " + dir + "/bad.json");

@@ -468,8 +468,8 @@ TEST(Trust, ATexelWhoseTwoFiberDirectionsFitAsWellIsNotDetermined) {
     noisy_readings(dir + "/truth.json", table, t, &rng);
     const auto r = test::run_cli("fit " + t + "_v.csv --maps 2x1 --out " + t + "_m.json");
     ASSERT_EQ(r.status, 0) << r.output;
-    const Image det = read_image(t + "_m_determined.exr").image;
-    const Image fiber = read_image(t + "_m_fiber.exr").image;
+    const Image det = read_image(test::map_of(t + "_m", "determined")).image;
+    const Image fiber = read_image(test::map_of(t + "_m", "fiber")).image;
     ASSERT_EQ(det.px.size(), 2u);
     for (int x = 0; x < 2; ++x) {
       const double psi = rad_to_deg(0.5 * std::atan2(fiber.at(x, 0, 1), fiber.at(x, 0, 0)));
@@ -505,8 +505,8 @@ TEST(Trust, TexelsWhoseWrongValleyWinsByChanceAreFew) {
   r = test::run_cli("fit " + dir + "/set --maps 128x128 --global " + dir + "/global.json --out " +
                     dir + "/m.json");
   ASSERT_EQ(r.status, 0) << r.output;
-  const Image det = read_image(dir + "/m_determined.exr").image;
-  const Image fiber = read_image(dir + "/m_fiber.exr").image;
+  const Image det = read_image(test::map_of(dir + "/m", "determined")).image;
+  const Image fiber = read_image(test::map_of(dir + "/m", "fiber")).image;
   int determined = 0, off = 0;
   for (int y = 0; y < det.height; ++y)
     for (int x = 0; x < det.width; ++x) {
@@ -941,6 +941,44 @@ TEST(Trust, AFiberTexelWithoutALobeIsDeterminedAlikeByBothSolvers) {
   EXPECT_NEAR(lm.sigma[7], ce.sigma[7], 0.05 * ce.sigma[7]);
   EXPECT_GT(ce.sigma[3], line_param("ks").spread());  // the lobe named as not known
   EXPECT_GT(lm.sigma[3], line_param("ks").spread());
+}
+
+// A view repeated exactly (the same file or the same bytes, pose, lights) adds no information:
+// counted once, and said so; the sigmas are those of the capture without the repeats.
+TEST(Trust, RepeatedViewsAreCountedOnceAndNamed) {
+  const std::string dir = capture_of(test::tmp_dir("set"), "brushed-metal", 3, 24, 0.01);
+  auto r = test::run_cli("fit " + dir + " --out " + dir + "/../plain.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  test::edit_json(dir + "/capture.json", [&](auto& j) {
+    const auto view = j["views"][0];
+    for (int k = 0; k < 40; ++k) j["views"].push_back(view);
+  });
+  fs::copy_file(dir + "/" + nlohmann::json::parse(read_text_file(dir + "/capture.json"))["views"][1]["image"].get<std::string>(),
+                dir + "/copy.exr");
+  test::edit_json(dir + "/capture.json", [&](auto& j) {
+    auto view = j["views"][1];
+    view["image"] = "copy.exr";  // the same bytes under another name
+    j["views"].push_back(view);
+  });
+  r = test::run_cli("fit " + dir + " --out " + dir + "/../rep.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("41 views repeat an earlier view exactly"), std::string::npos)
+      << r.output;
+  const auto a = nlohmann::json::parse(read_text_file(dir + "/../plain.json"));
+  const auto b = nlohmann::json::parse(read_text_file(dir + "/../rep.json"));
+  EXPECT_EQ(b["report"]["views"], 3);
+  EXPECT_EQ(a["uncertainty"]["n"], b["uncertainty"]["n"]);
+  EXPECT_EQ(a["uncertainty"]["fiber_angle_deg"], b["uncertainty"]["fiber_angle_deg"]);
+}
+
+// A path that is not UTF-8 is named before the work (the JSON outputs record paths in UTF-8).
+TEST(Trust, ANonUtf8OutputPathIsNamedBeforeTheWork) {
+  const std::string dir = small_capture(test::tmp_dir("set"));
+  const auto r = test::run_cli("fit " + dir + " --out '" + dir + "/../caf\xe9.json'");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("not valid UTF-8"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("iterations"), std::string::npos) << r.output;
 }
 
 }  // namespace

@@ -44,6 +44,23 @@ inline RunResult run_cli(const std::string& args) {
   return run_command(std::string(ANISO_BIN) + " " + args);
 }
 
+// The map file of `key` ("kd", "n_sigma", "determined", "topology_s", ...) that the material at
+// PREFIX.json names: fit --maps and merge write them beside it as PREFIX_KEY.GEN.exr, one
+// generation per run (io/files.h write_generation). PREFIX_KEY.exr (absent) if it names none.
+inline std::string map_of(const std::string& prefix, const std::string& key) {
+  const std::filesystem::path p(prefix);
+  const std::string start = p.filename().string() + "_" + key + ".";
+  std::ifstream in(prefix + ".json");
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  if (j.is_object())
+    for (const char* block : {"maps", "maps_uncertainty", "topology"})
+      if (j.contains(block) && j[block].is_object())
+        for (const auto& [k, v] : j[block].items())
+          if (v.is_string() && v.get<std::string>().rfind(start, 0) == 0)
+            return (p.parent_path() / v.get<std::string>()).string();
+  return prefix + "_" + key + ".exr";
+}
+
 }  // namespace aniso::test
 
 namespace aniso::test {
