@@ -441,6 +441,25 @@ int global_subsample_for(const CaptureSet& set, const FitOptions& opt) {
   const double bytes = static_cast<double>(loader.record_bytes(true));
   const double budget = opt.maps_memory_mb * 1e6;
   const double pixels = static_cast<double>(loader.record_pixels());
+  // A texel is determined by the pixels its spot covers in the views: a grid with more texels than
+  // kTexelsPerViewPixel times the pixels a view sees of the sample is finer than the data (memory
+  // and time follow the grid, the texels stay undetermined). Refused, with what the data support.
+  constexpr double kTexelsPerViewPixel = 4;
+  const double per_view = pixels / static_cast<double>(set.views.size());
+  const double texels = static_cast<double>(opt.maps_w) * opt.maps_h;
+  if (texels > kTexelsPerViewPixel * per_view) {
+    const double scale = std::sqrt(kTexelsPerViewPixel * per_view / texels);
+    const int w = std::max(1, static_cast<int>(opt.maps_w * scale)),
+              h = std::max(1, static_cast<int>(opt.maps_h * scale));
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "fit --maps %dx%d: %.0f texels, but the sample covers %.0f pixels a view (%zu "
+                  "views, %.0f pixels in all): the data support at most about %dx%d (%g texels for "
+                  "each pixel a view sees); give a coarser --maps, or more or larger views",
+                  opt.maps_w, opt.maps_h, texels, per_view, set.views.size(), pixels, w, h,
+                  kTexelsPerViewPixel);
+    throw Error(buf);
+  }
   if (bytes <= budget && pixels <= opt.maps_global_pixels) return 0;
   const int k = static_cast<int>(std::max(std::ceil(std::sqrt(bytes / budget)),
                                           std::ceil(std::sqrt(pixels / opt.maps_global_pixels))));

@@ -372,6 +372,13 @@ void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, 
   };
   core_sigmas(sigma, &c, n_free, res);
   m->sigmas(sigma, pb, res);
+  // A grey set's shared parameters (n, psi, ...) see each reading in all three channels, which
+  // s2 above undoes; a colour parameter's channel sees it once, so its sigma takes s2 / 3 (test
+  // Trust.GreyReadingsGiveSigmasTheErrorsMatch).
+  if (os.grey)
+    for (auto& [key, v] : res->sigma)
+      if (v.size() == 3)
+        for (double& x : v) x /= std::sqrt(3.0);
   drop_nonfinite_sigmas(res);
 }
 

@@ -728,6 +728,24 @@ TEST(FitMaps, MapsBesideTheMaterialNeverReplaceAPersonsFile) {
   EXPECT_EQ(read_image(test::map_of(dir + "/f", "topology_s")).image.width, 2);
 }
 
+// A grid finer than the data is refused before any memory goes to it, with the grid the data
+// support (memory and time follow the data, not the request).
+TEST(FitMaps, AGridFinerThanTheDataIsRefusedWithWhatTheyHold) {
+  const std::string dir = test::tmp_dir("too_fine");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 32x32 --views 4");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::sh("ulimit -v 3000000; $A fit " + dir + "/set --maps 4096x4096 --out " + dir +
+               "/m.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("the data support at most about"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/m.json"));
+  // The grid it names fits.
+  const size_t at = r.output.find("at most about ") + 14;
+  const std::string grid = r.output.substr(at, r.output.find(' ', at) - at);
+  r = test::run_cli("fit " + dir + "/set --maps " + grid + " --out " + dir + "/m.json");
+  EXPECT_EQ(r.status, 0) << grid << ": " << r.output;
+}
+
 // A material and its maps are one output: whatever kills a --maps fit, or races two of them to one
 // --out, the material read back names maps of one run, every one there, at its own grid.
 TEST(FitMaps, AMaterialAndItsMapsAreOneOutputThroughKillsAndRaces) {
