@@ -160,14 +160,53 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
     r->camera = s.camera;
   } else {
     constexpr size_t kMinPhotos = 4;
+    std::vector<double> first_rms;  // each calibrated photo's RMS in the first round
     for (int round = 0; round < 2; ++round) {
-      if (use.size() < kMinPhotos)
-        throw Error(s.file + ": too few photos to calibrate the camera: the board was found in " +
-                    std::to_string(use.size()) + " of " + std::to_string(det.size()) +
-                    " (at least " + std::to_string(kMinPhotos) +
-                    " needed; 10-20 photos from "
-                    "different sides, the board tilted 15-45 degrees, calibrate well), or give the "
-                    "camera's intrinsics as \"camera\" in the shoot");
+      if (use.size() < kMinPhotos) {
+        // Say what was found: markers that fit no board of this layout, or photos whose RMS is
+        // over --max-rms; more photos is the advice only where the photos are what is missing.
+        size_t with_markers = 0;
+        std::vector<int> markers;
+        for (const auto& d : det)
+          if (d.markers > 0) ++with_markers, markers.push_back(d.markers);
+        std::string why;
+        if (round == 1) {
+          std::sort(first_rms.begin(), first_rms.end());
+          char buf[256];
+          const double median = first_rms[first_rms.size() / 2];
+          // Pixels of error, not fractions: the corners fit no board of the layout given.
+          constexpr double kLayoutWrongPx = 5;
+          std::snprintf(buf, sizeof buf,
+                        "the board was found in %zu photos, but only %zu reproject within "
+                        "--max-rms %.2f px (their RMS: %.2f to %.2f px, median %.2f)",
+                        first_rms.size(), use.size(), o.max_rms_px, first_rms.front(),
+                        first_rms.back(), median);
+          why = buf;
+          why += median > kLayoutWrongPx
+                     ? ": corners that far off fit no " + std::to_string(s.board.squares_x) +
+                           "x" + std::to_string(s.board.squares_y) +
+                           " board of these sizes; check board.squares, board.square_m and "
+                           "board.marker_m against the printed board"
+                     : ": raise --max-rms, or check the photos' focus and board.square_m";
+        } else if (with_markers >= kMinPhotos) {
+          std::nth_element(markers.begin(), markers.begin() + markers.size() / 2, markers.end());
+          why = std::to_string(with_markers) + " of " + std::to_string(det.size()) +
+                " photos show markers of " + s.board.dictionary + " (median " +
+                std::to_string(markers[markers.size() / 2]) + "), but in " +
+                std::to_string(det.size() - use.size()) + " of them fewer than " +
+                std::to_string(o.min_corners) + " corners of a " +
+                std::to_string(s.board.squares_x) + "x" + std::to_string(s.board.squares_y) +
+                " board were found off the sample: check board.squares (and board.square_m, "
+                "board.marker_m) against the printed board";
+        } else {
+          why = "the board was found in " + std::to_string(use.size()) + " of " +
+                std::to_string(det.size()) + " photos (at least " + std::to_string(kMinPhotos) +
+                " needed; 10-20 photos from different sides, the board tilted 15-45 degrees, "
+                "calibrate well)";
+        }
+        throw Error(s.file + ": too few photos to calibrate the camera: " + why +
+                    "; or give the camera's intrinsics as \"camera\" in the shoot");
+      }
       std::vector<std::vector<BoardCorner>> views;
       for (size_t i : use) views.push_back(det[i].corners);
       const Calibration cal =
@@ -176,6 +215,7 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
       r->calibration_rms_px = cal.rms_px;
       r->sigma = cal.sigma;
       std::vector<size_t> keep;
+      if (round == 0) first_rms = cal.view_rms_px;
       for (size_t k = 0; k < use.size(); ++k) {
         poses[use[k]] = cal.camera_from_board[k];
         if (cal.view_rms_px[k] <= o.max_rms_px) keep.push_back(use[k]);

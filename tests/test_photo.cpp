@@ -194,6 +194,18 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   expect_refused("too few photos to calibrate", [](auto& j) {
     while (j["photos"].size() > 3) j["photos"].erase(j["photos"].size() - 1);
   });
+  // A wrong board layout: the message says the corners fit no board of it (not "more photos").
+  expect_refused("fit no 9x7 board of these sizes; check board.squares",
+                 [](auto& j) { j["board"]["squares"] = {9, 7}; });
+  // --max-rms below every photo's RMS: each photo's RMS against the limit.
+  write_text_file(shoot, good);
+  r = test::run_cli("import " + shoot + " --out " + out + " --no-overlays --max-rms 0.01");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("only 0 reproject within --max-rms 0.01 px (their RMS: "),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("raise --max-rms"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out)) << r.output;
   expect_refused("too little tilt", [](auto& j) {
     for (int i = 1; i < 6; ++i) j["photos"][i] = j["photos"][0];  // six photos from one place
   });
