@@ -32,11 +32,11 @@ int run(const ImportArgs& a) {
   const Intrinsics& k = r.camera;
   if (r.calibrated)
     std::printf(
-        "import: camera calibrated from the photos: %dx%d, fx %.2f fy %.2f (sigma %.2f %.2f) px, "
+        "import: camera calibrated from %zu photos: %dx%d, fx %.2f fy %.2f (sigma %.2f %.2f) px, "
         "centre (%.2f, %.2f), distortion k1 %.4f k2 %.4f p1 %.5f p2 %.5f (k3 fixed 0), RMS %.3f "
         "px\n",
-        k.width, k.height, k.fx, k.fy, r.sigma[0], r.sigma[1], k.cx, k.cy, k.distortion[0],
-        k.distortion[1], k.distortion[2], k.distortion[3], r.calibration_rms_px);
+        r.calibrated_on, k.width, k.height, k.fx, k.fy, r.sigma[0], r.sigma[1], k.cx, k.cy,
+        k.distortion[0], k.distortion[1], k.distortion[2], k.distortion[3], r.calibration_rms_px);
   else
     std::printf("import: camera given in the shoot: %dx%d, fx %.2f fy %.2f px\n", k.width, k.height,
                 k.fx, k.fy);
@@ -58,12 +58,14 @@ int run(const ImportArgs& a) {
   }
   std::printf(
       "import: %zu of %zu photos -> %s (%zu views; import_report.json, overlays/); %.2f s "
-      "(merge+detect %.2f, calibrate+pose %.2f, write %.2f)\n"
+      "(merge+detect %.2f, calibrate+pose %.2f, write %.2f); %d photos merged at once within "
+      "--memory %.0f MB (estimate %.0f MB)\n"
       "import: note: the fit's uncertainties will describe the photos' noise only, not the "
       "calibration above or the lamp positions you measured (taken as exact)\n"
       "import: then: aniso fit %s --out material.json\n",
       r.views, r.photos.size(), a.out.c_str(), r.views, r.seconds, r.seconds_detect,
-      r.seconds_calibrate, r.seconds_write, a.out.c_str());
+      r.seconds_calibrate, r.seconds_write, r.merge_threads, o.memory_mb, r.memory_estimate_mb,
+      a.out.c_str());
   return 0;
 }
 
@@ -92,6 +94,16 @@ Command add_import(CLI::App& app) {
   c->add_option("--min-corners", a->o.min_corners, "fewer board corners found: photo left out")
       ->capture_default_str()
       ->check(CLI::Range(4, 10000));
+  c->add_option("--memory", a->o.memory_mb,
+                "memory budget of the whole import, MB: photos are merged as many at once as fit; "
+                "a shoot that does not fit is refused before decoding")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 1e7));
+  c->add_option("--calibrate-on", a->o.calibrate_on,
+                "calibrate the camera on at most this many photos, spread over the shoot (its "
+                "cost grows as their cube); the others are posed against it")
+      ->capture_default_str()
+      ->check(CLI::Range(4, 100000));
   c->add_flag("--no-overlays", a->no_overlays, "do not write overlays/NNN.png");
   c->add_flag("--quiet", a->quiet, "print only the summary and the photos left out");
   add_force_flag(c);

@@ -540,6 +540,46 @@ LoadedImage read_image(const std::string& path, int expect_w, int expect_h,
   throw Error(path + ": cannot decode image (not PNG/TIFF/JPEG/EXR?)");
 }
 
+void image_dimensions(const std::string& path, int* w, int* h) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw Error(path + ": file not found (or not a regular file)");
+  if (lower_ext(path) == ".exr") {
+    try {
+      Imf::InputFile file(path.c_str());
+      const Imath::Box2i dw = file.header().dataWindow();
+      *w = dw.max.x - dw.min.x + 1, *h = dw.max.y - dw.min.y + 1;
+      return;
+    } catch (const std::exception& e) {
+      throw Error(path + ": cannot read EXR header: " + e.what());
+    }
+  }
+  struct Probed {};  // thrown by the size check: the decoder stops before any pixel
+  const SizeCheck check = [&](long long pw, long long ph) {
+    check_declared_size(path, pw, ph, 0, 0);
+    *w = static_cast<int>(pw), *h = static_cast<int>(ph);
+    throw Probed{};
+  };
+  try {
+    switch (sniff_image(path)) {
+      case ImageKind::kPng:
+        decode_png(path, check);
+        break;
+      case ImageKind::kJpeg:
+        decode_jpeg(path, check);
+        break;
+      case ImageKind::kTiff:
+        decode_tiff(path, check);
+        break;
+      case ImageKind::kOther:
+        throw Error(path + ": cannot decode image (not PNG/TIFF/JPEG/EXR?)");
+    }
+  } catch (const Probed&) {
+    return;
+  }
+  throw Error(path + ": no size in its header");
+}
+
 void write_exr(const std::string& path, const Image& img) {
   if (img.channels < 1 || img.channels > 3) throw Error(path + ": EXR writer takes 1-3 channels");
   if (!all_finite(img.px)) throw Error(path + ": refusing to write a non-finite value");

@@ -33,6 +33,10 @@ inline constexpr long long kMaxImagePixels = 1LL << 26;  // 8192 x 8192
 LoadedImage read_image(const std::string& path, int expect_w = 0, int expect_h = 0,
                        const std::vector<uint8_t>* rows = nullptr, bool zero_others = true);
 
+// An image's declared width and height, read from its header (nothing decoded); throws naming the
+// file as read_image does.
+void image_dimensions(const std::string& path, int* w, int* h);
+
 // EXR compression for everything written after the call: "zip" (default, zlib level 1), "piz",
 // "none". Throws on another name.
 void set_exr_compression(const std::string& name);

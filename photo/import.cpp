@@ -1,6 +1,8 @@
 #include "photo/import.h"
 
+#include <tbb/info.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <chrono>
@@ -21,6 +23,7 @@
 #include "photo/calibrate.h"
 #include "photo/merge.h"
 #include "photo/overlay.h"
+#include "photo/raw.h"
 
 namespace aniso {
 
@@ -161,6 +164,15 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
   } else {
     constexpr size_t kMinPhotos = 4;
     std::vector<double> first_rms;  // each calibrated photo's RMS in the first round
+    // The calibration's cost grows as the cube of its photos (200: 52 s, 400: 561 s): at most
+    // o.calibrate_on, spread evenly over the shoot's order (a walk round the board); the others
+    // are posed against the camera it gives.
+    const size_t most = static_cast<size_t>(std::max(o.calibrate_on, static_cast<int>(kMinPhotos)));
+    if (use.size() > most) {
+      std::vector<size_t> spread;
+      for (size_t k = 0; k < most; ++k) spread.push_back(use[k * use.size() / most]);
+      use = spread;
+    }
     for (int round = 0; round < 2; ++round) {
       if (use.size() < kMinPhotos) {
         // Say what was found: markers that fit no board of this layout, or photos whose RMS is
@@ -227,6 +239,7 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
     for (size_t i : use) used_poses.push_back(poses[i]);
     check_tilt(s, used_poses);
     r->calibrated = true;
+    r->calibrated_on = use.size();
   }
   for (size_t i = 0; i < det.size(); ++i) {
     ImportedPhoto& p = r->photos[i];
@@ -446,16 +459,59 @@ void write_photo(const Shoot& s, size_t i, Detected& det, const std::string& dir
 
 }  // namespace
 
+// How many photos may be merged at once within o.memory_mb, from the photos' headers (nothing
+// decoded): a photo being merged holds its bracket as float RGB, the merged RGB, its grey and
+// mask; every photo keeps its grey (a byte a pixel) between the passes. Throws, saying why, where
+// even one at a time does not fit.
+int merge_threads(const Shoot& s, const ImportOptions& o, ImportResult* r) {
+  double kept = 0, largest = 0;
+  for (size_t i = 0; i < s.photos.size(); ++i) {
+    double bytes = 0, pixels = 0;
+    for (const auto& im : s.photos[i].images) {
+      const std::string path = join_path(s.dir, im.file);
+      int w = 0, h = 0;
+      if (is_raw_photo(path))
+        raw_dimensions(path, &w, &h);
+      else
+        image_dimensions(path, &w, &h);
+      pixels = std::max(pixels, double(w) * h);
+      bytes += 12.0 * w * h;  // float RGB
+    }
+    bytes += pixels * (12 + 4 + 1 + 1);  // merged RGB, grey, mask, the kept grey
+    kept += pixels;
+    largest = std::max(largest, bytes);
+  }
+  const double budget = o.memory_mb * 1e6;
+  const int cores = tbb::info::default_concurrency();
+  const int fit = static_cast<int>(std::floor((budget - kept) / largest));
+  char buf[512];
+  if (fit < 1) {
+    std::snprintf(buf, sizeof buf,
+                  ": the shoot needs about %.0f MB (%zu photos keep %.0f MB between the passes, "
+                  "and merging the largest bracket takes %.0f MB), over --memory %.0f MB; raise "
+                  "--memory, or import fewer photos or exposures at a time",
+                  (kept + largest) / 1e6, s.photos.size(), kept / 1e6, largest / 1e6,
+                  o.memory_mb);
+    throw Error(s.file + buf);
+  }
+  r->merge_threads = std::min(fit, cores);
+  r->memory_estimate_mb = (kept + r->merge_threads * largest) / 1e6;
+  return r->merge_threads;
+}
+
 ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const ImportOptions& o) {
   const auto t0 = Clock::now();
   ImportResult r;
   r.photos.resize(s.photos.size());
   std::vector<Detected> det(s.photos.size());
+  tbb::task_arena arena(merge_threads(s, o, &r));
   {
     Progress bar("import: merging and finding the board", s.photos.size(), o.progress);
-    tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
-      det[i] = detect_photo(s, i, o);
-      bar.advance();
+    arena.execute([&] {
+      tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
+        det[i] = detect_photo(s, i, o);
+        bar.advance();
+      });
     });
   }
   int markers = 0;
@@ -494,9 +550,11 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
   write_folder_atomically(out_dir, OutputKind::kImportedCapture, [&](const std::string& dir) {
     Progress bar("import: writing views", s.photos.size(), o.progress);
     std::vector<ViewSpec> views(s.photos.size());
-    tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
-      write_photo(s, i, det[i], dir, out_dir, o, &r, &views[i]);
-      bar.advance();
+    arena.execute([&] {
+      tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
+        write_photo(s, i, det[i], dir, out_dir, o, &r, &views[i]);
+        bar.advance();
+      });
     });
     CaptureSet set;
     set.camera = r.camera;

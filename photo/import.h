@@ -24,6 +24,12 @@ struct ImportOptions {
   bool overlays = true;            // overlays/NNN.png for every photo
   bool progress = true;
   bool verbose = true;  // one line per photo on stdout
+  // The whole import's memory: photos are merged as many at once as fit in it beside what every
+  // photo keeps between the passes; a shoot that does not fit is refused before any decoding.
+  double memory_mb = 4096;
+  // At most this many photos calibrate the camera (spread over the shoot; the calibration's cost
+  // grows as the cube of its photos); every other photo is posed against it.
+  int calibrate_on = 40;
 };
 
 struct ImportedPhoto {
@@ -48,6 +54,9 @@ struct ImportResult {
   std::array<double, 4> sigma{};  // fx, fy, cx, cy (calibrated only)
   std::vector<ImportedPhoto> photos;
   size_t views = 0;
+  size_t calibrated_on = 0;          // photos the calibration used (the rest posed against it)
+  int merge_threads = 0;             // photos merged at once (memory_mb)
+  double memory_estimate_mb = 0;     // the peak the budget was held to
   double seconds = 0, seconds_detect = 0, seconds_calibrate = 0, seconds_write = 0;
 };
 

@@ -48,6 +48,7 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
   if (r.calibrated) {
     cal["rms_px"] = r.calibration_rms_px;
     cal["sigma_fx_fy_cx_cy_px"] = r.sigma;
+    cal["calibrated_on_photos"] = r.calibrated_on;
   }
   return {{"format", "aniso-import-report"},
           {"version", 1},
@@ -59,7 +60,11 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
           {"options",
            {{"max_rms_px", o.max_rms_px},
             {"sample_margin_m", o.sample_margin_m},
-            {"min_corners", o.min_corners}}},
+            {"min_corners", o.min_corners},
+            {"memory_mb", o.memory_mb},
+            {"calibrate_on", o.calibrate_on}}},
+          {"memory", {{"photos_merged_at_once", r.merge_threads},
+                      {"estimate_mb", r.memory_estimate_mb}}},
           {"photos", photos},
           {"views", r.views},
           {"caveats",

@@ -21,6 +21,17 @@ bool is_raw_photo(const std::string& path) {
   return false;
 }
 
+void raw_dimensions(const std::string& path, int* w, int* h) {
+  auto raw = std::make_unique<LibRaw>();
+  const int rc = raw->open_file(path.c_str());
+  if (rc != LIBRAW_SUCCESS)
+    throw Error(path + ": LibRaw cannot open this RAW file: " + libraw_strerror(rc));
+  const auto& sz = raw->imgdata.sizes;
+  const bool turned = sz.flip == 5 || sz.flip == 6;
+  *w = turned ? sz.height : sz.width;
+  *h = turned ? sz.width : sz.height;
+}
+
 LoadedImage read_raw(const std::string& path, RawInfo* info) {
   auto raw = std::make_unique<LibRaw>();
   auto check = [&](int rc, const char* what) {

@@ -22,6 +22,8 @@ struct RawInfo {
 // 3 channels, linear values in [0, 1] (bits = 16: the largest code is clipped). Throws naming the
 // file with LibRaw's message when it cannot decode it.
 LoadedImage read_raw(const std::string& path, RawInfo* info);
+// A RAW photo's developed width and height, from its header (nothing unpacked).
+void raw_dimensions(const std::string& path, int* w, int* h);
 
 // A linear DNG (PhotometricInterpretation LinearRaw, 16 bits, 3 samples, sRGB primaries, neutral
 // white balance) of `img` (values in [0, 1]). Written atomically.

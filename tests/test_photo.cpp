@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <limits>
 #include <functional>
 #include <nlohmann/json.hpp>
 
@@ -194,6 +196,22 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   expect_refused("too few photos to calibrate", [](auto& j) {
     while (j["photos"].size() > 3) j["photos"].erase(j["photos"].size() - 1);
   });
+  // A float photo with NaN pixels: named, not a temporary file of the output.
+  expect_refused("photos/nan.exr: 3 values are NaN or infinite", [&](auto& j) {
+    // write_exr refuses non-finite values: three of the file's 0.5s become NaN by hand.
+    set_exr_compression("none");
+    write_exr(dir + "/shoot/photos/nan.exr", Image(640, 480, 3, 0.5f));
+    std::string bytes = read_text_file(dir + "/shoot/photos/nan.exr");
+    const float half = 0.5f, nan = std::numeric_limits<float>::quiet_NaN();
+    const std::string pattern(reinterpret_cast<const char*>(&half), 4);
+    for (size_t q = 1; q <= 3; ++q) {
+      const size_t at = bytes.find(pattern, bytes.size() * q / 4);
+      ASSERT_NE(at, std::string::npos);
+      std::memcpy(bytes.data() + at, &nan, 4);
+    }
+    write_text_file(dir + "/shoot/photos/nan.exr", bytes);
+    j["photos"][2]["images"][0]["file"] = "photos/nan.exr";
+  });
   // A wrong board layout: the message says the corners fit no board of it (not "more photos").
   expect_refused("fit no 9x7 board of these sizes; check board.squares",
                  [](auto& j) { j["board"]["squares"] = {9, 7}; });
@@ -206,6 +224,25 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
       << r.output;
   EXPECT_NE(r.output.find("raise --max-rms"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out)) << r.output;
+  // The whole shoot's memory: refused before any decoding where even one photo at a time does
+  // not fit; merged one at a time where two do not; the calibration on a spread subset.
+  write_text_file(shoot, good);
+  r = test::run_cli("import " + shoot + " --out " + out + " --no-overlays --memory 10");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("over --memory 10 MB"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("finding the board"), std::string::npos) << r.output;  // none decoded
+  EXPECT_FALSE(fs::exists(out)) << r.output;
+  r = test::run_cli("import " + shoot + " --out " + out +
+                    " --no-overlays --memory 25 --calibrate-on 4");
+  ASSERT_EQ(r.status, 0) << r.output;
+  {
+    const auto rep = nlohmann::json::parse(read_text_file(out + "/import_report.json"));
+    EXPECT_EQ(rep["memory"]["photos_merged_at_once"], 1);
+    EXPECT_LE(rep["memory"]["estimate_mb"].get<double>(), 25);
+    EXPECT_EQ(rep["camera"]["calibrated_on_photos"], 4);
+    EXPECT_EQ(rep["views"], 6);  // the other two posed against the camera of four
+  }
+  fs::remove_all(out);
   expect_refused("too little tilt", [](auto& j) {
     for (int i = 1; i < 6; ++i) j["photos"][i] = j["photos"][0];  // six photos from one place
   });
