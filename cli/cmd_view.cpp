@@ -5,6 +5,7 @@
 #include "cli/command.h"
 #include "core/error.h"
 #include "io/files.h"
+#include "io/image_io.h"
 #include "io/json_util.h"
 #include "io/material_io.h"
 #include "render/bake.h"
@@ -35,8 +36,46 @@ Material read_view_input(const std::string& in, BakeFolder* bake) {
                 ": a folder to view must hold bake.json (aniso bake) or export.json "
                 "(aniso export)");
   const auto j = jsonu::parse_file(read_text_file(ex), ex);
-  if (!j.contains("material")) throw Error(ex + ": no \"material\"");
-  return material_from_json(j.at("material"), ex);
+  if (!j.contains("material") || !j["material"].is_object())
+    throw Error(ex + ": no \"material\"");
+  // The export's own files: its material's maps as it carries them (tables/maps/...), and its
+  // line tables (tables/*.exr), drawn as an engine would draw them.
+  jsonu::json mj = j["material"];
+  const jsonu::json carried = j.value("maps", jsonu::json::object());
+  for (const auto& [key, v] : carried.items()) {
+    if (!v.is_object() || !v.contains("original") || !v["original"].is_string()) continue;
+    const std::string file = v["original"];
+    if (key == "topology.map")
+      mj["topology"]["map"] = file;
+    else if (key == "topology.s_map")
+      mj["topology"]["s_map"] = file;
+    else
+      mj["maps"][key] = file;
+  }
+  Material m = material_from_json(mj, ex);
+  m.base_dir = in;
+  load_material_maps(ex, &m);
+  const jsonu::json tables = j.value("tables", jsonu::json::object());
+  auto table = [&](const char* key, int channels) {
+    if (!tables.contains(key) || !tables[key].contains("exr"))
+      throw Error(ex + ": tables." + key + ".exr: missing");
+    const std::string f = join_path(in, tables[key]["exr"].get<std::string>());
+    Image img = read_image(f).image;
+    if (img.channels != channels || img.width != img.height)
+      throw Error(f + ": expected a square table of " + std::to_string(channels) + " channel(s)");
+    return img;
+  };
+  if (!m.fiber()) {
+    BakeTables& t = bake->tables;
+    t.diffuse = table("diffuse", 1);
+    t.specular = table("specular", 1);
+    t.combined = table("combined", 3);
+    t.index = BakeIndex::kAngle;  // export.json conventions.line_tables
+    t.size = t.diffuse.width;
+    if (t.specular.width != t.size || t.combined.width != t.size)
+      throw Error(ex + ": tables: diffuse, specular and combined differ in size");
+  }
+  return m;
 }
 
 }  // namespace

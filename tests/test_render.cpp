@@ -407,6 +407,46 @@ TEST(View, ScreenshotShowsThePreviewAndTheErrorMap) {
   EXPECT_GT(lit / n, 0.05);
 }
 
+// `aniso view EXPORT_DIR` draws the export's own tables and the maps it carries (it drew the
+// material block's mean values, dropping the maps): the same picture as viewing the material.
+TEST(View, AnExportFolderShowsItsOwnTablesAndMaps) {
+  const std::string dir = test::tmp_dir("view_export");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 16x16 --views 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("export " + dir + "/set/truth.json --out " + dir + "/ex --size 64");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string xvfb = "xvfb-run -a -s '-screen 0 800x600x24' ";
+  const std::string look = " --size 480x360 --shape flat --view 0.3,-0.5,0.8 --light -0.4,0.3,0.8";
+  r = test::run_command(xvfb + ANISO_BIN + " view " + dir + "/ex" + look + " --screenshot " + dir +
+                        "/e.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_command(xvfb + ANISO_BIN + " view " + dir + "/set/truth.json" + look +
+                        " --screenshot " + dir + "/m.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // The material without its maps (what the export's view drew before): another picture.
+  test::edit_json(dir + "/set/truth.json", [](auto& j) { j.erase("maps"); });
+  r = test::run_command(xvfb + ANISO_BIN + " view " + dir + "/set/truth.json" + look +
+                        " --screenshot " + dir + "/mean.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const Image e = read_image(dir + "/e.png").image, m = read_image(dir + "/m.png").image,
+              mean = read_image(dir + "/mean.png").image;
+  ASSERT_EQ(e.width, m.width);
+  // Right of the panel, on the sample.
+  double diff = 0, to_mean = 0;
+  size_t n = 0;
+  for (int y = 110; y < 190; ++y)
+    for (int x = 345; x < 390; ++x)
+      for (int c = 0; c < 3; ++c, ++n) {
+        diff += std::abs(e.at(x, y, c) - m.at(x, y, c));
+        to_mean += std::abs(e.at(x, y, c) - mean.at(x, y, c));
+      }
+  std::printf("view of the export: mean |difference| %.4f from the material's view, %.4f from "
+              "the material without its maps\n",
+              diff / n, to_mean / n);
+  EXPECT_LT(diff / n, 0.005);    // seen: 0.0014
+  EXPECT_GT(to_mean / n, 0.01);  // seen: 0.0225
+}
+
 }  // namespace
 }  // namespace aniso
 
