@@ -322,7 +322,7 @@ int run_fit_mpi(FitArgs& a) {
     const TempDir tmp;
     const std::string tile = tmp.path + "/tile.json";
     run_fit(a.in, fo, tile, a.truth);
-    bytes = read_text_file(tile);
+    bytes = read_text_file(tile, size_t(1) << 36);  // a tile may pass 256 MB (a 1024^2 grid)
   } catch (const Error& e) {
     ok = false;
     bytes = e.what();

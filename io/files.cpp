@@ -93,12 +93,12 @@ fs::path temp_name(const fs::path& target) {
                                  std::to_string(g_counter++) + target.extension().string());
 }
 
-fs::path prune_output(const fs::path& old, const fs::path& target);
+fs::path prune_output(const fs::path& old, const fs::path& target, const char* kind);
 
 // Removes what killed runs left beside `target`: temporaries named after a process that no
 // longer exists. Only names of our own pattern are touched; a folder among them that is not a
 // partial output is cleaned as an earlier output is (prune_output): nothing of a person's goes.
-void remove_stale_temps(const fs::path& target) {
+void remove_stale_temps(const fs::path& target, const char* kind = nullptr) {
   const std::string prefix = tmp_prefix(target);
   std::error_code ec;
   fs::directory_iterator it(target.parent_path().empty() ? "." : target.parent_path(), ec);
@@ -114,7 +114,7 @@ void remove_stale_temps(const fs::path& target) {
   for (const auto& p : stale) {
     const fs::file_status st = fs::symlink_status(p, ec);
     if (fs::is_directory(st) && !fs::exists(fs::symlink_status(p / kStagingSentinel, ec))) {
-      const fs::path aside = prune_output(p, target);
+      const fs::path aside = prune_output(p, target, kind);
       if (!aside.empty())
         std::fprintf(stderr, "note: %s: a killed run left files aniso did not write; moved to %s\n",
                      target.string().c_str(), aside.string().c_str());
@@ -378,13 +378,14 @@ fs::path move_aside(const fs::path& from, const fs::path& target, bool folder,
   throw Error(target.string() + ": no free name to move " + from.string() + " aside");
 }
 
-// Cleans an earlier output at `old` (a folder that is no longer in place): the files its marker
-// records, unchanged, are deleted, then the folders they leave empty. Anything else is moved aside
-// beside `target` whole; its new path is returned ("" when nothing was left).
-fs::path prune_output(const fs::path& old, const fs::path& target) {
+// Cleans an earlier output at `old` (a folder that is no longer in place): where it is an output of
+// `kind`, the files its marker records, unchanged, are deleted, then the folders they leave empty.
+// Anything else (an output of another kind: all of it) is moved aside beside `target` whole; its
+// new path is returned ("" when nothing was left).
+fs::path prune_output(const fs::path& old, const fs::path& target, const char* kind) {
   std::error_code ec;
   const Marker m = read_marker(old);
-  if (m.readable) {
+  if (m.readable && kind && m.kind == kind) {
     for (const auto& [rel, r] : walk_files(old)) {
       const auto it = m.files.find(rel);
       if (it != m.files.end() && it->second.size == r.size && it->second.mtime_ns == r.mtime_ns)
@@ -725,7 +726,7 @@ void write_folder_atomically(const std::string& dir, OutputKind kind,
   std::error_code ec;
   fs::create_directories(parent, ec);
   if (ec) throw Error(dir + ": cannot create folder " + parent.string() + ": " + ec.message());
-  remove_stale_temps(target);
+  remove_stale_temps(target, kind_name(kind));
   const fs::path tmp = temp_name(target);
   fs::create_directory(tmp, ec);
   if (ec) throw Error(dir + ": cannot create folder: " + ec.message());
@@ -781,12 +782,12 @@ void write_folder_atomically(const std::string& dir, OutputKind kind,
       throw Error(dir + ": cannot move the finished folder into place: " + why);
     }
   }
-  const fs::path aside = prune_output(old, target);
+  const fs::path aside = prune_output(old, target, kind_name(kind));
   if (!aside.empty())
-    std::fprintf(stderr,
-                 "note: %s: the earlier folder held files aniso did not write (or changed since); "
-                 "they are at %s, nothing deleted\n",
-                 dir.c_str(), aside.string().c_str());
+    std::fprintf(stderr, "note: %s: what was there (it %s) is now at %s (--force): nothing deleted\n",
+                 dir.c_str(),
+                 s.why.empty() ? "held files aniso did not write" : s.why.c_str(),
+                 aside.string().c_str());
 }
 
 namespace {

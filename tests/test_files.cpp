@@ -151,6 +151,12 @@ TEST(Files, AnOutputOfAnotherKindIsRefused) {
   r = test::sh("$A export " + ws + "/m.json --out " + ws + "/cap");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_EQ(slurp(ws + "/cap/capture.json"), capture);
+  // --force: the capture, aniso's own files of another kind, moves aside whole.
+  r = test::sh("$A bake " + ws + "/m.json --out " + ws + "/cap --size 16 --force");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(fs::exists(ws + "/cap/bake.json"));
+  EXPECT_EQ(slurp(ws + "/cap.aniso-old-1/capture.json"), capture);
+  EXPECT_TRUE(fs::exists(ws + "/cap.aniso-old-1/" + kOutputMarker));
   // A game project's folder: refused; --force moves the project aside, never deletes it.
   fs::create_directories(ws + "/game/scenes");
   std::ofstream(ws + "/game/project.godot") << "[application]";
