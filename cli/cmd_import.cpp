@@ -40,6 +40,7 @@ int run(const ImportArgs& a) {
   else
     std::printf("import: camera given in the shoot: %dx%d, fx %.2f fy %.2f px\n", k.width, k.height,
                 k.fx, k.fy);
+  for (const std::string& h : r.held) std::printf("import: held: %s\n", h.c_str());
   for (size_t i = 0; i < r.photos.size(); ++i) {
     const ImportedPhoto& p = r.photos[i];
     const std::string name = s.photos[i].images[0].file;

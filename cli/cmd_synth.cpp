@@ -15,7 +15,7 @@ namespace aniso::cli {
 
 namespace {
 struct SynthArgs {
-  std::string preset, out, size = "128x128", truth, compression = "none";
+  std::string preset, out, size = "128x128", truth, compression = "none", walk = "turned";
   PresetOptions po;
   double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
   bool list = false, photos = false, dng = false;
@@ -32,6 +32,7 @@ int run_photos(const SynthArgs& a) {
   if (a.app->count("--noise")) o.read_noise = a.po.noise;
   if (a.po.bits == 16) o.raw16 = true;
   o.dng = a.dng;
+  o.walk = a.walk;
   check_output_folder(a.out, OutputKind::kPhotoShoot);
   check_outputs_apart({a.out}, {a.truth});
   const PhotoShootStats st = simulate_photo_shoot(o, a.out);
@@ -96,6 +97,13 @@ Command add_synth(CLI::App& app) {
                   "0.002; --bits 16 writes RAW-like 16-bit linear photos");
   synth->add_flag("--dng", a->dng,
                   "--photos: write linear DNG files (16-bit, read by aniso import through LibRaw)");
+  synth
+      ->add_option("--walk", a->walk,
+                   "--photos: how the camera is held: upright (walking round the board, level "
+                   "with the horizon, 40-70 degrees above it: a person's shoot) or turned (turned "
+                   "with the board)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"upright", "turned"}));
   a->app = synth;
   add_force_flag(synth);
   synth

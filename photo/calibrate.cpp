@@ -53,18 +53,23 @@ Mat4 rigid_inverse(const Mat4& m) {
 
 Calibration calibrate_charuco(const BoardSpec& b,
                               const std::vector<std::vector<BoardCorner>>& views, int width,
-                              int height) {
+                              int height, const CalibrationHolds& holds) {
   const auto board = make_charuco_board(b);
   std::vector<std::vector<cv::Point2f>> pts(views.size());
   std::vector<std::vector<int>> ids(views.size());
   for (size_t i = 0; i < views.size(); ++i) to_cv(views[i], &pts[i], &ids[i]);
-  cv::Mat K, dist, std_intr, std_extr, per_view;
+  // Without CALIB_USE_INTRINSIC_GUESS OpenCV takes only fx / fy (1) from K and puts the principal
+  // point at the image centre.
+  cv::Mat K = cv::Mat::eye(3, 3, CV_64F), dist, std_intr, std_extr, per_view;
   std::vector<cv::Mat> rvecs, tvecs;
   Calibration out;
+  int flags = cv::CALIB_FIX_K3;
+  if (holds.square_pixels) flags |= cv::CALIB_FIX_ASPECT_RATIO;
+  if (holds.centre) flags |= cv::CALIB_FIX_PRINCIPAL_POINT;
   try {
     out.rms_px = cv::aruco::calibrateCameraCharuco(
         pts, ids, board, cv::Size(width, height), K, dist, rvecs, tvecs, std_intr, std_extr,
-        per_view, cv::CALIB_FIX_K3,
+        per_view, flags,
         cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-12));
   } catch (const cv::Exception& e) {
     throw Error(std::string("calibration failed in OpenCV: ") + e.what());

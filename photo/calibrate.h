@@ -22,9 +22,16 @@ struct Calibration {
 // Intrinsics, distortion k1 k2 p1 p2 (k3 fixed at zero: with tens of photos of a flat board it is
 // poorly determined and trades off against k1, k2) and every photo's pose. Each photo needs at
 // least 6 corners. Throws with OpenCV's message if the solve fails.
+// What the photos may leave undetermined, held instead: square pixels (fx = fy: every photo tilts
+// the board about the same image axis, as a camera held upright while walking round the board
+// does), and the principal point at the image centre (few photos).
+struct CalibrationHolds {
+  bool square_pixels = false;
+  bool centre = false;
+};
 Calibration calibrate_charuco(const BoardSpec& b,
                               const std::vector<std::vector<BoardCorner>>& views, int width,
-                              int height);
+                              int height, const CalibrationHolds& holds = {});
 
 // The board's pose in a photo for a known camera; false when OpenCV finds none.
 bool board_pose(const BoardSpec& b, const std::vector<BoardCorner>& corners, const Intrinsics& k,

@@ -119,27 +119,46 @@ double tilt_deg(const Mat4& cfb, double* azimuth) {
   return rad_to_deg(std::acos(std::min(1.0, std::abs(cfb(2, 2)))));
 }
 
-// Calibration needs the board seen tilted, from more than one side.
-void check_tilt(const Shoot& s, const std::vector<Mat4>& poses) {
-  constexpr double kMinTilt = 10;
+constexpr double kMinTilt = 10;  // degrees: a photo that sees the board tilted at least this
+
+// How the tilted photos tilt the board in their own frames: 1 when all about one image axis (a
+// camera held upright while walking round the board), less the more the directions spread.
+double tilt_axis_spread(const std::vector<Mat4>& poses, int* tilted) {
   double cx = 0, cy = 0;
-  int tilted = 0;
+  *tilted = 0;
   for (const auto& p : poses) {
     double az;
     if (tilt_deg(p, &az) < kMinTilt) continue;
-    ++tilted;
+    ++*tilted;
     cx += std::cos(az);
     cy += std::sin(az);
   }
-  const double spread = tilted ? std::hypot(cx, cy) / tilted : 1;
-  if (tilted >= 3 && spread < 0.95) return;
-  throw Error(s.file + ": too little tilt to calibrate the camera: " + std::to_string(tilted) +
-              " of " + std::to_string(poses.size()) + " photos see the board tilted " +
-              std::to_string(static_cast<int>(kMinTilt)) + " degrees or more" +
-              (tilted >= 3 ? ", and all from the same side" : "") +
-              ". Calibration needs at least 3 such photos from different sides (tilt the camera "
-              "15-45 degrees from straight above, walking around the board), or give the camera's "
-              "intrinsics as \"camera\" in the shoot");
+  return *tilted ? std::hypot(cx, cy) / *tilted : 1;
+}
+
+// Calibration needs the board seen tilted, from places apart: refused only where the photos
+// cannot calibrate a camera at all (too few tilted photos, or every photo from one place).
+void check_tilt(const Shoot& s, const std::vector<Mat4>& poses) {
+  int tilted = 0;
+  tilt_axis_spread(poses, &tilted);
+  double apart = 0;  // the largest distance between two of the cameras, metres
+  for (size_t a = 0; a < poses.size(); ++a)
+    for (size_t b = a + 1; b < poses.size(); ++b)
+      apart = std::max(apart, length(rigid_inverse(poses[a]).translation() -
+                                     rigid_inverse(poses[b]).translation()));
+  constexpr double kOnePlaceM = 0.05;
+  if (tilted >= 3 && apart >= kOnePlaceM) return;
+  char where[160];
+  std::snprintf(where, sizeof where, "%d of %zu photos see the board tilted %d degrees or more",
+                tilted, poses.size(), static_cast<int>(kMinTilt));
+  throw Error(s.file + ": too little tilt to calibrate the camera: " + where +
+              (apart < kOnePlaceM ? ", and all were taken from one place (the cameras within " +
+                                        std::to_string(static_cast<int>(apart * 100 + 0.5)) +
+                                        " cm)"
+                                  : std::string()) +
+              ". Walk round the board with the camera 40-70 degrees above it (at least 3 photos "
+              "from different sides), and turn the camera 90 degrees for a few of them; or give "
+              "the camera's intrinsics as \"camera\" in the shoot");
 }
 
 // The camera (given, or calibrated from the photos with enough corners; photos that reproject
@@ -238,6 +257,42 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
     std::vector<Mat4> used_poses;
     for (size_t i : use) used_poses.push_back(poses[i]);
     check_tilt(s, used_poses);
+    // What these photos leave undetermined is held and said: fx apart from fy where every photo
+    // tilts the board about one image axis; the principal point where it is poorly seen.
+    CalibrationHolds holds;
+    int tilted = 0;
+    const double spread = tilt_axis_spread(used_poses, &tilted);
+    constexpr double kOneAxis = 0.95, kCentreSigma = 0.02;
+    if (spread >= kOneAxis) {
+      holds.square_pixels = true;
+      char why[200];
+      std::snprintf(why, sizeof why,
+                    "fx = fy (square pixels): all %d tilted photos tilt the board about one image "
+                    "axis (spread %.3f), which leaves fx and fy apart undetermined",
+                    tilted, 1 - spread);
+      r->held.push_back(why);
+    }
+    if (r->sigma[2] > kCentreSigma * det[use[0]].width ||
+        r->sigma[3] > kCentreSigma * det[use[0]].height) {
+      holds.centre = true;
+      char why[200];
+      std::snprintf(why, sizeof why,
+                    "the principal point at the image centre: the photos put it at +- %.1f, %.1f "
+                    "px (over %.0f %% of the image)",
+                    r->sigma[2], r->sigma[3], 100 * kCentreSigma);
+      r->held.push_back(why);
+    }
+    if (holds.square_pixels || holds.centre) {
+      std::vector<std::vector<BoardCorner>> views;
+      for (size_t i : use) views.push_back(det[i].corners);
+      const Calibration cal =
+          calibrate_charuco(s.board, views, det[use[0]].width, det[use[0]].height, holds);
+      r->camera = cal.camera;
+      r->calibration_rms_px = cal.rms_px;
+      r->sigma = cal.sigma;
+      if (holds.square_pixels) r->sigma[0] = r->sigma[1] = std::max(r->sigma[0], r->sigma[1]);
+      for (size_t k = 0; k < use.size(); ++k) poses[use[k]] = cal.camera_from_board[k];
+    }
     r->calibrated = true;
     r->calibrated_on = use.size();
   }

@@ -52,6 +52,8 @@ struct ImportResult {
   bool calibrated = false;
   double calibration_rms_px = 0;
   std::array<double, 4> sigma{};  // fx, fy, cx, cy (calibrated only)
+  // What the photos left undetermined and the calibration held instead, each with why.
+  std::vector<std::string> held;
   std::vector<ImportedPhoto> photos;
   size_t views = 0;
   size_t calibrated_on = 0;          // photos the calibration used (the rest posed against it)

@@ -49,6 +49,7 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
     cal["rms_px"] = r.calibration_rms_px;
     cal["sigma_fx_fy_cx_cy_px"] = r.sigma;
     cal["calibrated_on_photos"] = r.calibrated_on;
+    cal["held"] = r.held;
   }
   return {{"format", "aniso-import-report"},
           {"version", 1},

@@ -119,15 +119,23 @@ PhotoSetup photo_setup(const PhotoShootOptions& o, int i, const Vec3& centre,
                        std::mt19937_64& rng) {
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
   const double f = (i + 0.5) / o.photos;
-  const double polar = deg_to_rad(12 + 30 * f), azimuth = i * 2.39996322972865332;
+  const bool upright = o.walk == "upright";
+  // Upright: 40-70 degrees above the board (20-50 from its normal), evenly round it.
+  const double polar = deg_to_rad(upright ? 20 + 30 * f : 12 + 30 * f);
+  const double azimuth = upright ? 2 * M_PI * i / o.photos : i * 2.39996322972865332;
   const double dist = 0.45 + 0.15 * (0.5 + 0.5 * uni(rng));
   const Vec3 eye = centre + Vec3(std::sin(polar) * std::cos(azimuth),
                                  std::sin(polar) * std::sin(azimuth), -std::cos(polar)) *
                                 dist;
-  const double roll = deg_to_rad(15 * uni(rng));
+  const double roll = deg_to_rad((upright ? 3 : 15) * uni(rng));
   PhotoSetup s;
   const Vec3 target = centre + Vec3(0.01 * uni(rng), 0.01 * uni(rng), 0);
-  s.world_from_camera = look_at(eye, target, {std::sin(roll), -std::cos(roll), 0});
+  // Upright: the image's up is the world's (-z: the camera's side of the board), within the roll
+  // of a hand; turned: the board's -y.
+  const Vec3 up = upright ? Vec3(std::sin(roll) * std::cos(azimuth + M_PI / 2),
+                                 std::sin(roll) * std::sin(azimuth + M_PI / 2), -std::cos(roll))
+                          : Vec3(std::sin(roll), -std::cos(roll), 0);
+  s.world_from_camera = look_at(eye, target, up);
   const double lp =
       std::clamp(polar + deg_to_rad(12 * uni(rng)), deg_to_rad(5.0), deg_to_rad(70.0));
   const double la = azimuth + M_PI + deg_to_rad(35 * uni(rng));

@@ -32,6 +32,11 @@ struct PhotoShootOptions {
   std::array<double, 5> distortion{-0.08, 0.03, 0, 0, 0};
   uint64_t seed = 1;
   bool progress = true;
+  // How the photographer holds the camera: "upright" (walking round the board, the camera level
+  // with the horizon, 40-70 degrees above the board: every photo tilts the board the same way in
+  // its frame, as a person's shoot does) or "turned" (the camera turned with the board, as if the
+  // board were rotated under a fixed camera; up to 15 degrees of roll).
+  std::string walk = "turned";
 };
 
 struct PhotoShootStats {
