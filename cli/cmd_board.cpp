@@ -15,8 +15,9 @@ namespace aniso::cli {
 
 Command add_board(CLI::App& app) {
   struct Args {
-    std::string out, shoot, squares = "10x8", dictionary = "DICT_5X5_100";
-    double square_mm = 30, marker_mm = 22, dpi = 300;
+    // Fits A4 and US Letter landscape with 10 mm margins and the scale bar (240 x 168 mm).
+    std::string out, shoot, squares = "10x7", dictionary = "DICT_5X5_100", paper = "a4";
+    double square_mm = 24, marker_mm = 17, dpi = 300;
   };
   auto a = std::make_shared<Args>();
   auto* b = app.add_subcommand(
@@ -35,6 +36,12 @@ Command add_board(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.5, 1000.0));
   b->add_option("--dictionary", a->dictionary, "OpenCV ArUco dictionary")->capture_default_str();
+  b->add_option("--paper", a->paper,
+                "the sheet it prints on, landscape: a4, letter or a3 (the PNG is the whole page: "
+                "the board within 10 mm margins, a 100 mm scale bar and a caption below it), or "
+                "none (the board alone)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"a4", "letter", "a3", "none"}));
   b->add_option("--dpi", a->dpi, "print resolution (recorded in the PNG)")
       ->capture_default_str()
       ->check(CLI::Range(30.0, 2400.0));
@@ -51,19 +58,23 @@ Command add_board(CLI::App& app) {
             check_outputs_apart({a->out, shoot}, {});
             check_output_file(a->out, OutputKind::kBoard);
             check_output_file(shoot, OutputKind::kShoot);
-            const Image img = render_board(spec, a->dpi);
+            const Image img = a->paper == "none"
+                                  ? render_board(spec, a->dpi)
+                                  : render_board_page(spec, paper_named(a->paper), a->dpi);
             write_png(a->out, img, 8, a->dpi);
             nlohmann::json j;
             shoot_skeleton(spec, relative_to(a->out, parent_dir(shoot)), &j);
             write_json_file(shoot, j);
             std::printf(
-                "board: %dx%d squares of %.1f mm (markers %.1f mm, %s), %dx%d px at %.0f dpi = "
-                "%.1f x %.1f mm -> %s\n"
-                "board: print at 100 %% scale (no fit-to-page) and measure one square: it must be "
-                "%.1f mm; then fill in %s (sample outline, lamp positions, photos)\n",
+                "board: %dx%d squares of %.1f mm (markers %.1f mm, %s) = %.1f x %.1f mm on %s, "
+                "%dx%d px at %.0f dpi -> %s\n"
+                "board: print at 100 %% scale (no fit-to-page) and measure the scale bar (100 mm) "
+                "or one square (%.1f mm); then fill in %s (sample outline, lamp positions, "
+                "photos)\n",
                 spec.squares_x, spec.squares_y, a->square_mm, a->marker_mm, spec.dictionary.c_str(),
-                img.width, img.height, a->dpi, spec.squares_x * a->square_mm,
-                spec.squares_y * a->square_mm, a->out.c_str(), a->square_mm, shoot.c_str());
+                spec.squares_x * a->square_mm, spec.squares_y * a->square_mm,
+                a->paper == "none" ? "its own" : a->paper.c_str(), img.width, img.height, a->dpi,
+                a->out.c_str(), a->square_mm, shoot.c_str());
             return 0;
           }};
 }

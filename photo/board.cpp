@@ -4,6 +4,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 #include "core/text.h"
@@ -96,6 +97,80 @@ Image render_board(const BoardSpec& b, double dpi) {
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) img.at(x, y, 0) = m.at<uint8_t>(y, x) / 255.f;
   return img;
+}
+
+Paper paper_named(const std::string& name) {
+  if (name == "a4") return {"a4", 0.297, 0.210};
+  if (name == "letter") return {"letter", 0.2794, 0.2159};
+  if (name == "a3") return {"a3", 0.420, 0.297};
+  throw Error("board: --paper: unknown paper '" + name + "'" +
+              did_you_mean(name, {"a4", "letter", "a3", "none"}) + " (a4, letter, a3, none)");
+}
+
+double largest_square_on(const BoardSpec& b, const Paper& paper) {
+  const double w = paper.w - 2 * kPaperMargin, h = paper.h - 2 * kPaperMargin - kCaptionSpace;
+  return std::floor(std::min(w / b.squares_x, h / b.squares_y) * 1e4) / 1e4;
+}
+
+Image render_board_page(const BoardSpec& b, const Paper& paper, double dpi) {
+  const double W = b.squares_x * b.square_m, H = b.squares_y * b.square_m;
+  if (W > paper.w - 2 * kPaperMargin + 1e-9 ||
+      H > paper.h - 2 * kPaperMargin - kCaptionSpace + 1e-9) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "board: %dx%d squares of %.1f mm (%.0f x %.0f mm) do not fit %s (%.0f x %.0f mm "
+                  "landscape, %.0f mm margins and %.0f mm for the scale bar): at most %.1f mm "
+                  "squares (--square-mm), fewer squares, or a larger --paper",
+                  b.squares_x, b.squares_y, 1e3 * b.square_m, 1e3 * W, 1e3 * H,
+                  paper.name.c_str(), 1e3 * paper.w, 1e3 * paper.h, 1e3 * kPaperMargin,
+                  1e3 * kCaptionSpace, 1e3 * largest_square_on(b, paper));
+    throw Error(buf);
+  }
+  const Image board = render_board(b, dpi);
+  const double px_per_m = dpi / 0.0254;
+  const int pw = static_cast<int>(std::lround(paper.w * px_per_m));
+  const int ph = static_cast<int>(std::lround(paper.h * px_per_m));
+  cv::Mat page(ph, pw, CV_8U, cv::Scalar(255));
+  // The board centred across, and in the height left above the caption.
+  const int x0 = (pw - board.width) / 2;
+  const int y0 = static_cast<int>(
+      std::lround((ph - std::lround(kCaptionSpace * px_per_m) - board.height) / 2.0));
+  for (int y = 0; y < board.height; ++y)
+    for (int x = 0; x < board.width; ++x)
+      page.at<uint8_t>(y0 + y, x0 + x) =
+          static_cast<uint8_t>(std::lround(255 * board.at(x, y, 0)));
+  // The scale bar: 100 mm, 1.5 mm thick, ticks every 10 mm, 4 mm below the board.
+  const int bar = static_cast<int>(std::lround(0.100 * px_per_m));
+  const int by = y0 + board.height + static_cast<int>(std::lround(0.004 * px_per_m));
+  const int thick = std::max(2, static_cast<int>(std::lround(0.0015 * px_per_m)));
+  cv::rectangle(page, cv::Rect(x0, by, bar, thick), cv::Scalar(0), cv::FILLED);
+  for (int t = 0; t <= 10; ++t) {
+    const int tx = x0 + static_cast<int>(std::lround(t * 0.010 * px_per_m));
+    const int tick = static_cast<int>(std::lround((t % 5 == 0 ? 0.004 : 0.0025) * px_per_m));
+    cv::rectangle(page, cv::Rect(std::min(tx, x0 + bar - thick), by, thick, thick + tick),
+                  cv::Scalar(0), cv::FILLED);
+  }
+  char caption[256];
+  std::snprintf(caption, sizeof caption,
+                "aniso ChArUco %dx%d, squares %.1f mm, markers %.1f mm, %s; %s: print at 100 %% "
+                "(no fit to page)",
+                b.squares_x, b.squares_y, 1e3 * b.square_m, 1e3 * b.marker_m,
+                b.dictionary.c_str(), paper.name == "letter" ? "US Letter" : paper.name == "a4"
+                                                                   ? "A4"
+                                                                   : "A3");
+  // Hershey simplex: about 22 px of cap height at scale 1; 2.2 mm here.
+  const double scale = 0.0022 * px_per_m / 22;
+  const int weight = std::max(1, static_cast<int>(std::lround(scale * 1.5)));
+  cv::putText(page, "100 mm",
+              cv::Point(x0 + bar + static_cast<int>(std::lround(0.003 * px_per_m)),
+                        by + static_cast<int>(std::lround(0.003 * px_per_m))),
+              cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0), weight, cv::LINE_AA);
+  cv::putText(page, caption, cv::Point(x0, by + static_cast<int>(std::lround(0.0125 * px_per_m))),
+              cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0), weight, cv::LINE_AA);
+  Image out(pw, ph, 1);
+  for (int y = 0; y < ph; ++y)
+    for (int x = 0; x < pw; ++x) out.at(x, y, 0) = page.at<uint8_t>(y, x) / 255.f;
+  return out;
 }
 
 std::vector<std::array<double, 2>> board_corners_m(const BoardSpec& b) {

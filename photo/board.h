@@ -30,6 +30,23 @@ void check_board(const BoardSpec& b);
 // at 100 % scale. Grey, values 0 or 1.
 Image render_board(const BoardSpec& b, double dpi);
 
+// A sheet of paper, landscape, in metres.
+struct Paper {
+  std::string name;  // "a4", "letter", "a3"
+  double w = 0, h = 0;
+};
+// "a4", "letter" or "a3"; throws naming the value otherwise.
+Paper paper_named(const std::string& name);
+// Margins and the space below the board for its scale bar and caption, metres.
+inline constexpr double kPaperMargin = 0.010, kCaptionSpace = 0.022;
+// The largest square side (metres, whole tenths of a mm) at which b's squares fit on `paper`
+// with the margins and caption space.
+double largest_square_on(const BoardSpec& b, const Paper& paper);
+// The whole page at `dpi`: the board at its printed size, centred in the margins, and below it a
+// 100 mm scale bar with 10 mm ticks and a caption (board, sizes, paper, "print at 100 %").
+// Throws, naming the largest square that fits, where the board does not fit the paper.
+Image render_board_page(const BoardSpec& b, const Paper& paper, double dpi);
+
 // The inner chessboard corners in the board frame (metres), in OpenCV's id order.
 std::vector<std::array<double, 2>> board_corners_m(const BoardSpec& b);
 

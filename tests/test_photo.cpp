@@ -78,7 +78,9 @@ TEST(Board, BadBoardsAreRefusedWithTheOption) {
 // replaces a shoot.json that is already there (it holds a person's measurements).
 TEST(Board, CommandWritesBoardAndSkeletonAndKeepsAnExistingShoot) {
   const std::string dir = test::tmp_dir("board");
-  auto r = test::run_cli("board --out " + dir + "/board.png --dpi 150 --squares 6x4");
+  auto r = test::run_cli("board --out " + dir +
+                         "/board.png --dpi 150 --squares 6x4 --square-mm 30 --marker-mm 22 "
+                         "--paper none");
   ASSERT_EQ(r.status, 0) << r.output;
   const std::string png = read_text_file(dir + "/board.png");
   const auto at = png.find("pHYs");
@@ -166,6 +168,50 @@ TEST(Import, SimulatedShootCalibratesPosesAndFitsTheMaterial) {
     EXPECT_NEAR(fit["kd"][c].get<double>() / mat["kd"][c].get<double>(), 1.0, 0.03);
     EXPECT_NEAR(fit["ks"][c].get<double>() / mat["ks"][c].get<double>(), 1.0, 0.03);
   }
+}
+
+// The default board prints on A4 and US Letter at 100 % within 10 mm margins; the page carries a
+// 100 mm scale bar (its black run is 100 mm at the page's dpi) and the board is found on it with
+// every corner. A board too large for its paper is refused with the largest square that fits.
+TEST(Board, TheDefaultBoardPrintsOnA4AndLetterWithAScaleBar) {
+  const std::string dir = test::tmp_dir("board");
+  for (const char* paper : {"a4", "letter"}) {
+    SCOPED_TRACE(paper);
+    const std::string png = dir + "/" + paper + ".png";
+    auto r = test::run_cli(std::string("board --out ") + png + " --dpi 100 --paper " + paper +
+                           " --shoot " + dir + "/" + paper + ".json");
+    ASSERT_EQ(r.status, 0) << r.output;
+    const Image page = read_image(png).image;
+    const Paper p = paper_named(paper);
+    EXPECT_EQ(page.width, std::lround(p.w * 100 / 0.0254));
+    EXPECT_EQ(page.height, std::lround(p.h * 100 / 0.0254));
+    const auto shoot = nlohmann::json::parse(read_text_file(dir + "/" + paper + ".json"));
+    BoardSpec b;
+    b.squares_x = shoot["board"]["squares"][0];
+    b.squares_y = shoot["board"]["squares"][1];
+    b.square_m = shoot["board"]["square_m"];
+    b.marker_m = shoot["board"]["marker_m"];
+    EXPECT_LE(b.squares_x * b.square_m, p.w - 2 * kPaperMargin);
+    int markers = 0;
+    const auto corners = detect_board(page, b, &markers);
+    EXPECT_EQ(corners.size(), static_cast<size_t>((b.squares_x - 1) * (b.squares_y - 1)));
+    // The longest black run in a row below the board: the scale bar.
+    int longest = 0;
+    for (int y = page.height * 3 / 4; y < page.height; ++y) {
+      int run = 0;
+      for (int x = 0; x < page.width; ++x) {
+        run = page.at(x, y, 0) < 0.5f ? run + 1 : 0;
+        longest = std::max(longest, run);
+      }
+    }
+    EXPECT_NEAR(longest, 0.100 * 100 / 0.0254, 1.0) << "the 100 mm bar, in pixels at 100 dpi";
+  }
+  const auto r = test::run_cli("board --out " + dir + "/big.png --squares 12x9 --square-mm 30 "
+                               "--shoot " + dir + "/big.json");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("do not fit a4"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("at most 18.6 mm squares"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir + "/big.png"));
 }
 
 // A shoot photographed as people photograph: walking round the board with the camera held upright,
