@@ -157,6 +157,37 @@ MergedPhoto merge_bracket(const Shoot& s, size_t i) {
     src.push_back({shots[k].li.image.px.data(), shots[k].li.image.channels,
                    table[k].empty() ? nullptr : table[k].data(),
                    static_cast<float>(table[k].size()) - 1, static_cast<float>(shots[k].exposure)});
+  // The bracket's own ratios: where two exposures both hold a usable value, their radiances
+  // (value / exposure) agree; a median ratio far from 1 means exposures swapped or mistyped.
+  auto code_at = [&](size_t k, size_t p) {
+    const Src& sr = src[k];
+    const float stored = sr.px[p * sr.channels + (sr.channels == 1 ? 0 : 1)];  // green
+    return sr.table ? sr.table[static_cast<int>(stored * sr.scale + 0.5f)] : classify(k, stored);
+  };
+  for (size_t k = 1; k < src.size(); ++k) {
+    std::vector<float> ratio;
+    for (size_t p = 0; p < static_cast<size_t>(w) * h; p += 13) {
+      const Code a = code_at(0, p), b = code_at(k, p);
+      if (a.kind == kUse && b.kind == kUse && a.radiance > 0 && b.radiance > 0)
+        ratio.push_back(b.radiance / a.radiance);
+    }
+    constexpr size_t kEnough = 200;
+    constexpr float kFar = 2;  // a factor past any exposure's own error
+    if (ratio.size() < kEnough) continue;
+    std::nth_element(ratio.begin(), ratio.begin() + ratio.size() / 2, ratio.end());
+    const float r = ratio[ratio.size() / 2];
+    if (r < 1 / kFar || r > kFar) {
+      char buf[400];
+      std::snprintf(buf, sizeof buf,
+                    ": photos[%zu].images[%zu].exposure: %s is %.3g times as bright as %s (the "
+                    "median over %zu pixels both hold), but the exposures say %.3g; swapped or "
+                    "mistyped? (exposure is relative: 1, 0.25, 0.0625 for steps of 2 stops)",
+                    i, k, shots[k].path.c_str(),
+                    r * shots[k].exposure / shots[0].exposure, shots[0].path.c_str(),
+                    ratio.size(), shots[k].exposure / shots[0].exposure);
+      throw Error(s.file + buf);
+    }
+  }
   tbb::parallel_for(0, h, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t p = static_cast<size_t>(y) * w + x;

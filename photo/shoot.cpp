@@ -101,6 +101,14 @@ void check_light(const Light& l, const Ctx& c, double height_m) {
         .fail("z = " + std::to_string(l.position.z) +
               " is on the wrong side of the board: the printed face, camera and "
               "lamps are at z < 0 (z points into the board)");
+  } else if (constexpr double kFarM = 5; length(l.position) > kFarM) {
+    // A desk lamp lights a sample from within a metre or two: tens of metres are centimetres.
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "the lamp is %.1f m from the board's corner: positions are in metres (were they "
+                  "written in centimetres or millimetres?)",
+                  length(l.position));
+    c.at("position").fail(buf);
   }
 }
 

@@ -9,6 +9,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 
+#include "core/color.h"
 #include "core/error.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -272,6 +273,13 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   expect_refused("wrong side of the board",
                  [](auto& j) { j["photos"][0]["lights"][0]["position"][2] = 0.3; });
   expect_refused("DICT_5X5_100 (", [](auto& j) { j["board"]["dictionary"] = "DICT_4X4_100"; });
+  // Lamp positions written in centimetres; a bracket's exposures swapped.
+  expect_refused("written in centimetres", [](auto& j) {
+    for (auto& v : j["photos"][3]["lights"][0]["position"]) v = v.template get<double>() * 100;
+  });
+  expect_refused("photos[1].images[1].exposure", [](auto& j) {
+    std::swap(j["photos"][1]["images"][0]["exposure"], j["photos"][1]["images"][2]["exposure"]);
+  });
   expect_refused("too few photos to calibrate", [](auto& j) {
     while (j["photos"].size() > 3) j["photos"].erase(j["photos"].size() - 1);
   });
@@ -329,11 +337,14 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
     write_png(dir + "/shoot/photos/small.png", Image(320, 240, 3, 0.5f), 8);
     j["photos"][2]["images"][1]["file"] = "photos/small.png";
   });
-  // A photo without the board (a grey frame) is left out with its reason; the rest are imported.
+  // A photo without the board (a grey frame, its bracket's exposures kept) is left out with its
+  // reason; the rest are imported.
   write_text_file(shoot, good);
-  for (int e = 0; e < 3; ++e)
-    write_png(dir + "/shoot/photos/p04_e" + std::to_string(e) + ".png", Image(640, 480, 3, 0.4f),
-              8);
+  for (int e = 0; e < 3; ++e) {
+    const double grey = srgb_encode(0.3 * std::pow(0.25, e));
+    write_png(dir + "/shoot/photos/p04_e" + std::to_string(e) + ".png",
+              Image(640, 480, 3, static_cast<float>(grey)), 8);
+  }
   r = test::run_cli("import " + shoot + " --out " + out);
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("photo 4 (photos/p04_e0.png): LEFT OUT: board not found"),
