@@ -508,8 +508,9 @@ void run_bench(const std::string& suite, const std::string& out_path, const std:
   if (!known)
     throw Error("bench: unknown suite '" + suite +
                 "' (fit, fiber, bake, capture, preview, skips, all)");
-  // The work folder is the bench's own: new, empty, or one it wrote before (its marker), unless
-  // --force. It replaces the sets and files it writes there (obs_*.bin among them) on every run.
+  // The work folder is the bench's own: new, empty, or one it wrote before (its marker); with
+  // --force anything else there is moved aside. It replaces the sets and files it writes there
+  // (obs_*.bin among them) on every run.
   try {
     check_output_folder(work_dir, OutputKind::kBenchWork);
   } catch (const Error& e) {

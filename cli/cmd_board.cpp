@@ -26,8 +26,8 @@ Command add_board(CLI::App& app) {
       "fill in (then: aniso import shoot.json --out CAPTURE_DIR)");
   b->add_option("--out", a->out, "board image to write (PNG; print it at 100 % scale)")->required();
   b->add_option("--shoot", a->shoot,
-                "the shoot.json skeleton (default: shoot.json beside --out; never replaced: an "
-                "existing one is kept unless --force)");
+                "the shoot.json skeleton (default: shoot.json beside --out; an existing one is "
+                "kept: refused, or with --force moved aside to shoot.aniso-old-N.json)");
   b->add_option("--squares", a->squares, "squares across x down (WxH)")->capture_default_str();
   b->add_option("--square-mm", a->square_mm, "side of a chessboard square, mm")
       ->capture_default_str()

@@ -84,8 +84,8 @@ Command add_board(CLI::App& app);
 Command add_import(CLI::App& app);
 Command add_merge(CLI::App& app);
 
-// `--force`: a folder output may replace a folder holding files aniso did not write.
-// --force (what it lets the command replace: `help`, or the folder-output text).
+// `--force`: what the command would refuse to replace is moved aside, never deleted (io/files.h);
+// `help` replaces the common text.
 void add_force_flag(CLI::App* sub, const char* help = nullptr);
 // Says on stderr that a material's maps (k_d, k_s, n, fiber over uv) are not used by `what`, which
 // takes the scalar (mean) values instead. Nothing when the material has no maps.

@@ -60,8 +60,8 @@ struct ExportSummary {
   double seconds = 0;
 };
 
-// Writes the folder atomically (new, empty, or an earlier export; --force for other aniso
-// outputs is not enough: a folder holding anything but an export is refused).
+// Writes the folder atomically: new, empty, or an earlier export holding exactly what it wrote
+// (io/files.h); anything else is refused, or with --force moved aside.
 ExportSummary export_material(const Material& m, const std::string& dir, const ExportOptions& o);
 
 // The shader sources as exported (the function files with ANISO_TEXELS defined, and the complete
