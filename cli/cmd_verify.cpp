@@ -34,12 +34,31 @@ Command add_verify(CLI::App& app) {
               check_output_folder(a->resid, OutputKind::kResiduals);
             }
             const VerifyResult r = verify_capture(set, m, a->resid);
-            std::printf("%-6s %8s %12s %12s %10s\n", "view", "pixels", "rms", "max_abs", "rel_rms");
-            for (size_t i = 0; i < r.views.size(); ++i)
-              std::printf("%-6zu %8zu %12.4g %12.4g %9.4f%%\n", i, r.views[i].pixels,
-                          r.views[i].rms, r.views[i].max_abs, 100 * r.views[i].rel_rms());
-            std::printf("%-6s %8zu %12.4g %12.4g %9.4f%%\n", "all", r.overall.pixels, r.overall.rms,
-                        r.overall.max_abs, 100 * r.overall.rel_rms());
+            std::printf("%-6s %8s %12s %12s %10s %10s %9s  %s\n", "view", "pixels", "rms",
+                        "max_abs", "rel_rms", "noise", "rms/noise", "verdict");
+            auto line = [](const char* name, const ViewError& e) {
+              std::printf("%-6s %8zu %12.4g %12.4g %9.4f%% %10.4g %9.2f  %s\n", name, e.pixels,
+                          e.rms, e.max_abs, 100 * e.rel_rms(), e.noise, e.rms_over_noise(),
+                          verdict(e.rms_over_noise()));
+            };
+            for (size_t i = 0; i < r.views.size(); ++i) line(std::to_string(i).c_str(), r.views[i]);
+            line("all", r.overall);
+            const double q = r.overall.rms_over_noise();
+            if (q > 3)
+              std::printf(
+                  "verify: WARNING: the residual is %.1f times the images' noise: the material "
+                  "does not describe these images (for a photo shoot also: lamp positions, "
+                  "intensities or the calibration)%s\n",
+                  q, a->resid.empty() ? "; --residuals DIR shows where" : "");
+            else if (q > 0)
+              std::printf("verify: the residual is %.2f times the images' noise (%s)\n", q,
+                          verdict(q));
+            if (!a->resid.empty())
+              std::printf(
+                  "verify: %s/residual_NNN.exr (model - image, RGB) and residual_NNN.png (green "
+                  "over each view's noise: blue -3 sigma, white 0, red +3 sigma; grey off the "
+                  "sample)\n",
+                  a->resid.c_str());
             if (r.overall.dark > 0) {
               std::string views;
               for (size_t i = 0; i < r.views.size(); ++i)

@@ -28,12 +28,48 @@ void check_uv(const CaptureSet& set, size_t i, const ViewGeometry& g, bool maps,
                 "\"uv\" buffer");
 }
 
+// One channel's noise sigma of an image over its usable pixels: second differences along rows
+// (x - 1, x, x + 1 all usable), 1.4826 median |d| / sqrt(6).
+double image_noise(const ViewData& d, int channel) {
+  std::vector<float> diffs;
+  const int w = d.rgb.width;
+  for (int y = 0; y < d.rgb.height; ++y)
+    for (int x = 1; x + 1 < w; ++x) {
+      const size_t p = static_cast<size_t>(y) * w + x;
+      if (!d.usable(p - 1) || !d.usable(p) || !d.usable(p + 1)) continue;
+      diffs.push_back(std::abs(d.rgb.at(x - 1, y, channel) - 2 * d.rgb.at(x, y, channel) +
+                               d.rgb.at(x + 1, y, channel)));
+    }
+  if (diffs.empty()) return 0;
+  std::nth_element(diffs.begin(), diffs.begin() + diffs.size() / 2, diffs.end());
+  return 1.4826 * diffs[diffs.size() / 2] / std::sqrt(6.0);
+}
+
+// The residual picture: green's residual over the noise, blue (-3 sigma) - white - red (+3).
+Image residual_picture(const Image& resid, const std::vector<uint8_t>& on, double noise) {
+  Image out(resid.width, resid.height, 3, 0.5f);
+  const double scale = noise > 0 ? 1 / (3 * noise) : 0;
+  for (size_t p = 0; p < on.size(); ++p) {
+    if (!on[p]) continue;
+    const float t = static_cast<float>(std::clamp(resid.px[3 * p + 1] * scale, -1.0, 1.0));
+    out.px[3 * p] = t < 0 ? 1 + t : 1;
+    out.px[3 * p + 1] = 1 - std::abs(t);
+    out.px[3 * p + 2] = t > 0 ? 1 - t : 1;
+  }
+  return out;
+}
+
 }  // namespace
+
+const char* verdict(double r) {
+  return r <= 0 ? "no noise measure" : r <= 1.5 ? "at the noise" : r <= 3 ? "near the noise" : "misfit";
+}
 
 VerifyResult verify_capture(const CaptureSet& set, const Material& m,
                             const std::string& residual_dir) {
   VerifyResult res;
   std::vector<Image> resids;  // --residuals: written together at the end
+  std::vector<Image> pictures;
   const Evaluator eval(m);
   double sum2 = 0, sumy = 0, sum2_dark = 0;
   std::vector<float> green;  // |error| of one channel per pixel, for the noise: reused view to view
@@ -64,6 +100,8 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     std::vector<Dark> darker;  // pixels under a quarter of the prediction (few in a good fit)
     green.clear();
     Image resid = keep_residuals ? Image(d.rgb.width, d.rgb.height, 3, 0.f) : Image();
+    std::vector<uint8_t> on(keep_residuals ? static_cast<size_t>(d.rgb.width) * d.rgb.height : 0);
+    e.noise = image_noise(d, 1);
     ShadeCounters cnt;
     const RGB amb{m.ka[0] * set.ambient[0], m.ka[1] * set.ambient[1], m.ka[2] * set.ambient[2]};
     for (int y = 0; y < d.rgb.height; ++y)
@@ -87,7 +125,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
         double p2 = 0, pred = 0, obs = 0;
         for (int c = 0; c < 3; ++c) {
           const double err = v.exposure * I[c] - d.rgb.at(x, y, c);
-          if (keep_residuals) resid.at(x, y, c) = static_cast<float>(err);
+          if (keep_residuals) resid.at(x, y, c) = static_cast<float>(err), on[p] = 1;
           p2 += err * err;
           pred += v.exposure * I[c], obs += d.rgb.at(x, y, c);
           sy += std::abs(d.rgb.at(x, y, c));
@@ -100,7 +138,10 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
         ++e.pixels;
       }
     res.light_evals += cnt.light_evals;
-    if (keep_residuals) resids.push_back(std::move(resid));
+    if (keep_residuals) {
+      pictures.push_back(residual_picture(resid, on, e.noise));
+      resids.push_back(std::move(resid));
+    }
     buffers.give_back(std::move(d.rgb));
     e.rms = e.pixels ? std::sqrt(s2 / (3.0 * e.pixels)) : 0;
     // Dark beyond the noise: a deficit over 5 sigma of the three channels' sum, sigma robust from
@@ -133,8 +174,17 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
         char name[48];
         std::snprintf(name, sizeof name, "residual_%03zu.exr", i);
         write_exr(join_path(dir, name), resids[i]);
+        std::snprintf(name, sizeof name, "residual_%03zu.png", i);
+        write_png(join_path(dir, name), pictures[i], 8);
       }
     });
+  std::vector<double> noises;
+  for (const ViewError& v : res.views)
+    if (v.noise > 0) noises.push_back(v.noise);
+  if (!noises.empty()) {
+    std::nth_element(noises.begin(), noises.begin() + noises.size() / 2, noises.end());
+    res.overall.noise = noises[noises.size() / 2];
+  }
   const double n = 3.0 * std::max<size_t>(res.overall.pixels, 1);
   res.overall.rms = std::sqrt(sum2 / n);
   const size_t lit = res.overall.pixels - res.overall.dark;

@@ -19,8 +19,14 @@ struct ViewError {
   // that does not describe them; and the RMS of the other pixels.
   size_t dark = 0;
   double rms_without_dark = 0;
+  // The image's own noise (one channel's sigma, robust, from second differences of neighbouring
+  // sample pixels: what a perfect model would leave), and the RMS against it.
+  double noise = 0;
   double rel_rms() const { return mean_signal > 0 ? rms / mean_signal : 0; }
+  double rms_over_noise() const { return noise > 0 ? rms / noise : 0; }
 };
+// "at the noise" (RMS at most 1.5 times it), "near the noise" (at most 3), "misfit" (more).
+const char* verdict(double rms_over_noise);
 
 struct VerifyResult {
   std::vector<ViewError> views;
@@ -29,7 +35,8 @@ struct VerifyResult {
 };
 
 // With `residual_dir`, also writes residual_NNN.exr per view (model - image, RGB; 0 off the
-// sample).
+// sample) and residual_NNN.png beside it: the green channel's residual over the view's noise,
+// blue at -3 sigma, white at 0, red at +3 sigma; grey off the sample.
 VerifyResult verify_capture(const CaptureSet& set, const Material& m,
                             const std::string& residual_dir = "");
 
