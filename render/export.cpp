@@ -82,19 +82,75 @@ SphereBuffers sphere_buffers() {
 // the (tangent, bitangent) plane encoded to [0, 1] (across the fibers: psi + 90 deg, as the
 // rotation of the uniform case), B the strength (1: the factor applies; with `strength`, each
 // texel's own, the factor then 1). The rotation is then 0.
+// The anisotropy direction is a line (d and -d shade alike), but an engine filters the texture's
+// vectors: neighbours of opposite sign average toward zero. The signs are chosen along a maximum
+// spanning tree of the texel grid, an edge weighing how parallel its two lines are: every tree
+// edge agrees, and the disagreements left are where the lines themselves turn fast (beside a
+// point they turn round by half a turn, where no choice of signs is continuous).
 Image anisotropy_texture(const Material& m, const GltfPbrTexels* strength) {
   const Image& f = *m.maps.fiber;
   const int w = strength ? strength->w : f.width, h = strength ? strength->h : f.height;
-  Image out(w, h, 3);
+  const size_t n = static_cast<size_t>(w) * h;
+  std::vector<double> dx(n), dy(n);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const size_t t = static_cast<size_t>(y) * w + x;
       const double dir = strength ? strength->rotation_rad[t]
                                   : 0.5 * std::atan2(f.at(x, y, 1), f.at(x, y, 0)) + M_PI / 2;
-      out.at(x, y, 0) = static_cast<float>(0.5 + 0.5 * std::cos(dir));
-      out.at(x, y, 1) = static_cast<float>(0.5 + 0.5 * std::sin(dir));
-      out.at(x, y, 2) = strength ? strength->strength[t] : 1.f;
+      dx[t] = std::cos(dir), dy[t] = std::sin(dir);
     }
+  auto dot = [&](size_t a, size_t b) { return dx[a] * dx[b] + dy[a] * dy[b]; };
+  struct Edge {
+    uint32_t a, b;
+    float weight;
+  };
+  std::vector<Edge> edges;
+  edges.reserve(2 * n);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const auto t = static_cast<uint32_t>(static_cast<size_t>(y) * w + x);
+      if (x + 1 < w) edges.push_back({t, t + 1, static_cast<float>(std::abs(dot(t, t + 1)))});
+      if (y + 1 < h)
+        edges.push_back({t, t + static_cast<uint32_t>(w),
+                         static_cast<float>(std::abs(dot(t, t + static_cast<size_t>(w))))});
+    }
+  std::stable_sort(edges.begin(), edges.end(),
+                   [](const Edge& p, const Edge& q) { return p.weight > q.weight; });
+  std::vector<uint32_t> parent(n);
+  for (size_t t = 0; t < n; ++t) parent[t] = static_cast<uint32_t>(t);
+  auto root = [&](uint32_t t) {
+    while (parent[t] != t) t = parent[t] = parent[parent[t]];
+    return t;
+  };
+  std::vector<std::vector<uint32_t>> tree(n);
+  for (const Edge& e : edges) {
+    const uint32_t ra = root(e.a), rb = root(e.b);
+    if (ra == rb) continue;
+    parent[ra] = rb;
+    tree[e.a].push_back(e.b);
+    tree[e.b].push_back(e.a);
+  }
+  std::vector<int8_t> sign(n, 0);
+  std::vector<uint32_t> queue;
+  for (size_t s = 0; s < n; ++s) {
+    if (sign[s]) continue;
+    sign[s] = 1;
+    queue.assign(1, static_cast<uint32_t>(s));
+    for (size_t q = 0; q < queue.size(); ++q) {
+      const uint32_t t = queue[q];
+      for (const uint32_t u : tree[t])
+        if (!sign[u]) {
+          sign[u] = static_cast<int8_t>(dot(t, u) < 0 ? -sign[t] : sign[t]);
+          queue.push_back(u);
+        }
+    }
+  }
+  Image out(w, h, 3);
+  for (size_t t = 0; t < n; ++t) {
+    out.px[3 * t] = static_cast<float>(0.5 + 0.5 * sign[t] * dx[t]);
+    out.px[3 * t + 1] = static_cast<float>(0.5 + 0.5 * sign[t] * dy[t]);
+    out.px[3 * t + 2] = strength ? strength->strength[t] : 1.f;
+  }
   return out;
 }
 

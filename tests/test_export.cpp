@@ -471,6 +471,54 @@ TEST(Export, MapsBecomePerTexelGltfTextures) {
   EXPECT_LT(worst, 0.01);  // 8-bit codes (sRGB's steepest step near black is ~0.0012)
 }
 
+// The glTF's anisotropy direction field keeps one sign across neighbours (d and -d shade alike,
+// but an engine's filtering averages opposite vectors toward zero): on the swirl (fibres in
+// circles, psi wrapping through 180 degrees) the pairs of neighbours that point apart, against the
+// per-texel sign the export used to write.
+TEST(Export, TheAnisotropyDirectionFieldIsContinuous) {
+  const std::string root = tmp_dir("aniso_field");
+  auto r = test::run_cli("synth swirl-plate " + root + "/set --size 16x16 --views 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("export " + root + "/set/truth.json --out " + root + "/export --size 32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto g = nlohmann::json::parse(read_text_file(root + "/export/gltf/sample.gltf"));
+  const int tex = g["materials"][0]["extensions"]["KHR_materials_anisotropy"]["anisotropyTexture"]
+                   ["index"];
+  const Image an = read_image(root + "/export/gltf/" +
+                              g["images"][g["textures"][tex]["source"].get<int>()]["uri"]
+                                  .get<std::string>())
+                       .image;
+  const Material m = read_material(root + "/set/truth.json");
+  const Image& f = *m.maps.fiber;
+  ASSERT_EQ(an.width, f.width);
+  auto exported = [&](int x, int y) {
+    return std::array<double, 2>{2.0 * an.at(x, y, 0) - 1, 2.0 * an.at(x, y, 1) - 1};
+  };
+  auto per_texel = [&](int x, int y) {  // the sign the export used to write
+    const double dir = 0.5 * std::atan2(f.at(x, y, 1), f.at(x, y, 0)) + M_PI / 2;
+    return std::array<double, 2>{std::cos(dir), std::sin(dir)};
+  };
+  size_t pairs = 0, apart = 0, apart_before = 0, off_line = 0;
+  for (int y = 0; y < an.height; ++y)
+    for (int x = 0; x < an.width; ++x) {
+      const auto d = exported(x, y), o = per_texel(x, y);
+      off_line += std::abs(d[0] * o[0] + d[1] * o[1]) < 0.99;  // the same line, either sign
+      for (const auto& [nx, ny] : {std::pair{x + 1, y}, std::pair{x, y + 1}}) {
+        if (nx >= an.width || ny >= an.height) continue;
+        const auto e = exported(nx, ny), p = per_texel(nx, ny);
+        ++pairs;
+        apart += d[0] * e[0] + d[1] * e[1] < -0.5;
+        apart_before += o[0] * p[0] + o[1] * p[1] < -0.5;
+      }
+    }
+  std::printf("swirl's anisotropy texture: neighbours pointing apart %zu of %zu pairs (per-texel "
+              "sign: %zu)\n",
+              apart, pairs, apart_before);
+  EXPECT_EQ(off_line, 0u);
+  EXPECT_GT(apart_before, 30u);  // the swirl wraps: the per-texel sign flips along a seam (62)
+  EXPECT_LE(apart, 2u);          // seen: 0
+}
+
 TEST(Export, RefusesAFolderThatIsNotAnEarlierExport) {
   const std::string root = tmp_dir("out");
   const std::string dir = root + "/mine";
