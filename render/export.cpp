@@ -11,6 +11,7 @@
 #include "core/color.h"
 #include "core/error.h"
 #include "geometry/mesh.h"
+#include "core/progress.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
@@ -480,8 +481,12 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
   ExportSummary sum;
   sum.pbr = fit_gltf_pbr(m);
   write_folder_atomically(dir, OutputKind::kExport, [&](const std::string& tmp) {
+    // A maps material takes seconds (the specular stack, a lobe fit per glTF texel).
+    Progress bar("export: tables, maps, shaders, glTF, viewer", 5, o.progress);
     json tables = write_tables(tmp, m, o, &sum);
+    bar.advance();
     const json maps = write_maps(tmp, m, o, &sum, &tables);
+    bar.advance();
     const ExportShaders sh =
         export_shaders(o.size, sum.fiber ? &sum.fiber_tables : nullptr, &sum.maps);
     std::vector<std::pair<std::string, std::string>> files = {
@@ -503,8 +508,12 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
       write_text_file(join_path(tmp, name), text);
       sum.files.push_back(name);
     }
+    bar.advance();
     write_gltf(tmp, m, tables, &sum);
+    bar.advance();
     const json viewer = write_viewer(tmp, &sum);
+    bar.advance();
+    bar.finish();
     json material;
     material_to_json(m, &material);
     sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

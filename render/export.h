@@ -25,6 +25,7 @@ namespace aniso {
 struct ExportOptions {
   int size = 256;       // line tables N x N
   std::string command;  // recorded in export.json
+  bool progress = true;  // a bar on stderr (a terminal only): tables, maps, shaders, glTF, viewer
 };
 
 // Which maps the exported shaders sample (aniso_maps.glsl's defines) and, with a map of n, the

@@ -519,6 +519,24 @@ TEST(Export, TheAnisotropyDirectionFieldIsContinuous) {
   EXPECT_LE(apart, 2u);          // seen: 0
 }
 
+// An export shows its progress on a terminal (a pseudo-terminal from `script` here), and nothing of
+// it where stderr is not one.
+TEST(Export, ShowsItsProgressOnATerminal) {
+  const std::string root = tmp_dir("progress");
+  auto r = test::run_cli("synth swirl-plate " + root + "/set --size 16x16 --views 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_command("script -qec \"" + std::string(ANISO_BIN) + " export " + root +
+                        "/set/truth.json --out " + root + "/tty --size 32\" /dev/null");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("export: tables, maps, shaders, glTF, viewer ["), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("100%"), std::string::npos) << r.output;
+  r = test::run_cli("export " + root + "/set/truth.json --out " + root + "/plain --size 32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("%]"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("100%"), std::string::npos) << r.output;
+}
+
 TEST(Export, RefusesAFolderThatIsNotAnEarlierExport) {
   const std::string root = tmp_dir("out");
   const std::string dir = root + "/mine";
