@@ -5,6 +5,7 @@
 
 #include "cli/command.h"
 #include "core/error.h"
+#include "core/progress.h"
 #include "io/capture.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -43,8 +44,10 @@ Image turntable(const Material& m, PreviewOptions p, int n, PreviewResult* last)
   Image sheet(p.width * n, p.height, 3);
   const Vec3 v0 = p.view_dir;
   PreviewBakes bakes;  // one material: its tables baked once for every frame
+  Progress bar("preview --turntable: the tables, then " + std::to_string(n) + " frames", n + 1);
   bake_for_frames(m, &p, &bakes);
-  for (int i = 0; i < n; ++i) {
+  bar.advance();
+  for (int i = 0; i < n; ++i, bar.advance()) {
     const double a = 2 * M_PI * i / n, c = std::cos(a), s = std::sin(a);
     p.view_dir = Vec3(c * v0.x - s * v0.y, s * v0.x + c * v0.y, v0.z);
     *last = render_preview(m, p);
