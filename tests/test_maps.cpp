@@ -757,7 +757,7 @@ TEST(FitMaps, AGridFinerThanTheDataIsRefusedWithWhatTheyHold) {
   const std::string dir = test::tmp_dir("too_fine");
   auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 32x32 --views 4");
   ASSERT_EQ(r.status, 0) << r.output;
-  r = test::sh("ulimit -v 3000000; $A fit " + dir + "/set --maps 4096x4096 --out " + dir +
+  r = test::sh(test::memory_limit(3000000) + "$A fit " + dir + "/set --maps 4096x4096 --out " + dir +
                "/m.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("the data support at most about"), std::string::npos) << r.output;

@@ -522,7 +522,8 @@ TEST(FitMaps, MergeChecksWhatItJoins) {
   write_text_file(dir + "/forged.json",
                   R"({"format": "aniso-maps-tile", "tile": [0, 16384], "texels": [16384, 16384],
                       "rows": [0, 1], "fit": {}, "values": {}})");
-  r = test::sh("ulimit -v 2000000; $A merge " + dir + "/forged.json --out " + dir + "/m.json");
+  r = test::sh(test::memory_limit(2000000) + "$A merge " + dir + "/forged.json --out " + dir +
+               "/m.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("texels: declares a 16384x16384 grid"), std::string::npos) << r.output;
 }

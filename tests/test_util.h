@@ -44,6 +44,17 @@ inline RunResult run_cli(const std::string& args) {
   return run_command(std::string(ANISO_BIN) + " " + args);
 }
 
+// A shell prefix bounding a command's address space to `kb` KiB: a memory test's guard. Empty in
+// an AddressSanitizer build, whose shadow memory reserves terabytes of address space up front.
+inline std::string memory_limit(long kb) {
+#if defined(__SANITIZE_ADDRESS__)
+  (void)kb;
+  return "";
+#else
+  return "ulimit -v " + std::to_string(kb) + "; ";
+#endif
+}
+
 // The map file of `key` ("kd", "n_sigma", "determined", "topology_s", ...) that the material at
 // PREFIX.json names: fit --maps and merge write them beside it as PREFIX_KEY.GEN.exr, one
 // generation per run (io/files.h write_generation). PREFIX_KEY.exr (absent) if it names none.
