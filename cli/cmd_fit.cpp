@@ -135,16 +135,23 @@ void print_report(FILE* o, const FitResult& r) {
 }
 
 // --tile i/N into the options.
+template <class T>
+void append_bytes(std::string* k, const T& v) {
+  k->append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+
+// A view's pose and camera, as bytes (exact equality: repeats and layouts are compared by them).
+void append_view_camera(std::string* k, const ViewSpec& v) {
+  append_bytes(k, v.world_from_camera.m);
+  const Intrinsics& c = v.camera;
+  for (double x : {double(c.width), double(c.height), c.fx, c.fy, c.cx, c.cy}) append_bytes(k, x);
+  append_bytes(k, c.distortion);
+}
+
 // The views' cameras and poses (not their pixels, lights or file names), as a fingerprint.
 std::string capture_layout(const CaptureSet& set) {
   std::string k = std::to_string(set.views.size());
-  auto add = [&](const auto& v) { k.append(reinterpret_cast<const char*>(&v), sizeof v); };
-  for (const ViewSpec& v : set.views) {
-    add(v.world_from_camera.m);
-    const Intrinsics& c = v.camera;
-    for (double x : {double(c.width), double(c.height), c.fx, c.fy, c.cx, c.cy}) add(x);
-    add(c.distortion);
-  }
+  for (const ViewSpec& v : set.views) append_view_camera(&k, v);
   return text_fingerprint(k);
 }
 
@@ -152,31 +159,26 @@ std::string capture_layout(const CaptureSet& set) {
 // and the same image file or bytes): removed from *set, their indices returned. A repeated view
 // adds no information, but would count as new data and shrink every sigma by sqrt(copies).
 std::vector<size_t> drop_repeated_views(CaptureSet* set) {
-  auto add = [](std::string* k, const auto& v) {
-    k->append(reinterpret_cast<const char*>(&v), sizeof v);
-  };
   std::map<std::string, std::vector<size_t>> by_key;  // view setup -> kept views with it
   std::vector<size_t> dropped;
   std::vector<ViewSpec> kept;
   for (size_t i = 0; i < set->views.size(); ++i) {
     const ViewSpec& v = set->views[i];
     std::string k;
-    add(&k, v.world_from_camera.m);
-    add(&k, v.exposure);
-    const Intrinsics& c = v.camera;
-    for (double x : {double(c.width), double(c.height), c.fx, c.fy, c.cx, c.cy}) add(&k, x);
-    add(&k, c.distortion);
+    append_view_camera(&k, v);
+    append_bytes(&k, v.exposure);
     for (const Light& l : v.lights) {
-      add(&k, l.type);
-      for (const Vec3& p : {l.position, l.direction}) add(&k, p.x), add(&k, p.y), add(&k, p.z);
-      add(&k, l.intensity);
-      add(&k, l.attenuation);
-      add(&k, l.cutoff_deg);
-      add(&k, l.exponent);
+      append_bytes(&k, l.type);
+      for (const Vec3& p : {l.position, l.direction})
+        for (double x : {p.x, p.y, p.z}) append_bytes(&k, x);
+      append_bytes(&k, l.intensity);
+      append_bytes(&k, l.attenuation);
+      append_bytes(&k, l.cutoff_deg);
+      append_bytes(&k, l.exponent);
     }
     const GeometrySpec& g = v.geometry;
-    for (const auto* s : {&g.position, &g.normal, &g.tangent, &g.mask, &g.uv, &g.topology, &g.mesh,
-                          &g.fiber_field})
+    for (const auto* s :
+         {&g.position, &g.normal, &g.tangent, &g.mask, &g.uv, &g.topology, &g.mesh, &g.fiber_field})
       k += *s + '\0';
     const std::string image = join_path(set->dir, v.image);
     bool repeat = false;
@@ -382,15 +384,14 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   if (fo.tile_count > fo.maps_h && fo.maps_h > 0)
     throw Error("fit: --tile " + std::to_string(fo.tile_index) + "/" +
                 std::to_string(fo.tile_count) + ": the --maps grid has " +
-                std::to_string(fo.maps_h) + " texel rows, so at most " +
-                std::to_string(fo.maps_h) + " tiles (each holds whole rows)");
+                std::to_string(fo.maps_h) + " texel rows, so at most " + std::to_string(fo.maps_h) +
+                " tiles (each holds whole rows)");
   check_outputs_apart(outputs, inputs);
   check_output_file(out, fo.tile_count > 0 ? OutputKind::kMapsTile : OutputKind::kMaterial);
   // What this fit read and how: a --global material must be of the same capture, and the tiles of
   // one merge must share both (merge compares them).
-  const std::string capture_fp =
-      is_table ? files_fingerprint({input}, parent_dir(input))
-               : files_fingerprint(capture_input_files(set), set.dir);
+  const std::string capture_fp = is_table ? files_fingerprint({input}, parent_dir(input))
+                                          : files_fingerprint(capture_input_files(set), set.dir);
   const std::string layout = is_table ? capture_fp : capture_layout(set);
   if (fo.global && !fo.global->capture_layout.empty() && fo.global->capture_layout != layout)
     throw Error("fit: --global " + fo.global->file + " was fitted to another capture (its " +
@@ -410,7 +411,8 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
         std::to_string(repeated.size()) +
             " views repeat an earlier view exactly (the same camera, pose, exposure, lights and "
             "image): each was counted once, as repeats add no information but would shrink every "
-            "sigma by sqrt(copies) (views " + list + " of " + input + ")");
+            "sigma by sqrt(copies) (views " +
+            list + " of " + input + ")");
   }
   r.report.options_fingerprint = options_fingerprint(fo);
   // With `--out -` the material goes to standard output: everything said goes to stderr.

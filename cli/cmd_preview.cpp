@@ -84,7 +84,8 @@ int run(const PreviewArgs& a) {
   check_outputs_apart({a.out, a.exr}, inputs);
   const std::string ext = lower_ext(a.out);
   if (a.out != "-" && ext != ".png" && ext != ".exr" && ext != ".jpg" && ext != ".jpeg")
-    throw Error("preview: --out " + a.out + ": writes .png (8-bit sRGB), .jpg (sRGB) or .exr "
+    throw Error("preview: --out " + a.out +
+                ": writes .png (8-bit sRGB), .jpg (sRGB) or .exr "
                 "(linear float); give one of those extensions");
   check_output_file(a.out, OutputKind::kPreview);
   if (!a.exr.empty()) {

@@ -36,8 +36,7 @@ Material read_view_input(const std::string& in, BakeFolder* bake) {
                 ": a folder to view must hold bake.json (aniso bake) or export.json "
                 "(aniso export)");
   const auto j = jsonu::parse_file(read_text_file(ex), ex);
-  if (!j.contains("material") || !j["material"].is_object())
-    throw Error(ex + ": no \"material\"");
+  if (!j.contains("material") || !j["material"].is_object()) throw Error(ex + ": no \"material\"");
   // The export's own files: its material's maps as it carries them (tables/maps/...), and its
   // line tables (tables/*.exr), drawn as an engine would draw them.
   jsonu::json mj = j["material"];

@@ -26,8 +26,7 @@ std::string shareable_command_line(const std::string& out_dir) {
   namespace fs = std::filesystem;
   auto relative = [&](const std::string& w) {
     std::error_code ec;
-    if (w.empty() || w == "-" || (w[0] != '/' && !fs::exists(fs::symlink_status(w, ec))))
-      return w;
+    if (w.empty() || w == "-" || (w[0] != '/' && !fs::exists(fs::symlink_status(w, ec)))) return w;
     return relative_to(w, out_dir);
   };
   std::string line = "aniso";

@@ -13,6 +13,7 @@
 #include <mutex>
 
 #include "core/error.h"
+#include "core/noise.h"
 #include "core/progress.h"
 #include "fit/load_views.h"
 #include "fit/maps.h"
@@ -282,13 +283,7 @@ void make_room(const CaptureSet& set, size_t b0, size_t batches_left, Kept keep,
 
 }  // namespace
 
-double pixel_noise(std::vector<float>* diffs) {
-  if (diffs->empty()) return 0;
-  for (float& v : *diffs) v = std::abs(v);
-  const auto mid = diffs->begin() + diffs->size() / 2;
-  std::nth_element(diffs->begin(), mid, diffs->end());
-  return 1.4826 * *mid / std::sqrt(6.0);
-}
+double pixel_noise(std::vector<float>* diffs) { return second_difference_noise(diffs); }
 
 void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, ObsSet* os_out,
                 FitReport* rep_out) {

@@ -56,8 +56,7 @@ void rename_maps(const std::map<std::string, std::string>& names, jsonu::json* j
   for (const char* block : {"maps", "maps_uncertainty", "topology"})
     if (j->contains(block) && (*j)[block].is_object())
       for (auto& [key, v] : (*j)[block].items())
-        if (v.is_string() && names.count(v.get<std::string>()))
-          v = names.at(v.get<std::string>());
+        if (v.is_string() && names.count(v.get<std::string>())) v = names.at(v.get<std::string>());
 }
 
 }  // namespace
@@ -66,8 +65,7 @@ namespace {
 
 // --maps: the maps (docs/formats.md "Material maps") of the material at `path`, written into
 // `dir` under their plain names, and those names in j (write_material renames both).
-void add_maps(const std::string& path, const std::string& dir, const TexelMaps& t,
-              jsonu::json* j) {
+void add_maps(const std::string& path, const std::string& dir, const TexelMaps& t, jsonu::json* j) {
   const std::vector<std::string> f = map_files(path);
   const size_t N = static_cast<size_t>(t.w) * t.h;
   // Each file as one job: compressing them (zlib) one after the other took ~2 s of one core for
@@ -312,8 +310,9 @@ jsonu::json fit_json(const std::string& path, const FitResult& r, Image* s_map =
 void write_material(const std::string& path, jsonu::json* j,
                     const std::function<void(const std::string&)>& fill) {
   if (path == "-")
-    throw Error("fit: --maps and --topology-map write map files beside the material: give --out "
-                "a file");
+    throw Error(
+        "fit: --maps and --topology-map write map files beside the material: give --out "
+        "a file");
   const std::vector<std::string> earlier = named_maps(path);
   const auto names = write_generation(path, fill);
   rename_maps(names, j);
@@ -461,11 +460,12 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
                           std::to_string(h) + " tiles, not " + std::to_string(n));
       if (!j.contains("values") || !j["values"].is_object())
         c.at("values").fail("missing: not a whole tile");
-      if (!j.contains("fit") || !j["fit"].is_object()) c.at("fit").fail("missing: not a whole tile");
+      if (!j.contains("fit") || !j["fit"].is_object())
+        c.at("fit").fail("missing: not a whole tile");
       if (count < 0 && static_cast<uintmax_t>(w) * h * 10 > tile_bytes)
         c.at("texels").fail("declares a " + std::to_string(w) + "x" + std::to_string(h) +
-                            " grid, more than the " + std::to_string(tiles.size()) +
-                            " tiles' " + std::to_string(tile_bytes) +
+                            " grid, more than the " + std::to_string(tiles.size()) + " tiles' " +
+                            std::to_string(tile_bytes) +
                             " bytes can hold (a damaged tile, or tiles missing)");
       const jsonu::json& rep0 = j["fit"].value("report", jsonu::json::object());
       const std::string cfp = rep0.value("capture_fingerprint", "");

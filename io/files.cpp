@@ -15,9 +15,9 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <optional>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <vector>
 
 #include "core/error.h"
@@ -201,6 +201,8 @@ bool folder_is_empty(const fs::path& dir, std::string* first) {
 struct FileRecord {
   uint64_t size = 0;
   int64_t mtime_ns = 0;
+  // The same file as recorded: a file rewritten or edited since changes one or the other.
+  bool operator==(const FileRecord& o) const { return size == o.size && mtime_ns == o.mtime_ns; }
 };
 
 int64_t mtime_ns(const struct stat& st) {
@@ -341,7 +343,7 @@ FolderState folder_state_once(const fs::path& target, OutputKind kind) {
       s.why = "holds '" + rel + "', which aniso did not write";
       return s;
     }
-    if (it->second.size != r.size || it->second.mtime_ns != r.mtime_ns) {
+    if (!(it->second == r)) {
       s.why = "holds '" + rel + "', changed since aniso wrote it";
       return s;
     }
@@ -357,8 +359,7 @@ fs::path aside_name(const fs::path& target, bool folder, const std::string& tag,
   const std::string suffix = ".aniso-" + tag + "-" + std::to_string(n);
   if (folder || target.extension().empty())
     return target.parent_path() / (target.filename().string() + suffix);
-  return target.parent_path() /
-         (target.stem().string() + suffix + target.extension().string());
+  return target.parent_path() / (target.stem().string() + suffix + target.extension().string());
 }
 
 // Moves `from` to a free aside name of `target` without ever replacing anything there.
@@ -388,8 +389,7 @@ fs::path prune_output(const fs::path& old, const fs::path& target, const char* k
   if (m.readable && kind && m.kind == kind) {
     for (const auto& [rel, r] : walk_files(old)) {
       const auto it = m.files.find(rel);
-      if (it != m.files.end() && it->second.size == r.size && it->second.mtime_ns == r.mtime_ns)
-        fs::remove(old / rel, ec);
+      if (it != m.files.end() && it->second == r) fs::remove(old / rel, ec);
     }
     fs::remove(old / kOutputMarker, ec);
   }
@@ -435,7 +435,8 @@ bool valid_utf8(const std::string& s) {
 // Outputs record paths in JSON, which holds UTF-8 only: a path that is not is named before work.
 void check_utf8_path(const fs::path& target, const std::string& shown) {
   if (!valid_utf8(target.string()))
-    throw Error(shown + ": the path is not valid UTF-8, and aniso records paths in JSON (UTF-8 "
+    throw Error(shown +
+                ": the path is not valid UTF-8, and aniso records paths in JSON (UTF-8 "
                 "only); rename the file or folder, or choose another --out");
 }
 
@@ -516,8 +517,8 @@ void write_atomically(const std::string& path,
   remove_stale_temps(target);
   const std::string tmp = temp_name(target).string();
   run_writer(tmp, path, write);
-  if (const auto kind = claimed_kind(path); kind && ::stat(path.c_str(), &st) == 0 &&
-                                            S_ISREG(st.st_mode)) {
+  if (const auto kind = claimed_kind(path);
+      kind && ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
     // Checked before the work; again now, as the file may have come or changed meanwhile.
     const std::string why = file_refusal(path, *kind);
     if (!why.empty() && !force_overwrite()) {
@@ -531,8 +532,8 @@ void write_atomically(const std::string& path,
       for (int n = 1;; ++n) {
         const fs::path aside = aside_name(target, false, "old", n);
         if (::link(target.c_str(), aside.c_str()) == 0) {
-          std::fprintf(stderr, "note: %s: %s; moved to %s (--force)\n", path.c_str(),
-                       why.c_str(), aside.string().c_str());
+          std::fprintf(stderr, "note: %s: %s; moved to %s (--force)\n", path.c_str(), why.c_str(),
+                       aside.string().c_str());
           break;
         }
         if (errno != EEXIST || n > 100000) {
@@ -613,22 +614,38 @@ std::string read_text_file(const std::string& path, size_t max_bytes) {
 
 const char* kind_name(OutputKind kind) {
   switch (kind) {
-    case OutputKind::kCapture: return "capture";
-    case OutputKind::kImportedCapture: return "imported-capture";
-    case OutputKind::kPhotoShoot: return "photo-shoot";
-    case OutputKind::kBake: return "bake";
-    case OutputKind::kExport: return "export";
-    case OutputKind::kResiduals: return "residuals";
-    case OutputKind::kBenchWork: return "bench-work";
-    case OutputKind::kMaterial: return "material";
-    case OutputKind::kMapsTile: return "maps-tile";
-    case OutputKind::kTable: return "table";
-    case OutputKind::kShoot: return "shoot";
-    case OutputKind::kPreview: return "preview";
-    case OutputKind::kBoard: return "board";
-    case OutputKind::kScreenshot: return "screenshot";
-    case OutputKind::kBenchResult: return "bench-result";
-    case OutputKind::kText: return "text";
+    case OutputKind::kCapture:
+      return "capture";
+    case OutputKind::kImportedCapture:
+      return "imported-capture";
+    case OutputKind::kPhotoShoot:
+      return "photo-shoot";
+    case OutputKind::kBake:
+      return "bake";
+    case OutputKind::kExport:
+      return "export";
+    case OutputKind::kResiduals:
+      return "residuals";
+    case OutputKind::kBenchWork:
+      return "bench-work";
+    case OutputKind::kMaterial:
+      return "material";
+    case OutputKind::kMapsTile:
+      return "maps-tile";
+    case OutputKind::kTable:
+      return "table";
+    case OutputKind::kShoot:
+      return "shoot";
+    case OutputKind::kPreview:
+      return "preview";
+    case OutputKind::kBoard:
+      return "board";
+    case OutputKind::kScreenshot:
+      return "screenshot";
+    case OutputKind::kBenchResult:
+      return "bench-result";
+    case OutputKind::kText:
+      return "text";
   }
   return "output";
 }
@@ -666,8 +683,10 @@ std::string stamped_kind(const std::string& path) {
     std::string k;
     for (size_t i = at + 1; i < text.size() && k.size() < 32; ++i) {
       const char c = text[i];
-      if ((c >= 'a' && c <= 'z') || c == '-') k += c;
-      else break;
+      if ((c >= 'a' && c <= 'z') || c == '-')
+        k += c;
+      else
+        break;
     }
     return k.empty() ? "aniso" : k;
   };
@@ -677,7 +696,9 @@ std::string stamped_kind(const std::string& path) {
     const size_t at = text.rfind(lead);
     if (at != std::string::npos) return kind_after(at + lead.size());
   }
-  auto aniso_at = [&](size_t at) { return at + 5 <= text.size() && text.compare(at, 5, "aniso") == 0; };
+  auto aniso_at = [&](size_t at) {
+    return at + 5 <= text.size() && text.compare(at, 5, "aniso") == 0;
+  };
   const std::string exr = "software\0string\0"s;
   if (const size_t at = text.find(exr); at != std::string::npos && aniso_at(at + exr.size() + 4))
     return kind_after(at + exr.size() + 9);
@@ -784,9 +805,9 @@ void write_folder_atomically(const std::string& dir, OutputKind kind,
   }
   const fs::path aside = prune_output(old, target, kind_name(kind));
   if (!aside.empty())
-    std::fprintf(stderr, "note: %s: what was there (it %s) is now at %s (--force): nothing deleted\n",
-                 dir.c_str(),
-                 s.why.empty() ? "held files aniso did not write" : s.why.c_str(),
+    std::fprintf(stderr,
+                 "note: %s: what was there (it %s) is now at %s (--force): nothing deleted\n",
+                 dir.c_str(), s.why.empty() ? "held files aniso did not write" : s.why.c_str(),
                  aside.string().c_str());
 }
 

@@ -37,17 +37,17 @@ enum class OutputKind {
   kPhotoShoot,       // synth --photos
   kBake,
   kExport,
-  kResiduals,  // verify --residuals
-  kBenchWork,  // bench --work: the bench's own folder, whose content changes run to run
-  kMaterial,   // fit, merge
-  kMapsTile,   // fit --tile
-  kTable,      // eval: a CSV carries no stamp, so an existing one is replaced only with force
-  kShoot,      // board --shoot: a skeleton a person fills in, so never replaced without force
-  kPreview,    // preview --out
-  kBoard,      // board --out
-  kScreenshot, // view --screenshot
+  kResiduals,   // verify --residuals
+  kBenchWork,   // bench --work: the bench's own folder, whose content changes run to run
+  kMaterial,    // fit, merge
+  kMapsTile,    // fit --tile
+  kTable,       // eval: a CSV carries no stamp, so an existing one is replaced only with force
+  kShoot,       // board --shoot: a skeleton a person fills in, so never replaced without force
+  kPreview,     // preview --out
+  kBoard,       // board --out
+  kScreenshot,  // view --screenshot
   kBenchResult,
-  kText,       // anything else a person names (reports, sweeps)
+  kText,  // anything else a person names (reports, sweeps)
 };
 const char* kind_name(OutputKind kind);
 // Whether a file of this kind carries a stamp (a table and a shoot do not: never replaced).

@@ -432,8 +432,7 @@ __attribute__((target_clones("avx2", "default"))) void planar_row(const float* r
 
 }  // namespace
 
-void encode_exr_uncompressed(const Image& img, const ByteSink& sink,
-                             const std::string& software) {
+void encode_exr_uncompressed(const Image& img, const ByteSink& sink, const std::string& software) {
   static_assert(sizeof(float) == 4, "EXR FLOAT is 32 bits");
   // Channels in the file's order, sorted by name: B, G, R (planar_row's order too).
   static const char* kNames[] = {"R", "G", "B"};

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/noise.h"
 #include "core/texture.h"
 #include "io/files.h"
 #include "io/image_io.h"
@@ -28,8 +29,8 @@ void check_uv(const CaptureSet& set, size_t i, const ViewGeometry& g, bool maps,
                 "\"uv\" buffer");
 }
 
-// One channel's noise sigma of an image over its usable pixels: second differences along rows
-// (x - 1, x, x + 1 all usable), 1.4826 median |d| / sqrt(6).
+// One channel's noise sigma of an image over its usable pixels, from second differences along
+// rows where x - 1, x and x + 1 are all usable (the fit's measure: core/noise.h).
 double image_noise(const ViewData& d, int channel) {
   std::vector<float> diffs;
   const int w = d.rgb.width;
@@ -37,12 +38,10 @@ double image_noise(const ViewData& d, int channel) {
     for (int x = 1; x + 1 < w; ++x) {
       const size_t p = static_cast<size_t>(y) * w + x;
       if (!d.usable(p - 1) || !d.usable(p) || !d.usable(p + 1)) continue;
-      diffs.push_back(std::abs(d.rgb.at(x - 1, y, channel) - 2 * d.rgb.at(x, y, channel) +
-                               d.rgb.at(x + 1, y, channel)));
+      diffs.push_back(d.rgb.at(x - 1, y, channel) - 2 * d.rgb.at(x, y, channel) +
+                      d.rgb.at(x + 1, y, channel));
     }
-  if (diffs.empty()) return 0;
-  std::nth_element(diffs.begin(), diffs.begin() + diffs.size() / 2, diffs.end());
-  return 1.4826 * diffs[diffs.size() / 2] / std::sqrt(6.0);
+  return second_difference_noise(&diffs);
 }
 
 // The residual picture: green's residual over the noise, blue (-3 sigma) - white - red (+3).
@@ -62,7 +61,10 @@ Image residual_picture(const Image& resid, const std::vector<uint8_t>& on, doubl
 }  // namespace
 
 const char* verdict(double r) {
-  return r <= 0 ? "no noise measure" : r <= 1.5 ? "at the noise" : r <= 3 ? "near the noise" : "misfit";
+  return r <= 0     ? "no noise measure"
+         : r <= 1.5 ? "at the noise"
+         : r <= 3   ? "near the noise"
+                    : "misfit";
 }
 
 VerifyResult verify_capture(const CaptureSet& set, const Material& m,
