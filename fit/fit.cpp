@@ -124,6 +124,15 @@ void warn_misfit_texels(const TexelMaps& m, double noise, FitReport* rep) {
   rep->warnings.push_back(buf);
 }
 
+// The global values as a material holds them.
+Core core_of(const Material& g) {
+  Core c;
+  for (int k = 0; k < 3; ++k) c.kd[k] = g.kd[k], c.ks[k] = g.ks[k];
+  c.logn = std::log(g.n);
+  c.psi = deg_to_rad(g.fiber_angle_deg);
+  return c;
+}
+
 // --maps after the global fit `global` (the fiber model's quadrature order and s with it); the
 // misfit warning and the count of undetermined texels go to the report.
 // With `bands`, os is band 0's observations and the bands are loaded and fitted one by one.
@@ -175,8 +184,11 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   rep.seconds_covariance = seconds_since(t_cov);
   rep.fiber_order = m->quadrature_order();
   rep.fiber_order_errors = m->quadrature_errors();
+  // The texels start from the global values as the material holds them (psi in degrees, n, not
+  // log n), as a --global run reads them back: psi's last bit differed, and a plain run and its
+  // tiles then ended a fiber texel one float bit apart.
   if (opt.maps_w > 0)
-    add_texel_maps(os, opt, m->core, rep.fiber_order, m->topology_value(), &rep, &res);
+    add_texel_maps(os, opt, core_of(mat), rep.fiber_order, m->topology_value(), &rep, &res);
   rep.seconds += seconds_since(t0);
   res.report = rep;
   return res;
@@ -195,10 +207,7 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
   res.material = opt.global->material;
   res.material.maps = MaterialMaps{};
   const Material& g = res.material;
-  Core c;
-  for (int k = 0; k < 3; ++k) c.kd[k] = g.kd[k], c.ks[k] = g.ks[k];
-  c.logn = std::log(g.n);
-  c.psi = deg_to_rad(g.fiber_angle_deg);
+  const Core c = core_of(g);
   res.sigma = opt.global->sigma;
   res.fixed["global_fit"] = "from " + opt.global->file + ", not fitted with the maps";
   rep.global_from = opt.global->file;
