@@ -15,7 +15,7 @@ struct ImportArgs {
   std::string shoot, out;
   ImportOptions o;
   double margin_mm = 3;
-  bool no_overlays = false, quiet = false;
+  bool no_overlays = false, quiet = false, lamps_as_written = false;
 };
 
 int run(const ImportArgs& a) {
@@ -27,6 +27,7 @@ int run(const ImportArgs& a) {
   check_outputs_apart({a.out}, inputs);
   ImportOptions o = a.o;
   o.overlays = !a.no_overlays;
+  o.find_lamps = !a.lamps_as_written;
   o.sample_margin_m = a.margin_mm / 1000;
   const ImportResult r = import_shoot(s, a.out, o);
   const Intrinsics& k = r.camera;
@@ -56,17 +57,30 @@ int run(const ImportArgs& a) {
         "(%.4f, %.4f, %.4f) m, tilt %.1f deg, %zu sample pixels\n",
         i, name.c_str(), p.corners, p.corners_dropped, p.rms_px, e.x, e.y, e.z, p.tilt_deg,
         p.sample_pixels);
+    for (const LampFound& l : p.lamps) {
+      if (!l.solved) {
+        std::printf("import:   lamp as written (%s)\n", l.why.c_str());
+        continue;
+      }
+      std::printf(
+          "import:   lamp found at (%.4f, %.4f, %.4f) +- (%.4f, %.4f, %.4f) m from %zu paper "
+          "points (shading %.2f %% RMS), %.1f mm from the written one; intensity %.4g (written "
+          "%.4g)\n",
+          l.found.x, l.found.y, l.found.z, l.sigma_m[0], l.sigma_m[1], l.sigma_m[2], l.points,
+          100 * l.paper_rms, 1000 * length(l.found - l.written), l.found_intensity[1],
+          l.written_intensity[1]);
+    }
   }
+  for (const std::string& w : r.warnings) std::fprintf(stderr, "import: WARNING: %s\n", w.c_str());
   std::printf(
       "import: %zu of %zu photos -> %s (%zu views; import_report.json, overlays/); %.2f s "
       "(merge+detect %.2f, calibrate+pose %.2f, write %.2f); %d photos merged at once within "
       "--memory %.0f MB (estimate %.0f MB)\n"
-      "import: note: the fit's uncertainties will describe the photos' noise only, not the "
-      "calibration above or the lamp positions you measured (taken as exact)\n"
+      "import: lamp intensities %s\n"
       "import: then: aniso fit %s --out material.json\n",
       r.views, r.photos.size(), a.out.c_str(), r.views, r.seconds, r.seconds_detect,
       r.seconds_calibrate, r.seconds_write, r.merge_threads, o.memory_mb, r.memory_estimate_mb,
-      a.out.c_str());
+      intensity_note(s).c_str(), a.out.c_str());
   return 0;
 }
 
@@ -105,6 +119,9 @@ Command add_import(CLI::App& app) {
                 "cost grows as their cube); the others are posed against it")
       ->capture_default_str()
       ->check(CLI::Range(4, 100000));
+  c->add_flag("--lamps-as-written", a->lamps_as_written,
+              "take every lamp's position and intensity as the shoot writes them, instead of "
+              "finding them from the board's paper (a shoot whose lamps were measured exactly)");
   c->add_flag("--no-overlays", a->no_overlays, "do not write overlays/NNN.png");
   c->add_flag("--quiet", a->quiet, "print only the summary and the photos left out");
   add_force_flag(c);

@@ -18,7 +18,8 @@ struct SynthArgs {
   std::string preset, out, size = "128x128", truth, compression = "none", walk = "turned";
   PresetOptions po;
   double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
-  bool list = false, photos = false, dng = false;
+  bool list = false, photos = false, dng = false, hide_intensity = false;
+  double lamp_error_m = 0;
   CLI::App* app = nullptr;
 };
 
@@ -33,6 +34,8 @@ int run_photos(const SynthArgs& a) {
   if (a.po.bits == 16) o.raw16 = true;
   o.dng = a.dng;
   o.walk = a.walk;
+  o.lamp_error_m = a.lamp_error_m;
+  o.hide_intensity = a.hide_intensity;
   check_output_folder(a.out, OutputKind::kPhotoShoot);
   check_outputs_apart({a.out}, {a.truth});
   const PhotoShootStats st = simulate_photo_shoot(o, a.out);
@@ -104,6 +107,15 @@ Command add_synth(CLI::App& app) {
                    "with the board)")
       ->capture_default_str()
       ->check(CLI::IsMember({"upright", "turned"}));
+  synth
+      ->add_option("--lamp-error", a->lamp_error_m,
+                   "--photos: write each lamp's position off by N(0, this) metres per axis, as a "
+                   "tape measure does (truth.json keeps the true ones; import finds them from the "
+                   "board's paper)")
+      ->check(CLI::Range(0.0, 0.2));
+  synth->add_flag("--hide-intensity", a->hide_intensity,
+                  "--photos: write every lamp's intensity as 1, as a person who does not know it "
+                  "would (import finds it from the board's paper)");
   a->app = synth;
   add_force_flag(synth);
   synth

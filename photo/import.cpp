@@ -21,6 +21,7 @@
 #include "io/json_util.h"
 #include "io/material_io.h"
 #include "photo/calibrate.h"
+#include "photo/lamps.h"
 #include "photo/merge.h"
 #include "photo/overlay.h"
 #include "photo/raw.h"
@@ -42,9 +43,10 @@ struct Detected {
   std::vector<BoardCorner> corners, dropped;
   int markers = 0, width = 0, height = 0;
   size_t saturated = 0;
-  MergedCrop crop;            // the merged image around the sample's estimated place
-  std::vector<uint8_t> grey;  // the detection image, 8-bit (for the overlay)
-  std::vector<RawInfo> raw;   // RAW images: camera and white balance
+  MergedCrop crop;               // the merged image around the sample's estimated place
+  std::vector<uint8_t> grey;     // the detection image, 8-bit (for the overlay)
+  std::vector<RawInfo> raw;      // RAW images: camera and white balance
+  std::vector<LampFound> lamps;  // per light of the photo, as found from the board's paper
 };
 
 // Where the sample lies in a photo before the camera is known: its outline through the board's
@@ -67,7 +69,41 @@ void estimate_crop(const Shoot& s, const MergedPhoto& m, const std::vector<Board
                       static_cast<int>(x1 + pad), static_cast<int>(y1 + pad));
 }
 
-Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o) {
+// The paper's reflectance per channel: the shoot's, else the assumed one (photo/lamps.h).
+RGB paper_rho(const Shoot& s) {
+  return s.paper_given()
+             ? s.paper_reflectance
+             : RGB{kAssumedPaperReflectance, kAssumedPaperReflectance, kAssumedPaperReflectance};
+}
+
+// The photo's lamps from the board's paper: one point lamp per photo is found; with more lights
+// the paper's shading is their sum, and each is kept as written.
+std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const PaperPoints& paper,
+                                  const std::vector<BoardCorner>& corners, const MergedPhoto& m) {
+  const ShootPhoto& ph = s.photos[i];
+  std::vector<LampFound> out;
+  if (ph.lights.size() == 1) {
+    const auto samples = paper_samples(s.board, paper, corners, m.rgb, m.saturated);
+    // The written position as if x or y were measured from the board's far edge.
+    const double W = s.board.squares_x * s.board.square_m, H = s.board.squares_y * s.board.square_m;
+    const Vec3 w = ph.lights[0].position;
+    out.push_back(find_lamp(samples, ph.lights[0], ph.position_sigma_m[0], paper_rho(s), s.height_m,
+                            {{W - w.x, w.y, w.z}, {w.x, H - w.y, w.z}}));
+    return out;
+  }
+  for (size_t k = 0; k < ph.lights.size(); ++k) {
+    LampFound f;
+    f.written = f.found = ph.lights[k].position;
+    f.written_intensity = f.found_intensity = ph.lights[k].intensity;
+    f.prior_sigma_m = ph.position_sigma_m[k];
+    f.why = "the photo has " + std::to_string(ph.lights.size()) +
+            " lights: the paper's shading is their sum";
+    out.push_back(f);
+  }
+  return out;
+}
+
+Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o, const PaperPoints& paper) {
   const MergedPhoto m = merge_bracket(s, i);
   Detected d;
   d.width = m.rgb.width;
@@ -83,6 +119,7 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o) {
     (near ? d.dropped : d.corners).push_back(c);
   }
   estimate_crop(s, m, all, &d.crop);
+  if (o.find_lamps) d.lamps = find_lamps(s, i, paper, d.corners, m);
   d.grey.resize(m.grey.px.size());
   for (size_t p = 0; p < d.grey.size(); ++p)
     d.grey[p] = static_cast<uint8_t>(std::lround(255 * std::clamp(m.grey.px[p], 0.f, 1.f)));
@@ -153,8 +190,7 @@ void check_tilt(const Shoot& s, const std::vector<Mat4>& poses) {
                 tilted, poses.size(), static_cast<int>(kMinTilt));
   throw Error(s.file + ": too little tilt to calibrate the camera: " + where +
               (apart < kOnePlaceM ? ", and all were taken from one place (the cameras within " +
-                                        std::to_string(static_cast<int>(apart * 100 + 0.5)) +
-                                        " cm)"
+                                        std::to_string(static_cast<int>(apart * 100 + 0.5)) + " cm)"
                                   : std::string()) +
               ". Walk round the board with the camera 40-70 degrees above it (at least 3 photos "
               "from different sides), and turn the camera 90 degrees for a few of them; or give "
@@ -214,8 +250,8 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
                         first_rms.back(), median);
           why = buf;
           why += median > kLayoutWrongPx
-                     ? ": corners that far off fit no " + std::to_string(s.board.squares_x) +
-                           "x" + std::to_string(s.board.squares_y) +
+                     ? ": corners that far off fit no " + std::to_string(s.board.squares_x) + "x" +
+                           std::to_string(s.board.squares_y) +
                            " board of these sizes; check board.squares, board.square_m and "
                            "board.marker_m against the printed board"
                      : ": raise --max-rms, or check the photos' focus and board.square_m";
@@ -449,6 +485,11 @@ void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCro
   view->image = std::string("images/") + stem + ".exr";
   view->world_from_camera = p.world_from_camera;
   view->lights = s.photos[i].lights;
+  for (size_t k = 0; k < p.lamps.size() && k < view->lights.size(); ++k)
+    if (p.lamps[k].solved) {
+      view->lights[k].position = p.lamps[k].found;
+      view->lights[k].intensity = p.lamps[k].found_intensity;
+    }
   view->camera = k;
   view->camera.width = g.w;
   view->camera.height = g.h;
@@ -512,6 +553,51 @@ void write_photo(const Shoot& s, size_t i, Detected& det, const std::string& dir
   write_overlay(join_path(dir, name), grey, marks);
 }
 
+// What the lamps found from the paper say about the shoot as written: a lamp far from where it
+// was written (kDisagreeSigmas beyond what the paper alone and position_sigma_m allow), and where
+// every such lamp sits where the written one would be measured from the board's other edge, that.
+std::vector<std::string> lamp_warnings(const Shoot& s, const ImportResult& r) {
+  std::vector<std::string> out;
+  int far = 0, mirrored_x = 0, mirrored_y = 0;
+  std::string first;
+  for (size_t i = 0; i < r.photos.size(); ++i)
+    for (size_t k = 0; k < r.photos[i].lamps.size(); ++k) {
+      const LampFound& l = r.photos[i].lamps[k];
+      if (!l.solved || l.disagreement < kDisagreeSigmas) continue;
+      ++far;
+      const auto& alt = l.agrees_with;
+      mirrored_x += std::find(alt.begin(), alt.end(), 0) != alt.end();
+      mirrored_y += std::find(alt.begin(), alt.end(), 1) != alt.end();
+      if (first.empty()) {
+        char buf[400];
+        std::snprintf(buf, sizeof buf,
+                      "photos[%zu].lights[%zu].position: the board's paper puts the lamp at "
+                      "(%.3f, %.3f, %.3f) m, %.0f mm from where it is written (%.1f sigma, with "
+                      "position_sigma_m %.3f m)",
+                      i, k, l.found.x, l.found.y, l.found.z, 1000 * length(l.found - l.written),
+                      l.disagreement, l.prior_sigma_m);
+        first = buf;
+      }
+    }
+  if (far == 0) return out;
+  std::string msg = first;
+  if (far > 1) msg += " (and " + std::to_string(far - 1) + " more lamps as far off)";
+  if (mirrored_x == far)
+    msg +=
+        "; every such lamp is where x measured from the board's right edge would put it: "
+        "board x runs right from the top-left corner as printed";
+  else if (mirrored_y == far)
+    msg +=
+        "; every such lamp is where y measured from the board's bottom edge would put it: "
+        "board y runs down from the top-left corner as printed";
+  else
+    msg +=
+        ": the paper's position is used; check the tape measure's origin and units, or raise "
+        "position_sigma_m";
+  out.push_back(msg);
+  return out;
+}
+
 }  // namespace
 
 // How many photos may be merged at once within o.memory_mb, from the photos' headers (nothing
@@ -545,8 +631,7 @@ int merge_threads(const Shoot& s, const ImportOptions& o, ImportResult* r) {
                   ": the shoot needs about %.0f MB (%zu photos keep %.0f MB between the passes, "
                   "and merging the largest bracket takes %.0f MB), over --memory %.0f MB; raise "
                   "--memory, or import fewer photos or exposures at a time",
-                  (kept + largest) / 1e6, s.photos.size(), kept / 1e6, largest / 1e6,
-                  o.memory_mb);
+                  (kept + largest) / 1e6, s.photos.size(), kept / 1e6, largest / 1e6, o.memory_mb);
     throw Error(s.file + buf);
   }
   r->merge_threads = std::min(fit, cores);
@@ -559,12 +644,14 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
   ImportResult r;
   r.photos.resize(s.photos.size());
   std::vector<Detected> det(s.photos.size());
+  // Paper at least 5 mm from the sample (its edge, its shadow on a thin plate).
+  const PaperPoints paper(s.board, s.polygon, 0.005 + 3 * s.height_m);
   tbb::task_arena arena(merge_threads(s, o, &r));
   {
     Progress bar("import: merging and finding the board", s.photos.size(), o.progress);
     arena.execute([&] {
       tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
-        det[i] = detect_photo(s, i, o);
+        det[i] = detect_photo(s, i, o, paper);
         bar.advance();
       });
     });
@@ -578,6 +665,7 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
     p.corners_dropped = static_cast<int>(det[i].dropped.size());
     p.saturated_pixels = det[i].saturated;
     p.raw = det[i].raw;
+    p.lamps = det[i].lamps;
     markers += det[i].markers;
     if (s.camera_given && (det[i].width != s.camera.width || det[i].height != s.camera.height))
       throw Error(s.file + ": " + photo_name(s, i) + " is " + std::to_string(det[i].width) + "x" +
@@ -595,6 +683,7 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
   const auto tc = Clock::now();
   solve_cameras(s, det, o, &r);
   r.seconds_calibrate = seconds_since(tc);
+  r.warnings = lamp_warnings(s, r);
   size_t accepted = 0;
   for (const auto& p : r.photos) accepted += p.accepted;
   if (accepted == 0)
@@ -624,6 +713,7 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
     set.provenance = nlohmann::json{{"tool", "aniso import"},
                                     {"shoot", relative_to(s.file, out_dir)},
                                     {"calibrated", r.calibrated},
+                                    {"intensities", intensity_note(s)},
                                     {"report", "import_report.json"}}
                          .dump();
     write_capture_json(set, join_path(dir, "capture.json"));

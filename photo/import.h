@@ -12,6 +12,7 @@
 
 #include "core/camera.h"
 #include "core/vec.h"
+#include "photo/lamps.h"
 #include "photo/raw.h"
 #include "photo/shoot.h"
 
@@ -30,6 +31,8 @@ struct ImportOptions {
   // At most this many photos calibrate the camera (spread over the shoot; the calibration's cost
   // grows as the cube of its photos); every other photo is posed against it.
   int calibrate_on = 40;
+  // Each photo's lamp found from the board's paper (photo/lamps.h); false: taken as written.
+  bool find_lamps = true;
 };
 
 struct ImportedPhoto {
@@ -43,6 +46,7 @@ struct ImportedPhoto {
   size_t saturated_pixels = 0, sample_pixels = 0;
   int view = -1;  // index in the capture set
   bool decoded_twice = false;
+  std::vector<LampFound> lamps;  // per light: as written and as the paper found it
   std::vector<RawInfo> raw;  // per RAW image of the bracket  // the sample fell outside the region
                              // kept from the first pass
 };
@@ -54,13 +58,17 @@ struct ImportResult {
   std::array<double, 4> sigma{};  // fx, fy, cx, cy (calibrated only)
   // What the photos left undetermined and the calibration held instead, each with why.
   std::vector<std::string> held;
+  std::vector<std::string> warnings;  // what the shoot as written gets wrong (lamps)
   std::vector<ImportedPhoto> photos;
   size_t views = 0;
-  size_t calibrated_on = 0;          // photos the calibration used (the rest posed against it)
-  int merge_threads = 0;             // photos merged at once (memory_mb)
-  double memory_estimate_mb = 0;     // the peak the budget was held to
+  size_t calibrated_on = 0;       // photos the calibration used (the rest posed against it)
+  int merge_threads = 0;          // photos merged at once (memory_mb)
+  double memory_estimate_mb = 0;  // the peak the budget was held to
   double seconds = 0, seconds_detect = 0, seconds_calibrate = 0, seconds_write = 0;
 };
+
+// How the lamps' intensities are known: absolute (the paper's reflectance given) or relative.
+std::string intensity_note(const Shoot& s);
 
 // CAPTURE_DIR/import_report.json's content (photo/import_report.cpp).
 nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const ImportOptions& o);

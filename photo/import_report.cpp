@@ -1,10 +1,22 @@
 // import_report.json (photo/import.h): calibration, every photo's result and why one was left out.
+#include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "io/json_util.h"
 #include "photo/import.h"
 
 namespace aniso {
+
+std::string intensity_note(const Shoot& s) {
+  if (s.paper_given())
+    return "absolute: from the board's paper, of reflectance board.paper_reflectance";
+  char buf[300];
+  std::snprintf(buf, sizeof buf,
+                "relative: from the board's paper taken as reflecting %.2f; k_d and k_s are "
+                "relative to it (give board.paper_reflectance in the shoot to make them absolute)",
+                kAssumedPaperReflectance);
+  return buf;
+}
 
 nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const ImportOptions& o) {
   using nlohmann::json;
@@ -32,6 +44,27 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
       jp["rms_px"] = p.rms_px;
       jp["tilt_deg"] = p.tilt_deg;
       jp["camera_position_m"] = jsonu::to_json(p.world_from_camera.translation());
+    }
+    if (!p.lamps.empty()) {
+      json lamps = json::array();
+      for (const auto& l : p.lamps) {
+        json jl = {{"written",
+                    {{"position_m", jsonu::to_json(l.written)},
+                     {"position_sigma_m", l.prior_sigma_m},
+                     {"intensity", jsonu::to_json(l.written_intensity)}}}};
+        if (l.solved) {
+          jl["found"] = {{"position_m", jsonu::to_json(l.found)},
+                         {"position_sigma_m", l.sigma_m},
+                         {"intensity", jsonu::to_json(l.found_intensity)},
+                         {"moved_sigmas", l.moved_sigmas},
+                         {"paper_points", l.points},
+                         {"paper_relative_rms", l.paper_rms}};
+        } else {
+          jl["kept_as_written_because"] = l.why;
+        }
+        lamps.push_back(jl);
+      }
+      jp["lamps"] = lamps;
     }
     if (p.accepted) {
       jp["view"] = p.view;
@@ -64,13 +97,16 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
             {"min_corners", o.min_corners},
             {"memory_mb", o.memory_mb},
             {"calibrate_on", o.calibrate_on}}},
-          {"memory", {{"photos_merged_at_once", r.merge_threads},
-                      {"estimate_mb", r.memory_estimate_mb}}},
+          {"memory",
+           {{"photos_merged_at_once", r.merge_threads}, {"estimate_mb", r.memory_estimate_mb}}},
           {"photos", photos},
           {"views", r.views},
+          {"intensities", intensity_note(s)},
+          {"warnings", r.warnings},
           {"caveats",
-           {"lamp positions and intensities are taken from the shoot as exact",
-            "a fit's uncertainties describe the photos' noise, not this calibration or the poses",
+           {"a lamp is found from the board's paper where its photo has one point lamp; other "
+            "lights are taken as written",
+            "the paper is taken as Lambertian and the camera as free of vignetting",
             "the sample is a plane at z = -height_m; a warped or thick sample is not modelled"}},
           {"seconds",
            {{"detect", r.seconds_detect},

@@ -34,9 +34,20 @@ double distance_to_outline(const std::vector<std::array<double, 2>>& poly, doubl
 
 namespace {
 
-BoardSpec parse_board(const json& j, const Ctx& c) {
-  jsonu::check_keys(j, {"type", "dictionary", "squares", "square_m", "marker_m", "printed_from"},
+BoardSpec parse_board(const json& j, const Ctx& c, RGB* paper) {
+  jsonu::check_keys(j,
+                    {"type", "dictionary", "squares", "square_m", "marker_m", "printed_from",
+                     "paper_reflectance"},
                     c);
+  if (j.contains("paper_reflectance")) {
+    *paper = jsonu::rgb(j["paper_reflectance"], c.at("paper_reflectance"));
+    for (double v : *paper)
+      if (!(v > 0.05 && v <= 1))
+        c.at("paper_reflectance")
+            .fail(
+                "must be in (0.05, 1]: the printed paper's diffuse reflectance (office paper: "
+                "about 0.85)");
+  }
   const std::string type = jsonu::str(jsonu::need(j, "type", c), c.at("type"));
   if (type != "charuco") c.at("type").fail("unknown board type '" + type + "' (charuco)");
   BoardSpec b;
@@ -132,8 +143,21 @@ ShootPhoto parse_photo(const json& j, const Ctx& c, const Shoot& s) {
   const json& lights = jsonu::need(j, "lights", c);
   if (!lights.is_array() || lights.empty()) c.at("lights").fail("a photo needs at least one light");
   for (size_t k = 0; k < lights.size(); ++k) {
-    p.lights.push_back(parse_light(lights[k], c.at("lights").idx(k)));
-    check_light(p.lights.back(), c.at("lights").idx(k), s.height_m);
+    const Ctx lc = c.at("lights").idx(k);
+    json l = lights[k];
+    double sigma = kDefaultLampSigmaM;
+    if (l.is_object() && l.contains("position_sigma_m")) {
+      sigma = jsonu::num(l["position_sigma_m"], lc.at("position_sigma_m"));
+      if (!(sigma > 0 && sigma <= 1))
+        lc.at("position_sigma_m")
+            .fail(
+                "must be in (0, 1] m: how well the lamp's position was measured (a tape: 0.01 "
+                "to 0.03)");
+      l.erase("position_sigma_m");
+    }
+    p.lights.push_back(parse_light(l, lc));
+    p.position_sigma_m.push_back(sigma);
+    check_light(p.lights.back(), lc, s.height_m);
   }
   return p;
 }
@@ -153,7 +177,7 @@ Shoot read_shoot(const std::string& path) {
     root.at("format").fail("expected \"aniso-shoot\", got \"" + format + "\"");
   if (jsonu::num(jsonu::need(j, "version", root), root.at("version")) != 1)
     root.at("version").fail("unsupported version (this reader knows 1)");
-  s.board = parse_board(jsonu::need(j, "board", root), root.at("board"));
+  s.board = parse_board(jsonu::need(j, "board", root), root.at("board"), &s.paper_reflectance);
   parse_sample(jsonu::need(j, "sample", root), root.at("sample"), &s);
   const json& cam = jsonu::need(j, "camera", root);
   if (!cam.is_null()) {
@@ -175,12 +199,17 @@ void write_shoot(const Shoot& s, const std::string& path) {
   for (const auto& p : s.photos) {
     json imgs = json::array(), lights = json::array();
     for (const auto& im : p.images) imgs.push_back({{"file", im.file}, {"exposure", im.exposure}});
-    for (const auto& l : p.lights) lights.push_back(light_json(l));
+    for (size_t k = 0; k < p.lights.size(); ++k) {
+      json l = light_json(p.lights[k]);
+      if (k < p.position_sigma_m.size() && p.position_sigma_m[k] != kDefaultLampSigmaM)
+        l["position_sigma_m"] = p.position_sigma_m[k];
+      lights.push_back(l);
+    }
     photos.push_back({{"images", imgs}, {"lights", lights}});
   }
   const json cam = s.camera_given ? camera_json(s.camera) : json(nullptr);
   const char* enc = s.color.encoding == ColorSpec::Encoding::kSrgb ? "srgb" : "linear";
-  const json j = {
+  json j = {
       {"format", "aniso-shoot"},
       {"version", 1},
       {"board",
@@ -194,6 +223,7 @@ void write_shoot(const Shoot& s, const std::string& path) {
       {"camera", cam},
       {"color", {{"encoding", enc}}},
       {"photos", photos}};
+  if (s.paper_given()) j["board"]["paper_reflectance"] = jsonu::to_json(s.paper_reflectance);
   write_text_file(path, j.dump(2) + "\n");
 }
 

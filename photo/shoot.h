@@ -22,7 +22,12 @@ struct ShootImage {
 struct ShootPhoto {
   std::vector<ShootImage> images;  // the exposure bracket, any order
   std::vector<Light> lights;       // board frame
+  // Per light: how well its position was measured (position_sigma_m), metres.
+  std::vector<double> position_sigma_m;
 };
+
+// A lamp's position as a person measures it with a tape: 2 cm unless the shoot says.
+inline constexpr double kDefaultLampSigmaM = 0.02;
 
 struct Shoot {
   std::string file, dir;  // shoot.json and the folder its relative paths resolve against
@@ -33,6 +38,10 @@ struct Shoot {
   bool camera_given = false;                   // false: calibrate from the photos
   Intrinsics camera;
   ColorSpec color;
+  // board.paper_reflectance: the printed paper's diffuse reflectance (RGB); all 0 where the shoot
+  // gives none, and k_d, k_s are then relative to an assumed paper (photo/lamps.h).
+  RGB paper_reflectance{0, 0, 0};
+  bool paper_given() const { return paper_reflectance[0] > 0; }
   std::vector<ShootPhoto> photos;
 };
 

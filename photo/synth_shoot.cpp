@@ -295,6 +295,24 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
   std::vector<PhotoSetup> setups;
   for (int i = 0; i < o.photos; ++i) setups.push_back(photo_setup(o, i, centre, rng));
 
+  // The lamps as the person writes them; truth.json keeps where they were.
+  std::vector<Light> written;
+  std::mt19937_64 tape(o.seed ^ 0x7a9e5eedULL);
+  std::normal_distribution<double> off(0.0, 1.0);
+  nlohmann::json lamps = nlohmann::json::array();
+  for (const auto& su : setups) {
+    Light l = su.lamp;
+    if (o.lamp_error_m > 0)
+      for (double* v : {&l.position.x, &l.position.y, &l.position.z})
+        *v += o.lamp_error_m * off(tape);
+    // Never on the board's far side, as check_light requires of a shoot.
+    l.position.z = std::min(l.position.z, -o.height_m - 0.05);
+    if (o.hide_intensity) l.intensity = {1, 1, 1};
+    written.push_back(l);
+    lamps.push_back({{"position_m", jsonu::to_json(su.lamp.position)},
+                     {"intensity", jsonu::to_json(su.lamp.intensity)}});
+  }
+
   PhotoShootStats st;
   write_folder_atomically(out_dir, OutputKind::kPhotoShoot, [&](const std::string& dir) {
     Progress bar("synth --photos: rendering", setups.size(), o.progress);
@@ -302,7 +320,8 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
     for (int i = 0; i < o.photos; ++i) {
       const Image radiance = render_photo(o, k, scene, board, eval, setups[i], &st);
       ShootPhoto photo;
-      photo.lights = {setups[i].lamp};
+      photo.lights = {written[i]};
+      photo.position_sigma_m = {o.lamp_error_m > 0 ? o.lamp_error_m : kDefaultLampSigmaM};
       for (size_t e = 0; e < o.bracket.size(); ++e) {
         char name[64];
         std::snprintf(name, sizeof name, "photos/p%02d_e%zu.%s", i, e, o.dng ? "dng" : "png");
@@ -330,6 +349,9 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
                                                    {"read_noise", o.read_noise},
                                                    {"camera", camera_json(k)},
                                                    {"world_from_camera", poses},
+                                                   {"lamps", lamps},
+                                                   {"lamp_error_m", o.lamp_error_m},
+                                                   {"intensity_hidden", o.hide_intensity},
                                                    {"material", "material.json"}});
   });
   st.photos = setups.size();

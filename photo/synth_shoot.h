@@ -37,6 +37,10 @@ struct PhotoShootOptions {
   // its frame, as a person's shoot does) or "turned" (the camera turned with the board, as if the
   // board were rotated under a fixed camera; up to 15 degrees of roll).
   std::string walk = "turned";
+  // What a person writes of the lamps: each position off by N(0, lamp_error_m) per axis (a tape
+  // measure; its own seeded stream), and, with hide_intensity, every intensity as 1 (unknown).
+  double lamp_error_m = 0;
+  bool hide_intensity = false;
 };
 
 struct PhotoShootStats {
