@@ -267,6 +267,11 @@ struct FitResult {
   // One standard deviation per fitted number, keyed like the material file (kd, ks, n,
   // fiber_angle_deg, isotropic.kd, ...); absent when undetermined.
   std::map<std::string, std::vector<double>> sigma;
+  // What the images' noise alone gives (same keys): `sigma` is the whole uncertainty, the larger
+  // of this and the spread the views' residuals show (fit/view_sandwich.h) where the capture came
+  // from a photo shoot or the model misses the data; and how `sigma` was found.
+  std::map<std::string, std::vector<double>> sigma_noise_only;
+  std::string uncertainty_basis;
   std::map<std::string, std::string> fixed;         // not fitted, and why
   std::map<std::string, std::string> undetermined;  // fitted but not determined by the data
   FitReport report;

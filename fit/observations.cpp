@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <mutex>
@@ -241,6 +242,7 @@ void close_gaps(std::vector<ViewPart>* parts, size_t obs_start, size_t light_sta
                      per * p.slot.num_obs * sizeof(v[0]));
       });
     }
+    os->view_lights.push_back(l_end);
     o_end += p.slot.num_obs;
     l_end += p.slot.num_lights;
     diffs->insert(diffs->end(), p.diffs.begin(), p.diffs.end());
@@ -290,8 +292,26 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
   if (opt.subsample < 1) throw Error("fit: --subsample must be at least 1");
   ObsSet& os = *os_out;
   os.obs.clear(), os.lights.clear(), os.uv.clear(), os.texel.clear(), os.topo.clear();
+  os.view_lights.clear();
   FitReport& rep = *rep_out;
   rep.views = set.views.size();
+  if (!set.provenance.empty()) {
+    const auto g = jsonu::json::parse(set.provenance, nullptr, false);
+    os.from_shoot = g.is_object() && g.value("tool", "") == "aniso import";
+    const double assumed = os.from_shoot && g.contains("paper_reflectance_assumed") &&
+                                   g["paper_reflectance_assumed"].is_number()
+                               ? g["paper_reflectance_assumed"].get<double>()
+                               : 0;
+    if (assumed > 0 && st->band == 0) {
+      char buf[320];
+      std::snprintf(buf, sizeof buf,
+                    "k_d and k_s are relative, not absolute: the lamps' intensities came from the "
+                    "board's paper taken as reflecting %.2f; give board.paper_reflectance in the "
+                    "shoot (or measure the paper) and import again to make them absolute",
+                    assumed);
+      rep.warnings.push_back(buf);
+    }
+  }
   choose_topology(set, opt, &os);
   if (opt.maps_w > 0)
     for (size_t i = 0; i < set.views.size(); ++i) {

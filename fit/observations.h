@@ -102,6 +102,12 @@ struct ObsSet {
   std::string topology_map;  // recorded in the result
   MathTopology topology_mathematical = MathTopology::kNone;
   bool grey = false;  // a grey table: the three channels repeat one value
+  // Where each view's lights begin in `lights`, in view order (a view's observations name lights
+  // of their own view only): which view an observation is of, for the uncertainty that errors
+  // shared by a view's pixels add (fit/view_sandwich.h). Empty for tables.
+  std::vector<size_t> view_lights;
+  // The capture came from a photo shoot (aniso import): its calibration and lamps are measured.
+  bool from_shoot = false;
   // Noise of the images themselves, from differences of neighbouring pixels (robust, so edges
   // and the smooth shading between neighbours hardly count); 0 where there are no images.
   double pixel_noise = 0;

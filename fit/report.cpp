@@ -269,21 +269,28 @@ jsonu::json fit_json(const std::string& path, const FitResult& r, Image* s_map =
     t->file = relative_to(t->file, parent_dir(path));
   material_to_json(m, &j);
   if (!r.s_texels.empty()) j["topology"]["s_map_texels"] = r.s_texels_n;
-  jsonu::json unc = jsonu::json::object();
-  for (const auto& [key, v] : r.sigma) {
-    const auto dot = key.find('.');
-    jsonu::json val = v.size() == 1 ? jsonu::json(v[0]) : jsonu::json(v);
-    if (dot == std::string::npos)
-      unc[key] = val;
-    else
-      unc[key.substr(0, dot)][key.substr(dot + 1)] = val;
-  }
-  for (const auto& [key, why] : r.undetermined)
-    if (key != "covariance") unc[key] = nullptr;
-  j["uncertainty"] = unc;
+  auto uncertainty = [&](const std::map<std::string, std::vector<double>>& sigma) {
+    jsonu::json unc = jsonu::json::object();
+    for (const auto& [key, v] : sigma) {
+      const auto dot = key.find('.');
+      jsonu::json val = v.size() == 1 ? jsonu::json(v[0]) : jsonu::json(v);
+      if (dot == std::string::npos)
+        unc[key] = val;
+      else
+        unc[key.substr(0, dot)][key.substr(dot + 1)] = val;
+    }
+    for (const auto& [key, why] : r.undetermined)
+      if (key != "covariance") unc[key] = nullptr;
+    return unc;
+  };
+  j["uncertainty"] = uncertainty(r.sigma);
   j["fixed"] = r.fixed;
   if (!r.undetermined.empty()) j["undetermined"] = r.undetermined;
   j["report"] = report_json(r.report);
+  if (!r.uncertainty_basis.empty()) {
+    j["report"]["uncertainty"] = r.uncertainty_basis;
+    j["report"]["uncertainty_noise_only"] = uncertainty(r.sigma_noise_only);
+  }
   if (!r.correlation.empty())
     j["report"]["correlation"] = {{"parameters", r.correlation_names},
                                   {"matrix", r.correlation},

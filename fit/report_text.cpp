@@ -53,6 +53,18 @@ std::string describe_fit(const FitResult& r) {
   };
   for (const auto& p : kLineParams) line(p);
   for (const auto& p : kFiberParams) line(p);
+  if (r.uncertainty_basis.rfind("whole", 0) == 0) {
+    // How much the views' spread added: the ratio for psi, the value a person quotes first.
+    const auto w = r.sigma.find("fiber_angle_deg"), n = r.sigma_noise_only.find("fiber_angle_deg");
+    o << "  +- is the " << r.uncertainty_basis;
+    if (w != r.sigma.end() && n != r.sigma_noise_only.end() && n->second[0] > 0) {
+      char buf[120];
+      std::snprintf(buf, sizeof buf, "; the noise alone gives %.2g times less for the fiber angle",
+                    w->second[0] / n->second[0]);
+      o << buf;
+    }
+    o << "\n";
+  }
   if (const auto* t = m.topology_as<TopologyMapRef>())
     o << "  topology map " << t->file << " over " << math_topology_name(t->over) << "\n";
   if (!r.s_texels.empty())

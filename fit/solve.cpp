@@ -87,16 +87,22 @@ std::string misfit_warning(const ObsSet& os, const FitReport& rep) {
   constexpr double kMisfitRatio = 2.0, kNoiseFreeFloor = 1e-4;
   const double noise = os.pixel_noise > 0 ? os.pixel_noise : rep.noise_sigma;
   if (!(rep.rms > kMisfitRatio * std::max(noise, kNoiseFreeFloor * signal))) return "";
-  char buf[768];
+  char buf[1280];
   std::snprintf(
       buf, sizeof buf,
       "the model does not describe the data: residual RMS %.3g is %.1fx the noise of "
-      "the images %.3g. Likely causes: a material that varies over the sample (brushed "
+      "the images %.3g. Likely causes: %sa material that varies over the sample (brushed "
       "in swirls, woven in regions: fit maps with --maps WxH), a second fiber direction "
       "(woven cloth: --fit-second-fiber), an isotropic term (--fit-isotropic), shadows or "
       "interreflections, a wrong exposure or color.encoding, hot pixels. Check "
       "`aniso verify CAPTURE MATERIAL --residuals DIR`.",
-      rep.rms, rep.rms / std::max(noise, 1e-300), noise);
+      rep.rms, rep.rms / std::max(noise, 1e-300), noise,
+      // A photo shoot's own errors first: they show as a misfit before the material does.
+      os.from_shoot ? "the shoot (lamps kept as written or far from where import_report.json "
+                      "found them, board.square_m not the printed square's size, the sample's "
+                      "polygon_m or height_m, the calibration's RMS; a smooth gradient across "
+                      "`aniso verify`'s residual images is a lamp or calibration error), then "
+                    : "");
   return buf;
 }
 
@@ -193,7 +199,7 @@ void summarize(const ObsSet& os, size_t nparam, Solution* sol, FitReport* rep) {
   rep->bic =
       m * std::log(std::max(rep->rss, 1e-300) / m) + static_cast<double>(nparam) * std::log(m);
   rep->pixel_noise = os.pixel_noise;
-  if (auto w = misfit_warning(os, *rep); !w.empty()) rep->warnings.push_back(w);
+  if (auto w = misfit_warning(os, *rep); !w.empty()) rep->warnings.push_back(w), sol->misfit = true;
 }
 
 // Stage 1 by Ceres: plain least squares on the start subset; its residuals.

@@ -25,6 +25,7 @@ struct Solution {
   double weights_change = 0;   // reweighting: the largest change of a weight in its last round
   // Where another fiber direction fits the data as well (the start's second look): what it is.
   std::string other_minimum;
+  bool misfit = false;  // the model does not describe the data (the misfit warning was given)
 };
 
 // Starts the model, solves, and fills the report's start, noise, loss, iterations, RMS, BIC,

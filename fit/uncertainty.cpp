@@ -9,6 +9,7 @@
 
 #include "core/angles.h"
 #include "fit/solve.h"
+#include "fit/view_sandwich.h"
 
 namespace aniso::fitting {
 
@@ -316,6 +317,60 @@ void drop_nonfinite_sigmas(FitResult* res) {
   }
 }
 
+// The whole uncertainty (fit/view_sandwich.h): where the capture came from a photo shoot, or the
+// residual is well above the images' noise, each sigma is the larger of the noise's and the
+// spread the views' own residuals show.
+void whole_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, const Solution& sol,
+                       const CovarianceSource& cov, ceres::Problem* pb,
+                       const std::vector<Block>& blocks, double s2, bool n_free, FitResult* res) {
+  const bool misfit = sol.misfit;
+  if (os.view_lights.empty() || (!os.from_shoot && !misfit)) return;
+  std::vector<std::pair<double*, int>> free;
+  std::vector<const double*> list;
+  for (const Block& b : blocks)
+    if (!pb->IsParameterBlockConstant(b.values) &&
+        pb->ParameterBlockTangentSize(b.values) == b.size)
+      free.push_back({b.values, b.size}), list.push_back(b.values);
+  size_t P = 0;
+  for (const auto& f : free) P += static_cast<size_t>(f.second);
+  std::vector<double> ainv(P * P);
+  if (P == 0 || !cov.matrix(list, ainv.data())) return;
+  size_t views = 0;
+  const std::vector<double> c = per_view_covariance(m, os, free, ainv, opt.threads, &views);
+  if (c.empty()) {
+    res->uncertainty_basis += "; not the whole uncertainty: the views' spread needs " +
+                              std::to_string(P + 2) + " views with pixels (this set has " +
+                              std::to_string(os.view_lights.size()) + ") and at most 2^24 pixels";
+    return;
+  }
+  std::map<const double*, size_t> at;
+  size_t k = 0;
+  for (const auto& f : free) at[f.first] = k, k += static_cast<size_t>(f.second);
+  const SigmaOf whole = [&](const double* b, int size) {
+    std::vector<double> cv(static_cast<size_t>(size) * size);
+    cov.block(b, b, cv.data());
+    std::vector<double> d(size);
+    const auto it = at.find(b);
+    for (int i = 0; i < size; ++i) {
+      double v = std::max(cv[i * size + i], 0.0) * s2;
+      if (it != at.end()) v = std::max(v, c[(it->second + i) * P + it->second + i]);
+      d[i] = std::sqrt(v);
+    }
+    return d;
+  };
+  res->sigma.clear();
+  core_sigmas(whole, &m->core, n_free, res);
+  m->sigmas(whole, pb, res);
+  drop_nonfinite_sigmas(res);
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "whole: the larger of the images' noise and the spread of the %zu views' own "
+                "residuals (a cluster-robust covariance over views: %s%s)",
+                views, os.from_shoot ? "the shoot's calibration, poses and lamps" : "",
+                misfit ? (os.from_shoot ? " and the model's misfit" : "the model's misfit") : "");
+  res->uncertainty_basis = buf;
+}
+
 }  // namespace
 
 void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, Solution* sol,
@@ -380,6 +435,9 @@ void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, 
       if (v.size() == 3)
         for (double& x : v) x /= std::sqrt(3.0);
   drop_nonfinite_sigmas(res);
+  res->sigma_noise_only = res->sigma;
+  res->uncertainty_basis = "the images' noise (the residuals' spread pixel by pixel)";
+  whole_uncertainty(m, os, opt, *sol, cov, pb, blocks, s2, n_free, res);
 }
 
 }  // namespace aniso::fitting

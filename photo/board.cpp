@@ -121,9 +121,9 @@ Image render_board_page(const BoardSpec& b, const Paper& paper, double dpi) {
                   "board: %dx%d squares of %.1f mm (%.0f x %.0f mm) do not fit %s (%.0f x %.0f mm "
                   "landscape, %.0f mm margins and %.0f mm for the scale bar): at most %.1f mm "
                   "squares (--square-mm), fewer squares, or a larger --paper",
-                  b.squares_x, b.squares_y, 1e3 * b.square_m, 1e3 * W, 1e3 * H,
-                  paper.name.c_str(), 1e3 * paper.w, 1e3 * paper.h, 1e3 * kPaperMargin,
-                  1e3 * kCaptionSpace, 1e3 * largest_square_on(b, paper));
+                  b.squares_x, b.squares_y, 1e3 * b.square_m, 1e3 * W, 1e3 * H, paper.name.c_str(),
+                  1e3 * paper.w, 1e3 * paper.h, 1e3 * kPaperMargin, 1e3 * kCaptionSpace,
+                  1e3 * largest_square_on(b, paper));
     throw Error(buf);
   }
   const Image board = render_board(b, dpi);
@@ -137,8 +137,7 @@ Image render_board_page(const BoardSpec& b, const Paper& paper, double dpi) {
       std::lround((ph - std::lround(kCaptionSpace * px_per_m) - board.height) / 2.0));
   for (int y = 0; y < board.height; ++y)
     for (int x = 0; x < board.width; ++x)
-      page.at<uint8_t>(y0 + y, x0 + x) =
-          static_cast<uint8_t>(std::lround(255 * board.at(x, y, 0)));
+      page.at<uint8_t>(y0 + y, x0 + x) = static_cast<uint8_t>(std::lround(255 * board.at(x, y, 0)));
   // The scale bar: 100 mm, 1.5 mm thick, ticks every 10 mm, 4 mm below the board.
   const int bar = static_cast<int>(std::lround(0.100 * px_per_m));
   const int by = y0 + board.height + static_cast<int>(std::lround(0.004 * px_per_m));
@@ -154,10 +153,10 @@ Image render_board_page(const BoardSpec& b, const Paper& paper, double dpi) {
   std::snprintf(caption, sizeof caption,
                 "aniso ChArUco %dx%d, squares %.1f mm, markers %.1f mm, %s; %s: print at 100 %% "
                 "(no fit to page)",
-                b.squares_x, b.squares_y, 1e3 * b.square_m, 1e3 * b.marker_m,
-                b.dictionary.c_str(), paper.name == "letter" ? "US Letter" : paper.name == "a4"
-                                                                   ? "A4"
-                                                                   : "A3");
+                b.squares_x, b.squares_y, 1e3 * b.square_m, 1e3 * b.marker_m, b.dictionary.c_str(),
+                paper.name == "letter" ? "US Letter"
+                : paper.name == "a4"   ? "A4"
+                                       : "A3");
   // Hershey simplex: about 22 px of cap height at scale 1; 2.2 mm here.
   const double scale = 0.0022 * px_per_m / 22;
   const int weight = std::max(1, static_cast<int>(std::lround(scale * 1.5)));

@@ -579,6 +579,35 @@ std::vector<std::string> lamp_warnings(const Shoot& s, const ImportResult& r) {
         first = buf;
       }
     }
+  // A wrong board.square_m scales the whole board frame, so the paper puts every lamp farther
+  // from (or nearer to) the board's corner than the tape did, by one factor: the paper-alone
+  // positions against the written ones.
+  double aw = 0, ww = 0;
+  size_t lamps = 0;
+  for (const auto& p : r.photos)
+    for (const LampFound& l : p.lamps)
+      if (l.solved) aw += dot(l.alone, l.written), ww += dot(l.written, l.written), ++lamps;
+  if (lamps >= 3 && ww > 0) {
+    const double k = aw / ww;
+    double rr = 0;
+    for (const auto& p : r.photos)
+      for (const LampFound& l : p.lamps)
+        if (l.solved) rr += dot(l.alone - l.written * k, l.alone - l.written * k);
+    const double sigma_k = std::sqrt(rr / (3.0 * lamps - 1) / ww);
+    constexpr double kScaleOff = 0.03;  // beyond a tape's and a printer's error
+    if (std::abs(k - 1) > std::max(kScaleOff, 4 * sigma_k)) {
+      char buf[500];
+      std::snprintf(buf, sizeof buf,
+                    "board.square_m: the board's paper puts every lamp %.3f times as far from the "
+                    "board's corner as written (+- %.3f over %zu lamps): the board frame is "
+                    "scaled by square_m, so the printed squares are probably %.4f m, not %.4f m "
+                    "(measure one square of the print), or the lamps were measured in another "
+                    "unit",
+                    k, sigma_k, lamps, s.board.square_m / k, s.board.square_m);
+      out.push_back(buf);
+      return out;
+    }
+  }
   if (far == 0) return out;
   std::string msg = first;
   if (far > 1) msg += " (and " + std::to_string(far - 1) + " more lamps as far off)";
@@ -710,12 +739,15 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
     }
     r.views = set.views.size();
     if (set.views.empty()) throw Error(s.file + ": no photo shows the sample; nothing written");
-    set.provenance = nlohmann::json{{"tool", "aniso import"},
-                                    {"shoot", relative_to(s.file, out_dir)},
-                                    {"calibrated", r.calibrated},
-                                    {"intensities", intensity_note(s)},
-                                    {"report", "import_report.json"}}
-                         .dump();
+    set.provenance =
+        nlohmann::json{{"tool", "aniso import"},
+                       {"shoot", relative_to(s.file, out_dir)},
+                       {"calibrated", r.calibrated},
+                       {"intensities", intensity_note(s, o.find_lamps)},
+                       {"paper_reflectance_assumed",
+                        s.paper_given() || !o.find_lamps ? 0.0 : kAssumedPaperReflectance},
+                       {"report", "import_report.json"}}
+            .dump();
     write_capture_json(set, join_path(dir, "capture.json"));
     r.seconds_write = seconds_since(tw);
     r.seconds = seconds_since(t0);

@@ -68,7 +68,7 @@ struct ImportResult {
 };
 
 // How the lamps' intensities are known: absolute (the paper's reflectance given) or relative.
-std::string intensity_note(const Shoot& s);
+std::string intensity_note(const Shoot& s, bool found);
 
 // CAPTURE_DIR/import_report.json's content (photo/import_report.cpp).
 nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const ImportOptions& o);

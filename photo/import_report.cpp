@@ -7,7 +7,8 @@
 
 namespace aniso {
 
-std::string intensity_note(const Shoot& s) {
+std::string intensity_note(const Shoot& s, bool found) {
+  if (!found) return "as written in the shoot (import --lamps-as-written)";
   if (s.paper_given())
     return "absolute: from the board's paper, of reflectance board.paper_reflectance";
   char buf[300];
@@ -101,7 +102,7 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
            {{"photos_merged_at_once", r.merge_threads}, {"estimate_mb", r.memory_estimate_mb}}},
           {"photos", photos},
           {"views", r.views},
-          {"intensities", intensity_note(s)},
+          {"intensities", intensity_note(s, o.find_lamps)},
           {"warnings", r.warnings},
           {"caveats",
            {"a lamp is found from the board's paper where its photo has one point lamp; other "

@@ -182,9 +182,8 @@ MergedPhoto merge_bracket(const Shoot& s, size_t i) {
                     ": photos[%zu].images[%zu].exposure: %s is %.3g times as bright as %s (the "
                     "median over %zu pixels both hold), but the exposures say %.3g; swapped or "
                     "mistyped? (exposure is relative: 1, 0.25, 0.0625 for steps of 2 stops)",
-                    i, k, shots[k].path.c_str(),
-                    r * shots[k].exposure / shots[0].exposure, shots[0].path.c_str(),
-                    ratio.size(), shots[k].exposure / shots[0].exposure);
+                    i, k, shots[k].path.c_str(), r * shots[k].exposure / shots[0].exposure,
+                    shots[0].path.c_str(), ratio.size(), shots[k].exposure / shots[0].exposure);
       throw Error(s.file + buf);
     }
   }

@@ -299,6 +299,18 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   EXPECT_NEAR(m["fiber_angle_deg"].get<double>(), 30, 0.5);
   EXPECT_NEAR(m["n"].get<double>() / 40, 1, 0.1);
   EXPECT_NEAR(m["kd"][0].get<double>() / 0.2, 1, 0.1);
+  // Its sigma is the whole one: the noise alone gave a sigma of psi 30-250 times below the
+  // error; the views' spread covers it.
+  const double s_psi = m["uncertainty"]["fiber_angle_deg"].get<double>(),
+               s_noise = m["report"]["uncertainty_noise_only"]["fiber_angle_deg"].get<double>();
+  std::printf("psi %.4f deg: whole sigma %.4f, noise-only %.5f\n",
+              m["fiber_angle_deg"].get<double>(), s_psi, s_noise);
+  EXPECT_GT(s_psi, 10 * s_noise);
+  EXPECT_LT(s_psi, 1.0);
+  EXPECT_LT(std::abs(m["fiber_angle_deg"].get<double>() - 30), 3 * s_psi);
+  EXPECT_EQ(m["report"]["uncertainty"].get<std::string>().rfind("whole", 0), 0u);
+  EXPECT_NE(r.output.find("+- is the whole"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("k_d and k_s are relative"), std::string::npos) << r.output;
   // The same lamps as written: the intensities of 1 make k_d wrong by a factor of three.
   r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/capw --no-overlays " +
                     "--lamps-as-written");
@@ -308,6 +320,7 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   EXPECT_GT(std::abs(mw["kd"][0].get<double>() / 0.2 - 1), 0.3) << mw.dump();
   // x measured from the right edge: named, with the key.
   const std::string shoot = dir + "/shoot/shoot.json";
+  const std::string good = read_text_file(shoot);
   test::edit_json(shoot, [](nlohmann::json& j) {
     const double W = j["board"]["squares"][0].get<double>() * j["board"]["square_m"].get<double>();
     for (auto& p : j["photos"]) {
@@ -319,6 +332,16 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("photos[0].lights[0].position"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("right edge"), std::string::npos) << r.output;
+  // A square size 8 % off: the paper puts every lamp 1.08 times as far; named with the key.
+  write_text_file(shoot, good);
+  test::edit_json(shoot, [](nlohmann::json& j) {
+    j["board"]["square_m"] = 1.08 * j["board"]["square_m"].get<double>();
+  });
+  r = test::run_cli("import " + shoot + " --out " + dir + "/caps --no-overlays --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("board.square_m: the board's paper puts every lamp 1.0"),
+            std::string::npos)
+      << r.output;
 }
 
 // A person's mistakes: each stops the import with a message naming the file and what to do, and
