@@ -10,8 +10,8 @@
 #include "core/angles.h"
 #include "core/color.h"
 #include "core/error.h"
-#include "geometry/mesh.h"
 #include "core/progress.h"
+#include "geometry/mesh.h"
 #include "io/files.h"
 #include "io/image_io.h"
 #include "io/json_util.h"
@@ -159,6 +159,9 @@ Image anisotropy_texture(const Material& m, const GltfPbrTexels* strength) {
 // strength), and per texel the base colour (sRGB) and metallic-roughness (G roughness, B metallic).
 struct GltfTextures {
   std::string anisotropy, base_color, metallic_roughness;
+  // KHR_materials_specular per texel: the specular colour (sRGB, scaled by the factor), or "".
+  std::string specular_color;
+  RGB specular_factor{1, 1, 1};
   bool per_texel = false;  // the three from fit_gltf_pbr_texels: the factors are then 1
 };
 
@@ -227,6 +230,15 @@ json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b
     pmr["metallicFactor"] = 1.0;
     pmr["roughnessFactor"] = 1.0;
   }
+  // KHR_materials_specular: F0 = min(0.04 specularColor, 1) specularFactor for a dielectric.
+  const bool specular = tex.per_texel ? !tex.specular_color.empty() : pbr.specular;
+  if (specular) {
+    json sp = {{"specularFactor", 1.0}};
+    const RGB& f = tex.per_texel ? tex.specular_factor : pbr.specular_color;
+    sp["specularColorFactor"] = {f[0], f[1], f[2]};
+    if (tex.per_texel) sp["specularColorTexture"] = {{"index", texture(tex.specular_color)}};
+    mat["extensions"]["KHR_materials_specular"] = sp;
+  }
   if (!images.empty()) {
     doc_extra["images"] = images;
     // Linear filtering, clamped at the border (FORMAT.md's default wrap for material maps).
@@ -234,22 +246,24 @@ json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b
         {{"magFilter", 9729}, {"minFilter", 9729}, {"wrapS", 33071}, {"wrapT", 33071}}};
     doc_extra["textures"] = textures;
   }
-  json doc = {{"asset", {{"version", "2.0"}, {"generator", "aniso export"}}},
-              {"extensionsUsed", {"KHR_materials_anisotropy"}},
-              {"scene", 0},
-              {"scenes", {{{"nodes", {0}}}}},
-              {"nodes", {{{"mesh", 0}, {"name", "aniso sample"}}}},
-              {"meshes",
-               {{{"name", "sphere"},
-                 {"primitives",
-                  {{{"attributes",
-                     {{"POSITION", ap}, {"NORMAL", an}, {"TANGENT", at}, {"TEXCOORD_0", auv}}},
-                    {"indices", ai},
-                    {"material", 0}}}}}}},
-              {"materials", {mat}},
-              {"buffers", {{{"uri", "sample.bin"}, {"byteLength", b.bin.size()}}}},
-              {"bufferViews", views},
-              {"accessors", accessors}};
+  json doc = {
+      {"asset", {{"version", "2.0"}, {"generator", "aniso export"}}},
+      {"extensionsUsed", specular ? json{"KHR_materials_anisotropy", "KHR_materials_specular"}
+                                  : json{"KHR_materials_anisotropy"}},
+      {"scene", 0},
+      {"scenes", {{{"nodes", {0}}}}},
+      {"nodes", {{{"mesh", 0}, {"name", "aniso sample"}}}},
+      {"meshes",
+       {{{"name", "sphere"},
+         {"primitives",
+          {{{"attributes",
+             {{"POSITION", ap}, {"NORMAL", an}, {"TANGENT", at}, {"TEXCOORD_0", auv}}},
+            {"indices", ai},
+            {"material", 0}}}}}}},
+      {"materials", {mat}},
+      {"buffers", {{{"uri", "sample.bin"}, {"byteLength", b.bin.size()}}}},
+      {"bufferViews", views},
+      {"accessors", accessors}};
   doc.update(doc_extra);
   return doc;
 }
@@ -425,9 +439,7 @@ json measured_errors(const ExportSummary& s) {
 }
 
 // An export goes only where nothing but an earlier export is (io/files.h).
-void check_export_folder(const std::string& dir) {
-  check_output_folder(dir, OutputKind::kExport);
-}
+void check_export_folder(const std::string& dir) { check_output_folder(dir, OutputKind::kExport); }
 
 }  // namespace
 
@@ -459,10 +471,20 @@ void write_gltf(const std::string& tmp, const Material& m, const json& tables, E
       mr.px[3 * t + 2] = px.metallic[t];
     }
     tex.per_texel = true;
+    if (px.specular) {
+      // specularColorFactor the largest colour, the texture each texel's share of it (sRGB).
+      double top = 1e-6;
+      for (float v : px.specular_color) top = std::max(top, static_cast<double>(v));
+      tex.specular_factor = {top, top, top};
+      Image sc(w, h, 3);
+      for (size_t i = 0; i < sc.px.size(); ++i)
+        sc.px[i] = static_cast<float>(srgb_encode(px.specular_color[i] / top));
+      tex.specular_color = png("sample_specular_color.png", sc);
+    }
     tex.base_color = png("sample_base_color.png", base);
     tex.metallic_roughness = png("sample_metallic_roughness.png", mr);
     if (mp.fiber) tex.anisotropy = png("sample_anisotropy.png", anisotropy_texture(m, &px));
-    sum->gltf_texels = {w, h, px.n_nodes, px.worst_total_rel_rms};
+    sum->gltf_texels = {w, h, px.n_nodes, px.worst_total_rel_rms, px.mapping, px.specular};
   } else if (mp.fiber) {
     tex.anisotropy = png("sample_anisotropy.png", anisotropy_texture(m, nullptr));
   }
@@ -550,7 +572,10 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
                                          : "")}}},
         {"gltf",
          {{"file", "gltf/sample.gltf"},
-          {"extension", "KHR_materials_anisotropy"},
+          {"extension", (sum.gltf_texels.w > 0 ? sum.gltf_texels.specular : sum.pbr.specular)
+                            ? json{"KHR_materials_anisotropy", "KHR_materials_specular"}
+                            : json("KHR_materials_anisotropy")},
+          {"mapping", sum.pbr.mapping},
           {"roughness", sum.pbr.roughness},
           {"anisotropy_strength", sum.pbr.strength},
           {"anisotropy_rotation_rad", sum.pbr.rotation_rad},
@@ -562,9 +587,15 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
                ? json{{"texels", {sum.gltf_texels.w, sum.gltf_texels.h}},
                       {"lobe_fits", sum.gltf_texels.nodes},
                       {"worst_whole_model_relative_rms", sum.gltf_texels.worst_rel_rms},
+                      {"mapping", sum.gltf_texels.mapping},
                       {"textures",
-                       "baseColorTexture (sRGB), metallicRoughnessTexture (G roughness, B "
-                       "metallic), anisotropyTexture (RG direction, B strength); factors 1"}}
+                       std::string("baseColorTexture (sRGB), metallicRoughnessTexture (G "
+                                   "roughness, B metallic), anisotropyTexture (RG direction, B "
+                                   "strength); factors 1") +
+                           (sum.gltf_texels.specular
+                                ? "; KHR_materials_specular's specularColorTexture (sRGB) times "
+                                  "specularColorFactor (F0 / 0.04 of the brightest texel)"
+                                : "")}}
                : json(nullptr)}}},
         {"three", viewer},
         {"warnings", sum.warnings},

@@ -23,8 +23,8 @@
 namespace aniso {
 
 struct ExportOptions {
-  int size = 256;       // line tables N x N
-  std::string command;  // recorded in export.json
+  int size = 256;        // line tables N x N
+  std::string command;   // recorded in export.json
   bool progress = true;  // a bar on stderr (a terminal only): tables, maps, shaders, glTF, viewer
 };
 
@@ -52,6 +52,8 @@ struct ExportSummary {
   struct {
     int w = 0, h = 0, nodes = 0;
     double worst_rel_rms = 0;
+    std::string mapping;  // the one mapping of every texel, and the errors of the three
+    bool specular = false;
   } gltf_texels;
   ExportMapSet maps;                  // what the shaders and the browser viewer draw per texel
   double stack_max_abs_error = 0;     // the stack's lookup against S (map of n only)

@@ -20,6 +20,11 @@ struct GltfPbr {
   double rotation_rad = 0;             // anisotropyRotation: psi + 90 deg, in [0, pi)
   double metallic = 1;
   RGB base_color{1, 1, 1};
+  // KHR_materials_specular: a dielectric whose specular colour is the model's k_s (F0 = 0.04 *
+  // specularColorFactor, specularFactor 1), beside a base colour from k_d. False: F0 is glTF's
+  // plain 0.04 (a dielectric) or the base colour (a metal).
+  bool specular = false;
+  RGB specular_color{1, 1, 1};  // specularColorFactor
   // Relative RMS errors over the direction grid: the GGX lobe's shape against k_s S <N,L>, and
   // the whole glTF BRDF against the whole model (both with <N,L>).
   double lobe_rel_rms = 0, total_rel_rms = 0;
@@ -39,6 +44,12 @@ GltfPbr fit_gltf_pbr(const Material& m);
 struct GltfPbrTexels {
   int w = 0, h = 0;
   std::vector<float> base_color, metallic, roughness, strength, rotation_rad;
+  // One mapping for every texel (the one with the least whole-model error over them all), so that
+  // neighbouring texels never flip between metal and dielectric. With KHR_materials_specular,
+  // each texel's specular colour (F0 / 0.04, linear; 3 per texel).
+  std::string mapping;
+  bool specular = false;
+  std::vector<float> specular_color;
   int n_nodes = 0;                 // the lobe fits made
   double worst_total_rel_rms = 0;  // the whole model's worst relative RMS over the texels
 };
