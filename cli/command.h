@@ -83,6 +83,7 @@ Command add_view(CLI::App& app);
 Command add_board(CLI::App& app);
 Command add_import(CLI::App& app);
 Command add_merge(CLI::App& app);
+Command add_plan(CLI::App& app);
 
 // `--force`: what the command would refuse to replace is moved aside, never deleted (io/files.h);
 // `help` replaces the common text.

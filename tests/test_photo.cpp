@@ -14,6 +14,8 @@
 #include "io/files.h"
 #include "io/image_io.h"
 #include "photo/board.h"
+#include "photo/plan.h"
+#include "photo/shoot.h"
 #include "test_util.h"
 
 namespace aniso {
@@ -340,6 +342,46 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   r = test::run_cli("import " + shoot + " --out " + dir + "/caps --no-overlays --quiet");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("board.square_m: the board's paper puts every lamp 1.0"),
+            std::string::npos)
+      << r.output;
+}
+
+// aniso plan: the ring's lamps (the camera's mirror direction) put the highlight on the sample in
+// every photo, from all four sectors of azimuth round the fiber; an imported shoot is checked
+// view by view, and a view whose lamp is moved to the camera's side is named with the lamp
+// position that puts its highlight back on the sample.
+TEST(Plan, TheRingPutsTheHighlightOnTheSampleAndAnImportIsChecked) {
+  const std::string dir = test::tmp_dir("plan");
+  auto r = test::run_cli("synth --photos brushed-metal " + dir + "/shoot --views 6 --size 640x480");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const Shoot s = read_shoot(dir + "/shoot/shoot.json");
+  const PlanOptions o;
+  const auto ring = plan_ring(s, o);
+  ASSERT_EQ(ring.size(), 12u);
+  const Coverage c = lobe_coverage(s, photos_of(ring), o);
+  for (size_t i = 0; i < ring.size(); ++i) {
+    EXPECT_LT(ring[i].lamp.z, 0) << i;
+    EXPECT_GT(c.highlight_fraction[i], 0.0) << i;
+  }
+  for (int k = 0; k < 4; ++k) EXPECT_GT(c.sectors[k], 0) << k;
+  r = test::run_cli("plan " + dir + "/shoot/shoot.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("lamp 0.60 m from it on the camera's mirror direction"),
+            std::string::npos)
+      << r.output;
+  r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/cap --no-overlays");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // View 0's lamp beside its camera: the highlight leaves the sample.
+  test::edit_json(dir + "/cap/capture.json", [](nlohmann::json& j) {
+    auto& v = j["views"][0];
+    const auto& m = v["world_from_camera"];
+    v["lights"][0]["position"] = {m[0][3].get<double>() + 0.05, m[1][3].get<double>(),
+                                  m[2][3].get<double>()};
+  });
+  r = test::run_cli("plan " + dir + "/shoot/shoot.json --capture " + dir + "/cap");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("plan: view 1: camera"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("missing: view 0: its highlight misses the sample; with the lamp at"),
             std::string::npos)
       << r.output;
 }
