@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 
 #include "cli/command.h"
 #include "core/error.h"
@@ -17,6 +18,7 @@
 #include "io/image_io.h"
 #include "io/json_util.h"
 #include "io/material_io.h"
+#include "io/rgl_bsdf.h"
 #include "io/table.h"
 
 namespace aniso::cli {
@@ -348,6 +350,40 @@ int run_fit_mpi(FitArgs& a) {
 
 }  // namespace
 
+// A fit of a measured file: its relative RMS error over the readings and per viewer angle of the
+// file's grid, and, where the file is isotropic, no fiber direction (whatever the lobe's fit
+// says, the file declares that there is none).
+void measured_fit_report(const RglBsdf& b, const SampleTable& table, FitResult* r) {
+  SampleTable model = table;
+  evaluate_table(r->material, &model);
+  std::map<double, std::pair<double, double>> per;  // theta_o: sum of squares of error, of data
+  double e2 = 0, m2 = 0;
+  for (size_t i = 0; i < table.rows.size(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      const double d = model.rows[i].value[c] - table.rows[i].value[c], m = table.rows[i].value[c];
+      e2 += d * d, m2 += m * m;
+      auto& p = per[std::round(table.rows[i].theta_o * 100) / 100];
+      p.first += d * d, p.second += m * m;
+    }
+  r->report.measured_rel_rms = m2 > 0 ? std::sqrt(e2 / m2) : 0;
+  for (const auto& [theta, p] : per)
+    r->report.measured_rel_rms_by_angle.push_back(
+        {theta, p.second > 0 ? std::sqrt(p.first / p.second) : 0});
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "the fitted material against the file's readings: relative RMS %.3f (per viewer "
+                "angle of the file's grid in report.measured)",
+                r->report.measured_rel_rms);
+  r->report.warnings.push_back(buf);
+  if (b.isotropic()) {
+    r->sigma.erase("fiber_angle_deg");
+    r->undetermined["fiber_angle_deg"] =
+        "the measured file is isotropic (its phi_i grid has " + std::to_string(b.phi_i().size()) +
+        " value): a fiber direction fitted to it describes no anisotropy of the material";
+    r->report.warnings.push_back("fiber_angle_deg: " + r->undetermined["fiber_angle_deg"]);
+  }
+}
+
 int run_fit(const std::string& input, const FitOptions& fo, const std::string& out,
             const std::string& truth_path) {
   // Every input is read and checked before the (long) fit; the output never replaces one.
@@ -356,8 +392,17 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
   std::string truth = truth_path;
   CaptureSet set;
   SampleTable table;
-  const bool is_table = lower_ext(input) == ".csv";
-  if (is_table) {
+  const bool is_bsdf = is_rgl_bsdf(input);
+  const bool is_table = lower_ext(input) == ".csv" || is_bsdf;
+  std::optional<RglBsdf> bsdf;
+  if (is_bsdf) {
+    bsdf = RglBsdf::read(input);
+    table = measured_table(*bsdf);
+    std::printf("fit: %s (%s): %s, %zu viewer directions; %zu readings on its own grid\n",
+                input.c_str(), bsdf->description().c_str(),
+                bsdf->isotropic() ? "isotropic" : "anisotropic",
+                bsdf->theta_i().size() * bsdf->phi_i().size(), table.rows.size());
+  } else if (is_table) {
     table = read_table(input);
   } else {
     set = read_capture(input);
@@ -399,6 +444,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
                 fo.global->capture_layout + ", this one's " + layout +
                 "): give the material fitted to " + input + ", or leave --global out");
   FitResult r = is_table ? fit_table(table, fo) : fit_capture(set, fo);
+  if (bsdf) measured_fit_report(*bsdf, table, &r);
   r.report.capture_fingerprint = capture_fp;
   r.report.capture_layout = layout;
   if (!repeated.empty()) {

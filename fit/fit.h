@@ -254,6 +254,10 @@ struct FitReport {
   // not describe the data, ...), with the likely cause.
   std::vector<std::string> warnings;
   std::vector<std::string> model_summaries;  // --model auto: one line per model
+  // A measured file's fit: relative RMS of the material against its readings, and per viewer
+  // angle (degrees) of the file's grid.
+  double measured_rel_rms = -1;
+  std::vector<std::pair<double, double>> measured_rel_rms_by_angle;
 };
 
 // The plain names of the map files `write_fit` puts beside a material file when the result has

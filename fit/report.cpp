@@ -249,6 +249,12 @@ jsonu::json report_json(const FitReport& p) {
   if (p.implausible_limit > 0) j["implausible_limit"] = p.implausible_limit;
   if (!p.model_selection.empty()) j["model_selection"] = p.model_selection;
   if (!p.warnings.empty()) j["warnings"] = p.warnings;
+  if (p.measured_rel_rms >= 0) {
+    jsonu::json by = jsonu::json::array();
+    for (const auto& [theta, e] : p.measured_rel_rms_by_angle)
+      by.push_back({{"theta_view_deg", theta}, {"relative_rms", e}});
+    j["measured"] = {{"relative_rms", p.measured_rel_rms}, {"by_view_angle", by}};
+  }
   return j;
 }
 

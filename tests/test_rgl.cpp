@@ -1,0 +1,268 @@
+// RGL material-database files (.bsdf, io/rgl_bsdf.h): the database's own reader's values on the
+// two shared files, hostile files refused by field, and a round trip through an anisotropic file
+// this test writes in the format.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "io/files.h"
+#include "io/material_io.h"
+#include "io/rgl_bsdf.h"
+#include "io/table.h"
+#include "models/evaluate.h"
+#include "test_util.h"
+
+namespace aniso {
+namespace {
+
+// The two database files the repository carries (tests/data/rgl/README.md).
+const std::string kData = std::string(ANISO_SOURCE_DIR) + "/tests/data/rgl/";
+
+// The reference values of the database's reader (powitacq eval(wi = V, wo = L)), from the data's
+// README: theta_L, phi_L, theta_V, phi_V, R, G, B.
+struct Reference {
+  const char* file;
+  double tl, pl, tv, pv, rgb[3];
+};
+constexpr Reference kReference[] = {
+    {"paper_white", 0, 0, 54.7356103, 45, {0.260544926, 0.2642726, 0.308619231}},
+    {"paper_white", 30, 0, 30, 180, {0.244924083, 0.248000771, 0.287851691}},
+    {"paper_white", 45, 0, 45, 180, {0.21188657, 0.213187948, 0.242898747}},
+    {"paper_white", 30, 0, 45, 120, {0.234909281, 0.237836644, 0.27569893}},
+    {"paper_white", 60, 90, 20, 300, {0.136227638, 0.138100132, 0.16031453}},
+    {"paper_white", 10, 0, 70, 180, {0.251580864, 0.254741609, 0.295441866}},
+    {"satin_rosaline", 0, 0, 54.7356103, 45, {0.169741288, 0.216606662, 0.200563982}},
+    {"satin_rosaline", 30, 0, 30, 180, {2.51620293, 1.51298702, 1.8765682}},
+    {"satin_rosaline", 45, 0, 45, 180, {3.01057005, 2.13265705, 2.24956822}},
+    {"satin_rosaline", 30, 0, 45, 120, {0.154214919, 0.191337422, 0.181167662}},
+    {"satin_rosaline", 60, 90, 20, 300, {0.0915985778, 0.109232612, 0.103331365}},
+    {"satin_rosaline", 10, 0, 70, 180, {0.161596388, 0.194598004, 0.182850152}},
+};
+
+TEST(RglBsdf, EveryReferenceValueOfTheDatabasesReaderWithinATenthOfAPercent) {
+  double worst = 0;
+  for (const Reference& r : kReference) {
+    const RglBsdf b = RglBsdf::read(kData + r.file + "_rgb.bsdf");
+    EXPECT_TRUE(b.isotropic());
+    const auto f = b.eval(dir_from_angles(r.tl, r.pl), dir_from_angles(r.tv, r.pv));
+    for (int c = 0; c < 3; ++c) {
+      const double rel = std::abs(f[c] / r.rgb[c] - 1);
+      worst = std::max(worst, rel);
+      EXPECT_LT(rel, 1e-3) << r.file << " row " << r.tl << " " << r.pl << " " << r.tv << " " << r.pv
+                           << " channel " << c << ": " << f[c] << " against " << r.rgb[c];
+    }
+  }
+  std::printf("RGL reader against powitacq on 12 rows x 3 channels: worst relative %.2e\n", worst);
+  // The light and view are not interchangeable: the data are not reciprocal to the last digit.
+  const RglBsdf satin = RglBsdf::read(kData + "satin_rosaline_rgb.bsdf");
+  const auto a = satin.eval(dir_from_angles(30, 0), dir_from_angles(45, 120));
+  const auto b = satin.eval(dir_from_angles(45, 120), dir_from_angles(30, 0));
+  EXPECT_GT(std::abs(a[1] / std::cos(M_PI / 6) / (b[1] / std::cos(M_PI / 4)) - 1), 1e-4);
+}
+
+// A tensor file as the database writes it (little-endian): "tensor_file\0", version 1.0, fields.
+struct TensorField {
+  std::string name;
+  uint8_t dtype;  // 1 uint8, 10 float32
+  std::vector<uint64_t> shape;
+  std::string data;
+};
+std::string tensor_bytes(const std::vector<TensorField>& fields) {
+  std::string head("tensor_file\0", 12);
+  head += std::string("\x01\x00", 2);
+  auto put = [&](auto v) { head.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  put(static_cast<uint32_t>(fields.size()));
+  size_t header = head.size();
+  for (const auto& f : fields) header += 2 + f.name.size() + 2 + 1 + 8 + 8 * f.shape.size();
+  uint64_t offset = header;
+  std::string body;
+  for (const auto& f : fields) {
+    put(static_cast<uint16_t>(f.name.size()));
+    head += f.name;
+    put(static_cast<uint16_t>(f.shape.size()));
+    put(f.dtype);
+    put(offset);
+    for (uint64_t s : f.shape) put(s);
+    body += f.data;
+    offset += f.data.size();
+  }
+  return head + body;
+}
+std::string float_bytes(const std::vector<float>& v) {
+  return std::string(reinterpret_cast<const char*>(v.data()), v.size() * 4);
+}
+
+// An anisotropic file of a material: the viewer on a (phi_i, theta_i) grid, NDF, VNDF and sigma
+// constant (so the inverse warp is the identity and ndf / 4 sigma is 1), and rgb holding
+// f_r cos(theta_L) at the grid's half vectors, the light the viewer's mirror about each.
+std::vector<TensorField> file_of(const Material& m, int nphi, int ntheta, int n) {
+  const Evaluator ev(m);
+  std::vector<float> phi(nphi), theta(ntheta);
+  for (int i = 0; i < nphi; ++i) phi[i] = static_cast<float>(-M_PI + 2 * M_PI * i / (nphi - 1));
+  for (int i = 0; i < ntheta; ++i)
+    theta[i] = static_cast<float>(80.0 * M_PI / 180 * i / (ntheta - 1));
+  std::vector<float> rgb(static_cast<size_t>(nphi) * ntheta * 3 * n * n), ones(n * n, 1.f),
+      quarter(n * n, 0.25f), vndf(static_cast<size_t>(nphi) * ntheta * n * n, 1.f);
+  for (int p = 0; p < nphi; ++p)
+    for (int t = 0; t < ntheta; ++t) {
+      const LocalDir V{std::sin(theta[t]) * std::cos(phi[p]), std::sin(theta[t]) * std::sin(phi[p]),
+                       std::cos(theta[t])};
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          const double u = double(x) / (n - 1), th = u * u * M_PI / 2,
+                       ph = (2.0 * y / (n - 1) - 1) * M_PI;
+          const double hx = std::sin(th) * std::cos(ph), hy = std::sin(th) * std::sin(ph),
+                       hz = std::cos(th);
+          const double d = V.u * hx + V.w * hy + V.n * hz;
+          const LocalDir L{2 * d * hx - V.u, 2 * d * hy - V.w, 2 * d * hz - V.n};
+          double f[3] = {0, 0, 0};
+          if (L.n > 0) ev(L, V, f);
+          for (int c = 0; c < 3; ++c)
+            rgb[((static_cast<size_t>(p) * ntheta + t) * 3 + c) * n * n + y * n + x] =
+                static_cast<float>(f[c]);
+        }
+    }
+  const std::vector<uint64_t> grid{uint64_t(n), uint64_t(n)};
+  return {
+      {"description", 1, {4}, "test"},
+      {"jacobian", 1, {1}, std::string("\x01", 1)},
+      {"theta_i", 10, {uint64_t(ntheta)}, float_bytes(theta)},
+      {"phi_i", 10, {uint64_t(nphi)}, float_bytes(phi)},
+      {"ndf", 10, grid, float_bytes(ones)},
+      {"sigma", 10, grid, float_bytes(quarter)},
+      {"vndf", 10, {uint64_t(nphi), uint64_t(ntheta), uint64_t(n), uint64_t(n)}, float_bytes(vndf)},
+      {"luminance",
+       10,
+       {uint64_t(nphi), uint64_t(ntheta), uint64_t(n), uint64_t(n)},
+       float_bytes(vndf)},
+      {"rgb",
+       10,
+       {uint64_t(nphi), uint64_t(ntheta), 3, uint64_t(n), uint64_t(n)},
+       float_bytes(rgb)}};
+}
+
+Material brushed_line() {
+  Material m;
+  m.kd = {0.2, 0.15, 0.1};
+  m.ks = {0.6, 0.6, 0.6};
+  m.n = 20;
+  m.fiber_angle_deg = 30;
+  return m;
+}
+
+// An anisotropic file written from a line-model material reads back as that material at its
+// grid's nodes (float rounding) and near it between them; `aniso fit` on it recovers psi and n.
+TEST(RglBsdf, AnAnisotropicFileRoundTripsAndFitsBackToItsMaterial) {
+  const Material m = brushed_line();
+  const int nphi = 25, ntheta = 9, n = 33;
+  const std::string dir = test::tmp_dir("rgl_roundtrip");
+  const std::string path = dir + "/brushed.bsdf";
+  write_text_file(path, tensor_bytes(file_of(m, nphi, ntheta, n)));
+  const RglBsdf b = RglBsdf::read(path);
+  EXPECT_FALSE(b.isotropic());
+  const Evaluator ev(m);
+  double at_nodes = 0, between = 0, peak = 0;
+  for (int p = 0; p < nphi; p += 3)
+    for (int t = 1; t < ntheta; t += 2) {
+      const double phi = b.phi_i()[p], theta = b.theta_i()[t];
+      const LocalDir V{std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
+                       std::cos(theta)};
+      for (int k = 0; k < 40; ++k) {
+        // Half vectors on the grid's nodes (even k) and between them (odd k).
+        const double u = (k % 2 == 0 ? (k / 2) % 8 * 4.0 : (k / 2) % 8 * 4.0 + 1.5) / (n - 1);
+        const double v = (k % 2 == 0 ? (k * 7) % 32 : (k * 7) % 32 + 0.5) / (n - 1);
+        const double th = u * u * M_PI / 2, ph = (2 * v - 1) * M_PI;
+        const double hx = std::sin(th) * std::cos(ph), hy = std::sin(th) * std::sin(ph),
+                     hz = std::cos(th);
+        const double d = V.u * hx + V.w * hy + V.n * hz;
+        const LocalDir L{2 * d * hx - V.u, 2 * d * hy - V.w, 2 * d * hz - V.n};
+        if (L.n < 0.1) continue;
+        double f[3];
+        ev(L, V, f);
+        const auto g = b.eval(L, V);
+        peak = std::max(peak, f[0]);
+        double& worst = k % 2 == 0 ? at_nodes : between;
+        for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(g[c] - f[c]));
+      }
+    }
+  std::printf("round trip: at the nodes within %.2e, between them %.2e (peak %.3f)\n", at_nodes,
+              between, peak);
+  EXPECT_LT(at_nodes, 2e-5 * peak);
+  EXPECT_LT(between, 0.05 * peak);
+  auto r = test::run_cli("fit " + path + " --out " + dir + "/m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("anisotropic"), std::string::npos) << r.output;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
+  std::printf("fit of the file: psi %.3f, n %.2f, k_d.r %.4f, relative RMS %.4f\n",
+              j["fiber_angle_deg"].get<double>(), j["n"].get<double>(), j["kd"][0].get<double>(),
+              j["report"]["measured"]["relative_rms"].get<double>());
+  EXPECT_NEAR(j["fiber_angle_deg"].get<double>(), 30, 1.0);
+  EXPECT_NEAR(j["n"].get<double>() / 20, 1, 0.1);
+  EXPECT_LT(j["report"]["measured"]["relative_rms"].get<double>(), 0.05);
+  // eval: the file's values into a table.
+  write_text_file(dir + "/dirs.csv", "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n30,0,30,180\n");
+  r = test::run_cli("eval " + path + " --table " + dir + "/dirs.csv --out " + dir + "/v.csv");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const SampleTable t = read_table(dir + "/v.csv");
+  const auto g = b.eval(dir_from_angles(30, 0), dir_from_angles(30, 180));
+  EXPECT_NEAR(t.rows.at(0).value[1], g[1], 1e-6 * g[1]);
+}
+
+// An isotropic measured file does not come back with a fiber direction.
+TEST(RglBsdf, AnIsotropicFileGetsNoFiberDirection) {
+  const std::string dir = test::tmp_dir("rgl_iso");
+  auto r = test::run_cli("fit " + kData + "paper_white_rgb.bsdf --out " + dir + "/p.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/p.json"));
+  EXPECT_TRUE(j["uncertainty"]["fiber_angle_deg"].is_null()) << j["uncertainty"].dump();
+  EXPECT_NE(j["undetermined"]["fiber_angle_deg"].get<std::string>().find("isotropic"),
+            std::string::npos);
+  EXPECT_GE(j["report"]["measured"]["by_view_angle"].size(), 5u);
+}
+
+// Hostile files: each refused naming what is wrong, before anything is allocated past the file.
+TEST(RglBsdf, HostileFilesAreRefusedByField) {
+  const std::string dir = test::tmp_dir("rgl_hostile");
+  const std::string good = tensor_bytes(file_of(brushed_line(), 5, 3, 4));
+  auto refused = [&](const std::string& bytes, const std::string& what) {
+    write_text_file(dir + "/x.bsdf", bytes);
+    try {
+      RglBsdf::read(dir + "/x.bsdf");
+      ADD_FAILURE() << "accepted; expected: " << what;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  refused(good.substr(0, good.size() / 2), "truncated");
+  refused(good.substr(0, good.size() - 4), "run past the end of the file");
+  refused(good.substr(0, 10), "too small");
+  refused("tensor_filX" + good.substr(11), "not \"tensor_file\"");
+  {  // a shape of 2^40 values
+    std::vector<TensorField> f = file_of(brushed_line(), 5, 3, 4);
+    f[8].shape[0] = uint64_t{1} << 40;
+    refused(tensor_bytes(f), "more bytes than the whole file");
+  }
+  {  // NaN in sigma
+    std::vector<TensorField> f = file_of(brushed_line(), 5, 3, 4);
+    const float nan = NAN;
+    std::memcpy(f[5].data.data() + 8, &nan, 4);
+    refused(tensor_bytes(f), "field \"sigma\" holds a value that is not finite");
+  }
+  {  // rgb of the wrong shape
+    std::vector<TensorField> f = file_of(brushed_line(), 5, 3, 4);
+    f[8].shape[2] = 2;
+    refused(tensor_bytes(f), "rgb's shape");
+  }
+  {  // a missing field
+    std::vector<TensorField> f = file_of(brushed_line(), 5, 3, 4);
+    f.erase(f.begin() + 4);
+    refused(tensor_bytes(f), "field \"ndf\" is missing");
+  }
+}
+
+}  // namespace
+}  // namespace aniso
