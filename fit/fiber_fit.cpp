@@ -3,6 +3,7 @@
 // mathematical topology, the mathematical topology alone (nothing to fit), or an N x N map of s
 // over uv (each pixel's s the bilinear mix of four texel parameters).
 #include <tbb/parallel_for.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -203,7 +204,7 @@ class FiberFit : public ModelFit {
                    const FitOptions& opt, FusedSolve* out) override {
     if (mode_ == TopologyMode::kTexels || opt.ceres_solver || opt.ceres_covariance) return false;
     fiber_lm_solve(os, subset, loss, scale, opt.max_iterations, opt.threads, mode_, acc_, &core,
-                   topo_, out);
+                   topo_, out, nullptr, false, 0, opt.progress && ::isatty(2));
     out->order = {{core.kd, 3}, {core.ks, 3}, {&core.logn, 1}, {&core.psi, 1}};
     if (fitted_topology()) out->order.push_back({topo_, 1});
     return true;

@@ -2,6 +2,8 @@
 
 #include <ceres/jet.h>
 
+#include <cstdio>
+
 #include "fit/fused_lm.h"
 #include "fit/line_lm.h"
 #include "models/params.h"
@@ -84,7 +86,8 @@ double add_pull(const FiberPull& pull, const VecP<P>& x, FusedSums<P>* s) {
 template <int P>
 void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss& loss,
            int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc, Core* c,
-           double* topo, FusedSolve* out, const FiberPull* pull, bool ridge_rule, double lambda0) {
+           double* topo, FusedSolve* out, const FiberPull* pull, bool ridge_rule, double lambda0,
+           bool progress) {
   tbb::task_arena arena(std::max(1, threads));
   const FiberPass<P> pass{os, subset, mode, acc};
   VecP<P> lo, hi, x;
@@ -100,9 +103,15 @@ void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss
   }
   const double values = 3.0 * static_cast<double>(subset ? subset->size() : os.obs.size());
   FusedSums<P> cur;
+  int passes = 0;
   auto evaluate = [&](const VecP<P>& at, bool jac) {
     FusedSums<P> s = pass(at, loss, jac, &arena);
     if (pull) add_pull<P>(*pull, at, &s);
+    if (progress) {
+      std::fprintf(stderr, "\rfit: fiber model, pass %d over %.0f values, cost %.6g      ",
+                   ++passes, values, s.cost);
+      std::fflush(stderr);
+    }
     return s;
   };
   fused_lm<P>(evaluate, lo, hi, values, max_iterations, &x, &cur, out, ridge_rule,
@@ -120,14 +129,14 @@ void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss
 void fiber_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
                     int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc,
                     Core* c, double* topo, FusedSolve* out, const FiberPull* pull, bool ridge_rule,
-                    double lambda0) {
+                    double lambda0, bool progress) {
   const RobustLoss l{loss, scale};
   if (mode == TopologyMode::kMathematical)
     solve<8>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out, pull, ridge_rule,
-             lambda0);
+             lambda0, progress);
   else
     solve<9>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out, pull, ridge_rule,
-             lambda0);
+             lambda0, progress);
 }
 
 }  // namespace aniso::fitting

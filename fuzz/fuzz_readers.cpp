@@ -1,5 +1,6 @@
 // libFuzzer target: every file reader on arbitrary bytes. The first byte picks the reader
-// (capture.json, material, sample table, image, OBJ, photo shoot); the rest is the file. A reader
+// (capture.json, material, sample table, image, OBJ, photo shoot, RGL .bsdf); the rest is the
+// file. A reader
 // may reject the file with aniso::Error; anything else (a crash, another exception, a sanitizer
 // report) is a bug. Build and run: scripts/fuzz.sh. With ANISO_FUZZ_SET naming a real capture
 // folder, its files are copied beside the fuzzed capture.json first, so a mutated capture.json that
@@ -17,13 +18,14 @@
 #include "io/capture.h"
 #include "io/image_io.h"
 #include "io/material_io.h"
+#include "io/rgl_bsdf.h"
 #include "io/table.h"
 #include "photo/shoot.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
-  static const char* kExt[] = {".json", ".json", ".csv", ".png", ".exr", ".obj", ".json"};
-  const int which = data[0] % 7;
+  static const char* kExt[] = {".json", ".json", ".csv", ".png", ".exr", ".obj", ".json", ".bsdf"};
+  const int which = data[0] % 8;
   const std::string dir = "/tmp/aniso_fuzz_" + std::to_string(::getpid());
   static bool seeded = false;
   if (!seeded) {
@@ -61,6 +63,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       case 6:
         aniso::read_shoot(path);
         break;
+      case 7: {  // a file that reads is evaluated too
+        const aniso::RglBsdf b = aniso::RglBsdf::read(path);
+        b.eval({0.3, 0.2, 0.93}, {-0.5, 0.1, 0.86});
+        break;
+      }
     }
   } catch (const aniso::Error&) {
     // A clear rejection is the expected outcome for most inputs.

@@ -228,6 +228,10 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
       for (size_t k = 0; k < most; ++k) spread.push_back(use[k * use.size() / most]);
       use = spread;
     }
+    // At most three calibrations (OpenCV's, each one call with no progress of its own): the
+    // first, again without poor photos, again holding what the photos leave undetermined.
+    Progress bar("import: calibrating the camera", 3, o.progress);
+    int calibrations = 0;
     for (int round = 0; round < 2; ++round) {
       if (use.size() < kMinPhotos) {
         // Say what was found: markers that fit no board of this layout, or photos whose RMS is
@@ -278,6 +282,7 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
       for (size_t i : use) views.push_back(det[i].corners);
       const Calibration cal =
           calibrate_charuco(s.board, views, det[use[0]].width, det[use[0]].height);
+      bar.advance(), ++calibrations;
       r->camera = cal.camera;
       r->calibration_rms_px = cal.rms_px;
       r->sigma = cal.sigma;
@@ -323,12 +328,14 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
       for (size_t i : use) views.push_back(det[i].corners);
       const Calibration cal =
           calibrate_charuco(s.board, views, det[use[0]].width, det[use[0]].height, holds);
+      bar.advance(), ++calibrations;
       r->camera = cal.camera;
       r->calibration_rms_px = cal.rms_px;
       r->sigma = cal.sigma;
       if (holds.square_pixels) r->sigma[0] = r->sigma[1] = std::max(r->sigma[0], r->sigma[1]);
       for (size_t k = 0; k < use.size(); ++k) poses[use[k]] = cal.camera_from_board[k];
     }
+    bar.advance(static_cast<size_t>(3 - calibrations));  // done, whichever it took
     r->calibrated = true;
     r->calibrated_on = use.size();
   }

@@ -346,6 +346,27 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
       << r.output;
 }
 
+// Progress wherever a person waits: import's calibration and the fiber model's global solve (each
+// pass over the observations) show on a terminal, and not when piped.
+TEST(Import, TheCalibrationAndTheFiberSolveShowTheirProgressOnATerminal) {
+  const std::string dir = test::tmp_dir("progress");
+  auto r = test::run_cli("synth --photos brushed-metal " + dir + "/shoot --views 6 --size 640x480");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_command("script -qec \"" + std::string(ANISO_BIN) + " import " + dir +
+                        "/shoot/shoot.json --out " + dir + "/cap --no-overlays\" /dev/null");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("import: calibrating the camera ["), std::string::npos) << r.output;
+  r = test::run_cli("synth fiber-flat " + dir + "/set --size 32x32 --views 4");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_command("script -qec \"" + std::string(ANISO_BIN) + " fit " + dir +
+                        "/set --model fiber --out " + dir + "/f.json\" /dev/null");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("fit: fiber model, pass 2 over"), std::string::npos) << r.output;
+  r = test::run_cli("fit " + dir + "/set --model fiber --out " + dir + "/g.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("fit: fiber model, pass"), std::string::npos) << r.output;
+}
+
 // aniso plan: the ring's lamps (the camera's mirror direction) put the highlight on the sample in
 // every photo, from all four sectors of azimuth round the fiber; an imported shoot is checked
 // view by view, and a view whose lamp is moved to the camera's side is named with the lamp
