@@ -340,7 +340,7 @@ void whole_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, con
   if (c.empty()) {
     res->uncertainty_basis += "; not the whole uncertainty: the views' spread needs " +
                               std::to_string(P + 2) + " views with pixels (this set has " +
-                              std::to_string(os.view_lights.size()) + ") and at most 2^24 pixels";
+                              std::to_string(os.view_lights.size()) + ") and at most 2^25 pixels";
     return;
   }
   std::map<const double*, size_t> at;

@@ -8,7 +8,6 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 
 #include "fit/model_fit.h"
 
@@ -44,35 +43,35 @@ std::vector<double> per_view_covariance(ModelFit* m, const ObsSet& os,
                         });
     });
   };
+  // The residuals at the solution (float: only weights below, the same in both differences).
   std::vector<float> r0(3 * N);
-  std::vector<double> rp(3 * N);
   each([&](size_t i, const double* res) {
     for (int c = 0; c < 3; ++c) r0[3 * i + c] = static_cast<float>(res[c]);
   });
-  std::vector<uint32_t> view(N);
   std::vector<size_t> count(G, 0);
-  for (size_t i = 0; i < N; ++i) ++count[view[i] = static_cast<uint32_t>(view_of(i))];
-  // g[v * P + k]: view v's sum over its pixels and channels of dr/dtheta_k times r. Moving a
-  // coordinate is shared state: it is set before each pass and restored after the two.
+  for (size_t i = 0; i < N; ++i) ++count[view_of(i)];
+  // g[v * P + k]: view v's sum over its pixels and channels of dr/dtheta_k times r, as
+  // (sum r(theta + h) r0 - sum r(theta - h) r0) / 2h: linear in r, so each side is one pass that
+  // keeps nothing per observation. Moving a coordinate is shared state: it is set before each
+  // pass and restored after the two.
   std::vector<double> g(G * P, 0.0);
   for (size_t k = 0; k < P; ++k) {
     double* x = coords[k];
     const double x0 = *x, h = 1e-5 * std::max(1.0, std::abs(x0));
-    *x = x0 + h;
-    each([&](size_t i, const double* res) {
-      for (int c = 0; c < 3; ++c) rp[3 * i + c] = res[c];
-    });
-    *x = x0 - h;
-    tbb::enumerable_thread_specific<std::vector<double>> part(
-        [&] { return std::vector<double>(G, 0.0); });
-    each([&](size_t i, const double* res) {
-      double s = 0;
-      for (int c = 0; c < 3; ++c) s += (rp[3 * i + c] - res[c]) / (2 * h) * r0[3 * i + c];
-      part.local()[view[i]] += s;
-    });
+    for (int side = 0; side < 2; ++side) {
+      *x = side == 0 ? x0 + h : x0 - h;
+      tbb::enumerable_thread_specific<std::vector<double>> part(
+          [&] { return std::vector<double>(G, 0.0); });
+      each([&](size_t i, const double* res) {
+        double s = 0;
+        for (int c = 0; c < 3; ++c) s += res[c] * r0[3 * i + c];
+        part.local()[view_of(i)] += s;
+      });
+      const double sign = side == 0 ? 1 / (2 * h) : -1 / (2 * h);
+      for (const auto& mine : part)
+        for (size_t v = 0; v < G; ++v) g[v * P + k] += sign * mine[v];
+    }
     *x = x0;
-    for (const auto& mine : part)
-      for (size_t v = 0; v < G; ++v) g[v * P + k] += mine[v];
   }
   Eigen::MatrixXd B = Eigen::MatrixXd::Zero(P, P);
   size_t used = 0;

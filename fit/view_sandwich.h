@@ -20,8 +20,8 @@ class ModelFit;
 // P coordinates in all, given (J^T J)^-1 over the same coordinates (`ainv`, P x P row-major).
 // J_v by central differences of m.residual (each coordinate moved and restored in place). Empty
 // where the set has no views (a table), fewer than P + 2 views with observations, or more than
-// kMaxObservations (it holds 40 bytes an observation).
-inline constexpr size_t kMaxObservations = size_t{1} << 24;
+// kMaxObservations (it holds 12 bytes an observation: the residuals at the solution).
+inline constexpr size_t kMaxObservations = size_t{1} << 25;
 std::vector<double> per_view_covariance(ModelFit* m, const ObsSet& os,
                                         const std::vector<std::pair<double*, int>>& blocks,
                                         const std::vector<double>& ainv, int threads,

@@ -76,6 +76,11 @@ RGB paper_rho(const Shoot& s) {
              : RGB{kAssumedPaperReflectance, kAssumedPaperReflectance, kAssumedPaperReflectance};
 }
 
+// How well light k of a photo was measured (a photo built in code may not say).
+double sigma_of(const ShootPhoto& ph, size_t k) {
+  return k < ph.position_sigma_m.size() ? ph.position_sigma_m[k] : kDefaultLampSigmaM;
+}
+
 // The photo's lamps from the board's paper: one point lamp per photo is found; with more lights
 // the paper's shading is their sum, and each is kept as written.
 std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const PaperPoints& paper,
@@ -87,7 +92,7 @@ std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const PaperPoints& p
     // The written position as if x or y were measured from the board's far edge.
     const double W = s.board.squares_x * s.board.square_m, H = s.board.squares_y * s.board.square_m;
     const Vec3 w = ph.lights[0].position;
-    out.push_back(find_lamp(samples, ph.lights[0], ph.position_sigma_m[0], paper_rho(s), s.height_m,
+    out.push_back(find_lamp(samples, ph.lights[0], sigma_of(ph, 0), paper_rho(s), s.height_m,
                             {{W - w.x, w.y, w.z}, {w.x, H - w.y, w.z}}));
     return out;
   }
@@ -95,7 +100,7 @@ std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const PaperPoints& p
     LampFound f;
     f.written = f.found = ph.lights[k].position;
     f.written_intensity = f.found_intensity = ph.lights[k].intensity;
-    f.prior_sigma_m = ph.position_sigma_m[k];
+    f.prior_sigma_m = sigma_of(ph, k);
     f.why = "the photo has " + std::to_string(ph.lights.size()) +
             " lights: the paper's shading is their sum";
     out.push_back(f);
