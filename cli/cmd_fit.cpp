@@ -366,14 +366,25 @@ void measured_fit_report(const RglBsdf& b, const SampleTable& table, FitResult* 
       p.first += d * d, p.second += m * m;
     }
   r->report.measured_rel_rms = m2 > 0 ? std::sqrt(e2 / m2) : 0;
+  // The median reading's own relative error: what the sum of squares, led by a sharp peak, hides.
+  std::vector<double> rel;
+  for (size_t i = 0; i < table.rows.size(); ++i) {
+    const double m = table.rows[i].value[1];
+    if (m > 0) rel.push_back(std::abs(model.rows[i].value[1] / m - 1));
+  }
+  if (!rel.empty()) {
+    std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
+    r->report.measured_median_rel = rel[rel.size() / 2];
+  }
   for (const auto& [theta, p] : per)
     r->report.measured_rel_rms_by_angle.push_back(
         {theta, p.second > 0 ? std::sqrt(p.first / p.second) : 0});
-  char buf[200];
+  char buf[300];
   std::snprintf(buf, sizeof buf,
-                "the fitted material against the file's readings: relative RMS %.3f (per viewer "
-                "angle of the file's grid in report.measured)",
-                r->report.measured_rel_rms);
+                "the fitted material against the file's readings: relative RMS %.3f, median "
+                "reading's relative error %.3f (per viewer angle of the file's grid in "
+                "report.measured)",
+                r->report.measured_rel_rms, r->report.measured_median_rel);
   r->report.warnings.push_back(buf);
   if (b.isotropic()) {
     r->sigma.erase("fiber_angle_deg");

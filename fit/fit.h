@@ -256,7 +256,7 @@ struct FitReport {
   std::vector<std::string> model_summaries;  // --model auto: one line per model
   // A measured file's fit: relative RMS of the material against its readings, and per viewer
   // angle (degrees) of the file's grid.
-  double measured_rel_rms = -1;
+  double measured_rel_rms = -1, measured_median_rel = -1;
   std::vector<std::pair<double, double>> measured_rel_rms_by_angle;
 };
 

@@ -253,7 +253,9 @@ jsonu::json report_json(const FitReport& p) {
     jsonu::json by = jsonu::json::array();
     for (const auto& [theta, e] : p.measured_rel_rms_by_angle)
       by.push_back({{"theta_view_deg", theta}, {"relative_rms", e}});
-    j["measured"] = {{"relative_rms", p.measured_rel_rms}, {"by_view_angle", by}};
+    j["measured"] = {{"relative_rms", p.measured_rel_rms},
+                     {"median_relative_error", p.measured_median_rel},
+                     {"by_view_angle", by}};
   }
   return j;
 }
