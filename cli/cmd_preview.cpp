@@ -59,8 +59,7 @@ Image turntable(const Material& m, PreviewOptions p, int n, PreviewResult* last)
 }
 
 struct PreviewArgs {
-  std::string mat, bake, out, shape = "sphere", field, size = "512x512", view, exr, map,
-                              index = "angle";
+  std::string mat, bake, out, shape, field, size = "512x512", view, exr, map, index = "angle";
   std::vector<std::string> lights, point_lights;
   bool perspective = false;
   double exposure = 1.0, R = 1.0, r = 0.6;
@@ -93,7 +92,7 @@ int run(const PreviewArgs& a) {
     check_output_file(a.exr, OutputKind::kPreview);
   }
   PreviewOptions p;
-  p.shape = a.shape;
+  p.shape = default_shape(a.shape, m, "preview");
   p.fiber_field = a.field;
   parse_size(a.size, &p.width, &p.height);
   p.table_size = a.table;
@@ -182,8 +181,9 @@ Command add_preview(CLI::App& app) {
   prev->add_option("--turntable", a->turntable,
                    "N views turned about z, side by side in one image (a contact sheet)")
       ->check(CLI::Range(1, 64));
-  prev->add_option("--shape", a->shape, "sphere, disc, cylinder, torus, flat, or an .obj file")
-      ->capture_default_str();
+  prev->add_option("--shape", a->shape,
+                   "sphere, disc, cylinder, torus, flat, or an .obj file (default: flat for a "
+                   "material with maps, where a sphere wraps them with a seam; sphere otherwise)");
   prev->add_option("--fiber-field", a->field, "replace dP/du: radial, circular or meridian")
       ->check(CLI::IsMember({"", "radial", "circular", "meridian"}));
   prev->add_option("--size", a->size, "image size WxH")->capture_default_str();

@@ -16,7 +16,7 @@ namespace aniso::cli {
 namespace {
 
 struct ViewArgs {
-  std::string input, size = "1024x768", shape = "sphere", field, view, light, screenshot;
+  std::string input, size = "1024x768", shape, field, view, light, screenshot;
   int frames = 3;
   std::string show = "tables";
 };
@@ -87,8 +87,9 @@ Command add_view(CLI::App& app) {
       "error heat-map (needs a display; `xvfb-run -a` without one)");
   v->add_option("INPUT", a->input, "material file, bake folder or export folder")->required();
   v->add_option("--size", a->size, "window size WxH")->capture_default_str();
-  v->add_option("--shape", a->shape, "sphere, disc, cylinder, torus or flat")
-      ->capture_default_str()
+  v->add_option("--shape", a->shape,
+                "sphere, disc, cylinder, torus or flat (default: flat for a material with maps, "
+                "sphere otherwise)")
       ->check(CLI::IsMember({"sphere", "disc", "cylinder", "torus", "flat"}));
   v->add_option("--fiber-field", a->field, "replace dP/du: radial, circular or meridian")
       ->check(CLI::IsMember({"", "radial", "circular", "meridian"}));
@@ -111,7 +112,7 @@ Command add_view(CLI::App& app) {
             ViewerOptions o;
             PreviewOptions& p = o.preview;
             parse_size(a->size, &p.width, &p.height);
-            p.shape = a->shape;
+            p.shape = default_shape(a->shape, m, "view");
             p.fiber_field = a->field;
             p.fill = 0.15;
             p.background = {0.03, 0.03, 0.03};

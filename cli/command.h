@@ -84,6 +84,10 @@ Command add_board(CLI::App& app);
 Command add_import(CLI::App& app);
 Command add_merge(CLI::App& app);
 Command add_plan(CLI::App& app);
+// The shape to draw a material on: `given`, else the flat sample for a material with maps (their
+// uv over [0, 1]^2, as the sample lies; a sphere wraps them with a seam, said on stderr by
+// `command`) and the sphere otherwise.
+std::string default_shape(const std::string& given, const Material& m, const char* command);
 
 // `--force`: what the command would refuse to replace is moved aside, never deleted (io/files.h);
 // `help` replaces the common text.

@@ -104,6 +104,16 @@ void note_material_maps(const Material& m, const char* what) {
                what, what);
 }
 
+std::string default_shape(const std::string& given, const Material& m, const char* command) {
+  if (!given.empty()) return given;
+  if (!m.maps.any()) return "sphere";
+  std::fprintf(stderr,
+               "%s: the material has maps: drawn on the flat sample, its uv over [0, 1]^2 as the "
+               "sample lies (--shape sphere wraps them round a sphere, with a seam)\n",
+               command);
+  return "flat";
+}
+
 void add_force_flag(CLI::App* sub, const char* help) {
   sub->add_flag_callback(
       "--force", [] { set_force_overwrite(true); },

@@ -440,9 +440,10 @@ TEST(View, AnExportFolderShowsItsOwnTablesAndMaps) {
         diff += std::abs(e.at(x, y, c) - m.at(x, y, c));
         to_mean += std::abs(e.at(x, y, c) - mean.at(x, y, c));
       }
-  std::printf("view of the export: mean |difference| %.4f from the material's view, %.4f from "
-              "the material without its maps\n",
-              diff / n, to_mean / n);
+  std::printf(
+      "view of the export: mean |difference| %.4f from the material's view, %.4f from "
+      "the material without its maps\n",
+      diff / n, to_mean / n);
   EXPECT_LT(diff / n, 0.005);    // seen: 0.0014
   EXPECT_GT(to_mean / n, 0.01);  // seen: 0.0225
 }
@@ -496,6 +497,31 @@ double apart_from_mean_values(const Material& m, const PreviewOptions& p, Previe
     sum += r->rgb.px[i];
   }
   return diff / sum;
+}
+
+// A material with maps opens on the flat sample (its uv as the sample lies), saying so; a plain
+// material on the sphere; --shape still chooses.
+TEST(Preview, AMaterialWithMapsOpensOnTheFlatSample) {
+  const std::string dir = test::tmp_dir("flat_default");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 16x16 --views 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("preview " + dir + "/set/truth.json --size 96x96 --out " + dir + "/d.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("drawn on the flat sample"), std::string::npos) << r.output;
+  r = test::run_cli("preview " + dir + "/set/truth.json --shape flat --size 96x96 --out " + dir +
+                    "/f.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("drawn on the flat sample"), std::string::npos) << r.output;
+  auto px = [&](const char* f) { return read_image(dir + "/" + f).image.px; };
+  EXPECT_EQ(px("d.png"), px("f.png"));
+  r = test::run_cli("preview " + dir + "/set/truth.json --shape sphere --size 96x96 --out " + dir +
+                    "/s.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(px("d.png"), px("s.png"));
+  test::edit_json(dir + "/set/truth.json", [](nlohmann::json& j) { j.erase("maps"); });
+  r = test::run_cli("preview " + dir + "/set/truth.json --size 96x96 --out " + dir + "/p.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("drawn on the flat sample"), std::string::npos) << r.output;
 }
 
 // A line-model material with maps (swirl-plate: a fiber map and a k_d map; woven-patch: also a map
