@@ -268,16 +268,31 @@ json gltf_document(const Material& m, const GltfPbr& pbr, const SphereBuffers& b
   return doc;
 }
 
+// Where three.js is: ANISO_THREE_DIR (environment); else an installed aniso's own copy,
+// BIN/../share/aniso/three beside the running binary; else where scripts/install_deps.sh put it
+// for a build.
+std::string three_dir() {
+  namespace fs = std::filesystem;
+  const char* env = std::getenv("ANISO_THREE_DIR");
+  if (env && *env) return env;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const fs::path installed = exe.parent_path().parent_path() / "share" / "aniso" / "three";
+    if (fs::is_regular_file(installed / "three.module.js", ec)) return installed.string();
+  }
+  return ANISO_THREE_DIR;
+}
+
 // The three.js viewer: the page, its module, and three itself (copied so the folder works
-// offline) from ANISO_THREE_DIR (environment) or where scripts/install_deps.sh put it.
+// offline) from three_dir().
 json write_viewer(const std::string& dir, ExportSummary* sum) {
   namespace fs = std::filesystem;
   write_text_file(join_path(dir, "three/viewer.html"), shaders::viewer_html);
   write_text_file(join_path(dir, "three/aniso_viewer.js"), shaders::aniso_viewer_js);
   sum->files.push_back("three/viewer.html");
   sum->files.push_back("three/aniso_viewer.js");
-  const char* env = std::getenv("ANISO_THREE_DIR");
-  const std::string three = env && *env ? env : ANISO_THREE_DIR;
+  const std::string three = three_dir();
   json j = {{"page", "three/viewer.html"},
             {"query",
              "?shape=sphere&view=x,y,z&light=x,y,z&size=WxH[&fill=E&background=g] "

@@ -602,6 +602,31 @@ TEST(Export, ShowsItsProgressOnATerminal) {
   EXPECT_EQ(r.output.find("100%"), std::string::npos) << r.output;
 }
 
+// `cmake --install`: the installed commands run from their prefix (the lean aniso hands synth to
+// the aniso-full beside it) and an installed export copies three.js from the prefix's own
+// share/aniso/three, not from the source tree it was built in.
+TEST(Export, AnInstalledAnisoRunsFromItsPrefixWithItsOwnThree) {
+  const std::string root = tmp_dir("install");
+  const std::string build = std::filesystem::path(ANISO_BIN).parent_path().string();
+  const std::string prefix = root + "/prefix";
+  auto r = run_command("cmake --install '" + build + "' --prefix '" + prefix + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* f : {"/bin/aniso", "/bin/aniso-full", "/share/aniso/three/three.module.js",
+                        "/share/doc/aniso/README.md"})
+    EXPECT_TRUE(std::filesystem::exists(prefix + f)) << f;
+  r = run_command("env -u ANISO_THREE_DIR '" + prefix + "/bin/aniso' synth brushed-metal '" + root +
+                  "/set' --size 16x16 --views 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = run_command("env -u ANISO_THREE_DIR '" + prefix + "/bin/aniso' export '" + root +
+                  "/set/truth.json' --out '" + root + "/export' --size 16");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(read_text_file(root + "/export/export.json"));
+  EXPECT_NE(j["three"]["three"].get<std::string>().find(prefix + "/share/aniso/three"),
+            std::string::npos)
+      << j["three"].dump();
+  EXPECT_TRUE(std::filesystem::exists(root + "/export/three/three.module.js"));
+}
+
 TEST(Export, RefusesAFolderThatIsNotAnEarlierExport) {
   const std::string root = tmp_dir("out");
   const std::string dir = root + "/mine";
