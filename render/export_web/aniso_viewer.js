@@ -1,8 +1,8 @@
 // aniso viewer: the exported material in three.js, sampling the exported KTX2 tables in a
 // ShaderMaterial built from the exported shaders/*.glsl, on the exported sample sphere.
 //
-// viewer.html?shape=sphere&view=x,y,z&light=x,y,z&size=WxH renders exactly the frame of
-//   aniso preview MATERIAL --shape sphere --view x,y,z --light x,y,z --size WxH
+// viewer.html?shape=sphere|flat&view=x,y,z&light=x,y,z&size=WxH renders exactly the frame of
+//   aniso preview MATERIAL --shape sphere|flat --view x,y,z --light x,y,z --size WxH
 // (orthographic camera along -view framing the object with 10 % margin, the same background and
 // fill light, sRGB output), so the two can be compared pixel by pixel. A material with maps is
 // drawn per fragment from tables/maps/*.ktx2 by the exported shaders/aniso_maps.glsl. Optional: fill=E,
@@ -100,6 +100,24 @@ async function loadSphere(psiDeg) {
   return g;
 }
 
+// The flat sample of `aniso preview --shape flat`: x = 2u - 1, y = 1 - 2v (uv as the sample lies),
+// the normal +z, U along +x; the fiber direction as for the sphere.
+function flatGeometry(psiDeg) {
+  const P = new Float32Array([-1, 1, 0, 1, 1, 0, -1, -1, 0, 1, -1, 0]);
+  const N = new Float32Array([0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1]);
+  const UV = new Float32Array([0, 0, 1, 0, 0, 1, 1, 1]);
+  const c = Math.cos(psiDeg * Math.PI / 180), s = Math.sin(psiDeg * Math.PI / 180);
+  const T = new Float32Array([c, s, 0, c, s, 0, c, s, 0, c, s, 0]);
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(P, 3));
+  g.setAttribute('normal', new THREE.BufferAttribute(N, 3));
+  g.setAttribute('fiber', new THREE.BufferAttribute(T, 3));
+  g.setAttribute('uv', new THREE.BufferAttribute(UV, 2));
+  g.setIndex([0, 2, 1, 1, 2, 3]);
+  g.computeBoundingBox();
+  return g;
+}
+
 const VERTEX = `
 in vec3 fiber;
 out vec3 vN; out vec3 vT; out vec2 vUV; out vec3 vP;
@@ -180,8 +198,11 @@ export async function start(q) {
   if (fiber && math === 'torus')
     throw new Error('the browser viewer has the sample sphere, not a torus for this material\'s ' +
                     'mathematical topology: use aniso view --shape torus');
-  const shape = q.get('shape') || 'sphere';
-  if (shape !== 'sphere') throw new Error('shape ' + shape + ': the viewer has the sample sphere only');
+  // A material with maps opens on the flat sample, as aniso preview and aniso view open it.
+  const hasMaps = ['kd', 'ks', 'fiber', 'n'].some((k) => info.maps[k]);
+  const shape = q.get('shape') || (hasMaps ? 'flat' : 'sphere');
+  if (shape !== 'sphere' && shape !== 'flat')
+    throw new Error('shape ' + shape + ': the viewer has the sample sphere and the flat sample');
   const [W, H] = (q.get('size') || `${innerWidth}x${innerHeight}`).split('x').map(Number);
   const scripted = q.has('view') || q.has('light') || q.has('size');
   let view = norm(vec(q.get('view'), DEFAULTS.view));
@@ -201,7 +222,8 @@ export async function start(q) {
 
   const [D, S, geometry] = await Promise.all([
     loadKtx2('../' + info.tables.diffuse.ktx2), loadKtx2('../' + info.tables.specular.ktx2),
-    loadSphere(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)]);
+    shape === 'flat' ? flatGeometry(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)
+                     : loadSphere(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)]);
   const fiberTables = fiber ? await Promise.all([loadKtx2('../' + info.tables.fiber_G.ktx2),
                                                  loadKtx2('../' + info.tables.fiber_F.ktx2)])
                             : null;
