@@ -134,6 +134,7 @@ void print_report(FILE* o, const FitResult& r) {
   if (!p.model_selection.empty())
     std::fprintf(o, "fit: --model auto: %s\n", p.model_selection.c_str());
   for (const auto& w : p.warnings) std::fprintf(o, "fit: WARNING: %s\n", w.c_str());
+  for (const auto& n : p.notes) std::fprintf(o, "fit: note: %s\n", n.c_str());
 }
 
 // --tile i/N into the options.
@@ -483,6 +484,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
                  r.maps.fitted, r.maps.seconds, r.report.pixels, r.report.outside_tile,
                  r.report.seconds_load, out.c_str());
     for (const std::string& w : r.report.warnings) std::fprintf(o, "fit: WARNING: %s\n", w.c_str());
+    for (const std::string& n : r.report.notes) std::fprintf(o, "fit: note: %s\n", n.c_str());
     if (!g_mpi_rank) std::fprintf(o, "fit: then: aniso merge TILE.json... --out material.json\n");
     return 0;
   }

@@ -344,30 +344,43 @@ void add_maps_warnings(const TexelMaps& m, double noise, int iterations, FitRepo
                          : ": the maps do not describe the data either (try more texels, or check "
                            "the set)";
     }
-  size_t determined = 0;
-  for (uint8_t d : m.determined) determined += d;
   warn_weak_texels(m, rep);
   warn_misfit_texels(m, noise, rep);
-  if (determined < m.determined.size()) {
+  // Undetermined texels of three kinds: with pixels the data do not determine (a warning); with no
+  // pixel inside the area the images cover (holes, a warning); with no pixel because no part of
+  // the sample lies there (the uv square's corners round a disc: a note).
+  const std::vector<uint8_t> hole = interior_holes(m);
+  size_t weak = 0, holes = 0, outside = 0;
+  for (size_t t = 0; t < m.determined.size(); ++t) {
+    if (m.determined[t]) continue;
+    if (m.pixels[t] > 0)
+      ++weak;
+    else if (hole[t])
+      ++holes;
+    else
+      ++outside;
+  }
+  if (weak > 0)
     rep->warnings.push_back(
-        "--maps: " + std::to_string(m.determined.size() - determined) + " of " +
-        std::to_string(m.determined.size()) +
+        "--maps: " + std::to_string(weak) + " of " + std::to_string(m.determined.size()) +
         " texels are not determined by the data (too few pixels, psi's sigma over 10 deg, two "
         "fiber directions that fit a texel's data as well, a lobe the data do not know whose psi "
         "held elsewhere fits nearly as well, or a solver that did not converge): "
         "they hold the global values with the prior's spread as sigma "
         "(maps_uncertainty.determined = 0)");
-    size_t holes = 0;
-    for (uint8_t b : interior_holes(m)) holes += b;
-    if (holes > 0)
-      rep->warnings.push_back(
-          "--maps: " + std::to_string(holes) +
-          " texels inside the area the images cover got no pixel at all: the map is finer than "
-          "the images resolve there (texel rows or columns between pixel rows, as on the far side "
-          "of a tilted view). They stay undetermined and the maps give them the values of the "
-          "nearest determined texels in their column (or row), interpolated; a coarser --maps, "
-          "or views that see that part nearer the normal, give them data");
-  }
+  if (holes > 0)
+    rep->warnings.push_back(
+        "--maps: " + std::to_string(holes) +
+        " texels inside the area the images cover got no pixel at all: the map is finer than "
+        "the images resolve there (texel rows or columns between pixel rows, as on the far side "
+        "of a tilted view). They stay undetermined and the maps give them the values of the "
+        "nearest determined texels in their column (or row), interpolated; a coarser --maps, "
+        "or views that see that part nearer the normal, give them data");
+  if (outside > 0)
+    rep->notes.push_back("--maps: " + std::to_string(outside) + " of " +
+                         std::to_string(m.determined.size()) +
+                         " texels lie outside the sample (no pixel's uv falls in them): they hold "
+                         "the global values, maps_uncertainty.determined = 0 and coverage 0");
   if (m.not_converged > 0)
     rep->warnings.push_back(
         "--maps: " + std::to_string(m.not_converged) + " texels stopped at " +

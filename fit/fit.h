@@ -253,6 +253,9 @@ struct FitReport {
   // Said plainly to the user and recorded in the file: a fit that may be wrong (the model does
   // not describe the data, ...), with the likely cause.
   std::vector<std::string> warnings;
+  // Said and recorded, but not trouble: what a person should know of the result (texels that lie
+  // outside the sample).
+  std::vector<std::string> notes;
   std::vector<std::string> model_summaries;  // --model auto: one line per model
   // A measured file's fit: relative RMS of the material against its readings, and per viewer
   // angle (degrees) of the file's grid.

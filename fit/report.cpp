@@ -249,6 +249,7 @@ jsonu::json report_json(const FitReport& p) {
   if (p.implausible_limit > 0) j["implausible_limit"] = p.implausible_limit;
   if (!p.model_selection.empty()) j["model_selection"] = p.model_selection;
   if (!p.warnings.empty()) j["warnings"] = p.warnings;
+  if (!p.notes.empty()) j["notes"] = p.notes;
   if (p.measured_rel_rms >= 0) {
     jsonu::json by = jsonu::json::array();
     for (const auto& [theta, e] : p.measured_rel_rms_by_angle)
@@ -588,6 +589,8 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
       rep.warnings.push_back(w.get<std::string>());
   add_maps_warnings(m, noise[noise.size() / 2], iterations, &rep);
   fit["report"]["warnings"] = rep.warnings;
+  fit["report"].erase("notes");  // each tile's named its own rows
+  if (!rep.notes.empty()) fit["report"]["notes"] = rep.notes;
   fit["report"]["maps_misfit_texels"] = rep.maps_misfit_texels;
   if (fit["report"].contains("fiber_order"))
     fit["report"]["maps_quadrature_orders"] = orders_json(m.texels_by_order);

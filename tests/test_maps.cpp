@@ -354,8 +354,7 @@ TEST(FitMaps, FiberTexelsTakeTheQuadratureOrderTheirValuesAllow) {
     return read_image(test::map_of(dir + "/" + run, key)).image;
   };
   const Image det = img("rule", "determined"), det_all = img("all", "determined");
-  const Image kd = img("rule", "kd"), kd_all = img("all", "kd"),
-              kd_sigma = img("all", "kd_sigma");
+  const Image kd = img("rule", "kd"), kd_all = img("all", "kd"), kd_sigma = img("all", "kd_sigma");
   const Image fib = img("rule", "fiber"), fib_all = img("all", "fiber"),
               fib_sigma = img("all", "fiber_sigma");
   std::vector<double> z;
@@ -757,8 +756,8 @@ TEST(FitMaps, AGridFinerThanTheDataIsRefusedWithWhatTheyHold) {
   const std::string dir = test::tmp_dir("too_fine");
   auto r = test::run_cli("synth swirl-plate " + dir + "/set --size 32x32 --views 4");
   ASSERT_EQ(r.status, 0) << r.output;
-  r = test::sh(test::memory_limit(3000000) + "$A fit " + dir + "/set --maps 4096x4096 --out " + dir +
-               "/m.json");
+  r = test::sh(test::memory_limit(3000000) + "$A fit " + dir + "/set --maps 4096x4096 --out " +
+               dir + "/m.json");
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("the data support at most about"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/m.json"));
@@ -801,8 +800,8 @@ TEST(FitMaps, AMaterialAndItsMapsAreOneOutputThroughKillsAndRaces) {
   }
   std::printf("kill -9 at 4..60 ms: %d of 15 runs killed before they finished\n", killed);
   // Two fits to one --out at once: both succeed, and the material names one run's maps.
-  r = test::sh("$A fit " + dir + "/set --maps 8x8 --out " + dir + "/m.json >/dev/null & a=$!; $A fit " +
-               dir + "/set --maps 12x12 --out " + dir +
+  r = test::sh("$A fit " + dir + "/set --maps 8x8 --out " + dir +
+               "/m.json >/dev/null & a=$!; $A fit " + dir + "/set --maps 12x12 --out " + dir +
                "/m.json >/dev/null & b=$!; wait $a && wait $b");
   EXPECT_EQ(r.status, 0) << r.output;
   consistent("two at once");
@@ -1068,6 +1067,23 @@ TEST(FitMaps, TexelsBetweenPixelRowsAreNamed) {
   r = test::run_cli("fit " + dir + "/set --maps 48x48 --out " + dir + "/coarse.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_EQ(r.output.find("got no pixel"), std::string::npos) << r.output;
+}
+
+// Texels that no part of the sample reaches (the uv square's corners round cd-maps' disc) are a
+// note, counted apart from texels the data do not determine (a warning), and recorded in
+// report.notes.
+TEST(FitMaps, TexelsOutsideTheSampleAreANoteNotAWarning) {
+  const std::string dir = test::tmp_dir("outside");
+  auto r = test::run_cli("synth cd-maps " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 8x8 --out " + dir + "/m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("fit: note: --maps: 4 of 64 texels lie outside the sample"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find("texels are not determined"), std::string::npos) << r.output;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
+  ASSERT_EQ(j["report"]["notes"].size(), 1u) << j["report"].dump();
 }
 
 // interior_holes against its definition, texel by texel: an empty texel with a covered one on
