@@ -130,15 +130,22 @@ std::vector<PaperSample> paper_samples(const BoardSpec& b, const PaperPoints& wh
 
 namespace {
 
-// One paper point's three channels: (A_c h / r^3 - v_c) / s_c, the lamp at p above the board
-// (z < 0 on the printed side), A_c = rho_c I_c / pi.
+// The paper's shading at board point (x, y) per unit of rho I / pi: h / r^3 for the lamp at p
+// (z < 0 on the printed side); T a double or a Ceres Jet.
+template <class T>
+T shading(const T* p, double x, double y) {
+  using std::sqrt;
+  const T dx = p[0] - x, dy = p[1] - y, h = -p[2];
+  const T d2 = dx * dx + dy * dy + h * h;
+  return h / (d2 * sqrt(d2));
+}
+
+// One paper point's three channels: (A_c h / r^3 - v_c) / s_c, A_c = rho_c I_c / pi.
 struct PaperCost {
   double x, y, v[3], inv_s[3];
   template <class T>
   bool operator()(const T* p, const T* a, T* r) const {
-    const T dx = p[0] - x, dy = p[1] - y, h = -p[2];
-    const T d2 = dx * dx + dy * dy + h * h;
-    const T g = h / (d2 * sqrt(d2));
+    const T g = shading(p, x, y);
     for (int c = 0; c < 3; ++c) r[c] = (a[c] * g - v[c]) * inv_s[c];
     return true;
   }
@@ -153,11 +160,6 @@ struct PriorCost {
     return true;
   }
 };
-
-double shading(const double p[3], double x, double y) {
-  const double dx = p[0] - x, dy = p[1] - y, h = -p[2], d2 = dx * dx + dy * dy + h * h;
-  return h / (d2 * std::sqrt(d2));
-}
 
 // A_c in closed form at p (least squares over the points).
 void intensity_at(const std::vector<PaperSample>& paper, const double p[3], double a[3]) {

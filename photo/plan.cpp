@@ -139,10 +139,9 @@ Coverage lobe_coverage(const Shoot& s, const std::vector<PlanPhoto>& photos, con
     }
   for (int k = 0; k < 4; ++k)
     if (cov.sectors[k] == 0) {
-      // A camera in the middle of the sector, and its mirror lamp.
-      const double from_fiber = 45.0 * k + 22.5;
-      const double world_az =
-          rad_to_deg(std::atan2(T.y, T.x)) + from_fiber;  // T's azimuth on the board, plus
+      // A camera in the middle of the sector (its azimuth from T's on the board), and its mirror
+      // lamp.
+      const double world_az = rad_to_deg(std::atan2(T.y, T.x)) + 45.0 * k + 22.5;
       const PlannedPhoto p = ring_photo(c, world_az, o);
       std::snprintf(buf, sizeof buf,
                     "no photo shows the highlight with the camera %d-%d degrees round from the "

@@ -393,36 +393,49 @@ GltfPbrTexels fit_gltf_pbr_texels(const Material& m, int w, int h) {
   // the sums linear in log n between them), then the one mapping with the least whole-model
   // error over every texel (relative, each texel weighted alike): per texel, 3-8 % of a fitted
   // map's texels chose the other of metal and dielectric and showed as specks.
-  auto texel = [&](size_t t, Mapping mp, double* rel) {
+  // A texel's sums (from the node pair around its log n, linear in log n between them) and its
+  // fiber direction: one material lookup for all three mappings.
+  struct TexelSums {
+    ChannelSums sums[3];
+    RGB diel, f0_ks;
+    double mm = 0, fiber_deg = 0;
+    PbrNode nd;
+    // The mapping's colours and their whole-model relative error.
+    Colours colours(Mapping mp, double* rel) const {
+      const Colours col = colours_for(mp, sums, diel, f0_ks);
+      *rel = mm > 0 ? std::sqrt(col.rss / mm) : 0;
+      return col;
+    }
+  };
+  auto texel = [&](size_t t) {
     const Material mt = at(t);
+    TexelSums x;
+    x.fiber_deg = mt.fiber_angle_deg;
     const double pos =
         K == 1 ? 0 : std::clamp((std::log(mt.n) - lo) / (hi - lo) * (K - 1), 0.0, K - 1.0);
     const int k0 = std::min(static_cast<int>(pos), K - 1), k1 = std::min(k0 + 1, K - 1);
-    const PbrNode nd = lerp(nodes[k0], nodes[k1], pos - k0);
-    ChannelSums sums[3];
-    RGB diel, f0_ks;
-    double mm = 0;
+    const PbrNode& nd = x.nd = lerp(nodes[k0], nodes[k1], pos - k0);
     for (int c = 0; c < 3; ++c) {
       const double kd = mt.kd[c], ks = mt.ks[c];
-      ChannelSums& cs = sums[c];
+      ChannelSums& cs = x.sums[c];
       cs.FF = kd * kd * nd.DD + 2 * kd * ks * nd.DS + ks * ks * nd.SS;
       cs.Fg = kd * nd.Dg + ks * nd.Sg, cs.Fnl = kd * nd.Dnl + ks * nd.Snl;
       cs.nlnl = nd.nlnl, cs.nlg = nd.nlg, cs.gg = nd.gg;
-      diel[c] = std::clamp(M_PI * kd * nd.Dnl / std::max(nd.nlnl, 1e-300), 0.0, 1.0);
-      f0_ks[c] = ks * nd.scale;
-      mm += cs.FF;
+      x.diel[c] = std::clamp(M_PI * kd * nd.Dnl / std::max(nd.nlnl, 1e-300), 0.0, 1.0);
+      x.f0_ks[c] = ks * nd.scale;
+      x.mm += cs.FF;
     }
-    const Colours col = colours_for(mp, sums, diel, f0_ks);
-    *rel = mm > 0 ? std::sqrt(col.rss / mm) : 0;
-    return std::make_pair(col, nd);
+    return x;
   };
   double sum2[3] = {0, 0, 0};
-  for (size_t t = 0; t < N; ++t)
+  for (size_t t = 0; t < N; ++t) {
+    const TexelSums x = texel(t);
     for (Mapping mp : kMappings) {
       double rel;
-      texel(t, mp, &rel);
+      x.colours(mp, &rel);
       sum2[static_cast<int>(mp)] += rel * rel;
     }
+  }
   Mapping chosen = Mapping::kMetal;
   for (Mapping mp : kMappings)
     if (sum2[static_cast<int>(mp)] < sum2[static_cast<int>(chosen)]) chosen = mp;
@@ -437,17 +450,17 @@ GltfPbrTexels fit_gltf_pbr_texels(const Material& m, int w, int h) {
   if (out.specular) out.specular_color.resize(3 * N);
   double worst = 0;
   for (size_t t = 0; t < N; ++t) {
+    const TexelSums x = texel(t);
     double rel;
-    const auto [col, nd] = texel(t, chosen, &rel);
+    const Colours col = x.colours(chosen, &rel);
     for (int c = 0; c < 3; ++c) {
       out.base_color[3 * t + c] = static_cast<float>(col.base[c]);
       if (out.specular) out.specular_color[3 * t + c] = static_cast<float>(col.specular[c]);
     }
     out.metallic[t] = static_cast<float>(col.metallic);
-    out.roughness[t] = static_cast<float>(nd.roughness);
-    out.strength[t] = static_cast<float>(nd.strength);
-    out.rotation_rad[t] =
-        static_cast<float>(wrap_half_turn(deg_to_rad(at(t).fiber_angle_deg + 90.0)));
+    out.roughness[t] = static_cast<float>(x.nd.roughness);
+    out.strength[t] = static_cast<float>(x.nd.strength);
+    out.rotation_rad[t] = static_cast<float>(wrap_half_turn(deg_to_rad(x.fiber_deg + 90.0)));
     worst = std::max(worst, rel);
   }
   out.worst_total_rel_rms = worst;

@@ -467,8 +467,9 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
 TEST(FitMaps, MergeChecksWhatItJoins) {
   const std::string dir = test::tmp_dir("merge_checks");
   for (const char* s : {"a", "b"}) {
-    auto r = test::run_cli(std::string("synth swirl-plate ") + dir + "/" + s +
-                           " --noise 0.01 --size 32x32 --views 4 --seed " + (s[0] == 'a' ? "1" : "2"));
+    auto r =
+        test::run_cli(std::string("synth swirl-plate ") + dir + "/" + s +
+                      " --noise 0.01 --size 32x32 --views 4 --seed " + (s[0] == 'a' ? "1" : "2"));
     ASSERT_EQ(r.status, 0) << r.output;
   }
   auto r = test::run_cli("fit " + dir + "/a --maps 4x4 --tile 0/2 --out " + dir + "/a0.json");
@@ -477,8 +478,7 @@ TEST(FitMaps, MergeChecksWhatItJoins) {
   ASSERT_EQ(r.status, 0) << r.output;
   r = test::run_cli("merge " + dir + "/a0.json " + dir + "/b1.json --out " + dir + "/m.json");
   EXPECT_EQ(r.status, 1) << r.output;
-  EXPECT_NE(r.output.find("b1.json: was fitted to another capture"), std::string::npos)
-      << r.output;
+  EXPECT_NE(r.output.find("b1.json: was fitted to another capture"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/m.json"));
   // Other options than tile 0's.
   r = test::run_cli("fit " + dir + "/a --maps 4x4 --tile 1/2 --subsample 2 --out " + dir +
@@ -498,8 +498,7 @@ TEST(FitMaps, MergeChecksWhatItJoins) {
   }
   r = test::run_cli("merge " + dir + "/ta.json " + dir + "/tb.json --out " + dir + "/m.json");
   EXPECT_EQ(r.status, 1) << r.output;
-  EXPECT_NE(r.output.find("tb.json: was fitted to another capture"), std::string::npos)
-      << r.output;
+  EXPECT_NE(r.output.find("tb.json: was fitted to another capture"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/m.json"));
   // A global fit of another rig's capture: refused before the work.
   r = test::run_cli("synth swirl-plate " + dir + "/c --noise 0.01 --size 32x32 --views 5");
