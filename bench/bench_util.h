@@ -9,7 +9,7 @@
 
 #include "core/angles.h"
 #include "core/timer.h"
-#include "io/json_util.h"
+#include "io/files/json_util.h"
 #include "models/material.h"
 
 namespace aniso::benchutil {

@@ -7,13 +7,13 @@
 #include <random>
 #include <vector>
 
-#include "fit/line_simd.h"
-#include "fit/start.h"
-#include "fit/texel_simd.h"
+#include "fit/solvers/line_simd.h"
+#include "fit/solvers/start.h"
+#include "fit/solvers/texel_simd.h"
 #include "models/evaluate.h"
 #include "models/fiber_model.h"
 #include "models/fiber_reference.h"
-#include "render/bake.h"
+#include "render/bake/bake.h"
 
 namespace {
 
@@ -122,8 +122,8 @@ void BM_Bake(benchmark::State& st) {
 }
 BENCHMARK(BM_Bake)->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond);
 
-// One texel of --maps in float lanes (fit/texel_simd.h): the pass with J^T J and J^T r, and the
-// eight start nodes (n = 2^4, the power of two nearest that set's global n, 15.7), over
+// One texel of --maps in float lanes (fit/solvers/texel_simd.h): the pass with J^T J and J^T r, and
+// the eight start nodes (n = 2^4, the power of two nearest that set's global n, 15.7), over
 // `range(0)` observations under one grey light (80: the mean texel of a 1024^2 map from 64 views
 // of 2048^2).
 fitting::TexelLanes texel_lanes_of(size_t count) {

@@ -18,9 +18,9 @@
 #include "capture_sim/sim.h"
 #include "core/error.h"
 #include "datasets_synth/presets.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/material_io.h"
+#include "io/files/files.h"
+#include "io/formats/material_io.h"
+#include "io/images/image_io.h"
 
 namespace aniso::benchutil {
 

@@ -12,7 +12,7 @@
 #include "core/error.h"
 #include "core/progress.h"
 #include "geometry/embree_device.h"
-#include "io/files.h"
+#include "io/files/files.h"
 #include "models/fiber_model.h"
 
 namespace aniso {

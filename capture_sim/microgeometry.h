@@ -1,9 +1,9 @@
 // Micro-geometry mode: a virtual gonioreflectometer that measures what the fiber model predicts.
-// An actual patch of parallel unit cylinders in the periodic arrangement of MODELS.md §4 (low row
-// at (kP, 0), high row at (kP + P/2, 2 sin theta)) is built as Embree round linear curves (exact
-// cylinders), lit by a directional light; rays from the viewer hit the fibers, shadow rays test
-// the light, and the reflected light is averaged over many rays. Rays are spread uniformly over
-// a whole number of periods seen from V, so each hit is weighted by its projected width, which
+// An actual patch of parallel unit cylinders in the periodic arrangement of docs/models.md §4 (low
+// row at (kP, 0), high row at (kP + P/2, 2 sin theta)) is built as Embree round linear curves
+// (exact cylinders), lit by a directional light; rays from the viewer hit the fibers, shadow rays
+// test the light, and the reflected light is averaged over many rays. Rays are spread uniformly
+// over a whole number of periods seen from V, so each hit is weighted by its projected width, which
 // is the model's <n,v> dphi weighting.
 #pragma once
 #include <cstdint>

@@ -5,9 +5,9 @@
 #include "capture_sim/sim.h"
 #include "core/angles.h"
 #include "core/error.h"
-#include "io/files.h"
-#include "io/json_util.h"
-#include "io/material_io.h"
+#include "io/files/files.h"
+#include "io/files/json_util.h"
+#include "io/formats/material_io.h"
 
 namespace aniso {
 

@@ -1,6 +1,6 @@
 // capture_sim: a simulated gonioreflectometer. Ray casts a shape (Embree), shades every sample
-// pixel with the ground-truth material under each view's lights (MODELS.md §2-3), applies a
-// sensor model, and writes a capture set exactly per FORMAT.md.
+// pixel with the ground-truth material under each view's lights (docs/models.md §2-3), applies a
+// sensor model, and writes a capture set exactly per docs/formats.md.
 #pragma once
 #include <cstdint>
 #include <limits>
@@ -9,7 +9,7 @@
 
 #include "geometry/mesh.h"
 #include "geometry/topology.h"
-#include "io/capture.h"
+#include "io/formats/capture.h"
 #include "models/material.h"
 
 namespace aniso {
@@ -26,7 +26,7 @@ std::vector<RigView> rig_fixed_camera(int views, double camera_polar_deg, double
 // both moving: camera and light each follow their own spiral.
 std::vector<RigView> rig_orbit(int views, double distance);
 // Explicit list: a JSON file {"views": [{"camera": [x,y,z], "target": [..], "lights": [..]}]}
-// with lights as in FORMAT.md.
+// with lights as in docs/formats.md.
 std::vector<RigView> rig_from_file(const std::string& path);
 
 struct SensorOptions {

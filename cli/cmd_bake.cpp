@@ -4,9 +4,9 @@
 #include <memory>
 
 #include "cli/command.h"
-#include "io/files.h"
-#include "io/material_io.h"
-#include "render/bake.h"
+#include "io/files/files.h"
+#include "io/formats/material_io.h"
+#include "render/bake/bake.h"
 
 namespace aniso::cli {
 
@@ -46,7 +46,7 @@ Command add_bake(CLI::App& app) {
                   fb.nphi, fb.nphi, fb.ns, fb.nk, fb.seconds, fb.samples, fb.max_abs_error,
                   fb.p99_error, fb.rms_error, fb.peak_value);
             }
-            // A line material's map of n: the specular tables over its range (render/bake.h).
+            // A line material's map of n: the specular tables over its range (render/bake/bake.h).
             SpecularStack st;
             const bool stack = !m.fiber() && m.maps.n;
             if (stack) {

@@ -1,4 +1,4 @@
-// aniso board: the printable ChArUco board and a shoot.json to fill in (photo/board.h).
+// aniso board: the printable ChArUco board and a shoot.json to fill in (photo/shoot/board.h).
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -6,10 +6,10 @@
 
 #include "cli/command.h"
 #include "core/error.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/material_io.h"
-#include "photo/board.h"
+#include "io/files/files.h"
+#include "io/formats/material_io.h"
+#include "io/images/image_io.h"
+#include "photo/shoot/board.h"
 
 namespace aniso::cli {
 

@@ -7,11 +7,11 @@
 #include "cli/command.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/material_io.h"
-#include "render/bake.h"
-#include "render/preview.h"
+#include "io/files/files.h"
+#include "io/formats/material_io.h"
+#include "io/images/image_io.h"
+#include "render/bake/bake.h"
+#include "render/preview/preview.h"
 
 namespace aniso::cli {
 

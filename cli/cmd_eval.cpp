@@ -3,10 +3,10 @@
 #include <memory>
 
 #include "cli/command.h"
-#include "io/files.h"
-#include "io/material_io.h"
-#include "io/rgl_bsdf.h"
-#include "io/table.h"
+#include "io/files/files.h"
+#include "io/formats/material_io.h"
+#include "io/formats/rgl_bsdf.h"
+#include "io/formats/table.h"
 
 namespace aniso::cli {
 

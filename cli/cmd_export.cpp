@@ -1,13 +1,13 @@
-// aniso export: tables, shaders and glTF for engines and browsers (render/export.h).
+// aniso export: tables, shaders and glTF for engines and browsers (render/export/export.h).
 #include <cstdio>
 #include <cstring>
 #include <memory>
 
 #include "cli/command.h"
 #include "core/angles.h"
-#include "io/files.h"
-#include "io/material_io.h"
-#include "render/export.h"
+#include "io/files/files.h"
+#include "io/formats/material_io.h"
+#include "render/export/export.h"
 
 namespace aniso::cli {
 

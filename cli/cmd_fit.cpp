@@ -13,13 +13,13 @@
 #include "cli/command.h"
 #include "core/error.h"
 #include "fit/fit.h"
-#include "io/capture.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/json_util.h"
-#include "io/material_io.h"
-#include "io/rgl_bsdf.h"
-#include "io/table.h"
+#include "io/files/files.h"
+#include "io/files/json_util.h"
+#include "io/formats/capture.h"
+#include "io/formats/material_io.h"
+#include "io/formats/rgl_bsdf.h"
+#include "io/formats/table.h"
+#include "io/images/image_io.h"
 
 namespace aniso::cli {
 
@@ -583,13 +583,14 @@ void add_maps_options(CLI::App* fit, FitArgs* a) {
                 "with --maps, under mpirun: every rank fits one tile of the texels (rank i of N "
                 "is tile i/N) and rank 0 merges them into --out (the same files as one run). "
                 "E.g. mpirun -np 4 aniso fit CAPTURE --maps 256x256 --mpi --out m.json");
-  fit->add_option("--maps", a->maps,
-                  "also fit per-texel maps of k_d, k_s, n and the fiber direction (and, with "
-                  "--model fiber, the topology s of a flat sample or, where the set has a "
-                  "topology map, its amplitude A), WxH texels over the sample's "
-                  "uv (written beside --out as EXR, FORMAT.md \"Material maps\", with per-texel "
-                  "sigma, coverage, a determined mask and each texel's residual RMS; texels "
-                  "whose residual is over twice the images' noise are named)");
+  fit->add_option(
+      "--maps", a->maps,
+      "also fit per-texel maps of k_d, k_s, n and the fiber direction (and, with "
+      "--model fiber, the topology s of a flat sample or, where the set has a "
+      "topology map, its amplitude A), WxH texels over the sample's "
+      "uv (written beside --out as EXR, docs/formats.md \"Material maps\", with per-texel "
+      "sigma, coverage, a determined mask and each texel's residual RMS; texels "
+      "whose residual is over twice the images' noise are named)");
 }
 
 Command add_fit(CLI::App& app) {

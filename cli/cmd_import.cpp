@@ -1,11 +1,11 @@
-// aniso import: a photo shoot to a capture set (photo/import.h).
+// aniso import: a photo shoot to a capture set (photo/import/import.h).
 #include <cstdio>
 #include <memory>
 
 #include "cli/command.h"
 #include "core/error.h"
-#include "io/files.h"
-#include "photo/import.h"
+#include "io/files/files.h"
+#include "photo/import/import.h"
 
 namespace aniso::cli {
 
@@ -93,7 +93,7 @@ Command add_import(CLI::App& app) {
       "Turn a photo shoot (shoot.json: photos of a sample on a printed ChArUco board, see "
       "aniso board) into a capture set: calibrate the camera, solve each photo's pose, merge "
       "exposure brackets, and write per-pixel geometry of the sample");
-  c->add_option("SHOOT", a->shoot, "shoot.json (FORMAT.md \"Photo shoot\")")->required();
+  c->add_option("SHOOT", a->shoot, "shoot.json (docs/formats.md \"Photo shoot\")")->required();
   c->add_option("--out", a->out,
                 "capture folder to write: new, empty, or an earlier aniso output (replaced "
                 "atomically)")

@@ -5,8 +5,8 @@
 #include "cli/command.h"
 #include "core/error.h"
 #include "fit/fit.h"
-#include "io/files.h"
-#include "io/image_io.h"
+#include "io/files/files.h"
+#include "io/images/image_io.h"
 
 namespace aniso::cli {
 

@@ -1,13 +1,13 @@
 // aniso plan: where to hold the lamp for a ring of camera positions, and how well a shoot (the
-// plan, or an imported capture) covers the lobe (photo/plan.h).
+// plan, or an imported capture) covers the lobe (photo/import/plan.h).
 #include <cstdio>
 #include <memory>
 
 #include "cli/command.h"
-#include "io/capture.h"
-#include "io/material_io.h"
-#include "photo/plan.h"
-#include "photo/shoot.h"
+#include "io/formats/capture.h"
+#include "io/formats/material_io.h"
+#include "photo/import/plan.h"
+#include "photo/shoot/shoot.h"
 
 namespace aniso::cli {
 

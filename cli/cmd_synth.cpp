@@ -6,24 +6,25 @@
 #include "cli/command.h"
 #include "core/error.h"
 #include "datasets_synth/presets.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/material_io.h"
-#include "photo/synth_shoot.h"
+#include "io/files/files.h"
+#include "io/formats/material_io.h"
+#include "io/images/image_io.h"
+#include "photo/import/synth_shoot.h"
 
 namespace aniso::cli {
 
 namespace {
 struct SynthArgs {
-  std::string preset, out, size = "128x128", truth, compression = "none", walk = "turned";
+  std::string preset, out, size = "128x128", truth, compression = "none", walk = "turned",
+                           brdf = "truth";
   PresetOptions po;
   double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
   bool list = false, photos = false, dng = false, hide_intensity = false;
-  double lamp_error_m = 0;
+  double lamp_error_m = 0, ggx_alpha_b = PhotoShootOptions{}.ggx_alpha_b;
   CLI::App* app = nullptr;
 };
 
-// --photos: a photo shoot of the preset's material on a ChArUco board (photo/synth_shoot.h).
+// --photos: a photo shoot of the preset's material on a ChArUco board (photo/import/synth_shoot.h).
 int run_photos(const SynthArgs& a) {
   PhotoShootOptions o;
   o.truth = a.truth.empty() ? make_preset(a.preset, a.po).truth : read_material(a.truth);
@@ -36,6 +37,8 @@ int run_photos(const SynthArgs& a) {
   o.walk = a.walk;
   o.lamp_error_m = a.lamp_error_m;
   o.hide_intensity = a.hide_intensity;
+  o.brdf = a.brdf;
+  o.ggx_alpha_b = a.ggx_alpha_b;
   check_output_folder(a.out, OutputKind::kPhotoShoot);
   check_outputs_apart({a.out}, {a.truth});
   const PhotoShootStats st = simulate_photo_shoot(o, a.out);
@@ -116,6 +119,19 @@ Command add_synth(CLI::App& app) {
   synth->add_flag("--hide-intensity", a->hide_intensity,
                   "--photos: write every lamp's intensity as 1, as a person who does not know it "
                   "would (import finds it from the board's paper)");
+  synth
+      ->add_option("--brdf", a->brdf,
+                   "--photos: render the sample with its material's own model (truth) or with an "
+                   "anisotropic GGX microfacet BRDF of the same k_d, k_s and fiber angle (ggx: "
+                   "roughness sqrt(2/(n+2)) along the fibers, --ggx-alpha-b across them), a model "
+                   "the fit does not have, as another renderer would give")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"truth", "ggx"}));
+  synth
+      ->add_option("--ggx-alpha-b", a->ggx_alpha_b,
+                   "--photos --brdf ggx: the GGX roughness across the fibers")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 1.0));
   a->app = synth;
   add_force_flag(synth);
   synth

@@ -5,7 +5,7 @@
 #include "bench/suites.h"
 #include "capture_sim/microgeometry.h"
 #include "cli/command.h"
-#include "io/files.h"
+#include "io/files/files.h"
 #include "models/params.h"
 
 namespace aniso::cli {

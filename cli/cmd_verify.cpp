@@ -5,10 +5,10 @@
 #include <string>
 
 #include "cli/command.h"
-#include "io/capture.h"
-#include "io/files.h"
-#include "io/material_io.h"
-#include "render/verify.h"
+#include "io/files/files.h"
+#include "io/formats/capture.h"
+#include "io/formats/material_io.h"
+#include "render/preview/verify.h"
 
 namespace aniso::cli {
 

@@ -1,15 +1,15 @@
-// aniso view: the interactive window (render/viewer.h).
+// aniso view: the interactive window (render/preview/viewer.h).
 #include <filesystem>
 #include <memory>
 
 #include "cli/command.h"
 #include "core/error.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/json_util.h"
-#include "io/material_io.h"
-#include "render/bake.h"
-#include "render/viewer.h"
+#include "io/files/files.h"
+#include "io/files/json_util.h"
+#include "io/formats/material_io.h"
+#include "io/images/image_io.h"
+#include "render/bake/bake.h"
+#include "render/preview/viewer.h"
 
 namespace aniso::cli {
 

@@ -10,7 +10,7 @@
 
 namespace aniso {
 struct FitOptions;      // fit/fit.h
-struct PreviewOptions;  // render/preview.h
+struct PreviewOptions;  // render/preview/preview.h
 struct Material;        // models/material.h
 }  // namespace aniso
 
@@ -89,8 +89,8 @@ Command add_plan(CLI::App& app);
 // `command`) and the sphere otherwise.
 std::string default_shape(const std::string& given, const Material& m, const char* command);
 
-// `--force`: what the command would refuse to replace is moved aside, never deleted (io/files.h);
-// `help` replaces the common text.
+// `--force`: what the command would refuse to replace is moved aside, never deleted
+// (io/files/files.h); `help` replaces the common text.
 void add_force_flag(CLI::App* sub, const char* help = nullptr);
 // Says on stderr that a material's maps (k_d, k_s, n, fiber over uv) are not used by `what`, which
 // takes the scalar (mean) values instead. Nothing when the material has no maps.

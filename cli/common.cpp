@@ -7,10 +7,10 @@
 
 #include "cli/command.h"
 #include "core/error.h"
-#include "io/capture.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "render/preview.h"
+#include "io/files/files.h"
+#include "io/formats/capture.h"
+#include "io/images/image_io.h"
+#include "render/preview/preview.h"
 
 namespace aniso::cli {
 

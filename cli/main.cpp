@@ -12,7 +12,7 @@
 #include "cli/command.h"
 #include "core/error.h"
 #include "core/text.h"
-#include "io/image_io.h"
+#include "io/images/image_io.h"
 
 using namespace aniso;
 

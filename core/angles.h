@@ -1,5 +1,5 @@
 // Degrees, radians and the 180-degree period of a fiber direction (T and -T are one fiber,
-// MODELS.md §1), in one place.
+// docs/models.md §1), in one place.
 #pragma once
 #include <algorithm>
 #include <cmath>

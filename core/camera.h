@@ -1,5 +1,5 @@
-// Pinhole intrinsics in OpenCV's convention (FORMAT.md): camera x right, y down, z forward; pixel
-// (x, y) has its centre at integer coordinates, its ray ((x - cx)/fx, (y - cy)/fy, 1).
+// Pinhole intrinsics in OpenCV's convention (docs/formats.md): camera x right, y down, z forward;
+// pixel (x, y) has its centre at integer coordinates, its ray ((x - cx)/fx, (y - cy)/fy, 1).
 #pragma once
 #include <array>
 

@@ -1,4 +1,4 @@
-// The shading frame of a surface point from its geometry buffers (MODELS.md §1): N normalised,
+// The shading frame of a surface point from its geometry buffers (docs/models.md §1): N normalised,
 // U made perpendicular to N, W = N x U. The simulator and the fitter both build frames here, from
 // the same float buffers, so a noise-free capture is fitted exactly.
 #pragma once

@@ -44,7 +44,7 @@ inline bool finite(const Vec3& a) {
   return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
 }
 
-// Row-major 4x4 rigid transform (FORMAT.md `world_from_camera`).
+// Row-major 4x4 rigid transform (docs/formats.md `world_from_camera`).
 struct Mat4 {
   std::array<double, 16> m{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   double operator()(int r, int c) const { return m[r * 4 + c]; }

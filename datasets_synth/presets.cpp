@@ -4,8 +4,8 @@
 #include <random>
 
 #include "core/error.h"
-#include "io/files.h"
-#include "io/image_io.h"
+#include "io/files/files.h"
+#include "io/images/image_io.h"
 
 namespace aniso {
 
@@ -16,7 +16,7 @@ const std::vector<std::pair<std::string, std::string>>& preset_list() {
       {"satin-ball", "sphere with pole-to-pole (meridian) fibers (Heidrich & Seidel fig. 3)"},
       {"cd", "disc with circular grooves (Heidrich & Seidel fig. 1, centre)"},
       {"radial-disc", "disc with radial fibers (Heidrich & Seidel fig. 1, right)"},
-      {"woven-cloth", "flat sample with two perpendicular fiber directions (seed 000 §4)"},
+      {"woven-cloth", "flat sample with two perpendicular fiber directions (Heidrich & Seidel §4)"},
       {"random", "flat sample with a random line-model material drawn from --seed"},
       {"swirl-plate",
        "flat sample whose material varies (maps): brushed in circles around its centre, k_d from "

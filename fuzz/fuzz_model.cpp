@@ -1,5 +1,5 @@
 // libFuzzer target: the models on arbitrary inputs. Any direction pair, any exponent, any
-// topology: the result must be finite and non-negative (MODELS.md §6). Build: scripts/fuzz.sh.
+// topology: the result must be finite and non-negative (docs/models.md §6). Build: scripts/fuzz.sh.
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>

@@ -15,12 +15,12 @@
 
 #include "core/error.h"
 #include "geometry/mesh.h"
-#include "io/capture.h"
-#include "io/image_io.h"
-#include "io/material_io.h"
-#include "io/rgl_bsdf.h"
-#include "io/table.h"
-#include "photo/shoot.h"
+#include "io/formats/capture.h"
+#include "io/formats/material_io.h"
+#include "io/formats/rgl_bsdf.h"
+#include "io/formats/table.h"
+#include "io/images/image_io.h"
+#include "photo/shoot/shoot.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;

@@ -96,7 +96,7 @@ TriMesh make_shape(const std::string& name, const ShapeOptions& opt) {
     const double R = opt.torus_R, r = opt.torus_r;
     if (!(R > r && r > 0)) throw Error("torus: needs major radius > minor radius > 0");
     m = grid(n, n / 2, [&](double u, double v, Vec3* P, Vec3* N, Vec3* U) {
-      const double phi = tau * u, th = tau * v;  // th = 0 on the outside (MODELS.md §4)
+      const double phi = tau * u, th = tau * v;  // th = 0 on the outside (docs/models.md §4)
       const Vec3 out{std::cos(phi), std::sin(phi), 0};
       *N = out * std::cos(th) + Vec3(0, 0, std::sin(th));
       *P = out * R + *N * r;

@@ -20,7 +20,7 @@ struct TriMesh {
   // planar), so the simulator casts no shadow rays for them.
   bool can_self_shadow = true;
   Vec3 center{0, 0, 0}, axis{0, 0, 1};  // for the radial / circular / meridian fields
-  // Torus only: radii for the mathematical topology (MODELS.md §4).
+  // Torus only: radii for the mathematical topology (docs/models.md §4).
   double torus_R = 0, torus_r = 0;
 };
 

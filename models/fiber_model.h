@@ -1,6 +1,6 @@
 // Fiber cross-section model: parallel cylinders that hide and shadow each other (Poulin &
-// Fournier 1990) and climb on each other where packed tight (Hast, seed 001 §3, eq. 5), with a
-// topology map (seed 001 §4). MODELS.md §4 is the definition followed here, exactly.
+// Fournier 1990) and climb on each other where packed tight (Hast §3, eq. 5), with a
+// topology map (Hast §4). docs/models.md §4 is the definition followed here, exactly.
 //
 // Cross-section plane: x along B = N x T, y along N. Unit-radius fibers, topology s in [0, 1]:
 // climbing angle theta = 60 deg s, period P = 4 cos theta, low fibers at (kP, 0), high fibers at
@@ -48,7 +48,7 @@ inline constexpr double kMaxClimbRad = M_PI / 3.0;  // theta = 60 deg * s (Hast 
 // is evaluated as its neighbour a hair above the plane, so the model is the limit of its
 // neighbours up to the horizon: along the fiber axis the direction has no projection into the
 // cross-section plane, and the limit from above is the projection along N (l = (0, 1)), which
-// lights and shows the whole front. Below the horizon nothing is lit or seen (MODELS.md §4).
+// lights and shows the whole front. Below the horizon nothing is lit or seen (docs/models.md §4).
 inline constexpr double kHorizonRounding = 1e-12;  // |<N,L>| this small is 0 up to rounding
 inline constexpr double kHairAbovePlane = 1e-9;    // where the in-plane limit is evaluated
 
@@ -281,7 +281,7 @@ void add_lobe_integral(const Lobe<T>& l, const T& slo, const T& shi, const Gauss
 
 }  // namespace fiber_detail
 
-// D and S of MODELS.md §4 for one fiber direction. Inputs are the components of L and V along
+// D and S of docs/models.md §4 for one fiber direction. Inputs are the components of L and V along
 // B and N (lb, ln, vb, vn), the cosines a = <L,T>, b = <V,T>, the exponent and the topology s.
 // With `relative_to_peak`, S comes back divided by the line model's S_line = (s_L s_V - ab)^n
 // (the integrand is (<R,V> / (s_L s_V - ab))^n): the factor the baked tables store.
@@ -301,8 +301,8 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
   *D = T(0.0);
   *S = T(0.0);
   if (W_out) *W_out = T(0.0);
-  // Nothing is lit when <N,L> < 0 and nothing visible when <N,V> < 0 (MODELS.md §4); exactly in
-  // the plane, the limit from just above it (kHairAbovePlane).
+  // Nothing is lit when <N,L> < 0 and nothing visible when <N,V> < 0 (docs/models.md §4); exactly
+  // in the plane, the limit from just above it (kHairAbovePlane).
   const T lnh = std::abs(ceres_value(ln)) <= kHorizonRounding ? T(kHairAbovePlane) : ln;
   const T vnh = std::abs(ceres_value(vn)) <= kHorizonRounding ? T(kHairAbovePlane) : vn;
   if (!(lnh > T(0.0)) || !(vnh > T(0.0))) return;
@@ -382,7 +382,7 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
 
 namespace aniso {
 
-// Topology helpers (MODELS.md §4, seed 001 §3-4), templated for the fit.
+// Topology helpers (docs/models.md §4, Hast §3-4), templated for the fit.
 // The topology value s of a point from its mathematical topology s_math, a map value m in
 // [-1, 1] and the map amplitude A: H = clamp(2 sin theta_math + A m, 0, sqrt 3), s =
 // asin(H/2)/60deg.
@@ -396,16 +396,16 @@ T topology_with_map(double s_math, const T& amplitude, double m) {
   return asin(0.5 * H) / kMaxClimbRad;
 }
 
-// Mathematical topology of a torus with fibers wound around the tube (MODELS.md §4): major radius
-// R, minor r, poloidal angle v (0 on the outside). c = (R + r)/(R + r cos v) in [1, (R+r)/(R-r)],
-// c' = c / 2^floor(log2 c) in [1, 2), theta = acos(1/c'), s = theta / 60 deg.
+// Mathematical topology of a torus with fibers wound around the tube (docs/models.md §4): major
+// radius R, minor r, poloidal angle v (0 on the outside). c = (R + r)/(R + r cos v) in [1,
+// (R+r)/(R-r)], c' = c / 2^floor(log2 c) in [1, 2), theta = acos(1/c'), s = theta / 60 deg.
 inline double torus_mathematical_s(double R, double r, double v) {
   const double c = (R + r) / (R + r * std::cos(v));
   const double cp = c / std::pow(2.0, std::floor(std::log2(c)));
   return std::acos(1.0 / cp) / kMaxClimbRad;
 }
 
-// Reflectance per unit irradiance of the fiber model for one light (MODELS.md §4): no <N,L>
+// Reflectance per unit irradiance of the fiber model for one light (docs/models.md §4): no <N,L>
 // factor (the fibers shadow each other). The optional isotropic term and second fiber direction
 // are those of the line model, each skipped when its weight is zero.
 template <class T, class P>

@@ -1,6 +1,6 @@
-// Brute-force reference for the fiber model (MODELS.md §4), independent of models/fiber_model.h:
-// dense midpoint sampling of the normal angle on one period, plain ray-circle intersection tests
-// against every nearby fiber copy, no interval algebra, no closed forms.
+// Brute-force reference for the fiber model (docs/models.md §4), independent of
+// models/fiber_model.h: dense midpoint sampling of the normal angle on one period, plain ray-circle
+// intersection tests against every nearby fiber copy, no interval algebra, no closed forms.
 #pragma once
 #include <cmath>
 #include <vector>

@@ -1,5 +1,5 @@
-// The lights of the forward model (MODELS.md §2, FORMAT.md "Lights"): point, directional and
-// spot lights, and the light a surface point receives from each. Shared by the simulator, the
+// The lights of the forward model (docs/models.md §2, docs/formats.md "Lights"): point, directional
+// and spot lights, and the light a surface point receives from each. Shared by the simulator, the
 // fitter, verify and the capture reader.
 #pragma once
 #include <cmath>
@@ -22,7 +22,7 @@ struct Light {
   double exponent = 0.0;
 };
 
-// The light at surface point x (MODELS.md §2): unit direction toward the light, the irradiance
+// The light at surface point x (docs/models.md §2): unit direction toward the light, the irradiance
 // scale E (RGB) and the distance (infinity for a directional light). False when it delivers
 // nothing there (outside a spot's cone, zero intensity).
 inline bool light_at(const Light& light, const Vec3& x, Vec3* L, RGB* E, double* dist) {

@@ -1,22 +1,23 @@
 // Line-lighting model of Banks (1994) as put on graphics hardware by Heidrich & Seidel
-// (seed 000 §2-4; seed 002). MODELS.md §3 is the definition followed here, exactly.
+// (Heidrich & Seidel §2-4; the OpenGL course notes). docs/models.md §3 is the definition followed
+// here, exactly.
 //
 // A fiber of direction T has a circle of normals; the one used is the projection of L into the
 // plane normal to T. With a = <L,T>, b = <V,T>, s_L = sqrt(1-a^2), s_V = sqrt(1-b^2):
 //     D(a,b) = s_L                     (= <L,N'>)
 //     S(a,b) = ((s_L s_V - a b)^+)^n   (= <V,R>^n)
 //     f      = <N,L>^+ (k_d D + k_s S)                    (Banks' self-shadowing)
-//            [+ k_d,iso <N,L>^+ + k_s,iso (<N,H>^+)^n_iso]  (isotropic term, seed 000 §4)
+//            [+ k_d,iso <N,L>^+ + k_s,iso (<N,H>^+)^n_iso]  (isotropic term, Heidrich & Seidel §4)
 // and with a second fiber direction T2 (woven cloth) the two lobes are mixed w : (1-w).
 // The radiance of one light is E_i f; the pixel is exposure (k_a I_a + sum_i E_i f_i) (§2).
 //
 // Parameters (bounds, defaults, units): models/params.h, kLineParams. psi is periodic with period
-// 180 degrees because every term is unchanged under T -> -T (MODELS.md §1).
+// 180 degrees because every term is unchanged under T -> -T (docs/models.md §1).
 //
 // Frame: directions are given in the local frame (U, W = N x U, N) of the surface point, where U
-// is the reference tangent (MODELS.md §1); then T = cos psi U + sin psi W has local coordinates
-// (cos psi, sin psi, 0). Everything here is templated on the scalar so ceres::Jet flows through;
-// directions are data (double), parameters may be Jets.
+// is the reference tangent (docs/models.md §1); then T = cos psi U + sin psi W has local
+// coordinates (cos psi, sin psi, 0). Everything here is templated on the scalar so ceres::Jet flows
+// through; directions are data (double), parameters may be Jets.
 //
 // Limits: D and S depend on (a, b) only, which is what lets one 2D texture hold them (§5).
 #pragma once
@@ -40,7 +41,7 @@ struct LineParamsT {
   T w;     // weight of the first lobe
 };
 
-// D and S of MODELS.md §3 for cosines a = <L,T>, b = <V,T>.
+// D and S of docs/models.md §3 for cosines a = <L,T>, b = <V,T>.
 template <class T>
 void line_DS(const T& a_in, const T& b_in, const T& n, T* D, T* S) {
   const T a = clamp_unit(a_in), b = clamp_unit(b_in);
@@ -76,7 +77,7 @@ FiberAngles<T> fiber_angles(const LineParamsT<T>& p) {
   return f;
 }
 
-// Reflected radiance per unit irradiance E_i = 1 for one light (the bracket of MODELS.md §3,
+// Reflected radiance per unit irradiance E_i = 1 for one light (the bracket of docs/models.md §3,
 // <N,L>^+ included), with p's fiber angles as `fa`. Zero-weight terms are skipped, not evaluated.
 template <class T>
 void line_reflectance(const LineParamsT<T>& p, const FiberAngles<T>& fa, const LocalDir& L,

@@ -1,6 +1,7 @@
-// A material in plain numbers (the `aniso-material` file of FORMAT.md, without the fit's report).
-// Typed: the model is an enum and the fiber model's topology source a variant, so a combination
-// the format does not allow cannot be built. Strings are parsed once, by the file reader.
+// A material in plain numbers (the `aniso-material` file of docs/formats.md, without the fit's
+// report). Typed: the model is an enum and the fiber model's topology source a variant, so a
+// combination the format does not allow cannot be built. Strings are parsed once, by the file
+// reader.
 #pragma once
 #include <array>
 #include <memory>
@@ -13,13 +14,13 @@ namespace aniso {
 
 using RGB = std::array<double, 3>;
 
-enum class Model { kLine, kFiber };  // MODELS.md §3, §4
+enum class Model { kLine, kFiber };  // docs/models.md §3, §4
 
-// The mathematical topology of a shape (MODELS.md §4): the capture's per-pixel `topology` buffer
-// holds s_math for these.
+// The mathematical topology of a shape (docs/models.md §4): the capture's per-pixel `topology`
+// buffer holds s_math for these.
 enum class MathTopology { kNone, kTorus, kSphere };
 
-// Where the fiber model's topology s comes from (MODELS.md §4), one of:
+// Where the fiber model's topology s comes from (docs/models.md §4), one of:
 struct UniformS {  // one value for the whole (flat) sample
   double s = 0.0;
 };
@@ -36,11 +37,12 @@ struct SMapRef {  // a map of s itself over uv (what `fit --topology-map N` writ
 };
 using Topology = std::variant<UniformS, MathematicalS, TopologyMapRef, SMapRef>;
 
-// Per-texel maps over the sample's texture coordinates (FORMAT.md "Material maps"): each present
-// map replaces its scalar wherever the sample has uv; the scalars hold the mean values. Images
-// are shared (a Material is copied freely). kd, ks: RGB; n: R; fiber: R,G = (cos 2psi, sin 2psi);
-// amplitude: R, the topology map's amplitude A per texel (the fiber model over a topology map,
-// what `fit --maps --model fiber` writes for such a set; the topology's "amplitude" is its mean).
+// Per-texel maps over the sample's texture coordinates (docs/formats.md "Material maps"): each
+// present map replaces its scalar wherever the sample has uv; the scalars hold the mean values.
+// Images are shared (a Material is copied freely). kd, ks: RGB; n: R; fiber: R,G = (cos 2psi, sin
+// 2psi); amplitude: R, the topology map's amplitude A per texel (the fiber model over a topology
+// map, what `fit --maps --model fiber` writes for such a set; the topology's "amplitude" is its
+// mean).
 struct MaterialMaps {
   std::string kd_file, ks_file, n_file, fiber_file, amplitude_file;  // as named (relative to it)
   std::shared_ptr<const Image> kd, ks, n, fiber, amplitude;

@@ -1,6 +1,7 @@
-// A material at one point of a sample with maps (FORMAT.md "Material maps"): texel (i, j) has its
-// centre at ((i + 1/2)/W, (j + 1/2)/H); lookups are bilinear, clamped at the border or repeated.
-// The fiber map holds the doubled angle, so directions equal modulo 180 degrees interpolate right.
+// A material at one point of a sample with maps (docs/formats.md "Material maps"): texel (i, j) has
+// its centre at ((i + 1/2)/W, (j + 1/2)/H); lookups are bilinear, clamped at the border or
+// repeated. The fiber map holds the doubled angle, so directions equal modulo 180 degrees
+// interpolate right.
 #pragma once
 #include <cmath>
 

@@ -13,19 +13,19 @@ namespace aniso {
 
 struct ParamSpec {
   std::string_view key;     // material-file key, dotted for nested blocks
-  std::string_view symbol;  // MODELS.md symbol
+  std::string_view symbol;  // docs/models.md symbol
   int dims;                 // 3 = RGB, 1 = scalar
   double lo, hi, def;       // bounds and default
   std::string_view unit;
-  bool periodic;  // fiber angles live in [0, 180) degrees (MODELS.md §1)
-  bool fit_log;   // fitted as log(value) (MODELS.md §6: log n, not n)
+  bool periodic;  // fiber angles live in [0, 180) degrees (docs/models.md §1)
+  bool fit_log;   // fitted as log(value) (docs/models.md §6: log n, not n)
   std::string_view doc;
   // The standard deviation of a value spread evenly over the bounds: what the bounds alone know
   // of it (a sigma above this is no measurement).
   double spread() const { return (hi - lo) / std::sqrt(12.0); }
 };
 
-// Line-lighting model, MODELS.md §3. Exponent bounds: n = 1 keeps x^n differentiable at x = 0;
+// Line-lighting model, docs/models.md §3. Exponent bounds: n = 1 keeps x^n differentiable at x = 0;
 // n = 1e4 is the sharpest lobe the bake tables resolve at their largest size.
 inline constexpr ParamSpec kLineParams[] = {
     {"kd", "k_d", 3, 0.0, 100.0, 0.2, "", false, false, "diffuse coefficient, RGB"},
@@ -45,7 +45,7 @@ inline constexpr ParamSpec kLineParams[] = {
      "weight of the first lobe; the second gets 1 - w"},
 };
 
-// Fiber model, MODELS.md §4: the line model's parameters plus the topology.
+// Fiber model, docs/models.md §4: the line model's parameters plus the topology.
 inline constexpr ParamSpec kFiberParams[] = {
     {"topology.s", "s", 1, 0.0, 1.0, 0.0, "", false, false,
      "topology: climbing angle 60 deg * s; s = 1 looks like s = 0 (flat samples)"},

@@ -1,4 +1,4 @@
-// Jet-safe helpers for the models (MODELS.md §6). Written with unqualified calls after
+// Jet-safe helpers for the models (docs/models.md §6). Written with unqualified calls after
 // `using std::...` so that ceres::Jet overloads are found by argument-dependent lookup.
 #pragma once
 #include <cmath>
@@ -11,7 +11,7 @@ namespace aniso {
 // infinity. Derivatives are exact for |a| < 1 - 5e-13.
 inline constexpr double kSqrtChordEps = 1e-12;
 
-// sqrt(1 - a^2) for a in [-1, 1] (a is clamped first, MODELS.md §6).
+// sqrt(1 - a^2) for a in [-1, 1] (a is clamped first, docs/models.md §6).
 template <class T>
 T sin_from_cos(const T& a) {
   using std::sqrt;
@@ -22,7 +22,7 @@ T sin_from_cos(const T& a) {
 }
 
 // (x^+)^n, evaluated as exp(n log x) so large n neither overflows nor underflows badly;
-// 0 for x <= 0 (MODELS.md §6). n >= 1 keeps the derivative in x finite at x = 0.
+// 0 for x <= 0 (docs/models.md §6). n >= 1 keeps the derivative in x finite at x = 0.
 template <class T, class N>
 T pos_pow(const T& x, const N& n) {
   using std::exp;

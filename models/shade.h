@@ -1,7 +1,7 @@
-// The forward model of MODELS.md §2 at one surface point: ambient plus, for every light above the
-// horizon and not occluded, irradiance times the material's reflectance at the point's topology.
-// The simulator uses it with shadow rays, `aniso verify` without; `occluded(sp, L, dist, cnt)`
-// decides shadowing.
+// The forward model of docs/models.md §2 at one surface point: ambient plus, for every light above
+// the horizon and not occluded, irradiance times the material's reflectance at the point's
+// topology. The simulator uses it with shadow rays, `aniso verify` without; `occluded(sp, L, dist,
+// cnt)` decides shadowing.
 #pragma once
 #include <cstddef>
 #include <vector>

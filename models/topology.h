@@ -1,4 +1,4 @@
-// "Which s applies at this point" (MODELS.md §4), decided in one place for every consumer: the
+// "Which s applies at this point" (docs/models.md §4), decided in one place for every consumer: the
 // simulator, verify, the preview's CPU reference and the truth comparison. The caller gives
 // what the point knows: the capture's mathematical topology s_math, and the material's map (the
 // topology map h, or the map of s) sampled at the point's uv, when the material names one.

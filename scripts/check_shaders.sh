@@ -13,7 +13,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 for f in "${files[@]}"; do
   # A .glsl file is a part spliced into the shaders that name it ("// aniso: maps.glsl"), as
-  # render/preview.cpp does: checked there, in place.
+  # render/preview/preview.cpp does: checked there, in place.
   [[ $f == *.glsl ]] && continue
   src=$f
   if grep -q '^// aniso: [a-z_]*\.glsl$' "$f"; then

@@ -15,9 +15,9 @@
 #include <random>
 
 #include "datasets_synth/presets.h"
-#include "io/capture.h"
-#include "io/files.h"
-#include "io/image_io.h"
+#include "io/files/files.h"
+#include "io/formats/capture.h"
+#include "io/images/image_io.h"
 #include "test_util.h"
 
 namespace aniso {

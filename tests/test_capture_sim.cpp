@@ -12,9 +12,9 @@
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
 #include "geometry/raycast.h"
-#include "io/capture.h"
-#include "io/image_io.h"
-#include "render/verify.h"
+#include "io/formats/capture.h"
+#include "io/images/image_io.h"
+#include "render/preview/verify.h"
 #include "test_util.h"
 
 namespace aniso {

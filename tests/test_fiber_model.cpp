@@ -1,5 +1,6 @@
-// The fiber model (MODELS.md §4): the five identities, the fast evaluation against an independent
-// brute-force reference over random and adversarial directions, finiteness, Jet derivatives.
+// The fiber model (docs/models.md §4): the five identities, the fast evaluation against an
+// independent brute-force reference over random and adversarial directions, finiteness, Jet
+// derivatives.
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
@@ -372,16 +373,16 @@ TEST(FiberModel, ExtremelyGrazingViewStaysWithinBounds) {
 #include "capture_sim/sim.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
-#include "io/capture.h"
+#include "io/formats/capture.h"
 #include "test_util.h"
 
 namespace aniso {
 namespace {
 
-// The fiber model's fused solve (fit/fiber_lm.h: Jets of size 3 through the quadrature) against
-// Ceres (the fitter of record, Jets of size 9), at the same quadrature order, on a flat sample
-// (the topology s) and a torus with a topology map (its amplitude A): the same minimum within a
-// tenth of sigma, the same sigmas within 5 %. Then the order chosen from the noise against
+// The fiber model's fused solve (fit/solvers/fiber_lm.h: Jets of size 3 through the quadrature)
+// against Ceres (the fitter of record, Jets of size 9), at the same quadrature order, on a flat
+// sample (the topology s) and a torus with a topology map (its amplitude A): the same minimum
+// within a tenth of sigma, the same sigmas within 5 %. Then the order chosen from the noise against
 // order 16: the fit moves by at most 0.05 sigma.
 TEST(FitFiber, FusedSolverAndCeresReachTheSameMinimum) {
   for (const std::string preset : {"fiber-flat", "silk-torus"}) {

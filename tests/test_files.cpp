@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "io/files.h"
+#include "io/files/files.h"
 #include "test_util.h"
 
 namespace aniso {
@@ -230,8 +230,7 @@ TEST(Files, PreviewWritesTheFormatItsNameSays) {
   EXPECT_EQ(r.status, 0) << r.output;
   r = test::sh("$A preview " + ws + "/m.json --out " + ws + "/p.tif --size 32");
   EXPECT_EQ(r.status, 1) << r.output;
-  EXPECT_NE(r.output.find(".png (8-bit sRGB), .jpg (sRGB) or .exr"), std::string::npos)
-      << r.output;
+  EXPECT_NE(r.output.find(".png (8-bit sRGB), .jpg (sRGB) or .exr"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(ws + "/p.tif"));
 }
 

@@ -13,10 +13,10 @@
 #include "core/error.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
-#include "fit/line_simd.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/material_io.h"
+#include "fit/solvers/line_simd.h"
+#include "io/files/files.h"
+#include "io/formats/material_io.h"
+#include "io/images/image_io.h"
 #include "models/evaluate.h"
 #include "models/material_maps.h"
 #include "test_util.h"
@@ -70,7 +70,7 @@ TEST(FitRecovery, NoiseFreeCurvedObjectsWithFiberFields) {
     FitResult r;
     expect_noise_free_limits(fit_and_compare(dir, so.truth, quiet(), &r));
     // The sphere's far side is unlit in some views: the loader closes those gaps in its arrays
-    // (fit/observations.cpp), and a record paired with another pixel's light would not fit.
+    // (fit/records/observations.cpp), and a record paired with another pixel's light would not fit.
     if (std::string(preset) == "satin-ball") {
       EXPECT_GT(r.report.unlit, 1000u);
     }
@@ -344,7 +344,7 @@ double worst_in_sigma(const FitResult& ra, const FitResult& rb, double limit) {
 
 // The three solvers of the plain line model land on the same estimate and the same
 // uncertainties: the fused Levenberg-Marquardt (the default: one pass over the observations per
-// step, fit/line_lm.h), Ceres on 256-pixel blocks with analytic derivatives and Huber by
+// step, fit/solvers/line_lm.h), Ceres on 256-pixel blocks with analytic derivatives and Huber by
 // reweighting (--solver ceres), and Ceres with one autodiff block per pixel and its own Huber loss
 // (the plainest statement of the problem). Same minimum within a tenth of sigma.
 TEST(FitPaths, FusedSolverAndCeresReachTheSameMinimum) {
@@ -369,7 +369,7 @@ TEST(FitPaths, FusedSolverAndCeresReachTheSameMinimum) {
                 o->chunked ? "256-pixel blocks" : "per pixel", worst, ra.report.seconds_solve,
                 rb.report.seconds_solve);
   }
-  // The 4-lane pass (fit/line_simd.h, where the CPU has AVX2) and the scalar pass: the same
+  // The 4-lane pass (fit/solvers/line_simd.h, where the CPU has AVX2) and the scalar pass: the same
   // function in another order of operations, so the same minimum to rounding.
   std::printf("4-lane pass on this CPU: %s\n", fitting::line_simd_enabled() ? "yes" : "no");
   EXPECT_EQ(ra.report.pass.rfind("4 pixels at a time", 0) == 0, fitting::line_simd_enabled())
@@ -396,9 +396,10 @@ namespace {
 
 // Where one material does not describe the sample (a swirled plate fitted globally: residual RMS
 // 11x the noise), many pixels lie outside Huber's core. The fused solver's steps use the cost's
-// own curvature there (fit/fused_lm.h, HuberCurvature), and Ceres' reweighted rounds go on until
-// the weights settle to 1e-4: both converge and land on the same minimum within a tenth of sigma.
-// Before, Ceres stopped after 6 rounds 0.13 sigma off in n and 0.2 in psi, and said CONVERGENCE.
+// own curvature there (fit/solvers/fused_lm.h, HuberCurvature), and Ceres' reweighted rounds go on
+// until the weights settle to 1e-4: both converge and land on the same minimum within a tenth of
+// sigma. Before, Ceres stopped after 6 rounds 0.13 sigma off in n and 0.2 in psi, and said
+// CONVERGENCE.
 TEST(FitPaths, FusedAndCeresAgreeWhereManyPixelsLieOutsideHubersCore) {
   const std::string dir = test::tmp_dir("set");
   PresetOptions p = small(16, 64);

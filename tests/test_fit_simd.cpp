@@ -1,7 +1,7 @@
-// The 4-lane pass of the plain line model (fit/line_simd.h) against the scalar pass it stands for
-// (fit/line_pixel.h): its own exp and log, and the sums of a pass over pixels that reach every
-// branch (the lobe's x <= 0, the chord near |a| = 1, Huber's outliers, a last group of fewer
-// than four).
+// The 4-lane pass of the plain line model (fit/solvers/line_simd.h) against the scalar pass it
+// stands for (fit/solvers/line_pixel.h): its own exp and log, and the sums of a pass over pixels
+// that reach every branch (the lobe's x <= 0, the chord near |a| = 1, Huber's outliers, a last
+// group of fewer than four).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,15 +15,16 @@
 #include <string>
 
 #include "core/frame.h"
-#include "fit/line_lm.h"
-#include "fit/line_simd.h"
-#include "fit/observations.h"
-#include "fit/pixel_frames.h"
-#include "fit/pixel_records.h"
-#include "fit/start.h"
-#include "fit/texel_sigmas.h"
-#include "fit/texel_simd.h"
-#include "io/capture.h"
+#include "fit/fit.h"
+#include "fit/maps/texel_sigmas.h"
+#include "fit/records/observations.h"
+#include "fit/records/pixel_frames.h"
+#include "fit/records/pixel_records.h"
+#include "fit/solvers/line_lm.h"
+#include "fit/solvers/line_simd.h"
+#include "fit/solvers/start.h"
+#include "fit/solvers/texel_simd.h"
+#include "io/formats/capture.h"
 #include "test_util.h"
 
 namespace aniso::fitting {
@@ -121,7 +122,7 @@ void compare_passes(bool chord) {
         for (int t = 0; t < 10; ++t) near(lanes.h[k][t], scalar.h[k][t]);
         for (int a = 0; a < 4; ++a) near(lanes.g[k][a], scalar.g[k][a]);
       }
-      // Huber's curvature outside its core (fit/fused_lm.h), present only under Huber.
+      // Huber's curvature outside its core (fit/solvers/fused_lm.h), present only under Huber.
       double sum = 0;
       for (int t = 0; t < HuberCurvature<8>::kTri; ++t) {
         near(lanes_c.c[t], scalar_c.c[t]);
@@ -140,9 +141,9 @@ TEST(FitPaths, FourLanePassSumsAsTheScalarPass) {
   compare_passes(true);
 }
 
-// The start's nodes (fit/start.h) four psi at a time against one at a time: the same k_d, k_s
-// and cost to rounding, with one and three lights per pixel, n from 2 to 4096, six nodes (four in
-// lanes, two alone).
+// The start's nodes (fit/solvers/start.h) four psi at a time against one at a time: the same k_d,
+// k_s and cost to rounding, with one and three lights per pixel, n from 2 to 4096, six nodes (four
+// in lanes, two alone).
 TEST(FitPaths, FourStartNodesAtOnceAsOneByOne) {
   if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
   for (int lights : {1, 3}) {
@@ -297,9 +298,9 @@ struct TexelWidths {
   ~TexelWidths() { set_texel_avx512(true); }
 };
 
-// A texel's float lanes (fit/texel_simd.h) against the double pass over the same records: the
-// cost, J^T J and J^T r to float's rounding (relative 1e-4 of each sum's scale), the double pass
-// from the lanes to double's, and eight start nodes at once as the double nodes (same cost to
+// A texel's float lanes (fit/solvers/texel_simd.h) against the double pass over the same records:
+// the cost, J^T J and J^T r to float's rounding (relative 1e-4 of each sum's scale), the double
+// pass from the lanes to double's, and eight start nodes at once as the double nodes (same cost to
 // 1e-4, the same best node); at either lane width, with an even and an odd number of groups.
 TEST(FitPaths, TexelFloatLanesAsTheDoublePass) {
   if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
@@ -384,7 +385,7 @@ void grey_lights_as_three_channels(size_t count) {
   EXPECT_FALSE(coloured.grey_light);
 }
 
-// The texel's block solve (fit/texel_sigmas.h) against Eigen's dense inverse, on J^T J of rows
+// The texel's block solve (fit/maps/texel_sigmas.h) against Eigen's dense inverse, on J^T J of rows
 // shaped as a texel's (channel k's row nonzero at k_d[k], k_s[k], log n, psi) plus a diagonal, as
 // the LM's damping adds: the step and the inverse's diagonal to 1e-6 relative, over matrices from
 // well to badly conditioned; a matrix that is not positive definite is refused.
@@ -424,7 +425,7 @@ TEST(FitPaths, TexelBlockSolveAsTheDenseInverse) {
   std::printf("block solve against the dense inverse: worst relative difference %.2e\n", worst);
 }
 
-// The loader's four pixels at a time (fit/pixel_frames.h) against make_frame, to_local and
+// The loader's four pixels at a time (fit/records/pixel_frames.h) against make_frame, to_local and
 // light_at one pixel at a time: the same bits, over random buffers with the cases that branch (a
 // zero normal, a tangent along the normal, the light on the point, an attenuation that is 0).
 TEST(FitPaths, PixelQuadsAreTheScalarFramesBitForBit) {
@@ -478,8 +479,8 @@ TEST(FitPaths, PixelQuadsAreTheScalarFramesBitForBit) {
 }
 
 // Views that share a geometry and an eye (a fixed camera) share their pixels' texels, frames and V
-// (fit/pixel_records.h SharedPixels): their records against each view finding its own, bit for
-// bit, with saturated pixels left out, a view whose eye moved (its own frames), --subsample and
+// (fit/records/pixel_records.h SharedPixels): their records against each view finding its own, bit
+// for bit, with saturated pixels left out, a view whose eye moved (its own frames), --subsample and
 // --maps' texels; and band by band, the same maps.
 TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
   if (!pixel_quads_enabled()) GTEST_SKIP() << "no AVX2 on this CPU";

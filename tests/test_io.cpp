@@ -1,4 +1,4 @@
-// File formats (FORMAT.md): images, capture sets, materials and sample tables round-trip; the
+// File formats (docs/formats.md): images, capture sets, materials and sample tables round-trip; the
 // readers decode what others may write (PNG with sRGB, OBJ meshes).
 #include <gtest/gtest.h>
 #include <tiffio.h>
@@ -26,12 +26,12 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
-#include "io/capture.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/mapped_file.h"
-#include "io/material_io.h"
-#include "io/table.h"
+#include "io/files/files.h"
+#include "io/files/mapped_file.h"
+#include "io/formats/capture.h"
+#include "io/formats/material_io.h"
+#include "io/formats/table.h"
+#include "io/images/image_io.h"
 #include "test_util.h"
 
 namespace aniso {
@@ -68,8 +68,8 @@ std::vector<float> openexr_pixels(const std::string& path, const std::vector<con
   return px;
 }
 
-// Compression "none" is our own writer (io/image_io.cpp, at memory speed): OpenEXR's reader takes
-// its files, header and values, for 1, 2 and 3 channels and odd sizes, exactly as the values
+// Compression "none" is our own writer (io/images/image_io.cpp, at memory speed): OpenEXR's reader
+// takes its files, header and values, for 1, 2 and 3 channels and odd sizes, exactly as the values
 // OpenEXR's own writer stored (zip).
 TEST(ImageIO, UncompressedExrFromOurWriterReadsBackThroughOpenExr) {
   const std::string dir = test::tmp_dir("img");
@@ -301,7 +301,7 @@ TEST(ImageIO, OnlyTheRowsAskedForAreRead) {
   set_exr_compression("zip");
 }
 
-// Uncompressed EXRs are read through a mapping of the file (io/mapped_file.h). A file another
+// Uncompressed EXRs are read through a mapping of the file (io/files/mapped_file.h). A file another
 // program shortens meanwhile would stop the process with "Bus error" on reading past its new end:
 // it is an error naming the file instead, exit status 1.
 TEST(ImageIO, AMappedFileThatGetsShorterIsAnErrorNamingIt) {
@@ -653,7 +653,7 @@ TEST(CaptureIO, WriteThenReadKeepsEverything) {
   EXPECT_DOUBLE_EQ(r.views[0].exposure, 0.5);
 }
 
-TEST(Lights, AttenuationAndSpotCone) {  // MODELS.md §2
+TEST(Lights, AttenuationAndSpotCone) {  // docs/models.md §2
   Light p;
   p.position = {0, 0, 2};
   p.intensity = {8, 8, 8};
@@ -704,7 +704,7 @@ TEST(Files, AFolderIsFilledInPlaceAndPublishedWhole) {
 }  // namespace
 }  // namespace aniso
 
-#include "io/json_util.h"
+#include "io/files/json_util.h"
 #include "models/topology.h"
 
 namespace aniso {

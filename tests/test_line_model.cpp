@@ -1,11 +1,11 @@
-// Properties of the line-lighting model (MODELS.md §3, §6).
+// Properties of the line-lighting model (docs/models.md §3, §6).
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "io/table.h"
+#include "io/formats/table.h"
 #include "models/evaluate.h"
 #include "models/line_model.h"
 
@@ -29,7 +29,7 @@ Material test_material() {
   return m;
 }
 
-TEST(LineModel, FiberDirectionSignDoesNotMatter) {  // T -> -T (MODELS.md §1)
+TEST(LineModel, FiberDirectionSignDoesNotMatter) {  // T -> -T (docs/models.md §1)
   std::mt19937_64 rng(1);
   Material a = test_material(), b = a;
   b.fiber_angle_deg = a.fiber_angle_deg + 180;
@@ -137,7 +137,7 @@ TEST(LineModel, FiniteAtGrazingAndDegenerateDirections) {
 }
 
 // Jet derivatives equal central differences, including a = <L,T> within 1e-6 of ±1 where
-// d sqrt(1 - a^2)/da is large (MODELS.md §6).
+// d sqrt(1 - a^2)/da is large (docs/models.md §6).
 TEST(LineModel, JetDerivativesMatchNumeric) {
   using J = ceres::Jet<double, 4>;
   std::mt19937_64 rng(5);

@@ -15,13 +15,13 @@
 #include "core/texture.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
-#include "fit/map_holes.h"
-#include "fit/observations.h"
-#include "fit/texel_solve.h"
-#include "io/capture.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/material_io.h"
+#include "fit/maps/map_holes.h"
+#include "fit/maps/texel_solve.h"
+#include "fit/records/observations.h"
+#include "io/files/files.h"
+#include "io/formats/capture.h"
+#include "io/formats/material_io.h"
+#include "io/images/image_io.h"
 #include "models/material_maps.h"
 #include "models/params.h"
 #include "test_util.h"
@@ -278,10 +278,11 @@ TEST(FitMaps, FiberModelMapsRecoverTheTopologyPerTexel) {
 // the mathematical topology; truth psi 0 everywhere): the line model's psi, the fiber solve's
 // start, is turned 35-47 degrees from the fibers across the sphere's middle, and the fiber solve
 // from there ended in another valley: 20 of 86 determined texels more than 45 degrees off, sigma
-// ~1 degree. The fiber model's own nodes give the second look its other valley (fit/texel_solve.cpp
-// fiber_other_valley): none is left more than 10 degrees off. And the fiber texels' solves that
-// crawled along a ridge of k_s and n to their iteration limit (20 of 140 solved) end where k_d,
-// psi and s have settled (fit/fused_lm.h kRidgeIterations): 92 texels determined, 76 without.
+// ~1 degree. The fiber model's own nodes give the second look its other valley
+// (fit/maps/texel_solve.cpp fiber_other_valley): none is left more than 10 degrees off. And the
+// fiber texels' solves that crawled along a ridge of k_s and n to their iteration limit (20 of 140
+// solved) end where k_d, psi and s have settled (fit/solvers/fused_lm.h kRidgeIterations): 92
+// texels determined, 76 without.
 TEST(FitMaps, FiberTexelsWhereTheFibersClimbFindTheirOwnValley) {
   const std::string dir = test::tmp_dir("fiber_climb");
   const std::string out =

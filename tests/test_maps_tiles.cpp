@@ -6,10 +6,10 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "io/capture.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/material_io.h"
+#include "io/files/files.h"
+#include "io/formats/capture.h"
+#include "io/formats/material_io.h"
+#include "io/images/image_io.h"
 #include "test_util.h"
 
 namespace aniso {

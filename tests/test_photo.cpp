@@ -11,11 +11,11 @@
 
 #include "core/color.h"
 #include "core/error.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "photo/board.h"
-#include "photo/plan.h"
-#include "photo/shoot.h"
+#include "io/files/files.h"
+#include "io/images/image_io.h"
+#include "photo/import/plan.h"
+#include "photo/shoot/board.h"
+#include "photo/shoot/shoot.h"
 #include "test_util.h"
 
 namespace aniso {
@@ -24,8 +24,8 @@ namespace {
 namespace fs = std::filesystem;
 
 // The printed board is found again by OpenCV's aruco detector: every marker, every inner corner,
-// each where the board frame of FORMAT.md puts it (metres times pixels per metre, OpenCV's pixel
-// centres), to a fraction of a pixel.
+// each where the board frame of docs/formats.md puts it (metres times pixels per metre, OpenCV's
+// pixel centres), to a fraction of a pixel.
 TEST(Board, RenderedBoardIsFoundWhereTheBoardFrameSaysItIs) {
   for (const BoardSpec& b : {BoardSpec{}, BoardSpec{7, 5, 0.04, 0.03, "DICT_4X4_50"}}) {
     const double dpi = 100, ppm = dpi / 0.0254;

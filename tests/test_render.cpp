@@ -11,13 +11,13 @@
 #include "core/error.h"
 #include "core/random_dir.h"
 #include "datasets_synth/presets.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/material_io.h"
+#include "io/files/files.h"
+#include "io/formats/material_io.h"
+#include "io/images/image_io.h"
 #include "models/line_model.h"
-#include "render/bake.h"
-#include "render/preview.h"
-#include "render/verify.h"
+#include "render/bake/bake.h"
+#include "render/preview/preview.h"
+#include "render/preview/verify.h"
 #include "test_util.h"
 
 namespace aniso {
@@ -234,8 +234,8 @@ TEST(FiberPreview, TorusWithTopologyMapMatchesTheBakedFormOnTheCpu) {
 
 #include <cstdlib>
 
-#include "io/material_io.h"
-#include "render/preview.h"
+#include "io/formats/material_io.h"
+#include "render/preview/preview.h"
 
 namespace aniso {
 namespace {

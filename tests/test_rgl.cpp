@@ -1,6 +1,6 @@
-// RGL material-database files (.bsdf, io/rgl_bsdf.h): the database's own reader's values on the
-// two shared files, hostile files refused by field, and a round trip through an anisotropic file
-// this test writes in the format.
+// RGL material-database files (.bsdf, io/formats/rgl_bsdf.h): the database's own reader's values on
+// the two shared files, hostile files refused by field, and a round trip through an anisotropic
+// file this test writes in the format.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,10 +9,10 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
-#include "io/files.h"
-#include "io/material_io.h"
-#include "io/rgl_bsdf.h"
-#include "io/table.h"
+#include "io/files/files.h"
+#include "io/formats/material_io.h"
+#include "io/formats/rgl_bsdf.h"
+#include "io/formats/table.h"
 #include "models/evaluate.h"
 #include "test_util.h"
 

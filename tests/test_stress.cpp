@@ -10,8 +10,8 @@
 #include "core/error.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
-#include "io/files.h"
-#include "io/image_io.h"
+#include "io/files/files.h"
+#include "io/images/image_io.h"
 #include "models/evaluate.h"
 #include "test_util.h"
 

@@ -15,13 +15,13 @@
 #include "core/angles.h"
 #include "core/error.h"
 #include "datasets_synth/presets.h"
-#include "fit/observations.h"
-#include "fit/solve.h"
-#include "fit/texel_solve.h"
-#include "io/capture.h"
-#include "io/files.h"
-#include "io/image_io.h"
-#include "io/table.h"
+#include "fit/global/solve.h"
+#include "fit/maps/texel_solve.h"
+#include "fit/records/observations.h"
+#include "io/files/files.h"
+#include "io/formats/capture.h"
+#include "io/formats/table.h"
+#include "io/images/image_io.h"
 #include "models/params.h"
 #include "test_util.h"
 
@@ -50,8 +50,8 @@ std::string small_capture(const std::string& dir, int bits = 0, const std::strin
 const char* kMaterial = R"({"format": "aniso-material", "version": 1, "model": "line",
   "kd": [0.2, 0.15, 0.1], "ks": 0.6, "n": 40, "fiber_angle_deg": 30})";
 
-// The whole uncertainty (fit/view_sandwich.h) is the noise's where the geometry is exact and the
-// model fits: a synthetic capture keeps sigma as the noise gives it. Where the model misses the
+// The whole uncertainty (fit/global/view_sandwich.h) is the noise's where the geometry is exact and
+// the model fits: a synthetic capture keeps sigma as the noise gives it. Where the model misses the
 // data (swirl-plate's varying direction fitted as one material) sigma takes the views' spread,
 // larger than the noise's, and says so.
 TEST(Trust, SigmaIsTheNoisesWhereTheModelFitsAndGrowsWhereItMisses) {
@@ -413,12 +413,12 @@ TEST(Trust, TwoFiberDirectionsThatFitAsWellAreBothNamed) {
                                5);
 }
 
-// The start's second look (fit/solve.h second_look) on settles whose sums of squares the test
-// sets, the model a real line fit: a settle from the grid's other valley that ends lower is taken
-// (core and residuals) and said; one within 16 sigma^2 of the first is taken if lower and named as
-// fitting as well; a higher one leaves the first as it was; one that ends in the first's valley
-// says nothing. (Real sets reach the first branch where the start's grid finds its best node by
-// the mirror of the truth: 1 of 60 noisy sets of in-plane readings with six off the plane.)
+// The start's second look (fit/global/solve.h second_look) on settles whose sums of squares the
+// test sets, the model a real line fit: a settle from the grid's other valley that ends lower is
+// taken (core and residuals) and said; one within 16 sigma^2 of the first is taken if lower and
+// named as fitting as well; a higher one leaves the first as it was; one that ends in the first's
+// valley says nothing. (Real sets reach the first branch where the start's grid finds its best node
+// by the mirror of the truth: 1 of 60 noisy sets of in-plane readings with six off the plane.)
 TEST(Trust, TheSecondLookTakesTheLowerValleyAndNamesATie) {
   struct Case {
     const char* what;
@@ -512,10 +512,10 @@ TEST(Trust, ATexelWhoseTwoFiberDirectionsFitAsWellIsNotDetermined) {
   }
 }
 
-// Texels whose two valleys the noise ranks (fit/start.h, kAsWellSigma2): the satin ball seen from
-// an orbit, its fiber at psi = 0 everywhere, holds thousands of texels with a second valley ~90
-// degrees away. Where the wrong one comes out lower by less than 16 sigma^2 the texel is not
-// determined: at 9 sigma^2 (the rule before) 9 of 5 102 determined texels here are more than 45
+// Texels whose two valleys the noise ranks (fit/solvers/start.h, kAsWellSigma2): the satin ball
+// seen from an orbit, its fiber at psi = 0 everywhere, holds thousands of texels with a second
+// valley ~90 degrees away. Where the wrong one comes out lower by less than 16 sigma^2 the texel is
+// not determined: at 9 sigma^2 (the rule before) 9 of 5 102 determined texels here are more than 45
 // degrees off the truth, at 16 none of 5 063 (5 055 at eight float lanes). And the start's k_s
 // stays inside its bounds (set_start_kd_ks): a node without specular signal gave up to 3e22, and
 // such texels stayed there undetermined: 4 697 determined without the clamp. And a crawl along
@@ -720,14 +720,14 @@ void expect_both_determine_alike(const SatinBallTexel& t, double sigma_tol = 0) 
 }
 
 // A texel whose data do not know its lobe is not determined where psi held away from its minimum
-// fits the data nearly as well (its profile, fit/texel_solve.cpp). (105, 141) and (133, 135), 13
-// pixels each near the sphere's limb: a lobe sharpened toward a needle is aimed at a pixel or two,
-// 80 degrees off the sample's fibers, its psi "known" to a fraction of a degree by the curvature
-// at the minimum (both solvers end there; Ceres ends in the first texel's flat valley elsewhere,
-// n 79, sigma 1.7 degrees, which its second look names); the grid over n with psi held 15 to 45
-// degrees away already fits nearly as well. (214, 100), 22 pixels, has no lobe at all (k_s 1e-4,
-// n unknown): its psi, 3.6 degrees off, comes from the diffuse term, and with psi held 30 degrees
-// away the solve (not the grid's node, 4.8 sigma^2 short) fits better.
+// fits the data nearly as well (its profile, fit/maps/texel_solve.cpp). (105, 141) and (133, 135),
+// 13 pixels each near the sphere's limb: a lobe sharpened toward a needle is aimed at a pixel or
+// two, 80 degrees off the sample's fibers, its psi "known" to a fraction of a degree by the
+// curvature at the minimum (both solvers end there; Ceres ends in the first texel's flat valley
+// elsewhere, n 79, sigma 1.7 degrees, which its second look names); the grid over n with psi held
+// 15 to 45 degrees away already fits nearly as well. (214, 100), 22 pixels, has no lobe at all (k_s
+// 1e-4, n unknown): its psi, 3.6 degrees off, comes from the diffuse term, and with psi held 30
+// degrees away the solve (not the grid's node, 4.8 sigma^2 short) fits better.
 TEST(Trust, ATexelWhoseLobeTheDataDoNotKnowIsCheckedByItsFibersProfile) {
   for (const char* xy : {"105 141", "133 135", "214 100"}) {
     const SatinBallTexel t = satin_ball_texel(xy);
@@ -915,7 +915,7 @@ TEST(Trust, AFiberTexelWithoutALobeLooksForTheGlobalLobe) {
 // degrees off the truth with sigma 1.37 from the curvature at the minimum (16 sigma); (9, 33), 44
 // pixels, 21.4 off, sigma 0.76 (28). Held 15 degrees away their sums of squares rose by no more
 // than sigmas of 6.1 and 4.9 degrees would have them: psi's sigma is the profile's
-// (fit/texel_parts.h texel_psi_profile), in both solvers alike.
+// (fit/maps/texel_parts.h texel_psi_profile), in both solvers alike.
 TEST(Trust, PsisSigmaIsAtLeastWhatItsProfileSays) {
   for (const char* xy : {"28 30", "9 33"}) {
     SCOPED_TRACE(std::string("texel ") + xy);

@@ -57,7 +57,7 @@ inline std::string memory_limit(long kb) {
 
 // The map file of `key` ("kd", "n_sigma", "determined", "topology_s", ...) that the material at
 // PREFIX.json names: fit --maps and merge write them beside it as PREFIX_KEY.GEN.exr, one
-// generation per run (io/files.h write_generation). PREFIX_KEY.exr (absent) if it names none.
+// generation per run (io/files/files.h write_generation). PREFIX_KEY.exr (absent) if it names none.
 inline std::string map_of(const std::string& prefix, const std::string& key) {
   const std::filesystem::path p(prefix);
   const std::string start = p.filename().string() + "_" + key + ".";

@@ -1,5 +1,5 @@
 // aniso: the fiber model (Poulin & Fournier; Hast) from its baked form: the line tables times the
-// factor tables G(phi_l, phi_v; s) and F(phi_l, phi_v; s, k) (MODELS.md §5). Include after
+// factor tables G(phi_l, phi_v; s) and F(phi_l, phi_v; s, k) (docs/models.md §5). Include after
 // aniso_lookup.glsl and `#define ANISO_NPHI`, `ANISO_NS`, `ANISO_NK` (the export writes them).
 //   tables/fiber_G.ktx2: ANISO_NPHI^2 x ANISO_NS layers; tables/fiber_F.ktx2: x ANISO_NS *
 //   ANISO_NK layers (layer is * NK + k); R32F; x = phi_l, y = phi_v = atan(<V,B>, <V,N>), texel i

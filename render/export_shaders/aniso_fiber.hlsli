@@ -1,5 +1,5 @@
 // aniso: the fiber model (Poulin & Fournier; Hast) from its baked form: the line tables times the
-// factor tables G(phi_l, phi_v; s) and F(phi_l, phi_v; s, k) (MODELS.md §5). Include after
+// factor tables G(phi_l, phi_v; s) and F(phi_l, phi_v; s, k) (docs/models.md §5). Include after
 // aniso_lookup.hlsli and ANISO_NPHI, ANISO_NS, ANISO_NK defined (the export writes them).
 // Layout as in aniso_fiber.glsl; Texture2DArray slices are whole layers (no filtering across).
 Texture2DArray<float> anisoFiberG : register(t2);

@@ -1,4 +1,4 @@
-// aniso: a material with maps (FORMAT.md "Material maps": k_d, k_s, n and the fiber direction
+// aniso: a material with maps (docs/formats.md "Material maps": k_d, k_s, n and the fiber direction
 // over the sample's texture coordinates) from the exported tables and maps. Include after
 // aniso_lookup.glsl; the export defines which maps the material has: ANISO_KD_MAP, ANISO_KS_MAP,
 // ANISO_FIBER_MAP and ANISO_N_MAP (with ANISO_STACK_LEVELS, ANISO_LOG_N0, ANISO_LOG_STEP).
@@ -74,7 +74,7 @@ vec3 anisoRadianceMapped(vec3 N, vec3 T, vec2 uv, vec3 L, vec3 V, vec3 kd, vec3 
 }
 
 #ifdef ANISO_NPHI
-// The fiber model's topology over uv (MODELS.md §4), repeated as in FORMAT.md (sample with
+// The fiber model's topology over uv (docs/models.md §4), repeated as in docs/formats.md (sample with
 // GL_REPEAT, GL_LINEAR): with ANISO_S_MAP a map of s itself (R32F); with ANISO_TOPOLOGY_MAP the
 // topology map h in [0, 1] (R32F, m = 2h - 1) and its amplitude, ANISO_TOPOLOGY_AMPLITUDE or, with
 // ANISO_AMPLITUDE_MAP, a map of it (R32F, wrap as maps.wrap).

@@ -1,4 +1,4 @@
-// aniso: a material with maps (FORMAT.md "Material maps") from the exported tables and maps, as
+// aniso: a material with maps (docs/formats.md "Material maps") from the exported tables and maps, as
 // shaders/aniso_maps.glsl (read it for the files and their layout). Include after
 // aniso_lookup.hlsli; the export defines ANISO_KD_MAP, ANISO_KS_MAP, ANISO_FIBER_MAP and
 // ANISO_N_MAP (with ANISO_STACK_LEVELS, ANISO_LOG_N0, ANISO_LOG_STEP) for the maps the material

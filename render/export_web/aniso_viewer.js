@@ -23,7 +23,7 @@ const srgb = (v) => { v = Math.min(Math.max(v, 0), 1);
   return v <= 0.0031308 ? 12.92 * v : 1.055 * Math.pow(v, 1 / 2.4) - 0.055; };
 
 // The KTX2 files aniso writes: one level, no supercompression, R32, RGBA16F or RGBA32F
-// (io/ktx2.h).
+// (io/formats/ktx2.h).
 async function loadKtx2(url) {
   const buf = await (await fetch(url)).arrayBuffer();
   const dv = new DataView(buf);
@@ -134,7 +134,7 @@ uniform vec3 kd; uniform vec3 ks; uniform float topologyS; uniform int sphereTop
 uniform vec3 L0; uniform float E0; uniform vec3 L1; uniform float E1; uniform vec3 V;
 in vec3 vN; in vec3 vT; in vec2 vUV; in vec3 vP;
 out vec4 fragColor;
-// The sphere's mathematical topology (MODELS.md §4, geometry/topology.cpp): meridian fibers
+// The sphere's mathematical topology (docs/models.md §4, geometry/topology.cpp): meridian fibers
 // compressed by 1 / sin(polar angle), the in-cycle rule c' = c / 2^floor(log2 c), s = acos(1/c')
 // / 60 deg; the sample sphere is centred at the origin, its poles on z.
 float sphereSmath(vec3 P) {

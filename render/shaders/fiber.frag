@@ -1,7 +1,7 @@
 #version 330 core
 // The fiber model from its baked form (render/bake.h): the line tables through the paper's
 // texture matrix times the factor tables G(phi_l, phi_v, s) and F(phi_l, phi_v, s, k), with the
-// topology s per fragment from the mathematical topology and the topology map (MODELS.md §4).
+// topology s per fragment from the mathematical topology and the topology map (docs/models.md §4).
 // With a map of n (uMaps & 4) S_line comes from the specular stack (maps.glsl: stack_at) and F
 // from uFStack, F's tables at levels over log n (render/bake.h: FiberStack; layer level * ns + s,
 // the nk tables of phi side by side), each blended between the two levels either side of log n.

@@ -1,5 +1,5 @@
 #version 330 core
-// Isotropic component (seed 000 §4): Lambert + Blinn-Phong, one pass per light.
+// Isotropic component (Heidrich & Seidel §4): Lambert + Blinn-Phong, one pass per light.
 in vec3 vN; in vec3 vT; in vec3 vT2;
 uniform vec3 uL; uniform vec3 uV; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs; uniform float uN;
 out vec4 frag;

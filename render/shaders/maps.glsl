@@ -1,4 +1,4 @@
-// The material maps of the preview's passes (FORMAT.md "Material maps"), spliced by
+// The material maps of the preview's passes (docs/formats.md "Material maps"), spliced by
 // render/preview.cpp into aniso.frag and fiber.frag where they say "// aniso: maps.glsl" (after
 // their `in vec2 vUV`). Bits of uMaps: 1 k_d, 2 k_s, 4 n (the line pass), 8 the fiber direction,
 // 16 the topology map's amplitude (the fiber pass). Read texel by texel and filtered here in

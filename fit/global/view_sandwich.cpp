@@ -1,0 +1,96 @@
+#include "fit/global/view_sandwich.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+#include "fit/solvers/model_fit.h"
+
+namespace aniso::fitting {
+
+std::vector<double> per_view_covariance(ModelFit* m, const ObsSet& os,
+                                        const std::vector<std::pair<double*, int>>& blocks,
+                                        const std::vector<double>& ainv, int threads,
+                                        size_t* views_used) {
+  *views_used = 0;
+  const size_t G = os.view_lights.size(), N = os.obs.size();
+  std::vector<double*> coords;
+  for (const auto& [b, size] : blocks)
+    for (int k = 0; k < size; ++k) coords.push_back(b + k);
+  const size_t P = coords.size();
+  if (G < P + 2 || P == 0 || ainv.size() != P * P || N > kMaxObservations) return {};
+  // Each observation's view, from the first of its lights.
+  auto view_of = [&](size_t i) {
+    const auto it = std::upper_bound(os.view_lights.begin(), os.view_lights.end(),
+                                     static_cast<size_t>(os.obs[i].first_light));
+    return static_cast<size_t>(it - os.view_lights.begin()) - 1;
+  };
+  tbb::task_arena arena(std::max(1, threads));
+  auto each = [&](auto&& f) {  // f(i, residual of i) over every observation, in parallel
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, N, 4096),
+                        [&](const tbb::blocked_range<size_t>& r) {
+                          double res[3];
+                          for (size_t i = r.begin(); i < r.end(); ++i) {
+                            m->residual(os, i, res);
+                            f(i, res);
+                          }
+                        });
+    });
+  };
+  // The residuals at the solution (float: only weights below, the same in both differences).
+  std::vector<float> r0(3 * N);
+  each([&](size_t i, const double* res) {
+    for (int c = 0; c < 3; ++c) r0[3 * i + c] = static_cast<float>(res[c]);
+  });
+  std::vector<size_t> count(G, 0);
+  for (size_t i = 0; i < N; ++i) ++count[view_of(i)];
+  // g[v * P + k]: view v's sum over its pixels and channels of dr/dtheta_k times r, as
+  // (sum r(theta + h) r0 - sum r(theta - h) r0) / 2h: linear in r, so each side is one pass that
+  // keeps nothing per observation. Moving a coordinate is shared state: it is set before each
+  // pass and restored after the two.
+  std::vector<double> g(G * P, 0.0);
+  for (size_t k = 0; k < P; ++k) {
+    double* x = coords[k];
+    const double x0 = *x, h = 1e-5 * std::max(1.0, std::abs(x0));
+    for (int side = 0; side < 2; ++side) {
+      *x = side == 0 ? x0 + h : x0 - h;
+      tbb::enumerable_thread_specific<std::vector<double>> part(
+          [&] { return std::vector<double>(G, 0.0); });
+      each([&](size_t i, const double* res) {
+        double s = 0;
+        for (int c = 0; c < 3; ++c) s += res[c] * r0[3 * i + c];
+        part.local()[view_of(i)] += s;
+      });
+      const double sign = side == 0 ? 1 / (2 * h) : -1 / (2 * h);
+      for (const auto& mine : part)
+        for (size_t v = 0; v < G; ++v) g[v * P + k] += sign * mine[v];
+    }
+    *x = x0;
+  }
+  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(P, P);
+  size_t used = 0;
+  for (size_t v = 0; v < G; ++v) {
+    if (count[v] == 0) continue;
+    ++used;
+    const Eigen::Map<const Eigen::VectorXd> gv(&g[v * P], P);
+    B += gv * gv.transpose();
+  }
+  if (used < P + 2) return {};
+  *views_used = used;
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> A(
+      ainv.data(), P, P);
+  const Eigen::MatrixXd C =
+      (static_cast<double>(used) / static_cast<double>(used - P)) * (A * B * A.transpose());
+  std::vector<double> out(P * P);
+  for (size_t r = 0; r < P; ++r)
+    for (size_t c = 0; c < P; ++c) out[r * P + c] = C(r, c);
+  return out;
+}
+
+}  // namespace aniso::fitting

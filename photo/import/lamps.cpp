@@ -1,0 +1,323 @@
+#include "photo/import/lamps.h"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+
+namespace aniso {
+
+namespace {
+
+// The board drawn at 0.1 mm a pixel: fine enough to test a point's clearance from the ink.
+constexpr double kDrawnMm = 0.1;
+
+// Points along the centre line of each square's white ring (between the marker and the square's
+// edge), about kSpacingM apart, that have white paper at least `clear` metres all round.
+constexpr double kSpacingM = 0.002;
+
+}  // namespace
+
+PaperPoints::PaperPoints(const BoardSpec& b, const std::vector<std::array<double, 2>>& polygon,
+                         double keep_away_m) {
+  const double dpi = 0.0254 / (kDrawnMm * 1e-3);
+  const Image drawn = render_board(b, dpi);
+  const double px_per_m = drawn.width / (b.squares_x * b.square_m);
+  const double gap = 0.5 * (b.square_m - b.marker_m);
+  // The ring's half width less what a pixel's blur and the corners' error reach.
+  const double clear = std::max(0.4 * gap, 0.5 * gap - 0.0006);
+  const int r = std::max(1, static_cast<int>(clear * px_per_m));
+  auto paper = [&](double x, double y) {
+    const int cx = static_cast<int>(x * px_per_m), cy = static_cast<int>(y * px_per_m);
+    if (cx - r < 0 || cy - r < 0 || cx + r >= drawn.width || cy + r >= drawn.height) return false;
+    for (int dy = -r; dy <= r; dy += std::max(1, r / 4))
+      for (int dx = -r; dx <= r; dx += std::max(1, r / 4))
+        if (drawn.at(cx + dx, cy + dy, 0) < 0.5f) return false;
+    return drawn.at(cx + r, cy + r, 0) > 0.5f && drawn.at(cx - r, cy - r, 0) > 0.5f;
+  };
+  const double side = b.square_m - gap;  // the ring's centre line, a square of this side
+  const int per_side = std::max(2, static_cast<int>(side / kSpacingM));
+  for (int j = 1; j + 1 < b.squares_y; ++j)
+    for (int i = 1; i + 1 < b.squares_x; ++i) {
+      const double x0 = i * b.square_m + 0.5 * gap, y0 = j * b.square_m + 0.5 * gap;
+      for (int e = 0; e < 4; ++e)
+        for (int k = 0; k < per_side; ++k) {
+          const double t = side * k / per_side;
+          const double x = e == 0 ? x0 + t : e == 1 ? x0 + side : e == 2 ? x0 + side - t : x0;
+          const double y = e == 0 ? y0 : e == 1 ? y0 + t : e == 2 ? y0 + side : y0 + side - t;
+          if (inside_polygon(polygon, x, y) || distance_to_outline(polygon, x, y) < keep_away_m)
+            continue;
+          if (paper(x, y)) points_.push_back({x, y, i, j, 0.5 * gap});
+        }
+    }
+}
+
+std::vector<PaperSample> paper_samples(const BoardSpec& b, const PaperPoints& where,
+                                       const std::vector<BoardCorner>& corners, const Image& rgb,
+                                       const std::vector<uint8_t>& saturated) {
+  // Corner (gi, gj) of the lattice (inner corners: 1 .. squares - 1) by its board position.
+  const auto obj = board_corners_m(b);
+  std::map<std::pair<int, int>, std::array<double, 2>> px;
+  for (const auto& c : corners) {
+    if (c.id < 0 || static_cast<size_t>(c.id) >= obj.size()) continue;
+    const int gi = static_cast<int>(std::lround(obj[c.id][0] / b.square_m));
+    const int gj = static_cast<int>(std::lround(obj[c.id][1] / b.square_m));
+    px[{gi, gj}] = {c.x, c.y};
+  }
+  std::vector<PaperSample> out;
+  std::map<std::pair<int, int>, cv::Mat> cells;  // each cell's homography, once
+  for (const auto& p : where.points()) {
+    const std::pair<int, int> key{p.i, p.j};
+    auto it = cells.find(key);
+    if (it == cells.end()) {
+      cv::Mat H;
+      std::vector<cv::Point2f> from, to;
+      for (int dj = 0; dj < 2; ++dj)
+        for (int di = 0; di < 2; ++di) {
+          const auto c = px.find({p.i + di, p.j + dj});
+          if (c == px.end()) break;
+          from.emplace_back(static_cast<float>((p.i + di) * b.square_m),
+                            static_cast<float>((p.j + dj) * b.square_m));
+          to.emplace_back(static_cast<float>(c->second[0]), static_cast<float>(c->second[1]));
+        }
+      if (from.size() == 4) H = cv::getPerspectiveTransform(from, to);
+      it = cells.emplace(key, H).first;
+    }
+    if (it->second.empty()) continue;
+    const cv::Mat& H = it->second;
+    const double w = H.at<double>(2, 0) * p.x + H.at<double>(2, 1) * p.y + H.at<double>(2, 2);
+    if (!(w > 0)) continue;
+    const double u = (H.at<double>(0, 0) * p.x + H.at<double>(0, 1) * p.y + H.at<double>(0, 2)) / w;
+    const double v = (H.at<double>(1, 0) * p.x + H.at<double>(1, 1) * p.y + H.at<double>(1, 2)) / w;
+    // The pixel's size on the board along its longest side: 1 / the smallest singular value of
+    // the homography's Jacobian (pixels per metre).
+    const double h00 = H.at<double>(0, 0), h01 = H.at<double>(0, 1), h10 = H.at<double>(1, 0),
+                 h11 = H.at<double>(1, 1), h20 = H.at<double>(2, 0), h21 = H.at<double>(2, 1);
+    const double j00 = (h00 - u * h20) / w, j01 = (h01 - u * h21) / w, j10 = (h10 - v * h20) / w,
+                 j11 = (h11 - v * h21) / w;
+    const double fro = j00 * j00 + j01 * j01 + j10 * j10 + j11 * j11,
+                 det = std::abs(j00 * j11 - j01 * j10);
+    const double smin2 = 0.5 * (fro - std::sqrt(std::max(fro * fro - 4 * det * det, 0.0)));
+    if (!(smin2 > 0) || kReachPixels / std::sqrt(smin2) > p.clear) continue;
+    const int x0 = static_cast<int>(std::floor(u)), y0 = static_cast<int>(std::floor(v));
+    if (x0 < 0 || y0 < 0 || x0 + 1 >= rgb.width || y0 + 1 >= rgb.height) continue;
+    bool clipped = false;
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx)
+        clipped |= !saturated.empty() &&
+                   saturated[static_cast<size_t>(y0 + dy) * rgb.width + x0 + dx] != 0;
+    if (clipped) continue;
+    const double tx = u - x0, ty = v - y0;
+    PaperSample s;
+    s.x = p.x, s.y = p.y;
+    bool finite = true;
+    for (int c = 0; c < 3; ++c) {
+      const double val =
+          (1 - tx) * (1 - ty) * rgb.at(x0, y0, c) + tx * (1 - ty) * rgb.at(x0 + 1, y0, c) +
+          (1 - tx) * ty * rgb.at(x0, y0 + 1, c) + tx * ty * rgb.at(x0 + 1, y0 + 1, c);
+      s.rgb[c] = static_cast<float>(val);
+      finite &= std::isfinite(val) && val > 0;
+    }
+    if (finite) out.push_back(s);
+  }
+  return out;
+}
+
+namespace {
+
+// The paper's shading at board point (x, y) per unit of rho I / pi: h / r^3 for the lamp at p
+// (z < 0 on the printed side); T a double or a Ceres Jet.
+template <class T>
+T shading(const T* p, double x, double y) {
+  using std::sqrt;
+  const T dx = p[0] - x, dy = p[1] - y, h = -p[2];
+  const T d2 = dx * dx + dy * dy + h * h;
+  return h / (d2 * sqrt(d2));
+}
+
+// One paper point's three channels: (A_c h / r^3 - v_c) / s_c, A_c = rho_c I_c / pi.
+struct PaperCost {
+  double x, y, v[3], inv_s[3];
+  template <class T>
+  bool operator()(const T* p, const T* a, T* r) const {
+    const T g = shading(p, x, y);
+    for (int c = 0; c < 3; ++c) r[c] = (a[c] * g - v[c]) * inv_s[c];
+    return true;
+  }
+};
+
+// The written position as a measurement of sigma metres per axis.
+struct PriorCost {
+  double w[3], inv_sigma;
+  template <class T>
+  bool operator()(const T* p, T* r) const {
+    for (int k = 0; k < 3; ++k) r[k] = (p[k] - w[k]) * inv_sigma;
+    return true;
+  }
+};
+
+// A_c in closed form at p (least squares over the points).
+void intensity_at(const std::vector<PaperSample>& paper, const double p[3], double a[3]) {
+  double gg = 0, gv[3] = {0, 0, 0};
+  for (const auto& s : paper) {
+    const double g = shading(p, s.x, s.y);
+    gg += g * g;
+    for (int c = 0; c < 3; ++c) gv[c] += g * s.rgb[c];
+  }
+  for (int c = 0; c < 3; ++c) a[c] = gg > 0 ? gv[c] / gg : 0;
+}
+
+// The robust relative spread of the paper about the shading at p, a: 1.4826 MAD.
+double relative_spread(const std::vector<PaperSample>& paper, const double p[3],
+                       const double a[3]) {
+  std::vector<double> e;
+  e.reserve(3 * paper.size());
+  for (const auto& s : paper) {
+    const double g = shading(p, s.x, s.y);
+    for (int c = 0; c < 3; ++c)
+      if (a[c] * g > 0) e.push_back(std::abs(s.rgb[c] / (a[c] * g) - 1));
+  }
+  if (e.empty()) return 1;
+  std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+  return 1.4826 * e[e.size() / 2];
+}
+
+}  // namespace
+
+namespace {
+
+// One solve of a lamp from the paper: p from `start`, with the prior N(centre, sigma^2) per axis,
+// twice (the data's weight from their spread about the first solution, a guess of 2 % for it);
+// a, the spread and the covariance of p with it. False where it does not settle.
+struct PaperSolve {
+  double p[3], a[3], cov[9], spread = 0.02;
+  std::string why;
+};
+bool solve_lamp(const std::vector<PaperSample>& paper, const Vec3& start, const Vec3& centre,
+                double sigma, double sample_height_m, PaperSolve* out) {
+  double* p = out->p;
+  double* a = out->a;
+  p[0] = start.x, p[1] = start.y, p[2] = start.z;
+  intensity_at(paper, p, a);
+  double med[3];
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> v;
+    v.reserve(paper.size());
+    for (const auto& s : paper) v.push_back(s.rgb[c]);
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    med[c] = std::max(v[v.size() / 2], 1e-12);
+  }
+  ceres::Solver::Summary summary;
+  std::unique_ptr<ceres::Problem> pb;
+  for (int pass = 0; pass < 2; ++pass) {
+    ceres::Problem::Options po;
+    pb = std::make_unique<ceres::Problem>(po);
+    for (const auto& s : paper) {
+      auto* cost = new PaperCost{s.x, s.y, {s.rgb[0], s.rgb[1], s.rgb[2]}, {}};
+      for (int c = 0; c < 3; ++c) cost->inv_s[c] = 1.0 / (out->spread * med[c]);
+      pb->AddResidualBlock(new ceres::AutoDiffCostFunction<PaperCost, 3, 3, 3>(cost),
+                           new ceres::CauchyLoss(3.0), p, a);
+    }
+    pb->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, 3, 3>(
+                             new PriorCost{{centre.x, centre.y, centre.z}, 1 / sigma}),
+                         nullptr, p);
+    // The lamp above the sample's surface, at least a centimetre.
+    pb->SetParameterUpperBound(p, 2, -sample_height_m - 0.01);
+    ceres::Solver::Options so;
+    so.max_num_iterations = 100;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.logging_type = ceres::SILENT;
+    ceres::Solve(so, pb.get(), &summary);
+    out->spread = std::max(relative_spread(paper, p, a), 1e-4);
+  }
+  if (!summary.IsSolutionUsable() || !std::isfinite(p[0] + p[1] + p[2] + a[0] + a[1] + a[2])) {
+    out->why = "the paper's shading did not settle (" + summary.message + ")";
+    return false;
+  }
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  ceres::Covariance cov(co);
+  if (!cov.Compute(std::vector<const double*>{p}, pb.get()) ||
+      !cov.GetCovarianceBlock(p, p, out->cov)) {
+    out->why = "the paper's shading leaves the position undetermined";
+    return false;
+  }
+  return true;
+}
+
+// Squared Mahalanobis distance of w from the paper-alone position: its covariance and the written
+// position's sigma^2 together.
+double mahalanobis2(const PaperSolve& alone, const Vec3& w, double sigma) {
+  Eigen::Matrix3d c;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) c(r, k) = alone.cov[3 * r + k] + (r == k ? sigma * sigma : 0);
+  const Eigen::Vector3d d(w.x - alone.p[0], w.y - alone.p[1], w.z - alone.p[2]);
+  return d.dot(c.ldlt().solve(d));
+}
+
+// The paper alone: a prior this wide only keeps a lamp the board cannot place from running off.
+constexpr double kPaperAloneSigmaM = 0.5;
+
+}  // namespace
+
+LampFound find_lamp(const std::vector<PaperSample>& paper, const Light& light, double sigma_m,
+                    const RGB& rho, double sample_height_m, const std::vector<Vec3>& alternatives) {
+  LampFound f;
+  f.written = light.position;
+  f.found = light.position;
+  f.written_intensity = light.intensity;
+  f.found_intensity = light.intensity;
+  f.prior_sigma_m = sigma_m;
+  f.points = paper.size();
+  if (light.type != Light::Type::kPoint) {
+    f.why = "not a point lamp";
+    return f;
+  }
+  if (light.attenuation[0] != 0 || light.attenuation[1] != 0 || light.attenuation[2] != 1) {
+    f.why = "its attenuation is not the inverse square";
+    return f;
+  }
+  constexpr size_t kMinPoints = 60;
+  if (paper.size() < kMinPoints) {
+    f.why = "too little of the board's paper in view (" + std::to_string(paper.size()) +
+            " points, " + std::to_string(kMinPoints) + " needed)";
+    return f;
+  }
+  // The paper alone first: does the written position agree with it?
+  PaperSolve alone, map;
+  if (!solve_lamp(paper, light.position, light.position, kPaperAloneSigmaM, sample_height_m,
+                  &alone)) {
+    f.why = alone.why;
+    return f;
+  }
+  f.alone = {alone.p[0], alone.p[1], alone.p[2]};
+  f.disagreement = std::sqrt(mahalanobis2(alone, light.position, sigma_m));
+  for (size_t k = 0; k < alternatives.size(); ++k)
+    if (std::sqrt(mahalanobis2(alone, alternatives[k], sigma_m)) < kDisagreeSigmas)
+      f.agrees_with.push_back(static_cast<int>(k));
+  // Written and paper agree: both together. Otherwise the written position is not a measurement
+  // of this lamp, and the paper alone places it.
+  const bool agree = f.disagreement < kDisagreeSigmas;
+  const PaperSolve* use = &alone;
+  if (agree) {
+    if (!solve_lamp(paper, f.alone, light.position, sigma_m, sample_height_m, &map)) {
+      f.why = map.why;
+      return f;
+    }
+    use = &map;
+  }
+  f.solved = true;
+  f.found = {use->p[0], use->p[1], use->p[2]};
+  for (int k = 0; k < 3; ++k) f.sigma_m[k] = std::sqrt(std::max(use->cov[4 * k], 0.0));
+  for (int c = 0; c < 3; ++c) f.found_intensity[c] = use->a[c] * M_PI / rho[c];
+  f.paper_rms = use->spread;
+  f.moved_sigmas = length(f.found - f.written) / sigma_m;
+  return f;
+}
+
+}  // namespace aniso

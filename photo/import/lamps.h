@@ -1,0 +1,90 @@
+// Finding the lamps of a photo shoot (docs/photo-shoot.md): a lamp's position as a
+// person writes it is a tape measurement (position_sigma_m, 2 cm unless stated) and its radiant
+// intensity is rarely known. The board's white paper is a Lambertian reference in every photo:
+// its shading, rho / pi * I * h / r^3 at a board point r metres from a lamp h metres above the
+// board, gives the lamp's place and intensity. Each photo lit by one point lamp gets both from
+// the paper between the markers (a maximum a posteriori fit with the written position as the
+// prior), with the position's sigma; I is absolute where the paper's reflectance is given and
+// relative to an assumed paper otherwise.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/vec.h"
+#include "models/light.h"
+#include "photo/shoot/board.h"
+#include "photo/shoot/shoot.h"
+
+namespace aniso {
+
+// A point of the board's white paper seen in one photo: board metres and its linear RGB.
+struct PaperSample {
+  double x = 0, y = 0;
+  float rgb[3] = {0, 0, 0};
+};
+
+// Where a board point of white paper lies: the paper ring between each marker and its square,
+// sampled along the ring's centre line, tested against the board as drawn. Computed once per
+// shoot (the board's rendering is the expensive part).
+class PaperPoints {
+ public:
+  PaperPoints(const BoardSpec& b, const std::vector<std::array<double, 2>>& polygon,
+              double keep_away_m);
+  // Board points with the lattice cell (i, j) that holds each, as pairs (point, cell).
+  struct Point {
+    double x, y;
+    int i, j;
+    double clear;  // metres of white paper all round it
+  };
+  const std::vector<Point>& points() const { return points_; }
+
+ private:
+  std::vector<Point> points_;
+};
+
+// The paper samples of one photo: each point's pixel through the homography of its own cell's
+// four detected corners (the lens bends a cell by far less than a pixel), its RGB interpolated
+// from the merged image; points in a cell not fully detected, off the image or near a clipped
+// pixel are left out, and so are points whose pixels reach the ink: kReachPixels pixels of the
+// photo, measured on the board through the cell's homography, must stay on the white paper
+// (on a 640x480 shoot the far side of a board seen 50 degrees off its normal has pixels of 2 mm,
+// and the ink in them shifted the shading by 1 % and the lamp by 10 mm).
+inline constexpr double kReachPixels = 2.0;
+std::vector<PaperSample> paper_samples(const BoardSpec& b, const PaperPoints& where,
+                                       const std::vector<BoardCorner>& corners, const Image& rgb,
+                                       const std::vector<uint8_t>& saturated);
+
+// The paper's reflectance taken where the shoot gives no reference: office paper reflects 0.8 to
+// 0.9 of visible light.
+inline constexpr double kAssumedPaperReflectance = 0.85;
+
+struct LampFound {
+  bool solved = false;
+  std::string why;  // why it was not (kept as written)
+  Vec3 written, found;
+  std::array<double, 3> sigma_m{};  // of the found position, per board axis
+  double prior_sigma_m = 0.02;
+  RGB written_intensity{1, 1, 1}, found_intensity{1, 1, 1};
+  double paper_rms = 0;  // relative RMS of the paper's shading about the fit (robust)
+  size_t points = 0;
+  double moved_sigmas = 0;  // |found - written| in sigma of the written position
+  // The paper alone, and how far the written position is from it: the Mahalanobis distance under
+  // the paper's covariance and the written sigma together. Beyond kDisagreeSigmas the written
+  // position is not taken as a measurement of the lamp and the paper alone places it.
+  Vec3 alone;
+  double disagreement = 0;
+  std::vector<int> agrees_with;  // the alternatives (find_lamp) the paper alone agrees with
+};
+inline constexpr double kDisagreeSigmas = 5;
+
+// The lamp of one photo from its paper samples; `light` as written, `rho` the paper's reflectance
+// per channel. Needs a point lamp (no attenuation other than the inverse square) and enough paper:
+// otherwise returns solved = false and why. `alternatives`: other readings of the written
+// position (measured from another edge) to test against the paper alone.
+LampFound find_lamp(const std::vector<PaperSample>& paper, const Light& light, double sigma_m,
+                    const RGB& rho, double sample_height_m,
+                    const std::vector<Vec3>& alternatives = {});
+
+}  // namespace aniso

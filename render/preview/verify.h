@@ -1,0 +1,43 @@
+// `aniso verify`: renders every view of a capture set with a material (the same shading the
+// simulator uses, from the set's geometry buffers, without shadow rays) and reports the error
+// against the captured images, per view and overall.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "io/formats/capture.h"
+#include "models/material.h"
+
+namespace aniso {
+
+struct ViewError {
+  size_t pixels = 0;
+  double rms = 0, max_abs = 0, mean_signal = 0;
+  // Pixels that read under a quarter of what the material predicts, short of it by more than 5
+  // sigma of the view's noise (robust, from its residuals), where it predicts at least a tenth of
+  // the view's mean: a cast shadow or an occluder (verify traces no shadow rays), or a material
+  // that does not describe them; and the RMS of the other pixels.
+  size_t dark = 0;
+  double rms_without_dark = 0;
+  // The image's own noise (one channel's sigma, robust, from second differences of neighbouring
+  // sample pixels: what a perfect model would leave), and the RMS against it.
+  double noise = 0;
+  double rel_rms() const { return mean_signal > 0 ? rms / mean_signal : 0; }
+  double rms_over_noise() const { return noise > 0 ? rms / noise : 0; }
+};
+// "at the noise" (RMS at most 1.5 times it), "near the noise" (at most 3), "misfit" (more).
+const char* verdict(double rms_over_noise);
+
+struct VerifyResult {
+  std::vector<ViewError> views;
+  ViewError overall;
+  size_t light_evals = 0;
+};
+
+// With `residual_dir`, also writes residual_NNN.exr per view (model - image, RGB; 0 off the
+// sample) and residual_NNN.png beside it: the green channel's residual over the view's noise,
+// blue at -3 sigma, white at 0, red at +3 sigma; grey off the sample.
+VerifyResult verify_capture(const CaptureSet& set, const Material& m,
+                            const std::string& residual_dir = "");
+
+}  // namespace aniso
