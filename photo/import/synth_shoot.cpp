@@ -279,10 +279,12 @@ void check_options(const PhotoShootOptions& o) {
   if (o.bracket.empty()) throw Error("synth --photos: the bracket needs at least one exposure");
   if (o.brdf != "truth" && o.brdf != "ggx")
     throw Error("synth --photos: --brdf must be truth or ggx, not '" + o.brdf + "'");
-  if (o.brdf == "ggx" && (o.truth.maps.any() || o.truth.model != Model::kLine))
+  if (o.brdf == "ggx" && (o.truth.maps.any() || o.truth.model != Model::kLine ||
+                          o.truth.has_second_fiber || o.truth.has_isotropic))
     throw Error(
         "synth --photos: --brdf ggx renders one line-model material (k_d, k_s, n, psi); "
-        "this preset has maps or is a fiber material");
+        "this material has maps, a second fiber, an isotropic term or is a fiber "
+                "material");
   if (!(o.ggx_alpha_b > 0 && o.ggx_alpha_b <= 1))
     throw Error("synth --photos: --ggx-alpha-b must be in (0, 1]");
 }
