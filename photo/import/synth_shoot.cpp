@@ -284,7 +284,7 @@ void check_options(const PhotoShootOptions& o) {
     throw Error(
         "synth --photos: --brdf ggx renders one line-model material (k_d, k_s, n, psi); "
         "this material has maps, a second fiber, an isotropic term or is a fiber "
-                "material");
+        "material");
   if (!(o.ggx_alpha_b > 0 && o.ggx_alpha_b <= 1))
     throw Error("synth --photos: --ggx-alpha-b must be in (0, 1]");
 }
