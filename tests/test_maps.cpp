@@ -182,6 +182,54 @@ TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
 // The other presets with maps (issue 11): a woven patch (a checker of warp and weft blocks that
 // differ in direction, colour and n) and a CD on a disc (hub, data area and rim differ in k_d, k_s
 // and n; psi along the circular grooves), each with 1 % noise, against their truth.
+// A maps material's scalars are what the format promises: the means over its determined texels
+// (here recomputed from the map files), the fiber angle as the mean of the doubled angle; the one
+// global fit is report.global, printed as such, and what a later --global reads.
+TEST(FitMaps, AMapsMaterialsScalarsAreTheMeansOfItsDeterminedTexels) {
+  const std::string dir = test::tmp_dir("means");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --out " + dir + "/m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("the material's values are the means of the"), std::string::npos)
+      << r.output;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
+  const Image kd = read_image(test::map_of(dir + "/m", "kd")).image,
+              n = read_image(test::map_of(dir + "/m", "n")).image,
+              fiber = read_image(test::map_of(dir + "/m", "fiber")).image,
+              det = read_image(test::map_of(dir + "/m", "determined")).image;
+  double sum_kd[3] = {}, sum_n = 0, c2 = 0, s2 = 0;
+  size_t count = 0;
+  for (size_t t = 0; t < det.px.size(); ++t) {
+    if (det.px[t] < 0.5) continue;
+    ++count;
+    for (int c = 0; c < 3; ++c) sum_kd[c] += kd.px[3 * t + c];
+    sum_n += n.px[t];
+    c2 += fiber.px[2 * t], s2 += fiber.px[2 * t + 1];
+  }
+  ASSERT_GT(count, 20u);
+  EXPECT_EQ(j["report"]["maps_means"]["texels"].get<size_t>(), count);
+  for (int c = 0; c < 3; ++c)  // the maps are floats; the means are of the doubles behind them
+    EXPECT_NEAR(j["kd"][c].get<double>(), sum_kd[c] / count, 1e-6);
+  EXPECT_NEAR(j["n"].get<double>(), sum_n / count, 1e-3);
+  double psi = 0.5 * std::atan2(s2, c2) * 180 / M_PI;
+  if (psi < 0) psi += 180;
+  EXPECT_NEAR(j["fiber_angle_deg"].get<double>(), psi, 1e-3);
+  // Each mean's sigma is below the texels' own: the mean of many.
+  EXPECT_GT(j["uncertainty"]["fiber_angle_deg"].get<double>(), 0);
+  // The global fit differs (the swirl turns: one direction fits none of it) and is kept.
+  const auto& g = j["report"]["global"];
+  EXPECT_NE(g["fiber_angle_deg"], j["fiber_angle_deg"]);
+  EXPECT_TRUE(g["uncertainty"].contains("fiber_angle_deg")) << g.dump();
+  // A later --global reads the global fit, not the means.
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --global " + dir + "/m.json --out " + dir +
+                    "/again.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto again = nlohmann::json::parse(read_text_file(dir + "/again.json"));
+  EXPECT_EQ(again["report"]["global"]["fiber_angle_deg"], g["fiber_angle_deg"]);
+  EXPECT_EQ(again["fiber_angle_deg"], j["fiber_angle_deg"]);
+}
+
 TEST(FitMaps, WovenPatchAndCdMapsMatchTheirTruth) {
   const std::string dir = test::tmp_dir("woven_cd");
   for (const std::string preset : {"woven-patch", "cd-maps"}) {
@@ -641,8 +689,8 @@ TEST(FitMaps, FiberModelMapsFitTheTopologyMapAmplitudePerTexel) {
       return read_image(test::map_of(dir + "/" + solver, key)).image;
     };
     const Image n = map("n"), n_sigma = map("n_sigma"), ks = map("ks"), det = map("determined");
-    const double global_n =
-        nlohmann::json::parse(read_text_file(dir + "/" + solver + ".json"))["n"];
+    const double global_n = nlohmann::json::parse(
+        read_text_file(dir + "/" + solver + ".json"))["report"]["global"]["n"];
     size_t no_lobe = 0;
     for (size_t t = 0; t < n.px.size(); ++t) {
       if (det.px[t] < 0.5 || !(n_sigma.px[t] >= std::numeric_limits<float>::max())) continue;

@@ -14,6 +14,7 @@
 #include <numeric>
 
 #include "fit/maps/map_holes.h"
+#include "fit/maps/maps_means.h"
 #include "fit/maps/maps_warnings.h"
 #include "io/files/files.h"
 #include "io/files/json_util.h"
@@ -263,6 +264,56 @@ jsonu::json report_json(const FitReport& p) {
   return j;
 }
 
+// A maps material's scalar values are the means of its determined texels (docs/formats.md
+// "Material maps": the scalar keys stay, as mean values), each with the sigma of its mean; the one
+// global fit (every texel's start, and the values of texels the data do not determine) is kept as
+// report.global, and read back from there by given_global.
+void put_maps_means(const TexelMaps& t, jsonu::json* j) {
+  const MapsMeans mm = maps_means(t);
+  jsonu::json& J = *j;
+  jsonu::json g = jsonu::json::object(), gu = jsonu::json::object();
+  const jsonu::json unc = J.value("uncertainty", jsonu::json::object());
+  for (const char* k : {"kd", "ks", "n", "fiber_angle_deg"}) {
+    g[k] = J[k];
+    if (unc.contains(k)) gu[k] = unc[k];
+  }
+  const bool s = mm.has_s && J.contains("topology") && J["topology"].contains("s");
+  if (s) {
+    g["topology"] = {{"s", J["topology"]["s"]}};
+    if (unc.contains("topology") && unc["topology"].contains("s"))
+      gu["topology"] = {{"s", unc["topology"]["s"]}};
+  }
+  g["uncertainty"] = gu;
+  g["note"] =
+      "the one global fit of the whole sample: every texel's start, and the values of the texels "
+      "the data do not determine; report.uncertainty_noise_only, fixed and undetermined are its";
+  J["report"]["global"] = g;
+  if (mm.texels == 0) {
+    J["report"]["maps_means"] = {
+        {"texels", 0},
+        {"note", "no texel is determined: the scalar values are the global fit's (report.global)"}};
+    return;
+  }
+  J["kd"] = {mm.kd[0], mm.kd[1], mm.kd[2]};
+  J["ks"] = {mm.ks[0], mm.ks[1], mm.ks[2]};
+  J["n"] = mm.n;
+  J["fiber_angle_deg"] = mm.psi_deg;
+  J["uncertainty"]["kd"] = {mm.kd_sigma[0], mm.kd_sigma[1], mm.kd_sigma[2]};
+  J["uncertainty"]["ks"] = {mm.ks_sigma[0], mm.ks_sigma[1], mm.ks_sigma[2]};
+  J["uncertainty"]["n"] = mm.n_sigma;
+  J["uncertainty"]["fiber_angle_deg"] = mm.psi_sigma_deg;
+  if (s) {
+    J["topology"]["s"] = mm.s;
+    J["uncertainty"]["topology"]["s"] = mm.s_sigma;
+  }
+  J["report"]["maps_means"] = {
+      {"texels", mm.texels},
+      {"note",
+       "kd, ks, n and fiber_angle_deg (and topology.s) are the means over these determined texels "
+       "(fiber_angle_deg: the mean direction of the doubled angle); their uncertainty is the "
+       "sigma of each mean from the texels' own sigmas; report.global holds the one global fit"}};
+}
+
 // What write_fit writes, maps aside. A map of s (--topology-map) goes into *s_map (R = s, G = its
 // sigma, -1 where undetermined) under the name the material gives it; without s_map it is written
 // beside the material at once (a tile's).
@@ -355,9 +406,19 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
   GivenGlobal g;
   g.file = file;
   // Read once; its maps (of an earlier --maps fit) are not loaded: only the global values count.
-  g.material = material_from_json(j, file);
-  g.material.base_dir = base_dir;
   const jsonu::json rep = j.value("report", jsonu::json::object());
+  // A maps material: its scalars are the maps' means; the global fit is report.global.
+  const bool maps_means = rep.is_object() && rep.contains("global") && rep["global"].is_object();
+  jsonu::json global_j = j;
+  if (maps_means) {
+    for (const auto& [k, v] : rep["global"].items())
+      if (k == "topology" && v.is_object() && global_j.contains("topology"))
+        for (const auto& [tk, tv] : v.items()) global_j["topology"][tk] = tv;
+      else if (k != "uncertainty" && k != "note")
+        global_j[k] = v;
+  }
+  g.material = material_from_json(global_j, file);
+  g.material.base_dir = base_dir;
   if (rep.is_object()) {
     const int order = rep.value("fiber_order", 0);
     if (order >= 1 && order <= 16) g.fiber_order = order;
@@ -373,8 +434,13 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
       if (w.is_string()) g.warnings.push_back(w);
   }
   // "uncertainty": a number or an array per key; null where undetermined.
-  if (!j.contains("uncertainty") || !j["uncertainty"].is_object()) return g;
-  for (const auto& [key, v] : j["uncertainty"].items()) {
+  jsonu::json unc = j.value("uncertainty", jsonu::json::object());
+  if (maps_means && unc.is_object()) {
+    const jsonu::json gu = rep["global"].value("uncertainty", jsonu::json::object());
+    for (auto it = gu.begin(); it != gu.end(); ++it) unc[it.key()] = it.value();
+  }
+  if (!unc.is_object()) return g;
+  for (const auto& [key, v] : unc.items()) {
     std::vector<double> s;
     if (v.is_number()) s.push_back(v.get<double>());
     if (v.is_array())
@@ -400,6 +466,7 @@ void write_fit(const std::string& path, const FitResult& r) {
     j["report"]["maps_misfit_texels"] = r.report.maps_misfit_texels;
     if (r.report.fiber_order > 0)
       j["report"]["maps_quadrature_orders"] = orders_json(r.maps.texels_by_order);
+    put_maps_means(r.maps, &j);
   }
   write_material(path, &j, [&](const std::string& dir) {
     if (!r.s_texels.empty())
@@ -603,6 +670,7 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
     fit["topology"]["map"] =
         relative_to(join_path(parent_dir(tiles[0]), fit["topology"]["map"].get<std::string>()),
                     parent_dir(out));
+  put_maps_means(m, &fit);
   write_material(out, &fit, [&](const std::string& dir) { add_maps(out, dir, m, &fit); });
 }
 

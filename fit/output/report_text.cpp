@@ -7,6 +7,7 @@
 
 #include "core/angles.h"
 #include "core/texture.h"
+#include "fit/maps/maps_means.h"
 #include "fit/output/report.h"
 #include "io/files/files.h"
 #include "io/images/image_io.h"
@@ -69,6 +70,22 @@ std::string describe_fit(const FitResult& r) {
     o << "  topology map " << t->file << " over " << math_topology_name(t->over) << "\n";
   if (!r.s_texels.empty())
     o << "  topology: a per-texel map of s, " << r.s_texels_n << " x " << r.s_texels_n << "\n";
+  if (r.maps.w > 0) {
+    // The values above are the one global fit; the material's scalars are the maps' means.
+    const MapsMeans mm = maps_means(r.maps);
+    char buf[400];
+    if (mm.texels == 0) {
+      o << "  (the one global fit; no texel of the maps is determined: the material keeps these)\n";
+    } else {
+      std::snprintf(buf, sizeof buf,
+                    "  (the one global fit, kept as report.global; the material's values are the "
+                    "means of the %zu determined texels: kd %.4g %.4g %.4g, ks %.4g %.4g %.4g, n "
+                    "%.4g, fiber_angle_deg %.3f%s)\n",
+                    mm.texels, mm.kd[0], mm.kd[1], mm.kd[2], mm.ks[0], mm.ks[1], mm.ks[2], mm.n,
+                    mm.psi_deg, mm.has_s ? (", s " + std::to_string(mm.s)).c_str() : "");
+      o << buf;
+    }
+  }
   return o.str();
 }
 
