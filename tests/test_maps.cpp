@@ -228,6 +228,25 @@ TEST(FitMaps, AMapsMaterialsScalarsAreTheMeansOfItsDeterminedTexels) {
   const auto again = nlohmann::json::parse(read_text_file(dir + "/again.json"));
   EXPECT_EQ(again["report"]["global"]["fiber_angle_deg"], g["fiber_angle_deg"]);
   EXPECT_EQ(again["fiber_angle_deg"], j["fiber_angle_deg"]);
+  // PNG previews beside the maps, named by the material: 8x6 texels of 43 pixels square.
+  ASSERT_TRUE(j.contains("previews")) << j.dump();
+  std::vector<std::string> first;
+  for (const char* k : {"kd", "ks", "n", "fiber"}) {
+    const std::string f = dir + "/" + j["previews"][k].get<std::string>();
+    first.push_back(f);
+    const LoadedImage img = read_image(f);
+    EXPECT_EQ(img.image.width, 8 * 43) << f;
+    EXPECT_EQ(img.image.height, 6 * 43) << f;
+  }
+  // The fiber picture's hue turns with the swirl: its texels are not all one colour.
+  const Image hue = read_image(first[3]).image;
+  EXPECT_NE(hue.at(43 / 2, 43 / 2, 0), hue.at(7 * 43 + 21, 5 * 43 + 21, 0));
+  // A run over it writes a new generation and removes the one before, previews included.
+  r = test::run_cli("fit " + dir + "/set --maps 4x3 --out " + dir + "/m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const auto& f : first) EXPECT_FALSE(std::filesystem::exists(f)) << f;
+  const auto j2 = nlohmann::json::parse(read_text_file(dir + "/m.json"));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/" + j2["previews"]["kd"].get<std::string>()));
 }
 
 TEST(FitMaps, WovenPatchAndCdMapsMatchTheirTruth) {

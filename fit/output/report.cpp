@@ -16,6 +16,7 @@
 #include "fit/maps/map_holes.h"
 #include "fit/maps/maps_means.h"
 #include "fit/maps/maps_warnings.h"
+#include "fit/output/map_previews.h"
 #include "io/files/files.h"
 #include "io/files/json_util.h"
 #include "io/formats/material_io.h"
@@ -43,7 +44,7 @@ std::vector<std::string> named_maps(const std::string& path) {
   if (!std::filesystem::is_regular_file(path) || stamped_kind(path) != "material") return named;
   try {
     const jsonu::json j = jsonu::json::parse(read_text_file(path));
-    for (const char* block : {"maps", "maps_uncertainty", "topology"})
+    for (const char* block : {"maps", "maps_uncertainty", "topology", "previews"})
       if (j.is_object() && j.contains(block) && j[block].is_object())
         for (const auto& [key, v] : j[block].items())
           if (v.is_string() && key != "map") named.push_back(v.get<std::string>());
@@ -56,7 +57,7 @@ std::vector<std::string> named_maps(const std::string& path) {
 // Every string value in the material's map blocks that is a plain name of this generation,
 // renamed to the name it has beside the material.
 void rename_maps(const std::map<std::string, std::string>& names, jsonu::json* j) {
-  for (const char* block : {"maps", "maps_uncertainty", "topology"})
+  for (const char* block : {"maps", "maps_uncertainty", "topology", "previews"})
     if (j->contains(block) && (*j)[block].is_object())
       for (auto& [key, v] : (*j)[block].items())
         if (v.is_string() && names.count(v.get<std::string>())) v = names.at(v.get<std::string>());
@@ -111,7 +112,14 @@ void add_maps(const std::string& path, const std::string& dir, const TexelMaps& 
   constexpr size_t kResidualFile = 15;
   if (!t.residual.empty())  // (a merge of tiles from before it has none)
     put(kResidualFile, 1, [&](size_t i, int) { return t.residual[i]; });
+  writes.push_back([&] { write_map_previews(path, dir, t, v.kd, v.ks, v.n, v.psi_deg); });
   tbb::parallel_for(size_t{0}, writes.size(), [&](size_t k) { writes[k](); });
+  (*j)["previews"] = {{"note",
+                       "8-bit pictures of the maps for a person, not read back: kd and ks in sRGB "
+                       "(ks scaled to its largest texel), n on a log scale from the map's smallest "
+                       "to its largest, the fiber direction as hue (the doubled angle round the "
+                       "colour wheel); texels the data do not determine dimmed to a quarter"}};
+  for (const MapPreview& p : map_preview_files(path)) (*j)["previews"][p.key] = p.file;
   (*j)["maps"] = {{"kd", f[0]}, {"ks", f[1]}, {"n", f[2]}, {"fiber", f[3]}, {"wrap", "clamp"}};
   (*j)["maps_uncertainty"] = {
       {"kd", f[4]},

@@ -923,7 +923,8 @@ void remove_generation(const std::string& owner, const std::vector<std::string>&
   for (const auto& n : names) {
     if (!is_generation_name(n) || std::find(keep.begin(), keep.end(), n) != keep.end()) continue;
     const fs::path p = parent / n;
-    if (lower_ext(n) != ".exr" || stamped_kind(p.string()).empty()) continue;
+    const std::string ext = lower_ext(n);
+    if ((ext != ".exr" && ext != ".png") || stamped_kind(p.string()).empty()) continue;
     std::error_code ec;
     fs::remove(p, ec);
   }

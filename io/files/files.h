@@ -129,8 +129,8 @@ std::string text_fingerprint(const std::string& text);
 // Whether `name` has the form write_generation gives (STEM.GEN.EXT, GEN 8 hex digits).
 bool is_generation_name(const std::string& name);
 // Removes the files `names` (relative to `owner`'s folder) of an earlier generation that `keep`
-// does not hold: only names of write_generation's form, and only EXR files whose stamp says
-// aniso wrote them.
+// does not hold: only names of write_generation's form, and only EXR and PNG files whose stamp
+// says aniso wrote them.
 void remove_generation(const std::string& owner, const std::vector<std::string>& names,
                        const std::vector<std::string>& keep);
 

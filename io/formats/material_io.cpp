@@ -198,7 +198,7 @@ Material material_from_json(const json& j, const std::string& file) {
   jsonu::check_keys(j,
                     {"format", "version", "model", "kd", "ks", "n", "fiber_angle_deg", "ka",
                      "isotropic", "second_fiber", "topology", "uncertainty", "fixed",
-                     "undetermined", "report", "maps", "maps_uncertainty", "written_by"},
+                     "undetermined", "report", "maps", "maps_uncertainty", "previews", "written_by"},
                     root);
   Material m;
   const std::string model = jsonu::str_or(j, "model", "line", root);
