@@ -247,6 +247,23 @@ TEST(FitMaps, AMapsMaterialsScalarsAreTheMeansOfItsDeterminedTexels) {
   for (const auto& f : first) EXPECT_FALSE(std::filesystem::exists(f)) << f;
   const auto j2 = nlohmann::json::parse(read_text_file(dir + "/m.json"));
   EXPECT_TRUE(std::filesystem::exists(dir + "/" + j2["previews"]["kd"].get<std::string>()));
+  // A grid finer than the 8 views support is named with the grid they do support, which then
+  // determines nearly every texel.
+  EXPECT_EQ(r.output.find("finer than the data support"), std::string::npos) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 32x32 --out " + dir + "/fine.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const size_t at = r.output.find("finer than the data support");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  const size_t sug = r.output.find("(--maps ", at);
+  ASSERT_NE(sug, std::string::npos) << r.output;
+  const std::string grid = r.output.substr(sug + 8, r.output.find(';', sug) - sug - 8);
+  std::printf("--maps 32x32 from 8 views of 64^2: suggested %s\n", grid.c_str());
+  r = test::run_cli("fit " + dir + "/set --maps " + grid + " --out " + dir + "/suggested.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("finer than the data support"), std::string::npos) << r.output;
+  const auto js = nlohmann::json::parse(read_text_file(dir + "/suggested.json"));
+  const int w = std::stoi(grid), h = std::stoi(grid.substr(grid.find('x') + 1));
+  EXPECT_GT(js["report"]["maps_means"]["texels"].get<double>(), 0.8 * w * h) << grid;
 }
 
 TEST(FitMaps, WovenPatchAndCdMapsMatchTheirTruth) {
