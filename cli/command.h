@@ -9,7 +9,7 @@
 #include "core/vec.h"
 
 namespace aniso {
-struct FitOptions;      // fit/fit.h
+struct FitOptions;      // fit/types/fit_types.h
 struct PreviewOptions;  // render/preview/preview.h
 struct Material;        // models/material.h
 }  // namespace aniso
