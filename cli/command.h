@@ -22,6 +22,7 @@ struct Command {
 };
 
 Command add_demo(CLI::App& app);
+Command add_report(CLI::App& app);
 Command add_synth(CLI::App& app);
 Command add_fit(CLI::App& app);
 Command add_eval(CLI::App& app);

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "core/angles.h"
 #include "core/color.h"
@@ -834,6 +835,92 @@ TEST(Export, BrowserViewerDrawsTheMapsPerFragment) {
       EXPECT_GE(mad_one_s, 3 * mad);
     }
   }
+}
+
+}  // namespace
+}  // namespace aniso
+
+namespace aniso {
+namespace {
+
+using test::run_command;
+
+// aniso report: the page's numbers are the fit's (each parameter's value, every cell of the
+// correlation heat map), the maps' previews and each view's residual picture are beside it, and
+// the folder is written once, never over a person's files.
+TEST(Report, ThePagesNumbersAreTheFits) {
+  const std::string dir = test::tmp_dir("report");
+  auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --maps 8x6 --out " + dir + "/m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("report " + dir + "/m.json --capture " + dir + "/set --out " + dir + "/rep");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("8 views"), std::string::npos) << r.output;
+  const std::string page = read_text_file(dir + "/rep/index.html");
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
+  // Each parameter's value cell: data-key='KEY'>v1 v2 v3<
+  for (const char* k : {"kd", "ks", "n", "fiber_angle_deg"}) {
+    const std::string tag = std::string("data-key='") + k + "'>";
+    const size_t at = page.find(tag);
+    ASSERT_NE(at, std::string::npos) << k;
+    std::istringstream cell(page.substr(at + tag.size(), page.find('<', at) - at - tag.size()));
+    nlohmann::json want = j[k];
+    if (!want.is_array()) want = nlohmann::json::array({j[k]});
+    for (const auto& w : want) {
+      double v = NAN;
+      cell >> v;
+      EXPECT_NEAR(v, w.get<double>(), 1e-5 * std::abs(w.get<double>())) << k;
+    }
+  }
+  // Every cell of the heat map, row by row, is the report's correlation.
+  const std::string svg = read_text_file(dir + "/rep/correlation.svg");
+  std::vector<double> cells;
+  for (size_t at = svg.find("data-value='"); at != std::string::npos;
+       at = svg.find("data-value='", at + 1))
+    cells.push_back(std::stod(svg.substr(at + 12)));
+  const auto& m = j["report"]["correlation"]["matrix"];
+  ASSERT_EQ(cells.size(), m.size() * m.size());
+  for (size_t i = 0; i < m.size(); ++i)
+    for (size_t k = 0; k < m.size(); ++k)
+      EXPECT_NEAR(cells[i * m.size() + k], m[i][k].get<double>(), 1e-5);
+  for (const char* f :
+       {"maps/kd.png", "maps/fiber.png", "views/residual_000.png", "views/residual_007.png"})
+    EXPECT_TRUE(std::filesystem::exists(dir + "/rep/" + f)) << f;
+  // A folder of a person's is not written over.
+  std::filesystem::create_directories(dir + "/mine");
+  std::ofstream(dir + "/mine/notes.txt") << "mine";
+  r = test::run_cli("report " + dir + "/m.json --out " + dir + "/mine");
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_EQ(read_text_file(dir + "/mine/notes.txt"), "mine");
+  // Not a material: named.
+  r = test::run_cli("report " + dir + "/set/capture.json --out " + dir + "/rep2");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("not a material file"), std::string::npos) << r.output;
+}
+
+// ... and headless Chromium opens it from the folder (no server, no network): every section and
+// every picture loads.
+TEST(Report, ThePageOpensInHeadlessChromium) {
+  const std::string dir = test::tmp_dir("report_chromium");
+  auto r = test::run_cli("synth brushed-metal " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --out " + dir + "/m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("report " + dir + "/m.json --capture " + dir + "/set --out " + dir + "/rep");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // The page counts its images that loaded into its title once they have.
+  const std::string dom =
+      run_command(
+          "timeout 120 chromium --headless=new --no-sandbox --disable-gpu --user-data-dir='" + dir +
+          "/profile' --virtual-time-budget=5000 --dump-dom 'file://" + dir +
+          "/rep/index.html' 2>/dev/null")
+          .output;
+  for (const char* h :
+       {"<title>aniso report: m.json</title>", "<h2>Parameters</h2>",
+        "<h2>Correlation of the fitted numbers</h2>", "<h2>Each view against the model</h2>"})
+    EXPECT_NE(dom.find(h), std::string::npos) << h << "\n" << dom.substr(0, 2000);
+  EXPECT_NE(dom.find("data-loaded=\"all\""), std::string::npos) << dom.substr(0, 2000);
 }
 
 }  // namespace

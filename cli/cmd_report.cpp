@@ -1,0 +1,39 @@
+// aniso report: a fit as a folder of pictures and tables a person can open (render/report/).
+#include <cstdio>
+#include <memory>
+
+#include "cli/command.h"
+#include "io/files/files.h"
+#include "render/report/report_page.h"
+
+namespace aniso::cli {
+
+Command add_report(CLI::App& app) {
+  auto a = std::make_shared<ReportOptions>();
+  auto* c = app.add_subcommand(
+      "report",
+      "Write a fit as a page a person can open offline (DIR/index.html): the parameters with their "
+      "whole and noise-only sigma, the warnings apart from the notes, the maps' previews, the "
+      "correlation matrix as a heat map, the phases' times; with --capture, each view's residual "
+      "picture and its RMS against the images' noise");
+  c->add_option("FIT", a->material, "material file that aniso fit wrote")->required();
+  c->add_option("--capture", a->capture,
+                "the capture set it was fitted to: each view against the model");
+  c->add_option("--out", a->out, "folder to write (index.html and its pictures)")->required();
+  add_force_flag(c);
+  return {c, [a] {
+            std::vector<std::string> inputs{a->material};
+            if (!a->capture.empty()) inputs.push_back(a->capture);
+            check_outputs_apart({a->out}, inputs);
+            check_output_folder(a->out, OutputKind::kText);
+            const ReportSummary s = write_report(*a);
+            std::printf(
+                "report: %s -> %s/index.html: %zu parameters, %zu warnings, %zu notes, %zu map "
+                "pictures%s, %zu views\n",
+                a->material.c_str(), a->out.c_str(), s.parameters, s.warnings, s.notes, s.maps,
+                s.correlation ? ", the correlation matrix" : "", s.views);
+            return 0;
+          }};
+}
+
+}  // namespace aniso::cli

@@ -1,0 +1,224 @@
+#include "render/report/report_page.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/error.h"
+#include "io/files/files.h"
+#include "io/formats/capture.h"
+#include "io/formats/material_io.h"
+#include "render/preview/verify.h"
+
+namespace aniso {
+
+namespace {
+
+using json = nlohmann::json;
+
+std::string esc(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    if (c == '<')
+      o += "&lt;";
+    else if (c == '>')
+      o += "&gt;";
+    else if (c == '&')
+      o += "&amp;";
+    else if (c == '"')
+      o += "&quot;";
+    else
+      o += c;
+  }
+  return o;
+}
+
+std::string num(double v) {
+  char b[40];
+  std::snprintf(b, sizeof b, "%.6g", v);
+  return b;
+}
+
+// A value or an array of them, as text.
+std::string values(const json& v) {
+  if (v.is_number()) return num(v.get<double>());
+  if (v.is_array()) {
+    std::string s;
+    for (const auto& x : v)
+      s += (s.empty() ? "" : " ") + (x.is_number() ? num(x.get<double>()) : "?");
+    return s;
+  }
+  if (v.is_null()) return "undetermined";
+  return esc(v.dump());
+}
+
+// The correlation matrix as an SVG heat map: blue -1, white 0, red +1, each cell's value written.
+std::string correlation_svg(const json& c) {
+  const auto& names = c["parameters"];
+  const auto& m = c["matrix"];
+  const int n = static_cast<int>(names.size()), cell = 44, left = 110, top = 110;
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << left + n * cell + 10 << "' height='"
+    << top + n * cell + 10 << "' font-family='sans-serif' font-size='10'>\n";
+  for (int i = 0; i < n; ++i) {
+    const std::string name = esc(names[i].get<std::string>());
+    s << "<text x='" << left - 4 << "' y='" << top + i * cell + cell / 2 + 3
+      << "' text-anchor='end'>" << name << "</text>\n";
+    s << "<text transform='translate(" << left + i * cell + cell / 2 + 3 << "," << top - 4
+      << ") rotate(-60)'>" << name << "</text>\n";
+    for (int k = 0; k < n; ++k) {
+      const double v = m[i][k].is_number() ? m[i][k].get<double>() : 0;
+      const double a = std::min(1.0, std::abs(v));
+      const int r = v >= 0 ? 255 : static_cast<int>(255 * (1 - a));
+      const int b = v <= 0 ? 255 : static_cast<int>(255 * (1 - a));
+      const int g = static_cast<int>(255 * (1 - a));
+      char val[16];
+      std::snprintf(val, sizeof val, "%.2f", v);
+      s << "<rect x='" << left + k * cell << "' y='" << top + i * cell << "' width='" << cell
+        << "' height='" << cell << "' fill='rgb(" << r << "," << g << "," << b
+        << ")' stroke='#ccc'/><text class='corr' x='" << left + k * cell + cell / 2 << "' y='"
+        << top + i * cell + cell / 2 + 3 << "' text-anchor='middle' data-value='" << num(v) << "'>"
+        << val << "</text>\n";
+    }
+  }
+  s << "</svg>\n";
+  return s.str();
+}
+
+}  // namespace
+
+ReportSummary write_report(const ReportOptions& o) {
+  const json j = json::parse(read_text_file(o.material), nullptr, false);
+  if (!j.is_object() || j.value("format", "") != "aniso-material")
+    throw Error(o.material + ": not a material file (format \"aniso-material\")");
+  read_material(o.material);  // refuses what the format does not allow, naming the key
+  const json rep = j.value("report", json::object());
+  const json unc = j.value("uncertainty", json::object());
+  const json noise = rep.value("uncertainty_noise_only", json::object());
+  ReportSummary sum;
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html><head><meta charset='utf-8'><title>aniso report: "
+    << esc(std::filesystem::path(o.material).filename().string())
+    << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;}"
+       "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:3px 8px;text-align:"
+       "right}th{background:#eee}.trouble{color:#a00}.note{color:#555}img{image-rendering:"
+       "pixelated;margin:4px}figure{display:inline-block;margin:6px}</style></head><body>\n";
+  h << "<h1>aniso report</h1>\n<p>Material <code>" << esc(o.material) << "</code>, model <b>"
+    << esc(j.value("model", "line")) << "</b>";
+  if (rep.contains("model_selection"))
+    h << "; chosen by BIC: " << esc(rep["model_selection"].get<std::string>());
+  h << ".</p>\n";
+  // The parameters.
+  h << "<h2>Parameters</h2>\n<p>"
+    << esc(rep.value("uncertainty", std::string("sigma: one standard deviation from the images' "
+                                                "noise")))
+    << "</p>\n<table id='parameters'><tr><th>parameter</th><th>value</th><th>sigma "
+       "(whole)</th><th>sigma (noise only)</th></tr>\n";
+  auto row = [&](const std::string& key, const json& v, const json& s, const json& sn) {
+    ++sum.parameters;
+    h << "<tr><td style='text-align:left'>" << esc(key) << "</td><td class='value' data-key='"
+      << esc(key) << "'>" << values(v) << "</td><td>" << (s.is_null() ? "" : values(s))
+      << "</td><td>" << (sn.is_null() ? "" : values(sn)) << "</td></tr>\n";
+  };
+  for (const char* k : {"kd", "ks", "n", "fiber_angle_deg"})
+    if (j.contains(k)) row(k, j[k], unc.value(k, json()), noise.value(k, json()));
+  for (const char* block : {"isotropic", "second_fiber", "topology"})
+    if (j.contains(block) && j[block].is_object())
+      for (const auto& [k, v] : j[block].items())
+        if (v.is_number() || v.is_array()) {
+          const json ub = unc.value(block, json::object()), nb = noise.value(block, json::object());
+          row(std::string(block) + "." + k, v, ub.is_object() ? ub.value(k, json()) : json(),
+              nb.is_object() ? nb.value(k, json()) : json());
+        }
+  h << "</table>\n";
+  if (rep.contains("maps_means"))
+    h << "<p class='note'>" << esc(rep["maps_means"].value("note", "")) << "</p>\n";
+  // Warnings (trouble) apart from notes (expected).
+  const json warnings = rep.value("warnings", json::array()),
+             notes = rep.value("notes", json::array());
+  h << "<h2>What to look at</h2>\n";
+  if (warnings.empty() && notes.empty()) h << "<p>No warning: the fit describes its data.</p>\n";
+  if (!warnings.empty()) {
+    h << "<h3 class='trouble'>Trouble</h3><ul>\n";
+    for (const auto& w : warnings)
+      h << "<li class='trouble'>" << esc(w.get<std::string>()) << "</li>\n";
+    h << "</ul>\n";
+  }
+  if (!notes.empty()) {
+    h << "<h3>Notes (expected)</h3><ul>\n";
+    for (const auto& w : notes) h << "<li class='note'>" << esc(w.get<std::string>()) << "</li>\n";
+    h << "</ul>\n";
+  }
+  sum.warnings = warnings.size(), sum.notes = notes.size();
+  const std::string base = parent_dir(o.material);
+  ReportSummary* s = &sum;
+  write_folder_atomically(o.out, OutputKind::kText, [&](const std::string& dir) {
+    // The maps' previews, copied beside the page.
+    if (j.contains("previews") && j["previews"].is_object()) {
+      h << "<h2>Maps</h2>\n";
+      std::filesystem::create_directories(join_path(dir, "maps"));
+      for (const auto& [k, v] : j["previews"].items()) {
+        if (!v.is_string() || k == "note") continue;
+        const std::string from = join_path(base, v.get<std::string>());
+        std::error_code ec;
+        if (!std::filesystem::is_regular_file(from, ec)) continue;
+        std::filesystem::copy_file(from, join_path(dir, "maps/" + k + ".png"));
+        h << "<figure><img src='maps/" << esc(k) << ".png' width='256'><figcaption>" << esc(k)
+          << "</figcaption></figure>\n";
+        ++s->maps;
+      }
+      h << "<p class='note'>" << esc(j["previews"].value("note", "")) << "</p>\n";
+    }
+    // The correlation matrix.
+    if (rep.contains("correlation") && rep["correlation"].contains("matrix")) {
+      s->correlation = true;
+      std::ofstream(join_path(dir, "correlation.svg")) << correlation_svg(rep["correlation"]);
+      h << "<h2>Correlation of the fitted numbers</h2>\n<img src='correlation.svg'>\n<p "
+           "class='note'>"
+        << esc(rep["correlation"].value("note", "")) << "</p>\n";
+    }
+    // Per view against the capture.
+    if (!o.capture.empty()) {
+      const CaptureSet set = read_capture(o.capture);
+      const VerifyResult v =
+          verify_capture(set, read_material(o.material), join_path(dir, "views"));
+      h << "<h2>Each view against the model</h2>\n<p>Residual pictures: model minus image over "
+           "the view's noise, blue at -3 sigma, white 0, red at +3 sigma; grey off the "
+           "sample.</p>\n<table id='views'><tr><th>view</th><th>pixels</th><th>RMS</th><th>noise"
+           "</th><th>RMS / noise</th><th>verdict</th><th>residual</th></tr>\n";
+      for (size_t i = 0; i < v.views.size(); ++i) {
+        const ViewError& e = v.views[i];
+        char name[48];
+        std::snprintf(name, sizeof name, "views/residual_%03zu.png", i);
+        h << "<tr><td>" << i << "</td><td>" << e.pixels << "</td><td>" << num(e.rms) << "</td><td>"
+          << num(e.noise) << "</td><td>" << num(e.rms_over_noise()) << "</td><td>"
+          << verdict(e.rms_over_noise()) << "</td><td><img src='" << name
+          << "' height='96'></td></tr>\n";
+      }
+      h << "<tr><th>all</th><td>" << v.overall.pixels << "</td><td>" << num(v.overall.rms)
+        << "</td><td>" << num(v.overall.noise) << "</td><td>" << num(v.overall.rms_over_noise())
+        << "</td><td>" << verdict(v.overall.rms_over_noise()) << "</td><td></td></tr></table>\n";
+      s->views = v.views.size();
+    }
+    // Where the time went.
+    if (rep.contains("time_breakdown_s") && rep["time_breakdown_s"].is_object()) {
+      h << "<h2>Time</h2>\n<table><tr><th>phase</th><th>seconds</th></tr>\n";
+      for (const auto& [k, t] : rep["time_breakdown_s"].items())
+        if (t.is_number())
+          h << "<tr><td>" << esc(k) << "</td><td>" << num(t.get<double>()) << "</td></tr>\n";
+      h << "</table>\n";
+    }
+    // For a headless browser (and a reader who wonders): whether every picture loaded.
+    h << "<script>window.addEventListener('load', () => { const bad = [...document.images]"
+         ".filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.getAttribute('src')); "
+         "document.body.dataset.loaded = bad.length ? 'missing ' + bad.join(' ') : 'all'; "
+         "});</script>\n</body></html>\n";
+    std::ofstream(join_path(dir, "index.html")) << h.str();
+  });
+  return sum;
+}
+
+}  // namespace aniso

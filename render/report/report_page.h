@@ -1,0 +1,24 @@
+// `aniso report`: a fit a person can look at. From a material file that `fit` wrote (and,
+// optionally, the capture it was fitted to), a folder with index.html that works offline: the
+// parameters with their whole and noise-only sigma, the warnings apart from the notes, the maps'
+// previews, the correlation matrix as an SVG heat map, the phases' times, and with the capture
+// each view's residual picture beside its RMS against the images' noise (render/preview/verify.h).
+#pragma once
+#include <string>
+
+namespace aniso {
+
+struct ReportOptions {
+  std::string material;  // FIT.json, as fit writes it
+  std::string capture;   // "" or the capture set it was fitted to
+  std::string out;       // the folder to write (atomically)
+};
+
+struct ReportSummary {
+  size_t parameters = 0, warnings = 0, notes = 0, views = 0, maps = 0;
+  bool correlation = false;
+};
+
+ReportSummary write_report(const ReportOptions& o);
+
+}  // namespace aniso
