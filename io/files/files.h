@@ -1,5 +1,5 @@
 // Files and folders the tool writes, and the rules that keep a person's files safe
-// (README "Your files are safe"; tests/test_files.cpp):
+// (docs/files.md; tests/test_files.cpp):
 //
 //  - Every output has a kind (OutputKind). A folder output records its kind and every file it
 //    wrote (path, size, modification time) in its marker file; a file output carries its kind in
