@@ -20,6 +20,7 @@
 #include "io/formats/rgl_bsdf.h"
 #include "io/formats/table.h"
 #include "io/images/image_io.h"
+#include "render/report/report_page.h"
 
 namespace aniso::cli {
 
@@ -38,7 +39,7 @@ std::string millions(double x) {  // x / 10^6 as %g prints it
 }
 
 struct FitArgs {
-  std::string in, out, truth, maps, tile, global, maps_solver = "lm", solver = "fused";
+  std::string in, out, truth, maps, tile, global, maps_solver = "lm", solver = "fused", report;
   std::string maps_lanes = "auto";
   std::string compression = "none";  // the maps' EXRs
   bool mpi = false;
@@ -396,8 +397,11 @@ void measured_fit_report(const RglBsdf& b, const SampleTable& table, FitResult* 
   }
 }
 
-int run_fit(const std::string& input, const FitOptions& fo, const std::string& out,
-            const std::string& truth_path) {
+namespace {
+
+// run_fit, and with report_dir (--report) the page of what it wrote.
+int fit_and_report(const std::string& input, const FitOptions& fo, const std::string& out,
+                   const std::string& truth_path, const std::string& report_dir) {
   // Every input is read and checked before the (long) fit; the output never replaces one.
   std::vector<std::string> inputs{input};
   std::vector<size_t> repeated;  // views that repeat an earlier one, left out
@@ -429,6 +433,13 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
     inputs.push_back(truth);
   }
   std::vector<std::string> outputs{out};
+  if (!report_dir.empty()) {
+    if (out == "-" || fo.tile_count > 0)
+      throw Error(
+          "fit: --report writes a page of the material file: give --out a file (and "
+          "report a tiled fit's merged material with aniso report)");
+    outputs.push_back(report_dir);
+  }
   if (fo.tile_count > 0 && fo.maps_w == 0)
     throw Error("fit: --tile splits a --maps fit: give --maps WxH");
   if (fo.maps_smooth > 0 && fo.maps_w == 0)
@@ -445,6 +456,7 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
                 " tiles (each holds whole rows)");
   check_outputs_apart(outputs, inputs);
   check_output_file(out, fo.tile_count > 0 ? OutputKind::kMapsTile : OutputKind::kMaterial);
+  if (!report_dir.empty()) check_output_folder(report_dir, OutputKind::kText);
   // What this fit read and how: a --global material must be of the same capture, and the tiles of
   // one merge must share both (merge compares them).
   const std::string capture_fp = is_table ? files_fingerprint({input}, parent_dir(input))
@@ -518,7 +530,18 @@ int run_fit(const std::string& input, const FitOptions& fo, const std::string& o
       std::fprintf(o, "against the truth (%s):\n%s", truth.c_str(),
                    compare_to_truth(r, truth_m, nullptr).c_str());
   }
+  if (!report_dir.empty()) {  // --report: aniso report of what was just written
+    write_report({out, is_table ? "" : input, report_dir});
+    std::fprintf(o, "fit: report: %s/index.html\n", report_dir.c_str());
+  }
   return 0;
+}
+
+}  // namespace
+
+int run_fit(const std::string& input, const FitOptions& fo, const std::string& out,
+            const std::string& truth_path) {
+  return fit_and_report(input, fo, out, truth_path, "");
 }
 
 // The options of --maps (per-texel maps, their solver, smoothing, tiles and MPI ranks).
@@ -607,6 +630,9 @@ Command add_fit(CLI::App& app) {
       ->default_str("line")
       ->transform(CLI::CheckedTransformer(models));
   fit->add_option("--out", a->out, "material file to write ('-' = standard output)")->required();
+  fit->add_option("--report", a->report,
+                  "also write the fit as a page (DIR/index.html), as `aniso report` does with "
+                  "this capture");
   add_force_flag(fit);
   fit->add_option(
       "--truth", a->truth,
@@ -666,7 +692,7 @@ Command add_fit(CLI::App& app) {
                 a->fo.model = a->fo.global->material.fiber() ? FitModel::kFiber : FitModel::kLine;
             }
             if (a->mpi) return run_fit_mpi(*a);
-            return run_fit(a->in, a->fo, a->out, a->truth);
+            return fit_and_report(a->in, a->fo, a->out, a->truth, a->report);
           }};
 }
 

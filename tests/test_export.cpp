@@ -893,6 +893,11 @@ TEST(Report, ThePagesNumbersAreTheFits) {
   r = test::run_cli("report " + dir + "/m.json --out " + dir + "/mine");
   EXPECT_NE(r.status, 0) << r.output;
   EXPECT_EQ(read_text_file(dir + "/mine/notes.txt"), "mine");
+  // fit --report: the same page of what the fit just wrote.
+  r = test::run_cli("fit " + dir + "/set --report " + dir + "/fitrep --out " + dir + "/f.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(read_text_file(dir + "/fitrep/index.html").find("Each view against the model"),
+            std::string::npos);
   // Not a material: named.
   r = test::run_cli("report " + dir + "/set/capture.json --out " + dir + "/rep2");
   EXPECT_NE(r.status, 0);
