@@ -37,6 +37,9 @@ std::vector<std::string> map_files(const std::string& material_path) {
 
 namespace {
 
+// The blocks of a material that name files of its maps' generation.
+constexpr const char* kMapBlocks[] = {"maps", "maps_uncertainty", "topology", "previews"};
+
 // The file names an aniso material at `path` gives in its map blocks (none, if there is no file
 // there, it is not a material, or aniso did not write it).
 std::vector<std::string> named_maps(const std::string& path) {
@@ -44,7 +47,7 @@ std::vector<std::string> named_maps(const std::string& path) {
   if (!std::filesystem::is_regular_file(path) || stamped_kind(path) != "material") return named;
   try {
     const jsonu::json j = jsonu::json::parse(read_text_file(path));
-    for (const char* block : {"maps", "maps_uncertainty", "topology", "previews"})
+    for (const char* block : kMapBlocks)
       if (j.is_object() && j.contains(block) && j[block].is_object())
         for (const auto& [key, v] : j[block].items())
           if (v.is_string() && key != "map") named.push_back(v.get<std::string>());
@@ -57,7 +60,7 @@ std::vector<std::string> named_maps(const std::string& path) {
 // Every string value in the material's map blocks that is a plain name of this generation,
 // renamed to the name it has beside the material.
 void rename_maps(const std::map<std::string, std::string>& names, jsonu::json* j) {
-  for (const char* block : {"maps", "maps_uncertainty", "topology", "previews"})
+  for (const char* block : kMapBlocks)
     if (j->contains(block) && (*j)[block].is_object())
       for (auto& [key, v] : (*j)[block].items())
         if (v.is_string() && names.count(v.get<std::string>())) v = names.at(v.get<std::string>());
@@ -410,22 +413,19 @@ std::string fit_text(const FitResult& r) {
 
 GivenGlobal given_global(const std::string& text, const std::string& file,
                          const std::string& base_dir) {
-  const jsonu::json j = jsonu::parse_file(text, file);
+  jsonu::json j = jsonu::parse_file(text, file);
   GivenGlobal g;
   g.file = file;
   // Read once; its maps (of an earlier --maps fit) are not loaded: only the global values count.
   const jsonu::json rep = j.value("report", jsonu::json::object());
-  // A maps material: its scalars are the maps' means; the global fit is report.global.
-  const bool maps_means = rep.is_object() && rep.contains("global") && rep["global"].is_object();
-  jsonu::json global_j = j;
-  if (maps_means) {
-    for (const auto& [k, v] : rep["global"].items())
-      if (k == "topology" && v.is_object() && global_j.contains("topology"))
-        for (const auto& [tk, tv] : v.items()) global_j["topology"][tk] = tv;
-      else if (k != "uncertainty" && k != "note")
-        global_j[k] = v;
+  // A maps material: its scalars are the maps' means; the global fit, values and uncertainty, is
+  // report.global, laid over them.
+  if (rep.is_object() && rep.contains("global") && rep["global"].is_object()) {
+    jsonu::json patch = rep["global"];
+    patch.erase("note");
+    j.merge_patch(patch);
   }
-  g.material = material_from_json(global_j, file);
+  g.material = material_from_json(j, file);
   g.material.base_dir = base_dir;
   if (rep.is_object()) {
     const int order = rep.value("fiber_order", 0);
@@ -442,11 +442,7 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
       if (w.is_string()) g.warnings.push_back(w);
   }
   // "uncertainty": a number or an array per key; null where undetermined.
-  jsonu::json unc = j.value("uncertainty", jsonu::json::object());
-  if (maps_means && unc.is_object()) {
-    const jsonu::json gu = rep["global"].value("uncertainty", jsonu::json::object());
-    for (auto it = gu.begin(); it != gu.end(); ++it) unc[it.key()] = it.value();
-  }
+  const jsonu::json unc = j.value("uncertainty", jsonu::json::object());
   if (!unc.is_object()) return g;
   for (const auto& [key, v] : unc.items()) {
     std::vector<double> s;

@@ -94,7 +94,7 @@ ReportSummary write_report(const ReportOptions& o) {
   const json j = json::parse(read_text_file(o.material), nullptr, false);
   if (!j.is_object() || j.value("format", "") != "aniso-material")
     throw Error(o.material + ": not a material file (format \"aniso-material\")");
-  read_material(o.material);  // refuses what the format does not allow, naming the key
+  const Material material = read_material(o.material);  // refuses what the format does not allow
   const json rep = j.value("report", json::object());
   const json unc = j.value("uncertainty", json::object());
   const json noise = rep.value("uncertainty_noise_only", json::object());
@@ -154,7 +154,6 @@ ReportSummary write_report(const ReportOptions& o) {
   }
   sum.warnings = warnings.size(), sum.notes = notes.size();
   const std::string base = parent_dir(o.material);
-  ReportSummary* s = &sum;
   write_folder_atomically(o.out, OutputKind::kText, [&](const std::string& dir) {
     // The maps' previews, copied beside the page.
     if (j.contains("previews") && j["previews"].is_object()) {
@@ -168,13 +167,13 @@ ReportSummary write_report(const ReportOptions& o) {
         std::filesystem::copy_file(from, join_path(dir, "maps/" + k + ".png"));
         h << "<figure><img src='maps/" << esc(k) << ".png' width='256'><figcaption>" << esc(k)
           << "</figcaption></figure>\n";
-        ++s->maps;
+        ++sum.maps;
       }
       h << "<p class='note'>" << esc(j["previews"].value("note", "")) << "</p>\n";
     }
     // The correlation matrix.
     if (rep.contains("correlation") && rep["correlation"].contains("matrix")) {
-      s->correlation = true;
+      sum.correlation = true;
       std::ofstream(join_path(dir, "correlation.svg")) << correlation_svg(rep["correlation"]);
       h << "<h2>Correlation of the fitted numbers</h2>\n<img src='correlation.svg'>\n<p "
            "class='note'>"
@@ -183,8 +182,7 @@ ReportSummary write_report(const ReportOptions& o) {
     // Per view against the capture.
     if (!o.capture.empty()) {
       const CaptureSet set = read_capture(o.capture);
-      const VerifyResult v =
-          verify_capture(set, read_material(o.material), join_path(dir, "views"));
+      const VerifyResult v = verify_capture(set, material, join_path(dir, "views"));
       h << "<h2>Each view against the model</h2>\n<p>Residual pictures: model minus image over "
            "the view's noise, blue at -3 sigma, white 0, red at +3 sigma; grey off the "
            "sample.</p>\n<table id='views'><tr><th>view</th><th>pixels</th><th>RMS</th><th>noise"
@@ -201,7 +199,7 @@ ReportSummary write_report(const ReportOptions& o) {
       h << "<tr><th>all</th><td>" << v.overall.pixels << "</td><td>" << num(v.overall.rms)
         << "</td><td>" << num(v.overall.noise) << "</td><td>" << num(v.overall.rms_over_noise())
         << "</td><td>" << verdict(v.overall.rms_over_noise()) << "</td><td></td></tr></table>\n";
-      s->views = v.views.size();
+      sum.views = v.views.size();
     }
     // Where the time went.
     if (rep.contains("time_breakdown_s") && rep["time_breakdown_s"].is_object()) {
