@@ -885,8 +885,25 @@ TEST(Report, ThePagesNumbersAreTheFits) {
     for (size_t k = 0; k < m.size(); ++k)
       EXPECT_NEAR(cells[i * m.size() + k], m[i][k].get<double>(), 1e-5);
   for (const char* f :
-       {"maps/kd.png", "maps/fiber.png", "views/residual_000.png", "views/residual_007.png"})
+       {"maps/kd.png", "maps/fiber.png", "views/residual_000.png", "views/residual_007.png",
+        "maps/uncertainty_fiber.png", "maps/uncertainty_coverage.png"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/rep/" + f)) << f;
+  // The direction field's first glyph is texel (0, 0)'s fiber angle (a glyph per texel here).
+  const std::string field = read_text_file(dir + "/rep/maps/direction_field.svg");
+  EXPECT_NE(field.find("data-glyphs='48'"), std::string::npos);
+  const Image fiber = read_image(dir + "/" + j["maps"]["fiber"].get<std::string>()).image;
+  const double psi0 = std::fmod(90 / M_PI * std::atan2(fiber.px[1], fiber.px[0]) + 180, 180);
+  const size_t g = field.find("data-psi='");
+  ASSERT_NE(g, std::string::npos);
+  EXPECT_NEAR(std::stod(field.substr(g + 10)), psi0, 0.006) << field.substr(g, 30);
+  // The convergence plot holds the report's costs, which never rise.
+  const auto& cost = j["report"]["convergence"]["cost"];
+  ASSERT_GE(cost.size(), 2u);
+  for (size_t i = 1; i < cost.size(); ++i)
+    EXPECT_LE(cost[i].get<double>(), cost[i - 1].get<double>());
+  const std::string conv = read_text_file(dir + "/rep/convergence.svg");
+  EXPECT_NE(conv.find("data-steps='" + std::to_string(cost.size() - 1) + "'"), std::string::npos)
+      << conv.substr(0, 300);
   // A folder of a person's is not written over.
   std::filesystem::create_directories(dir + "/mine");
   std::ofstream(dir + "/mine/notes.txt") << "mine";
@@ -902,6 +919,59 @@ TEST(Report, ThePagesNumbersAreTheFits) {
   r = test::run_cli("report " + dir + "/set/capture.json --out " + dir + "/rep2");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("not a material file"), std::string::npos) << r.output;
+}
+
+// One figure's data- attribute, each occurrence in order.
+std::vector<double> svg_values(const std::string& svg, const std::string& key) {
+  std::vector<double> v;
+  const std::string tag = key + "='";
+  for (size_t at = svg.find(tag); at != std::string::npos; at = svg.find(tag, at + 1))
+    v.push_back(std::stod(svg.substr(at + tag.size())));
+  return v;
+}
+
+// The residual histogram and the lobe against the data say whether the model describes the
+// capture: a fit of brushed metal leaves unit Gaussian residuals and a lobe on its data; the same
+// material with k_s 20 % low does neither.
+TEST(Report, TheResidualsAndTheLobeSayWhetherTheModelFits) {
+  const std::string dir = test::tmp_dir("report_lobe");
+  auto r = test::run_cli("synth brushed-metal " + dir + "/set --noise 0.01 --size 64x64 --views 8");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("fit " + dir + "/set --out " + dir + "/m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
+  for (auto& k : j["ks"]) k = 0.8 * k.get<double>();
+  j.erase("written_by");
+  write_json_file(dir + "/low.json", j);
+  struct Figures {
+    double sd, within1;
+    std::vector<double> misfit, count;
+  };
+  auto figures = [&](const std::string& material, const std::string& out) {
+    const auto rr = test::run_cli("report " + material + " --capture " + dir + "/set --out " + out);
+    EXPECT_EQ(rr.status, 0) << rr.output;
+    const std::string h = read_text_file(out + "/residual_histogram.svg"),
+                      l = read_text_file(out + "/lobe.svg");
+    return Figures{svg_values(h, "data-std").at(0), svg_values(h, "data-within1").at(0),
+                   svg_values(l, "data-misfit"), svg_values(l, "data-count")};
+  };
+  const Figures fit = figures(dir + "/m.json", dir + "/rep"),
+                low = figures(dir + "/low.json", dir + "/rep_low");
+  std::printf("fit: std %.3f, within 1 sigma %.3f; k_s 20%% low: std %.3f\n", fit.sd, fit.within1,
+              low.sd);
+  EXPECT_NEAR(fit.sd, 1.0, 0.1);
+  EXPECT_NEAR(fit.within1, 0.683, 0.05);
+  EXPECT_GT(low.sd, 1.3 * fit.sd);
+  ASSERT_EQ(fit.misfit.size(), 4u);
+  double worst = 0, worst_low = 0;
+  for (size_t k = 0; k < fit.misfit.size(); ++k) {
+    std::printf("lobe panel %zu: %g points, misfit %.4f (k_s low: %.4f)\n", k, fit.count[k],
+                fit.misfit[k], low.misfit[k]);
+    EXPECT_GT(fit.count[k], 200);
+    worst = std::max(worst, fit.misfit[k]), worst_low = std::max(worst_low, low.misfit[k]);
+  }
+  EXPECT_LT(worst, 0.02);
+  EXPECT_GT(worst_low, 5 * worst);
 }
 
 // ... and headless Chromium opens it from the folder (no server, no network): every section and
@@ -923,7 +993,9 @@ TEST(Report, ThePageOpensInHeadlessChromium) {
           .output;
   for (const char* h :
        {"<title>aniso report: m.json</title>", "<h2>Parameters</h2>",
-        "<h2>Correlation of the fitted numbers</h2>", "<h2>Each view against the model</h2>"})
+        "<h2>Correlation of the fitted numbers</h2>", "<h2>Each view against the model</h2>",
+        "<h2>Convergence</h2>", "<h2>Residuals against the images' noise</h2>",
+        "<h2>The lobe against the data</h2>"})
     EXPECT_NE(dom.find(h), std::string::npos) << h << "\n" << dom.substr(0, 2000);
   EXPECT_NE(dom.find("data-loaded=\"all\""), std::string::npos) << dom.substr(0, 2000);
 }

@@ -182,6 +182,8 @@ void summarize(const ObsSet& os, size_t nparam, Solution* sol, FitReport* rep) {
     rep->termination = ceres::TerminationTypeToString(sum.termination_type);
     rep->residual_evaluations = sum.num_residual_evaluations;
     rep->jacobian_evaluations = sum.num_jacobian_evaluations;
+    rep->convergence.clear();
+    for (const auto& it : sum.iterations) rep->convergence.push_back(it.cost);
     if (sum.termination_type == ceres::FAILURE)
       throw Error("fit: the solver failed: " + sum.message);
     std::vector<double> r;
@@ -235,11 +237,13 @@ bool solve_fused(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport
     rep->staged_iterations = first.iterations;
   }
   FusedSolve f;
+  f.record_costs = true;
   if (!m->solve_fused(os, nullptr, opt.loss, rep->loss_scale, opt, &f)) return false;
   sol->information = f.info;
   sol->information_order = f.order;
   sol->rss = f.rss;
   rep->iterations = f.iterations;
+  rep->convergence = f.costs;
   rep->termination = f.converged ? "CONVERGENCE" : "NO_CONVERGENCE";
   rep->residual_evaluations = rep->jacobian_evaluations = static_cast<size_t>(f.passes);
   rep->solver = "fused LM";

@@ -246,6 +246,13 @@ jsonu::json report_json(const FitReport& p) {
                    {"parameters", p.parameters},
                    {"jacobian_evaluations", p.jacobian_evaluations}};
   if (!p.pass.empty()) j["pass"] = p.pass;
+  if (!p.convergence.empty() && std::all_of(p.convergence.begin(), p.convergence.end(),
+                                            [](double c) { return std::isfinite(c); }))
+    j["convergence"] = {{"cost", p.convergence},
+                        {"note",
+                         "the solver's cost (its sum of squared residuals, robust where a loss "
+                         "applies, each solver in its own scale) at its start and after each "
+                         "accepted step"}};
   if (!p.capture_fingerprint.empty()) j["capture_fingerprint"] = p.capture_fingerprint;
   if (!p.capture_layout.empty()) j["capture_layout"] = p.capture_layout;
   if (!p.options_fingerprint.empty()) j["options_fingerprint"] = p.options_fingerprint;

@@ -334,6 +334,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
   *x = x->cwiseMax(lo).cwiseMin(hi);
   *cur = pass(*x, true);
   out->passes = 1;
+  if (out->record_costs) out->costs.assign(1, cur->cost);
   NielsenDamping damp;
   damp.lambda = lambda0;
   VecP<P> prev = VecP<P>::Zero();  // the last plain step taken
@@ -389,6 +390,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
       *x = xn;
       *cur = next;
       ++out->iterations;
+      if (out->record_costs) out->costs.push_back(cur->cost);
       if (small_decrease) {
         out->converged = true;
         break;

@@ -50,6 +50,10 @@ struct FusedSolve {
   int iterations = 0;  // accepted steps
   int passes = 0;      // passes over the observations
   bool converged = false;
+  // With record_costs, the cost at the start and after each accepted step (the global fit's
+  // convergence, for the report; texels leave it off).
+  bool record_costs = false;
+  std::vector<double> costs;
 };
 
 // sigma of each coordinate of a block (already scaled by the residual variance).

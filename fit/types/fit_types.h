@@ -227,6 +227,9 @@ struct FitReport {
   // every k-th pixel in x and y (this k, with --subsample's), the maps then band by band (0: not).
   int global_subsample = 0;
   int iterations = 0;
+  // The solver's cost at its start and after each accepted step (Ceres: each iteration, the
+  // rounds of a reweighted loss one after another): how it converged.
+  std::vector<double> convergence;
   // The robust stage's first part on every k-th pixel (kStagedPixels): this k (0: none) and its
   // iterations there (`iterations` counts those on every pixel).
   int staged_stride = 0, staged_iterations = 0;

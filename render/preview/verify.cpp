@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -67,8 +68,43 @@ const char* verdict(double r) {
                     : "misfit";
 }
 
+namespace {
+
+// One pixel's sample of the lobe (VerifySamples::Lobe), if one light lit it.
+bool lobe_sample(const Material& at, const SurfacePoint& sp, const Vec3& eye, const Light& light,
+                 const Evaluator& eval, double topo, double observed, double exposure,
+                 double ambient, VerifySamples::Lobe* out) {
+  Vec3 L;
+  RGB E;
+  double dist;
+  if (!light_at(light, sp.P, &L, &E, &dist) || !(E[1] > 0) || !(exposure > 0)) return false;
+  const LocalDir Ll = to_local(sp, L), Vl = to_local(sp, normalize(eye - sp.P));
+  Material diffuse = at;  // the material less its specular lobes
+  diffuse.maps = MaterialMaps{};
+  diffuse.ks = {0, 0, 0};
+  diffuse.iso_ks = {0, 0, 0};
+  double f[3], fd[3];
+  eval(Ll, Vl, f, topo);
+  const Evaluator without_lobes(diffuse);
+  without_lobes(Ll, Vl, fd, topo);
+  const double c = std::cos(deg_to_rad(at.fiber_angle_deg)),
+               s = std::sin(deg_to_rad(at.fiber_angle_deg));
+  const double hu = Ll.u + Vl.u, hw = Ll.w + Vl.w, hn = Ll.n + Vl.n;
+  const double h = std::sqrt(hu * hu + hw * hw + hn * hn);
+  if (!(h > 0)) return false;
+  *out = {static_cast<float>(c * Ll.u + s * Ll.w),
+          static_cast<float>(c * Vl.u + s * Vl.w),
+          static_cast<float>((c * hu + s * hw) / h),
+          static_cast<float>((c * hw - s * hu) / h),
+          static_cast<float>((observed / exposure - ambient) / E[1] - fd[1]),
+          static_cast<float>(f[1] - fd[1])};
+  return std::isfinite(out->data) && std::isfinite(out->model);
+}
+
+}  // namespace
+
 VerifyResult verify_capture(const CaptureSet& set, const Material& m,
-                            const std::string& residual_dir) {
+                            const std::string& residual_dir, VerifySamples* samples) {
   VerifyResult res;
   std::vector<Image> resids;  // --residuals: written together at the end
   std::vector<Image> pictures;
@@ -104,6 +140,16 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     Image resid = keep_residuals ? Image(d.rgb.width, d.rgb.height, 3, 0.f) : Image();
     std::vector<uint8_t> on(keep_residuals ? static_cast<size_t>(d.rgb.width) * d.rgb.height : 0);
     e.noise = image_noise(d, 1);
+    // Every k-th usable pixel a lobe sample, k spreading max_lobe evenly over the views.
+    size_t stride = 0, seen = 0;
+    if (samples) {
+      size_t usable = 0;
+      for (size_t p = 0; p < static_cast<size_t>(d.rgb.width) * d.rgb.height; ++p)
+        usable += d.usable(p) ? 1 : 0;
+      const size_t per_view = std::max<size_t>(1, samples->max_lobe / set.views.size());
+      stride = std::max<size_t>(1, (usable + per_view - 1) / per_view);
+    }
+    std::vector<uint8_t> used(v.lights.size());
     ShadeCounters cnt;
     const RGB amb{m.ka[0] * set.ambient[0], m.ka[1] * set.ambient[1], m.ka[2] * set.ambient[2]};
     for (int y = 0; y < d.rgb.height; ++y)
@@ -121,9 +167,23 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
                                 ? s_at(m, g.smath_at(p), mv, g.uv.px[2 * p], g.uv.px[2 * p + 1])
                                 : s_at(m, g.smath_at(p), mv);
         // A material with maps: its values at the pixel's texture coordinates.
-        const Evaluator local =
-            m.maps.any() ? Evaluator(material_at(m, g.uv.px[2 * p], g.uv.px[2 * p + 1])) : eval;
-        shade_point(local, sp, d.eye, v.lights, amb, topo, no_shadows, I, &cnt);
+        std::optional<Material> here;
+        if (m.maps.any()) here = material_at(m, g.uv.px[2 * p], g.uv.px[2 * p + 1]);
+        const Evaluator local = here ? Evaluator(*here) : eval;
+        if (samples) std::fill(used.begin(), used.end(), 0);
+        shade_point(local, sp, d.eye, v.lights, amb, topo, no_shadows, I, &cnt,
+                    samples ? &used : nullptr);
+        if (samples) {
+          if (e.noise > 0) samples->add_residual((v.exposure * I[1] - d.rgb.at(x, y, 1)) / e.noise);
+          VerifySamples::Lobe s;
+          if (seen++ % stride == 0 && std::count(used.begin(), used.end(), 1) == 1 &&
+              samples->lobe.size() < samples->max_lobe) {
+            const size_t li = std::find(used.begin(), used.end(), 1) - used.begin();
+            if (lobe_sample(here ? *here : m, sp, d.eye, v.lights[li], local, topo,
+                            d.rgb.at(x, y, 1), v.exposure, amb[1], &s))
+              samples->lobe.push_back(s);
+          }
+        }
         double p2 = 0, pred = 0, obs = 0;
         for (int c = 0; c < 3; ++c) {
           const double err = v.exposure * I[c] - d.rgb.at(x, y, c);

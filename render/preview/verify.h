@@ -34,10 +34,40 @@ struct VerifyResult {
   size_t light_evals = 0;
 };
 
+// What `aniso report` draws of a capture against a material, gathered in verify's pass.
+struct VerifySamples {
+  // Normalised residuals (model minus image, green, over the view's noise) in kBins bins of
+  // kStep from kLow, and how many fell below and above them.
+  static constexpr int kBins = 40;
+  static constexpr double kLow = -5, kStep = 0.25;
+  std::vector<size_t> histogram = std::vector<size_t>(kBins, 0);
+  size_t below = 0, above = 0;
+  void add_residual(double r) {
+    const double b = (r - kLow) / kStep;
+    if (b < 0)
+      ++below;
+    else if (b >= kBins)
+      ++above;
+    else
+      ++histogram[static_cast<size_t>(b)];
+  }
+  // Pixels lit by one light, spread evenly over the views up to `max_lobe` of them: the
+  // directions in the fiber's frame at the pixel (T the fiber, B = N x T) and the specular part of
+  // the green reflectance, the image's (its value less ambient, over the irradiance, less the
+  // material's diffuse part) and the model's.
+  struct Lobe {
+    float lt, vt;  // L.T, V.T
+    float ht, hb;  // the half vector's T and B components
+    float data, model;
+  };
+  std::vector<Lobe> lobe;
+  size_t max_lobe = 6000;
+};
+
 // With `residual_dir`, also writes residual_NNN.exr per view (model - image, RGB; 0 off the
 // sample) and residual_NNN.png beside it: the green channel's residual over the view's noise,
 // blue at -3 sigma, white at 0, red at +3 sigma; grey off the sample.
 VerifyResult verify_capture(const CaptureSet& set, const Material& m,
-                            const std::string& residual_dir = "");
+                            const std::string& residual_dir = "", VerifySamples* samples = nullptr);
 
 }  // namespace aniso

@@ -11,7 +11,9 @@
 #include "io/files/files.h"
 #include "io/formats/capture.h"
 #include "io/formats/material_io.h"
+#include "io/images/image_io.h"
 #include "render/preview/verify.h"
+#include "render/report/report_figures.h"
 
 namespace aniso {
 
@@ -86,6 +88,79 @@ std::string correlation_svg(const json& c) {
   }
   s << "</svg>\n";
   return s.str();
+}
+
+// The maps beyond their previews: the fiber direction as a field of glyphs, and the sigma and
+// coverage maps as pictures with their ranges.
+void map_figures(const json& j, const std::string& base, const std::string& dir,
+                 std::ostringstream* h, ReportSummary* sum) {
+  auto file = [&](const char* block, const char* key) -> std::string {
+    if (!j.contains(block) || !j[block].is_object() || !j[block].contains(key) ||
+        !j[block][key].is_string())
+      return "";
+    const std::string f = join_path(base, j[block][key].get<std::string>());
+    std::error_code ec;
+    return std::filesystem::is_regular_file(f, ec) ? f : "";
+  };
+  std::filesystem::create_directories(join_path(dir, "maps"));
+  if (const std::string f = file("maps", "fiber"); !f.empty()) {
+    const Image fiber = read_image(f).image;
+    Image det;
+    if (const std::string d = file("maps_uncertainty", "determined"); !d.empty())
+      det = read_image(d).image;
+    if (fiber.channels >= 2) {
+      std::ofstream(join_path(dir, "maps/direction_field.svg"))
+          << direction_field_svg(fiber, det.px.empty() ? nullptr : &det);
+      *h << "<h3>Fiber direction</h3>\n<figure><img src='maps/direction_field.svg'><figcaption>"
+            "the fiber's direction per texel (u to the right, v down, as the map's rows run); "
+            "pale where the data do not determine it</figcaption></figure>\n";
+      sum->direction_field = true;
+    }
+  }
+  struct Pic {
+    const char *key, *what;
+    bool log;
+  };
+  const Pic pics[] = {{"fiber", "sigma of the fiber angle (degrees)", true},
+                      {"n", "sigma of n", true},
+                      {"kd", "sigma of k_d (red)", true},
+                      {"coverage", "pixels per texel", true},
+                      {"residual", "RMS residual per texel (image units)", true}};
+  bool any = false;
+  for (const Pic& p : pics) {
+    const std::string f = file("maps_uncertainty", p.key);
+    if (f.empty()) continue;
+    if (!any) *h << "<h3>How sure, texel by texel</h3>\n", any = true;
+    double lo = 0, hi = 0;
+    const Image pic = scalar_map_picture(read_image(f).image, p.log, &lo, &hi);
+    const std::string name = std::string("maps/uncertainty_") + p.key + ".png";
+    write_png(join_path(dir, name), pic, 8);
+    *h << "<figure><img src='" << name << "' width='256'><figcaption>" << p.what << ": " << num(lo)
+       << " (dark blue) to " << num(hi) << " (yellow)" << (p.log ? ", log scale" : "")
+       << "; grey: not known</figcaption></figure>\n";
+    ++sum->maps;
+  }
+}
+
+// The capture against the model beyond the views' table: the residuals against the unit
+// Gaussian, the lobe against the data in the fiber's frame, and the half vectors the capture saw.
+void capture_figures(const VerifySamples& s, const std::string& dir, std::ostringstream* h) {
+  std::ofstream(join_path(dir, "residual_histogram.svg")) << residual_histogram_svg(s);
+  *h << "<h2>Residuals against the images' noise</h2>\n<img src='residual_histogram.svg'>\n"
+        "<p class='note'>At the noise the bars follow the red curve; wider bars, a misfit; a "
+        "shifted peak, a bias (exposure, lamp intensity).</p>\n";
+  if (s.lobe.empty()) return;
+  std::ofstream(join_path(dir, "lobe.svg")) << lobe_polar_svg(s.lobe);
+  std::ofstream(join_path(dir, "half_vectors.svg")) << half_vector_coverage_svg(s.lobe);
+  *h << "<h2>The lobe against the data</h2>\n<img src='lobe.svg'>\n<p class='note'>Polar plots "
+        "in the fiber's frame: round each half disc the viewer's angle to the fiber T, outward "
+        "the specular part of the green reflectance (the image less ambient, over the lamp's "
+        "irradiance, less the material's diffuse part); blue the data's mean, red dashed the "
+        "model's at the same points, dots the data; dashed grey the mirror cone. "
+     << s.lobe.size()
+     << " pixels lit by one light, spread over the views.</p>\n<h3>Half vectors the capture "
+        "saw</h3>\n<img src='half_vectors.svg'>\n<p class='note'>In the fiber's frame: right "
+        "along the fiber, up across it. The lobe is known where the points are.</p>\n";
 }
 
 }  // namespace
@@ -171,6 +246,7 @@ ReportSummary write_report(const ReportOptions& o) {
       }
       h << "<p class='note'>" << esc(j["previews"].value("note", "")) << "</p>\n";
     }
+    if (j.contains("maps") && j["maps"].is_object()) map_figures(j, base, dir, &h, &sum);
     // The correlation matrix.
     if (rep.contains("correlation") && rep["correlation"].contains("matrix")) {
       sum.correlation = true;
@@ -179,10 +255,22 @@ ReportSummary write_report(const ReportOptions& o) {
            "class='note'>"
         << esc(rep["correlation"].value("note", "")) << "</p>\n";
     }
+    // How the solver got there.
+    if (rep.contains("convergence") && rep["convergence"].contains("cost")) {
+      std::ofstream(join_path(dir, "convergence.svg"))
+          << convergence_svg(rep["convergence"]["cost"].get<std::vector<double>>());
+      h << "<h2>Convergence</h2>\n<img src='convergence.svg'>\n<p class='note'>"
+        << esc(rep["convergence"].value("note", "")) << " (" << esc(rep.value("solver", "")) << ", "
+        << esc(rep.value("termination", "")) << ")</p>\n";
+      sum.convergence = true;
+    }
     // Per view against the capture.
     if (!o.capture.empty()) {
       const CaptureSet set = read_capture(o.capture);
-      const VerifyResult v = verify_capture(set, material, join_path(dir, "views"));
+      VerifySamples samples;
+      const VerifyResult v = verify_capture(set, material, join_path(dir, "views"), &samples);
+      capture_figures(samples, dir, &h);
+      sum.lobe_points = samples.lobe.size();
       h << "<h2>Each view against the model</h2>\n<p>Residual pictures: model minus image over "
            "the view's noise, blue at -3 sigma, white 0, red at +3 sigma; grey off the "
            "sample.</p>\n<table id='views'><tr><th>view</th><th>pixels</th><th>RMS</th><th>noise"

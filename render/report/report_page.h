@@ -16,7 +16,8 @@ struct ReportOptions {
 
 struct ReportSummary {
   size_t parameters = 0, warnings = 0, notes = 0, views = 0, maps = 0;
-  bool correlation = false;
+  size_t lobe_points = 0;
+  bool correlation = false, convergence = false, direction_field = false;
 };
 
 ReportSummary write_report(const ReportOptions& o);
