@@ -14,8 +14,10 @@ Command add_report(CLI::App& app) {
       "report",
       "Write a fit as a page a person can open offline (DIR/index.html): the parameters with their "
       "whole and noise-only sigma, the warnings apart from the notes, the maps' previews, the "
-      "correlation matrix as a heat map, the phases' times; with --capture, each view's residual "
-      "picture and its RMS against the images' noise");
+      "fiber direction as a field, sigma and coverage per texel, the correlation matrix as a heat "
+      "map, the solver's convergence, the phases' times; with --capture, the residuals against "
+      "the unit Gaussian, the lobe against the data in the fiber's frame, the half vectors the "
+      "capture saw, and each view's residual picture and its RMS against the images' noise");
   c->add_option("FIT", a->material, "material file that aniso fit wrote")->required();
   c->add_option("--capture", a->capture,
                 "the capture set it was fitted to: each view against the model");
@@ -29,9 +31,9 @@ Command add_report(CLI::App& app) {
             const ReportSummary s = write_report(*a);
             std::printf(
                 "report: %s -> %s/index.html: %zu parameters, %zu warnings, %zu notes, %zu map "
-                "pictures%s, %zu views\n",
+                "pictures%s, %zu views, %zu pixels in the lobe plots\n",
                 a->material.c_str(), a->out.c_str(), s.parameters, s.warnings, s.notes, s.maps,
-                s.correlation ? ", the correlation matrix" : "", s.views);
+                s.correlation ? ", the correlation matrix" : "", s.views, s.lobe_points);
             return 0;
           }};
 }

@@ -116,7 +116,7 @@ std::string lobe_polar_svg(const std::vector<VerifySamples::Lobe>& lobe) {
   }
   constexpr double kHalfBand = 7.5, kBinDeg = 6;
   constexpr int kBinsPhi = 30;
-  const int R = 120, PW = 2 * R + 40, PH = R + 60;
+  const int R = 100, PW = 2 * R + 60, PH = R + 60;
   // Each panel's points and their means per bin of the viewer's angle to the fiber.
   struct Panel {
     double c = 0, peak = 0;
@@ -231,20 +231,30 @@ std::string convergence_svg(const std::vector<double>& cost) {
     << "' data-first='" << (cost.empty() ? 0 : cost.front()) << "' data-last='"
     << (cost.empty() ? 0 : cost.back()) << "'>\n";
   if (cost.size() >= 1 && hi >= lo) {
-    const double l0 = std::floor(std::log10(lo)), l1 = std::max(l0 + 1, std::ceil(std::log10(hi)));
+    // A log axis over decades where the cost fell by 10 or more, else a linear one over its range.
+    const bool log = hi >= 10 * lo;
+    const double l0 = log ? std::floor(std::log10(lo)) : lo - 0.05 * (hi - lo) - 1e-12 * hi;
+    const double l1 =
+        log ? std::max(l0 + 1, std::ceil(std::log10(hi))) : hi + 0.05 * (hi - lo) + 1e-12 * hi;
     const double n = std::max<double>(1, cost.size() - 1);
     auto X = [&](double i) { return L + i / n * (W - L - 15); };
     auto Y = [&](double v) {
-      return H - B - (std::log10(std::max(v, std::pow(10.0, l0))) - l0) / (l1 - l0) * (H - B - T);
+      const double t = log ? std::log10(std::max(v, std::pow(10.0, l0))) : v;
+      return H - B - (t - l0) / (l1 - l0) * (H - B - T);
     };
     std::vector<std::pair<double, double>> pts;
     for (size_t i = 0; i < cost.size(); ++i) pts.push_back({X(i), Y(cost[i])});
     o << polyline(pts, "#1f5fbf", 1.5);
     for (const auto& [x, y] : pts)
       o << "<circle cx='" << f2(x) << "' cy='" << f2(y) << "' r='2' fill='#1f5fbf'/>\n";
-    for (double e = l0; e <= l1; ++e)
-      o << "<text x='" << L - 4 << "' y='" << f2(Y(std::pow(10, e)) + 4) << "' text-anchor='end'>1e"
-        << static_cast<int>(e) << "</text>\n";
+    if (log)
+      for (double e = l0; e <= l1; ++e)
+        o << "<text x='" << L - 4 << "' y='" << f2(Y(std::pow(10, e)) + 4)
+          << "' text-anchor='end'>1e" << static_cast<int>(e) << "</text>\n";
+    else
+      for (double v : {lo, hi})
+        o << "<text x='" << L - 4 << "' y='" << f2(Y(v) + 4) << "' text-anchor='end'>" << g4(v)
+          << "</text>\n";
     o << "<line x1='" << L << "' y1='" << H - B << "' x2='" << W - 15 << "' y2='" << H - B
       << "' stroke='#000'/><line x1='" << L << "' y1='" << T << "' x2='" << L << "' y2='" << H - B
       << "' stroke='#000'/>\n<text x='" << L << "' y='" << H - B + 14 << "'>0</text><text x='"

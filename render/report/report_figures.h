@@ -27,7 +27,8 @@ std::string lobe_polar_svg(const std::vector<VerifySamples::Lobe>& lobe);
 // which part of the lobe the capture saw.
 std::string half_vector_coverage_svg(const std::vector<VerifySamples::Lobe>& lobe);
 
-// The solver's cost against its iteration, on a log scale (data-first, data-last, data-steps).
+// The solver's cost against its accepted steps, on a log scale where it fell tenfold or more
+// (data-first, data-last, data-steps).
 std::string convergence_svg(const std::vector<double>& cost);
 
 // The fiber map (R = cos 2psi, G = sin 2psi) as a field of short line glyphs, u to the right and v

@@ -111,7 +111,8 @@ void map_figures(const json& j, const std::string& base, const std::string& dir,
     if (fiber.channels >= 2) {
       std::ofstream(join_path(dir, "maps/direction_field.svg"))
           << direction_field_svg(fiber, det.px.empty() ? nullptr : &det);
-      *h << "<h3>Fiber direction</h3>\n<figure><img src='maps/direction_field.svg'><figcaption>"
+      *h << "<h3>Fiber direction</h3>\n<figure style='max-width:none'><img "
+            "src='maps/direction_field.svg'><figcaption>"
             "the fiber's direction per texel (u to the right, v down, as the map's rows run); "
             "pale where the data do not determine it</figcaption></figure>\n";
       sum->direction_field = true;
@@ -180,7 +181,8 @@ ReportSummary write_report(const ReportOptions& o) {
     << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;}"
        "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:3px 8px;text-align:"
        "right}th{background:#eee}.trouble{color:#a00}.note{color:#555}img{image-rendering:"
-       "pixelated;margin:4px}figure{display:inline-block;margin:6px}</style></head><body>\n";
+       "pixelated;margin:4px}figure{display:inline-block;margin:6px;max-width:270px;vertical-align:"
+       "top}</style></head><body>\n";
   h << "<h1>aniso report</h1>\n<p>Material <code>" << esc(o.material) << "</code>, model <b>"
     << esc(j.value("model", "line")) << "</b>";
   if (rep.contains("model_selection"))
@@ -190,8 +192,11 @@ ReportSummary write_report(const ReportOptions& o) {
   h << "<h2>Parameters</h2>\n<p>"
     << esc(rep.value("uncertainty", std::string("sigma: one standard deviation from the images' "
                                                 "noise")))
-    << "</p>\n<table id='parameters'><tr><th>parameter</th><th>value</th><th>sigma "
-       "(whole)</th><th>sigma (noise only)</th></tr>\n";
+    << "</p>\n<table id='parameters'><tr><th>parameter</th><th>value</th>"
+    << (rep.contains("maps_means") ? "<th>sigma of the mean over the texels</th><th>sigma of the "
+                                     "global fit (noise only)</th>"
+                                   : "<th>sigma (whole)</th><th>sigma (noise only)</th>")
+    << "</tr>\n";
   auto row = [&](const std::string& key, const json& v, const json& s, const json& sn) {
     ++sum.parameters;
     h << "<tr><td style='text-align:left'>" << esc(key) << "</td><td class='value' data-key='"

@@ -1,8 +1,10 @@
 // `aniso report`: a fit a person can look at. From a material file that `fit` wrote (and,
 // optionally, the capture it was fitted to), a folder with index.html that works offline: the
 // parameters with their whole and noise-only sigma, the warnings apart from the notes, the maps'
-// previews, the correlation matrix as an SVG heat map, the phases' times, and with the capture
-// each view's residual picture beside its RMS against the images' noise (render/preview/verify.h).
+// previews with the fiber direction as a field and sigma and coverage per texel, the correlation
+// matrix, the solver's convergence, the phases' times; with the capture, each view's residual
+// picture beside its RMS against the images' noise (render/preview/verify.h), the residuals
+// against the unit Gaussian and the lobe against the data (render/report/report_figures.h).
 #pragma once
 #include <string>
 
