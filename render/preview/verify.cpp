@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "core/color.h"
 #include "core/error.h"
 #include "core/noise.h"
 #include "core/texture.h"
@@ -59,6 +60,32 @@ Image residual_picture(const Image& resid, const std::vector<uint8_t>& on, doubl
   return out;
 }
 
+// The view's image and the model's on the sample (dark grey elsewhere), sRGB, both at one
+// exposure: the image's 99.5th percentile on the sample as white.
+std::pair<Image, Image> view_and_model_pictures(const Image& rgb, const Image& model,
+                                                const std::vector<uint8_t>& on) {
+  std::vector<float> values;
+  for (size_t p = 0; p < on.size(); ++p)
+    if (on[p])
+      for (int c = 0; c < 3; ++c) values.push_back(rgb.px[3 * p + c]);
+  double white = 1;
+  if (!values.empty()) {
+    const size_t k = values.size() * 995 / 1000;
+    std::nth_element(values.begin(), values.begin() + k, values.end());
+    if (values[k] > 0) white = values[k];
+  }
+  Image a(rgb.width, rgb.height, 3, 0.2f), b = a;
+  for (size_t p = 0; p < on.size(); ++p)
+    if (on[p])
+      for (int c = 0; c < 3; ++c) {
+        a.px[3 * p + c] =
+            static_cast<float>(srgb_encode(std::clamp(rgb.px[3 * p + c] / white, 0.0, 1.0)));
+        b.px[3 * p + c] =
+            static_cast<float>(srgb_encode(std::clamp(model.px[3 * p + c] / white, 0.0, 1.0)));
+      }
+  return {std::move(a), std::move(b)};
+}
+
 }  // namespace
 
 const char* verdict(double r) {
@@ -107,7 +134,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
                             const std::string& residual_dir, VerifySamples* samples) {
   VerifyResult res;
   std::vector<Image> resids;  // --residuals: written together at the end
-  std::vector<Image> pictures;
+  std::vector<Image> pictures, view_images, model_images;
   const Evaluator eval(m);
   double sum2 = 0, sumy = 0, sum2_dark = 0;
   std::vector<float> green;  // |error| of one channel per pixel, for the noise: reused view to view
@@ -139,6 +166,8 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
     green.clear();
     Image resid = keep_residuals ? Image(d.rgb.width, d.rgb.height, 3, 0.f) : Image();
     std::vector<uint8_t> on(keep_residuals ? static_cast<size_t>(d.rgb.width) * d.rgb.height : 0);
+    const bool view_pictures = keep_residuals && samples && samples->view_pictures;
+    Image model = view_pictures ? Image(d.rgb.width, d.rgb.height, 3, 0.f) : Image();
     e.noise = image_noise(d, 1);
     // Every k-th usable pixel a lobe sample, k spreading max_lobe evenly over the views.
     size_t stride = 0, seen = 0;
@@ -188,6 +217,7 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
         for (int c = 0; c < 3; ++c) {
           const double err = v.exposure * I[c] - d.rgb.at(x, y, c);
           if (keep_residuals) resid.at(x, y, c) = static_cast<float>(err), on[p] = 1;
+          if (view_pictures) model.at(x, y, c) = static_cast<float>(v.exposure * I[c]);
           p2 += err * err;
           pred += v.exposure * I[c], obs += d.rgb.at(x, y, c);
           sy += std::abs(d.rgb.at(x, y, c));
@@ -200,6 +230,10 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
         ++e.pixels;
       }
     res.light_evals += cnt.light_evals;
+    if (view_pictures) {
+      auto [image, predicted_image] = view_and_model_pictures(d.rgb, model, on);
+      view_images.push_back(std::move(image)), model_images.push_back(std::move(predicted_image));
+    }
     if (keep_residuals) {
       pictures.push_back(residual_picture(resid, on, e.noise));
       resids.push_back(std::move(resid));
@@ -238,6 +272,12 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
         write_exr(join_path(dir, name), resids[i]);
         std::snprintf(name, sizeof name, "residual_%03zu.png", i);
         write_png(join_path(dir, name), pictures[i], 8);
+        if (i < view_images.size()) {
+          std::snprintf(name, sizeof name, "image_%03zu.png", i);
+          write_png(join_path(dir, name), view_images[i], 8);
+          std::snprintf(name, sizeof name, "model_%03zu.png", i);
+          write_png(join_path(dir, name), model_images[i], 8);
+        }
       }
     });
   std::vector<double> noises;

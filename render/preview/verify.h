@@ -62,6 +62,9 @@ struct VerifySamples {
   };
   std::vector<Lobe> lobe;
   size_t max_lobe = 6000;
+  // With a residual folder: also image_NNN.png and model_NNN.png, the view's image and the
+  // model's on the sample, sRGB at one exposure per view (the image's 99.5th percentile white).
+  bool view_pictures = false;
 };
 
 // With `residual_dir`, also writes residual_NNN.exr per view (model - image, RGB; 0 off the

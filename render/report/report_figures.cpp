@@ -289,6 +289,19 @@ std::string direction_field_svg(const Image& fiber, const Image* determined) {
   return o.str();
 }
 
+std::string residual_colour_bar_svg() {
+  std::ostringstream o;
+  o << svg_open(340, 34) << "<defs><linearGradient id='rb'><stop offset='0' stop-color='#00f'/>"
+    << "<stop offset='0.5' stop-color='#fff'/><stop offset='1' stop-color='#f00'/>"
+    << "</linearGradient></defs><rect x='20' y='2' width='300' height='12' fill='url(#rb)' "
+    << "stroke='#999'/>\n";
+  for (int k = -3; k <= 3; ++k)
+    o << "<text x='" << 20 + (k + 3) * 50 << "' y='28' text-anchor='middle'>" << k
+      << (k ? "&#963;" : "") << "</text>\n";
+  o << "</svg>\n";
+  return o.str();
+}
+
 Image scalar_map_picture(const Image& img, bool log, double* lo, double* hi) {
   constexpr double kUnknown = 0.5 * std::numeric_limits<float>::max();
   *lo = std::numeric_limits<double>::infinity(), *hi = -*lo;

@@ -36,6 +36,9 @@ std::string convergence_svg(const std::vector<double>& cost);
 // (`determined` R = 0, if given) pale. data-glyphs counts them.
 std::string direction_field_svg(const Image& fiber, const Image* determined);
 
+// The residual pictures' colour bar: blue at -3 sigma of the view's noise, white 0, red +3.
+std::string residual_colour_bar_svg();
+
 // A one-channel map (channel 0 of `img`) as a picture: a texel a square of pixels (shorter side at
 // least 256), coloured from dark blue through green to yellow over [lo, hi] (on a log scale when
 // `log`); *lo and *hi are set from the finite values (positive ones for log). Values past float's

@@ -273,25 +273,33 @@ ReportSummary write_report(const ReportOptions& o) {
     if (!o.capture.empty()) {
       const CaptureSet set = read_capture(o.capture);
       VerifySamples samples;
+      samples.view_pictures = true;
       const VerifyResult v = verify_capture(set, material, join_path(dir, "views"), &samples);
       capture_figures(samples, dir, &h);
       sum.lobe_points = samples.lobe.size();
-      h << "<h2>Each view against the model</h2>\n<p>Residual pictures: model minus image over "
-           "the view's noise, blue at -3 sigma, white 0, red at +3 sigma; grey off the "
-           "sample.</p>\n<table id='views'><tr><th>view</th><th>pixels</th><th>RMS</th><th>noise"
-           "</th><th>RMS / noise</th><th>verdict</th><th>residual</th></tr>\n";
+      h << "<h2>Each view against the model</h2>\n<p>The view's image and the model's, at one "
+           "exposure (the image's 99.5th percentile white); the residual: model minus image over "
+           "the view's noise; off the sample grey.</p>\n"
+        << residual_colour_bar_svg()
+        << "<table id='views'><tr><th>view</th><th>pixels</th><th>RMS</th><th>noise</th><th>RMS "
+           "/ noise</th><th>verdict</th><th>image</th><th>model</th><th>residual</th></tr>\n";
       for (size_t i = 0; i < v.views.size(); ++i) {
         const ViewError& e = v.views[i];
-        char name[48];
-        std::snprintf(name, sizeof name, "views/residual_%03zu.png", i);
         h << "<tr><td>" << i << "</td><td>" << e.pixels << "</td><td>" << num(e.rms) << "</td><td>"
           << num(e.noise) << "</td><td>" << num(e.rms_over_noise()) << "</td><td>"
-          << verdict(e.rms_over_noise()) << "</td><td><img src='" << name
-          << "' height='96'></td></tr>\n";
+          << verdict(e.rms_over_noise()) << "</td>";
+        for (const char* what : {"image", "model", "residual"}) {
+          char name[48];
+          std::snprintf(name, sizeof name, "views/%s_%03zu.png", what, i);
+          h << "<td><img src='" << name << "'></td>";
+        }
+        h << "</tr>\n";
       }
+      const size_t columns_after_verdict = 3;
       h << "<tr><th>all</th><td>" << v.overall.pixels << "</td><td>" << num(v.overall.rms)
         << "</td><td>" << num(v.overall.noise) << "</td><td>" << num(v.overall.rms_over_noise())
-        << "</td><td>" << verdict(v.overall.rms_over_noise()) << "</td><td></td></tr></table>\n";
+        << "</td><td>" << verdict(v.overall.rms_over_noise()) << "</td><td colspan='"
+        << columns_after_verdict << "'></td></tr></table>\n";
       sum.views = v.views.size();
     }
     // Where the time went.
