@@ -197,6 +197,82 @@ TEST(Export, FiberTablesAreArrayTexturesWithinGpuLimits) {
   const auto ej = nlohmann::json::parse(read_text_file(dir + "/export.json"));
   EXPECT_EQ(ej["model"], "fiber");
   EXPECT_GT(ej["errors"]["fiber_tables"]["samples"].get<int>(), 0);
+  // The same layers as one plain EXR each, for engines without array textures: every layer's
+  // texels where the layout puts them.
+  for (const char* stem : {"fiber_G", "fiber_F"}) {
+    const auto& layout = ej["tables"][stem]["exr_atlas"];
+    const KtxTexture k = read_ktx2(dir + "/tables/" + stem + ".ktx2");
+    const Image a = read_image(dir + "/" + layout["file"].get<std::string>()).image;
+    const int columns = layout["columns"], tw = layout["tile"][0], th = layout["tile"][1];
+    ASSERT_EQ(tw, k.width);
+    ASSERT_EQ(th, k.height);
+    EXPECT_LE(a.width, 8192);
+    size_t same = 0;
+    for (int l = 0; l < k.layers; ++l)
+      for (int y = 0; y < th; ++y)
+        for (int x = 0; x < tw; ++x)
+          same += a.at((l % columns) * tw + x, (l / columns) * th + y, 0) ==
+                  k.texels[(static_cast<size_t>(l) * th + y) * tw + x];
+    EXPECT_EQ(same, static_cast<size_t>(k.layers) * tw * th) << stem;
+  }
+  EXPECT_EQ(ej["engines"]["written"], false);  // the packages draw the line model
+}
+
+// engines/: Godot, Unity and Unreal packages carry the material's values and compile with
+// Khronos' reference compiler as each engine wraps them (the Godot shader's model part as GLSL,
+// Unity's Custom Function and Unreal's Custom-node body as HLSL), then translate to Metal.
+TEST(Export, EnginePackagesCarryTheMaterialAndCompile) {
+  const std::string dir = tmp_dir("engines") + "/export";
+  ExportOptions o;
+  o.size = 64;
+  export_material(brushed(), dir, o);
+  const std::string e = dir + "/engines";
+  const std::string godot = read_text_file(e + "/godot/aniso_line.gdshader");
+  for (const char* want : {"uniform vec3 kd = vec3(0.2, 0.15, 0.1);",
+                           "uniform float fiber_angle_deg = 30.0;", "ANISO_TEXELS = 64.0;"})
+    EXPECT_NE(godot.find(want), std::string::npos) << want;
+  const std::string tres = read_text_file(e + "/godot/aniso_line.tres");
+  EXPECT_NE(tres.find("res://aniso/tables/specular.exr"), std::string::npos);
+  EXPECT_NE(tres.find("shader_parameter/ks = Vector3(0.6, 0.6, 0.6)"), std::string::npos) << tres;
+  EXPECT_NE(read_text_file(e + "/unreal/AnisoLine_nodes.t3d").find("Constant=(R=0.2,G=0.15,B=0.1"),
+            std::string::npos);
+  // Each as its engine wraps it, with a main that calls it.
+  const size_t a = godot.find("// aniso-model-begin"), b = godot.find("// aniso-model-end");
+  ASSERT_NE(b, std::string::npos);
+  write_text_file(e + "/godot_check.frag",
+                  "#version 330 core\nuniform sampler2D aniso_diffuse;\nuniform sampler2D "
+                  "aniso_specular;\n" +
+                      godot.substr(a, b - a) +
+                      "in vec3 n;\nin vec3 t;\nout vec4 c;\nvoid main() { c = "
+                      "vec4(aniso_radiance(normalize(n), t, vec3(0.0, 0.0, 1.0), vec3(0.0, 1.0, "
+                      "0.0), vec3(0.2), vec3(0.5), vec3(1.0)), 1.0); }\n");
+  const std::string hlsl_main =
+      "Texture2D d : register(t0);\nTexture2D s : register(t1);\nSamplerState ss : "
+      "register(s0);\nfloat4 main(float4 p : SV_Position, float3 n : NORMAL, float3 t : TANGENT) "
+      ": SV_Target {\n";
+  write_text_file(e + "/unity/check.hlsl",
+                  "#include \"AnisoLine.hlsl\"\n" + hlsl_main +
+                      "  float3 f, r;\n  AnisoFiberTangent_float(n, t, cross(n, t), 30.0, f);\n"
+                      "  AnisoLine_float(n, f, float3(0, 0, 1), float3(1, 1, 1), float3(0, 1, 0), "
+                      "float3(0.2, 0.15, 0.1), float3(0.6, 0.6, 0.6), d, s, ss, r);\n  return "
+                      "float4(r, 1);\n}\n");
+  write_text_file(e + "/unreal/check.hlsl",
+                  "#define Texture2DSampleLevel(t, s, uv, l) t.SampleLevel(s, uv, l)\nfloat3 "
+                  "CustomExpression0(float3 N, float3 T, float3 L, float3 V, float3 E, float3 Kd, "
+                  "float3 Ks, Texture2D DiffuseTable, SamplerState DiffuseTableSampler, Texture2D "
+                  "SpecularTable, SamplerState SpecularTableSampler) {\n" +
+                      read_text_file(e + "/unreal/AnisoLine_custom_node.hlsl") + "}\n" + hlsl_main +
+                      "  return float4(CustomExpression0(n, t, float3(0, 0, 1), float3(0, 1, 0), "
+                      "float3(1, 1, 1), float3(0.2, 0.15, 0.1), float3(0.6, 0.6, 0.6), d, ss, s, "
+                      "ss), 1);\n}\n");
+  for (const char* f : {"/godot_check.frag", "/unity/check.hlsl", "/unreal/check.hlsl"}) {
+    const test::RunResult r = compile_to_metal(e + f);
+    EXPECT_EQ(r.status, 0) << f << ": " << r.output;
+    EXPECT_NE(r.output.find("fragment main0_out main0"), std::string::npos) << f << r.output;
+  }
+  const auto ej = nlohmann::json::parse(read_text_file(dir + "/export.json"));
+  EXPECT_EQ(ej["engines"]["written"], true);
+  EXPECT_EQ(ej["engines"]["folders"].size(), 3u);
 }
 
 // The exported GLSL and HLSL compile with Khronos' reference compiler and translate to Metal.

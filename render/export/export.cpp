@@ -16,6 +16,7 @@
 #include "io/files/json_util.h"
 #include "io/formats/material_io.h"
 #include "io/images/image_io.h"
+#include "render/export/export_engines.h"
 #include "render/export/export_tables.h"
 #include "render/shaders_embedded.h"
 
@@ -541,7 +542,10 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
                                  {"shaders/aniso_maps.frag", sh.glsl_maps_fragment},
                                  {"shaders/aniso_maps.hlsli", sh.hlsl_maps},
                                  {"shaders/aniso_maps_ps.hlsl", sh.hlsl_maps_pixel}});
+    json engines;
+    for (auto& f : engine_packages(m, o.size, &engines)) files.push_back(std::move(f));
     for (const auto& [name, text] : files) {
+      std::filesystem::create_directories(join_path(tmp, parent_dir(name)));
       write_text_file(join_path(tmp, name), text);
       sum.files.push_back(name);
     }
@@ -612,6 +616,7 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
                                   "specularColorFactor (F0 / 0.04 of the brightest texel)"
                                 : "")}}
                : json(nullptr)}}},
+        {"engines", engines},
         {"three", viewer},
         {"warnings", sum.warnings},
         {"conventions", conventions(sum)},

@@ -2,6 +2,7 @@
 #include "render/export/export_tables.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include "core/error.h"
@@ -40,6 +41,33 @@ KtxTexture ktx_array(const std::vector<float>& v, int w, int h, int layers,
   t.texels = v;
   t.metadata["aniso.meaning"] = meaning;
   return t;
+}
+
+// A 2D array's layers side by side in one EXR (for engines that import no array textures):
+// tables/STEM_atlas.exr, at most 8192 wide, roughly square; its layout for export.json.
+json write_atlas(const std::string& dir, const std::string& stem, const std::vector<float>& v,
+                 int w, int h, int layers, ExportSummary* sum) {
+  int columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(layers) * h / w)));
+  columns = std::clamp(columns, 1, std::max(1, std::min(layers, 8192 / std::max(w, 1))));
+  const int rows = (layers + columns - 1) / columns;
+  Image atlas(columns * w, rows * h, 1, 0.f);
+  for (int k = 0; k < layers; ++k)
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        atlas.at((k % columns) * w + x, (k / columns) * h + y, 0) =
+            v[(static_cast<size_t>(k) * h + y) * w + x];
+  const std::string file = "tables/" + stem + "_atlas.exr";
+  write_exr(join_path(dir, file), atlas);
+  sum->files.push_back(file);
+  return {{"file", file},
+          {"size", {atlas.width, atlas.height}},
+          {"tile", {w, h}},
+          {"columns", columns},
+          {"rows", rows},
+          {"layer_at",
+           "layer k's texel (x, y) at (k mod columns) * tile_w + x, floor(k / columns) * "
+           "tile_h + y; texels past the last layer 0. Sample within a tile (clamp to its texel "
+           "centres), never across tiles"}};
 }
 
 }  // namespace
@@ -87,6 +115,9 @@ json write_tables(const std::string& dir, const Material& m, const ExportOptions
       {"layer", "is * nk + k: s = is / (ns - 1), k = kappa / (1 + kappa) at k / (nk - 1)"}};
   sum->files.push_back("tables/fiber_G.ktx2");
   sum->files.push_back("tables/fiber_F.ktx2");
+  tables["fiber_G"]["exr_atlas"] = write_atlas(dir, "fiber_G", fb.G, fb.nphi, fb.nphi, fb.ns, sum);
+  tables["fiber_F"]["exr_atlas"] =
+      write_atlas(dir, "fiber_F", fb.F, fb.nphi, fb.nphi, fb.ns * fb.nk, sum);
   return tables;
 }
 
@@ -98,8 +129,9 @@ void write_fiber_stack(const std::string& dir, const Material& m, const ExportOp
                        const SpecularStack& st, ExportSummary* sum, json* tables) {
   const FiberBakeTables& fb = sum->fiber_tables;
   FiberStack fs = bake_fiber_stack(m, fb, bake_line(m, o.size, BakeIndex::kAngle), st);
+  const std::vector<float> layers = fiber_stack_layers(fb, fs);
   write_ktx2(join_path(dir, "tables/fiber_F_stack.ktx2"),
-             ktx_array(fiber_stack_layers(fb, fs), fb.nk * fb.nphi, fb.nphi, fs.levels * fb.ns,
+             ktx_array(layers, fb.nk * fb.nphi, fb.nphi, fs.levels * fb.ns,
                        "fiber factor F(phi_l, phi_v; s, k) at levels of log n"));
   (*tables)["fiber_F_stack"] = {
       {"ktx2", "tables/fiber_F_stack.ktx2"},
@@ -115,6 +147,8 @@ void write_fiber_stack(const std::string& dir, const Material& m, const ExportOp
        "f = clamp((log n - log_n0) / log_step, 0, levels - 1), l = min(floor f, levels - 2): F "
        "= F_l + (f - l) (F_l+1 - F_l), each level multi-linear in s and k as fiber_F"}};
   sum->files.push_back("tables/fiber_F_stack.ktx2");
+  (*tables)["fiber_F_stack"]["exr_atlas"] =
+      write_atlas(dir, "fiber_F_stack", layers, fb.nk * fb.nphi, fb.nphi, fs.levels * fb.ns, sum);
   ExportMapSet& set = sum->maps;
   set.f_levels = fs.levels;
   set.f_log_n0 = fs.logn0;
@@ -205,8 +239,9 @@ json write_maps(const std::string& dir, const Material& m, const ExportOptions& 
     carry(mp.n_file, "n", "n", mp.n.get(), kOne, "the exponent n per texel over uv");
     {
       const SpecularStack st = bake_material_stack(m, o.size, BakeIndex::kAngle);
+      const std::vector<float> levels = stack_levels(st);
       write_ktx2(join_path(dir, "tables/specular_stack.ktx2"),
-                 ktx_array(stack_levels(st), st.size, st.size, st.levels,
+                 ktx_array(levels, st.size, st.size, st.levels,
                            "S(a, b; n) of the line model at levels of log n"));
       (*tables)["specular_stack"] = {
           {"ktx2", "tables/specular_stack.ktx2"},
@@ -220,6 +255,8 @@ json write_maps(const std::string& dir, const Material& m, const ExportOptions& 
            "f = clamp((log n - log_n0) / log_step, 0, layers - 1), k = min(floor f, layers - 2): "
            "S = S_k + (f - k) (S_k+1 - S_k)"}};
       sum->files.push_back("tables/specular_stack.ktx2");
+      (*tables)["specular_stack"]["exr_atlas"] =
+          write_atlas(dir, "specular_stack", levels, st.size, st.size, st.levels, sum);
       set.n = true;
       set.levels = st.levels;
       set.log_n0 = st.logn0;
