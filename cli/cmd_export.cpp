@@ -19,8 +19,9 @@ Command add_export(CLI::App& app) {
   auto a = std::make_shared<Args>();
   auto* ex = app.add_subcommand(
       "export",
-      "Export a material for engines: KTX2 + EXR tables, GLSL/HLSL lookup shaders, a glTF sample "
-      "with KHR_materials_anisotropy, a three.js viewer, export.json with the conventions and "
+      "Export a material for engines: KTX2 + EXR tables, GLSL/HLSL lookup shaders, packages for "
+      "Godot 4, Unity and Unreal (engines/, line materials), a glTF sample with "
+      "KHR_materials_anisotropy, a three.js viewer, export.json with the conventions and "
       "measured errors; a material's maps go along as KTX2 with shaders that draw them per "
       "fragment");
   ex->add_option("MATERIAL", a->mat, "material file (aniso-material, e.g. what `fit` wrote)")

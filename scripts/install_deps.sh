@@ -31,6 +31,6 @@ fi
 # registry, once; nothing is fetched at build time.
 cd "$(dirname "$0")/.."
 if ! cmp -s web/package-lock.json web/node_modules/.aniso-installed 2>/dev/null; then
-  echo "install_deps: npm ci in web/ (ktx-parse, gltf-validator, three)"
+  echo "install_deps: npm ci in web/ (ktx-parse, gltf-validator, three, babylonjs)"
   (cd web && npm ci --no-audit --no-fund --loglevel=error && cp package-lock.json node_modules/.aniso-installed)
 fi

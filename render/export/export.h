@@ -11,6 +11,7 @@
 //             model and the tables under extras
 //   three/    viewer.html and an ES module that draws the material in three.js from the KTX2
 //             tables (and three itself, copied so the folder works offline)
+//   engines/  packages for Godot 4, Unity and Unreal (a line material: render/export/export_engines.h)
 //   export.json  what was written, the conventions an integrator needs and the measured errors
 #pragma once
 #include <string>
