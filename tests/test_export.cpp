@@ -841,6 +841,31 @@ TEST(Export, BrowserViewerDrawsTheFlatSampleAsThePreviewDoes) {
   EXPECT_GT(lit, 0.05);  // the sample fills the frame: a blank render would pass the difference
 }
 
+// The cylinder (a brushed rod): the browser viewer draws `aniso preview --shape cylinder`'s frame,
+// the open tube's inside included, and not the sphere's.
+TEST(Export, BrowserViewerDrawsTheCylinderAsThePreviewDoes) {
+  const std::string root = test::tmp_dir("viewer_cylinder");
+  nlohmann::json j;
+  material_to_json(brushed(), &j);
+  write_json_file(root + "/m.json", j);
+  double lit = 0;
+  const double mad =
+      viewer_against_preview(root, root + "/m.json", root + "/m.json", &lit, "cylinder");
+  std::printf(
+      "browser viewer on the cylinder against aniso preview --shape cylinder: mean |diff| "
+      "%.4f of full scale (preview mean %.3f)\n",
+      mad, lit);
+  EXPECT_LT(mad, 0.02);
+  EXPECT_GT(lit, 0.05);
+  double lit_sphere = 0;
+  const auto pv = test::run_cli("preview " + root +
+                                "/m.json --shape sphere --view 0.3,-0.8,0.5 "
+                                "--light 0.6,-0.1,0.8 --size 200x160 --out " +
+                                root + "/sphere.png");
+  ASSERT_EQ(pv.status, 0) << pv.output;
+  EXPECT_GT(mean_abs_difference(root + "/web.png", root + "/sphere.png", &lit_sphere), 5 * mad);
+}
+
 // The three.js viewer in headless Chromium (SwiftShader WebGL) renders the frame `aniso preview`
 // renders with the same options: mean absolute difference at most 2 % of full scale.
 // The fiber model over the sphere's mathematical topology (s_math per fragment from the sample

@@ -1,8 +1,9 @@
 // aniso viewer: the exported material in three.js, sampling the exported KTX2 tables in a
-// ShaderMaterial built from the exported shaders/*.glsl, on the exported sample sphere.
+// ShaderMaterial built from the exported shaders/*.glsl, on the exported sample sphere (or the flat
+// sample, or the cylinder).
 //
-// viewer.html?shape=sphere|flat&view=x,y,z&light=x,y,z&size=WxH renders exactly the frame of
-//   aniso preview MATERIAL --shape sphere|flat --view x,y,z --light x,y,z --size WxH
+// viewer.html?shape=sphere|flat|cylinder&view=x,y,z&light=x,y,z&size=WxH renders exactly the frame of
+//   aniso preview MATERIAL --shape sphere|flat|cylinder --view x,y,z --light x,y,z --size WxH
 // (orthographic camera along -view framing the object with 10 % margin, the same background and
 // fill light, sRGB output), so the two can be compared pixel by pixel. A material with maps is
 // drawn per fragment from tables/maps/*.ktx2 by the exported shaders/aniso_maps.glsl. Optional: fill=E,
@@ -118,6 +119,37 @@ function flatGeometry(psiDeg) {
   return g;
 }
 
+// aniso preview's open cylinder (geometry/mesh.cpp "cylinder": radius 1, height 2, axis z, a
+// 128 x 32 grid over u around and v down, U = dP/du along the circles), the fiber turned by psi
+// from U toward N x U. Both sides drawn, as the preview draws them.
+function cylinderGeometry(psiDeg) {
+  const nu = 128, nv = 32;
+  const c = Math.cos(psiDeg * Math.PI / 180), s = Math.sin(psiDeg * Math.PI / 180);
+  const P = [], N = [], T = [], UV = [], idx = [];
+  for (let j = 0; j <= nv; j++)
+    for (let i = 0; i <= nu; i++) {
+      const u = i / nu, v = j / nv, phi = 2 * Math.PI * u;
+      const n = [Math.cos(phi), Math.sin(phi), 0], U = [-Math.sin(phi), Math.cos(phi), 0];
+      const w = [n[1] * U[2] - n[2] * U[1], n[2] * U[0] - n[0] * U[2], n[0] * U[1] - n[1] * U[0]];
+      P.push(n[0], n[1], 1 - 2 * v);
+      N.push(...n);
+      T.push(U[0] * c + w[0] * s, U[1] * c + w[1] * s, U[2] * c + w[2] * s);
+      UV.push(u, v);
+    }
+  const id = (i, j) => j * (nu + 1) + i;
+  for (let j = 0; j < nv; j++)
+    for (let i = 0; i < nu; i++)
+      idx.push(id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j), id(i + 1, j + 1), id(i, j + 1));
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(new Float32Array(P), 3));
+  g.setAttribute('normal', new THREE.BufferAttribute(new Float32Array(N), 3));
+  g.setAttribute('fiber', new THREE.BufferAttribute(new Float32Array(T), 3));
+  g.setAttribute('uv', new THREE.BufferAttribute(new Float32Array(UV), 2));
+  g.setIndex(idx);
+  g.computeBoundingBox();
+  return g;
+}
+
 const VERTEX = `
 in vec3 fiber;
 out vec3 vN; out vec3 vT; out vec2 vUV; out vec3 vP;
@@ -201,8 +233,9 @@ export async function start(q) {
   // A material with maps opens on the flat sample, as aniso preview and aniso view open it.
   const hasMaps = ['kd', 'ks', 'fiber', 'n'].some((k) => info.maps[k]);
   const shape = q.get('shape') || (hasMaps ? 'flat' : 'sphere');
-  if (shape !== 'sphere' && shape !== 'flat')
-    throw new Error('shape ' + shape + ': the viewer has the sample sphere and the flat sample');
+  if (shape !== 'sphere' && shape !== 'flat' && shape !== 'cylinder')
+    throw new Error('shape ' + shape + ': the viewer has the sample sphere, the flat sample and the ' +
+                    'cylinder');
   const [W, H] = (q.get('size') || `${innerWidth}x${innerHeight}`).split('x').map(Number);
   const scripted = q.has('view') || q.has('light') || q.has('size');
   let view = norm(vec(q.get('view'), DEFAULTS.view));
@@ -223,7 +256,8 @@ export async function start(q) {
   const [D, S, geometry] = await Promise.all([
     loadKtx2('../' + info.tables.diffuse.ktx2), loadKtx2('../' + info.tables.specular.ktx2),
     shape === 'flat' ? flatGeometry(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)
-                     : loadSphere(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)]);
+    : shape === 'cylinder' ? cylinderGeometry(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)
+                           : loadSphere(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)]);
   const fiberTables = fiber ? await Promise.all([loadKtx2('../' + info.tables.fiber_G.ktx2),
                                                  loadKtx2('../' + info.tables.fiber_F.ktx2)])
                             : null;
@@ -262,7 +296,9 @@ export async function start(q) {
   const material = new THREE.ShaderMaterial({ glslVersion: THREE.GLSL3, vertexShader: VERTEX,
                                               fragmentShader: q.has('plain') ? FRAGMENT_PLAIN
                                                                           : await fragmentShader(info, fiber),
-                                              uniforms });
+                                              uniforms,
+                                              side: shape === 'cylinder' ? THREE.DoubleSide
+                                                                         : THREE.FrontSide });
   const scene = new THREE.Scene();
   scene.add(new THREE.Mesh(geometry, material));
 
