@@ -205,6 +205,16 @@ void Texture::array(const std::vector<float>& data, int w, int h, int layers) {
   set_filtering(target_, GL_CLAMP_TO_EDGE);
 }
 
+void Texture::volume_rgb(const std::vector<float>& data, int w, int h, int d) {
+  target_ = GL_TEXTURE_3D;
+  glGenTextures(1, &id_);
+  glBindTexture(target_, id_);
+  glTexImage3D(target_, 0, GL_RGB32F, w, h, d, 0, GL_RGB, GL_FLOAT, data.data());
+  set_filtering(target_, GL_CLAMP_TO_EDGE);
+  glTexParameteri(target_, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+  glTexParameteri(target_, GL_TEXTURE_WRAP_S, GL_REPEAT);
+}
+
 void Texture::texels(const Image& img) {
   std::vector<float> rgba(static_cast<size_t>(img.width) * img.height * 4, 0.0f);
   for (size_t p = 0; p < rgba.size() / 4; ++p)

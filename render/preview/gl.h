@@ -66,6 +66,9 @@ class Texture {
   // Channel 0 of a material map over uv: repeated (glTF uv; row 0 is v = 0 = t = 0).
   void map(const Image& img);
   void array(const std::vector<float>& data, int w, int h, int layers);
+  // An RGB volume (w x h x d, RGB32F), linear filtering: repeated in s, clamped in t and r
+  // (render/bake/environment.h's tables: equirectangular in s, t; levels of b in r).
+  void volume_rgb(const std::vector<float>& data, int w, int h, int d);
   // A material map read texel by texel (texelFetch: the shader filters it itself, in float, as
   // the CPU does): up to four channels as RGBA, row 0 at t = 0, no filtering.
   void texels(const Image& img);

@@ -20,6 +20,10 @@ namespace {
 // Vertex attributes: P, N, T, T2 (3 each), uv (2), s_math (1); see render/shaders/vertex.vert.
 const std::vector<int> kAttributeSizes = {3, 3, 3, 3, 2, 1};
 
+// Brute force sums the exact model over the environment at twice the prefilter's resolution
+// in each direction (128 x 64 directions).
+constexpr int kEnvironmentReferenceW = 128;
+
 // Whether the passes draw the material's maps (render/shaders/maps.glsl): every pass but the plain
 // one. With a map of n the fiber pass takes S_line and F from stacks over n (render/bake/bake.h).
 bool drawn_maps(const Material& m, const PreviewOptions& opt) { return !opt.plain && m.maps.any(); }
@@ -137,6 +141,12 @@ struct Lookups {
   SpecularStack stack;
   FiberStack fstack;  // the fiber model with a map of n
   gl::Texture kd_map, ks_map, n_map, fiber_map, s_stack, amp_map, f_stack;
+};
+
+// An environment's prefiltered terms as RGB volumes.
+struct EnvironmentLookup {
+  gl::Texture terms[7];
+  int levels = 0;
 };
 
 // A map of k_d or k_s as RGB (one channel stands for all three, as material_at reads it).
@@ -258,6 +268,30 @@ void set_local_uniforms(const gl::Program& p, const PreviewLight& light, const P
   p.set("uEye", cam.eye);
 }
 
+// Light from an environment: one pass over its prefiltered tables (render/shaders/env.frag).
+int draw_environment(const PreviewOptions& opt, const gl::Program& p, const EnvironmentLookup& env,
+                     const gl::MeshBuffers& mesh, const PreviewCamera& cam) {
+  glClearColor(float(opt.background[0]), float(opt.background[1]), float(opt.background[2]), 1);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  glDisable(GL_BLEND);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
+  p.use();
+  p.set_matrix("uViewProj", cam.view_proj);
+  for (int t = 0; t < 7; ++t) {
+    env.terms[t].bind(t);
+    const std::string name = "uEnv[" + std::to_string(t) + "]";
+    p.set(name.c_str(), t);
+  }
+  p.set("uV", cam.V);
+  p.set("uPerspective", cam.perspective ? 1 : 0);
+  p.set("uEye", cam.eye);
+  p.set("uLevels", float(env.levels));
+  mesh.draw();
+  glFinish();
+  return 1;
+}
+
 int draw_frame(const Material& m, const PreviewOptions& opt, const Passes& ps, const Lookups& lk,
                const gl::MeshBuffers& mesh, const PreviewCamera& cam,
                const std::vector<PreviewLight>& lights) {
@@ -357,6 +391,19 @@ GBuffer geometry_pass(const gl::Framebuffer& fb, const gl::MeshBuffers& mesh,
 void check_preview_request(const Material& m, const PreviewOptions& opt, bool fiber) {
   if (opt.width < 1 || opt.height < 1 || opt.width > 8192 || opt.height > 8192)
     throw Error("preview: --size must be between 1x1 and 8192x8192");
+  if (opt.environment) {
+    const char* what = m.fiber()              ? "the fiber model"
+                       : m.maps.any()         ? "a material with maps"
+                       : m.second_active()    ? "a second fiber"
+                       : m.isotropic_active() ? "an isotropic term"
+                       : opt.plain            ? "--plain"
+                       : opt.per_vertex       ? "--per-vertex"
+                                              : nullptr;
+    if (what)
+      throw Error(std::string("preview: --env lights the line model with one fiber and no maps; ") +
+                  "not " + what + " (light it with --light instead)");
+    return;
+  }
   if (opt.light_dirs.empty() && opt.point_lights.empty())
     throw Error("preview: at least one light is needed");
   if (!fiber) return;
@@ -478,11 +525,24 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
         opt.plain ? "plain.frag" : (fiber ? "fiber.frag" : "aniso.frag"));
   ps.iso = std::make_unique<gl::Program>(shaders::vertex_vert, shaders::iso_frag, "iso.frag");
 
+  EnvironmentLookup env;
+  std::unique_ptr<gl::Program> env_pass;
+  if (opt.environment) {
+    const EnvironmentTables et = prefilter_environment(*opt.environment, lk.tables);
+    for (int t = 0; t < 7; ++t) env.terms[t].volume_rgb(et.terms[t], et.w, et.h, et.nb);
+    env.levels = et.nb;
+    res.env_prefilter_seconds = et.seconds;
+    res.env_sizes.w = et.w, res.env_sizes.h = et.h, res.env_sizes.nb = et.nb;
+    res.env_sizes.env_w = et.env_w, res.env_sizes.env_h = et.env_h;
+    env_pass = std::make_unique<gl::Program>(shaders::vertex_vert, shaders::env_frag, "env.frag");
+  }
+
   fb.draw_to(1);
   glEnable(GL_DEPTH_TEST);
   const auto t0 = std::chrono::steady_clock::now();
   for (int frame = 0; frame < std::max(1, opt.repeat); ++frame)
-    res.passes = draw_frame(m, opt, ps, lk, buffers, cam, lights);
+    res.passes = env_pass ? draw_environment(opt, *env_pass, env, buffers, cam)
+                          : draw_frame(m, opt, ps, lk, buffers, cam, lights);
   res.frames = std::max(1, opt.repeat);
   res.seconds_per_frame =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() /
@@ -498,7 +558,10 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   if (opt.reference && fiber)
     fiber_reference(m, opt, cam, lights, lk.tables, lk.fb,
                     lk.fstack.levels > 0 ? &lk.stack : nullptr, &lk.fstack, g, &res);
-  if (opt.reference && !opt.plain && !fiber)
+  if (opt.reference && opt.environment)
+    environment_reference(m, cam, *opt.environment, kEnvironmentReferenceW,
+                          kEnvironmentReferenceW / 2, g, &res);
+  else if (opt.reference && !opt.plain && !fiber)
     line_reference(m, opt, cam, lights, lk.tables, lk.maps ? &lk.stack : nullptr, g, &res);
   return res;
 }

@@ -12,6 +12,7 @@
 #include "geometry/mesh.h"
 #include "models/material.h"
 #include "render/bake/bake.h"
+#include "render/bake/environment.h"
 
 namespace aniso {
 
@@ -53,6 +54,10 @@ struct PreviewOptions {
   const FiberBakeTables* baked_fiber = nullptr;
   const SpecularStack* baked_stack = nullptr;     // a material's map of n: the bake's stack
   const FiberStack* baked_fiber_stack = nullptr;  // and a fiber material's F over it
+  // Light from this environment instead of the lights (the line model with one fiber and no
+  // maps): prefiltered once (render/bake/environment.h), one pass; with `reference` against brute
+  // force, the exact model summed over the environment's directions with <N,L>^+.
+  const Environment* environment = nullptr;
 };
 
 struct PreviewResult {
@@ -69,6 +74,12 @@ struct PreviewResult {
   // whole lookup's measured error against the full model (render/bake/bake.h: FiberStack).
   int fiber_stack_levels = 0;
   double fiber_stack_seconds = 0, fiber_stack_error = 0, n_min = 0, n_max = 0;
+  // An environment: the prefilter's time and sizes, and against brute force (`reference`) the
+  // mean absolute difference and the relative RMS over covered pixels, and the directions summed.
+  double env_prefilter_seconds = 0, env_reference_seconds = 0;
+  EnvironmentTables env_sizes;  // (terms left empty)
+  double env_mean_abs = 0, env_rel_rms = 0, env_reference_mean = 0;
+  int env_reference_directions = 0;
   std::string renderer;  // GL_RENDERER
   int frames = 0;        // frames timed (PreviewOptions::repeat, at least 1)
 };

@@ -1,6 +1,9 @@
 #include "render/preview/preview_reference.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "core/angles.h"
@@ -159,6 +162,53 @@ void line_reference(const Material& m, const PreviewOptions& opt, const PreviewC
       }
     }
   res->error_bound = max_e * unit_bound + kFloatSlack;
+}
+
+void environment_reference(const Material& m, const PreviewCamera& cam, const Environment& env,
+                           int w, int h, const GBuffer& g, PreviewResult* res) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const EnvironmentSamples s = environment_samples(env, w, h);
+  const int W = g.N.width, H = g.N.height;
+  res->reference = Image(W, H, 3);
+  Material local = m;  // in the frame (U = T) the fiber angle is 0
+  local.fiber_angle_deg = 0;
+  const Evaluator le(local);
+  tbb::parallel_for(0, H, [&](int y) {
+    for (int x = 0; x < W; ++x) {
+      SurfacePoint sp;
+      if (!fragment_frame(g, *res, x, y, &sp)) continue;
+      const Vec3 P{g.P.at(x, y, 0), g.P.at(x, y, 1), g.P.at(x, y, 2)};
+      const LocalDir Vl = to_local(sp, cam.toward_viewer(P));
+      double acc[3] = {0, 0, 0};
+      for (size_t k = 0; k < s.dir.size(); ++k) {
+        const LocalDir Ll = to_local(sp, s.dir[k]);
+        if (!(Ll.n > 0)) continue;
+        double f[3];  // the model's reflectance per unit irradiance, <N,L>^+ included
+        le(Ll, Vl, f);
+        for (int c = 0; c < 3; ++c) acc[c] += s.weight[k][c] * f[c];
+      }
+      for (int c = 0; c < 3; ++c) res->reference.at(x, y, c) = static_cast<float>(acc[c]);
+    }
+  });
+  double sum_abs = 0, sum2 = 0, ref2 = 0, ref_sum = 0, max_abs = 0;
+  size_t n = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (!res->covered[static_cast<size_t>(y) * W + x]) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double r = res->reference.at(x, y, c), d = res->rgb.at(x, y, c) - r;
+        sum_abs += std::abs(d), sum2 += d * d, ref2 += r * r, ref_sum += r;
+        max_abs = std::max(max_abs, std::abs(d));
+        ++n;
+      }
+    }
+  res->max_abs_diff = max_abs;
+  res->env_mean_abs = n ? sum_abs / n : 0;
+  res->env_rel_rms = ref2 > 0 ? std::sqrt(sum2 / ref2) : 0;
+  res->env_reference_mean = n ? ref_sum / n : 0;
+  res->env_reference_directions = static_cast<int>(s.dir.size());
+  res->env_reference_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 }  // namespace aniso

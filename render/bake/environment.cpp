@@ -1,0 +1,176 @@
+#include "render/bake/environment.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/error.h"
+#include "io/images/image_io.h"
+
+namespace aniso {
+
+namespace {
+
+// The direction of equirectangular cell (x, y) of a w x h map (the convention of Environment).
+Vec3 cell_direction(int x, int y, int w, int h) {
+  const double phi = 2 * M_PI * (x + 0.5) / w, theta = M_PI * (y + 0.5) / h;
+  return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+}
+
+// The clamped cosine max(cos x, 0) as a Fourier series: 1/pi + cos(x)/2 + 2 cos(2x)/(3 pi)
+// - 2 cos(4x)/(15 pi) + ... (no odd term past the first); the tables keep these.
+constexpr double kC0 = 1 / M_PI, kC1 = 0.5, kC2 = 2 / (3 * M_PI), kC4 = -2 / (15 * M_PI);
+
+}  // namespace
+
+Environment read_environment(const std::string& path) {
+  Environment env;
+  env.name = path;
+  env.radiance = read_image(path).image;
+  const Image& r = env.radiance;
+  if (r.channels < 3)
+    throw Error(path + ": an environment needs three channels (RGB radiance), it has " +
+                std::to_string(r.channels));
+  if (r.width != 2 * r.height || r.height < 2)
+    throw Error(path + ": an equirectangular environment is twice as wide as high; this one is " +
+                std::to_string(r.width) + "x" + std::to_string(r.height));
+  for (size_t i = 0; i < r.px.size(); ++i)
+    if (!(std::isfinite(r.px[i]) && r.px[i] >= 0))
+      throw Error(path + ": pixel " + std::to_string(i / r.channels % r.width) + "," +
+                  std::to_string(i / r.channels / r.width) +
+                  " holds a value that is not a finite radiance >= 0");
+  if (r.channels > 3) {
+    Image rgb(r.width, r.height, 3);
+    for (size_t p = 0; p < static_cast<size_t>(r.width) * r.height; ++p)
+      for (int c = 0; c < 3; ++c) rgb.px[3 * p + c] = r.px[p * r.channels + c];
+    env.radiance = std::move(rgb);
+  }
+  return env;
+}
+
+Environment studio_environment() {
+  Environment env;
+  env.name = "studio";
+  const int w = 128, h = 64;
+  env.radiance = Image(w, h, 3);
+  // A soft-edged disc of `radius` degrees about `axis`, of `value`.
+  struct Light {
+    Vec3 axis;
+    double radius_deg;
+    RGB value;
+  };
+  const Light lights[] = {{normalize(Vec3(0.2, -0.3, 1.0)), 25, {4, 4, 4}},
+                          {normalize(Vec3(1.0, -0.6, 0.3)), 20, {0.9, 0.7, 0.5}},
+                          {normalize(Vec3(-0.6, 1.0, 0.4)), 15, {0.4, 0.55, 0.8}}};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const Vec3 d = cell_direction(x, y, w, h);
+      RGB v = d.z > 0 ? RGB{0.02, 0.02, 0.02} : RGB{0.01, 0.01, 0.01};
+      for (const Light& l : lights) {
+        const double angle = std::acos(std::clamp(dot(d, l.axis), -1.0, 1.0)) * 180 / M_PI;
+        const double t = std::clamp((l.radius_deg - angle) / 4 + 0.5, 0.0, 1.0);  // 4 deg edge
+        for (int c = 0; c < 3; ++c) v[c] += t * l.value[c];
+      }
+      for (int c = 0; c < 3; ++c) env.radiance.at(x, y, c) = static_cast<float>(v[c]);
+    }
+  return env;
+}
+
+EnvironmentSamples environment_samples(const Environment& env, int w, int h) {
+  const Image& r = env.radiance;
+  EnvironmentSamples s;
+  // Each cell averages the source pixels whose centres fall in it, weighted by their solid angle.
+  std::vector<double> sum(static_cast<size_t>(w) * h * 3, 0), area(static_cast<size_t>(w) * h, 0);
+  for (int y = 0; y < r.height; ++y) {
+    const double theta = M_PI * (y + 0.5) / r.height;
+    const double d_omega = (2 * M_PI / r.width) * (M_PI / r.height) * std::sin(theta);
+    const int cy = std::min(h - 1, y * h / r.height);
+    for (int x = 0; x < r.width; ++x) {
+      const size_t cell = static_cast<size_t>(cy) * w + std::min(w - 1, x * w / r.width);
+      for (int c = 0; c < 3; ++c) sum[3 * cell + c] += r.at(x, y, c) * d_omega;
+      area[cell] += d_omega;
+    }
+  }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t cell = static_cast<size_t>(y) * w + x;
+      if (!(area[cell] > 0)) continue;
+      s.dir.push_back(cell_direction(x, y, w, h));
+      s.weight.push_back({sum[3 * cell], sum[3 * cell + 1], sum[3 * cell + 2]});
+    }
+  return s;
+}
+
+void chi_frame(const Vec3& T, Vec3* e1, Vec3* e2) {
+  Vec3 a = cross(Vec3(0, 0, 1), T);
+  if (length(a) < 1e-6) a = cross(Vec3(1, 0, 0), T);
+  *e1 = normalize(a);
+  *e2 = cross(T, *e1);
+}
+
+EnvironmentTables prefilter_environment(const Environment& env, const BakeTables& tables, int w,
+                                        int h, int nb, int env_w, int env_h) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (tables.combined.channels != 3 || tables.size < 2)
+    throw Error("environment: the material's combined table is needed");
+  EnvironmentTables out;
+  out.w = w, out.h = h, out.nb = nb, out.env_w = env_w, out.env_h = env_h;
+  const EnvironmentSamples s = environment_samples(env, env_w, env_h);
+  for (auto& t : out.terms) t.assign(static_cast<size_t>(w) * h * nb * 3, 0.f);
+  // The table's rows at each level of b, and the texel coordinate of a cosine (bake.h).
+  const int n = tables.size;
+  std::vector<int> row0(nb);
+  std::vector<double> row_t(nb);
+  for (int i = 0; i < nb; ++i) {
+    const double b = -std::cos(M_PI * i / (nb - 1));
+    const double yc = std::clamp(texel_coord(b, n, tables.index), 0.0, n - 1.0);
+    row0[i] = std::min(n - 2, static_cast<int>(yc));
+    row_t[i] = yc - row0[i];
+  }
+  const Image& C = tables.combined;
+  tbb::parallel_for(0, w * h, [&](int cell) {
+    const int x = cell % w, y = cell / w;
+    const Vec3 T = cell_direction(x, y, w, h);
+    Vec3 e1, e2;
+    chi_frame(T, &e1, &e2);
+    std::vector<double> acc(static_cast<size_t>(nb) * 7 * 3, 0.0);
+    for (size_t k = 0; k < s.dir.size(); ++k) {
+      const Vec3& L = s.dir[k];
+      const double a = std::clamp(dot(L, T), -1.0, 1.0);
+      // sqrt(1 - a^2) (cos chi, sin chi), and the double and quadruple angles' terms.
+      const double p = dot(L, e1), q = dot(L, e2);
+      const double r2 = p * p + q * q;
+      const double c2 = r2 > 0 ? (p * p - q * q) / std::sqrt(r2) : 0,
+                   s2 = r2 > 0 ? 2 * p * q / std::sqrt(r2) : 0;
+      const double c4 = r2 > 0 ? (c2 * c2 - s2 * s2) / std::sqrt(r2) : 0,
+                   s4 = r2 > 0 ? 2 * c2 * s2 / std::sqrt(r2) : 0;
+      const double rr = std::sqrt(r2);
+      const double basis[7] = {kC0 * rr, kC1 * p, kC1 * q, kC2 * c2, kC2 * s2, kC4 * c4, kC4 * s4};
+      const double xc = std::clamp(texel_coord(a, n, tables.index), 0.0, n - 1.0);
+      const int x0 = std::min(n - 2, static_cast<int>(xc));
+      const double tx = xc - x0;
+      for (int i = 0; i < nb; ++i) {
+        const int y0 = row0[i];
+        const double ty = row_t[i];
+        for (int c = 0; c < 3; ++c) {
+          const double f = (1 - ty) * ((1 - tx) * C.at(x0, y0, c) + tx * C.at(x0 + 1, y0, c)) +
+                           ty * ((1 - tx) * C.at(x0, y0 + 1, c) + tx * C.at(x0 + 1, y0 + 1, c));
+          const double wf = s.weight[k][c] * f;
+          for (int t = 0; t < 7; ++t)
+            acc[(static_cast<size_t>(i) * 7 + t) * 3 + c] += wf * basis[t];
+        }
+      }
+    }
+    for (int i = 0; i < nb; ++i)
+      for (int t = 0; t < 7; ++t)
+        for (int c = 0; c < 3; ++c)
+          out.terms[t][((static_cast<size_t>(i) * h + y) * w + x) * 3 + c] =
+              static_cast<float>(acc[(static_cast<size_t>(i) * 7 + t) * 3 + c]);
+  });
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace aniso
