@@ -146,15 +146,15 @@ fitting::TexelLanes texel_lanes_of(size_t count) {
 // range(1): the lanes' width, 8 (AVX2) or 16 (AVX-512, where the CPU has it).
 bool texel_width(benchmark::State& st) {
   if (!fitting::line_simd_enabled()) return st.SkipWithError("no AVX2 and FMA"), false;
-  fitting::set_texel_avx512(st.range(1) == 16);
-  if (st.range(1) == 16 && !fitting::texel_avx512_enabled())
+  if (st.range(1) == 16 && !fitting::texel_avx512_available())
     return st.SkipWithError("no AVX-512 on this CPU"), false;
   return true;
 }
 
 void BM_TexelPassF32(benchmark::State& st) {
   if (!texel_width(st)) return;
-  const fitting::TexelLanes t = texel_lanes_of(static_cast<size_t>(st.range(0)));
+  fitting::TexelLanes t = texel_lanes_of(static_cast<size_t>(st.range(0)));
+  t.wide = st.range(1) == 16;
   const double kd[3] = {0.2, 0.2, 0.2}, ks[3] = {0.6, 0.6, 0.6};
   const fitting::LinePixelParams p{kd, ks, 40.0, std::cos(0.5), std::sin(0.5)};
   for (auto _ : st) {
@@ -170,7 +170,8 @@ BENCHMARK(BM_TexelPassF32)->ArgsProduct({{80, 640}, {8, 16}});
 
 void BM_TexelNodesF32(benchmark::State& st) {
   if (!texel_width(st)) return;
-  const fitting::TexelLanes t = texel_lanes_of(static_cast<size_t>(st.range(0)));
+  fitting::TexelLanes t = texel_lanes_of(static_cast<size_t>(st.range(0)));
+  t.wide = st.range(1) == 16;
   double psi[8];  // the start grid's first eight nodes
   for (int k = 0; k < 8; ++k) psi[k] = fitting::texel_grid_angle(4 * k);
   for (auto _ : st) {

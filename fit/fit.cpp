@@ -83,6 +83,7 @@ void add_texel_maps(const ObsSet& os, const FitOptions& opt, const Core& global,
   to.smooth = opt.maps_smooth;
   to.sweeps = opt.maps_sweeps;
   to.max_iterations = opt.maps_iterations;
+  to.wide_lanes = opt.maps_lanes != 8;
   to.progress = opt.progress;
   to.fiber_order = fiber_order;
   to.fiber_order_errors = rep->fiber_order_errors;
@@ -415,8 +416,7 @@ FitResult fit_table_here(const SampleTable& t, const FitOptions& opt) {
 // (an --mpi rank or a Slurm task sharing a node took all its cores).
 template <class F>
 FitResult on_threads(const FitOptions& opt, F f) {
-  fitting::set_texel_avx512(opt.maps_lanes != 8);
-  if (opt.maps_lanes == 16 && !fitting::texel_avx512_enabled())
+  if (opt.maps_lanes == 16 && !fitting::texel_avx512_available())
     throw Error("fit: --maps-lanes 16 needs AVX-512 (F, DQ and VL), which this CPU does not have");
   tbb::task_arena arena(std::max(1, opt.threads));
   return arena.execute(f);

@@ -237,12 +237,12 @@ namespace aniso::fitting {
 namespace {
 
 // Every third observation, less the last `drop`; *groups: the lanes' groups.
-void texel_lanes_as_the_double_pass(const ObsSet& os, size_t drop, size_t* groups) {
+void texel_lanes_as_the_double_pass(const ObsSet& os, size_t drop, bool wide, size_t* groups) {
   std::vector<size_t> idx;
   for (size_t i = 0; i < os.obs.size(); i += 3) idx.push_back(i);
   idx.resize(idx.size() - drop);
   TexelLanes lanes;
-  ASSERT_TRUE(texel_lanes(os, idx, &lanes));
+  ASSERT_TRUE(texel_lanes(os, idx, &lanes, wide));
   EXPECT_EQ(lanes.count, idx.size());
   *groups = lanes.groups;
   const double kd[3] = {0.2, 0.3, 0.1}, ks[3] = {0.5, 0.4, 0.6};
@@ -288,14 +288,12 @@ void texel_lanes_as_the_double_pass(const ObsSet& os, size_t drop, size_t* group
 }
 
 // The texel tests below run once per lane width this CPU has: eight (AVX2), and sixteen
-// (AVX-512) where it has them. Restores the default on leaving.
+// (AVX-512) where it has them.
 struct TexelWidths {
   std::vector<bool> wide{false};
   TexelWidths() {
-    set_texel_avx512(true);
-    if (texel_avx512_enabled()) wide.push_back(true);
+    if (texel_avx512_available()) wide.push_back(true);
   }
-  ~TexelWidths() { set_texel_avx512(true); }
 };
 
 // A texel's float lanes (fit/solvers/texel_simd.h) against the double pass over the same records:
@@ -311,13 +309,12 @@ TEST(FitPaths, TexelFloatLanesAsTheDoublePass) {
     for (const size_t drop : {0, 8}) {  // an even and an odd number of groups
       SCOPED_TRACE(wide ? "sixteen lanes" : "eight lanes");
       SCOPED_TRACE("less " + std::to_string(drop) + " observations");
-      set_texel_avx512(wide);
-      texel_lanes_as_the_double_pass(os, drop, &groups[drop > 0]);
+      texel_lanes_as_the_double_pass(os, drop, wide, &groups[drop > 0]);
     }
   EXPECT_NE(groups[0] % 2, groups[1] % 2);
 }
 
-void grey_lights_as_three_channels(size_t count);
+void grey_lights_as_three_channels(size_t count, bool wide);
 
 // Under grey lights the start nodes share the channels' dd, ds, ss sums: the same numbers, bit for
 // bit, as the three channels summed apart (the lanes told their lights are not grey); the pass's
@@ -331,18 +328,17 @@ TEST(FitPaths, TexelGreyLightsAsThreeChannels) {
     for (const size_t count : {77, 67}) {  // not a whole number of groups or blocks
       SCOPED_TRACE(wide ? "sixteen lanes" : "eight lanes");
       SCOPED_TRACE(std::to_string(count) + " observations");
-      set_texel_avx512(wide);
-      grey_lights_as_three_channels(count);
+      grey_lights_as_three_channels(count, wide);
     }
 }
 
-void grey_lights_as_three_channels(size_t count) {
+void grey_lights_as_three_channels(size_t count, bool wide) {
   ObsSet os = random_set(false, 1);
   for (ObsLight& l : os.lights) l.E[1] = l.E[2] = l.E[0];
   std::vector<size_t> idx;
   for (size_t i = 0; i < count; ++i) idx.push_back(i);
   TexelLanes grey;
-  ASSERT_TRUE(texel_lanes(os, idx, &grey));
+  ASSERT_TRUE(texel_lanes(os, idx, &grey, wide));
   ASSERT_TRUE(grey.grey_light);
   TexelLanes apart = grey;
   apart.grey_light = false;
@@ -381,7 +377,7 @@ void grey_lights_as_three_channels(size_t count) {
   }
   os.lights[os.obs[idx[40]].first_light].E[2] *= 1.5f;
   TexelLanes coloured;
-  ASSERT_TRUE(texel_lanes(os, idx, &coloured));
+  ASSERT_TRUE(texel_lanes(os, idx, &coloured, wide));
   EXPECT_FALSE(coloured.grey_light);
 }
 

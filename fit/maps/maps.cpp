@@ -286,8 +286,9 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
       }
       return t;
     }
-    return o.ceres ? solve_texel_ceres(os, bins.list(b), from.c, prior, o.max_iterations)
-                   : solve_texel_lm(os, bins.list(b), from.c, prior, o.max_iterations);
+    return o.ceres
+               ? solve_texel_ceres(os, bins.list(b), from.c, prior, o.max_iterations)
+               : solve_texel_lm(os, bins.list(b), from.c, prior, o.max_iterations, o.wide_lanes);
   };
   TexelResult start;  // the global fit
   start.c = global;
@@ -340,7 +341,8 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   m.threads = tbb::this_task_arena::max_concurrency();
-  m.lanes = o.fiber_order == 0 && !o.ceres ? texel_float_lanes() : 0;  // the line model's LM
+  m.lanes =
+      o.fiber_order == 0 && !o.ceres ? texel_float_lanes(o.wide_lanes) : 0;  // the line model's LM
   return m;
 }
 

@@ -43,7 +43,10 @@ struct TexelMapOptions {
   FiberOrderErrors fiber_order_errors;
   double s = 0;
   int max_iterations = kTexelIterations;  // --maps-iterations: per texel solve (LM or Ceres)
-  TexelScratch* scratch = nullptr;        // bands: storage reused (else fresh)
+  // --maps-lanes: the line model's texel passes sixteen lanes (AVX-512) where the CPU has them
+  // (true), or eight.
+  bool wide_lanes = true;
+  TexelScratch* scratch = nullptr;  // bands: storage reused (else fresh)
 };
 
 // Fits texel rows [rows.band0, rows.band1) of a w x h grid and returns rows [row0, row1), each

@@ -113,7 +113,7 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   // psi of the line model's own texel solve (its grid, then its LM: a few cheap passes), not of
   // a grid node: fiber-flat-map has texels with two minima of the fiber model 0.66 sigma apart,
   // and from a node 7.5 degrees off the fused solver and Ceres went to different ones.
-  t.c.psi = solve_texel_lm(os, idx, from.c, nullptr).c.psi;
+  t.c.psi = solve_texel_lm(os, idx, from.c, nullptr, kTexelIterations, o.wide_lanes).c.psi;
   FiberAccuracy acc;
   acc.order = std::min(4, o.fiber_order);  // plenty to rank nodes, as the global start
   const double n = std::exp(t.c.logn);

@@ -124,8 +124,8 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
 // The texel's observations as float lanes (false where they cannot be: then none) and, without a
 // pull, its start from the grid over psi: the LM and Ceres start from the same node.
 bool texel_begin(const ObsSet& os, const std::vector<size_t>& idx, const TexelPrior* prior,
-                 TexelLanes* lanes, Core* c, OtherValley* other = nullptr) {
-  const bool f32 = texel_lanes(os, idx, lanes);
+                 bool wide, TexelLanes* lanes, Core* c, OtherValley* other = nullptr) {
+  const bool f32 = texel_lanes(os, idx, lanes, wide);
   if (!prior) texel_start(os, idx, f32 ? lanes : nullptr, c, other);
   return f32;
 }
@@ -279,11 +279,11 @@ TexelResult texel_ceres_from(const ObsSet& os, const std::vector<size_t>& idx, c
 
 // One texel with Ceres (the fitter of record): the LM path's start and second look.
 TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                              const TexelPrior* prior, int max_iterations) {
+                              const TexelPrior* prior, int max_iterations, bool wide) {
   Core start = from;
   TexelLanes lanes;  // the same start as the LM path
   OtherValley other;
-  const bool f32 = texel_begin(os, idx, prior, &lanes, &start, &other);
+  const bool f32 = texel_begin(os, idx, prior, wide, &lanes, &start, &other);
   TexelResult t = texel_ceres_from(os, idx, start, prior, max_iterations);
   if (!prior) {
     auto from = [&](const Core& c) {
@@ -535,11 +535,11 @@ TexelResult texel_lm_from(const ObsSet& os, const std::vector<size_t>& idx, cons
 }  // namespace
 
 TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                           const TexelPrior* prior, int max_iterations) {
+                           const TexelPrior* prior, int max_iterations, bool wide) {
   Core start = from;
   thread_local TexelLanes lanes;  // each thread's buffer, reused texel after texel
   OtherValley other;
-  const bool f32 = texel_begin(os, idx, prior, &lanes, &start, &other);
+  const bool f32 = texel_begin(os, idx, prior, wide, &lanes, &start, &other);
   const TexelLanes* in_lanes = f32 ? &lanes : nullptr;
   TexelResult t = texel_lm_from(os, idx, start, in_lanes, prior, max_iterations);
   if (!prior && !t.determined && lobe_at_upper_bound(t.c)) {

@@ -36,10 +36,13 @@ struct TexelPrior {
 
 // Solves the texel of observations idx from `from` (with `prior`: pulled toward its neighbours,
 // started where it is; without: started from its own grid over psi).
+// `wide`: the float passes sixteen lanes at a time where the CPU has AVX-512 (texel_simd.h).
 TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                           const TexelPrior* prior, int max_iterations = kTexelIterations);
+                           const TexelPrior* prior, int max_iterations = kTexelIterations,
+                           bool wide = false);
 TexelResult solve_texel_ceres(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
-                              const TexelPrior* prior, int max_iterations = kTexelIterations);
+                              const TexelPrior* prior, int max_iterations = kTexelIterations,
+                              bool wide = false);
 TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
                               const TexelResult& from, const TexelMapOptions& o,
                               const TexelPrior* prior);

@@ -99,12 +99,12 @@ bool cpu_has_avx512() {
                           __builtin_cpu_supports("avx512vl");
   return has;
 }
-std::atomic<bool> g_avx512_on{true};
 
 }  // namespace
 
-bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out) {
+bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out, bool wide) {
   if (!line_simd_enabled()) return false;  // the same CPU check and switch as the double lanes
+  out->wide = wide && cpu_has_avx512();
   out->count = idx.size();
   out->groups = (idx.size() + 7) / 8;
   out->f.resize(TexelLanes::stored_groups(out->groups) * TexelLanes::kRows * 8);
@@ -152,21 +152,21 @@ bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* o
   return true;
 }
 
-bool texel_avx512_enabled() { return g_avx512_on.load() && cpu_has_avx512(); }
+bool texel_avx512_available() { return cpu_has_avx512(); }
 
-void set_texel_avx512(bool on) { g_avx512_on = on; }
-
-int texel_float_lanes() { return !line_simd_enabled() ? 0 : texel_avx512_enabled() ? 16 : 8; }
+int texel_float_lanes(bool wide) {
+  return !line_simd_enabled() ? 0 : wide && texel_avx512_available() ? 16 : 8;
+}
 
 void texel_pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac, ChannelSums<8>* s) {
-  if (texel_avx512_enabled())
+  if (t.wide)
     x16::pass_f32(t, p, jac, s);
   else
     x8::pass_f32(t, p, jac, s);
 }
 
 void texel_nodes_f32(const TexelLanes& t, const double psi[8], int log2n, KdKsSums out[8]) {
-  if (texel_avx512_enabled())
+  if (t.wide)
     x16::nodes_f32(t, psi, log2n, out);
   else
     x8::nodes_f32(t, psi, log2n, out);

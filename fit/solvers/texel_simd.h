@@ -29,20 +29,23 @@ struct TexelLanes {
   std::vector<float> f;      // stored_groups(groups) * kRows * 8
   double yy[3] = {0, 0, 0};  // sum of the squared values, per channel
   bool grey_light = false;   // every light's irradiance the same in the three channels
+  bool wide = false;         // its passes sixteen lanes at a time (AVX-512), else eight (AVX2)
 };
 
 // The texel's observations idx as lanes; false (*out is then not to be read) where
 // line_simd_enabled() is false (no AVX2/FMA, or switched off) or an observation has other than
 // one light.
-bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out);
+// `wide` asks for the sixteen-lane kernels (AVX-512F, DQ and VL), taken where the CPU has them;
+// else eight lanes (AVX2 and FMA). The choice travels with the lanes, so fits of different
+// widths may run side by side in one process.
+bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out,
+                 bool wide = false);
 
-// The sixteen-lane kernels (AVX-512F, DQ and VL) are used where the CPU has them, unless switched
-// off (set_texel_avx512, for the tests and the benchmark that compare the two widths); else eight
-// lanes (AVX2 and FMA).
-bool texel_avx512_enabled();
-void set_texel_avx512(bool on);
-// 16 or 8 as above; 0 where texel_lanes refuses every texel (no AVX2 and FMA, or switched off).
-int texel_float_lanes();
+// Whether this CPU has the sixteen-lane kernels' AVX-512 (F, DQ and VL).
+bool texel_avx512_available();
+// The lanes a texel's passes take for a request: 16 where `wide` and the CPU allow, else 8; 0
+// where texel_lanes refuses every texel (no AVX2 and FMA, or switched off).
+int texel_float_lanes(bool wide);
 
 // The texel's pass at p (no robust loss, as every texel's fit): cost, and the J^T J and J^T r
 // sums with `jac`.
