@@ -67,7 +67,12 @@ struct PreviewArgs {
   std::string background = "0.03";
   int table = 256, turntable = 0;
   bool per_vertex = false;
+  bool env_check = false;
 };
+
+// Brute force under an environment costs the image's pixels times 8192 directions: checked by
+// default up to this many pixels (256 x 256), beyond it with --env-check.
+constexpr long kEnvCheckPixels = 65536;
 
 int run(const PreviewArgs& a) {
   if (a.mat.empty() == a.bake.empty())
@@ -121,6 +126,7 @@ int run(const PreviewArgs& a) {
   if (!a.env.empty()) {
     env = a.env == "studio" ? studio_environment() : read_environment(a.env);
     p.environment = &env;
+    p.reference = a.env_check || static_cast<long>(p.width) * p.height <= kEnvCheckPixels;
   }
   p.background = parse_background(a.background);
   for (double v : p.background)
@@ -136,6 +142,17 @@ int run(const PreviewArgs& a) {
   else
     write_png(a.out, encode_srgb(img, a.exposure), 8);
   if (!a.exr.empty()) write_exr(a.exr, img);
+  if (p.environment && !p.reference) {
+    std::fprintf(
+        stderr,
+        "preview: %s under the environment %s, %zu triangles, %d pass, %.2f ms/frame on %s "
+        "-> %s; prefiltered (%dx%d directions of T, %d levels of <V,T>) in %.2f s; not held "
+        "against brute force above %ld pixels (--env-check does)\n",
+        p.shape.c_str(), env.name.c_str(), r.triangles, r.passes, 1e3 * r.seconds_per_frame,
+        r.renderer.c_str(), a.out.c_str(), r.env_sizes.w, r.env_sizes.h, r.env_sizes.nb,
+        r.env_prefilter_seconds, kEnvCheckPixels);
+    return 0;
+  }
   if (p.environment) {
     std::fprintf(
         stderr,
@@ -193,6 +210,9 @@ Command add_preview(CLI::App& app) {
                    "light from an equirectangular HDR environment (FILE.exr, z up, twice as wide "
                    "as high) or the built-in 'studio', instead of the lights: prefiltered for the "
                    "line model and drawn in one pass, then held against brute force");
+  prev->add_flag("--env-check", a->env_check,
+                 "--env: hold the frame against brute force whatever its size (by default up to "
+                 "256x256 pixels)");
   prev->add_option("--fill", a->fill,
                    "irradiance of a fill light from the viewer (0 = none); lights are 1 each")
       ->capture_default_str()

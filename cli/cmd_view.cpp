@@ -16,7 +16,7 @@ namespace aniso::cli {
 namespace {
 
 struct ViewArgs {
-  std::string input, size = "1024x768", shape, field, view, light, screenshot;
+  std::string input, size = "1024x768", shape, field, view, light, screenshot, env;
   int frames = 3;
   std::string show = "tables";
 };
@@ -95,6 +95,9 @@ Command add_view(CLI::App& app) {
       ->check(CLI::IsMember({"", "radial", "circular", "meridian"}));
   v->add_option("--view", a->view, "starting direction toward the viewer x,y,z");
   v->add_option("--light", a->light, "starting direction toward the light x,y,z");
+  v->add_option("--env", a->env,
+                "light from an equirectangular HDR environment (FILE.exr, z up) or the built-in "
+                "'studio' instead of the light (the line model with one fiber, no maps)");
   v->add_option("--screenshot", a->screenshot,
                 "render, save the window (panel included) as this PNG and exit (scripted use)");
   add_force_flag(v);
@@ -124,6 +127,11 @@ Command add_view(CLI::App& app) {
               if (bake.has_stack) p.baked_stack = &bake.stack;
             }
             load_material_maps(m, "", &p);
+            Environment env;
+            if (!a->env.empty()) {
+              env = a->env == "studio" ? studio_environment() : read_environment(a->env);
+              p.environment = &env;
+            }
             o.screenshot = a->screenshot;
             o.screenshot_frames = a->frames;
             o.show = a->show == "exact" ? 1 : a->show == "error" ? 2 : 0;

@@ -408,6 +408,36 @@ TEST(View, ScreenshotShowsThePreviewAndTheErrorMap) {
   EXPECT_GT(lit / n, 0.05);
 }
 
+// `aniso view --env studio` prefilters once and shows what `aniso preview --env studio` renders.
+TEST(View, UnderAnEnvironmentShowsThePreviewsFrame) {
+  const std::string dir = test::tmp_dir("view_env");
+  nlohmann::json j;
+  material_to_json(satin(), &j);
+  write_json_file(dir + "/m.json", j);
+  const std::string xvfb = "xvfb-run -a -s '-screen 0 800x600x24' ";
+  auto r = test::run_command(xvfb + ANISO_BIN + " view " + dir + "/m.json --size 640x480 " +
+                             "--view 0,-0.8,0.6 --env studio --screenshot " + dir + "/v.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("preview " + dir +
+                    "/m.json --size 640x480 --view 0,-0.8,0.6 --env studio "
+                    "--fill 0.15 --out " +
+                    dir + "/p.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const Image v = read_image(dir + "/v.png").image, p = read_image(dir + "/p.png").image;
+  double diff = 0, lit = 0;
+  size_t n = 0;
+  for (int y = 300; y < 440; ++y)
+    for (int x = 380; x < 540; ++x)
+      for (int c = 0; c < 3; ++c) {
+        diff = std::max(diff, double(std::abs(v.at(x, y, c) - p.at(x, y, c))));
+        lit += p.at(x, y, c);
+        ++n;
+      }
+  std::printf("view --env vs preview --env: max difference %.4f\n", diff);
+  EXPECT_LE(diff, 2.5 / 255);
+  EXPECT_GT(lit / n, 0.05);
+}
+
 // `aniso view EXPORT_DIR` draws the export's own tables and the maps it carries (it drew the
 // material block's mean values, dropping the maps): the same picture as viewing the material.
 TEST(View, AnExportFolderShowsItsOwnTablesAndMaps) {

@@ -528,7 +528,9 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   EnvironmentLookup env;
   std::unique_ptr<gl::Program> env_pass;
   if (opt.environment) {
-    const EnvironmentTables et = prefilter_environment(*opt.environment, lk.tables);
+    EnvironmentTables own;
+    if (!opt.prefiltered) own = prefilter_environment(*opt.environment, lk.tables);
+    const EnvironmentTables& et = opt.prefiltered ? *opt.prefiltered : own;
     for (int t = 0; t < 7; ++t) env.terms[t].volume_rgb(et.terms[t], et.w, et.h, et.nb);
     env.levels = et.nb;
     res.env_prefilter_seconds = et.seconds;

@@ -58,6 +58,9 @@ struct PreviewOptions {
   // maps): prefiltered once (render/bake/environment.h), one pass; with `reference` against brute
   // force, the exact model summed over the environment's directions with <N,L>^+.
   const Environment* environment = nullptr;
+  // Its prefiltered tables for this material, made once for many frames (the interactive view);
+  // prefiltered here when null.
+  const EnvironmentTables* prefiltered = nullptr;
 };
 
 struct PreviewResult {

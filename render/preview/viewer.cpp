@@ -194,6 +194,12 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
   // The tables depend on n only (colours are uniforms): baked once for every later render.
   PreviewBakes bakes;
   bake_for_frames(m, &p, &bakes);
+  // An environment: prefiltered once (its light does not move with the drag).
+  EnvironmentTables prefiltered;
+  if (p.environment) {
+    prefiltered = prefilter_environment(*p.environment, *p.baked);
+    p.prefiltered = &prefiltered;
+  }
   GLuint tex = 0;
   glGenTextures(1, &tex);
   PreviewResult r;
