@@ -13,7 +13,7 @@ namespace aniso::cli {
 
 Command add_export(CLI::App& app) {
   struct Args {
-    std::string mat, out;
+    std::string mat, out, env;
     int size = 256;
   };
   auto a = std::make_shared<Args>();
@@ -31,6 +31,9 @@ Command add_export(CLI::App& app) {
                  "atomically)")
       ->required();
   add_force_flag(ex);
+  ex->add_option("--env", a->env,
+                 "also prefilter an equirectangular HDR environment (FILE.exr, z up) or the "
+                 "built-in 'studio' for the material: the browser viewer then lights with it");
   ex->add_option("--size", a->size, "line tables N x N")
       ->capture_default_str()
       ->check(CLI::Range(2, 8192));
@@ -41,6 +44,11 @@ Command add_export(CLI::App& app) {
         ExportOptions o;
         o.size = a->size;
         o.command = shareable_command_line(a->out);
+        Environment env;
+        if (!a->env.empty()) {
+          env = a->env == "studio" ? studio_environment() : read_environment(a->env);
+          o.environment = &env;
+        }
         const ExportSummary s = export_material(m, a->out, o);
         std::printf("export: %s model, %zu files in %.3f s -> %s\n", model_name(m.model),
                     s.files.size(), s.seconds, a->out.c_str());
@@ -58,6 +66,11 @@ Command add_export(CLI::App& app) {
             "rotation %.1f deg; GGX lobe vs the model's lobe: relative RMS %.3f\n",
             s.pbr.roughness, s.pbr.strength, rad_to_deg(s.pbr.rotation_rad), s.pbr.lobe_rel_rms);
         std::printf("  %s\n", s.pbr.mapping.c_str());
+        if (o.environment)
+          std::printf(
+              "  environment %s prefiltered in %.2f s: tables/environment_t0..6.ktx2 (the "
+              "browser viewer lights with it: viewer.html?env=1)\n",
+              env.name.c_str(), s.environment_seconds);
         if (s.gltf_texels.w > 0)
           std::printf(
               "  glTF per texel (%dx%d, the lobe fitted at %d values of n): baseColorTexture, "

@@ -866,6 +866,51 @@ TEST(Export, BrowserViewerDrawsTheCylinderAsThePreviewDoes) {
   EXPECT_GT(mean_abs_difference(root + "/web.png", root + "/sphere.png", &lit_sphere), 5 * mad);
 }
 
+// `aniso export --env studio` carries the environment's prefiltered terms, and the browser viewer
+// lit by them (env=1) draws the frame `aniso preview --env studio` draws.
+TEST(Export, BrowserViewerUnderAnEnvironmentMatchesThePreview) {
+  const std::string root = test::tmp_dir("viewer_env");
+  nlohmann::json j;
+  material_to_json(brushed(), &j);
+  write_json_file(root + "/m.json", j);
+  auto r = test::run_cli("export " + root + "/m.json --env studio --out " + root + "/export");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto ej = nlohmann::json::parse(read_text_file(root + "/export/export.json"));
+  const auto& env = ej["tables"]["environment"];
+  ASSERT_EQ(env["terms"].size(), 7u);
+  const KtxTexture t0 = read_ktx2(root + "/export/" + env["terms"][0].get<std::string>());
+  EXPECT_EQ(t0.layers, env["layers"].get<int>());
+  EXPECT_EQ(t0.format, KtxFormat::kRGBA32Float);
+  const std::string q = "env=1&view=0.3,-0.8,0.5&size=200x160";
+  const auto shot = run_command("'" + web_dir() + "/screenshot.sh' '" + root + "/export' '" + q +
+                                "' '" + root + "/web.png' 200 160");
+  ASSERT_EQ(shot.status, 0) << shot.output;
+  EXPECT_NE(shot.output.find("aniso viewer: rendered"), std::string::npos) << shot.output;
+  r = test::run_cli("preview " + root +
+                    "/m.json --env studio --view 0.3,-0.8,0.5 --size 200x160 "
+                    "--out " +
+                    root + "/preview.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  double lit = 0;
+  const double mad = mean_abs_difference(root + "/web.png", root + "/preview.png", &lit);
+  std::printf(
+      "browser viewer under the studio against aniso preview --env studio: mean |diff| "
+      "%.4f of full scale (preview mean %.3f)\n",
+      mad, lit);
+  EXPECT_LT(mad, 0.02);
+  EXPECT_GT(lit, 0.1);
+  // A fiber material is refused, naming what it has.
+  Material fiber = brushed();
+  fiber.model = Model::kFiber;
+  fiber.topology = UniformS{0.3};
+  material_to_json(fiber, &j);
+  write_json_file(root + "/f.json", j);
+  r = test::run_cli("export " + root + "/f.json --env studio --out " + root + "/f_export");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("the fiber model"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(root + "/f_export/export.json"));
+}
+
 // The three.js viewer in headless Chromium (SwiftShader WebGL) renders the frame `aniso preview`
 // renders with the same options: mean absolute difference at most 2 % of full scale.
 // The fiber model over the sphere's mathematical topology (s_math per fragment from the sample

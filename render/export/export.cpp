@@ -14,6 +14,7 @@
 #include "geometry/mesh.h"
 #include "io/files/files.h"
 #include "io/files/json_util.h"
+#include "io/formats/ktx2.h"
 #include "io/formats/material_io.h"
 #include "io/images/image_io.h"
 #include "render/export/export_engines.h"
@@ -463,7 +464,9 @@ void check_export_folder(const std::string& dir) { check_output_folder(dir, Outp
 void write_gltf(const std::string& tmp, const Material& m, const json& tables, ExportSummary* sum) {
   const SphereBuffers sphere = sphere_buffers();
   json gtables = json::object();
-  for (const auto& [k, v] : tables.items()) gtables[k] = "../" + v["ktx2"].get<std::string>();
+  for (const auto& [k, v] : tables.items())
+    if (v.contains("ktx2") && v["ktx2"].is_string())  // (the environment's terms are seven)
+      gtables[k] = "../" + v["ktx2"].get<std::string>();
   GltfTextures tex;
   auto png = [&](const std::string& name, const Image& img) {
     write_png(join_path(tmp, "gltf/" + name), img, 8);  // PNG: what glTF core takes
@@ -512,6 +515,53 @@ void write_gltf(const std::string& tmp, const Material& m, const json& tables, E
   sum->files.push_back("gltf/sample.bin");
 }
 
+namespace {
+
+// --env: the environment's prefiltered terms as seven RGBA32F 2D arrays (a layer per level of
+// <V,T>: the volumes render/shaders/env.frag samples), and their entry in export.json's tables.
+json write_environment(const std::string& dir, const Material& m, const Environment& env,
+                       ExportSummary* sum) {
+  if (m.fiber() || m.maps.any() || m.second_active() || m.isotropic_active())
+    throw Error(
+        "export: --env prefilters the line model with one fiber and no maps; this material has " +
+        std::string(m.fiber()           ? "the fiber model"
+                    : m.maps.any()      ? "maps"
+                    : m.second_active() ? "a second fiber"
+                                        : "an isotropic term"));
+  const EnvironmentTables et = prefilter_environment(env, sum->line);
+  json files = json::array();
+  for (int t = 0; t < 7; ++t) {
+    KtxTexture k;
+    k.format = KtxFormat::kRGBA32Float;
+    k.width = et.w, k.height = et.h, k.layers = et.nb;
+    k.texels.resize(static_cast<size_t>(et.w) * et.h * et.nb * 4);
+    for (size_t p = 0; p < k.texels.size() / 4; ++p) {
+      for (int c = 0; c < 3; ++c) k.texels[4 * p + c] = et.terms[t][3 * p + c];
+      k.texels[4 * p + 3] = 1.f;
+    }
+    k.metadata["aniso.meaning"] = "environment term " + std::to_string(t);
+    const std::string name = "tables/environment_t" + std::to_string(t) + ".ktx2";
+    write_ktx2(join_path(dir, name), k);
+    sum->files.push_back(name);
+    files.push_back(name);
+  }
+  sum->environment_seconds = et.seconds;
+  return {{"source", env.name},
+          {"terms", files},
+          {"size", {et.w, et.h}},
+          {"layers", et.nb},
+          {"cells", {et.env_w, et.env_h}},
+          {"lookup",
+           "T, the fiber: s = atan2(T.y, T.x) / 2 pi (repeat), t = acos(T.z) / pi; layer: b = "
+           "<V,T> at acos(-b) = pi k / (layers - 1), linear between layers; radiance = t0 + c t1 + "
+           "s t2 + (c^2 - s^2) t3 + 2 c s t4 + cos 4chi t5 + sin 4chi t6, with (c, s) = (<N,e1>, "
+           "<N,e2>), e1 = normalize(z x T) (x x T near z), e2 = T x e1 "
+           "(render/shaders/env.frag)"},
+          {"seconds", et.seconds}};
+}
+
+}  // namespace
+
 ExportSummary export_material(const Material& m, const std::string& dir, const ExportOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   if (o.size < 2 || o.size > 8192) throw Error("export: --size must be between 2 and 8192");
@@ -522,6 +572,7 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
     // A maps material takes seconds (the specular stack, a lobe fit per glTF texel).
     Progress bar("export: tables, maps, shaders, glTF, viewer", 5, o.progress);
     json tables = write_tables(tmp, m, o, &sum);
+    if (o.environment) tables["environment"] = write_environment(tmp, m, *o.environment, &sum);
     bar.advance();
     const json maps = write_maps(tmp, m, o, &sum, &tables);
     bar.advance();

@@ -11,14 +11,16 @@
 //             model and the tables under extras
 //   three/    viewer.html and an ES module that draws the material in three.js from the KTX2
 //             tables (and three itself, copied so the folder works offline)
-//   engines/  packages for Godot 4, Unity and Unreal (a line material: render/export/export_engines.h)
-//   export.json  what was written, the conventions an integrator needs and the measured errors
+//   engines/  packages for Godot 4, Unity and Unreal (a line material:
+//   render/export/export_engines.h) export.json  what was written, the conventions an integrator
+//   needs and the measured errors
 #pragma once
 #include <string>
 #include <vector>
 
 #include "models/material.h"
 #include "render/bake/bake.h"
+#include "render/bake/environment.h"
 #include "render/export/gltf_lobe.h"
 
 namespace aniso {
@@ -27,6 +29,10 @@ struct ExportOptions {
   int size = 256;        // line tables N x N
   std::string command;   // recorded in export.json
   bool progress = true;  // a bar on stderr (a terminal only): tables, maps, shaders, glTF, viewer
+  // --env: this environment prefiltered for the material (render/bake/environment.h) as
+  // tables/environment_t0..6.ktx2, which the browser viewer lights with (a line material with one
+  // fiber and no maps).
+  const Environment* environment = nullptr;
 };
 
 // Which maps the exported shaders sample (aniso_maps.glsl's defines) and, with a map of n, the
@@ -62,6 +68,7 @@ struct ExportSummary {
   std::vector<std::string> files;     // relative to the export folder
   std::vector<std::string> warnings;  // said to the user and recorded in export.json
   double seconds = 0;
+  double environment_seconds = 0;  // --env: the prefilter's
 };
 
 // Writes the folder atomically: new, empty, or an earlier export holding exactly what it wrote
