@@ -20,7 +20,9 @@ Command add_report(CLI::App& app) {
       "capture saw, and each view's residual picture and its RMS against the images' noise");
   c->add_option("FIT", a->material, "material file that aniso fit wrote")->required();
   c->add_option("--capture", a->capture,
-                "the capture set it was fitted to: each view against the model");
+                "what it was fitted to: a capture set (each view against the model, the residuals "
+                "and the lobe against the data), or a sample table .csv or measured .bsdf file "
+                "(its readings' lobe against the fitted one)");
   c->add_option("--out", a->out, "folder to write (index.html and its pictures)")->required();
   add_force_flag(c);
   return {c, [a] {

@@ -1199,6 +1199,7 @@ TEST(Report, ThePageOpensInHeadlessChromium) {
         "<h2>The lobe against the data</h2>"})
     EXPECT_NE(dom.find(h), std::string::npos) << h << "\n" << dom.substr(0, 2000);
   EXPECT_NE(dom.find("data-loaded=\"all\""), std::string::npos) << dom.substr(0, 2000);
+  EXPECT_NE(dom.find("data-errors=\"none\""), std::string::npos) << dom.substr(0, 2000);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -203,6 +204,20 @@ TEST(RglBsdf, AnAnisotropicFileRoundTripsAndFitsBackToItsMaterial) {
   EXPECT_NEAR(j["fiber_angle_deg"].get<double>(), 30, 1.0);
   EXPECT_NEAR(j["n"].get<double>() / 20, 1, 0.1);
   EXPECT_LT(j["report"]["measured"]["relative_rms"].get<double>(), 0.05);
+  // aniso report: the file's lobe against the fitted one, in the fiber's frame.
+  r = test::run_cli("report " + dir + "/m.json --capture " + path + " --out " + dir + "/rep");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string lobe = read_text_file(dir + "/rep/lobe.svg");
+  double worst = 0;
+  int panels = 0;
+  for (size_t at = lobe.find("data-misfit='"); at != std::string::npos;
+       at = lobe.find("data-misfit='", at + 1), ++panels)
+    worst = std::max(worst, std::stod(lobe.substr(at + 13)));
+  std::printf("report of the file: %d lobe panels, worst misfit %.4f of the lobe's peak\n", panels,
+              worst);
+  EXPECT_GE(panels, 2);
+  EXPECT_LT(worst, 0.05);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/rep/residual_histogram.svg"));  // no images' noise
   // eval: the file's values into a table.
   write_text_file(dir + "/dirs.csv", "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n30,0,30,180\n");
   r = test::run_cli("eval " + path + " --table " + dir + "/dirs.csv --out " + dir + "/v.csv");

@@ -88,6 +88,32 @@ std::pair<Image, Image> view_and_model_pictures(const Image& rgb, const Image& m
 
 }  // namespace
 
+VerifySamples::Lobe VerifySamples::lobe_at(const LocalDir& L, const LocalDir& V, double psi_deg,
+                                           double data, double model) {
+  const double c = std::cos(deg_to_rad(psi_deg)), s = std::sin(deg_to_rad(psi_deg));
+  const double hu = L.u + V.u, hw = L.w + V.w, hn = L.n + V.n;
+  const double h = std::max(std::sqrt(hu * hu + hw * hw + hn * hn), 1e-300);
+  return {static_cast<float>(c * L.u + s * L.w),
+          static_cast<float>(c * V.u + s * V.w),
+          static_cast<float>((c * hu + s * hw) / h),
+          static_cast<float>((c * hw - s * hu) / h),
+          static_cast<float>(data),
+          static_cast<float>(model)};
+}
+
+void VerifySamples::reflectance_and_diffuse(const Material& at, const LocalDir& L,
+                                            const LocalDir& V, double s, double* f, double* fd) {
+  Material diffuse = at;
+  diffuse.maps = MaterialMaps{};
+  diffuse.ks = {0, 0, 0};
+  diffuse.iso_ks = {0, 0, 0};
+  double full[3], part[3];
+  const Evaluator whole(at), without_lobes(diffuse);
+  whole(L, V, full, s);
+  without_lobes(L, V, part, s);
+  *f = full[1], *fd = part[1];
+}
+
 const char* verdict(double r) {
   return r <= 0     ? "no noise measure"
          : r <= 1.5 ? "at the noise"
@@ -99,32 +125,17 @@ namespace {
 
 // One pixel's sample of the lobe (VerifySamples::Lobe), if one light lit it.
 bool lobe_sample(const Material& at, const SurfacePoint& sp, const Vec3& eye, const Light& light,
-                 const Evaluator& eval, double topo, double observed, double exposure,
-                 double ambient, VerifySamples::Lobe* out) {
+                 double topo, double observed, double exposure, double ambient,
+                 VerifySamples::Lobe* out) {
   Vec3 L;
   RGB E;
   double dist;
   if (!light_at(light, sp.P, &L, &E, &dist) || !(E[1] > 0) || !(exposure > 0)) return false;
   const LocalDir Ll = to_local(sp, L), Vl = to_local(sp, normalize(eye - sp.P));
-  Material diffuse = at;  // the material less its specular lobes
-  diffuse.maps = MaterialMaps{};
-  diffuse.ks = {0, 0, 0};
-  diffuse.iso_ks = {0, 0, 0};
-  double f[3], fd[3];
-  eval(Ll, Vl, f, topo);
-  const Evaluator without_lobes(diffuse);
-  without_lobes(Ll, Vl, fd, topo);
-  const double c = std::cos(deg_to_rad(at.fiber_angle_deg)),
-               s = std::sin(deg_to_rad(at.fiber_angle_deg));
-  const double hu = Ll.u + Vl.u, hw = Ll.w + Vl.w, hn = Ll.n + Vl.n;
-  const double h = std::sqrt(hu * hu + hw * hw + hn * hn);
-  if (!(h > 0)) return false;
-  *out = {static_cast<float>(c * Ll.u + s * Ll.w),
-          static_cast<float>(c * Vl.u + s * Vl.w),
-          static_cast<float>((c * hu + s * hw) / h),
-          static_cast<float>((c * hw - s * hu) / h),
-          static_cast<float>((observed / exposure - ambient) / E[1] - fd[1]),
-          static_cast<float>(f[1] - fd[1])};
+  double f, fd;
+  VerifySamples::reflectance_and_diffuse(at, Ll, Vl, topo, &f, &fd);
+  *out = VerifySamples::lobe_at(Ll, Vl, at.fiber_angle_deg,
+                                (observed / exposure - ambient) / E[1] - fd, f - fd);
   return std::isfinite(out->data) && std::isfinite(out->model);
 }
 
@@ -208,8 +219,8 @@ VerifyResult verify_capture(const CaptureSet& set, const Material& m,
           if (seen++ % stride == 0 && std::count(used.begin(), used.end(), 1) == 1 &&
               samples->lobe.size() < samples->max_lobe) {
             const size_t li = std::find(used.begin(), used.end(), 1) - used.begin();
-            if (lobe_sample(here ? *here : m, sp, d.eye, v.lights[li], local, topo,
-                            d.rgb.at(x, y, 1), v.exposure, amb[1], &s))
+            if (lobe_sample(here ? *here : m, sp, d.eye, v.lights[li], topo, d.rgb.at(x, y, 1),
+                            v.exposure, amb[1], &s))
               samples->lobe.push_back(s);
           }
         }

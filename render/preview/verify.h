@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "core/local_dir.h"
 #include "io/formats/capture.h"
 #include "models/material.h"
 
@@ -62,6 +63,13 @@ struct VerifySamples {
   };
   std::vector<Lobe> lobe;
   size_t max_lobe = 6000;
+  // One sample from directions in the surface's local frame and the fiber angle there.
+  static Lobe lobe_at(const LocalDir& L, const LocalDir& V, double psi_deg, double data,
+                      double model);
+  // The green reflectance of material `at` (no maps) at (L, V) and topology s, and of its diffuse
+  // part alone (its specular lobes' k_s 0): what a lobe sample subtracts.
+  static void reflectance_and_diffuse(const Material& at, const LocalDir& L, const LocalDir& V,
+                                      double s, double* f, double* fd);
   // With a residual folder: also image_NNN.png and model_NNN.png, the view's image and the
   // model's on the sample, sRGB at one exposure per view (the image's 99.5th percentile white).
   bool view_pictures = false;

@@ -11,7 +11,10 @@
 #include "io/files/files.h"
 #include "io/formats/capture.h"
 #include "io/formats/material_io.h"
+#include "io/formats/rgl_bsdf.h"
+#include "io/formats/table.h"
 #include "io/images/image_io.h"
+#include "models/material_maps.h"
 #include "render/preview/verify.h"
 #include "render/report/report_figures.h"
 
@@ -143,20 +146,45 @@ void map_figures(const json& j, const std::string& base, const std::string& dir,
   }
 }
 
+// A sample table's readings (a .csv, or a measured .bsdf on its own grid) as lobe samples, every
+// k-th row up to the samples' limit: the reading less the material's diffuse part, and the
+// model's specular part at the same directions.
+VerifySamples table_samples(const std::string& path, const Material& m) {
+  const SampleTable t = is_rgl_bsdf(path) ? measured_table(RglBsdf::read(path)) : read_table(path);
+  VerifySamples s;
+  const size_t stride = std::max<size_t>(1, (t.rows.size() + s.max_lobe - 1) / s.max_lobe);
+  for (size_t i = 0; i < t.rows.size(); i += stride) {
+    const SampleRow& r = t.rows[i];
+    const LocalDir L = dir_from_angles(r.theta_i, r.phi_i), V = dir_from_angles(r.theta_o, r.phi_o);
+    const Material at = t.has_uv && m.maps.any() ? material_at(m, r.u, r.v) : m;
+    double f, fd;
+    VerifySamples::reflectance_and_diffuse(at, L, V, t.has_s ? r.s : m.uniform_s(), &f, &fd);
+    const VerifySamples::Lobe l =
+        VerifySamples::lobe_at(L, V, at.fiber_angle_deg, r.value[1] - fd, f - fd);
+    if (std::isfinite(l.data) && std::isfinite(l.model)) s.lobe.push_back(l);
+  }
+  return s;
+}
+
 // The capture against the model beyond the views' table: the residuals against the unit
 // Gaussian, the lobe against the data in the fiber's frame, and the half vectors the capture saw.
 void capture_figures(const VerifySamples& s, const std::string& dir, std::ostringstream* h) {
-  std::ofstream(join_path(dir, "residual_histogram.svg")) << residual_histogram_svg(s);
-  *h << "<h2>Residuals against the images' noise</h2>\n<img src='residual_histogram.svg'>\n"
-        "<p class='note'>At the noise the bars follow the red curve; wider bars, a misfit; a "
-        "shifted peak, a bias (exposure, lamp intensity).</p>\n";
+  size_t residuals = s.below + s.above;
+  for (size_t c : s.histogram) residuals += c;
+  if (residuals > 0) {  // (a sample table has no images' noise)
+    std::ofstream(join_path(dir, "residual_histogram.svg")) << residual_histogram_svg(s);
+    *h << "<h2>Residuals against the images' noise</h2>\n<img src='residual_histogram.svg'>\n"
+          "<p class='note'>At the noise the bars follow the red curve; wider bars, a misfit; a "
+          "shifted peak, a bias (exposure, lamp intensity).</p>\n";
+  }
   if (s.lobe.empty()) return;
   std::ofstream(join_path(dir, "lobe.svg")) << lobe_polar_svg(s.lobe);
   std::ofstream(join_path(dir, "half_vectors.svg")) << half_vector_coverage_svg(s.lobe);
   *h << "<h2>The lobe against the data</h2>\n<img src='lobe.svg'>\n<p class='note'>Polar plots "
         "in the fiber's frame: round each half disc the viewer's angle to the fiber T, outward "
-        "the specular part of the green reflectance (the image less ambient, over the lamp's "
-        "irradiance, less the material's diffuse part); blue the data's mean, red dashed the "
+        "the specular part of the green reflectance (an image's value less ambient over the lamp's "
+        "irradiance, or a table's reading, less the material's diffuse part); blue the data's "
+        "mean, red dashed the "
         "model's at the same points, dots the data; dashed grey the mirror cone. "
      << s.lobe.size()
      << " pixels lit by one light, spread over the views.</p>\n<h3>Half vectors the capture "
@@ -183,6 +211,9 @@ ReportSummary write_report(const ReportOptions& o) {
        "right}th{background:#eee}.trouble{color:#a00}.note{color:#555}img{image-rendering:"
        "pixelated;margin:4px}figure{display:inline-block;margin:6px;max-width:270px;vertical-align:"
        "top}</style></head><body>\n";
+  h << "<script>window.pageErrors = []; window.addEventListener('error', (e) => "
+       "window.pageErrors.push(e.message || 'could not load ' + (e.target && (e.target.src || "
+       "e.target.href))), true);</script>\n";
   h << "<h1>aniso report</h1>\n<p>Material <code>" << esc(o.material) << "</code>, model <b>"
     << esc(j.value("model", "line")) << "</b>";
   if (rep.contains("model_selection"))
@@ -269,8 +300,16 @@ ReportSummary write_report(const ReportOptions& o) {
         << esc(rep.value("termination", "")) << ")</p>\n";
       sum.convergence = true;
     }
+    // A sample table or a measured file: its readings' lobe against the fitted one.
+    const bool table =
+        !o.capture.empty() && (lower_ext(o.capture) == ".csv" || is_rgl_bsdf(o.capture));
+    if (table) {
+      const VerifySamples samples = table_samples(o.capture, material);
+      capture_figures(samples, dir, &h);
+      sum.lobe_points = samples.lobe.size();
+    }
     // Per view against the capture.
-    if (!o.capture.empty()) {
+    if (!o.capture.empty() && !table) {
       const CaptureSet set = read_capture(o.capture);
       VerifySamples samples;
       samples.view_pictures = true;
@@ -310,11 +349,13 @@ ReportSummary write_report(const ReportOptions& o) {
           h << "<tr><td>" << esc(k) << "</td><td>" << num(t.get<double>()) << "</td></tr>\n";
       h << "</table>\n";
     }
-    // For a headless browser (and a reader who wonders): whether every picture loaded.
+    // For a headless browser (and a reader who wonders): whether every picture loaded, and the
+    // errors the page met (its own script's, and resources that failed), or none.
     h << "<script>window.addEventListener('load', () => { const bad = [...document.images]"
          ".filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.getAttribute('src')); "
          "document.body.dataset.loaded = bad.length ? 'missing ' + bad.join(' ') : 'all'; "
-         "});</script>\n</body></html>\n";
+         "document.body.dataset.errors = window.pageErrors.length ? window.pageErrors.join(' | ') "
+         ": 'none'; });</script>\n</body></html>\n";
     std::ofstream(join_path(dir, "index.html")) << h.str();
   });
   return sum;
