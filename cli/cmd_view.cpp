@@ -96,8 +96,9 @@ Command add_view(CLI::App& app) {
   v->add_option("--view", a->view, "starting direction toward the viewer x,y,z");
   v->add_option("--light", a->light, "starting direction toward the light x,y,z");
   v->add_option("--env", a->env,
-                "light from an equirectangular HDR environment (FILE.exr, z up) or the built-in "
-                "'studio' instead of the light (the line model with one fiber, no maps)");
+                "light from an equirectangular HDR environment (FILE.exr, z up), the built-in "
+                "'studio' (the default for a line material with one fiber and no maps, unless "
+                "--light is given) or 'none' (the light); the panel switches between the two");
   v->add_option("--screenshot", a->screenshot,
                 "render, save the window (panel included) as this PNG and exit (scripted use)");
   add_force_flag(v);
@@ -127,9 +128,15 @@ Command add_view(CLI::App& app) {
               if (bake.has_stack) p.baked_stack = &bake.stack;
             }
             load_material_maps(m, "", &p);
+            // The built-in studio by default where the material allows it and no light was
+            // asked for; --env none keeps the light.
             Environment env;
-            if (!a->env.empty()) {
-              env = a->env == "studio" ? studio_environment() : read_environment(a->env);
+            std::string env_name = a->env;
+            const bool env_allowed =
+                !m.fiber() && !m.maps.any() && !m.second_active() && !m.isotropic_active();
+            if (env_name.empty() && a->light.empty() && env_allowed) env_name = "studio";
+            if (!env_name.empty() && env_name != "none") {
+              env = env_name == "studio" ? studio_environment() : read_environment(env_name);
               p.environment = &env;
             }
             o.screenshot = a->screenshot;

@@ -408,15 +408,16 @@ TEST(View, ScreenshotShowsThePreviewAndTheErrorMap) {
   EXPECT_GT(lit / n, 0.05);
 }
 
-// `aniso view --env studio` prefilters once and shows what `aniso preview --env studio` renders.
-TEST(View, UnderAnEnvironmentShowsThePreviewsFrame) {
+// `aniso view` of a line material, with no light asked for, lights it from the built-in studio:
+// it shows what `aniso preview --env studio` renders.
+TEST(View, ByDefaultUnderTheStudioShowsThePreviewsFrame) {
   const std::string dir = test::tmp_dir("view_env");
   nlohmann::json j;
   material_to_json(satin(), &j);
   write_json_file(dir + "/m.json", j);
   const std::string xvfb = "xvfb-run -a -s '-screen 0 800x600x24' ";
   auto r = test::run_command(xvfb + ANISO_BIN + " view " + dir + "/m.json --size 640x480 " +
-                             "--view 0,-0.8,0.6 --env studio --screenshot " + dir + "/v.png");
+                             "--view 0,-0.8,0.6 --screenshot " + dir + "/v.png");
   ASSERT_EQ(r.status, 0) << r.output;
   r = test::run_cli("preview " + dir +
                     "/m.json --size 640x480 --view 0,-0.8,0.6 --env studio "

@@ -31,6 +31,7 @@ struct ViewState {
   float view_az = -90, view_el = 37, light_az = -16, light_el = 44;
   float exposure = 1, fill = 0.15f;
   bool perspective = false;
+  bool environment = false;  // light from the environment instead of the light (where given)
 };
 
 Vec3 from_angles(float az_deg, float el_deg) {
@@ -116,7 +117,8 @@ class Window {
 };
 
 // The control panel; returns whether anything changed.
-bool panel(const Material& m, ViewState* s, const PreviewResult& r, double ms) {
+bool panel(const Material& m, ViewState* s, const PreviewResult& r, double ms,
+           const Environment* env) {
   bool changed = false;
   ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_Once);
   ImGui::SetNextWindowBgAlpha(0.8f);
@@ -129,16 +131,25 @@ bool panel(const Material& m, ViewState* s, const PreviewResult& r, double ms) {
   changed |= ImGui::Checkbox("specular", &s->specular);
   if (m.has_isotropic) changed |= ImGui::Checkbox("isotropic", &s->isotropic);
   if (m.has_second_fiber) changed |= ImGui::Checkbox("second fiber", &s->second);
-  changed |= ImGui::SliderFloat("light azimuth", &s->light_az, -180, 180);
-  changed |= ImGui::SliderFloat("light elevation", &s->light_el, -89, 89);
-  changed |= ImGui::SliderFloat("fill", &s->fill, 0, 1);
+  if (env) {
+    const std::string label = "environment (" + env->name + ")";
+    changed |= ImGui::Checkbox(label.c_str(), &s->environment);
+  }
+  if (!s->environment) {
+    changed |= ImGui::SliderFloat("light azimuth", &s->light_az, -180, 180);
+    changed |= ImGui::SliderFloat("light elevation", &s->light_el, -89, 89);
+    changed |= ImGui::SliderFloat("fill", &s->fill, 0, 1);
+  } else if (s->mode > 0) {
+    s->mode = 0, changed = true;  // brute force under an environment takes seconds a frame
+  }
   changed |=
       ImGui::SliderFloat("exposure", &s->exposure, 0.05f, 20, "%.2f", ImGuiSliderFlags_Logarithmic);
   changed |= ImGui::Checkbox("perspective", &s->perspective);
   ImGui::Text("%s model, %d passes, %.1f ms per render", model_name(m.model), r.passes, ms);
   if (!r.reference.empty())
     ImGui::Text("tables vs exact: max abs %.3g (bound %.3g)", r.max_abs_diff, r.error_bound);
-  ImGui::TextUnformatted("drag: orbit   right-drag: light");
+  ImGui::TextUnformatted(s->environment ? "drag: orbit   (the exact and error views: light only)"
+                                        : "drag: orbit   right-drag: light");
   ImGui::End();
   return changed;
 }
@@ -154,7 +165,7 @@ bool drag(ViewState* s) {
     s->view_el = std::clamp(s->view_el + dy, -89.f, 89.f);
     return true;
   }
-  if (ImGui::IsMouseDown(ImGuiMouseButton_Right)) {
+  if (ImGui::IsMouseDown(ImGuiMouseButton_Right) && !s->environment) {
     s->light_az -= dx;
     s->light_el = std::clamp(s->light_el + dy, -89.f, 89.f);
     return true;
@@ -194,12 +205,17 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
   // The tables depend on n only (colours are uniforms): baked once for every later render.
   PreviewBakes bakes;
   bake_for_frames(m, &p, &bakes);
-  // An environment: prefiltered once (its light does not move with the drag).
+  // An environment: prefiltered for the terms shown (again when they change), its light not moved
+  // by the drag; the panel switches between it and the light.
+  const Environment* env = p.environment;
+  s.environment = env != nullptr;
   EnvironmentTables prefiltered;
-  if (p.environment) {
-    prefiltered = prefilter_environment(*p.environment, *p.baked);
-    p.prefiltered = &prefiltered;
-  }
+  std::pair<bool, bool> prefiltered_for{false, false};  // (diffuse, specular) shown
+  auto refilter = [&](const Material& shown) {
+    if (prefiltered.w > 0 && prefiltered_for == std::pair{s.diffuse, s.specular}) return;
+    prefiltered = prefilter_environment(*env, bake_line(shown, p.baked->size, p.baked->index));
+    prefiltered_for = {s.diffuse, s.specular};
+  };
   GLuint tex = 0;
   glGenTextures(1, &tex);
   PreviewResult r;
@@ -215,8 +231,15 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
       p.fill = s.fill;
       p.perspective = s.perspective;
       p.reference = s.mode > 0;
+      const Material shown = with_terms(m, s);
+      p.environment = s.environment ? env : nullptr;
+      p.prefiltered = nullptr;
+      if (p.environment) {
+        refilter(shown);
+        p.prefiltered = &prefiltered;
+      }
       const auto t0 = std::chrono::steady_clock::now();
-      r = render_preview(with_terms(m, s), p);
+      r = render_preview(shown, p);
       ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const std::vector<uint8_t> px = display_pixels(r, s, p);
       glBindTexture(GL_TEXTURE_2D, tex);
@@ -234,7 +257,7 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
     ImGui::GetBackgroundDrawList()->AddImage(
         reinterpret_cast<ImTextureID>(static_cast<intptr_t>(tex)), ImVec2(0, 0),
         ImVec2(float(p.width), float(p.height)));
-    dirty |= panel(m, &s, r, ms);
+    dirty |= panel(m, &s, r, ms, env);
     dirty |= drag(&s);
     ImGui::Render();
     int fw, fh;
