@@ -4,15 +4,10 @@
 # Usage: web/screenshot.sh EXPORT_DIR 'QUERY' OUT.png W H
 set -euo pipefail
 dir=$1 query=$2 out=$3 w=$4 h=$5
-port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-python3 -m http.server "$port" --bind 127.0.0.1 --directory "$dir" >/dev/null 2>&1 &
-server=$!
+source "$(dirname "$0")/serve.sh"
+server=
 trap 'kill $server 2>/dev/null || true' EXIT
-for _ in $(seq 50); do
-  python3 -c "import urllib.request; urllib.request.urlopen('http://127.0.0.1:$port/export.json')" \
-    2>/dev/null && break
-  sleep 0.1
-done
+serve "$dir" export.json
 profile=$(mktemp -d)
 url="http://127.0.0.1:$port/three/viewer.html?$query"
 # Each Chromium run is bounded (a hung browser fails the caller instead of stalling it).
