@@ -33,7 +33,7 @@ Command add_report(CLI::App& app) {
             const ReportSummary s = write_report(*a);
             std::printf(
                 "report: %s -> %s/index.html: %zu parameters, %zu warnings, %zu notes, %zu map "
-                "pictures%s, %zu views, %zu pixels in the lobe plots\n",
+                "pictures%s, %zu views, %zu points in the lobe plots\n",
                 a->material.c_str(), a->out.c_str(), s.parameters, s.warnings, s.notes, s.maps,
                 s.correlation ? ", the correlation matrix" : "", s.views, s.lobe_points);
             return 0;
