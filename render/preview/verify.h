@@ -2,6 +2,7 @@
 // simulator uses, from the set's geometry buffers, without shadow rays) and reports the error
 // against the captured images, per view and overall.
 #pragma once
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,7 @@ struct VerifySamples {
   std::vector<size_t> histogram = std::vector<size_t>(kBins, 0);
   size_t below = 0, above = 0;
   void add_residual(double r) {
+    if (std::isnan(r)) return;
     const double b = (r - kLow) / kStep;
     if (b < 0)
       ++below;
