@@ -46,6 +46,11 @@ Image turntable(const Material& m, PreviewOptions p, int n, PreviewResult* last)
   PreviewBakes bakes;  // one material: its tables baked once for every frame
   Progress bar("preview --turntable: the tables, then " + std::to_string(n) + " frames", n + 1);
   bake_for_frames(m, &p, &bakes);
+  EnvironmentTables prefiltered;  // an environment: prefiltered once too
+  if (p.environment && !p.prefiltered) {
+    prefiltered = prefilter_environment(*p.environment, *p.baked);
+    p.prefiltered = &prefiltered;
+  }
   bar.advance();
   for (int i = 0; i < n; ++i, bar.advance()) {
     const double a = 2 * M_PI * i / n, c = std::cos(a), s = std::sin(a);

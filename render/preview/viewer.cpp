@@ -145,7 +145,8 @@ bool panel(const Material& m, ViewState* s, const PreviewResult& r, double ms,
   changed |=
       ImGui::SliderFloat("exposure", &s->exposure, 0.05f, 20, "%.2f", ImGuiSliderFlags_Logarithmic);
   changed |= ImGui::Checkbox("perspective", &s->perspective);
-  ImGui::Text("%s model, %d passes, %.1f ms per render", model_name(m.model), r.passes, ms);
+  ImGui::Text("%s model, %d pass%s, %.1f ms per render", model_name(m.model), r.passes,
+              r.passes == 1 ? "" : "es", ms);
   if (!r.reference.empty())
     ImGui::Text("tables vs exact: max abs %.3g (bound %.3g)", r.max_abs_diff, r.error_bound);
   ImGui::TextUnformatted(s->environment ? "drag: orbit   (the exact and error views: light only)"
