@@ -1,7 +1,7 @@
-// `aniso bench fit`: the whole `aniso fit` process on the sets issue 11 names, bm16 (16 views of
-// 128², brushed metal, 1 % noise) and bm64 (64 views of 256²): wall time and peak memory of the
-// fused solver against Ceres (--solver ceres) in the same run, each a child process started the
-// way a user starts it, the median of three runs. Then --maps' texel phase against one Ceres
+// `aniso bench fit`: the whole `aniso fit` process on the sets of the fit's speed targets, bm16 (16
+// views of 128², brushed metal, 1 % noise) and bm64 (64 views of 256²): wall time and peak memory
+// of the fused solver against Ceres (--solver ceres) in the same run, each a child process started
+// the way a user starts it, the median of three runs. Then --maps' texel phase against one Ceres
 // problem per texel, and the fiber model, fused against Ceres.
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -124,7 +124,7 @@ double sigma_difference(const std::string& a_path, const std::string& b_path) {
   return worst;
 }
 
-// The fiber model (issue 11: "the slow one"): `aniso fit --model M` on a preset, fused (median
+// The fiber model ("the slow one"): `aniso fit --model M` on a preset, fused (median
 // of three) against --solver ceres (one run: it takes minutes), and how far apart they land.
 json fiber_entry(const std::string& work, bool quick, const char* preset, const char* model) {
   PresetOptions po;
@@ -194,7 +194,7 @@ double maps_difference(const std::string& a_stem, const std::string& b_stem) {
   return worst;
 }
 
-// --maps (issue 11): the texel phase by the hand-written LM (float lanes, then double; median of
+// --maps: the texel phase by the hand-written LM (float lanes, then double; median of
 // three) against one Ceres problem per texel (one run), both from the same --global fit of a
 // swirl-brushed plate, and how far apart the maps land.
 json maps_entry(const std::string& work, bool quick, int views) {

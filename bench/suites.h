@@ -1,6 +1,6 @@
 // `aniso bench SUITE --out FILE.json`: end-to-end comparisons made in one run on this machine.
-// Every entry: {"suite", "name", "ours", "baseline", "ratio", "error", "unit", ...}; targets from
-// issue 4 are checked and reported as met or missed, with the reason where missed.
+// Every entry: {"suite", "name", "ours", "baseline", "ratio", "error", "unit", ...}; its target,
+// where it has one, is checked and reported as met or missed, with the reason where missed.
 #pragma once
 #include <string>
 

@@ -1,7 +1,7 @@
 // Standard normal samples by Marsaglia & Tsang's ziggurat (J. Stat. Softw. 5(8), 2000), 128
 // layers, from any 64-bit engine: in 98.8 % of draws one engine call, one multiply and one compare.
 // std::normal_distribution (Marsaglia's polar method) takes a logarithm, a square root and ~2.5
-// engine calls per pair; it was a fifth of a noisy capture_sim run (issue 11).
+// engine calls per pair; it was a fifth of a noisy capture_sim run.
 #pragma once
 #include <cmath>
 #include <cstdint>

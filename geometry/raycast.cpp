@@ -161,7 +161,7 @@ void RayScene::trace(const Intrinsics& k, const Mat4& pose, const std::string& f
   uint8_t* const hits = g.hit.data();
   // A packet's directions in float, the lanes side by side (what Embree takes): a double
   // normalize per lane was a sqrt-and-divide latency chain that cost more than Embree's own work
-  // on a primary ray (issue 11). Columns past the image's width are padded and never valid.
+  // on a primary ray. Columns past the image's width are padded and never valid.
   const int padded = (k.width + 7) / 8 * 8;
   std::vector<float> ray_x(static_cast<size_t>(padded), 0.f);  // camera-space x of each column
   for (int x = 0; x < k.width; ++x) ray_x[x] = static_cast<float>((x - k.cx) / k.fx);

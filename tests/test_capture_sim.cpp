@@ -306,7 +306,7 @@ TEST(CaptureSim, ExplicitRigWithSpotAndDirectionalLights) {
 namespace aniso {
 namespace {
 
-// Embree errors reach the user with their code and message (issue 7), on every device.
+// Embree errors reach the user with their code and message, on every device.
 TEST(Embree, ErrorsArePrintedWithCodeAndMessage) {
   RTCDevice dev = new_embree_device("test");
   testing::internal::CaptureStderr();

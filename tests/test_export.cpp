@@ -1,4 +1,4 @@
-// `aniso export` (issue 10): KTX2 read back by an independent reader (npm ktx-parse), shaders
+// `aniso export`: KTX2 read back by an independent reader (npm ktx-parse), shaders
 // compiled by Khronos' glslangValidator and translated by spirv-cross, the glTF checked by the
 // Khronos glTF-Validator, and the folder rules.
 #include <gtest/gtest.h>

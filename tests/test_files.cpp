@@ -1,4 +1,4 @@
-// A person's files are sacred (issue 8): what a command may replace, what it must refuse, and
+// A person's files are sacred: what a command may replace, what it must refuse, and
 // what a failed, killed or concurrent run leaves behind. Every case runs the real CLI.
 #include <gtest/gtest.h>
 #include <sys/stat.h>

@@ -1,4 +1,4 @@
-// fit: recovery on synthetic ground truth (issue 2's limits), calibrated uncertainties, every
+// fit: recovery on synthetic ground truth (the stated limits), calibrated uncertainties, every
 // input form (EXR buffers, sRGB PNG, OBJ mesh, sample table), ill-posed data named as such.
 #include <gtest/gtest.h>
 

@@ -710,7 +710,7 @@ TEST(Files, AFolderIsFilledInPlaceAndPublishedWhole) {
 namespace aniso {
 namespace {
 
-// The material's topology is one typed source, parsed once (issue 7): contradictory blocks are
+// The material's topology is one typed source, parsed once: contradictory blocks are
 // refused, and each source survives a write and a read; s_at decides s the same way for all.
 TEST(MaterialTypes, TopologySourcesRoundTripAndContradictionsAreRefused) {
   const std::string head = R"({"format": "aniso-material", "version": 1, "model": "fiber",

@@ -1,4 +1,4 @@
-// fit --maps (issue 11): per-texel maps against ground truth and the texel LM against Ceres.
+// fit --maps: per-texel maps against ground truth and the texel LM against Ceres.
 // Tiles, --global and MPI ranks: tests/test_maps_tiles.cpp.
 #include <gtest/gtest.h>
 
@@ -103,7 +103,7 @@ std::string synth_and_fit(const std::string& dir, const std::string& synth, cons
   return r.output;
 }
 
-// --maps (issue 11): a plate whose brushing turns in circles and whose k_d changes across it,
+// --maps: a plate whose brushing turns in circles and whose k_d changes across it,
 // rendered with 1 % noise; every texel's psi and k_d against the truth maps at the texel centre.
 TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
   const std::string dir = test::tmp_dir("swirl");
@@ -179,7 +179,7 @@ TEST(FitMaps, SwirlPlateMapsMatchTheTruthPerTexel) {
   EXPECT_NE(r.output.find("misfit"), std::string::npos) << r.output;
 }
 
-// The other presets with maps (issue 11): a woven patch (a checker of warp and weft blocks that
+// The other presets with maps: a woven patch (a checker of warp and weft blocks that
 // differ in direction, colour and n) and a CD on a disc (hub, data area and rim differ in k_d, k_s
 // and n; psi along the circular grooves), each with 1 % noise, against their truth.
 // A maps material's scalars are what the format promises: the means over its determined texels
@@ -330,7 +330,7 @@ SErrors s_errors(const std::string& dir, const std::string& fit_json, int n) {
   return {d_map.size(), median(d_map), median(d_global), median(z)};
 }
 
-// --maps with the fiber model (issue 11): a flat satin sample whose topology s varies over it
+// --maps with the fiber model: a flat satin sample whose topology s varies over it
 // (an 8 x 8 map of s in [0.15, 0.85], bilinear, repeated); every texel of a 16 x 16 fit against
 // the truth at its centre: far closer than the one s of the global fit; the material reads back
 // with maps.s.
@@ -516,7 +516,7 @@ TEST(FitMaps, FiberModelSmoothingBringsNoisyTopologyCloser) {
   EXPECT_GE(e[1].determined + 3, e[0].determined);
 }
 
-// --smooth (issue 11): on a noisy plate (5 % noise, 32 x 32 texels) the pull toward the
+// --smooth: on a noisy plate (5 % noise, 32 x 32 texels) the pull toward the
 // neighbours brings psi and k_d closer to the truth than every texel alone; tiles of a smoothed
 // fit still merge into the untiled run's files byte for byte.
 TEST(FitMaps, SmoothingBringsNoisyTexelsCloserToTheTruth) {

@@ -1,4 +1,4 @@
-// fit --maps past one machine (issue 11): tiles (`--tile i/N`, `aniso merge`), tiles from a given
+// fit --maps past one machine: tiles (`--tile i/N`, `aniso merge`), tiles from a given
 // global fit that keep only their rows (`--global`), the Slurm script and MPI ranks, each against
 // one untiled run byte for byte.
 #include <gtest/gtest.h>

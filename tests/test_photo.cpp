@@ -1,4 +1,4 @@
-// Photo shoots (issue 9): the printable board and finding it again.
+// Photo shoots: the printable board and finding it again.
 #include <gtest/gtest.h>
 
 #include <algorithm>

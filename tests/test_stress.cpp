@@ -1,4 +1,4 @@
-// Numerical stress (issue 4): millions of random evaluations, degenerate and hostile captures.
+// Numerical stress: millions of random evaluations, degenerate and hostile captures.
 // Each run's counts are printed; every one must be finite, and ill-posed fits must say so.
 #include <gtest/gtest.h>
 
@@ -37,7 +37,7 @@ LocalDir any_dir(std::mt19937_64& rng) {  // the whole sphere, plus exact axes n
   return {x / l, y / l, z / l};
 }
 
-// Degenerate directions are the limits of their neighbours (issue 8): a light or view exactly in
+// Degenerate directions are the limits of their neighbours: a light or view exactly in
 // the surface plane, along the fiber axis (T or -T) or across it (B), against the same direction
 // lifted a hair above the plane. The case found: k_d 0.3, k_s 0.6, n 1, s 0, L = T in the plane
 // gave 0.335 where its neighbours give 0.520.

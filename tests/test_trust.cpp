@@ -1,4 +1,4 @@
-// No wrong answer in silence (issue 8): what a reader does not understand is an error naming the
+// No wrong answer in silence: what a reader does not understand is an error naming the
 // file and key; assumptions that change the answer are never made quietly.
 #include <ImfChannelList.h>
 #include <ImfHeader.h>

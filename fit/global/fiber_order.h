@@ -1,4 +1,4 @@
-// fit/ internal: the fiber model's quadrature order chosen from the data (issue 11). The
+// fit/ internal: the fiber model's quadrature order chosen from the data. The
 // specular integral is Gauss-Legendre on panels around the lobe's peak (models/fiber_model.h);
 // its error is systematic, so over N values it can shift a fitted number by up to about
 // error x sqrt(N) / noise of that number's sigma. The order kept is the smallest whose RMS error

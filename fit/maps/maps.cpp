@@ -1,4 +1,4 @@
-// --maps: per-texel maps of the line model and the fiber model (issue 11). The observations are
+// --maps: per-texel maps of the line model and the fiber model. The observations are
 // binned by the texel their texture coordinates fall in; each texel is its own small problem
 // (fit/maps/texel_solve.h: k_d, k_s, log n, psi, and the fiber model's s), optionally pulled toward
 // its neighbours by Jacobi sweeps (--smooth). A texel whose data do not determine it keeps the

@@ -584,7 +584,7 @@ void write_exr(const std::string& path, const Image& img) {
   if (!all_finite(img.px)) throw Error(path + ": refusing to write a non-finite value");
   if (g_compression.load() == Imf::NO_COMPRESSION) {
     // At memory speed: OpenEXR's scanline writer took 84-116 ms for what writing the bytes
-    // ourselves does in 8-12 ms (issue 11), in 64 KiB pieces; read back by OpenEXR in the tests.
+    // ourselves does in 8-12 ms, in 64 KiB pieces; read back by OpenEXR in the tests.
     const std::string software = output_stamp(path);
     write_file_pieces(path,
                       [&](const ByteSink& sink) { encode_exr_uncompressed(img, sink, software); });
