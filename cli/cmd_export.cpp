@@ -46,7 +46,7 @@ Command add_export(CLI::App& app) {
         o.command = shareable_command_line(a->out);
         Environment env;
         if (!a->env.empty()) {
-          env = a->env == "studio" ? studio_environment() : read_environment(a->env);
+          env = named_environment(a->env);
           o.environment = &env;
         }
         const ExportSummary s = export_material(m, a->out, o);

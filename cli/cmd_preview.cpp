@@ -129,7 +129,7 @@ int run(const PreviewArgs& a) {
   if (!a.point_lights.empty() && a.lights.empty()) p.light_dirs.clear();
   Environment env;
   if (!a.env.empty()) {
-    env = a.env == "studio" ? studio_environment() : read_environment(a.env);
+    env = named_environment(a.env);
     p.environment = &env;
     p.reference = a.env_check || static_cast<long>(p.width) * p.height <= kEnvCheckPixels;
   }

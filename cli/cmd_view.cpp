@@ -136,7 +136,7 @@ Command add_view(CLI::App& app) {
                 !m.fiber() && !m.maps.any() && !m.second_active() && !m.isotropic_active();
             if (env_name.empty() && a->light.empty() && env_allowed) env_name = "studio";
             if (!env_name.empty() && env_name != "none") {
-              env = env_name == "studio" ? studio_environment() : read_environment(env_name);
+              env = named_environment(env_name);
               p.environment = &env;
             }
             o.screenshot = a->screenshot;

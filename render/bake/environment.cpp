@@ -78,6 +78,10 @@ Environment studio_environment() {
   return env;
 }
 
+Environment named_environment(const std::string& name) {
+  return name == "studio" ? studio_environment() : read_environment(name);
+}
+
 EnvironmentSamples environment_samples(const Environment& env, int w, int h) {
   const Image& r = env.radiance;
   EnvironmentSamples s;

@@ -31,6 +31,9 @@ struct Environment {
 // channels, finite values >= 0; the error names the file and what is wrong.
 Environment read_environment(const std::string& path);
 
+// "studio" (the built-in one below) or a file read as above: what --env names.
+Environment named_environment(const std::string& name);
+
 // The built-in studio: a dim grey room (0.02), a soft overhead key (a disc of 25 degrees of
 // radiance 4), a warm fill to one side and a cool rim behind, a darker floor (128 x 64).
 Environment studio_environment();

@@ -356,23 +356,16 @@ ExportShaders export_shaders(int texels, const FiberBakeTables* fiber, const Exp
                                    {maps->topology_map, "ANISO_TOPOLOGY_MAP"},
                                    {maps->amplitude, "ANISO_AMPLITUDE_MAP"}})
       if (on) mdef += std::string("#define ") + name + "\n";
-    // Float literals with a point or an exponent: GLSL ES (WebGL) converts no int to float.
-    auto literal = [](double v) {
-      char b[40];
-      std::snprintf(b, sizeof b, "%.9g", v);
-      std::string t = b;
-      return t.find_first_of(".e") == std::string::npos ? t + ".0" : t;
-    };
     if (maps->topology_map && !maps->amplitude)
-      mdef += "#define ANISO_TOPOLOGY_AMPLITUDE " + literal(maps->topology_amplitude) + "\n";
+      mdef += "#define ANISO_TOPOLOGY_AMPLITUDE " + shader_float(maps->topology_amplitude) + "\n";
     if (maps->n) {
       mdef += "#define ANISO_STACK_LEVELS " + std::to_string(maps->levels) +
-              "\n#define ANISO_LOG_N0 " + literal(maps->log_n0) + "\n#define ANISO_LOG_STEP " +
-              literal(maps->log_step) + "\n";
+              "\n#define ANISO_LOG_N0 " + shader_float(maps->log_n0) + "\n#define ANISO_LOG_STEP " +
+              shader_float(maps->log_step) + "\n";
       if (maps->f_levels > 0)
         mdef += "#define ANISO_FIBER_F_LEVELS " + std::to_string(maps->f_levels) +
-                "\n#define ANISO_FIBER_LOG_N0 " + literal(maps->f_log_n0) +
-                "\n#define ANISO_FIBER_LOG_STEP " + literal(maps->f_log_step) + "\n";
+                "\n#define ANISO_FIBER_LOG_N0 " + shader_float(maps->f_log_n0) +
+                "\n#define ANISO_FIBER_LOG_STEP " + shader_float(maps->f_log_step) + "\n";
     }
     // A fiber material's complete maps shader draws the fiber model (anisoFiberRadianceMapped).
     s.glsl_maps = mdef + shaders::aniso_maps_glsl;
@@ -518,7 +511,8 @@ void write_gltf(const std::string& tmp, const Material& m, const json& tables, E
 namespace {
 
 // --env: the environment's prefiltered terms as seven RGBA32F 2D arrays (a layer per level of
-// <V,T>: the volumes render/shaders/env.frag samples), and their entry in export.json's tables.
+// <V,T>: the volumes shaders/aniso_environment.glsl samples) beside that file, and their entry in
+// export.json's tables.
 json write_environment(const std::string& dir, const Material& m, const Environment& env,
                        ExportSummary* sum) {
   if (m.fiber() || m.maps.any() || m.second_active() || m.isotropic_active())
@@ -545,8 +539,12 @@ json write_environment(const std::string& dir, const Material& m, const Environm
     sum->files.push_back(name);
     files.push_back(name);
   }
+  write_text_file(join_path(dir, "shaders/aniso_environment.glsl"),
+                  shaders::aniso_environment_glsl);
+  sum->files.push_back("shaders/aniso_environment.glsl");
   sum->environment_seconds = et.seconds;
   return {{"source", env.name},
+          {"shader", "shaders/aniso_environment.glsl"},
           {"terms", files},
           {"size", {et.w, et.h}},
           {"layers", et.nb},
@@ -555,8 +553,8 @@ json write_environment(const std::string& dir, const Material& m, const Environm
            "T, the fiber: s = atan2(T.y, T.x) / 2 pi (repeat), t = acos(T.z) / pi; layer: b = "
            "<V,T> at acos(-b) = pi k / (layers - 1), linear between layers; radiance = t0 + c t1 + "
            "s t2 + (c^2 - s^2) t3 + 2 c s t4 + cos 4chi t5 + sin 4chi t6, with (c, s) = (<N,e1>, "
-           "<N,e2>), e1 = normalize(z x T) (x x T near z), e2 = T x e1 "
-           "(render/shaders/env.frag)"},
+           "<N,e2>), e1 = normalize(z x T) (x x T near z), e2 = T x e1: "
+           "shaders/aniso_environment.glsl's anisoEnvironmentRadiance"},
           {"seconds", et.seconds}};
 }
 

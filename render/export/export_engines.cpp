@@ -11,24 +11,16 @@ namespace {
 
 using json = nlohmann::json;
 
-// A number as a shader literal: a point or an exponent, always (GLSL converts no int to float).
-std::string literal(double v) {
-  char b[40];
-  std::snprintf(b, sizeof b, "%.9g", v);
-  std::string t = b;
-  return t.find_first_of(".e") == std::string::npos ? t + ".0" : t;
-}
-
 std::string triple(const RGB& c, const char* sep = ", ") {
-  return literal(c[0]) + sep + literal(c[1]) + sep + literal(c[2]);
+  return shader_float(c[0]) + sep + shader_float(c[1]) + sep + shader_float(c[2]);
 }
 
 // The template with {{TEXELS}}, {{KD}}, {{KS}} and {{PSI}} filled in.
 std::string fill(std::string t, const Material& m, int texels) {
-  const std::pair<const char*, std::string> keys[] = {{"{{TEXELS}}", literal(texels)},
+  const std::pair<const char*, std::string> keys[] = {{"{{TEXELS}}", shader_float(texels)},
                                                       {"{{KD}}", triple(m.kd)},
                                                       {"{{KS}}", triple(m.ks)},
-                                                      {"{{PSI}}", literal(m.fiber_angle_deg)}};
+                                                      {"{{PSI}}", shader_float(m.fiber_angle_deg)}};
   for (const auto& [key, value] : keys)
     for (size_t at = t.find(key); at != std::string::npos; at = t.find(key, at + value.size()))
       t.replace(at, std::string(key).size(), value);
@@ -50,7 +42,7 @@ std::string godot_material(const Material& m) {
          "shader_parameter/aniso_specular = ExtResource(\"3_specular\")\n"
          "shader_parameter/kd = Vector3(" +
          triple(m.kd) + ")\nshader_parameter/ks = Vector3(" + triple(m.ks) +
-         ")\nshader_parameter/fiber_angle_deg = " + literal(m.fiber_angle_deg) + "\n";
+         ")\nshader_parameter/fiber_angle_deg = " + shader_float(m.fiber_angle_deg) + "\n";
 }
 
 // Unreal's copy-paste text of the Custom node (with the body) and the material's two colours, to
@@ -77,8 +69,8 @@ std::string unreal_nodes(const Material& m, const std::string& body) {
     t += std::string(
              "Begin Object Class=/Script/Engine.MaterialExpressionConstant3Vector "
              "Name=\"MaterialExpressionConstant3Vector_") +
-         name + "\"\n   Constant=(R=" + literal(c[0]) + ",G=" + literal(c[1]) +
-         ",B=" + literal(c[2]) + ",A=0.0)\n   Desc=\"" + name + "\"\nEnd Object\n";
+         name + "\"\n   Constant=(R=" + shader_float(c[0]) + ",G=" + shader_float(c[1]) +
+         ",B=" + shader_float(c[2]) + ",A=0.0)\n   Desc=\"" + name + "\"\nEnd Object\n";
   return t;
 }
 
@@ -97,7 +89,8 @@ std::string unity_howto(const Material& m) {
          "node (a Custom Function calling URP's `GetMainLight()`), and Tangent from a second "
          "Custom Function, `AnisoFiberTangent`, with the world normal, tangent, bitangent and "
          "FiberAngleDeg " +
-         literal(m.fiber_angle_deg) + ".\n4. Kd (" + triple(m.kd) + ") and Ks (" + triple(m.ks) +
+         shader_float(m.fiber_angle_deg) + ".\n4. Kd (" + triple(m.kd) + ") and Ks (" +
+         triple(m.ks) +
          ") as Vector 3 properties.\n\nNot compiled by Unity here: the function is compiled by "
          "glslangValidator's HLSL front end in aniso's tests.\n";
 }
@@ -119,6 +112,13 @@ std::string unreal_howto() {
 }
 
 }  // namespace
+
+std::string shader_float(double v) {
+  char b[40];
+  std::snprintf(b, sizeof b, "%.9g", v);
+  std::string t = b;
+  return t.find_first_of(".e") == std::string::npos ? t + ".0" : t;
+}
 
 std::vector<std::pair<std::string, std::string>> engine_packages(const Material& m, int texels,
                                                                  json* entry) {

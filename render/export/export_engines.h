@@ -15,6 +15,10 @@ namespace aniso {
 // values and N x N tables; none for the fiber model or a material with maps, whose shaders/ hold
 // what an engine needs. *entry is export.json's "engines": what each folder holds, how it was
 // checked, and what it does not draw.
+// A number as a shader literal, with a point or an exponent always (GLSL ES converts no int to
+// float).
+std::string shader_float(double v);
+
 std::vector<std::pair<std::string, std::string>> engine_packages(const Material& m, int texels,
                                                                  nlohmann::json* entry);
 

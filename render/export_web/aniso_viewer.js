@@ -53,18 +53,22 @@ async function loadKtx2(url) {
 // A lookup table (layers = 0) or a 2D array of them as three.js sees it: linear filter, clamped,
 // no mipmaps, the first stored row at t = 0 (export.json: row_order). Float tables go to half
 // floats where the browser cannot filter float textures.
-function tableTexture(t, floatLinear) {
+// With `volume`, a 2D array's layers become a volume's depth (an environment's prefiltered terms:
+// levels of <V,T>), repeated round the azimuth.
+function tableTexture(t, floatLinear, volume = false) {
   let { data, type } = t;
   if (type === THREE.FloatType && !floatLinear) {
     data = Uint16Array.from(data, (v) => THREE.DataUtils.toHalfFloat(v));
     type = THREE.HalfFloatType;
   }
-  const tex = t.layers > 0 ? new THREE.DataArrayTexture(data, t.w, t.h, t.layers)
+  const tex = volume ? new THREE.Data3DTexture(data, t.w, t.h, t.layers)
+            : t.layers > 0 ? new THREE.DataArrayTexture(data, t.w, t.h, t.layers)
                            : new THREE.DataTexture(data, t.w, t.h);
   tex.format = t.format;
   tex.type = type;
   tex.minFilter = tex.magFilter = THREE.LinearFilter;
-  tex.wrapS = tex.wrapT = THREE.ClampToEdgeWrapping;
+  tex.wrapS = volume ? THREE.RepeatWrapping : THREE.ClampToEdgeWrapping;
+  tex.wrapT = tex.wrapR = THREE.ClampToEdgeWrapping;
   tex.generateMipmaps = false;
   tex.flipY = false;
   tex.colorSpace = THREE.NoColorSpace;
@@ -208,58 +212,19 @@ async function fragmentShader(info, fiber) {
   return parts.join('\n') + FRAGMENT_MAIN;
 }
 
-// Light from an environment (an export made with --env: tables/environment_t0..6.ktx2, the
-// prefiltered terms of render/bake/environment.h; render/shaders/env.frag is the preview's copy).
-const FRAGMENT_ENV = `
-precision highp float;
-precision highp sampler3D;
-uniform sampler3D uEnv0; uniform sampler3D uEnv1; uniform sampler3D uEnv2; uniform sampler3D uEnv3;
-uniform sampler3D uEnv4; uniform sampler3D uEnv5; uniform sampler3D uEnv6;
-uniform vec3 V; uniform float uLevels;
+// Light from an environment (an export made with --env): the export's own
+// shaders/aniso_environment.glsl over its prefiltered terms (tables/environment_t0..6.ktx2),
+// sRGB-encoded.
+const FRAGMENT_ENV_MAIN = `
+uniform vec3 V;
 in vec3 vN; in vec3 vT; in vec2 vUV; in vec3 vP;
 out vec4 fragColor;
-const float PI = 3.14159265358979;
 float enc(float v) { v = clamp(v, 0.0, 1.0);
   return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
 void main() {
-  vec3 N = normalize(vN);
-  vec3 T = normalize(vT - N * dot(N, vT));
-  vec3 e1 = cross(vec3(0.0, 0.0, 1.0), T);
-  if (length(e1) < 1e-6) e1 = cross(vec3(1.0, 0.0, 0.0), T);
-  e1 = normalize(e1);
-  vec3 e2 = cross(T, e1);
-  float c = dot(N, e1), s = dot(N, e2);
-  float c2 = c * c - s * s, s2 = 2.0 * c * s;
-  float c4 = c2 * c2 - s2 * s2, s4 = 2.0 * c2 * s2;
-  float phi = atan(T.y, T.x);
-  vec3 st = vec3(phi / (2.0 * PI) + (phi < 0.0 ? 1.0 : 0.0), acos(clamp(T.z, -1.0, 1.0)) / PI,
-                 (acos(clamp(-dot(V, T), -1.0, 1.0)) / PI * (uLevels - 1.0) + 0.5) / uLevels);
-  vec3 r = texture(uEnv0, st).rgb + c * texture(uEnv1, st).rgb + s * texture(uEnv2, st).rgb +
-           c2 * texture(uEnv3, st).rgb + s2 * texture(uEnv4, st).rgb +
-           c4 * texture(uEnv5, st).rgb + s4 * texture(uEnv6, st).rgb;
-  r = max(r, vec3(0.0));
+  vec3 r = anisoEnvironmentRadiance(normalize(vN), vT, V);
   fragColor = vec4(enc(r.r), enc(r.g), enc(r.b), 1.0);
 }`;
-
-// A prefiltered term as a volume: the KTX2 layers (levels of <V,T>) as its depth; repeated round
-// the azimuth, clamped elsewhere.
-function environmentTexture(t, floatLinear) {
-  let { data, type } = t;
-  if (type === THREE.FloatType && !floatLinear) {
-    data = Uint16Array.from(data, (v) => THREE.DataUtils.toHalfFloat(v));
-    type = THREE.HalfFloatType;
-  }
-  const tex = new THREE.Data3DTexture(data, t.w, t.h, t.layers);
-  tex.format = t.format;
-  tex.type = type;
-  tex.minFilter = tex.magFilter = THREE.LinearFilter;
-  tex.wrapS = THREE.RepeatWrapping;
-  tex.wrapT = tex.wrapR = THREE.ClampToEdgeWrapping;
-  tex.generateMipmaps = false;
-  tex.unpackAlignment = 1;
-  tex.needsUpdate = true;
-  return tex;
-}
 
 // For timing against the plainest lit surface (plain=1): Lambert, no tables.
 const FRAGMENT_PLAIN = `
@@ -354,15 +319,18 @@ export async function start(q) {
                  (q.has('env') ? q.get('env') !== '0' : !scripted);
   if (q.get('env') === '1' && !info.tables.environment)
     throw new Error('env=1: this export has no environment (aniso export --env studio or FILE.exr)');
+  let envFragment = '';
   if (useEnv) {
     const env = info.tables.environment;
     const terms = await Promise.all(env.terms.map((f) => loadKtx2('../' + f)));
-    terms.forEach((t, k) => { uniforms['uEnv' + k] = { value: environmentTexture(t, floatLinear) }; });
-    uniforms.uLevels = { value: env.layers };
+    uniforms.anisoEnv = { value: terms.map((t) => tableTexture(t, floatLinear, true)) };
+    uniforms.anisoEnvLevels = { value: env.layers };
+    envFragment = 'precision highp float;\nprecision highp sampler3D;\n' +
+                  await (await fetch('../' + env.shader)).text() + FRAGMENT_ENV_MAIN;
   }
   const material = new THREE.ShaderMaterial({ glslVersion: THREE.GLSL3, vertexShader: VERTEX,
                                               fragmentShader: q.has('plain') ? FRAGMENT_PLAIN
-                                                              : useEnv ? FRAGMENT_ENV
+                                                              : useEnv ? envFragment
                                                                        : await fragmentShader(info, fiber),
                                               uniforms,
                                               side: shape === 'cylinder' ? THREE.DoubleSide

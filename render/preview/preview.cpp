@@ -121,12 +121,15 @@ void texture_matrix(const Vec3& L, const Vec3& V, const BakeTables& t, float out
   for (int i = 0; i < 16; ++i) out[i] = float(m[i]);
 }
 
-// A pass's fragment shader with render/shaders/maps.glsl spliced in where it says so.
+// A pass's fragment shader with the parts it names spliced in where it says so
+// (render/shaders/maps.glsl, aniso_environment.glsl).
 std::string with_maps(const char* frag) {
   std::string s = frag;
-  const std::string marker = "// aniso: maps.glsl";
-  if (const size_t at = s.find(marker); at != std::string::npos)
-    s.replace(at, marker.size(), shaders::maps_glsl);
+  for (const auto& [marker, part] :
+       {std::pair<std::string, const char*>{"// aniso: maps.glsl", shaders::maps_glsl},
+        {"// aniso: aniso_environment.glsl", shaders::aniso_environment_glsl}})
+    if (const size_t at = s.find(marker); at != std::string::npos)
+      s.replace(at, marker.size(), part);
   return s;
 }
 
@@ -280,13 +283,13 @@ int draw_environment(const PreviewOptions& opt, const gl::Program& p, const Envi
   p.set_matrix("uViewProj", cam.view_proj);
   for (int t = 0; t < 7; ++t) {
     env.terms[t].bind(t);
-    const std::string name = "uEnv[" + std::to_string(t) + "]";
+    const std::string name = "anisoEnv[" + std::to_string(t) + "]";
     p.set(name.c_str(), t);
   }
   p.set("uV", cam.V);
   p.set("uPerspective", cam.perspective ? 1 : 0);
   p.set("uEye", cam.eye);
-  p.set("uLevels", float(env.levels));
+  p.set("anisoEnvLevels", float(env.levels));
   mesh.draw();
   glFinish();
   return 1;
@@ -536,7 +539,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     res.env_prefilter_seconds = et.seconds;
     res.env_sizes.w = et.w, res.env_sizes.h = et.h, res.env_sizes.nb = et.nb;
     res.env_sizes.env_w = et.env_w, res.env_sizes.env_h = et.env_h;
-    env_pass = std::make_unique<gl::Program>(shaders::vertex_vert, shaders::env_frag, "env.frag");
+    env_pass = std::make_unique<gl::Program>(shaders::vertex_vert,
+                                             with_maps(shaders::env_frag).c_str(), "env.frag");
   }
 
   fb.draw_to(1);
