@@ -80,7 +80,7 @@ int run(const ImportArgs& a) {
       "import: then: aniso fit %s --out material.json\n",
       r.views, r.photos.size(), a.out.c_str(), r.views, r.seconds, r.seconds_detect,
       r.seconds_calibrate, r.seconds_write, r.merge_threads, o.memory_mb, r.memory_estimate_mb,
-      intensity_note(s, o.find_lamps).c_str(), a.out.c_str());
+      r.intensities.c_str(), a.out.c_str());
   return 0;
 }
 

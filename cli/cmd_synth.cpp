@@ -20,7 +20,8 @@ struct SynthArgs {
   PresetOptions po;
   double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
   bool list = false, photos = false, dng = false, hide_intensity = false;
-  double lamp_error_m = 0, ggx_alpha_b = PhotoShootOptions{}.ggx_alpha_b;
+  double lamp_error_m = 0, ggx_alpha_b = PhotoShootOptions{}.ggx_alpha_b,
+         paper = PhotoShootOptions{}.paper_albedo, grey_card = 0;
   CLI::App* app = nullptr;
 };
 
@@ -39,6 +40,8 @@ int run_photos(const SynthArgs& a) {
   o.hide_intensity = a.hide_intensity;
   o.brdf = a.brdf;
   o.ggx_alpha_b = a.ggx_alpha_b;
+  o.paper_albedo = a.paper;
+  o.grey_card = a.grey_card;
   check_output_folder(a.out, OutputKind::kPhotoShoot);
   check_outputs_apart({a.out}, {a.truth});
   const PhotoShootStats st = simulate_photo_shoot(o, a.out);
@@ -132,6 +135,18 @@ Command add_synth(CLI::App& app) {
                    "--photos --brdf ggx: the GGX roughness across the fibers")
       ->capture_default_str()
       ->check(CLI::Range(0.01, 1.0));
+  synth
+      ->add_option("--paper-reflectance", a->paper,
+                   "--photos: the printed paper's diffuse reflectance (not written in the shoot: "
+                   "a person does not know it; import assumes 0.85 without a reference)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.3, 1.0));
+  synth
+      ->add_option("--grey-card", a->grey_card,
+                   "--photos: lay a grey card of this reflectance (0.18: a photographer's card) "
+                   "on the board's top-left corner and write it as the shoot's reference, which "
+                   "makes the lamps' intensities, k_d and k_s absolute")
+      ->check(CLI::Range(0.02, 1.0));
   a->app = synth;
   add_force_flag(synth);
   synth

@@ -289,12 +289,13 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   const std::string dir = test::tmp_dir("lamps");
   auto r = test::run_cli("synth --photos brushed-metal " + dir +
                          "/shoot --views 12 --walk upright --lamp-error 0.02 "
-                         "--hide-intensity --seed 5");
+                         "--hide-intensity --seed 5 --paper-reflectance 0.78 --grey-card 0.18");
   ASSERT_EQ(r.status, 0) << r.output;
   r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/cap --no-overlays");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("lamp found at"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("intensities relative"), std::string::npos) << r.output;
+  // The grey card (0.18) gives the paper's reflectance (0.78, where import would assume 0.85).
+  EXPECT_NE(r.output.find("intensities absolute"), std::string::npos) << r.output;
   const auto rep = nlohmann::json::parse(read_text_file(dir + "/cap/import_report.json"));
   const auto truth = nlohmann::json::parse(read_text_file(dir + "/shoot/truth.json"));
   std::vector<double> found_err, written_err;
@@ -324,12 +325,20 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   EXPECT_GT(written_err[written_err.size() / 2], 0.015);
   EXPECT_GT(rms_z, 0.3);
   EXPECT_LT(rms_z, 3.0);
+  const auto& card = rep["reference"];
+  std::printf("grey card: paper %.4f +- %.4f (truth 0.78) from %zu photos, %zu points\n",
+              card["paper_reflectance_found"][1].get<double>(),
+              card["paper_reflectance_sigma"][1].get<double>(), card["photos"].get<size_t>(),
+              card["points"].get<size_t>());
+  EXPECT_NEAR(card["paper_reflectance_found"][1].get<double>(), 0.78, 0.01);
+  EXPECT_EQ(card["photos"].get<size_t>(), 12u);
   r = test::run_cli("fit " + dir + "/cap --out " + dir + "/m.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto m = nlohmann::json::parse(read_text_file(dir + "/m.json"));
   EXPECT_NEAR(m["fiber_angle_deg"].get<double>(), 30, 0.5);
   EXPECT_NEAR(m["n"].get<double>() / 40, 1, 0.1);
-  EXPECT_NEAR(m["kd"][0].get<double>() / 0.2, 1, 0.1);
+  EXPECT_NEAR(m["kd"][0].get<double>() / 0.2, 1, 0.03);
+  EXPECT_NEAR(m["ks"][0].get<double>() / 0.6, 1, 0.03);
   // Its sigma is the whole one: the noise alone gave a sigma of psi 30-250 times below the
   // error; the views' spread covers it.
   const double s_psi = m["uncertainty"]["fiber_angle_deg"].get<double>(),
@@ -341,7 +350,21 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   EXPECT_LT(std::abs(m["fiber_angle_deg"].get<double>() - 30), 3 * s_psi);
   EXPECT_EQ(m["report"]["uncertainty"].get<std::string>().rfind("whole", 0), 0u);
   EXPECT_NE(r.output.find("+- is the whole"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("k_d and k_s are relative"), std::string::npos) << r.output;
+  // Without the card the paper is taken as 0.85: k_d is 0.85 / 0.78 too high, and fit says k_d
+  // and k_s are relative.
+  const std::string shoot = dir + "/shoot/shoot.json";
+  test::edit_json(shoot, [](nlohmann::json& j) { j.erase("reference"); });
+  r = test::run_cli("import " + shoot + " --out " + dir + "/capr --no-overlays --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("intensities relative"), std::string::npos) << r.output;
+  r = test::run_cli("fit " + dir + "/capr --out " + dir + "/mr.json");
+  ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("k_d and k_s are relative"), std::string::npos) << r.output;
+  const auto mr = nlohmann::json::parse(read_text_file(dir + "/mr.json"));
+  std::printf("k_d: %.4f with the grey card, %.4f without (truth 0.2)\n",
+              m["kd"][0].get<double>(), mr["kd"][0].get<double>());
+  EXPECT_GT(mr["kd"][0].get<double>() / 0.2 - 1, 0.05);
   // The same lamps as written: the intensities of 1 make k_d wrong by a factor of three.
   r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/capw --no-overlays " +
                     "--lamps-as-written");
@@ -350,7 +373,6 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   const auto mw = nlohmann::json::parse(read_text_file(dir + "/mw.json"));
   EXPECT_GT(std::abs(mw["kd"][0].get<double>() / 0.2 - 1), 0.3) << mw.dump();
   // x measured from the right edge: named, with the key.
-  const std::string shoot = dir + "/shoot/shoot.json";
   const std::string good = read_text_file(shoot);
   test::edit_json(shoot, [](nlohmann::json& j) {
     const double W = j["board"]["squares"][0].get<double>() * j["board"]["square_m"].get<double>();
@@ -457,6 +479,14 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
                  [](auto& j) { j["photos"][1]["images"][2]["file"] = "photos/nope.png"; });
   expect_refused("sample.polygon_m[2]", [](auto& j) {
     j["sample"]["polygon_m"][2] = {0.45, 0.15};
+  });
+  // A grey card laid over the sample, or of a reflectance no card has.
+  expect_refused("reference.polygon_m: lies on the sample", [](auto& j) {
+    j["reference"] = {{"polygon_m", {{0.1, 0.1}, {0.12, 0.1}, {0.12, 0.12}}}, {"reflectance", 0.18}};
+  });
+  expect_refused("reference.reflectance", [](auto& j) {
+    j["reference"] = {{"polygon_m", {{0.01, 0.01}, {0.05, 0.01}, {0.05, 0.05}}},
+                      {"reflectance", 18}};
   });
   expect_refused("wrong side of the board",
                  [](auto& j) { j["photos"][0]["lights"][0]["position"][2] = 0.3; });

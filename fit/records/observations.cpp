@@ -306,8 +306,9 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
       char buf[320];
       std::snprintf(buf, sizeof buf,
                     "k_d and k_s are relative, not absolute: the lamps' intensities came from the "
-                    "board's paper taken as reflecting %.2f; give board.paper_reflectance in the "
-                    "shoot (or measure the paper) and import again to make them absolute",
+                    "board's paper taken as reflecting %.2f; lay a grey card on the board (the "
+                    "shoot's reference) or give board.paper_reflectance, and import again to "
+                    "make them absolute",
                     assumed);
       rep.warnings.push_back(buf);
     }

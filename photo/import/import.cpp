@@ -94,6 +94,9 @@ std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const PaperPoints& p
     const Vec3 w = ph.lights[0].position;
     out.push_back(find_lamp(samples, ph.lights[0], sigma_of(ph, 0), paper_rho(s), s.height_m,
                             {{W - w.x, w.y, w.z}, {w.x, H - w.y, w.z}}));
+    if (s.reference_given())
+      read_card(card_samples(s.board, s.reference.polygon, corners, m.rgb, m.saturated),
+                &out.back());
     return out;
   }
   for (size_t k = 0; k < ph.lights.size(); ++k) {
@@ -680,13 +683,48 @@ int merge_threads(const Shoot& s, const ImportOptions& o, ImportResult* r) {
   return r->merge_threads;
 }
 
+// The grey card makes the found lamps' intensities absolute: the paper's reflectance from the card
+// (photo/import/lamps.h paper_from_card) in place of the shoot's or the assumed one. A card seen in
+// no photo, or one that contradicts board.paper_reflectance, is said.
+void scale_by_card(const Shoot& s, ImportResult* r) {
+  std::vector<const LampFound*> lamps;
+  for (const auto& p : r->photos)
+    for (const auto& l : p.lamps) lamps.push_back(&l);
+  r->card = paper_from_card(lamps, s.reference.reflectance);
+  if (!r->card.found) {
+    r->warnings.push_back(
+        "reference: the grey card was read in no photo (too little of it in view, clipped, or "
+        "unevenly lit; it needs " +
+        std::to_string(kMinCardPoints) +
+        " points 3 mm inside its edge, under a found lamp): the intensities stay relative to the "
+        "paper");
+    return;
+  }
+  for (auto& p : r->photos)
+    for (auto& l : p.lamps)
+      if (l.solved)
+        for (int c = 0; c < 3; ++c) l.found_intensity[c] = l.paper_amplitude[c] * M_PI / r->card.paper[c];
+  if (s.paper_given()) {
+    const double given = s.paper_reflectance[1], found = r->card.paper[1];
+    if (std::abs(given - found) > std::max(3 * r->card.sigma[1], 0.05 * found)) {
+      char buf[400];
+      std::snprintf(buf, sizeof buf,
+                    "board.paper_reflectance: the grey card (reference, reflectance %.3f) puts the "
+                    "paper at %.3f +- %.3f (green), not %.3f as written; the card's is used (check "
+                    "the card's reflectance, or drop board.paper_reflectance)",
+                    s.reference.reflectance[1], found, r->card.sigma[1], given);
+      r->warnings.push_back(buf);
+    }
+  }
+}
+
 ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const ImportOptions& o) {
   const auto t0 = Clock::now();
   ImportResult r;
   r.photos.resize(s.photos.size());
   std::vector<Detected> det(s.photos.size());
   // Paper at least 5 mm from the sample (its edge, its shadow on a thin plate).
-  const PaperPoints paper(s.board, s.polygon, 0.005 + 3 * s.height_m);
+  const PaperPoints paper(s.board, s.polygon, 0.005 + 3 * s.height_m, s.reference.polygon);
   tbb::task_arena arena(merge_threads(s, o, &r));
   {
     Progress bar("import: merging and finding the board", s.photos.size(), o.progress);
@@ -725,6 +763,8 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
   solve_cameras(s, det, o, &r);
   r.seconds_calibrate = seconds_since(tc);
   r.warnings = lamp_warnings(s, r);
+  if (o.find_lamps && s.reference_given()) scale_by_card(s, &r);
+  r.intensities = intensity_note(s, r, o.find_lamps);
   size_t accepted = 0;
   for (const auto& p : r.photos) accepted += p.accepted;
   if (accepted == 0)
@@ -755,9 +795,11 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
         nlohmann::json{{"tool", "aniso import"},
                        {"shoot", relative_to(s.file, out_dir)},
                        {"calibrated", r.calibrated},
-                       {"intensities", intensity_note(s, o.find_lamps)},
+                       {"intensities", r.intensities},
                        {"paper_reflectance_assumed",
-                        s.paper_given() || !o.find_lamps ? 0.0 : kAssumedPaperReflectance},
+                        s.paper_given() || r.card.found || !o.find_lamps
+                            ? 0.0
+                            : kAssumedPaperReflectance},
                        {"report", "import_report.json"}}
             .dump();
     write_capture_json(set, join_path(dir, "capture.json"));

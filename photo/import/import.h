@@ -59,6 +59,8 @@ struct ImportResult {
   // What the photos left undetermined and the calibration held instead, each with why.
   std::vector<std::string> held;
   std::vector<std::string> warnings;  // what the shoot as written gets wrong (lamps)
+  PaperFromCard card;                 // the paper's reflectance from the grey card (reference)
+  std::string intensities;            // how the lamps' intensities are known (intensity_note)
   std::vector<ImportedPhoto> photos;
   size_t views = 0;
   size_t calibrated_on = 0;       // photos the calibration used (the rest posed against it)
@@ -67,8 +69,9 @@ struct ImportResult {
   double seconds = 0, seconds_detect = 0, seconds_calibrate = 0, seconds_write = 0;
 };
 
-// How the lamps' intensities are known: absolute (the paper's reflectance given) or relative.
-std::string intensity_note(const Shoot& s, bool found);
+// How the lamps' intensities are known: absolute (from the grey card, or the paper's reflectance
+// given) or relative.
+std::string intensity_note(const Shoot& s, const ImportResult& r, bool found);
 
 // CAPTURE_DIR/import_report.json's content (photo/import/import_report.cpp).
 nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const ImportOptions& o);

@@ -8,14 +8,23 @@
 
 namespace aniso {
 
-std::string intensity_note(const Shoot& s, bool found) {
+std::string intensity_note(const Shoot& s, const ImportResult& r, bool found) {
   if (!found) return "as written in the shoot (import --lamps-as-written)";
+  char buf[300];
+  if (r.card.found) {
+    std::snprintf(buf, sizeof buf,
+                  "absolute: from the board's paper, its reflectance %.3f %.3f %.3f (+- %.3f) from "
+                  "the grey card of reflectance %.3f (reference) in %zu photos",
+                  r.card.paper[0], r.card.paper[1], r.card.paper[2], r.card.sigma[1],
+                  s.reference.reflectance[1], r.card.photos);
+    return buf;
+  }
   if (s.paper_given())
     return "absolute: from the board's paper, of reflectance board.paper_reflectance";
-  char buf[300];
   std::snprintf(buf, sizeof buf,
                 "relative: from the board's paper taken as reflecting %.2f; k_d and k_s are "
-                "relative to it (give board.paper_reflectance in the shoot to make them absolute)",
+                "relative to it (lay a grey card on the board and give it as the shoot's reference, "
+                "or give board.paper_reflectance, to make them absolute)",
                 kAssumedPaperReflectance);
   return buf;
 }
@@ -61,6 +70,13 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
                          {"moved_sigmas", l.moved_sigmas},
                          {"paper_points", l.points},
                          {"paper_relative_rms", l.paper_rms}};
+          if (l.card_points > 0) {
+            jl["found"]["card_points"] = l.card_points;
+            jl["found"]["card_relative_rms"] = l.card_rms;
+            jl["found"]["paper_over_card"] = {l.paper_amplitude[0] / l.card_amplitude[0],
+                                              l.paper_amplitude[1] / l.card_amplitude[1],
+                                              l.paper_amplitude[2] / l.card_amplitude[2]};
+          }
         } else {
           jl["kept_as_written_because"] = l.why;
         }
@@ -103,8 +119,17 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
            {{"photos_merged_at_once", r.merge_threads}, {"estimate_mb", r.memory_estimate_mb}}},
           {"photos", photos},
           {"views", r.views},
-          {"intensities", intensity_note(s, o.find_lamps)},
+          {"intensities", r.intensities},
           {"warnings", r.warnings},
+          {"reference",
+           s.reference_given()
+               ? json{{"reflectance", jsonu::to_json(s.reference.reflectance)},
+                      {"read", r.card.found},
+                      {"photos", r.card.photos},
+                      {"points", r.card.points},
+                      {"paper_reflectance_found", jsonu::to_json(r.card.paper)},
+                      {"paper_reflectance_sigma", jsonu::to_json(r.card.sigma)}}
+               : json(nullptr)},
           {"caveats",
            {"a lamp is found from the board's paper where its photo has one point lamp; other "
             "lights are taken as written",

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "photo/shoot/calibrate.h"
 
 namespace aniso {
 
@@ -24,7 +25,11 @@ constexpr double kSpacingM = 0.002;
 }  // namespace
 
 PaperPoints::PaperPoints(const BoardSpec& b, const std::vector<std::array<double, 2>>& polygon,
-                         double keep_away_m) {
+                         double keep_away_m, const std::vector<std::array<double, 2>>& card) {
+  auto near = [&](const std::vector<std::array<double, 2>>& outline, double x, double y) {
+    return !outline.empty() && (inside_polygon(outline, x, y) ||
+                                distance_to_outline(outline, x, y) < keep_away_m);
+  };
   const double dpi = 0.0254 / (kDrawnMm * 1e-3);
   const Image drawn = render_board(b, dpi);
   const double px_per_m = drawn.width / (b.squares_x * b.square_m);
@@ -50,24 +55,84 @@ PaperPoints::PaperPoints(const BoardSpec& b, const std::vector<std::array<double
           const double t = side * k / per_side;
           const double x = e == 0 ? x0 + t : e == 1 ? x0 + side : e == 2 ? x0 + side - t : x0;
           const double y = e == 0 ? y0 : e == 1 ? y0 + t : e == 2 ? y0 + side : y0 + side - t;
-          if (inside_polygon(polygon, x, y) || distance_to_outline(polygon, x, y) < keep_away_m)
-            continue;
+          if (near(polygon, x, y) || near(card, x, y)) continue;
           if (paper(x, y)) points_.push_back({x, y, i, j, 0.5 * gap});
         }
     }
 }
 
+namespace {
+
+// Board point (x, y) through the homography H (board metres to pixels): its pixel (u, v) and the
+// size on the board of a pixel there along its longest side (metres), 1 / the smallest singular
+// value of the homography's Jacobian. False where the point is behind the camera.
+bool project(const cv::Mat& H, double x, double y, double* u, double* v, double* pixel_m) {
+  const double w = H.at<double>(2, 0) * x + H.at<double>(2, 1) * y + H.at<double>(2, 2);
+  if (!(w > 0)) return false;
+  *u = (H.at<double>(0, 0) * x + H.at<double>(0, 1) * y + H.at<double>(0, 2)) / w;
+  *v = (H.at<double>(1, 0) * x + H.at<double>(1, 1) * y + H.at<double>(1, 2)) / w;
+  const double h00 = H.at<double>(0, 0), h01 = H.at<double>(0, 1), h10 = H.at<double>(1, 0),
+               h11 = H.at<double>(1, 1), h20 = H.at<double>(2, 0), h21 = H.at<double>(2, 1);
+  const double j00 = (h00 - *u * h20) / w, j01 = (h01 - *u * h21) / w,
+               j10 = (h10 - *v * h20) / w, j11 = (h11 - *v * h21) / w;
+  const double fro = j00 * j00 + j01 * j01 + j10 * j10 + j11 * j11,
+               det = std::abs(j00 * j11 - j01 * j10);
+  const double smin2 = 0.5 * (fro - std::sqrt(std::max(fro * fro - 4 * det * det, 0.0)));
+  if (!(smin2 > 0)) return false;
+  *pixel_m = 1 / std::sqrt(smin2);
+  return true;
+}
+
+// The image's RGB at pixel (u, v), bilinear; false off the image, at a clipped pixel or where a
+// channel is not a positive number.
+bool read_pixel(const Image& rgb, const std::vector<uint8_t>& saturated, double u, double v,
+                float out[3]) {
+  const int x0 = static_cast<int>(std::floor(u)), y0 = static_cast<int>(std::floor(v));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= rgb.width || y0 + 1 >= rgb.height) return false;
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx)
+      if (!saturated.empty() && saturated[static_cast<size_t>(y0 + dy) * rgb.width + x0 + dx] != 0)
+        return false;
+  const double tx = u - x0, ty = v - y0;
+  for (int c = 0; c < 3; ++c) {
+    const double val =
+        (1 - tx) * (1 - ty) * rgb.at(x0, y0, c) + tx * (1 - ty) * rgb.at(x0 + 1, y0, c) +
+        (1 - tx) * ty * rgb.at(x0, y0 + 1, c) + tx * ty * rgb.at(x0 + 1, y0 + 1, c);
+    if (!(std::isfinite(val) && val > 0)) return false;
+    out[c] = static_cast<float>(val);
+  }
+  return true;
+}
+
+// The detected corners' board positions (metres) beside their pixels.
+struct CornerPairs {
+  std::vector<cv::Point2f> board, pixel;
+  std::vector<BoardCorner> corner;
+};
+CornerPairs corner_pairs(const BoardSpec& b, const std::vector<BoardCorner>& corners) {
+  const auto obj = board_corners_m(b);
+  CornerPairs out;
+  for (const auto& c : corners) {
+    if (c.id < 0 || static_cast<size_t>(c.id) >= obj.size()) continue;
+    out.board.emplace_back(static_cast<float>(obj[c.id][0]), static_cast<float>(obj[c.id][1]));
+    out.pixel.emplace_back(static_cast<float>(c.x), static_cast<float>(c.y));
+    out.corner.push_back(c);
+  }
+  return out;
+}
+
+}  // namespace
+
 std::vector<PaperSample> paper_samples(const BoardSpec& b, const PaperPoints& where,
                                        const std::vector<BoardCorner>& corners, const Image& rgb,
                                        const std::vector<uint8_t>& saturated) {
   // Corner (gi, gj) of the lattice (inner corners: 1 .. squares - 1) by its board position.
-  const auto obj = board_corners_m(b);
+  const CornerPairs pairs = corner_pairs(b, corners);
   std::map<std::pair<int, int>, std::array<double, 2>> px;
-  for (const auto& c : corners) {
-    if (c.id < 0 || static_cast<size_t>(c.id) >= obj.size()) continue;
-    const int gi = static_cast<int>(std::lround(obj[c.id][0] / b.square_m));
-    const int gj = static_cast<int>(std::lround(obj[c.id][1] / b.square_m));
-    px[{gi, gj}] = {c.x, c.y};
+  for (size_t k = 0; k < pairs.board.size(); ++k) {
+    const int gi = static_cast<int>(std::lround(pairs.board[k].x / b.square_m));
+    const int gj = static_cast<int>(std::lround(pairs.board[k].y / b.square_m));
+    px[{gi, gj}] = {pairs.pixel[k].x, pairs.pixel[k].y};
   }
   std::vector<PaperSample> out;
   std::map<std::pair<int, int>, cv::Mat> cells;  // each cell's homography, once
@@ -89,42 +154,66 @@ std::vector<PaperSample> paper_samples(const BoardSpec& b, const PaperPoints& wh
       it = cells.emplace(key, H).first;
     }
     if (it->second.empty()) continue;
-    const cv::Mat& H = it->second;
-    const double w = H.at<double>(2, 0) * p.x + H.at<double>(2, 1) * p.y + H.at<double>(2, 2);
-    if (!(w > 0)) continue;
-    const double u = (H.at<double>(0, 0) * p.x + H.at<double>(0, 1) * p.y + H.at<double>(0, 2)) / w;
-    const double v = (H.at<double>(1, 0) * p.x + H.at<double>(1, 1) * p.y + H.at<double>(1, 2)) / w;
-    // The pixel's size on the board along its longest side: 1 / the smallest singular value of
-    // the homography's Jacobian (pixels per metre).
-    const double h00 = H.at<double>(0, 0), h01 = H.at<double>(0, 1), h10 = H.at<double>(1, 0),
-                 h11 = H.at<double>(1, 1), h20 = H.at<double>(2, 0), h21 = H.at<double>(2, 1);
-    const double j00 = (h00 - u * h20) / w, j01 = (h01 - u * h21) / w, j10 = (h10 - v * h20) / w,
-                 j11 = (h11 - v * h21) / w;
-    const double fro = j00 * j00 + j01 * j01 + j10 * j10 + j11 * j11,
-                 det = std::abs(j00 * j11 - j01 * j10);
-    const double smin2 = 0.5 * (fro - std::sqrt(std::max(fro * fro - 4 * det * det, 0.0)));
-    if (!(smin2 > 0) || kReachPixels / std::sqrt(smin2) > p.clear) continue;
-    const int x0 = static_cast<int>(std::floor(u)), y0 = static_cast<int>(std::floor(v));
-    if (x0 < 0 || y0 < 0 || x0 + 1 >= rgb.width || y0 + 1 >= rgb.height) continue;
-    bool clipped = false;
-    for (int dy = 0; dy < 2; ++dy)
-      for (int dx = 0; dx < 2; ++dx)
-        clipped |= !saturated.empty() &&
-                   saturated[static_cast<size_t>(y0 + dy) * rgb.width + x0 + dx] != 0;
-    if (clipped) continue;
-    const double tx = u - x0, ty = v - y0;
+    double u, v, pixel_m;
+    if (!project(it->second, p.x, p.y, &u, &v, &pixel_m) || kReachPixels * pixel_m > p.clear)
+      continue;
     PaperSample s;
     s.x = p.x, s.y = p.y;
-    bool finite = true;
-    for (int c = 0; c < 3; ++c) {
-      const double val =
-          (1 - tx) * (1 - ty) * rgb.at(x0, y0, c) + tx * (1 - ty) * rgb.at(x0 + 1, y0, c) +
-          (1 - tx) * ty * rgb.at(x0, y0 + 1, c) + tx * ty * rgb.at(x0 + 1, y0 + 1, c);
-      s.rgb[c] = static_cast<float>(val);
-      finite &= std::isfinite(val) && val > 0;
-    }
-    if (finite) out.push_back(s);
+    if (read_pixel(rgb, saturated, u, v, s.rgb)) out.push_back(s);
   }
+  return out;
+}
+
+std::vector<PaperSample> card_samples(const BoardSpec& b,
+                                      const std::vector<std::array<double, 2>>& card,
+                                      const std::vector<BoardCorner>& corners, const Image& rgb,
+                                      const std::vector<uint8_t>& saturated) {
+  if (card.empty()) return {};
+  double cx = 0, cy = 0, x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+  for (const auto& p : card) {
+    cx += p[0] / card.size(), cy += p[1] / card.size();
+    x0 = std::min(x0, p[0]), x1 = std::max(x1, p[0]), y0 = std::min(y0, p[1]),
+    y1 = std::max(y1, p[1]);
+  }
+  // The corners nearest the card: a homography over them bends with the lens as little as the
+  // card's own neighbourhood does.
+  constexpr size_t kNearCorners = 16, kMinCorners = 8;
+  const CornerPairs all = corner_pairs(b, corners);
+  std::vector<std::pair<double, size_t>> by_distance;
+  for (size_t k = 0; k < all.board.size(); ++k)
+    by_distance.push_back({std::hypot(all.board[k].x - cx, all.board[k].y - cy), k});
+  if (by_distance.size() < kMinCorners) return {};
+  const size_t n = std::min(kNearCorners, by_distance.size());
+  std::partial_sort(by_distance.begin(), by_distance.begin() + n, by_distance.end());
+  std::vector<BoardCorner> nearest;
+  std::vector<cv::Point2f> from, to;
+  for (size_t k = 0; k < n; ++k) {
+    nearest.push_back(all.corner[by_distance[k].second]);
+    from.push_back(all.board[by_distance[k].second]);
+    to.push_back(all.pixel[by_distance[k].second]);
+  }
+  std::array<double, 9> h;
+  if (!board_homography(nearest, b, &h)) return {};
+  const cv::Mat H = cv::Mat(3, 3, CV_64F, h.data()).clone();
+  double worst_px = 0;
+  for (size_t k = 0; k < n; ++k) {
+    double u, v, pixel_m;
+    if (!project(H, from[k].x, from[k].y, &u, &v, &pixel_m)) return {};
+    worst_px = std::max(worst_px, std::hypot(u - to[k].x, v - to[k].y));
+  }
+  constexpr double kStepM = 0.002, kEdgeM = 0.003;
+  std::vector<PaperSample> out;
+  for (double y = y0 + 0.5 * kStepM; y < y1; y += kStepM)
+    for (double x = x0 + 0.5 * kStepM; x < x1; x += kStepM) {
+      if (!inside_polygon(card, x, y)) continue;
+      double u, v, pixel_m;
+      if (!project(H, x, y, &u, &v, &pixel_m)) continue;
+      if (distance_to_outline(card, x, y) < kEdgeM + (kReachPixels + 2 * worst_px) * pixel_m)
+        continue;
+      PaperSample s;
+      s.x = x, s.y = y;
+      if (read_pixel(rgb, saturated, u, v, s.rgb)) out.push_back(s);
+    }
   return out;
 }
 
@@ -314,10 +403,52 @@ LampFound find_lamp(const std::vector<PaperSample>& paper, const Light& light, d
   f.solved = true;
   f.found = {use->p[0], use->p[1], use->p[2]};
   for (int k = 0; k < 3; ++k) f.sigma_m[k] = std::sqrt(std::max(use->cov[4 * k], 0.0));
-  for (int c = 0; c < 3; ++c) f.found_intensity[c] = use->a[c] * M_PI / rho[c];
+  for (int c = 0; c < 3; ++c) {
+    f.found_intensity[c] = use->a[c] * M_PI / rho[c];
+    f.paper_amplitude[c] = use->a[c];
+  }
   f.paper_rms = use->spread;
   f.moved_sigmas = length(f.found - f.written) / sigma_m;
   return f;
+}
+
+void read_card(const std::vector<PaperSample>& card, LampFound* f) {
+  f->card_points = 0;
+  if (!f->solved || card.size() < kMinCardPoints) return;
+  const double p[3] = {f->found.x, f->found.y, f->found.z};
+  double a[3];
+  intensity_at(card, p, a);
+  const double spread = relative_spread(card, p, a);
+  constexpr double kEvenCard = 0.1;
+  if (!(a[0] > 0 && a[1] > 0 && a[2] > 0) || !(spread < kEvenCard)) return;
+  for (int c = 0; c < 3; ++c) f->card_amplitude[c] = a[c];
+  f->card_points = card.size();
+  f->card_rms = spread;
+}
+
+PaperFromCard paper_from_card(const std::vector<const LampFound*>& lamps, const RGB& card_rho) {
+  PaperFromCard out;
+  std::array<std::vector<double>, 3> ratio;
+  for (const LampFound* f : lamps) {
+    if (!f->solved || f->card_points == 0) continue;
+    for (int c = 0; c < 3; ++c)
+      ratio[c].push_back(card_rho[c] * f->paper_amplitude[c] / f->card_amplitude[c]);
+    ++out.photos;
+    out.points += f->card_points;
+  }
+  if (out.photos == 0) return out;
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  for (int c = 0; c < 3; ++c) {
+    out.paper[c] = median(ratio[c]);
+    std::vector<double> dev;
+    for (double r : ratio[c]) dev.push_back(std::abs(r - out.paper[c]));
+    out.sigma[c] = 1.4826 * median(dev) / std::sqrt(static_cast<double>(ratio[c].size()));
+  }
+  out.found = true;
+  return out;
 }
 
 }  // namespace aniso

@@ -30,8 +30,10 @@ struct PaperSample {
 // shoot (the board's rendering is the expensive part).
 class PaperPoints {
  public:
+  // Points keep_away_m from the sample's outline `polygon` and from the grey card's `card` (empty
+  // where the shoot has none).
   PaperPoints(const BoardSpec& b, const std::vector<std::array<double, 2>>& polygon,
-              double keep_away_m);
+              double keep_away_m, const std::vector<std::array<double, 2>>& card = {});
   // Board points with the lattice cell (i, j) that holds each, as pairs (point, cell).
   struct Point {
     double x, y;
@@ -56,6 +58,15 @@ std::vector<PaperSample> paper_samples(const BoardSpec& b, const PaperPoints& wh
                                        const std::vector<BoardCorner>& corners, const Image& rgb,
                                        const std::vector<uint8_t>& saturated);
 
+// The grey card's readings in one photo (the shoot's `reference`): board points inside the card
+// on a 2 mm grid, each through a homography fitted to the detected corners nearest the card (the
+// markers it covers have none), kept where the card stays under the pixel's reach with a margin of
+// 3 mm and twice that homography's worst corner error; clipped pixels left out.
+std::vector<PaperSample> card_samples(const BoardSpec& b,
+                                      const std::vector<std::array<double, 2>>& card,
+                                      const std::vector<BoardCorner>& corners, const Image& rgb,
+                                      const std::vector<uint8_t>& saturated);
+
 // The paper's reflectance taken where the shoot gives no reference: office paper reflects 0.8 to
 // 0.9 of visible light.
 inline constexpr double kAssumedPaperReflectance = 0.85;
@@ -76,6 +87,13 @@ struct LampFound {
   Vec3 alone;
   double disagreement = 0;
   std::vector<int> agrees_with;  // the alternatives (find_lamp) the paper alone agrees with
+  // The grey card under the found lamp: rho_card I / pi per channel by least squares over its
+  // points (card_points 0: no card, or too little of it in view), and its relative spread.
+  std::array<double, 3> card_amplitude{};
+  size_t card_points = 0;
+  double card_rms = 0;
+  // rho_paper I / pi per channel as the paper's shading gave it.
+  std::array<double, 3> paper_amplitude{};
 };
 inline constexpr double kDisagreeSigmas = 5;
 
@@ -86,5 +104,21 @@ inline constexpr double kDisagreeSigmas = 5;
 LampFound find_lamp(const std::vector<PaperSample>& paper, const Light& light, double sigma_m,
                     const RGB& rho, double sample_height_m,
                     const std::vector<Vec3>& alternatives = {});
+
+// Reads the grey card's samples under a found lamp into f (card_amplitude, card_points, card_rms):
+// at least kMinCardPoints points whose spread about the lamp's shading is under 10 % (a card
+// lying flat and evenly lit); otherwise card_points stays 0.
+inline constexpr size_t kMinCardPoints = 30;
+void read_card(const std::vector<PaperSample>& card, LampFound* f);
+
+// The paper's reflectance from the grey card: per photo, rho_card * (paper amplitude / card
+// amplitude) under the same lamp; their median over the photos, its sigma from their spread
+// (1.4826 MAD / sqrt(n)). Found where at least one photo saw the card.
+struct PaperFromCard {
+  bool found = false;
+  RGB paper{0, 0, 0}, sigma{0, 0, 0};
+  size_t photos = 0, points = 0;
+};
+PaperFromCard paper_from_card(const std::vector<const LampFound*>& lamps, const RGB& card_rho);
 
 }  // namespace aniso

@@ -31,7 +31,7 @@ namespace aniso {
 
 namespace {
 
-constexpr double kPaperAlbedo = 0.85, kInkAlbedo = 0.04, kTableAlbedo = 0.3;
+constexpr double kInkAlbedo = 0.04, kTableAlbedo = 0.3;
 constexpr double kPaperMarginM = 0.01;  // white paper around the printed board
 constexpr double kTexelM = 0.000125;    // board texture resolution (0.125 mm)
 
@@ -64,7 +64,7 @@ TriMesh shoot_scene(const PhotoShootOptions& o) {
 // any axis-aligned rectangle of the board plane.
 class BoardAlbedo {
  public:
-  explicit BoardAlbedo(const BoardSpec& b) {
+  BoardAlbedo(const BoardSpec& b, double paper) : paper_(paper) {
     const Image board = render_board(b, 0.0254 / kTexelM);
     margin_ = static_cast<int>(std::lround(kPaperMarginM / kTexelM));
     w_ = board.width + 2 * margin_;
@@ -76,8 +76,7 @@ class BoardAlbedo {
       for (int x = 0; x < w_; ++x) {
         const int bx = x - margin_, by = y - margin_;
         const bool on_board = bx >= 0 && by >= 0 && bx < board.width && by < board.height;
-        row += on_board ? kInkAlbedo + (kPaperAlbedo - kInkAlbedo) * board.at(bx, by, 0)
-                        : kPaperAlbedo;
+        row += on_board ? kInkAlbedo + (paper - kInkAlbedo) * board.at(bx, by, 0) : paper;
         sat_[idx(x + 1, y + 1)] = sat_[idx(x + 1, y)] + row;
       }
     }
@@ -87,7 +86,7 @@ class BoardAlbedo {
     const double u0 = x0 / texel_ + margin_, u1 = x1 / texel_ + margin_;
     const double v0 = y0 / texel_ + margin_, v1 = y1 / texel_ + margin_;
     if (u1 <= 0 || v1 <= 0 || u0 >= w_ || v0 >= h_) return kTableAlbedo;
-    if (u0 < 0 || v0 < 0 || u1 > w_ || v1 > h_) return 0.5 * (kTableAlbedo + kPaperAlbedo);
+    if (u0 < 0 || v0 < 0 || u1 > w_ || v1 > h_) return 0.5 * (kTableAlbedo + paper_);
     const double area = std::max((u1 - u0) * (v1 - v0), 1e-9);
     return (S(u1, v1) - S(u0, v1) - S(u1, v0) + S(u0, v0)) / area;
   }
@@ -103,6 +102,7 @@ class BoardAlbedo {
            (1 - tx) * ty * sat_[idx(x, y + 1)] + tx * ty * sat_[idx(x + 1, y + 1)];
   }
   std::vector<double> sat_;
+  double paper_;
   int w_ = 0, h_ = 0, margin_ = 0;
   double texel_ = 1;
 };
@@ -203,9 +203,16 @@ Image render_photo(const PhotoShootOptions& o, const Intrinsics& k, const RaySce
             xs[c] = p[0];
             ys[c] = p[1];
           }
-          const double albedo =
-              board.mean(*std::min_element(xs, xs + 4), *std::max_element(xs, xs + 4),
-                         *std::min_element(ys, ys + 4), *std::max_element(ys, ys + 4));
+          const double x0 = *std::min_element(xs, xs + 4), x1 = *std::max_element(xs, xs + 4),
+                       y0 = *std::min_element(ys, ys + 4), y1 = *std::max_element(ys, ys + 4);
+          double albedo = board.mean(x0, x1, y0, y1);
+          if (o.grey_card > 0) {  // the card over the share of the footprint it covers
+            const auto& c = o.card_m;
+            const double area = std::max((x1 - x0) * (y1 - y0), 1e-18);
+            const double f = std::max(0.0, std::min(x1, c[2]) - std::max(x0, c[0])) *
+                             std::max(0.0, std::min(y1, c[3]) - std::max(y0, c[1])) / area;
+            albedo = (1 - f) * albedo + f * o.grey_card;
+          }
           Vec3 L;
           RGB E;
           double dist;
@@ -287,6 +294,10 @@ void check_options(const PhotoShootOptions& o) {
         "material");
   if (!(o.ggx_alpha_b > 0 && o.ggx_alpha_b <= 1))
     throw Error("synth --photos: --ggx-alpha-b must be in (0, 1]");
+  if (!(o.paper_albedo >= 0.3 && o.paper_albedo <= 1))
+    throw Error("synth --photos: --paper-reflectance must be in [0.3, 1]");
+  if (!(o.grey_card == 0 || (o.grey_card >= 0.02 && o.grey_card <= 1)))
+    throw Error("synth --photos: --grey-card must be 0 (none) or in [0.02, 1]");
 }
 
 }  // namespace
@@ -318,20 +329,25 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
   const auto t0 = std::chrono::steady_clock::now();
   check_options(o);
   const RayScene scene(shoot_scene(o));
-  const BoardAlbedo board(o.board);
+  const BoardAlbedo board(o.board, o.paper_albedo);
   const Evaluator eval(o.truth);
   const Intrinsics k = shoot_camera(o);
   Vec3 centre{0, 0, 0};
   for (const auto& p : o.polygon) centre = centre + Vec3(p[0], p[1], 0) * (1.0 / o.polygon.size());
   centre.z = -o.height_m;
   // A white sheet at unit irradiance reads 0.68 of full scale in the longest exposure.
-  const double base = 0.68 / (kPaperAlbedo / M_PI);
+  const double base = 0.68 / (o.paper_albedo / M_PI);
 
   Shoot shoot;
   shoot.board = o.board;
   shoot.polygon = o.polygon;
   shoot.height_m = o.height_m;
   shoot.tangent = o.tangent;
+  if (o.grey_card > 0) {
+    const auto& c = o.card_m;
+    shoot.reference.polygon = {{c[0], c[1]}, {c[2], c[1]}, {c[2], c[3]}, {c[0], c[3]}};
+    shoot.reference.reflectance = {o.grey_card, o.grey_card, o.grey_card};
+  }
   shoot.color.encoding =
       o.raw16 || o.dng ? ColorSpec::Encoding::kLinear : ColorSpec::Encoding::kSrgb;
   shoot.color.encoding_given = true;
@@ -398,6 +414,8 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
                                                    {"intensity_hidden", o.hide_intensity},
                                                    {"brdf", o.brdf},
                                                    {"ggx_alpha_b", o.ggx_alpha_b},
+                                                   {"paper_reflectance", o.paper_albedo},
+                                                   {"grey_card", o.grey_card},
                                                    {"material", "material.json"}});
   });
   st.photos = setups.size();

@@ -48,6 +48,12 @@ struct PhotoShootOptions {
   // checking that its sigma covers its error there.
   std::string brdf = "truth";
   double ggx_alpha_b = 0.5;
+  // The printed paper's diffuse reflectance (import assumes 0.85 where the shoot gives none), and a
+  // grey card of reflectance grey_card lying on the board over card_m (x0, y0, x1, y1, board
+  // metres), written as the shoot's `reference`; 0: no card.
+  double paper_albedo = 0.85;
+  double grey_card = 0;
+  std::array<double, 4> card_m{0.015, 0.015, 0.075, 0.065};
 };
 
 // The anisotropic GGX reflectance times <N,L> for unit irradiance (PhotoShootOptions::brdf),

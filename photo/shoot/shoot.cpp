@@ -66,13 +66,14 @@ BoardSpec parse_board(const json& j, const Ctx& c, RGB* paper) {
   return b;
 }
 
-void parse_sample(const json& j, const Ctx& c, Shoot* s) {
-  jsonu::check_keys(j, {"polygon_m", "height_m", "tangent"}, c);
-  const json& poly = jsonu::need(j, "polygon_m", c);
-  const Ctx pc = c.at("polygon_m");
+// An outline on the board: at least 3 [x, y] points in metres, inside the board, enclosing some
+// area.
+std::vector<std::array<double, 2>> parse_polygon(const json& poly, const Ctx& pc,
+                                                 const BoardSpec& b) {
   if (!poly.is_array() || poly.size() < 3) pc.fail("expected at least 3 [x, y] points (metres)");
-  const double W = s->board.squares_x * s->board.square_m;
-  const double H = s->board.squares_y * s->board.square_m;
+  const double W = b.squares_x * b.square_m;
+  const double H = b.squares_y * b.square_m;
+  std::vector<std::array<double, 2>> out;
   for (size_t i = 0; i < poly.size(); ++i) {
     if (!poly[i].is_array() || poly[i].size() != 2) pc.idx(i).fail("expected [x, y] in metres");
     const double x = jsonu::num(poly[i][0], pc.idx(i).idx(0));
@@ -83,12 +84,18 @@ void parse_sample(const json& j, const Ctx& c, Shoot* s) {
                      std::to_string(H) +
                      " m); board coordinates are metres from its top-left "
                      "corner, x right, y down");
-    s->polygon.push_back({x, y});
+    out.push_back({x, y});
   }
   double area = 0;
-  for (size_t i = 0, k = poly.size() - 1; i < poly.size(); k = i++)
-    area += s->polygon[k][0] * s->polygon[i][1] - s->polygon[i][0] * s->polygon[k][1];
+  for (size_t i = 0, k = out.size() - 1; i < out.size(); k = i++)
+    area += out[k][0] * out[i][1] - out[i][0] * out[k][1];
   if (std::abs(area) / 2 < 1e-6) pc.fail("encloses no area (less than 1 mm^2)");
+  return out;
+}
+
+void parse_sample(const json& j, const Ctx& c, Shoot* s) {
+  jsonu::check_keys(j, {"polygon_m", "height_m", "tangent"}, c);
+  s->polygon = parse_polygon(jsonu::need(j, "polygon_m", c), c.at("polygon_m"), s->board);
   s->height_m = jsonu::num_or(j, "height_m", 0.0, c);
   if (s->height_m < 0 || s->height_m > 0.5) c.at("height_m").fail("must be in [0, 0.5] m");
   if (j.contains("tangent")) {
@@ -121,6 +128,26 @@ void check_light(const Light& l, const Ctx& c, double height_m) {
                   length(l.position));
     c.at("position").fail(buf);
   }
+}
+
+// A grey card on the board (docs/formats.md "Additions"): its outline and reflectance, apart from
+// the sample.
+void parse_reference(const json& j, const Ctx& c, Shoot* s) {
+  jsonu::check_keys(j, {"polygon_m", "reflectance"}, c);
+  auto& card = s->reference;
+  card.polygon = parse_polygon(jsonu::need(j, "polygon_m", c), c.at("polygon_m"), s->board);
+  card.reflectance = jsonu::rgb(jsonu::need(j, "reflectance", c), c.at("reflectance"));
+  for (double v : card.reflectance)
+    if (!(v >= 0.02 && v <= 1))
+      c.at("reflectance")
+          .fail("must be in [0.02, 1]: the card's diffuse reflectance (a photographer's grey "
+                "card: 0.18)");
+  for (const auto& p : card.polygon)
+    if (inside_polygon(s->polygon, p[0], p[1]))
+      c.at("polygon_m").fail("lies on the sample (sample.polygon_m): the card goes beside it");
+  for (const auto& p : s->polygon)
+    if (inside_polygon(card.polygon, p[0], p[1]))
+      c.at("polygon_m").fail("covers the sample (sample.polygon_m): the card goes beside it");
 }
 
 ShootPhoto parse_photo(const json& j, const Ctx& c, const Shoot& s) {
@@ -171,7 +198,8 @@ Shoot read_shoot(const std::string& path) {
   const json j = jsonu::parse_file(read_text_file(path), path);
   const Ctx root{path, ""};
   if (!j.is_object()) root.fail("expected a JSON object");
-  jsonu::check_keys(j, {"format", "version", "board", "sample", "camera", "color", "photos"}, root);
+  jsonu::check_keys(j, {"format", "version", "board", "sample", "reference", "camera", "color", "photos"},
+                    root);
   const std::string format = jsonu::str(jsonu::need(j, "format", root), root.at("format"));
   if (format != "aniso-shoot")
     root.at("format").fail("expected \"aniso-shoot\", got \"" + format + "\"");
@@ -179,6 +207,7 @@ Shoot read_shoot(const std::string& path) {
     root.at("version").fail("unsupported version (this reader knows 1)");
   s.board = parse_board(jsonu::need(j, "board", root), root.at("board"), &s.paper_reflectance);
   parse_sample(jsonu::need(j, "sample", root), root.at("sample"), &s);
+  if (j.contains("reference")) parse_reference(j["reference"], root.at("reference"), &s);
   const json& cam = jsonu::need(j, "camera", root);
   if (!cam.is_null()) {
     s.camera = parse_camera(cam, root.at("camera"));
@@ -224,6 +253,12 @@ void write_shoot(const Shoot& s, const std::string& path) {
       {"color", {{"encoding", enc}}},
       {"photos", photos}};
   if (s.paper_given()) j["board"]["paper_reflectance"] = jsonu::to_json(s.paper_reflectance);
+  if (s.reference_given()) {
+    json card = json::array();
+    for (const auto& p : s.reference.polygon) card.push_back({p[0], p[1]});
+    j["reference"] = {{"polygon_m", card},
+                      {"reflectance", jsonu::to_json(s.reference.reflectance)}};
+  }
   write_text_file(path, j.dump(2) + "\n");
 }
 
