@@ -12,7 +12,7 @@ namespace aniso::cli {
 namespace {
 
 struct ImportArgs {
-  std::string shoot, out;
+  std::string shoot, out, compression = "zip";
   ImportOptions o;
   double margin_mm = 3;
   bool no_overlays = false, quiet = false, lamps_as_written = false;
@@ -25,6 +25,7 @@ int run(const ImportArgs& a) {
   for (const auto& p : s.photos)
     for (const auto& im : p.images) inputs.push_back(join_path(s.dir, im.file));
   check_outputs_apart({a.out}, inputs);
+  set_exr_compression(a.compression);
   ImportOptions o = a.o;
   o.overlays = !a.no_overlays;
   o.find_lamps = !a.lamps_as_written;
@@ -123,6 +124,7 @@ Command add_import(CLI::App& app) {
               "take every lamp's position and intensity as the shoot writes them, instead of "
               "finding them from the board's paper (a shoot whose lamps were measured exactly)");
   c->add_flag("--no-overlays", a->no_overlays, "do not write overlays/NNN.png");
+  add_exr_compression(c, &a->compression, "the views' images and geometry buffers");
   c->add_flag("--quiet", a->quiet, "print only the summary and the photos left out");
   add_force_flag(c);
   return {c, [a] { return run(*a); }};

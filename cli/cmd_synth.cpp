@@ -19,7 +19,7 @@ struct SynthArgs {
                            brdf = "truth";
   PresetOptions po;
   double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
-  bool list = false, photos = false, dng = false, hide_intensity = false;
+  bool list = false, photos = false, dng = false, jpeg = false, hide_intensity = false;
   double lamp_error_m = 0, ggx_alpha_b = PhotoShootOptions{}.ggx_alpha_b,
          paper = PhotoShootOptions{}.paper_albedo, grey_card = 0;
   CLI::App* app = nullptr;
@@ -35,6 +35,7 @@ int run_photos(const SynthArgs& a) {
   if (a.app->count("--noise")) o.read_noise = a.po.noise;
   if (a.po.bits == 16) o.raw16 = true;
   o.dng = a.dng;
+  o.jpeg = a.jpeg;
   o.walk = a.walk;
   o.lamp_error_m = a.lamp_error_m;
   o.hide_intensity = a.hide_intensity;
@@ -51,6 +52,7 @@ int run_photos(const SynthArgs& a) {
       "synth --photos: then: aniso import %s/shoot.json --out CAPTURE_DIR\n",
       a.preset.c_str(), a.out.c_str(), st.photos, o.bracket.size(), o.width, o.height,
       o.dng     ? "linear DNG"
+      : o.jpeg  ? "8-bit sRGB JPEG"
       : o.raw16 ? "16-bit linear"
                 : "8-bit sRGB",
       static_cast<unsigned long long>(o.seed), st.primary_rays, st.shadow_rays,
@@ -104,6 +106,8 @@ Command add_synth(CLI::App& app) {
                   "material on a ChArUco board through a distorting lens, truth.json): the input "
                   "of aniso import. Defaults then: --size 960x720, --views 24 photos, --noise "
                   "0.002; --bits 16 writes RAW-like 16-bit linear photos");
+  synth->add_flag("--jpeg", a->jpeg,
+                  "--photos: write 8-bit sRGB JPEGs (quality 95), as a camera does");
   synth->add_flag("--dng", a->dng,
                   "--photos: write linear DNG files (16-bit, read by aniso import through LibRaw)");
   synth

@@ -6,6 +6,7 @@
 #include <cstdio>
 // clang-format off
 #include <jpeglib.h>  // after cstdio: it needs FILE
+#include <png.h>
 // clang-format on
 
 #include <ImfChannelList.h>
@@ -448,6 +449,90 @@ TEST(ImageIO, JpegFromLibjpegDecodes) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find(cut), std::string::npos) << e.what();
   }
+}
+
+// PNG rows as codes (what import merges a bracket from): an Adam7-interlaced 16-bit RGBA file and
+// a plain 8-bit grey-and-alpha one, written by libpng itself, read row by row give their codes
+// exactly, alpha dropped, and read_image gives the same values scaled; a file cut short is an
+// error naming it, not rows of zeros.
+TEST(ImageIO, PngRowsAreTheFilesCodesInterlacedOrNot) {
+  const std::string dir = test::tmp_dir("png_rows");
+  const int w = 37, h = 23;
+  auto code = [](int x, int y, int c, int bits) {
+    return bits == 16 ? (x * 1733 + y * 2711 + c * 9973) % 65536 : (x * 7 + y * 13 + c * 50) % 256;
+  };
+  struct Case {
+    int bits, type, interlace, channels;
+  };
+  for (const Case k : {Case{16, PNG_COLOR_TYPE_RGB_ALPHA, PNG_INTERLACE_ADAM7, 4},
+                       Case{8, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_INTERLACE_NONE, 2}}) {
+    const std::string path = dir + "/p" + std::to_string(k.bits) + ".png";
+    FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    png_infop info = png_create_info_struct(png);
+    png_init_io(png, f);
+    png_set_IHDR(png, info, w, h, k.bits, k.type, k.interlace, PNG_COMPRESSION_TYPE_DEFAULT,
+                 PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    const size_t bytes = k.bits / 8;
+    std::vector<unsigned char> img(static_cast<size_t>(w) * h * k.channels * bytes);
+    std::vector<png_bytep> rows(h);
+    for (int y = 0; y < h; ++y) {
+      rows[y] = img.data() + static_cast<size_t>(y) * w * k.channels * bytes;
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < k.channels; ++c) {
+          const int v = code(x, y, c, k.bits);
+          unsigned char* p = rows[y] + (x * k.channels + c) * bytes;
+          if (k.bits == 16)
+            p[0] = static_cast<unsigned char>(v >> 8), p[1] = static_cast<unsigned char>(v & 255);
+          else
+            p[0] = static_cast<unsigned char>(v);
+        }
+    }
+    png_write_image(png, rows.data());
+    png_write_end(png, nullptr);
+    png_destroy_write_struct(&png, &info);
+    std::fclose(f);
+    const int colour = k.channels >= 3 ? 3 : 1;
+    auto r = read_image_rows(path);
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->width, w);
+    ASSERT_EQ(r->height, h);
+    ASSERT_EQ(r->channels, colour);
+    EXPECT_EQ(r->bits, k.bits);
+    const LoadedImage li = read_image(path);
+    ASSERT_EQ(li.image.channels, colour);
+    int wrong = 0, scaled_wrong = 0;
+    const double q = k.bits == 16 ? 65535 : 255;
+    for (int y = 0; y < h; ++y) {
+      const uint16_t* row = r->next();
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < colour; ++c) {
+          wrong += row[x * colour + c] != code(x, y, c, k.bits);
+          scaled_wrong += li.image.at(x, y, c) != static_cast<float>(code(x, y, c, k.bits) / q);
+        }
+    }
+    EXPECT_EQ(wrong, 0) << path;
+    EXPECT_EQ(scaled_wrong, 0) << path;
+  }
+  // Cut short: the rows stop with an error naming the file.
+  const std::string cut = dir + "/cut.png";
+  {
+    std::ifstream in(dir + "/p8.png", std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  try {
+    auto r = read_image_rows(cut);
+    for (int y = 0; y < h; ++y) r->next();
+    ADD_FAILURE() << "a truncated PNG was read row by row";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(cut), std::string::npos) << e.what();
+  }
+  // A float file is not rows of codes: read it whole.
+  write_exr(dir + "/f.exr", Image(4, 3, 3, 0.5f));
+  EXPECT_EQ(read_image_rows(dir + "/f.exr"), nullptr);
 }
 
 TEST(ImageIO, RefusesNonFiniteValues) {

@@ -362,8 +362,8 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("k_d and k_s are relative"), std::string::npos) << r.output;
   const auto mr = nlohmann::json::parse(read_text_file(dir + "/mr.json"));
-  std::printf("k_d: %.4f with the grey card, %.4f without (truth 0.2)\n",
-              m["kd"][0].get<double>(), mr["kd"][0].get<double>());
+  std::printf("k_d: %.4f with the grey card, %.4f without (truth 0.2)\n", m["kd"][0].get<double>(),
+              mr["kd"][0].get<double>());
   EXPECT_GT(mr["kd"][0].get<double>() / 0.2 - 1, 0.05);
   // The same lamps as written: the intensities of 1 make k_d wrong by a factor of three.
   r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/capw --no-overlays " +
@@ -482,7 +482,8 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   });
   // A grey card laid over the sample, or of a reflectance no card has.
   expect_refused("reference.polygon_m: lies on the sample", [](auto& j) {
-    j["reference"] = {{"polygon_m", {{0.1, 0.1}, {0.12, 0.1}, {0.12, 0.12}}}, {"reflectance", 0.18}};
+    j["reference"] = {{"polygon_m", {{0.1, 0.1}, {0.12, 0.1}, {0.12, 0.12}}},
+                      {"reflectance", 0.18}};
   });
   expect_refused("reference.reflectance", [](auto& j) {
     j["reference"] = {{"polygon_m", {{0.01, 0.01}, {0.05, 0.01}, {0.05, 0.05}}},
@@ -533,18 +534,18 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   // The whole shoot's memory: refused before any decoding where even one photo at a time does
   // not fit; merged one at a time where two do not; the calibration on a spread subset.
   write_text_file(shoot, good);
-  r = test::run_cli("import " + shoot + " --out " + out + " --no-overlays --memory 10");
+  r = test::run_cli("import " + shoot + " --out " + out + " --no-overlays --memory 5");
   EXPECT_EQ(r.status, 1) << r.output;
-  EXPECT_NE(r.output.find("over --memory 10 MB"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("over --memory 5 MB"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("finding the board"), std::string::npos) << r.output;  // none decoded
   EXPECT_FALSE(fs::exists(out)) << r.output;
   r = test::run_cli("import " + shoot + " --out " + out +
-                    " --no-overlays --memory 25 --calibrate-on 4");
+                    " --no-overlays --memory 14 --calibrate-on 4");
   ASSERT_EQ(r.status, 0) << r.output;
   {
     const auto rep = nlohmann::json::parse(read_text_file(out + "/import_report.json"));
     EXPECT_EQ(rep["memory"]["photos_merged_at_once"], 1);
-    EXPECT_LE(rep["memory"]["estimate_mb"].get<double>(), 25);
+    EXPECT_LE(rep["memory"]["estimate_mb"].get<double>(), 14);
     EXPECT_EQ(rep["camera"]["calibrated_on_photos"], 4);
     EXPECT_EQ(rep["views"], 6);  // the other two posed against the camera of four
   }

@@ -67,7 +67,6 @@ struct PngRead {
   png_structp png = nullptr;
   png_infop info = nullptr;
   PngMessage msg;
-  LoadedImage out;
   std::vector<unsigned char> buf;
   std::vector<png_bytep> rows;
   ~PngRead() { png_destroy_read_struct(&png, info ? &info : nullptr, nullptr); }
@@ -90,45 +89,92 @@ ImageKind sniff_image(const std::string& path) {
   return ImageKind::kOther;
 }
 
-LoadedImage decode_png(const std::string& path, const SizeCheck& check) {
-  File file(path, "rb");
-  const auto r = std::make_unique<PngRead>();
-  r->png =
-      png_create_read_struct(PNG_LIBPNG_VER_STRING, &r->msg, png_error_to_jump, png_ignore_warning);
-  if (!r->png) throw Error(path + ": out of memory for the PNG decoder");
-  r->info = png_create_info_struct(r->png);
-  if (setjmp(png_jmpbuf(r->png))) throw Error(path + ": cannot decode PNG: " + r->msg.text);
-  png_init_io(r->png, file.get());
-  png_read_info(r->png, r->info);
-  const png_uint_32 w = png_get_image_width(r->png, r->info),
-                    h = png_get_image_height(r->png, r->info);
-  check(w, h);
-  const int type = png_get_color_type(r->png, r->info);
-  if (type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(r->png);
-  if (type == PNG_COLOR_TYPE_GRAY && png_get_bit_depth(r->png, r->info) < 8)
-    png_set_expand_gray_1_2_4_to_8(r->png);
+namespace {
+
+// A PNG's rows as codes. Non-interlaced files are read a row at a time; an interlaced one is read
+// whole at once (its passes fill every row), then served row by row.
+class PngRows : public CodeRows {
+ public:
+  PngRows(const std::string& path, const SizeCheck& check)
+      : path_(path), file_(path, "rb"), r_(std::make_unique<PngRead>()) {
+    r_->png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &r_->msg, png_error_to_jump,
+                                     png_ignore_warning);
+    if (!r_->png) throw Error(path + ": out of memory for the PNG decoder");
+    r_->info = png_create_info_struct(r_->png);
+    if (setjmp(png_jmpbuf(r_->png))) throw Error(path + ": cannot decode PNG: " + r_->msg.text);
+    png_init_io(r_->png, file_.get());
+    png_read_info(r_->png, r_->info);
+    const png_uint_32 w = png_get_image_width(r_->png, r_->info),
+                      h = png_get_image_height(r_->png, r_->info);
+    check(w, h);
+    const int type = png_get_color_type(r_->png, r_->info);
+    if (type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(r_->png);
+    if (type == PNG_COLOR_TYPE_GRAY && png_get_bit_depth(r_->png, r_->info) < 8)
+      png_set_expand_gray_1_2_4_to_8(r_->png);
 #if __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
-  if (png_get_bit_depth(r->png, r->info) == 16) png_set_swap(r->png);
+    if (png_get_bit_depth(r_->png, r_->info) == 16) png_set_swap(r_->png);
 #endif
-  png_set_interlace_handling(r->png);
-  png_read_update_info(r->png, r->info);
-  const int channels = png_get_channels(r->png, r->info), bits = png_get_bit_depth(r->png, r->info);
-  const size_t stride = png_get_rowbytes(r->png, r->info);
-  r->buf.resize(stride * h);
-  r->rows.resize(h);
-  for (png_uint_32 y = 0; y < h; ++y) r->rows[y] = r->buf.data() + y * stride;
-  png_read_image(r->png, r->rows.data());
-  png_read_end(r->png, nullptr);
-  r->out.bits = bits;
-  r->out.image = new_image(static_cast<int>(w), static_cast<int>(h), channels);
-  for (png_uint_32 y = 0; y < h; ++y) {
-    if (bits == 16)
-      put_row(reinterpret_cast<const uint16_t*>(r->rows[y]), w, channels, 1.0 / 65535, y,
-              &r->out.image);
-    else
-      put_row(r->rows[y], w, channels, 1.0 / 255, y, &r->out.image);
+    png_set_strip_alpha(r_->png);
+    const int passes = png_set_interlace_handling(r_->png);
+    png_read_update_info(r_->png, r_->info);
+    width = static_cast<int>(w), height = static_cast<int>(h);
+    channels = png_get_channels(r_->png, r_->info);
+    bits = png_get_bit_depth(r_->png, r_->info);
+    const size_t stride = png_get_rowbytes(r_->png, r_->info);
+    if (passes > 1) {
+      r_->buf.resize(stride * h);
+      r_->rows.resize(h);
+      for (png_uint_32 y = 0; y < h; ++y) r_->rows[y] = r_->buf.data() + y * stride;
+      png_read_image(r_->png, r_->rows.data());
+    } else {
+      r_->buf.resize(stride);
+    }
+    out_.resize(static_cast<size_t>(width) * channels);
   }
-  return std::move(r->out);
+  const uint16_t* next() override {
+    if (r_->rows.empty()) read_row();
+    const unsigned char* row = r_->rows.empty() ? r_->buf.data() : r_->rows[y_];
+    ++y_;
+    if (bits == 16)
+      std::memcpy(out_.data(), row, out_.size() * sizeof(uint16_t));
+    else
+      std::copy(row, row + out_.size(), out_.begin());
+    return out_.data();
+  }
+
+ private:
+  // One row into buf, the jump back from libpng's error handler set here.
+  void read_row() {
+    if (setjmp(png_jmpbuf(r_->png))) throw Error(path_ + ": cannot decode PNG: " + r_->msg.text);
+    png_read_row(r_->png, r_->buf.data(), nullptr);
+  }
+  std::string path_;
+  File file_;
+  std::unique_ptr<PngRead> r_;
+  std::vector<uint16_t> out_;
+  size_t y_ = 0;
+};
+
+// A whole image from rows of codes, scaled to [0, 1].
+LoadedImage whole_image(CodeRows& rows) {
+  LoadedImage out;
+  out.bits = rows.bits;
+  out.image = new_image(rows.width, rows.height, rows.channels);
+  const double scale = rows.bits == 16 ? 1.0 / 65535 : 1.0 / 255;
+  for (int y = 0; y < rows.height; ++y)
+    put_row(rows.next(), rows.width, rows.channels, scale, y, &out.image);
+  return out;
+}
+
+}  // namespace
+
+std::unique_ptr<CodeRows> png_rows(const std::string& path, const SizeCheck& check) {
+  return std::make_unique<PngRows>(path, check);
+}
+
+LoadedImage decode_png(const std::string& path, const SizeCheck& check) {
+  PngRows rows(path, check);
+  return whole_image(rows);
 }
 
 namespace {
@@ -252,7 +298,6 @@ void jpeg_keep_warning(j_common_ptr cinfo, int level) {
 struct JpegRead {
   jpeg_decompress_struct cinfo;
   JpegError err;
-  LoadedImage out;
   std::vector<unsigned char> row;
   bool created = false;
   ~JpegRead() {
@@ -262,38 +307,67 @@ struct JpegRead {
 
 }  // namespace
 
-LoadedImage decode_jpeg(const std::string& path, const SizeCheck& check) {
-  File file(path, "rb");
-  const auto r = std::make_unique<JpegRead>();
-  r->cinfo.err = jpeg_std_error(&r->err.mgr);
-  r->err.mgr.error_exit = jpeg_error_to_jump;
-  r->err.mgr.emit_message = jpeg_keep_warning;
-  if (setjmp(r->err.jump)) throw Error(path + ": cannot decode JPEG: " + r->err.text);
-  jpeg_create_decompress(&r->cinfo);
-  r->created = true;
-  jpeg_stdio_src(&r->cinfo, file.get());
-  jpeg_read_header(&r->cinfo, TRUE);
-  check(r->cinfo.image_width, r->cinfo.image_height);
-  if (r->cinfo.jpeg_color_space == JCS_CMYK || r->cinfo.jpeg_color_space == JCS_YCCK)
-    throw Error(path + ": CMYK JPEG is not read (save it as RGB)");
-  jpeg_start_decompress(&r->cinfo);
-  const int w = static_cast<int>(r->cinfo.output_width);
-  const int h = static_cast<int>(r->cinfo.output_height);
-  const int channels = r->cinfo.output_components;
-  r->out.bits = 8;
-  r->out.image = new_image(w, h, channels);
-  r->row.resize(static_cast<size_t>(w) * channels);
-  while (r->cinfo.output_scanline < r->cinfo.output_height) {
-    const int y = static_cast<int>(r->cinfo.output_scanline);
-    JSAMPROW p = r->row.data();
-    jpeg_read_scanlines(&r->cinfo, &p, 1);
-    put_row(r->row.data(), w, channels, 1.0 / 255, y, &r->out.image);
+namespace {
+
+class JpegRows : public CodeRows {
+ public:
+  JpegRows(const std::string& path, const SizeCheck& check)
+      : path_(path), file_(path, "rb"), r_(std::make_unique<JpegRead>()) {
+    r_->cinfo.err = jpeg_std_error(&r_->err.mgr);
+    r_->err.mgr.error_exit = jpeg_error_to_jump;
+    r_->err.mgr.emit_message = jpeg_keep_warning;
+    if (setjmp(r_->err.jump)) throw Error(path + ": cannot decode JPEG: " + r_->err.text);
+    jpeg_create_decompress(&r_->cinfo);
+    r_->created = true;
+    jpeg_stdio_src(&r_->cinfo, file_.get());
+    jpeg_read_header(&r_->cinfo, TRUE);
+    check(r_->cinfo.image_width, r_->cinfo.image_height);
+    if (r_->cinfo.jpeg_color_space == JCS_CMYK || r_->cinfo.jpeg_color_space == JCS_YCCK)
+      throw Error(path + ": CMYK JPEG is not read (save it as RGB)");
+    jpeg_start_decompress(&r_->cinfo);
+    width = static_cast<int>(r_->cinfo.output_width);
+    height = static_cast<int>(r_->cinfo.output_height);
+    channels = r_->cinfo.output_components >= 3 ? 3 : 1;
+    bits = 8;
+    r_->row.resize(static_cast<size_t>(width) * r_->cinfo.output_components);
+    out_.resize(static_cast<size_t>(width) * channels);
   }
-  jpeg_finish_decompress(&r->cinfo);
-  if (r->err.mgr.num_warnings > 0)
-    throw Error(path + ": damaged JPEG (" + r->err.text +
-                "): libjpeg would fill the missing part with grey; copy or export the photo again");
-  return std::move(r->out);
+  const uint16_t* next() override {
+    if (setjmp(r_->err.jump)) throw Error(path_ + ": cannot decode JPEG: " + r_->err.text);
+    JSAMPROW p = r_->row.data();
+    jpeg_read_scanlines(&r_->cinfo, &p, 1);
+    const int in = r_->cinfo.output_components;
+    if (in == channels)
+      std::copy(r_->row.begin(), r_->row.begin() + out_.size(), out_.begin());
+    else
+      for (int x = 0; x < width; ++x)
+        for (int c = 0; c < channels; ++c) out_[x * channels + c] = r_->row[x * in + c];
+    if (r_->cinfo.output_scanline == r_->cinfo.output_height) {
+      jpeg_finish_decompress(&r_->cinfo);
+      if (r_->err.mgr.num_warnings > 0)
+        throw Error(path_ + ": damaged JPEG (" + r_->err.text +
+                    "): libjpeg would fill the missing part with grey; copy or export the photo "
+                    "again");
+    }
+    return out_.data();
+  }
+
+ private:
+  std::string path_;
+  File file_;
+  std::unique_ptr<JpegRead> r_;
+  std::vector<uint16_t> out_;
+};
+
+}  // namespace
+
+std::unique_ptr<CodeRows> jpeg_rows(const std::string& path, const SizeCheck& check) {
+  return std::make_unique<JpegRows>(path, check);
+}
+
+LoadedImage decode_jpeg(const std::string& path, const SizeCheck& check) {
+  JpegRows rows(path, check);
+  return whole_image(rows);
 }
 
 namespace {

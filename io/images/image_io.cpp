@@ -539,6 +539,24 @@ LoadedImage read_image(const std::string& path, int expect_w, int expect_h,
   throw Error(path + ": cannot decode image (not PNG/TIFF/JPEG/EXR?)");
 }
 
+std::unique_ptr<CodeRows> read_image_rows(const std::string& path) {
+  std::error_code ec;
+  const auto st = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(st)) throw Error(path + ": file not found");
+  if (!std::filesystem::is_regular_file(st))
+    throw Error(path + ": not a regular file (a folder, device or FIFO is not read)");
+  if (lower_ext(path) == ".exr") return nullptr;
+  const SizeCheck check = [&](long long w, long long h) { check_declared_size(path, w, h, 0, 0); };
+  switch (sniff_image(path)) {
+    case ImageKind::kPng:
+      return png_rows(path, check);
+    case ImageKind::kJpeg:
+      return jpeg_rows(path, check);
+    default:
+      return nullptr;
+  }
+}
+
 void image_dimensions(const std::string& path, int* w, int* h) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))

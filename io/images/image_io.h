@@ -33,6 +33,21 @@ inline constexpr long long kMaxImagePixels = 1LL << 26;  // 8192 x 8192
 LoadedImage read_image(const std::string& path, int expect_w = 0, int expect_h = 0,
                        const std::vector<uint8_t>* rows = nullptr, bool zero_others = true);
 
+// An 8- or 16-bit PNG or JPEG read one row at a time as its stored codes (RGB or grey; alpha
+// dropped), so that a reader that merges several images row by row never holds them whole.
+class CodeRows {
+ public:
+  virtual ~CodeRows() = default;
+  int width = 0, height = 0, channels = 0, bits = 0;  // channels: 1 or 3; bits: 8 or 16
+  // The next row: width * channels codes, valid until the next call. Throws naming the file
+  // where it is damaged.
+  virtual const uint16_t* next() = 0;
+};
+
+// The file's rows as codes where it is an integer PNG or JPEG (checked and size-limited as
+// read_image does); nullptr for any other kind (EXR, TIFF), to be read with read_image.
+std::unique_ptr<CodeRows> read_image_rows(const std::string& path);
+
 // An image's declared width and height, read from its header (nothing decoded); throws naming the
 // file as read_image does.
 void image_dimensions(const std::string& path, int* w, int* h);

@@ -44,7 +44,7 @@ struct Detected {
   int markers = 0, width = 0, height = 0;
   size_t saturated = 0;
   MergedCrop crop;               // the merged image around the sample's estimated place
-  std::vector<uint8_t> grey;     // the detection image, 8-bit (for the overlay)
+  OverlayImage overlay;          // the detection image, shrunk (overlays only)
   std::vector<RawInfo> raw;      // RAW images: camera and white balance
   std::vector<LampFound> lamps;  // per light of the photo, as found from the board's paper
 };
@@ -119,7 +119,8 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o, const Pa
   d.saturated = m.saturated_pixels;
   d.raw = m.raw;
   const auto obj = board_corners_m(s.board);
-  const std::vector<BoardCorner> all = detect_board(m.grey, s.board, &d.markers);
+  const std::vector<BoardCorner> all =
+      detect_board(m.grey.data(), m.rgb.width, m.rgb.height, s.board, &d.markers);
   for (const auto& c : all) {
     const double x = obj.at(c.id)[0], y = obj.at(c.id)[1];
     const bool near =
@@ -128,9 +129,7 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o, const Pa
   }
   estimate_crop(s, m, all, &d.crop);
   if (o.find_lamps) d.lamps = find_lamps(s, i, paper, d.corners, m);
-  d.grey.resize(m.grey.px.size());
-  for (size_t p = 0; p < d.grey.size(); ++p)
-    d.grey[p] = static_cast<uint8_t>(std::lround(255 * std::clamp(m.grey.px[p], 0.f, 1.f)));
+  if (o.overlays) d.overlay = overlay_image(m.grey, m.rgb.width, m.rgb.height);
   return d;
 }
 
@@ -143,7 +142,7 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o, const Pa
     b.dictionary = name;
     int markers = 0;
     try {
-      detect_board(m.grey, b, &markers);
+      detect_board(m.grey.data(), m.rgb.width, m.rgb.height, b, &markers);
     } catch (const Error&) {
       continue;  // this board size does not fit that dictionary
     }
@@ -563,9 +562,8 @@ void write_photo(const Shoot& s, size_t i, Detected& det, const std::string& dir
   if (!o.overlays) return;
   char name[32];
   std::snprintf(name, sizeof name, "overlays/%03zu.png", i);
-  Image grey(det.width, det.height, 1);
-  for (size_t q = 0; q < det.grey.size(); ++q) grey.px[q] = det.grey[q] / 255.f;
-  write_overlay(join_path(dir, name), grey, marks);
+  write_overlay(join_path(dir, name), det.overlay, marks);
+  det.overlay = OverlayImage{};
 }
 
 // What the lamps found from the paper say about the shoot as written: a lamp far from where it
@@ -645,25 +643,34 @@ std::vector<std::string> lamp_warnings(const Shoot& s, const ImportResult& r) {
 }  // namespace
 
 // How many photos may be merged at once within o.memory_mb, from the photos' headers (nothing
-// decoded): a photo being merged holds its bracket as float RGB, the merged RGB, its grey and
-// mask; every photo keeps its grey (a byte a pixel) between the passes. Throws, saying why, where
+// decoded). A photo being merged holds, per pixel, its merged RGB (12 bytes), clipped mask and
+// detection image (1 each) and the board detector's working images (kDetectBytes), plus 12 bytes
+// for each image of its bracket that is read whole (RAW, EXR, TIFF; PNG and JPEG stream row by
+// row). Every photo keeps, between the passes, the merged RGB around the sample (kCropBytes a
+// photo pixel: the sample's region with its margin) and its overlay. Throws, saying why, where
 // even one at a time does not fit.
 int merge_threads(const Shoot& s, const ImportOptions& o, ImportResult* r) {
+  constexpr double kDetectBytes = 6, kCropBytes = 2;
   double kept = 0, largest = 0;
   for (size_t i = 0; i < s.photos.size(); ++i) {
     double bytes = 0, pixels = 0;
+    int w = 0, h = 0;
     for (const auto& im : s.photos[i].images) {
       const std::string path = join_path(s.dir, im.file);
-      int w = 0, h = 0;
-      if (is_raw_photo(path))
+      const bool raw = is_raw_photo(path);
+      if (raw)
         raw_dimensions(path, &w, &h);
       else
         image_dimensions(path, &w, &h);
       pixels = std::max(pixels, double(w) * h);
-      bytes += 12.0 * w * h;  // float RGB
+      const std::string ext = lower_ext(path);
+      const bool streamed = !raw && ext != ".exr" && ext != ".tif" && ext != ".tiff";
+      if (!streamed) bytes += 12.0 * w * h;  // float RGB
     }
-    bytes += pixels * (12 + 4 + 1 + 1);  // merged RGB, grey, mask, the kept grey
-    kept += pixels;
+    bytes += pixels * (12 + 1 + 1 + kDetectBytes);
+    const int shrink = overlay_shrink(w, h);
+    const double overlay = o.overlays ? pixels / (shrink * shrink) : 0;
+    kept += pixels * kCropBytes + overlay;
     largest = std::max(largest, bytes);
   }
   const double budget = o.memory_mb * 1e6;
@@ -703,7 +710,8 @@ void scale_by_card(const Shoot& s, ImportResult* r) {
   for (auto& p : r->photos)
     for (auto& l : p.lamps)
       if (l.solved)
-        for (int c = 0; c < 3; ++c) l.found_intensity[c] = l.paper_amplitude[c] * M_PI / r->card.paper[c];
+        for (int c = 0; c < 3; ++c)
+          l.found_intensity[c] = l.paper_amplitude[c] * M_PI / r->card.paper[c];
   if (s.paper_given()) {
     const double given = s.paper_reflectance[1], found = r->card.paper[1];
     if (std::abs(given - found) > std::max(3 * r->card.sigma[1], 0.05 * found)) {
@@ -792,15 +800,14 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
     r.views = set.views.size();
     if (set.views.empty()) throw Error(s.file + ": no photo shows the sample; nothing written");
     set.provenance =
-        nlohmann::json{{"tool", "aniso import"},
-                       {"shoot", relative_to(s.file, out_dir)},
-                       {"calibrated", r.calibrated},
-                       {"intensities", r.intensities},
-                       {"paper_reflectance_assumed",
-                        s.paper_given() || r.card.found || !o.find_lamps
-                            ? 0.0
-                            : kAssumedPaperReflectance},
-                       {"report", "import_report.json"}}
+        nlohmann::json{
+            {"tool", "aniso import"},
+            {"shoot", relative_to(s.file, out_dir)},
+            {"calibrated", r.calibrated},
+            {"intensities", r.intensities},
+            {"paper_reflectance_assumed",
+             s.paper_given() || r.card.found || !o.find_lamps ? 0.0 : kAssumedPaperReflectance},
+            {"report", "import_report.json"}}
             .dump();
     write_capture_json(set, join_path(dir, "capture.json"));
     r.seconds_write = seconds_since(tw);

@@ -21,11 +21,12 @@ std::string intensity_note(const Shoot& s, const ImportResult& r, bool found) {
   }
   if (s.paper_given())
     return "absolute: from the board's paper, of reflectance board.paper_reflectance";
-  std::snprintf(buf, sizeof buf,
-                "relative: from the board's paper taken as reflecting %.2f; k_d and k_s are "
-                "relative to it (lay a grey card on the board and give it as the shoot's reference, "
-                "or give board.paper_reflectance, to make them absolute)",
-                kAssumedPaperReflectance);
+  std::snprintf(
+      buf, sizeof buf,
+      "relative: from the board's paper taken as reflecting %.2f; k_d and k_s are "
+      "relative to it (lay a grey card on the board and give it as the shoot's reference, "
+      "or give board.paper_reflectance, to make them absolute)",
+      kAssumedPaperReflectance);
   return buf;
 }
 
@@ -121,15 +122,14 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
           {"views", r.views},
           {"intensities", r.intensities},
           {"warnings", r.warnings},
-          {"reference",
-           s.reference_given()
-               ? json{{"reflectance", jsonu::to_json(s.reference.reflectance)},
-                      {"read", r.card.found},
-                      {"photos", r.card.photos},
-                      {"points", r.card.points},
-                      {"paper_reflectance_found", jsonu::to_json(r.card.paper)},
-                      {"paper_reflectance_sigma", jsonu::to_json(r.card.sigma)}}
-               : json(nullptr)},
+          {"reference", s.reference_given()
+                            ? json{{"reflectance", jsonu::to_json(s.reference.reflectance)},
+                                   {"read", r.card.found},
+                                   {"photos", r.card.photos},
+                                   {"points", r.card.points},
+                                   {"paper_reflectance_found", jsonu::to_json(r.card.paper)},
+                                   {"paper_reflectance_sigma", jsonu::to_json(r.card.sigma)}}
+                            : json(nullptr)},
           {"caveats",
            {"a lamp is found from the board's paper where its photo has one point lamp; other "
             "lights are taken as written",

@@ -27,8 +27,8 @@ constexpr double kSpacingM = 0.002;
 PaperPoints::PaperPoints(const BoardSpec& b, const std::vector<std::array<double, 2>>& polygon,
                          double keep_away_m, const std::vector<std::array<double, 2>>& card) {
   auto near = [&](const std::vector<std::array<double, 2>>& outline, double x, double y) {
-    return !outline.empty() && (inside_polygon(outline, x, y) ||
-                                distance_to_outline(outline, x, y) < keep_away_m);
+    return !outline.empty() &&
+           (inside_polygon(outline, x, y) || distance_to_outline(outline, x, y) < keep_away_m);
   };
   const double dpi = 0.0254 / (kDrawnMm * 1e-3);
   const Image drawn = render_board(b, dpi);
@@ -73,8 +73,8 @@ bool project(const cv::Mat& H, double x, double y, double* u, double* v, double*
   *v = (H.at<double>(1, 0) * x + H.at<double>(1, 1) * y + H.at<double>(1, 2)) / w;
   const double h00 = H.at<double>(0, 0), h01 = H.at<double>(0, 1), h10 = H.at<double>(1, 0),
                h11 = H.at<double>(1, 1), h20 = H.at<double>(2, 0), h21 = H.at<double>(2, 1);
-  const double j00 = (h00 - *u * h20) / w, j01 = (h01 - *u * h21) / w,
-               j10 = (h10 - *v * h20) / w, j11 = (h11 - *v * h21) / w;
+  const double j00 = (h00 - *u * h20) / w, j01 = (h01 - *u * h21) / w, j10 = (h10 - *v * h20) / w,
+               j11 = (h11 - *v * h21) / w;
   const double fro = j00 * j00 + j01 * j01 + j10 * j10 + j11 * j11,
                det = std::abs(j00 * j11 - j01 * j10);
   const double smin2 = 0.5 * (fro - std::sqrt(std::max(fro * fro - 4 * det * det, 0.0)));
@@ -95,9 +95,9 @@ bool read_pixel(const Image& rgb, const std::vector<uint8_t>& saturated, double 
         return false;
   const double tx = u - x0, ty = v - y0;
   for (int c = 0; c < 3; ++c) {
-    const double val =
-        (1 - tx) * (1 - ty) * rgb.at(x0, y0, c) + tx * (1 - ty) * rgb.at(x0 + 1, y0, c) +
-        (1 - tx) * ty * rgb.at(x0, y0 + 1, c) + tx * ty * rgb.at(x0 + 1, y0 + 1, c);
+    const double val = (1 - tx) * (1 - ty) * rgb.at(x0, y0, c) +
+                       tx * (1 - ty) * rgb.at(x0 + 1, y0, c) +
+                       (1 - tx) * ty * rgb.at(x0, y0 + 1, c) + tx * ty * rgb.at(x0 + 1, y0 + 1, c);
     if (!(std::isfinite(val) && val > 0)) return false;
     out[c] = static_cast<float>(val);
   }

@@ -9,24 +9,50 @@
 
 namespace aniso {
 
-void write_overlay(const std::string& path, const Image& grey, const OverlayMarks& m) {
-  cv::Mat bgr(grey.height, grey.width, CV_8UC3);
-  for (int y = 0; y < grey.height; ++y)
-    for (int x = 0; x < grey.width; ++x) {
-      const auto g =
-          static_cast<uint8_t>(std::lround(255 * std::clamp(grey.at(x, y, 0), 0.f, 1.f)));
+OverlayImage overlay_image(const std::vector<uint8_t>& grey, int width, int height) {
+  OverlayImage o;
+  o.shrink = overlay_shrink(width, height);
+  o.width = width / o.shrink, o.height = height / o.shrink;
+  o.grey.resize(static_cast<size_t>(o.width) * o.height);
+  const int f = o.shrink, area = f * f;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      int sum = 0;
+      for (int dy = 0; dy < f; ++dy)
+        for (int dx = 0; dx < f; ++dx)
+          sum += grey[static_cast<size_t>(y * f + dy) * width + x * f + dx];
+      o.grey[static_cast<size_t>(y) * o.width + x] = static_cast<uint8_t>((sum + area / 2) / area);
+    }
+  return o;
+}
+
+void write_overlay(const std::string& path, const OverlayImage& img, const OverlayMarks& m) {
+  const int w = img.width, h = img.height, f = img.shrink;
+  cv::Mat bgr(h, w, CV_8UC3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const uint8_t g = img.grey[static_cast<size_t>(y) * w + x];
       bgr.at<cv::Vec3b>(y, x) = {g, g, g};
     }
+  // The mask in overlay pixels (each tinted once, however many photo pixels it holds).
+  std::vector<uint8_t> tint(static_cast<size_t>(w) * h, 0);
   for (int y = 0; y < m.mask_h; ++y)
     for (int x = 0; x < m.mask_w; ++x) {
       if (!m.mask[static_cast<size_t>(y) * m.mask_w + x]) continue;
-      cv::Vec3b& p = bgr.at<cv::Vec3b>(m.mask_y0 + y, m.mask_x0 + x);
+      const int ox = (m.mask_x0 + x) / f, oy = (m.mask_y0 + y) / f;
+      if (ox < w && oy < h) tint[static_cast<size_t>(oy) * w + ox] = 1;
+    }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (!tint[static_cast<size_t>(y) * w + x]) continue;
+      cv::Vec3b& p = bgr.at<cv::Vec3b>(y, x);
       p = {static_cast<uint8_t>(std::min(255, p[0] / 2 + 128)), static_cast<uint8_t>(p[1] / 2),
            static_cast<uint8_t>(p[2] / 2)};
     }
-  const int s = std::max(1, grey.width / 640);  // line width and mark size grow with the image
-  auto pt = [](const std::array<double, 2>& p) {
-    return cv::Point(static_cast<int>(std::lround(p[0])), static_cast<int>(std::lround(p[1])));
+  const int s = std::max(1, w / 640);              // line width and mark size grow with the image
+  auto pt = [f](const std::array<double, 2>& p) {  // photo pixel centres to overlay pixels
+    return cv::Point(static_cast<int>(std::lround((p[0] + 0.5) / f - 0.5)),
+                     static_cast<int>(std::lround((p[1] + 0.5) / f - 0.5)));
   };
   if (m.outline.size() > 1) {
     std::vector<cv::Point> poly;
@@ -41,9 +67,9 @@ void write_overlay(const std::string& path, const Image& grey, const OverlayMark
               cv::LINE_AA);
   cv::putText(bgr, m.label, {8 * s, 20 * s}, cv::FONT_HERSHEY_SIMPLEX, 0.5 * s, {255, 255, 255}, s,
               cv::LINE_AA);
-  Image out(grey.width, grey.height, 3);
-  for (int y = 0; y < grey.height; ++y)
-    for (int x = 0; x < grey.width; ++x)
+  Image out(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
       for (int c = 0; c < 3; ++c) out.at(x, y, c) = bgr.at<cv::Vec3b>(y, x)[2 - c] / 255.f;
   write_png(path, out, 8);
 }

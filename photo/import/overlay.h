@@ -2,6 +2,7 @@
 // check at a glance (corners found, corners dropped at the sample, the board reprojected through
 // the solved pose and lens, the sample's outline and mask).
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -22,7 +23,21 @@ struct OverlayMarks {
   std::string label;
 };
 
-// Writes `grey` (values in [0, 1]) with the marks as an 8-bit RGB PNG (atomically).
-void write_overlay(const std::string& path, const Image& grey, const OverlayMarks& m);
+// The photo's detection image shrunk for its overlay: each overlay pixel the mean of shrink x
+// shrink photo pixels, shrink the smallest integer that brings the long side to kOverlaySide
+// pixels or fewer (a 24 MP photo's overlay is 2000 x 1334, not 6000 x 4000).
+inline constexpr int kOverlaySide = 2048;
+inline int overlay_shrink(int width, int height) {
+  return std::max(1, (std::max(width, height) + kOverlaySide - 1) / kOverlaySide);
+}
+struct OverlayImage {
+  std::vector<uint8_t> grey;
+  int width = 0, height = 0, shrink = 1;
+};
+OverlayImage overlay_image(const std::vector<uint8_t>& grey, int width, int height);
+
+// Writes the overlay image with the marks (in the photo's pixels) as an 8-bit RGB PNG
+// (atomically).
+void write_overlay(const std::string& path, const OverlayImage& img, const OverlayMarks& m);
 
 }  // namespace aniso

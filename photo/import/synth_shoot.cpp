@@ -384,12 +384,17 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
       photo.position_sigma_m = {o.lamp_error_m > 0 ? o.lamp_error_m : kDefaultLampSigmaM};
       for (size_t e = 0; e < o.bracket.size(); ++e) {
         char name[64];
-        std::snprintf(name, sizeof name, "photos/p%02d_e%zu.%s", i, e, o.dng ? "dng" : "png");
+        std::snprintf(name, sizeof name, "photos/p%02d_e%zu.%s", i, e,
+                      o.dng    ? "dng"
+                      : o.jpeg ? "jpg"
+                               : "png");
         const double exposure = base * o.bracket[e];
         const Image img =
             expose(o, radiance, exposure, i, static_cast<int>(e), &st.saturated_codes);
         if (o.dng)
           write_linear_dng(join_path(dir, name), img);
+        else if (o.jpeg)
+          write_jpeg(join_path(dir, name), img, 95);
         else
           write_png(join_path(dir, name), img, o.raw16 ? 16 : 8);
         photo.images.push_back({name, exposure});

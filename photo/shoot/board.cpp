@@ -180,12 +180,19 @@ std::vector<std::array<double, 2>> board_corners_m(const BoardSpec& b) {
 }
 
 std::vector<BoardCorner> detect_board(const Image& grey, const BoardSpec& b, int* markers) {
-  check_board(b);
-  cv::Mat m(grey.height, grey.width, CV_8U);
+  std::vector<uint8_t> bytes(static_cast<size_t>(grey.width) * grey.height);
   for (int y = 0; y < grey.height; ++y)
     for (int x = 0; x < grey.width; ++x)
-      m.at<uint8_t>(y, x) =
+      bytes[static_cast<size_t>(y) * grey.width + x] =
           static_cast<uint8_t>(std::lround(255.0 * std::clamp(double(grey.at(x, y, 0)), 0.0, 1.0)));
+  return detect_board(bytes.data(), grey.width, grey.height, b, markers);
+}
+
+std::vector<BoardCorner> detect_board(const uint8_t* grey, int width, int height,
+                                      const BoardSpec& b, int* markers) {
+  check_board(b);
+  // OpenCV reads the caller's bytes in place.
+  const cv::Mat m(height, width, CV_8U, const_cast<uint8_t*>(grey));
   const auto board = make_charuco_board(b);
   std::vector<std::vector<cv::Point2f>> corners;
   std::vector<int> ids;

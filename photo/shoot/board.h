@@ -59,6 +59,9 @@ struct BoardCorner {
 };
 std::vector<BoardCorner> detect_board(const Image& grey, const BoardSpec& b,
                                       int* markers = nullptr);
+// The same on an 8-bit image of width x height, row by row.
+std::vector<BoardCorner> detect_board(const uint8_t* grey, int width, int height,
+                                      const BoardSpec& b, int* markers = nullptr);
 
 // A shoot.json to fill in: the board, a sample polygon in the middle third, camera null (to be
 // calibrated), sRGB images, and one example photo entry to copy.

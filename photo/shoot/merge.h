@@ -25,7 +25,7 @@ namespace aniso {
 struct MergedPhoto {
   Image rgb;                       // linear radiance (pixel = exposure · radiance), 3 channels
   std::vector<uint8_t> saturated;  // 1 = clipped in every exposure of some channel
-  Image grey;                      // for board detection: tone-mapped luminance in [0, 1]
+  std::vector<uint8_t> grey;       // for board detection: tone-mapped luminance, 8 bits
   size_t saturated_pixels = 0;
   std::vector<RawInfo> raw;  // per RAW image of the bracket: camera and white balance
 };

@@ -140,8 +140,9 @@ void parse_reference(const json& j, const Ctx& c, Shoot* s) {
   for (double v : card.reflectance)
     if (!(v >= 0.02 && v <= 1))
       c.at("reflectance")
-          .fail("must be in [0.02, 1]: the card's diffuse reflectance (a photographer's grey "
-                "card: 0.18)");
+          .fail(
+              "must be in [0.02, 1]: the card's diffuse reflectance (a photographer's grey "
+              "card: 0.18)");
   for (const auto& p : card.polygon)
     if (inside_polygon(s->polygon, p[0], p[1]))
       c.at("polygon_m").fail("lies on the sample (sample.polygon_m): the card goes beside it");
@@ -198,8 +199,8 @@ Shoot read_shoot(const std::string& path) {
   const json j = jsonu::parse_file(read_text_file(path), path);
   const Ctx root{path, ""};
   if (!j.is_object()) root.fail("expected a JSON object");
-  jsonu::check_keys(j, {"format", "version", "board", "sample", "reference", "camera", "color", "photos"},
-                    root);
+  jsonu::check_keys(
+      j, {"format", "version", "board", "sample", "reference", "camera", "color", "photos"}, root);
   const std::string format = jsonu::str(jsonu::need(j, "format", root), root.at("format"));
   if (format != "aniso-shoot")
     root.at("format").fail("expected \"aniso-shoot\", got \"" + format + "\"");
