@@ -15,7 +15,7 @@ struct ImportArgs {
   std::string shoot, out, compression = "zip";
   ImportOptions o;
   double margin_mm = 3;
-  bool no_overlays = false, quiet = false, lamps_as_written = false;
+  bool no_overlays = false, quiet = false, lamps_as_written = false, no_vignetting = false;
 };
 
 int run(const ImportArgs& a) {
@@ -29,6 +29,7 @@ int run(const ImportArgs& a) {
   ImportOptions o = a.o;
   o.overlays = !a.no_overlays;
   o.find_lamps = !a.lamps_as_written;
+  o.vignetting = !a.no_vignetting;
   o.sample_margin_m = a.margin_mm / 1000;
   const ImportResult r = import_shoot(s, a.out, o);
   const Intrinsics& k = r.camera;
@@ -72,6 +73,12 @@ int run(const ImportArgs& a) {
           l.written_intensity[1]);
     }
   }
+  if (r.vignetting.found)
+    std::printf(
+        "import: vignetting from the paper of %zu photos: V(r) = 1 %+.4f r^2 %+.4f r^4 (+- %.4f, "
+        "%.4f), %.3f at the frame's corner (the paper reached r = %.2f); taken out of the views\n",
+        r.vignetting.photos, r.vignetting.a1, r.vignetting.a2, r.vignetting.sigma_a1,
+        r.vignetting.sigma_a2, r.vignetting.at(0, 0), r.vignetting.r_max);
   for (const std::string& w : r.warnings) std::fprintf(stderr, "import: WARNING: %s\n", w.c_str());
   std::printf(
       "import: %zu of %zu photos -> %s (%zu views; import_report.json, overlays/); %.2f s "
@@ -124,6 +131,9 @@ Command add_import(CLI::App& app) {
               "take every lamp's position and intensity as the shoot writes them, instead of "
               "finding them from the board's paper (a shoot whose lamps were measured exactly)");
   c->add_flag("--no-overlays", a->no_overlays, "do not write overlays/NNN.png");
+  c->add_flag("--no-vignetting", a->no_vignetting,
+              "take the lens as free of vignetting (by default it is found from the board's "
+              "paper and taken out of the views' images)");
   add_exr_compression(c, &a->compression, "the views' images and geometry buffers");
   c->add_flag("--quiet", a->quiet, "print only the summary and the photos left out");
   add_force_flag(c);

@@ -21,7 +21,7 @@ struct SynthArgs {
   double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
   bool list = false, photos = false, dng = false, jpeg = false, hide_intensity = false;
   double lamp_error_m = 0, ggx_alpha_b = PhotoShootOptions{}.ggx_alpha_b,
-         paper = PhotoShootOptions{}.paper_albedo, grey_card = 0;
+         paper = PhotoShootOptions{}.paper_albedo, grey_card = 0, vignetting = 0;
   CLI::App* app = nullptr;
 };
 
@@ -43,6 +43,7 @@ int run_photos(const SynthArgs& a) {
   o.ggx_alpha_b = a.ggx_alpha_b;
   o.paper_albedo = a.paper;
   o.grey_card = a.grey_card;
+  o.vignetting = a.vignetting;
   check_output_folder(a.out, OutputKind::kPhotoShoot);
   check_outputs_apart({a.out}, {a.truth});
   const PhotoShootStats st = simulate_photo_shoot(o, a.out);
@@ -151,6 +152,11 @@ Command add_synth(CLI::App& app) {
                    "on the board's top-left corner and write it as the shoot's reference, which "
                    "makes the lamps' intensities, k_d and k_s absolute")
       ->check(CLI::Range(0.02, 1.0));
+  synth
+      ->add_option("--vignetting", a->vignetting,
+                   "--photos: the lens's vignetting, a pixel reading 1 + this r^2 of the scene (r "
+                   "from the image's centre over the half diagonal; -0.3: 30 % darker corners)")
+      ->check(CLI::Range(-0.79, 0.5));
   a->app = synth;
   add_force_flag(synth);
   synth

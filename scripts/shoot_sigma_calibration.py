@@ -20,6 +20,7 @@ ap.add_argument("--views", type=int, default=12)
 ap.add_argument("--preset", default="brushed-metal")
 ap.add_argument("--lamp-error", default="0.02")
 ap.add_argument("--brdf", default="truth", choices=["truth", "ggx"])
+ap.add_argument("--vignetting", default="0", help="synth --photos --vignetting (the lens's falloff)")
 ap.add_argument("--work", default=None, help="folder for the shoots (default: a temporary one)")
 a = ap.parse_args()
 work = a.work or tempfile.mkdtemp(prefix="aniso_sigma_")
@@ -35,7 +36,7 @@ for seed in range(a.first_seed, a.first_seed + a.seeds):
     d = os.path.join(work, f"s{seed}")
     run("synth", "--photos", a.preset, d + "/shoot", "--views", str(a.views), "--walk", "upright",
         "--lamp-error", a.lamp_error, "--hide-intensity", "--seed", str(seed), "--brdf", a.brdf,
-        "--force")
+        "--vignetting", a.vignetting, "--force")
     run("import", d + "/shoot/shoot.json", "--out", d + "/cap", "--no-overlays", "--quiet", "--force")
     run("fit", d + "/cap", "--out", d + "/m.json", "--force")
     truth = json.load(open(d + "/shoot/material.json"))

@@ -47,6 +47,8 @@ struct Detected {
   OverlayImage overlay;          // the detection image, shrunk (overlays only)
   std::vector<RawInfo> raw;      // RAW images: camera and white balance
   std::vector<LampFound> lamps;  // per light of the photo, as found from the board's paper
+  // The board's paper and the grey card as this photo read them (lamps found from a point lamp).
+  std::vector<PaperSample> paper, card;
 };
 
 // Where the sample lies in a photo before the camera is known: its outline through the board's
@@ -81,22 +83,20 @@ double sigma_of(const ShootPhoto& ph, size_t k) {
   return k < ph.position_sigma_m.size() ? ph.position_sigma_m[k] : kDefaultLampSigmaM;
 }
 
-// The photo's lamps from the board's paper: one point lamp per photo is found; with more lights
-// the paper's shading is their sum, and each is kept as written.
-std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const PaperPoints& paper,
-                                  const std::vector<BoardCorner>& corners, const MergedPhoto& m) {
+// The photo's lamps from the board's paper (and the grey card's reading under them): one point
+// lamp per photo is found; with more lights the paper's shading is their sum, and each is kept as
+// written.
+std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const std::vector<PaperSample>& paper,
+                                  const std::vector<PaperSample>& card) {
   const ShootPhoto& ph = s.photos[i];
   std::vector<LampFound> out;
   if (ph.lights.size() == 1) {
-    const auto samples = paper_samples(s.board, paper, corners, m.rgb, m.saturated);
     // The written position as if x or y were measured from the board's far edge.
     const double W = s.board.squares_x * s.board.square_m, H = s.board.squares_y * s.board.square_m;
     const Vec3 w = ph.lights[0].position;
-    out.push_back(find_lamp(samples, ph.lights[0], sigma_of(ph, 0), paper_rho(s), s.height_m,
+    out.push_back(find_lamp(paper, ph.lights[0], sigma_of(ph, 0), paper_rho(s), s.height_m,
                             {{W - w.x, w.y, w.z}, {w.x, H - w.y, w.z}}));
-    if (s.reference_given())
-      read_card(card_samples(s.board, s.reference.polygon, corners, m.rgb, m.saturated),
-                &out.back());
+    if (s.reference_given()) read_card(card, &out.back());
     return out;
   }
   for (size_t k = 0; k < ph.lights.size(); ++k) {
@@ -128,7 +128,13 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o, const Pa
     (near ? d.dropped : d.corners).push_back(c);
   }
   estimate_crop(s, m, all, &d.crop);
-  if (o.find_lamps) d.lamps = find_lamps(s, i, paper, d.corners, m);
+  if (o.find_lamps) {
+    if (s.photos[i].lights.size() == 1) {
+      d.paper = paper_samples(s.board, paper, d.corners, m.rgb, m.saturated);
+      d.card = card_samples(s.board, s.reference.polygon, d.corners, m.rgb, m.saturated);
+    }
+    d.lamps = find_lamps(s, i, d.paper, d.card);
+  }
   if (o.overlays) d.overlay = overlay_image(m.grey, m.rgb.width, m.rgb.height);
   return d;
 }
@@ -492,8 +498,8 @@ OverlayMarks photo_marks(const Shoot& s, size_t i, const Detected& det, const In
 
 // The view's files: its merged image cropped to the sample, position, normal, tangent, uv, mask.
 void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCrop& mc,
-                const Intrinsics& k, const ImportedPhoto& p, const std::string& dir,
-                const std::string& out_dir, ViewSpec* view) {
+                const Intrinsics& k, const ImportedPhoto& p, const Vignetting& vignetting,
+                const std::string& dir, const std::string& out_dir, ViewSpec* view) {
   char stem[32];
   std::snprintf(stem, sizeof stem, "%03zu", i);
   view->image = std::string("images/") + stem + ".exr";
@@ -519,7 +525,14 @@ void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCro
         "",
         "",
         ""};
-  write_exr(join_path(dir, view->image), crop(mc.rgb, g.x0 - mc.x0, g.y0 - mc.y0, g.w, g.h));
+  Image img = crop(mc.rgb, g.x0 - mc.x0, g.y0 - mc.y0, g.w, g.h);
+  if (vignetting.found)  // what the scene sent: the image over the lens's V at each pixel
+    for (int y = 0; y < g.h; ++y)
+      for (int x = 0; x < g.w; ++x) {
+        const float inv = static_cast<float>(1 / vignetting.at(g.x0 + x, g.y0 + y));
+        for (int c = 0; c < 3; ++c) img.at(x, y, c) *= inv;
+      }
+  write_exr(join_path(dir, view->image), img);
   write_exr(join_path(dir, gs.position), g.P);
   write_exr(join_path(dir, gs.normal), g.N);
   write_exr(join_path(dir, gs.tangent), g.U);
@@ -550,7 +563,7 @@ void write_photo(const Shoot& s, size_t i, Detected& det, const std::string& dir
   }
   if (p.accepted) {
     p.sample_pixels = g.pixels;
-    write_view(s, i, g, det.crop, r->camera, p, dir, out_dir, view);
+    write_view(s, i, g, det.crop, r->camera, p, r->vignetting, dir, out_dir, view);
     marks.mask = g.mask;
     marks.mask_x0 = g.x0, marks.mask_y0 = g.y0, marks.mask_w = g.w, marks.mask_h = g.h;
   } else {
@@ -601,12 +614,16 @@ std::vector<std::string> lamp_warnings(const Shoot& s, const ImportResult& r) {
     for (const LampFound& l : p.lamps)
       if (l.solved) aw += dot(l.alone, l.written), ww += dot(l.written, l.written), ++lamps;
   if (lamps >= 3 && ww > 0) {
-    const double k = aw / ww;
+    double k = aw / ww;
     double rr = 0;
     for (const auto& p : r.photos)
       for (const LampFound& l : p.lamps)
         if (l.solved) rr += dot(l.alone - l.written * k, l.alone - l.written * k);
-    const double sigma_k = std::sqrt(rr / (3.0 * lamps - 1) / ww);
+    double sigma_k = std::sqrt(rr / (3.0 * lamps - 1) / ww);
+    // With the lens's vignetting fitted, the common scale fitted with it (the paper alone lets
+    // each lamp take up part of the vignetting).
+    if (r.vignetting.found && r.vignetting.scaled_lamps >= 3)
+      k = r.vignetting.scale, sigma_k = r.vignetting.sigma_scale, lamps = r.vignetting.scaled_lamps;
     constexpr double kScaleOff = 0.03;  // beyond a tape's and a printer's error
     if (std::abs(k - 1) > std::max(kScaleOff, 4 * sigma_k)) {
       char buf[500];
@@ -690,6 +707,32 @@ int merge_threads(const Shoot& s, const ImportOptions& o, ImportResult* r) {
   return r->merge_threads;
 }
 
+// The lens's vignetting from every photo's paper and written lamp (photo/import/lamps.h
+// fit_vignetting); then each photo's lamp is found again from its paper and card read through it.
+void find_vignetting(const Shoot& s, std::vector<Detected>& det, ImportResult* r) {
+  std::vector<std::vector<PaperSample>> paper(det.size());
+  std::vector<const Light*> lights(det.size(), nullptr);
+  std::vector<double> sigma(det.size(), kDefaultLampSigmaM);
+  for (size_t i = 0; i < det.size(); ++i) {
+    paper[i] = det[i].paper;
+    const ShootPhoto& ph = s.photos[i];
+    if (ph.lights.size() == 1 && ph.lights[0].type == Light::Type::kPoint)
+      lights[i] = &ph.lights[0];
+    sigma[i] = sigma_of(ph, 0);
+  }
+  const Vignetting v =
+      fit_vignetting(paper, lights, sigma, s.height_m, det[0].width, det[0].height);
+  if (!v.found) return;
+  r->vignetting = v;
+  tbb::parallel_for(size_t(0), det.size(), [&](size_t i) {
+    if (det[i].paper.empty()) return;
+    std::vector<PaperSample> p = paper[i], c = det[i].card;
+    correct_vignetting(v, &p);
+    correct_vignetting(v, &c);
+    det[i].lamps = find_lamps(s, i, p, c);
+  });
+}
+
 // The grey card makes the found lamps' intensities absolute: the paper's reflectance from the card
 // (photo/import/lamps.h paper_from_card) in place of the shoot's or the assumed one. A card seen in
 // no photo, or one that contradicts board.paper_reflectance, is said.
@@ -743,6 +786,7 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
       });
     });
   }
+  if (o.find_lamps && o.vignetting) arena.execute([&] { find_vignetting(s, det, &r); });
   int markers = 0;
   for (size_t i = 0; i < det.size(); ++i) {
     ImportedPhoto& p = r.photos[i];

@@ -33,6 +33,9 @@ struct ImportOptions {
   int calibrate_on = 40;
   // Each photo's lamp found from the board's paper (photo/import/lamps.h); false: taken as written.
   bool find_lamps = true;
+  // The lens's vignetting found from the paper (with the lamps) and taken out of the views' images;
+  // false: the camera is taken as free of it.
+  bool vignetting = true;
 };
 
 struct ImportedPhoto {
@@ -60,6 +63,7 @@ struct ImportResult {
   std::vector<std::string> held;
   std::vector<std::string> warnings;  // what the shoot as written gets wrong (lamps)
   PaperFromCard card;                 // the paper's reflectance from the grey card (reference)
+  Vignetting vignetting;              // the lens's, as found from the paper
   std::string intensities;            // how the lamps' intensities are known (intensity_note)
   std::vector<ImportedPhoto> photos;
   size_t views = 0;

@@ -122,6 +122,20 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
           {"views", r.views},
           {"intensities", r.intensities},
           {"warnings", r.warnings},
+          {"vignetting",
+           r.vignetting.found
+               ? json{{"model",
+                       "V(r) = 1 + a1 r^2 + a2 r^4, r the distance from the image's centre over "
+                       "the half diagonal; the views' images are divided by it"},
+                      {"a1", r.vignetting.a1},
+                      {"a2", r.vignetting.a2},
+                      {"sigma_a1", r.vignetting.sigma_a1},
+                      {"sigma_a2", r.vignetting.sigma_a2},
+                      {"corner", r.vignetting.at(0, 0)},
+                      {"r_max_seen", r.vignetting.r_max},
+                      {"photos", r.vignetting.photos},
+                      {"points", r.vignetting.points}}
+               : json(nullptr)},
           {"reference", s.reference_given()
                             ? json{{"reflectance", jsonu::to_json(s.reference.reflectance)},
                                    {"read", r.card.found},
@@ -133,7 +147,8 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
           {"caveats",
            {"a lamp is found from the board's paper where its photo has one point lamp; other "
             "lights are taken as written",
-            "the paper is taken as Lambertian and the camera as free of vignetting",
+            "the paper is taken as Lambertian; the lens's vignetting as 1 + a1 r^2 + a2 r^4 "
+            "about the image's centre",
             "the sample is a plane at z = -height_m; a warped or thick sample is not modelled"}},
           {"seconds",
            {{"detect", r.seconds_detect},

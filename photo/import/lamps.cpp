@@ -159,6 +159,7 @@ std::vector<PaperSample> paper_samples(const BoardSpec& b, const PaperPoints& wh
       continue;
     PaperSample s;
     s.x = p.x, s.y = p.y;
+    s.u = static_cast<float>(u), s.v = static_cast<float>(v);
     if (read_pixel(rgb, saturated, u, v, s.rgb)) out.push_back(s);
   }
   return out;
@@ -212,6 +213,7 @@ std::vector<PaperSample> card_samples(const BoardSpec& b,
         continue;
       PaperSample s;
       s.x = x, s.y = y;
+      s.u = static_cast<float>(u), s.v = static_cast<float>(v);
       if (read_pixel(rgb, saturated, u, v, s.rgb)) out.push_back(s);
     }
   return out;
@@ -449,6 +451,150 @@ PaperFromCard paper_from_card(const std::vector<const LampFound*>& lamps, const 
   }
   out.found = true;
   return out;
+}
+
+namespace {
+
+// One paper point under a lamp through the lens's V: (A_c V h / r^3 - v_c) / s_c.
+// The written position, times the shoot's common scale k, as a measurement of sigma metres.
+struct ScaledPriorCost {
+  double w[3], inv_sigma;
+  template <class T>
+  bool operator()(const T* p, const T* k, T* r) const {
+    for (int i = 0; i < 3; ++i) r[i] = (p[i] - k[0] * w[i]) * inv_sigma;
+    return true;
+  }
+};
+
+struct VignettedPaperCost {
+  double x, y, r2, v[3], inv_s[3];
+  template <class T>
+  bool operator()(const T* p, const T* a, const T* vg, T* r) const {
+    const T g = shading(p, x, y) * (1.0 + vg[0] * r2 + vg[1] * r2 * r2);
+    for (int c = 0; c < 3; ++c) r[c] = (a[c] * g - v[c]) * inv_s[c];
+    return true;
+  }
+};
+
+}  // namespace
+
+Vignetting fit_vignetting(const std::vector<std::vector<PaperSample>>& paper,
+                          const std::vector<const Light*>& lights,
+                          const std::vector<double>& sigma_m, double sample_height_m, int width,
+                          int height) {
+  Vignetting vg;
+  vg.cx = 0.5 * (width - 1), vg.cy = 0.5 * (height - 1);
+  vg.half_diagonal = 0.5 * std::hypot(width, height);
+  auto r2_of = [&](const PaperSample& sm) {
+    const double du = sm.u - vg.cx, dv = sm.v - vg.cy;
+    return (du * du + dv * dv) / (vg.half_diagonal * vg.half_diagonal);
+  };
+  // At most kPerPhoto points a photo, spread over its samples: V has two numbers, each lamp six.
+  constexpr size_t kPerPhoto = 200, kMinPoints = 60, kMinPhotos = 3;
+  std::vector<size_t> use;
+  for (size_t i = 0; i < paper.size(); ++i) {
+    if (i >= lights.size() || !lights[i] || paper[i].size() < kMinPoints) continue;
+    use.push_back(i);
+    for (const auto& sm : paper[i]) vg.r_max = std::max(vg.r_max, std::sqrt(r2_of(sm)));
+  }
+  if (use.size() < kMinPhotos || vg.r_max < 0.5) return vg;
+  std::vector<std::array<double, 3>> p(use.size()), a(use.size());
+  std::vector<double> prior_sigma(use.size());
+  std::vector<Vec3> centre(use.size());
+  for (size_t k = 0; k < use.size(); ++k) {
+    const Light& l = *lights[use[k]];
+    p[k] = {l.position.x, l.position.y, l.position.z};
+    centre[k] = l.position;
+    prior_sigma[k] = sigma_m[use[k]];
+    intensity_at(paper[use[k]], p[k].data(), a[k].data());
+  }
+  double v[2] = {0, 0}, scale[1] = {1};
+  ceres::Problem::Options po;
+  std::unique_ptr<ceres::Problem> pb;
+  for (int pass = 0; pass < 2; ++pass) {
+    pb = std::make_unique<ceres::Problem>(po);
+    vg.points = 0;
+    for (size_t k = 0; k < use.size(); ++k) {
+      const auto& samples = paper[use[k]];
+      double med[3];
+      for (int c = 0; c < 3; ++c) {
+        std::vector<double> vals;
+        for (const auto& sm : samples) vals.push_back(sm.rgb[c]);
+        std::nth_element(vals.begin(), vals.begin() + vals.size() / 2, vals.end());
+        med[c] = std::max(vals[vals.size() / 2], 1e-12);
+      }
+      const size_t step = std::max<size_t>(1, samples.size() / kPerPhoto);
+      for (size_t q = 0; q < samples.size(); q += step) {
+        const auto& sm = samples[q];
+        constexpr double kSpread = 0.02;  // the paper's shading about a lamp, relative
+        auto* cost = new VignettedPaperCost{
+            sm.x,
+            sm.y,
+            r2_of(sm),
+            {sm.rgb[0], sm.rgb[1], sm.rgb[2]},
+            {1 / (kSpread * med[0]), 1 / (kSpread * med[1]), 1 / (kSpread * med[2])}};
+        pb->AddResidualBlock(new ceres::AutoDiffCostFunction<VignettedPaperCost, 3, 3, 3, 2>(cost),
+                             new ceres::CauchyLoss(3.0), p[k].data(), a[k].data(), v);
+        ++vg.points;
+      }
+      if (prior_sigma[k] < kPaperAloneSigmaM)
+        pb->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<ScaledPriorCost, 3, 3, 1>(
+                new ScaledPriorCost{{centre[k].x, centre[k].y, centre[k].z}, 1 / prior_sigma[k]}),
+            nullptr, p[k].data(), scale);
+      else
+        pb->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, 3, 3>(new PriorCost{
+                                 {centre[k].x, centre[k].y, centre[k].z}, 1 / prior_sigma[k]}),
+                             nullptr, p[k].data());
+      pb->SetParameterUpperBound(p[k].data(), 2, -sample_height_m - 0.01);
+    }
+    ceres::Solver::Options so;
+    so.max_num_iterations = 100;
+    so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    so.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, pb.get(), &summary);
+    if (!summary.IsSolutionUsable() || !std::isfinite(v[0] + v[1])) return vg;
+    // A lamp the paper puts far from where it is written: that position is no measurement of it.
+    bool dropped = false;
+    for (size_t k = 0; k < use.size(); ++k) {
+      const Vec3 found{p[k][0], p[k][1], p[k][2]};
+      if (prior_sigma[k] < kPaperAloneSigmaM &&
+          length(found - centre[k] * scale[0]) > kDisagreeSigmas * prior_sigma[k]) {
+        centre[k] = found, prior_sigma[k] = kPaperAloneSigmaM, dropped = true;
+      }
+    }
+    if (!dropped) break;
+  }
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  ceres::Covariance cov(co);
+  double cv[4], ck = 0;
+  const bool scaled = pb->HasParameterBlock(scale);
+  std::vector<const double*> blocks{v};
+  if (scaled) blocks.push_back(scale);
+  if (!cov.Compute(blocks, pb.get()) || !cov.GetCovarianceBlock(v, v, cv) ||
+      (scaled && !cov.GetCovarianceBlock(scale, scale, &ck)))
+    return vg;
+  if (scaled) {
+    vg.scale = scale[0];
+    vg.sigma_scale = std::sqrt(std::max(ck, 0.0));
+    vg.scaled_lamps = 0;
+    for (double sg : prior_sigma) vg.scaled_lamps += sg < kPaperAloneSigmaM;
+  }
+  vg.a1 = v[0], vg.a2 = v[1];
+  vg.sigma_a1 = std::sqrt(std::max(cv[0], 0.0));
+  vg.sigma_a2 = std::sqrt(std::max(cv[3], 0.0));
+  vg.photos = use.size();
+  vg.found = std::isfinite(vg.sigma_a1 + vg.sigma_a2);
+  return vg;
+}
+
+void correct_vignetting(const Vignetting& v, std::vector<PaperSample>* samples) {
+  for (auto& sm : *samples) {
+    const float inv = static_cast<float>(1 / v.at(sm.u, sm.v));
+    for (float& c : sm.rgb) c *= inv;
+  }
 }
 
 }  // namespace aniso

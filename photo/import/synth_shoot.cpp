@@ -223,7 +223,12 @@ Image render_photo(const PhotoShootOptions& o, const Intrinsics& k, const RaySce
               for (int c = 0; c < 3; ++c) I[c] = albedo / M_PI * E[c] * dot(L, sp.N);
           }
         }
-        for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(I[c]);
+        double lens = 1;
+        if (o.vignetting != 0) {
+          const double du = x - 0.5 * (w - 1), dv = y - 0.5 * (h - 1);
+          lens += o.vignetting * (du * du + dv * dv) / (0.25 * (double(w) * w + double(h) * h));
+        }
+        for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(lens * I[c]);
       }
     shadow_rays += cnt.shadow_rays;
   });
@@ -294,6 +299,8 @@ void check_options(const PhotoShootOptions& o) {
         "material");
   if (!(o.ggx_alpha_b > 0 && o.ggx_alpha_b <= 1))
     throw Error("synth --photos: --ggx-alpha-b must be in (0, 1]");
+  if (!(o.vignetting > -0.8 && o.vignetting <= 0.5))
+    throw Error("synth --photos: --vignetting must be in (-0.8, 0.5]");
   if (!(o.paper_albedo >= 0.3 && o.paper_albedo <= 1))
     throw Error("synth --photos: --paper-reflectance must be in [0.3, 1]");
   if (!(o.grey_card == 0 || (o.grey_card >= 0.02 && o.grey_card <= 1)))
@@ -421,6 +428,7 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
                                                    {"ggx_alpha_b", o.ggx_alpha_b},
                                                    {"paper_reflectance", o.paper_albedo},
                                                    {"grey_card", o.grey_card},
+                                                   {"vignetting_a1", o.vignetting},
                                                    {"material", "material.json"}});
   });
   st.photos = setups.size();

@@ -53,6 +53,9 @@ struct PhotoShootOptions {
   // grey card of reflectance grey_card lying on the board over card_m (x0, y0, x1, y1, board
   // metres), written as the shoot's `reference`; 0: no card.
   double paper_albedo = 0.85;
+  // The lens's vignetting: every pixel reads 1 + vignetting r^2 times the scene's radiance, r its
+  // distance from the image's centre over the half diagonal (-0.3: 30 % darker in the corners).
+  double vignetting = 0;
   double grey_card = 0;
   std::array<double, 4> card_m{0.015, 0.015, 0.075, 0.065};
 };
