@@ -526,7 +526,7 @@ void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCro
         "",
         ""};
   Image img = crop(mc.rgb, g.x0 - mc.x0, g.y0 - mc.y0, g.w, g.h);
-  if (vignetting.found)  // what the scene sent: the image over the lens's V at each pixel
+  if (vignetting.applied)  // what the scene sent: the image over the lens's V at each pixel
     for (int y = 0; y < g.h; ++y)
       for (int x = 0; x < g.w; ++x) {
         const float inv = static_cast<float>(1 / vignetting.at(g.x0 + x, g.y0 + y));
@@ -722,8 +722,8 @@ void find_vignetting(const Shoot& s, std::vector<Detected>& det, ImportResult* r
   }
   const Vignetting v =
       fit_vignetting(paper, lights, sigma, s.height_m, det[0].width, det[0].height);
-  if (!v.found) return;
   r->vignetting = v;
+  if (!v.applied) return;
   tbb::parallel_for(size_t(0), det.size(), [&](size_t i) {
     if (det[i].paper.empty()) return;
     std::vector<PaperSample> p = paper[i], c = det[i].card;

@@ -132,6 +132,8 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
                       {"sigma_a1", r.vignetting.sigma_a1},
                       {"sigma_a2", r.vignetting.sigma_a2},
                       {"corner", r.vignetting.at(0, 0)},
+                      {"applied", r.vignetting.applied},
+                      {"sigma_at_r_max", r.vignetting.sigma_edge},
                       {"r_max_seen", r.vignetting.r_max},
                       {"photos", r.vignetting.photos},
                       {"points", r.vignetting.points}}

@@ -587,6 +587,12 @@ Vignetting fit_vignetting(const std::vector<std::vector<PaperSample>>& paper,
   vg.sigma_a2 = std::sqrt(std::max(cv[3], 0.0));
   vg.photos = use.size();
   vg.found = std::isfinite(vg.sigma_a1 + vg.sigma_a2);
+  const double e2 = vg.r_max * vg.r_max, e4 = e2 * e2;
+  vg.sigma_edge =
+      std::sqrt(std::max(e4 * cv[0] + 2 * e2 * e4 * cv[1] + e4 * e4 * cv[3], 0.0));
+  vg.applied =
+      vg.found && std::abs(vg.at(vg.cx + vg.r_max * vg.half_diagonal, vg.cy) - 1) >
+                      kVignettingSigmas * vg.sigma_edge;
   return vg;
 }
 

@@ -141,6 +141,11 @@ struct Vignetting {
   size_t photos = 0, points = 0;
   double r_max = 0;  // the largest r the paper reached
   bool found = false;
+  // V at r_max differs from 1 by more than kVignettingSigmas of its own sigma: only then is it
+  // taken out. A lamp found from the paper moves several millimetres for a falloff of 0.3 % over
+  // the board, so an estimate of V that its noise does not tell from 1 is not used.
+  bool applied = false;
+  double sigma_edge = 0;  // the sigma of V at r_max
   // The written positions' common scale k and its sigma, over scaled_lamps lamps (0: none).
   double scale = 1, sigma_scale = 0;
   size_t scaled_lamps = 0;
@@ -149,6 +154,7 @@ struct Vignetting {
     return std::max(1 + a1 * r2 + a2 * r2 * r2, 0.05);
   }
 };
+inline constexpr double kVignettingSigmas = 3;
 // `paper[i]` the paper samples of photo i (empty: none), `lights[i]` its one point lamp as written
 // (nullptr: none to find) and `sigma_m[i]` how well it was measured. Found where at least 3 photos
 // with a lamp reach r of 0.5 between them.
