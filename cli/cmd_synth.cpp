@@ -19,7 +19,8 @@ struct SynthArgs {
                            brdf = "truth";
   PresetOptions po;
   double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
-  bool list = false, photos = false, dng = false, jpeg = false, hide_intensity = false;
+  bool list = false, photos = false, dng = false, jpeg = false, hide_intensity = false,
+       fill_lamp = false;
   double lamp_error_m = 0, ggx_alpha_b = PhotoShootOptions{}.ggx_alpha_b,
          paper = PhotoShootOptions{}.paper_albedo, grey_card = 0, vignetting = 0;
   CLI::App* app = nullptr;
@@ -44,6 +45,7 @@ int run_photos(const SynthArgs& a) {
   o.paper_albedo = a.paper;
   o.grey_card = a.grey_card;
   o.vignetting = a.vignetting;
+  o.fill_lamp = a.fill_lamp;
   check_output_folder(a.out, OutputKind::kPhotoShoot);
   check_outputs_apart({a.out}, {a.truth});
   const PhotoShootStats st = simulate_photo_shoot(o, a.out);
@@ -157,6 +159,9 @@ Command add_synth(CLI::App& app) {
                    "--photos: the lens's vignetting, a pixel reading 1 + this r^2 of the scene (r "
                    "from the image's centre over the half diagonal; -0.3: 30 % darker corners)")
       ->check(CLI::Range(-0.79, 0.5));
+  synth->add_flag("--fill-lamp", a->fill_lamp,
+                  "--photos: light every photo with a second lamp, a fill beside the camera at 0.4 "
+                  "of the key lamp's irradiance (both written in the shoot)");
   a->app = synth;
   add_force_flag(synth);
   synth

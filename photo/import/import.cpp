@@ -84,8 +84,8 @@ double sigma_of(const ShootPhoto& ph, size_t k) {
 }
 
 // The photo's lamps from the board's paper (and the grey card's reading under them): one point
-// lamp per photo is found; with more lights the paper's shading is their sum, and each is kept as
-// written.
+// lamp alone (photo/import/lamps.h find_lamp), or several together, whose shading on the paper is
+// their sum (find_lamps_together).
 std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const std::vector<PaperSample>& paper,
                                   const std::vector<PaperSample>& card) {
   const ShootPhoto& ph = s.photos[i];
@@ -96,18 +96,12 @@ std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const std::vector<Pa
     const Vec3 w = ph.lights[0].position;
     out.push_back(find_lamp(paper, ph.lights[0], sigma_of(ph, 0), paper_rho(s), s.height_m,
                             {{W - w.x, w.y, w.z}, {w.x, H - w.y, w.z}}));
-    if (s.reference_given()) read_card(card, &out.back());
-    return out;
+  } else {
+    std::vector<double> sigma;
+    for (size_t k = 0; k < ph.lights.size(); ++k) sigma.push_back(sigma_of(ph, k));
+    out = find_lamps_together(paper, ph.lights, sigma, paper_rho(s), s.height_m);
   }
-  for (size_t k = 0; k < ph.lights.size(); ++k) {
-    LampFound f;
-    f.written = f.found = ph.lights[k].position;
-    f.written_intensity = f.found_intensity = ph.lights[k].intensity;
-    f.prior_sigma_m = sigma_of(ph, k);
-    f.why = "the photo has " + std::to_string(ph.lights.size()) +
-            " lights: the paper's shading is their sum";
-    out.push_back(f);
-  }
+  if (s.reference_given()) read_card(card, &out);
   return out;
 }
 
@@ -129,10 +123,8 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o, const Pa
   }
   estimate_crop(s, m, all, &d.crop);
   if (o.find_lamps) {
-    if (s.photos[i].lights.size() == 1) {
-      d.paper = paper_samples(s.board, paper, d.corners, m.rgb, m.saturated);
-      d.card = card_samples(s.board, s.reference.polygon, d.corners, m.rgb, m.saturated);
-    }
+    d.paper = paper_samples(s.board, paper, d.corners, m.rgb, m.saturated);
+    d.card = card_samples(s.board, s.reference.polygon, d.corners, m.rgb, m.saturated);
     d.lamps = find_lamps(s, i, d.paper, d.card);
   }
   if (o.overlays) d.overlay = overlay_image(m.grey, m.rgb.width, m.rgb.height);

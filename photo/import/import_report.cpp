@@ -147,8 +147,9 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
                                    {"paper_reflectance_sigma", jsonu::to_json(r.card.sigma)}}
                             : json(nullptr)},
           {"caveats",
-           {"a lamp is found from the board's paper where its photo has one point lamp; other "
-            "lights are taken as written",
+           {"lamps are found from the board's paper where they are point lamps of "
+            "inverse-square falloff (several in a photo together); other lights are taken as "
+            "written",
             "the paper is taken as Lambertian; the lens's vignetting as 1 + a1 r^2 + a2 r^4 "
             "about the image's centre",
             "the sample is a plane at z = -height_m; a warped or thick sample is not modelled"}},

@@ -414,18 +414,190 @@ LampFound find_lamp(const std::vector<PaperSample>& paper, const Light& light, d
   return f;
 }
 
-void read_card(const std::vector<PaperSample>& card, LampFound* f) {
-  f->card_points = 0;
-  if (!f->solved || card.size() < kMinCardPoints) return;
-  const double p[3] = {f->found.x, f->found.y, f->found.z};
-  double a[3];
-  intensity_at(card, p, a);
-  const double spread = relative_spread(card, p, a);
+void read_card(const std::vector<PaperSample>& card, std::vector<LampFound>* lamps) {
+  for (auto& f : *lamps) f.card_points = 0;
+  if (card.size() < kMinCardPoints || lamps->empty()) return;
+  for (const auto& f : *lamps)
+    if (!f.solved) return;
+  // The paper's shading under every lamp, sum_k A_k h_k / r_k^3, per channel at each card point;
+  // the card reads c times it, c = rho_card / rho_paper.
+  auto paper_at = [&](const PaperSample& sm, int ch) {
+    double sum = 0;
+    for (const auto& f : *lamps) {
+      const double p[3] = {f.found.x, f.found.y, f.found.z};
+      sum += f.paper_amplitude[ch] * shading(p, sm.x, sm.y);
+    }
+    return sum;
+  };
+  double c[3];
+  for (int ch = 0; ch < 3; ++ch) {
+    double ss = 0, sv = 0;
+    for (const auto& sm : card) {
+      const double g = paper_at(sm, ch);
+      ss += g * g, sv += g * sm.rgb[ch];
+    }
+    c[ch] = ss > 0 ? sv / ss : 0;
+  }
+  std::vector<double> e;
+  for (const auto& sm : card)
+    for (int ch = 0; ch < 3; ++ch) {
+      const double m = c[ch] * paper_at(sm, ch);
+      if (m > 0) e.push_back(std::abs(sm.rgb[ch] / m - 1));
+    }
+  if (e.empty()) return;
+  std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+  const double spread = 1.4826 * e[e.size() / 2];
   constexpr double kEvenCard = 0.1;
-  if (!(a[0] > 0 && a[1] > 0 && a[2] > 0) || !(spread < kEvenCard)) return;
-  for (int c = 0; c < 3; ++c) f->card_amplitude[c] = a[c];
-  f->card_points = card.size();
-  f->card_rms = spread;
+  if (!(c[0] > 0 && c[1] > 0 && c[2] > 0) || !(spread < kEvenCard)) return;
+  // One reading of the photo, kept on its first lamp.
+  LampFound& f = lamps->front();
+  for (int ch = 0; ch < 3; ++ch) f.card_amplitude[ch] = c[ch] * f.paper_amplitude[ch];
+  f.card_points = card.size();
+  f.card_rms = spread;
+}
+
+namespace {
+
+// One paper point under several lamps: (sum_k A_k,c h_k / r_k^3 - v_c) / s_c, the parameter
+// blocks each lamp's position and A in turn.
+struct MultiPaperCost {
+  double x, y, v[3], inv_s[3];
+  int lamps;
+  template <class T>
+  bool operator()(T const* const* q, T* r) const {
+    T sum[3] = {T(0), T(0), T(0)};
+    for (int k = 0; k < lamps; ++k) {
+      const T g = shading(q[2 * k], x, y);
+      for (int c = 0; c < 3; ++c) sum[c] += q[2 * k + 1][c] * g;
+    }
+    for (int c = 0; c < 3; ++c) r[c] = (sum[c] - v[c]) * inv_s[c];
+    return true;
+  }
+};
+
+}  // namespace
+
+std::vector<LampFound> find_lamps_together(const std::vector<PaperSample>& paper,
+                                           const std::vector<Light>& lights,
+                                           const std::vector<double>& sigma_m, const RGB& rho,
+                                           double sample_height_m) {
+  const size_t K = lights.size();
+  std::vector<LampFound> out(K);
+  for (size_t k = 0; k < K; ++k) {
+    LampFound& f = out[k];
+    f.written = f.found = f.alone = lights[k].position;
+    f.written_intensity = f.found_intensity = lights[k].intensity;
+    f.prior_sigma_m = sigma_m[k];
+    f.points = paper.size();
+  }
+  auto fail = [&](const std::string& why) {
+    for (auto& f : out) f.why = why;
+    return out;
+  };
+  for (const Light& l : lights)
+    if (l.type != Light::Type::kPoint || l.attenuation[0] != 0 || l.attenuation[1] != 0 ||
+        l.attenuation[2] != 1)
+      return fail("the photo's lights are not all point lamps of inverse-square falloff");
+  constexpr size_t kMinPointsPerLamp = 60;
+  if (paper.size() < kMinPointsPerLamp * K)
+    return fail("too little of the board's paper in view for " + std::to_string(K) + " lamps (" +
+                std::to_string(paper.size()) + " points)");
+  std::vector<std::array<double, 3>> p(K), a(K);
+  for (size_t k = 0; k < K; ++k)
+    p[k] = {lights[k].position.x, lights[k].position.y, lights[k].position.z};
+  // A per channel in closed form at the written positions: K x K least squares.
+  for (int c = 0; c < 3; ++c) {
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(K, K);
+    Eigen::VectorXd gv = Eigen::VectorXd::Zero(K);
+    for (const auto& sm : paper) {
+      Eigen::VectorXd g(K);
+      for (size_t k = 0; k < K; ++k) g[k] = shading(p[k].data(), sm.x, sm.y);
+      G += g * g.transpose();
+      gv += g * static_cast<double>(sm.rgb[c]);
+    }
+    const Eigen::VectorXd x = G.ldlt().solve(gv);
+    for (size_t k = 0; k < K; ++k) a[k][c] = std::max(x[k], 1e-9);
+  }
+  double med[3];
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> v;
+    for (const auto& sm : paper) v.push_back(sm.rgb[c]);
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    med[c] = std::max(v[v.size() / 2], 1e-12);
+  }
+  double spread = 0.02;
+  std::unique_ptr<ceres::Problem> pb;
+  ceres::Solver::Summary summary;
+  for (int pass = 0; pass < 2; ++pass) {
+    pb = std::make_unique<ceres::Problem>();
+    for (const auto& sm : paper) {
+      auto* f = new ceres::DynamicAutoDiffCostFunction<MultiPaperCost, 6>(
+          new MultiPaperCost{sm.x,
+                             sm.y,
+                             {sm.rgb[0], sm.rgb[1], sm.rgb[2]},
+                             {1 / (spread * med[0]), 1 / (spread * med[1]), 1 / (spread * med[2])},
+                             static_cast<int>(K)});
+      std::vector<double*> blocks;
+      for (size_t k = 0; k < K; ++k) {
+        f->AddParameterBlock(3);
+        f->AddParameterBlock(3);
+        blocks.push_back(p[k].data());
+        blocks.push_back(a[k].data());
+      }
+      f->SetNumResiduals(3);
+      pb->AddResidualBlock(f, new ceres::CauchyLoss(3.0), blocks);
+    }
+    for (size_t k = 0; k < K; ++k) {
+      const Vec3& w = lights[k].position;
+      pb->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, 3, 3>(
+                               new PriorCost{{w.x, w.y, w.z}, 1 / sigma_m[k]}),
+                           nullptr, p[k].data());
+      pb->SetParameterUpperBound(p[k].data(), 2, -sample_height_m - 0.01);
+    }
+    ceres::Solver::Options so;
+    so.max_num_iterations = 100;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.logging_type = ceres::SILENT;
+    ceres::Solve(so, pb.get(), &summary);
+    // The spread of the paper about the lamps' summed shading (1.4826 MAD, relative).
+    std::vector<double> e;
+    for (const auto& sm : paper)
+      for (int c = 0; c < 3; ++c) {
+        double m = 0;
+        for (size_t k = 0; k < K; ++k) m += a[k][c] * shading(p[k].data(), sm.x, sm.y);
+        if (m > 0) e.push_back(std::abs(sm.rgb[c] / m - 1));
+      }
+    if (!e.empty()) {
+      std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+      spread = std::max(1.4826 * e[e.size() / 2], 1e-4);
+    }
+  }
+  if (!summary.IsSolutionUsable())
+    return fail("the paper's shading did not settle (" + summary.message + ")");
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (size_t k = 0; k < K; ++k) pairs.push_back({p[k].data(), p[k].data()});
+  if (!cov.Compute(pairs, pb.get()))
+    return fail("the paper's shading leaves the lamps undetermined");
+  for (size_t k = 0; k < K; ++k) {
+    double ck[9];
+    if (!cov.GetCovarianceBlock(p[k].data(), p[k].data(), ck))
+      return fail("the paper's shading leaves the lamps undetermined");
+    LampFound& f = out[k];
+    f.solved = true;
+    f.found = f.alone = {p[k][0], p[k][1], p[k][2]};
+    for (int i = 0; i < 3; ++i) f.sigma_m[i] = std::sqrt(std::max(ck[4 * i], 0.0));
+    for (int c = 0; c < 3; ++c) {
+      f.found_intensity[c] = a[k][c] * M_PI / rho[c];
+      f.paper_amplitude[c] = a[k][c];
+    }
+    f.paper_rms = spread;
+    f.moved_sigmas = length(f.found - f.written) / sigma_m[k];
+    f.disagreement = f.moved_sigmas;
+  }
+  return out;
 }
 
 PaperFromCard paper_from_card(const std::vector<const LampFound*>& lamps, const RGB& card_rho) {
@@ -588,11 +760,9 @@ Vignetting fit_vignetting(const std::vector<std::vector<PaperSample>>& paper,
   vg.photos = use.size();
   vg.found = std::isfinite(vg.sigma_a1 + vg.sigma_a2);
   const double e2 = vg.r_max * vg.r_max, e4 = e2 * e2;
-  vg.sigma_edge =
-      std::sqrt(std::max(e4 * cv[0] + 2 * e2 * e4 * cv[1] + e4 * e4 * cv[3], 0.0));
-  vg.applied =
-      vg.found && std::abs(vg.at(vg.cx + vg.r_max * vg.half_diagonal, vg.cy) - 1) >
-                      kVignettingSigmas * vg.sigma_edge;
+  vg.sigma_edge = std::sqrt(std::max(e4 * cv[0] + 2 * e2 * e4 * cv[1] + e4 * e4 * cv[3], 0.0));
+  vg.applied = vg.found && std::abs(vg.at(vg.cx + vg.r_max * vg.half_diagonal, vg.cy) - 1) >
+                               kVignettingSigmas * vg.sigma_edge;
   return vg;
 }
 

@@ -2,10 +2,11 @@
 // person writes it is a tape measurement (position_sigma_m, 2 cm unless stated) and its radiant
 // intensity is rarely known. The board's white paper is a Lambertian reference in every photo:
 // its shading, rho / pi * I * h / r^3 at a board point r metres from a lamp h metres above the
-// board, gives the lamp's place and intensity. Each photo lit by one point lamp gets both from
-// the paper between the markers (a maximum a posteriori fit with the written position as the
-// prior), with the position's sigma; I is absolute where the paper's reflectance is given and
-// relative to an assumed paper otherwise.
+// board, gives the lamp's place and intensity. Each photo's point lamps get both from the paper
+// between the markers (a maximum a posteriori fit with the written position as the prior; several
+// lamps together, their shadings summed), with the position's sigma; I is absolute where the
+// paper's reflectance is known (given, or from a grey card) and relative to an assumed paper
+// otherwise.
 #pragma once
 #include <array>
 #include <string>
@@ -106,11 +107,22 @@ LampFound find_lamp(const std::vector<PaperSample>& paper, const Light& light, d
                     const RGB& rho, double sample_height_m,
                     const std::vector<Vec3>& alternatives = {});
 
-// Reads the grey card's samples under a found lamp into f (card_amplitude, card_points, card_rms):
-// at least kMinCardPoints points whose spread about the lamp's shading is under 10 % (a card
-// lying flat and evenly lit); otherwise card_points stays 0.
+// Several point lamps of one photo from its paper, whose shading is their sum: every lamp's
+// position and rho I fitted together, each written position a prior of its sigma (the paper alone
+// cannot tell two lamps apart). Each found lamp's `alone` is its found position and its
+// `disagreement` how far it moved in written sigmas.
+std::vector<LampFound> find_lamps_together(const std::vector<PaperSample>& paper,
+                                           const std::vector<Light>& lights,
+                                           const std::vector<double>& sigma_m, const RGB& rho,
+                                           double sample_height_m);
+
+// Reads the grey card's samples under a photo's found lamps: the card reads c times the paper's
+// shading under them (c = rho_card / rho_paper), fitted by least squares, kept on the first lamp
+// (card_amplitude = c times its paper amplitude, card_points, card_rms) where there are at least
+// kMinCardPoints points whose spread about it is under 10 % (a card lying flat and evenly lit);
+// otherwise card_points stays 0.
 inline constexpr size_t kMinCardPoints = 30;
-void read_card(const std::vector<PaperSample>& card, LampFound* f);
+void read_card(const std::vector<PaperSample>& card, std::vector<LampFound>* lamps);
 
 // The paper's reflectance from the grey card: per photo, rho_card * (paper amplitude / card
 // amplitude) under the same lamp; their median over the photos, its sigma from their spread

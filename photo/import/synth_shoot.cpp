@@ -109,7 +109,8 @@ class BoardAlbedo {
 
 struct PhotoSetup {
   Mat4 world_from_camera;
-  Light lamp;
+  Light lamp;                // the key lamp, opposite the camera
+  std::vector<Light> lamps;  // every lamp of the photo: the key lamp and, with fill_lamp, a fill
 };
 
 // Camera i of n: 12-42 degrees from the board's normal at golden-angle azimuths, 0.45-0.6 m from
@@ -144,6 +145,15 @@ PhotoSetup photo_setup(const PhotoShootOptions& o, int i, const Vec3& centre,
   s.lamp.position =
       centre + Vec3(std::sin(lp) * std::cos(la), std::sin(lp) * std::sin(la), -std::cos(lp)) * ld;
   s.lamp.intensity = {ld * ld, ld * ld, ld * ld};
+  s.lamps = {s.lamp};
+  if (o.fill_lamp) {  // beside the camera, higher, at 0.4 of the key's irradiance
+    const double fp = deg_to_rad(35.0), fa = azimuth + deg_to_rad(70.0), fd = 0.6;
+    Light fill = s.lamp;
+    fill.position =
+        centre + Vec3(std::sin(fp) * std::cos(fa), std::sin(fp) * std::sin(fa), -std::cos(fp)) * fd;
+    fill.intensity = {0.4 * fd * fd, 0.4 * fd * fd, 0.4 * fd * fd};
+    s.lamps.push_back(fill);
+  }
   return s;
 }
 
@@ -168,7 +178,7 @@ Image render_photo(const PhotoShootOptions& o, const Intrinsics& k, const RaySce
           corner_on_board(k, ps.world_from_camera, x - 0.5, y - 0.5);
   });
   const Vec3 eye = ps.world_from_camera.translation();
-  const std::vector<Light> lights{ps.lamp};
+  const std::vector<Light>& lights = ps.lamps;
   const double s = o.truth.uniform_s();
   std::atomic<size_t> shadow_rays{0};
   Image out(w, h, 3, 0.f);
@@ -185,12 +195,13 @@ Image render_photo(const PhotoShootOptions& o, const Intrinsics& k, const RaySce
           RGB E;
           double dist;
           I[0] = I[1] = I[2] = 0;
-          if (light_at(ps.lamp, sp.P, &L, &E, &dist)) {
-            const LocalDir Ll = to_local(sp, L), Vl = to_local(sp, normalize(eye - sp.P));
-            double f[3];
-            ggx_reflectance(o.truth, o.ggx_alpha_b, Ll.u, Ll.w, Ll.n, Vl.u, Vl.w, Vl.n, f);
-            for (int c = 0; c < 3; ++c) I[c] = E[c] * f[c];
-          }
+          for (const Light& lamp : lights)
+            if (light_at(lamp, sp.P, &L, &E, &dist)) {
+              const LocalDir Ll = to_local(sp, L), Vl = to_local(sp, normalize(eye - sp.P));
+              double f[3];
+              ggx_reflectance(o.truth, o.ggx_alpha_b, Ll.u, Ll.w, Ll.n, Vl.u, Vl.w, Vl.n, f);
+              for (int c = 0; c < 3; ++c) I[c] += E[c] * f[c];
+            }
         } else if (sp.P.z < -0.5 * o.height_m) {  // the sample's top: nothing above it shadows
           shade_point(
               eval, sp, eye, lights, {0, 0, 0}, s,
@@ -217,11 +228,12 @@ Image render_photo(const PhotoShootOptions& o, const Intrinsics& k, const RaySce
           RGB E;
           double dist;
           I[0] = I[1] = I[2] = 0;
-          if (light_at(ps.lamp, sp.P, &L, &E, &dist) && dot(L, sp.N) > 0) {
-            ++cnt.shadow_rays;
-            if (!scene.occluded(sp.P + sp.N * 1e-5, L, dist - 2e-5))
-              for (int c = 0; c < 3; ++c) I[c] = albedo / M_PI * E[c] * dot(L, sp.N);
-          }
+          for (const Light& lamp : lights)
+            if (light_at(lamp, sp.P, &L, &E, &dist) && dot(L, sp.N) > 0) {
+              ++cnt.shadow_rays;
+              if (!scene.occluded(sp.P + sp.N * 1e-5, L, dist - 2e-5))
+                for (int c = 0; c < 3; ++c) I[c] += albedo / M_PI * E[c] * dot(L, sp.N);
+            }
         }
         double lens = 1;
         if (o.vignetting != 0) {
@@ -363,21 +375,27 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
   for (int i = 0; i < o.photos; ++i) setups.push_back(photo_setup(o, i, centre, rng));
 
   // The lamps as the person writes them; truth.json keeps where they were.
-  std::vector<Light> written;
+  std::vector<std::vector<Light>> written;
   std::mt19937_64 tape(o.seed ^ 0x7a9e5eedULL);
   std::normal_distribution<double> off(0.0, 1.0);
-  nlohmann::json lamps = nlohmann::json::array();
+  nlohmann::json lamps = nlohmann::json::array(), fills = nlohmann::json::array();
   for (const auto& su : setups) {
-    Light l = su.lamp;
-    if (o.lamp_error_m > 0)
-      for (double* v : {&l.position.x, &l.position.y, &l.position.z})
-        *v += o.lamp_error_m * off(tape);
-    // Never on the board's far side, as check_light requires of a shoot.
-    l.position.z = std::min(l.position.z, -o.height_m - 0.05);
-    if (o.hide_intensity) l.intensity = {1, 1, 1};
-    written.push_back(l);
+    written.emplace_back();
+    for (const Light& truth : su.lamps) {
+      Light l = truth;
+      if (o.lamp_error_m > 0)
+        for (double* v : {&l.position.x, &l.position.y, &l.position.z})
+          *v += o.lamp_error_m * off(tape);
+      // Never on the board's far side, as check_light requires of a shoot.
+      l.position.z = std::min(l.position.z, -o.height_m - 0.05);
+      if (o.hide_intensity) l.intensity = {1, 1, 1};
+      written.back().push_back(l);
+    }
     lamps.push_back({{"position_m", jsonu::to_json(su.lamp.position)},
                      {"intensity", jsonu::to_json(su.lamp.intensity)}});
+    if (o.fill_lamp)
+      fills.push_back({{"position_m", jsonu::to_json(su.lamps[1].position)},
+                       {"intensity", jsonu::to_json(su.lamps[1].intensity)}});
   }
 
   PhotoShootStats st;
@@ -387,8 +405,9 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
     for (int i = 0; i < o.photos; ++i) {
       const Image radiance = render_photo(o, k, scene, board, eval, setups[i], &st);
       ShootPhoto photo;
-      photo.lights = {written[i]};
-      photo.position_sigma_m = {o.lamp_error_m > 0 ? o.lamp_error_m : kDefaultLampSigmaM};
+      photo.lights = written[i];
+      photo.position_sigma_m.assign(photo.lights.size(),
+                                    o.lamp_error_m > 0 ? o.lamp_error_m : kDefaultLampSigmaM);
       for (size_t e = 0; e < o.bracket.size(); ++e) {
         char name[64];
         std::snprintf(name, sizeof name, "photos/p%02d_e%zu.%s", i, e,
@@ -422,6 +441,7 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
                                                    {"camera", camera_json(k)},
                                                    {"world_from_camera", poses},
                                                    {"lamps", lamps},
+                                                   {"fill_lamps", fills},
                                                    {"lamp_error_m", o.lamp_error_m},
                                                    {"intensity_hidden", o.hide_intensity},
                                                    {"brdf", o.brdf},

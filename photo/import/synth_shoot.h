@@ -52,6 +52,9 @@ struct PhotoShootOptions {
   // The printed paper's diffuse reflectance (import assumes 0.85 where the shoot gives none), and a
   // grey card of reflectance grey_card lying on the board over card_m (x0, y0, x1, y1, board
   // metres), written as the shoot's `reference`; 0: no card.
+  // A second lamp in every photo: a fill beside the camera, higher, at 0.4 of the key lamp's
+  // irradiance (truth.json's fill_lamps).
+  bool fill_lamp = false;
   double paper_albedo = 0.85;
   // The lens's vignetting: every pixel reads 1 + vignetting r^2 times the scene's radiance, r its
   // distance from the image's centre over the half diagonal (-0.3: 30 % darker in the corners).
