@@ -654,15 +654,16 @@ std::vector<std::string> lamp_warnings(const Shoot& s, const ImportResult& r) {
 // How many photos may be merged at once within o.memory_mb, from the photos' headers (nothing
 // decoded). A photo being merged holds, per pixel, its merged RGB (12 bytes), clipped mask and
 // detection image (1 each) and the board detector's working images (kDetectBytes), plus 12 bytes
-// for each image of its bracket that is read whole (RAW, EXR, TIFF; PNG and JPEG stream row by
-// row). Every photo keeps, between the passes, the merged RGB around the sample (kCropBytes a
+// for each image of its bracket that is read whole as floats (EXR, TIFF), 6 for each RAW file
+// (16-bit RGB) and LibRaw's buffers while one develops (kDevelopBytes); PNG and JPEG stream row
+// by row. Every photo keeps, between the passes, the merged RGB around the sample (kCropBytes a
 // photo pixel: the sample's region with its margin) and its overlay. Throws, saying why, where
 // even one at a time does not fit.
 int merge_threads(const Shoot& s, const ImportOptions& o, ImportResult* r) {
-  constexpr double kDetectBytes = 6, kCropBytes = 2;
+  constexpr double kDetectBytes = 6, kCropBytes = 2, kDevelopBytes = 16;
   double kept = 0, largest = 0;
   for (size_t i = 0; i < s.photos.size(); ++i) {
-    double bytes = 0, pixels = 0;
+    double bytes = 0, pixels = 0, develop = 0;
     int w = 0, h = 0;
     for (const auto& im : s.photos[i].images) {
       const std::string path = join_path(s.dir, im.file);
@@ -673,10 +674,12 @@ int merge_threads(const Shoot& s, const ImportOptions& o, ImportResult* r) {
         image_dimensions(path, &w, &h);
       pixels = std::max(pixels, double(w) * h);
       const std::string ext = lower_ext(path);
-      const bool streamed = !raw && ext != ".exr" && ext != ".tif" && ext != ".tiff";
-      if (!streamed) bytes += 12.0 * w * h;  // float RGB
+      if (raw)  // its 16-bit RGB, and LibRaw's buffers while it develops (one image at a time)
+        bytes += 6.0 * w * h, develop = std::max(develop, kDevelopBytes * w * h);
+      else if (ext == ".exr" || ext == ".tif" || ext == ".tiff")
+        bytes += 12.0 * w * h;  // float RGB
     }
-    bytes += pixels * (12 + 1 + 1 + kDetectBytes);
+    bytes += develop + pixels * (12 + 1 + 1 + kDetectBytes);
     const int shrink = overlay_shrink(w, h);
     const double overlay = o.overlays ? pixels / (shrink * shrink) : 0;
     kept += pixels * kCropBytes + overlay;

@@ -42,7 +42,7 @@ std::vector<Shot> read_bracket(const Shoot& s, size_t i, std::vector<RawInfo>* r
     shot.path = path;
     if (is_raw_photo(path)) {
       RawInfo info;
-      shot.whole = read_raw(path, &info);
+      shot.rows = read_raw_rows(path, &info);
       shot.raw = true;
       raw_info->push_back(info);
     } else if (!(shot.rows = read_image_rows(path))) {

@@ -32,7 +32,13 @@ void raw_dimensions(const std::string& path, int* w, int* h) {
   *h = turned ? sz.width : sz.height;
 }
 
-LoadedImage read_raw(const std::string& path, RawInfo* info) {
+namespace {
+
+using MemImage = std::unique_ptr<libraw_processed_image_t, void (*)(libraw_processed_image_t*)>;
+
+// The file developed linearly by LibRaw (no transfer curve, no auto-brightening, the camera's
+// white balance, sRGB primaries, 16 bits, clipped highlights kept at the largest code).
+MemImage develop(const std::string& path, RawInfo* info) {
   auto raw = std::make_unique<LibRaw>();
   auto check = [&](int rc, const char* what) {
     if (rc != LIBRAW_SUCCESS)
@@ -50,24 +56,36 @@ LoadedImage read_raw(const std::string& path, RawInfo* info) {
   check(raw->unpack(), "unpack");
   check(raw->dcraw_process(), "process");
   int rc = 0;
-  libraw_processed_image_t* img = raw->dcraw_make_mem_image(&rc);
+  MemImage img(raw->dcraw_make_mem_image(&rc), LibRaw::dcraw_clear_mem);
   check(rc, "render");
-  std::unique_ptr<libraw_processed_image_t, void (*)(libraw_processed_image_t*)> hold(
-      img, LibRaw::dcraw_clear_mem);
   if (img->type != LIBRAW_IMAGE_BITMAP || img->bits != 16 || (img->colors != 3 && img->colors != 1))
     throw Error(path + ": LibRaw returned an unexpected image layout");
-  LoadedImage out;
-  out.bits = 16;
-  out.image = Image(img->width, img->height, 3);
-  const auto* d = reinterpret_cast<const uint16_t*>(img->data);
-  for (size_t q = 0; q < static_cast<size_t>(img->width) * img->height; ++q)
-    for (int c = 0; c < 3; ++c)
-      out.image.px[3 * q + c] = d[q * img->colors + (img->colors == 1 ? 0 : c)] / 65535.f;
   if (info) {
     info->camera = std::string(raw->imgdata.idata.make) + " " + raw->imgdata.idata.model;
     for (int c = 0; c < 4; ++c) info->white_balance[c] = raw->imgdata.color.cam_mul[c];
   }
-  return out;
+  return img;
+}
+
+class RawRows : public CodeRows {
+ public:
+  explicit RawRows(MemImage img) : img_(std::move(img)) {
+    width = img_->width, height = img_->height, channels = img_->colors, bits = 16;
+  }
+  const uint16_t* next() override {
+    const auto* d = reinterpret_cast<const uint16_t*>(img_->data);
+    return d + static_cast<size_t>(y_++) * width * channels;
+  }
+
+ private:
+  MemImage img_;
+  size_t y_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<CodeRows> read_raw_rows(const std::string& path, RawInfo* info) {
+  return std::make_unique<RawRows>(develop(path, info));
 }
 
 void write_linear_dng(const std::string& path, const Image& img) {

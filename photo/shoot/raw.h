@@ -19,9 +19,11 @@ struct RawInfo {
   std::array<double, 4> white_balance{};  // the camera's multipliers (R, G, B, G2), as applied
 };
 
-// 3 channels, linear values in [0, 1] (bits = 16: the largest code is clipped). Throws naming the
-// file with LibRaw's message when it cannot decode it.
-LoadedImage read_raw(const std::string& path, RawInfo* info);
+// The photo developed by LibRaw as rows of linear 16-bit codes (io/images/image_io.h CodeRows: RGB,
+// the largest code clipped; 6 bytes a pixel held, LibRaw's own buffers freed before it returns),
+// for a merge that reads its bracket row by row. Throws naming the file with LibRaw's message
+// when it cannot decode it.
+std::unique_ptr<CodeRows> read_raw_rows(const std::string& path, RawInfo* info);
 // A RAW photo's developed width and height, from its header (nothing unpacked).
 void raw_dimensions(const std::string& path, int* w, int* h);
 
