@@ -262,6 +262,10 @@ std::string encode_png(const std::string& path, const Image& img, int bits, doub
   return png_bytes(path, buf.data(), img.width, img.height, bits, c, stride, dpi, true);
 }
 
+std::string encode_rgb8_png(const std::string& path, const uint8_t* rgb, int w, int h) {
+  return png_bytes(path, rgb, w, h, 8, 3, static_cast<size_t>(w) * 3, 0, false);
+}
+
 std::string encode_mask_png(const std::string& path, const std::vector<uint8_t>& on, int w, int h) {
   if (on.size() != static_cast<size_t>(w) * h)
     throw Error(path + ": mask has " + std::to_string(on.size()) + " entries for " +

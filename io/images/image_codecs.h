@@ -33,6 +33,9 @@ LoadedImage decode_tiff(const std::string& path, const SizeCheck& check);
 std::string encode_png(const std::string& path, const Image& img, int bits, double dpi);
 // Baseline JPEG bytes of an image already in sRGB (values 0..1), at `quality` (1-100).
 std::string encode_jpeg(const std::string& path, const Image& srgb, int quality);
+// An 8-bit RGB PNG of bytes as they are (w x h pixels, row by row), unfiltered, zlib level 1: a
+// picture written for a person to look at, fast.
+std::string encode_rgb8_png(const std::string& path, const uint8_t* rgb, int w, int h);
 // An 8-bit grey PNG of a mask: 255 where `on` is non-zero, else 0 (w x h entries, row by row).
 std::string encode_mask_png(const std::string& path, const std::vector<uint8_t>& on, int w, int h);
 

@@ -650,6 +650,13 @@ void write_mask_png(const std::string& path, const std::vector<uint8_t>& on, int
   write_text_file(path, encode_mask_png(path, on, w, h));
 }
 
+void write_rgb8_png(const std::string& path, const std::vector<uint8_t>& rgb, int w, int h) {
+  if (rgb.size() != static_cast<size_t>(w) * h * 3)
+    throw Error(path + ": " + std::to_string(rgb.size()) + " bytes for " + std::to_string(w) + "x" +
+                std::to_string(h) + " RGB pixels");
+  write_text_file(path, encode_rgb8_png(path, rgb.data(), w, h));
+}
+
 Image encode_srgb(const Image& linear, double exposure) {
   Image out = linear;
   for (float& v : out.px) v = static_cast<float>(srgb_encode(v * exposure));

@@ -114,6 +114,8 @@ void write_png(const std::string& path, const Image& img, int bits, double dpi);
 // An 8-bit baseline JPEG of an image already in sRGB (values 0..1).
 void write_jpeg(const std::string& path, const Image& srgb, int quality = 92);
 void write_mask_png(const std::string& path, const std::vector<uint8_t>& on, int w, int h);
+// 8-bit RGB bytes (w x h pixels, row by row) as a PNG, written atomically.
+void write_rgb8_png(const std::string& path, const std::vector<uint8_t>& rgb, int w, int h);
 
 // Linear radiance times `exposure`, clamped to [0, 1] and sRGB-encoded (for 8-bit previews).
 Image encode_srgb(const Image& linear, double exposure);

@@ -67,11 +67,10 @@ void write_overlay(const std::string& path, const OverlayImage& img, const Overl
               cv::LINE_AA);
   cv::putText(bgr, m.label, {8 * s, 20 * s}, cv::FONT_HERSHEY_SIMPLEX, 0.5 * s, {255, 255, 255}, s,
               cv::LINE_AA);
-  Image out(w, h, 3);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c) out.at(x, y, c) = bgr.at<cv::Vec3b>(y, x)[2 - c] / 255.f;
-  write_png(path, out, 8);
+  std::vector<uint8_t> rgb(static_cast<size_t>(w) * h * 3);
+  cv::Mat out(h, w, CV_8UC3, rgb.data());
+  cv::cvtColor(bgr, out, cv::COLOR_BGR2RGB);
+  write_rgb8_png(path, rgb, w, h);
 }
 
 }  // namespace aniso
