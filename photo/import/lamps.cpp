@@ -221,6 +221,26 @@ std::vector<PaperSample> card_samples(const BoardSpec& b,
 
 namespace {
 
+// The median reading of the samples per channel (at least 1e-12): each channel's scale.
+void channel_medians(const std::vector<PaperSample>& samples, double med[3]) {
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> v;
+    v.reserve(samples.size());
+    for (const auto& sm : samples) v.push_back(sm.rgb[c]);
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    med[c] = v.empty() ? 1e-12 : std::max(v[v.size() / 2], 1e-12);
+  }
+}
+
+// The options of the lamps' solves: small problems, quiet.
+ceres::Solver::Options lamp_solver(ceres::LinearSolverType linear) {
+  ceres::Solver::Options so;
+  so.max_num_iterations = 100;
+  so.linear_solver_type = linear;
+  so.logging_type = ceres::SILENT;
+  return so;
+}
+
 // The paper's shading at board point (x, y) per unit of rho I / pi: h / r^3 for the lamp at p
 // (z < 0 on the printed side); T a double or a Ceres Jet.
 template <class T>
@@ -296,13 +316,7 @@ bool solve_lamp(const std::vector<PaperSample>& paper, const Vec3& start, const 
   p[0] = start.x, p[1] = start.y, p[2] = start.z;
   intensity_at(paper, p, a);
   double med[3];
-  for (int c = 0; c < 3; ++c) {
-    std::vector<double> v;
-    v.reserve(paper.size());
-    for (const auto& s : paper) v.push_back(s.rgb[c]);
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    med[c] = std::max(v[v.size() / 2], 1e-12);
-  }
+  channel_medians(paper, med);
   ceres::Solver::Summary summary;
   std::unique_ptr<ceres::Problem> pb;
   for (int pass = 0; pass < 2; ++pass) {
@@ -319,10 +333,7 @@ bool solve_lamp(const std::vector<PaperSample>& paper, const Vec3& start, const 
                          nullptr, p);
     // The lamp above the sample's surface, at least a centimetre.
     pb->SetParameterUpperBound(p, 2, -sample_height_m - 0.01);
-    ceres::Solver::Options so;
-    so.max_num_iterations = 100;
-    so.linear_solver_type = ceres::DENSE_QR;
-    so.logging_type = ceres::SILENT;
+    const ceres::Solver::Options so = lamp_solver(ceres::DENSE_QR);
     ceres::Solve(so, pb.get(), &summary);
     out->spread = std::max(relative_spread(paper, p, a), 1e-4);
   }
@@ -519,12 +530,7 @@ std::vector<LampFound> find_lamps_together(const std::vector<PaperSample>& paper
     for (size_t k = 0; k < K; ++k) a[k][c] = std::max(x[k], 1e-9);
   }
   double med[3];
-  for (int c = 0; c < 3; ++c) {
-    std::vector<double> v;
-    for (const auto& sm : paper) v.push_back(sm.rgb[c]);
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    med[c] = std::max(v[v.size() / 2], 1e-12);
-  }
+  channel_medians(paper, med);
   double spread = 0.02;
   std::unique_ptr<ceres::Problem> pb;
   ceres::Solver::Summary summary;
@@ -554,10 +560,7 @@ std::vector<LampFound> find_lamps_together(const std::vector<PaperSample>& paper
                            nullptr, p[k].data());
       pb->SetParameterUpperBound(p[k].data(), 2, -sample_height_m - 0.01);
     }
-    ceres::Solver::Options so;
-    so.max_num_iterations = 100;
-    so.linear_solver_type = ceres::DENSE_QR;
-    so.logging_type = ceres::SILENT;
+    const ceres::Solver::Options so = lamp_solver(ceres::DENSE_QR);
     ceres::Solve(so, pb.get(), &summary);
     // The spread of the paper about the lamps' summed shading (1.4826 MAD, relative).
     std::vector<double> e;
@@ -689,12 +692,7 @@ Vignetting fit_vignetting(const std::vector<std::vector<PaperSample>>& paper,
     for (size_t k = 0; k < use.size(); ++k) {
       const auto& samples = paper[use[k]];
       double med[3];
-      for (int c = 0; c < 3; ++c) {
-        std::vector<double> vals;
-        for (const auto& sm : samples) vals.push_back(sm.rgb[c]);
-        std::nth_element(vals.begin(), vals.begin() + vals.size() / 2, vals.end());
-        med[c] = std::max(vals[vals.size() / 2], 1e-12);
-      }
+      channel_medians(samples, med);
       const size_t step = std::max<size_t>(1, samples.size() / kPerPhoto);
       for (size_t q = 0; q < samples.size(); q += step) {
         const auto& sm = samples[q];
@@ -720,10 +718,7 @@ Vignetting fit_vignetting(const std::vector<std::vector<PaperSample>>& paper,
                              nullptr, p[k].data());
       pb->SetParameterUpperBound(p[k].data(), 2, -sample_height_m - 0.01);
     }
-    ceres::Solver::Options so;
-    so.max_num_iterations = 100;
-    so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    so.logging_type = ceres::SILENT;
+    const ceres::Solver::Options so = lamp_solver(ceres::SPARSE_NORMAL_CHOLESKY);
     ceres::Solver::Summary summary;
     ceres::Solve(so, pb.get(), &summary);
     if (!summary.IsSolutionUsable() || !std::isfinite(v[0] + v[1])) return vg;
