@@ -6,7 +6,7 @@
 #   io/files <- io/images <- io/formats
 #   render (its shaders: render/shaders_embedded.h, generated) <- render/bake
 #     <- {render/preview, render/export} <- render/report
-#   photo/shoot <- photo/import
+#   photo/shoot <- photo/lamps <- photo/import
 #   fit/types <- fit/records <- fit/solvers <- {fit/global, fit/maps} <- fit/output <- fit
 # A folder may include its own files and any folder of a lower rank; none of the same rank, so
 # there can be no cycle. A sub-folder counts as its top folder toward other top folders.
@@ -17,7 +17,7 @@ declare -A rank=([core]=0 [models]=1 [geometry]=2 [io]=3 [capture_sim]=4 [fit]=4
                  [datasets_synth]=5 [bench]=6 [cli]=7)
 declare -A floor=([io/files]=0 [io/images]=1 [io/formats]=2
                   [render]=0 [render/bake]=1 [render/preview]=2 [render/export]=2 [render/report]=3
-                  [photo/shoot]=0 [photo/import]=1
+                  [photo/shoot]=0 [photo/lamps]=1 [photo/import]=2
                   [fit/types]=0 [fit/records]=1 [fit/solvers]=2 [fit/global]=3 [fit/maps]=3
                   [fit/output]=4 [fit]=5)
 max_lines=3000

@@ -20,7 +20,7 @@
 #include "io/formats/capture.h"
 #include "io/formats/material_io.h"
 #include "io/images/image_io.h"
-#include "photo/import/lamps.h"
+#include "photo/lamps/lamps.h"
 #include "photo/import/overlay.h"
 #include "photo/shoot/calibrate.h"
 #include "photo/shoot/merge.h"
@@ -71,7 +71,7 @@ void estimate_crop(const Shoot& s, const MergedPhoto& m, const std::vector<Board
                       static_cast<int>(x1 + pad), static_cast<int>(y1 + pad));
 }
 
-// The paper's reflectance per channel: the shoot's, else the assumed one (photo/import/lamps.h).
+// The paper's reflectance per channel: the shoot's, else the assumed one (photo/lamps/lamps.h).
 RGB paper_rho(const Shoot& s) {
   return s.paper_given()
              ? s.paper_reflectance
@@ -84,7 +84,7 @@ double sigma_of(const ShootPhoto& ph, size_t k) {
 }
 
 // The photo's lamps from the board's paper (and the grey card's reading under them): one point
-// lamp alone (photo/import/lamps.h find_lamp), or several together, whose shading on the paper is
+// lamp alone (photo/lamps/lamps.h find_lamp), or several together, whose shading on the paper is
 // their sum (find_lamps_together).
 std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const std::vector<PaperSample>& paper,
                                   const std::vector<PaperSample>& card) {
@@ -702,7 +702,7 @@ int merge_threads(const Shoot& s, const ImportOptions& o, ImportResult* r) {
   return r->merge_threads;
 }
 
-// The lens's vignetting from every photo's paper and written lamp (photo/import/lamps.h
+// The lens's vignetting from every photo's paper and written lamp (photo/lamps/lamps.h
 // fit_vignetting); then each photo's lamp is found again from its paper and card read through it.
 void find_vignetting(const Shoot& s, std::vector<Detected>& det, ImportResult* r) {
   std::vector<std::vector<PaperSample>> paper(det.size());
@@ -729,7 +729,7 @@ void find_vignetting(const Shoot& s, std::vector<Detected>& det, ImportResult* r
 }
 
 // The grey card makes the found lamps' intensities absolute: the paper's reflectance from the card
-// (photo/import/lamps.h paper_from_card) in place of the shoot's or the assumed one. A card seen in
+// (photo/lamps/lamps.h paper_from_card) in place of the shoot's or the assumed one. A card seen in
 // no photo, or one that contradicts board.paper_reflectance, is said.
 void scale_by_card(const Shoot& s, ImportResult* r) {
   std::vector<const LampFound*> lamps;

@@ -12,7 +12,7 @@
 
 #include "core/camera.h"
 #include "core/vec.h"
-#include "photo/import/lamps.h"
+#include "photo/lamps/lamps.h"
 #include "photo/shoot/raw.h"
 #include "photo/shoot/shoot.h"
 
@@ -31,7 +31,7 @@ struct ImportOptions {
   // At most this many photos calibrate the camera (spread over the shoot; the calibration's cost
   // grows as the cube of its photos); every other photo is posed against it.
   int calibrate_on = 40;
-  // Each photo's lamp found from the board's paper (photo/import/lamps.h); false: taken as written.
+  // Each photo's lamp found from the board's paper (photo/lamps/lamps.h); false: taken as written.
   bool find_lamps = true;
   // The lens's vignetting found from the paper (with the lamps) and taken out of the views' images;
   // false: the camera is taken as free of it.

@@ -39,12 +39,12 @@ struct Shoot {
   Intrinsics camera;
   ColorSpec color;
   // board.paper_reflectance: the printed paper's diffuse reflectance (RGB); all 0 where the shoot
-  // gives none, and k_d, k_s are then relative to an assumed paper (photo/import/lamps.h).
+  // gives none, and k_d, k_s are then relative to an assumed paper (photo/lamps/lamps.h).
   RGB paper_reflectance{0, 0, 0};
   bool paper_given() const { return paper_reflectance[0] > 0; }
   // reference: a grey card of known diffuse reflectance lying on the board, its outline in board
   // metres; no polygon where the shoot has none. Through the lamps found from the paper it gives
-  // the paper's reflectance, and so absolute intensities (photo/import/lamps.h).
+  // the paper's reflectance, and so absolute intensities (photo/lamps/lamps.h).
   struct GreyCard {
     std::vector<std::array<double, 2>> polygon;
     RGB reflectance{0, 0, 0};

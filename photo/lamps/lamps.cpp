@@ -1,4 +1,4 @@
-#include "photo/import/lamps.h"
+#include "photo/lamps/lamps.h"
 
 #include <ceres/ceres.h>
 
