@@ -435,6 +435,18 @@ TEST(ImageIO, JpegFromLibjpegDecodes) {
           worst =
               std::max(worst, std::abs(li.image.at(x, y, c) * 255.0 - (100 + x * 3 + c * 20 + y)));
     EXPECT_LE(worst, 4) << path << ": codes off by more than JPEG's quality-100 rounding";
+    // Row by row (what import merges from): the same codes as the whole image.
+    auto rows = read_image_rows(path);
+    ASSERT_TRUE(rows);
+    ASSERT_EQ(rows->channels, channels);
+    int differ = 0;
+    for (int y = 0; y < h; ++y) {
+      const uint16_t* row = rows->next();
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < channels; ++c)
+          differ += static_cast<float>(row[x * channels + c] * (1.0 / 255)) != li.image.at(x, y, c);
+    }
+    EXPECT_EQ(differ, 0) << path;
   }
   // A JPEG cut short: the decoder's own message, the file named.
   const std::string cut = dir + "/cut.jpg";
