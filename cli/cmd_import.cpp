@@ -79,8 +79,7 @@ int run(const ImportArgs& a) {
         "%.4f), %.3f at the frame's corner (the paper reached r = %.2f); %s\n",
         r.vignetting.photos, r.vignetting.a1, r.vignetting.a2, r.vignetting.sigma_a1,
         r.vignetting.sigma_a2, r.vignetting.at(0, 0), r.vignetting.r_max,
-        r.vignetting.applied ? "taken out of the views"
-                             : "not told from 1 there, so not used");
+        r.vignetting.applied ? "taken out of the views" : "not told from 1 there, so not used");
   for (const std::string& w : r.warnings) std::fprintf(stderr, "import: WARNING: %s\n", w.c_str());
   std::printf(
       "import: %zu of %zu photos -> %s (%zu views; import_report.json, overlays/); %.2f s "

@@ -20,13 +20,13 @@ ImageKind sniff_image(const std::string& path);
 
 // The stored codes scaled to [0, 1] (8 or 16 bit) or as they are (float TIFF); RGB from the first
 // three channels, grey from the first of one or two; alpha dropped.
+LoadedImage decode_png(const std::string& path, const SizeCheck& check);
+LoadedImage decode_jpeg(const std::string& path, const SizeCheck& check);
+LoadedImage decode_tiff(const std::string& path, const SizeCheck& check);
 // The same as rows of codes (io/images/image_io.h CodeRows), the file opened and its header read
 // and checked at once.
 std::unique_ptr<CodeRows> png_rows(const std::string& path, const SizeCheck& check);
 std::unique_ptr<CodeRows> jpeg_rows(const std::string& path, const SizeCheck& check);
-LoadedImage decode_png(const std::string& path, const SizeCheck& check);
-LoadedImage decode_jpeg(const std::string& path, const SizeCheck& check);
-LoadedImage decode_tiff(const std::string& path, const SizeCheck& check);
 
 // PNG file bytes of values in [0, 1] (8 or 16 bit; 1 or 3 channels), with a pHYs chunk when
 // dpi > 0. `path` names the file in messages.

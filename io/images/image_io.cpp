@@ -511,13 +511,23 @@ void set_exr_compression(const std::string& name) {
     throw Error("EXR compression must be zip, piz or none (got '" + name + "')");
 }
 
-LoadedImage read_image(const std::string& path, int expect_w, int expect_h,
-                       const std::vector<uint8_t>* rows, bool zero_others) {
+namespace {
+
+// Throws naming the file unless it exists and is a regular file (a folder, device or FIFO is not
+// read as an image).
+void check_image_file(const std::string& path) {
   std::error_code ec;
   const auto st = std::filesystem::status(path, ec);
   if (!std::filesystem::exists(st)) throw Error(path + ": file not found");
   if (!std::filesystem::is_regular_file(st))
     throw Error(path + ": not a regular file (a folder, device or FIFO is not read)");
+}
+
+}  // namespace
+
+LoadedImage read_image(const std::string& path, int expect_w, int expect_h,
+                       const std::vector<uint8_t>* rows, bool zero_others) {
+  check_image_file(path);
   LoadedImage out;
   if (lower_ext(path) == ".exr") {
     out.image = read_exr(path, expect_w, expect_h, rows, zero_others);
@@ -540,11 +550,7 @@ LoadedImage read_image(const std::string& path, int expect_w, int expect_h,
 }
 
 std::unique_ptr<CodeRows> read_image_rows(const std::string& path) {
-  std::error_code ec;
-  const auto st = std::filesystem::status(path, ec);
-  if (!std::filesystem::exists(st)) throw Error(path + ": file not found");
-  if (!std::filesystem::is_regular_file(st))
-    throw Error(path + ": not a regular file (a folder, device or FIFO is not read)");
+  check_image_file(path);
   if (lower_ext(path) == ".exr") return nullptr;
   const SizeCheck check = [&](long long w, long long h) { check_declared_size(path, w, h, 0, 0); };
   switch (sniff_image(path)) {

@@ -20,8 +20,8 @@
 #include "io/formats/capture.h"
 #include "io/formats/material_io.h"
 #include "io/images/image_io.h"
-#include "photo/lamps/lamps.h"
 #include "photo/import/overlay.h"
+#include "photo/lamps/lamps.h"
 #include "photo/shoot/calibrate.h"
 #include "photo/shoot/merge.h"
 #include "photo/shoot/raw.h"
@@ -709,10 +709,9 @@ void find_vignetting(const Shoot& s, std::vector<Detected>& det, ImportResult* r
   std::vector<const Light*> lights(det.size(), nullptr);
   std::vector<double> sigma(det.size(), kDefaultLampSigmaM);
   for (size_t i = 0; i < det.size(); ++i) {
-    paper[i] = det[i].paper;
+    paper[i] = std::move(det[i].paper);  // read as it is by the fit, through V after it
     const ShootPhoto& ph = s.photos[i];
-    if (ph.lights.size() == 1 && ph.lights[0].type == Light::Type::kPoint)
-      lights[i] = &ph.lights[0];
+    if (ph.lights.size() == 1 && inverse_square_point(ph.lights[0])) lights[i] = &ph.lights[0];
     sigma[i] = sigma_of(ph, 0);
   }
   const Vignetting v =
@@ -720,7 +719,7 @@ void find_vignetting(const Shoot& s, std::vector<Detected>& det, ImportResult* r
   r->vignetting = v;
   if (!v.applied) return;
   tbb::parallel_for(size_t(0), det.size(), [&](size_t i) {
-    if (det[i].paper.empty()) return;
+    if (paper[i].empty()) return;
     std::vector<PaperSample> p = paper[i], c = det[i].card;
     correct_vignetting(v, &p);
     correct_vignetting(v, &c);

@@ -109,8 +109,8 @@ class BoardAlbedo {
 
 struct PhotoSetup {
   Mat4 world_from_camera;
-  Light lamp;                // the key lamp, opposite the camera
-  std::vector<Light> lamps;  // every lamp of the photo: the key lamp and, with fill_lamp, a fill
+  // Every lamp of the photo: the key lamp opposite the camera and, with fill_lamp, a fill.
+  std::vector<Light> lamps;
 };
 
 // Camera i of n: 12-42 degrees from the board's normal at golden-angle azimuths, 0.45-0.6 m from
@@ -141,14 +141,15 @@ PhotoSetup photo_setup(const PhotoShootOptions& o, int i, const Vec3& centre,
       std::clamp(polar + deg_to_rad(12 * uni(rng)), deg_to_rad(5.0), deg_to_rad(70.0));
   const double la = azimuth + M_PI + deg_to_rad(35 * uni(rng));
   const double ld = 0.5 + 0.3 * (0.5 + 0.5 * uni(rng));
-  s.lamp.type = Light::Type::kPoint;
-  s.lamp.position =
+  Light key;
+  key.type = Light::Type::kPoint;
+  key.position =
       centre + Vec3(std::sin(lp) * std::cos(la), std::sin(lp) * std::sin(la), -std::cos(lp)) * ld;
-  s.lamp.intensity = {ld * ld, ld * ld, ld * ld};
-  s.lamps = {s.lamp};
+  key.intensity = {ld * ld, ld * ld, ld * ld};
+  s.lamps = {key};
   if (o.fill_lamp) {  // beside the camera, higher, at 0.4 of the key's irradiance
     const double fp = deg_to_rad(35.0), fa = azimuth + deg_to_rad(70.0), fd = 0.6;
-    Light fill = s.lamp;
+    Light fill = key;
     fill.position =
         centre + Vec3(std::sin(fp) * std::cos(fa), std::sin(fp) * std::sin(fa), -std::cos(fp)) * fd;
     fill.intensity = {0.4 * fd * fd, 0.4 * fd * fd, 0.4 * fd * fd};
@@ -391,8 +392,8 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
       if (o.hide_intensity) l.intensity = {1, 1, 1};
       written.back().push_back(l);
     }
-    lamps.push_back({{"position_m", jsonu::to_json(su.lamp.position)},
-                     {"intensity", jsonu::to_json(su.lamp.intensity)}});
+    lamps.push_back({{"position_m", jsonu::to_json(su.lamps[0].position)},
+                     {"intensity", jsonu::to_json(su.lamps[0].intensity)}});
     if (o.fill_lamp)
       fills.push_back({{"position_m", jsonu::to_json(su.lamps[1].position)},
                        {"intensity", jsonu::to_json(su.lamps[1].intensity)}});

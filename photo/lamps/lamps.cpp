@@ -283,19 +283,32 @@ void intensity_at(const std::vector<PaperSample>& paper, const double p[3], doub
   for (int c = 0; c < 3; ++c) a[c] = gg > 0 ? gv[c] / gg : 0;
 }
 
-// The robust relative spread of the paper about the shading at p, a: 1.4826 MAD.
-double relative_spread(const std::vector<PaperSample>& paper, const double p[3],
-                       const double a[3]) {
+// The robust relative spread of the samples' readings about a model of them, 1.4826 MAD of
+// |v / m - 1| over every channel the model holds positive; `model(sample, m)` fills m[3]. NaN where
+// it holds none.
+template <class Model>
+double spread_about(const std::vector<PaperSample>& samples, const Model& model) {
   std::vector<double> e;
-  e.reserve(3 * paper.size());
-  for (const auto& s : paper) {
-    const double g = shading(p, s.x, s.y);
+  e.reserve(3 * samples.size());
+  for (const auto& s : samples) {
+    double m[3];
+    model(s, m);
     for (int c = 0; c < 3; ++c)
-      if (a[c] * g > 0) e.push_back(std::abs(s.rgb[c] / (a[c] * g) - 1));
+      if (m[c] > 0) e.push_back(std::abs(s.rgb[c] / m[c] - 1));
   }
-  if (e.empty()) return 1;
+  if (e.empty()) return NAN;
   std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
   return 1.4826 * e[e.size() / 2];
+}
+
+// The spread of the paper about the shading at p, a (1 where nothing is lit).
+double relative_spread(const std::vector<PaperSample>& paper, const double p[3],
+                       const double a[3]) {
+  const double s = spread_about(paper, [&](const PaperSample& sm, double m[3]) {
+    const double g = shading(p, sm.x, sm.y);
+    for (int c = 0; c < 3; ++c) m[c] = a[c] * g;
+  });
+  return std::isnan(s) ? 1 : s;
 }
 
 }  // namespace
@@ -376,12 +389,9 @@ LampFound find_lamp(const std::vector<PaperSample>& paper, const Light& light, d
   f.found_intensity = light.intensity;
   f.prior_sigma_m = sigma_m;
   f.points = paper.size();
-  if (light.type != Light::Type::kPoint) {
-    f.why = "not a point lamp";
-    return f;
-  }
-  if (light.attenuation[0] != 0 || light.attenuation[1] != 0 || light.attenuation[2] != 1) {
-    f.why = "its attenuation is not the inverse square";
+  if (!inverse_square_point(light)) {
+    f.why = light.type != Light::Type::kPoint ? "not a point lamp"
+                                              : "its attenuation is not the inverse square";
     return f;
   }
   constexpr size_t kMinPoints = 60;
@@ -449,16 +459,10 @@ void read_card(const std::vector<PaperSample>& card, std::vector<LampFound>* lam
     }
     c[ch] = ss > 0 ? sv / ss : 0;
   }
-  std::vector<double> e;
-  for (const auto& sm : card)
-    for (int ch = 0; ch < 3; ++ch) {
-      const double m = c[ch] * paper_at(sm, ch);
-      if (m > 0) e.push_back(std::abs(sm.rgb[ch] / m - 1));
-    }
-  if (e.empty()) return;
-  std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
-  const double spread = 1.4826 * e[e.size() / 2];
-  constexpr double kEvenCard = 0.1;
+  const double spread = spread_about(card, [&](const PaperSample& sm, double m[3]) {
+    for (int ch = 0; ch < 3; ++ch) m[ch] = c[ch] * paper_at(sm, ch);
+  });
+  constexpr double kEvenCard = 0.1;  // NaN (nothing lit) fails it too
   if (!(c[0] > 0 && c[1] > 0 && c[2] > 0) || !(spread < kEvenCard)) return;
   // One reading of the photo, kept on its first lamp.
   LampFound& f = lamps->front();
@@ -506,8 +510,7 @@ std::vector<LampFound> find_lamps_together(const std::vector<PaperSample>& paper
     return out;
   };
   for (const Light& l : lights)
-    if (l.type != Light::Type::kPoint || l.attenuation[0] != 0 || l.attenuation[1] != 0 ||
-        l.attenuation[2] != 1)
+    if (!inverse_square_point(l))
       return fail("the photo's lights are not all point lamps of inverse-square falloff");
   constexpr size_t kMinPointsPerLamp = 60;
   if (paper.size() < kMinPointsPerLamp * K)
@@ -562,18 +565,15 @@ std::vector<LampFound> find_lamps_together(const std::vector<PaperSample>& paper
     }
     const ceres::Solver::Options so = lamp_solver(ceres::DENSE_QR);
     ceres::Solve(so, pb.get(), &summary);
-    // The spread of the paper about the lamps' summed shading (1.4826 MAD, relative).
-    std::vector<double> e;
-    for (const auto& sm : paper)
-      for (int c = 0; c < 3; ++c) {
-        double m = 0;
-        for (size_t k = 0; k < K; ++k) m += a[k][c] * shading(p[k].data(), sm.x, sm.y);
-        if (m > 0) e.push_back(std::abs(sm.rgb[c] / m - 1));
+    // The spread of the paper about the lamps' summed shading.
+    const double s = spread_about(paper, [&](const PaperSample& sm, double m[3]) {
+      m[0] = m[1] = m[2] = 0;
+      for (size_t k = 0; k < K; ++k) {
+        const double g = shading(p[k].data(), sm.x, sm.y);
+        for (int c = 0; c < 3; ++c) m[c] += a[k][c] * g;
       }
-    if (!e.empty()) {
-      std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
-      spread = std::max(1.4826 * e[e.size() / 2], 1e-4);
-    }
+    });
+    if (!std::isnan(s)) spread = std::max(s, 1e-4);
   }
   if (!summary.IsSolutionUsable())
     return fail("the paper's shading did not settle (" + summary.message + ")");

@@ -183,8 +183,7 @@ std::vector<BoardCorner> detect_board(const Image& grey, const BoardSpec& b, int
   std::vector<uint8_t> bytes(static_cast<size_t>(grey.width) * grey.height);
   for (int y = 0; y < grey.height; ++y)
     for (int x = 0; x < grey.width; ++x)
-      bytes[static_cast<size_t>(y) * grey.width + x] =
-          static_cast<uint8_t>(std::lround(255.0 * std::clamp(double(grey.at(x, y, 0)), 0.0, 1.0)));
+      bytes[static_cast<size_t>(y) * grey.width + x] = detector_byte(grey.at(x, y, 0));
   return detect_board(bytes.data(), grey.width, grey.height, b, markers);
 }
 

@@ -3,7 +3,10 @@
 // names it. The board frame is OpenCV's: origin at the top-left outer corner as drawn, x right, y
 // down the printed image, metres; z = x × y points into the board.
 #pragma once
+#include <algorithm>
 #include <array>
+#include <cmath>
+#include <cstdint>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
@@ -59,7 +62,12 @@ struct BoardCorner {
 };
 std::vector<BoardCorner> detect_board(const Image& grey, const BoardSpec& b,
                                       int* markers = nullptr);
-// The same on an 8-bit image of width x height, row by row.
+// A grey value in [0, 1] as the byte the detector sees.
+inline uint8_t detector_byte(double v) {
+  return static_cast<uint8_t>(std::lround(255.0 * std::clamp(v, 0.0, 1.0)));
+}
+// The same on an 8-bit image of width x height, row by row (the image above is read through
+// detector_byte).
 std::vector<BoardCorner> detect_board(const uint8_t* grey, int width, int height,
                                       const BoardSpec& b, int* markers = nullptr);
 

@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "io/files/files.h"
 #include "io/images/image_io.h"
+#include "photo/shoot/board.h"
 #include "photo/shoot/raw.h"
 
 namespace aniso {
@@ -102,9 +103,7 @@ std::vector<uint8_t> detection_image(const Image& rgb, const std::vector<uint8_t
   }
   std::array<uint8_t, 4097> enc;
   for (size_t i = 0; i < enc.size(); ++i)
-    enc[i] = static_cast<uint8_t>(std::lround(
-        255.0 *
-        std::clamp(static_cast<double>(static_cast<float>(srgb_encode(i / 4096.0))), 0.0, 1.0)));
+    enc[i] = detector_byte(static_cast<float>(srgb_encode(i / 4096.0)));
   std::vector<uint8_t> grey(n);
   const float scale = static_cast<float>(4096 / white);
   tbb::parallel_for(
