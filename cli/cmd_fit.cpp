@@ -133,7 +133,7 @@ void print_report(FILE* o, const FitResult& r) {
     std::fprintf(o, "fit: UNDETERMINED %s: %s\n", k.c_str(), why.c_str());
   for (const auto& s : p.model_summaries) std::fprintf(o, "fit: --model auto: %s\n", s.c_str());
   if (!p.model_selection.empty())
-    std::fprintf(o, "fit: --model auto: %s\n", p.model_selection.c_str());
+    std::fprintf(o, "fit: model selection: %s\n", p.model_selection.c_str());
   for (const auto& w : p.warnings) std::fprintf(o, "fit: WARNING: %s\n", w.c_str());
   for (const auto& n : p.notes) std::fprintf(o, "fit: note: %s\n", n.c_str());
 }
@@ -215,7 +215,7 @@ std::string options_fingerprint(const FitOptions& fo) {
                 fo.max_iterations, static_cast<int>(fo.loss), fo.fiber_order, fo.topology_texels,
                 fo.ceres_solver, fo.ceres_covariance, fo.maps_w, fo.maps_h, fo.maps_ceres,
                 fo.maps_smooth, fo.maps_sweeps, fo.maps_iterations);
-  return text_fingerprint(text);
+  return text_fingerprint(std::string(text) + (fo.keep_anisotropic ? " keep_anisotropic" : ""));
 }
 
 void parse_tile(const std::string& tile, FitOptions* fo) {
@@ -276,6 +276,7 @@ bool share_global_fit(const std::string& in, const MpiWorld* world, FitOptions* 
       g.maps_w = g.maps_h = 0;
       g.maps_smooth = 0;
       g.tile_index = g.tile_count = 0;
+      g.test_isotropic = false;  // the texels' start: the anisotropic fit whatever BIC says
       const FitResult r = fit_capture(read_capture(in), g);
       bytes = fit_text(r);
       std::printf(
@@ -388,7 +389,7 @@ void measured_fit_report(const RglBsdf& b, const SampleTable& table, FitResult* 
                 "report.measured)",
                 r->report.measured_rel_rms, r->report.measured_median_rel);
   r->report.warnings.push_back(buf);
-  if (b.isotropic()) {
+  if (b.isotropic() && !r->report.anisotropy.isotropic_written) {
     r->sigma.erase("fiber_angle_deg");
     r->undetermined["fiber_angle_deg"] =
         "the measured file is isotropic (its phi_i grid has " + std::to_string(b.phi_i().size()) +
@@ -648,6 +649,10 @@ Command add_fit(CLI::App& app) {
       ->transform(CLI::CheckedTransformer(losses));
   fit->add_flag("--fit-isotropic", fo.fit_isotropic,
                 "also fit the isotropic (Lambert + Blinn-Phong) term");
+  fit->add_flag("--keep-anisotropic", fo.keep_anisotropic,
+                "where the isotropic part alone (Lambert + Blinn-Phong) fits the data better by "
+                "BIC, keep the anisotropic fit (its fiber direction marked undetermined) instead "
+                "of writing the isotropic material");
   fit->add_flag("--fit-second-fiber", fo.fit_second,
                 "also fit a second fiber direction and its weight (woven cloth)");
   fit->add_option("--topology-map", fo.topology_texels,

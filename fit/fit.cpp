@@ -16,6 +16,7 @@
 #include "core/angles.h"
 #include "core/error.h"
 #include "core/timer.h"
+#include "fit/global/isotropic_alternative.h"
 #include "fit/global/solve.h"
 #include "fit/maps/maps.h"
 #include "fit/maps/maps_bands.h"
@@ -217,6 +218,12 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
                   " model fit: --maps fits the same model (give --model " + model_name(given) +
                   ", or leave --model out)");
     const Material& gm = opt.global->material;
+    const bool lobe = gm.kd[0] + gm.kd[1] + gm.kd[2] + gm.ks[0] + gm.ks[1] + gm.ks[2] > 0;
+    if (!lobe && gm.isotropic_active())
+      throw Error("fit: --global " + opt.global->file +
+                  ": it is the isotropic part alone (that fit found no anisotropic lobe, "
+                  "report.anisotropy_test): fit the global values again with --keep-anisotropic "
+                  "to start the texels from the anisotropic fit");
     if (gm.isotropic_active() || gm.second_active())
       throw Error("fit: --global " + opt.global->file +
                   ": it has an isotropic term or a second fiber; --maps fits the plain line model "
@@ -231,9 +238,12 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
                   ": give the global fit of this capture");
     return maps_on_given_global(given, os, opt, rep, bands);
   }
-  if (opt.model != FitModel::kAuto)
-    return fit_one_model(opt.model == FitModel::kFiber ? Model::kFiber : Model::kLine, os, opt, rep,
-                         ka);
+  if (opt.model != FitModel::kAuto) {
+    FitResult r = fit_one_model(opt.model == FitModel::kFiber ? Model::kFiber : Model::kLine, os,
+                                opt, rep, ka);
+    test_isotropic_alternative(os, opt, &r);
+    return r;
+  }
   const bool tty = opt.progress && ::isatty(2);
   if (tty) std::fprintf(stderr, "fit: --model auto: 1/2 the line model\n");
   FitResult rl = fit_one_model(Model::kLine, os, opt, rep, ka);
@@ -259,6 +269,7 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
     r.report.model_summaries.push_back(buf);
   }
   r.report.seconds_solve = rl.report.seconds_solve + rf.report.seconds_solve;
+  test_isotropic_alternative(os, opt, &r);
   return r;
 }
 
@@ -349,6 +360,7 @@ FitResult maps_after_subsampled_global(const CaptureSet& set, const FitOptions& 
   g.maps_w = g.maps_h = 0;
   g.maps_smooth = 0;
   g.subsample = opt.subsample * k;
+  g.test_isotropic = false;
   const FitResult gr = fit_capture(set, g);
   FitOptions m = opt;
   m.global = given_global(fit_text(gr), "this fit's global fit", set.dir);

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Per-texel maps of one capture set over many machines with Slurm: one job fits the global
-# parameters (`aniso fit CAPTURE --subsample $GLOBAL_SUBSAMPLE`, into OUT_DIR/global.json), then a
+# parameters (`aniso fit CAPTURE --subsample $GLOBAL_SUBSAMPLE --keep-anisotropic`, into
+# OUT_DIR/global.json), then a
 # job array whose task i fits the texel rows of tile i of N from it (`aniso fit --maps WxH
 # --global OUT_DIR/global.json --tile i/N`: each task keeps only the pixels whose uv falls in its
 # rows), then a job that runs when all of them succeeded and merges the tiles (`aniso merge`) into
@@ -26,7 +27,7 @@ aniso=${ANISO:-"$(cd "$(dirname "$0")/.." && pwd)/build/aniso"}
 mkdir -p "$out/tiles"
 tiles=()
 for ((i = 0; i < n; i++)); do tiles+=("$out/tiles/tile_$i.json"); done
-global="\"$aniso\" fit \"$capture\" --model ${MODEL:-line} --subsample ${GLOBAL_SUBSAMPLE:-1} --out \"$out/global.json\""
+global="\"$aniso\" fit \"$capture\" --model ${MODEL:-line} --subsample ${GLOBAL_SUBSAMPLE:-1} --keep-anisotropic --out \"$out/global.json\""
 task="\"$aniso\" fit \"$capture\" --maps $grid --model ${MODEL:-line} ${FIT_OPTIONS:-} --global \"$out/global.json\" --tile \${SLURM_ARRAY_TASK_ID}/$n --out \"$out/tiles/tile_\${SLURM_ARRAY_TASK_ID}.json\""
 merge="\"$aniso\" merge ${tiles[*]} --out \"$out/material.json\""
 if [ "$mode" = local ]; then

@@ -520,6 +520,7 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
   // bit.
   FitOptions g;
   g.progress = false;
+  g.keep_anisotropic = true;  // a global fit for --global, as docs/maps.md asks
   g.subsample = 2;
   const FitResult global = fit_capture(set, g);
   FitOptions opt;
@@ -581,6 +582,7 @@ TEST(FitMaps, APlainMapsFitTakesAtMostItsGlobalPixels) {
   EXPECT_GE(k, 7);  // sqrt(40) = 6.3
   FitOptions g;
   g.progress = false;
+  g.keep_anisotropic = true;  // a global fit for --global, as docs/maps.md asks
   g.subsample = k;
   const FitResult global = fit_capture(set, g);
   EXPECT_LE(static_cast<double>(global.report.pixels), opt.maps_global_pixels);

@@ -910,7 +910,7 @@ TEST(FitMaps, TexelsWhoseValuesTheDataDoNotKnowAreNamed) {
     auto r = test::run_cli("synth swirl-plate " + set + " --noise 0.01 --size 64x64 --views " +
                            std::to_string(views));
     ASSERT_EQ(r.status, 0) << r.output;
-    r = test::run_cli("fit " + set + " --subsample 4 --out " + set + "_g.json");
+    r = test::run_cli("fit " + set + " --subsample 4 --keep-anisotropic --out " + set + "_g.json");
     ASSERT_EQ(r.status, 0) << r.output;
     r = test::run_cli("fit " + set + " --maps 8x8 --global " + set + "_g.json --out " + set +
                       "_m.json");

@@ -100,7 +100,8 @@ TEST(FitMaps, ATileWhoseRowsNoPixelReachesIsWrittenUndetermined) {
   const std::string dir = test::tmp_dir("tiles");
   auto r = test::run_cli("synth satin-ball " + dir + "/set --noise 0.01 --size 64x64 --views 8");
   ASSERT_EQ(r.status, 0) << r.output;
-  r = test::run_cli("fit " + dir + "/set --subsample 2 --out " + dir + "/global.json");
+  r = test::run_cli("fit " + dir + "/set --subsample 2 --keep-anisotropic --out " + dir +
+                    "/global.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const std::string maps = " --maps 16x16 --global " + dir + "/global.json";
   r = test::run_cli("fit " + dir + "/set" + maps + " --out " + dir + "/whole.json");
@@ -237,7 +238,7 @@ TEST(FitMaps, TilesFromAFullGlobalFitReproduceThePlainRun) {
   auto report = [](const std::string& f) {
     return nlohmann::json::parse(read_text_file(f))["fit"]["report"];
   };
-  r = test::run_cli("fit " + dir + "/set --out " + dir + "/full.json");
+  r = test::run_cli("fit " + dir + "/set --keep-anisotropic --out " + dir + "/full.json");
   ASSERT_EQ(r.status, 0) << r.output;
   r = test::run_cli("fit " + dir + "/set --maps 8x6 --out " + dir + "/plain.json");
   ASSERT_EQ(r.status, 0) << r.output;
@@ -262,7 +263,8 @@ TEST(FitMaps, TilesFromAFullGlobalFitReproduceThePlainRun) {
   // (each texel starts from its k_d, k_s, n and s, and takes the lowest order its own values
   // allow: here order 3 where the global fit took 4) and reproduce the plain untiled run byte for
   // byte.
-  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 4 --out " + dir + "/gf.json");
+  r = test::run_cli("fit " + dir + "/set --model fiber --subsample 4 --keep-anisotropic --out " +
+                    dir + "/gf.json");
   ASSERT_EQ(r.status, 0) << r.output;
   r = test::run_cli("fit " + dir + "/set --model fiber --subsample 4 --maps 8x8 --out " + dir +
                     "/fw.json");
@@ -335,8 +337,8 @@ TEST(FitMaps, BandsOfRowsGiveOneBandsMapsAndCounts) {
   EXPECT_GT(k, 1) << plain["report"].dump();
   EXPECT_GT(plain["report"].value("maps_bands", 0), 1) << plain["report"].dump();
   EXPECT_FALSE(plain["report"].contains("global_from")) << plain["report"].dump();
-  r = test::run_cli("fit " + dir + "/set --subsample " + std::to_string(k) + " --out " + dir +
-                    "/gk.json");
+  r = test::run_cli("fit " + dir + "/set --subsample " + std::to_string(k) +
+                    " --keep-anisotropic --out " + dir + "/gk.json");
   ASSERT_EQ(r.status, 0) << r.output;
   r = test::run_cli("fit " + dir + "/set --maps 8x6 --maps-memory 0.01 --global " + dir +
                     "/gk.json --out " + dir + "/byhand.json");

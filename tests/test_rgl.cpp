@@ -204,6 +204,11 @@ TEST(RglBsdf, AnAnisotropicFileRoundTripsAndFitsBackToItsMaterial) {
   EXPECT_NEAR(j["fiber_angle_deg"].get<double>(), 30, 1.0);
   EXPECT_NEAR(j["n"].get<double>() / 20, 1, 0.1);
   EXPECT_LT(j["report"]["measured"]["relative_rms"].get<double>(), 0.05);
+  const auto& test = j["report"]["anisotropy_test"];
+  std::printf("anisotropy test: BIC %.1f anisotropic, %.1f isotropic\n",
+              test["bic_anisotropic"].get<double>(), test["bic_isotropic"].get<double>());
+  EXPECT_EQ(test["preferred"], "anisotropic");
+  EXPECT_GT(test["bic_isotropic"].get<double>() - test["bic_anisotropic"].get<double>(), 100.0);
   // aniso report: the file's lobe against the fitted one, in the fiber's frame.
   r = test::run_cli("report " + dir + "/m.json --capture " + path + " --out " + dir + "/rep");
   ASSERT_EQ(r.status, 0) << r.output;
@@ -237,6 +242,54 @@ TEST(RglBsdf, AnIsotropicFileGetsNoFiberDirection) {
   EXPECT_NE(j["undetermined"]["fiber_angle_deg"].get<std::string>().find("isotropic"),
             std::string::npos);
   EXPECT_GE(j["report"]["measured"]["by_view_angle"].size(), 5u);
+}
+
+// A file on an anisotropic grid of a material without anisotropy (Lambert + Blinn-Phong): the
+// line model's fit would report a fiber direction with a sigma; the isotropic part alone wins by
+// BIC and is what is written, without one. --keep-anisotropic keeps the line fit, its direction
+// undetermined.
+TEST(RglBsdf, AnIsotropicMaterialOnAnAnisotropicGridGetsNoFiberDirection) {
+  Material m;
+  m.kd = {0, 0, 0};
+  m.ks = {0, 0, 0};
+  m.has_isotropic = true;
+  m.iso_kd = {0.25, 0.2, 0.15};
+  m.iso_ks = {0.5, 0.5, 0.5};
+  m.iso_n = 30;
+  const std::string dir = test::tmp_dir("rgl_iso_grid");
+  const std::string path = dir + "/plastic.bsdf";
+  write_text_file(path, tensor_bytes(file_of(m, 25, 9, 33)));
+  EXPECT_FALSE(RglBsdf::read(path).isotropic());
+  auto r = test::run_cli("fit " + path + " --out " + dir + "/m.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("no anisotropic lobe"), std::string::npos) << r.output;
+  auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
+  const auto& test = j["report"]["anisotropy_test"];
+  std::printf(
+      "isotropic material: BIC %.1f anisotropic, %.1f isotropic; k_d,iso %.4f, k_s,iso "
+      "%.4f, n_iso %.2f, relative RMS %.2e\n",
+      test["bic_anisotropic"].get<double>(), test["bic_isotropic"].get<double>(),
+      j["isotropic"]["kd"][0].get<double>(), j["isotropic"]["ks"][0].get<double>(),
+      j["isotropic"]["n"].get<double>(), j["report"]["measured"]["relative_rms"].get<double>());
+  EXPECT_EQ(test["preferred"], "isotropic");
+  EXPECT_EQ(test["written"], "isotropic");
+  EXPECT_TRUE(j["uncertainty"]["fiber_angle_deg"].is_null()) << j["uncertainty"].dump();
+  EXPECT_NE(j["undetermined"]["fiber_angle_deg"].get<std::string>().find("no anisotropic lobe"),
+            std::string::npos);
+  EXPECT_NEAR(j["isotropic"]["kd"][0].get<double>(), 0.25, 0.0025);
+  EXPECT_NEAR(j["isotropic"]["ks"][1].get<double>(), 0.5, 0.005);
+  EXPECT_NEAR(j["isotropic"]["n"].get<double>(), 30, 0.3);
+  EXPECT_LT(j["report"]["measured"]["relative_rms"].get<double>(), 0.01);
+  EXPECT_TRUE(j["uncertainty"]["isotropic"].is_object()) << j["uncertainty"].dump();
+
+  r = test::run_cli("fit " + path + " --keep-anisotropic --out " + dir + "/k.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  j = nlohmann::json::parse(read_text_file(dir + "/k.json"));
+  EXPECT_EQ(j["report"]["anisotropy_test"]["written"], "anisotropic");
+  EXPECT_TRUE(j["uncertainty"]["fiber_angle_deg"].is_null()) << j["uncertainty"].dump();
+  EXPECT_NE(j["undetermined"]["fiber_angle_deg"].get<std::string>().find("--keep-anisotropic"),
+            std::string::npos);
+  EXPECT_GT(j["kd"][0].get<double>() + j["ks"][0].get<double>(), 0.1);
 }
 
 // Hostile files: each refused naming what is wrong, before anything is allocated past the file.

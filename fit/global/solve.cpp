@@ -75,6 +75,20 @@ ceres::Solver::Options solver_options(const FitOptions& opt) {
   return so;
 }
 
+}  // namespace
+
+ceres::LossFunction* make_loss(FitLoss loss, double scale) {
+  switch (loss) {
+    case FitLoss::kHuber:
+      return new ceres::HuberLoss(scale);
+    case FitLoss::kCauchy:
+      return new ceres::CauchyLoss(scale);
+    case FitLoss::kNone:
+      break;
+  }
+  return nullptr;
+}
+
 // Does the model describe the data? The residual RMS of a model that fits is about the noise of
 // the images (neighbouring pixels tell it, whatever the model); a systematic misfit makes it
 // larger. Without images (tables) the robust sigma of the residuals stands in. Noise-free data
@@ -106,6 +120,8 @@ std::string misfit_warning(const ObsSet& os, const FitReport& rep) {
   return buf;
 }
 
+namespace {
+
 // Adds one round's summary to the running one (iterations, evaluations, termination).
 void accumulate(const ceres::Solver::Summary& round, bool first, ceres::Solver::Summary* sum) {
   sum->iterations.insert(sum->iterations.end(), round.iterations.begin() + (first ? 0 : 1),
@@ -121,19 +137,6 @@ std::unique_ptr<ceres::Problem> new_problem() {
   po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   return std::make_unique<ceres::Problem>(po);
-}
-
-// The robust loss of --loss at the given scale (null for none).
-ceres::LossFunction* make_loss(FitLoss loss, double scale) {
-  switch (loss) {
-    case FitLoss::kHuber:
-      return new ceres::HuberLoss(scale);
-    case FitLoss::kCauchy:
-      return new ceres::CauchyLoss(scale);
-    case FitLoss::kNone:
-      break;
-  }
-  return nullptr;
 }
 
 // Robust loss by iteratively reweighted least squares: per pixel w = rho'(|r|^2) of the loss

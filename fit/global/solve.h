@@ -32,6 +32,13 @@ struct Solution {
 // timings and misfit warning. The model's blocks hold the solution.
 Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* rep);
 
+// The robust loss of --loss at the given scale (null for none).
+ceres::LossFunction* make_loss(FitLoss loss, double scale);
+
+// Does the model describe the data? The warning to give where the residual RMS of `rep` is well
+// above the images' noise (or the residuals' robust sigma for tables), else "".
+std::string misfit_warning(const ObsSet& os, const FitReport& rep);
+
 // The start's second look: settled from the other valley of the start's grid too (m->other), the
 // fit goes on from the lower of the two; where the whole set would not tell them apart (their sums
 // of squares on the subset, scaled to the whole set's pixels, within kAsWellSigma2), the other is

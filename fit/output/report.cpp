@@ -269,6 +269,22 @@ jsonu::json report_json(const FitReport& p) {
   if (p.global_subsample > 0) j["global_subsample"] = p.global_subsample;
   if (p.implausible_limit > 0) j["implausible_limit"] = p.implausible_limit;
   if (!p.model_selection.empty()) j["model_selection"] = p.model_selection;
+  if (p.anisotropy.tested) {
+    const auto& t = p.anisotropy;
+    j["anisotropy_test"] = {
+        {"values", t.values},
+        {"bic_anisotropic", t.bic_anisotropic},
+        {"bic_isotropic", t.bic_isotropic},
+        {"lobe_share", t.lobe_share},
+        {"preferred", t.isotropic_preferred ? "isotropic" : "anisotropic"},
+        {"bic_line_with_isotropic",
+         t.with_both_tested ? jsonu::json(t.bic_with_both) : jsonu::json(nullptr)},
+        {"written", t.isotropic_written ? "isotropic" : "anisotropic"},
+        {"isotropic",
+         {{"kd", {t.iso_kd[0], t.iso_kd[1], t.iso_kd[2]}},
+          {"ks", {t.iso_ks[0], t.iso_ks[1], t.iso_ks[2]}},
+          {"n", t.iso_n}}}};
+  }
   if (!p.warnings.empty()) j["warnings"] = p.warnings;
   if (!p.notes.empty()) j["notes"] = p.notes;
   if (p.measured_rel_rms >= 0) {

@@ -93,6 +93,12 @@ struct FitOptions {
   FitModel model = FitModel::kLine;
   bool fit_isotropic = false;
   bool fit_second = false;
+  // --keep-anisotropic: where an isotropic model fits the data better by BIC, keep the fitted
+  // anisotropic material (its fiber direction undetermined) instead of writing the isotropic one.
+  bool keep_anisotropic = false;
+  // The global fit's comparison with the isotropic part alone: off for the global fit a --maps
+  // fit starts its texels from (every texel is fitted with the anisotropic model).
+  bool test_isotropic = true;
   int subsample = 1;  // use every k-th pixel in x and y
   int max_iterations = 200;
   int threads = 2;  // every phase of the fit: loading, solving, the maps' texels
@@ -251,6 +257,22 @@ struct FitReport {
   double rss = 0, bic = 0;
   size_t parameters = 0;
   std::string model_selection;  // --model auto: the comparison and why
+  // The fitted material against the isotropic part alone, by BIC on the same values
+  // (fit/global/isotropic_alternative.h); tested false where the fit had no such test.
+  struct AnisotropyTest {
+    bool tested = false;
+    size_t values = 0;  // observations x channels compared
+    double bic_anisotropic = 0, bic_isotropic = 0;
+    // Where the isotropic part beat the fitted material: the line model with the isotropic part
+    // (both lobes), whose BIC tells whether an anisotropic lobe is there at all.
+    bool with_both_tested = false;
+    double bic_with_both = 0;
+    // What the better model with a lobe draws of the signal's energy beyond the isotropic part.
+    double lobe_share = -HUGE_VAL;
+    bool isotropic_preferred = false;
+    bool isotropic_written = false;  // the material written is the isotropic one
+    double iso_kd[3] = {0, 0, 0}, iso_ks[3] = {0, 0, 0}, iso_n = 0;  // its fit on `values`
+  } anisotropy;
   // Said plainly to the user and recorded in the file: a fit that may be wrong (the model does
   // not describe the data, ...), with the likely cause.
   std::vector<std::string> warnings;
