@@ -20,8 +20,11 @@ inline constexpr size_t kIsotropicWrittenObservations = 200000;
 inline constexpr double kBicStrong = 10.0;
 
 // The share of the signal's energy (sum of |y|^2) a model with an anisotropic lobe must draw
-// beyond the isotropic part alone (1 % of its amplitude) for the lobe to count as shown.
-inline constexpr double kLobeShare = 1e-4;
+// beyond the isotropic part alone (about 3 % of its amplitude) for the lobe to count as shown:
+// the line model with both parts drew 2e-4 more of the isotropic paper_white's readings (a shape
+// the Blinn-Phong lobe misses), 0.016 of a GGX-rendered brushed metal's and 0.019 of a swirl
+// plate's (tests/test_rgl.cpp, tests/test_photo.cpp).
+inline constexpr double kLobeShare = 1e-3;
 
 struct IsotropicFit {
   double kd[3] = {0, 0, 0}, ks[3] = {0, 0, 0}, n = 20;
