@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
@@ -99,14 +100,19 @@ std::string float_bytes(const std::vector<float>& v) {
 
 // An anisotropic file of a material: the viewer on a (phi_i, theta_i) grid, NDF, VNDF and sigma
 // constant (so the inverse warp is the identity and ndf / 4 sigma is 1), and rgb holding
-// f_r cos(theta_L) at the grid's half vectors, the light the viewer's mirror about each.
-std::vector<TensorField> file_of(const Material& m, int nphi, int ntheta, int n) {
+// f_r cos(theta_L) at the grid's half vectors, the light the viewer's mirror about each. With
+// `nm`, a spectral file instead: "spectra" at those wavelengths, the material's red channel times
+// spectrum(nm).
+std::vector<TensorField> file_of(const Material& m, int nphi, int ntheta, int n,
+                                 const std::vector<float>& nm = {},
+                                 const std::function<double(double)>& spectrum = {}) {
+  const size_t channels = nm.empty() ? 3 : nm.size();
   const Evaluator ev(m);
   std::vector<float> phi(nphi), theta(ntheta);
   for (int i = 0; i < nphi; ++i) phi[i] = static_cast<float>(-M_PI + 2 * M_PI * i / (nphi - 1));
   for (int i = 0; i < ntheta; ++i)
     theta[i] = static_cast<float>(80.0 * M_PI / 180 * i / (ntheta - 1));
-  std::vector<float> rgb(static_cast<size_t>(nphi) * ntheta * 3 * n * n), ones(n * n, 1.f),
+  std::vector<float> rgb(static_cast<size_t>(nphi) * ntheta * channels * n * n), ones(n * n, 1.f),
       quarter(n * n, 0.25f), vndf(static_cast<size_t>(nphi) * ntheta * n * n, 1.f);
   for (int p = 0; p < nphi; ++p)
     for (int t = 0; t < ntheta; ++t) {
@@ -122,13 +128,23 @@ std::vector<TensorField> file_of(const Material& m, int nphi, int ntheta, int n)
           const LocalDir L{2 * d * hx - V.u, 2 * d * hy - V.w, 2 * d * hz - V.n};
           double f[3] = {0, 0, 0};
           if (L.n > 0) ev(L, V, f);
-          for (int c = 0; c < 3; ++c)
-            rgb[((static_cast<size_t>(p) * ntheta + t) * 3 + c) * n * n + y * n + x] =
-                static_cast<float>(f[c]);
+          for (size_t c = 0; c < channels; ++c)
+            rgb[((static_cast<size_t>(p) * ntheta + t) * channels + c) * n * n + y * n + x] =
+                static_cast<float>(nm.empty() ? f[c] : f[0] * spectrum(nm[c]));
         }
     }
   const std::vector<uint64_t> grid{uint64_t(n), uint64_t(n)};
-  return {
+  std::vector<TensorField> values{{"rgb",
+                                   10,
+                                   {uint64_t(nphi), uint64_t(ntheta), 3, uint64_t(n), uint64_t(n)},
+                                   float_bytes(rgb)}};
+  if (!nm.empty())
+    values = {{"wavelengths", 10, {uint64_t(nm.size())}, float_bytes(nm)},
+              {"spectra",
+               10,
+               {uint64_t(nphi), uint64_t(ntheta), uint64_t(nm.size()), uint64_t(n), uint64_t(n)},
+               float_bytes(rgb)}};
+  std::vector<TensorField> fields{
       {"description", 1, {4}, "test"},
       {"jacobian", 1, {1}, std::string("\x01", 1)},
       {"theta_i", 10, {uint64_t(ntheta)}, float_bytes(theta)},
@@ -139,11 +155,9 @@ std::vector<TensorField> file_of(const Material& m, int nphi, int ntheta, int n)
       {"luminance",
        10,
        {uint64_t(nphi), uint64_t(ntheta), uint64_t(n), uint64_t(n)},
-       float_bytes(vndf)},
-      {"rgb",
-       10,
-       {uint64_t(nphi), uint64_t(ntheta), 3, uint64_t(n), uint64_t(n)},
-       float_bytes(rgb)}};
+       float_bytes(vndf)}};
+  fields.insert(fields.end(), values.begin(), values.end());
+  return fields;
 }
 
 Material brushed_line() {
@@ -290,6 +304,90 @@ TEST(RglBsdf, AnIsotropicMaterialOnAnAnisotropicGridGetsNoFiberDirection) {
   EXPECT_NE(j["undetermined"]["fiber_angle_deg"].get<std::string>().find("--keep-anisotropic"),
             std::string::npos);
   EXPECT_GT(j["kd"][0].get<double>() + j["ks"][0].get<double>(), 0.1);
+}
+
+// A spectral file (the database's NAME_spectral.bsdf): its values at each wavelength are the
+// written ones (float rounding at the grid's nodes), a flat spectrum is grey in RGB, one of long
+// wavelengths alone is red, and it fits like an RGB file.
+TEST(RglBsdf, ASpectralFileReadsItsSpectraAndFitsInRgb) {
+  Material m = brushed_line();
+  m.kd = {0.2, 0.2, 0.2};
+  std::vector<float> nm;
+  for (float l = 360; l <= 830; l += 10) nm.push_back(l);
+  const std::string dir = test::tmp_dir("rgl_spectral");
+  const std::string flat = dir + "/flat.bsdf", red = dir + "/red.bsdf";
+  write_text_file(flat, tensor_bytes(file_of(m, 25, 9, 33, nm, [](double) { return 1.0; })));
+  write_text_file(
+      red, tensor_bytes(file_of(m, 25, 9, 33, nm, [](double l) { return l >= 600 ? 1.0 : 0.0; })));
+  const RglBsdf b = RglBsdf::read(flat), r = RglBsdf::read(red);
+  ASSERT_TRUE(b.spectral());
+  EXPECT_EQ(b.wavelengths(), nm);
+  const Evaluator ev(m);
+  double worst_spectrum = 0, worst_grey = 0, peak = 0;
+  std::array<float, 3> reddest{0, 0, 0};
+  for (int p = 0; p < 25; p += 4)
+    for (int t = 1; t < 9; t += 3) {
+      const double phi = b.phi_i()[p], theta = b.theta_i()[t];
+      const LocalDir V{std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
+                       std::cos(theta)};
+      for (int k = 0; k < 16; ++k) {  // half vectors on the grid's nodes
+        const double u = (k % 8) * 4.0 / 32, v = ((k * 7) % 32) / 32.0;
+        const double th = u * u * M_PI / 2, ph = (2 * v - 1) * M_PI;
+        const double hx = std::sin(th) * std::cos(ph), hy = std::sin(th) * std::sin(ph),
+                     hz = std::cos(th);
+        const double d = V.u * hx + V.w * hy + V.n * hz;
+        const LocalDir L{2 * d * hx - V.u, 2 * d * hy - V.w, 2 * d * hz - V.n};
+        if (L.n < 0.1) continue;
+        double f[3];
+        ev(L, V, f);
+        peak = std::max(peak, f[0]);
+        for (float s : b.eval_spectrum(L, V))
+          worst_spectrum = std::max(worst_spectrum, std::abs(s - f[0]));
+        for (float g : b.eval(L, V)) worst_grey = std::max(worst_grey, std::abs(g - f[0]));
+        const auto c = r.eval(L, V);
+        if (c[0] > reddest[0]) reddest = c;
+      }
+    }
+  std::printf(
+      "spectral file: spectra within %.2e of the written values, a flat spectrum's RGB "
+      "within %.2e of grey (peak %.3f); long wavelengths alone give RGB %.4f %.4f %.4f\n",
+      worst_spectrum, worst_grey, peak, reddest[0], reddest[1], reddest[2]);
+  EXPECT_LT(worst_spectrum, 2e-5 * peak);
+  EXPECT_LT(worst_grey, 1e-4 * peak);
+  EXPECT_GT(reddest[0], 5 * reddest[1]);
+  EXPECT_GT(reddest[0], 5 * reddest[2]);
+  EXPECT_TRUE(RglBsdf::read(kData + "paper_white_rgb.bsdf")
+                  .eval_spectrum(dir_from_angles(30, 0), dir_from_angles(30, 180))
+                  .empty());
+
+  auto res = test::run_cli("fit " + flat + " --out " + dir + "/m.json");
+  ASSERT_EQ(res.status, 0) << res.output;
+  const auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
+  std::printf("fit of the spectral file: psi %.3f, n %.2f, k_d %.4f %.4f %.4f\n",
+              j["fiber_angle_deg"].get<double>(), j["n"].get<double>(), j["kd"][0].get<double>(),
+              j["kd"][1].get<double>(), j["kd"][2].get<double>());
+  EXPECT_NEAR(j["fiber_angle_deg"].get<double>(), 30, 1.0);
+  EXPECT_NEAR(j["n"].get<double>() / 20, 1, 0.1);
+  EXPECT_NEAR(j["kd"][1].get<double>(), 0.2, 0.01);
+
+  // A spectral file whose wavelengths miss the visible range, or whose spectra disagree with them.
+  auto ir = file_of(m, 5, 3, 4, {1200.f, 1300.f}, [](double) { return 1.0; });
+  write_text_file(dir + "/ir.bsdf", tensor_bytes(ir));
+  try {
+    RglBsdf::read(dir + "/ir.bsdf");
+    ADD_FAILURE() << "an infrared file was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("wavelengths"), std::string::npos) << e.what();
+  }
+  auto wrong = file_of(m, 5, 3, 4, {500.f, 600.f}, [](double) { return 1.0; });
+  wrong.back().shape[2] = 1;
+  write_text_file(dir + "/wrong.bsdf", tensor_bytes(wrong));
+  try {
+    RglBsdf::read(dir + "/wrong.bsdf");
+    ADD_FAILURE() << "spectra of the wrong shape were read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("spectra"), std::string::npos) << e.what();
+  }
 }
 
 // Hostile files: each refused naming what is wrong, before anything is allocated past the file.

@@ -286,33 +286,50 @@ RglBsdf RglBsdf::read(const std::string& path) {
              " bytes): truncated?");
     fields[name] = f;
   }
-  if (fields.count("spectra") && !fields.count("rgb"))
-    throw Error(path +
-                ": a spectral file (field \"spectra\"): this reader takes the database's RGB "
-                "files (NAME_rgb.bsdf)");
+  // A spectral file has "spectra" over "wavelengths" where an RGB one has "rgb".
+  const bool spectral = fields.count("spectra") && !fields.count("rgb");
+  const char* values = spectral ? "spectra" : "rgb";
   RglBsdf b;
-  std::vector<uint64_t> s_theta, s_phi, s_ndf, s_sigma, s_vndf, s_rgb;
+  std::vector<uint64_t> s_theta, s_phi, s_ndf, s_sigma, s_vndf, s_rgb, s_wl;
   b.theta_i_ = floats(bytes, fields, "theta_i", 1, path, &s_theta);
   b.phi_i_ = floats(bytes, fields, "phi_i", 1, path, &s_phi);
   const std::vector<float> ndf = floats(bytes, fields, "ndf", 2, path, &s_ndf);
   const std::vector<float> sigma = floats(bytes, fields, "sigma", 2, path, &s_sigma);
   const std::vector<float> vndf = floats(bytes, fields, "vndf", 4, path, &s_vndf);
-  const std::vector<float> rgb = floats(bytes, fields, "rgb", 5, path, &s_rgb);
+  const std::vector<float> rgb = floats(bytes, fields, values, 5, path, &s_rgb);
+  std::vector<float> channels{0.f, 1.f, 2.f};
+  if (spectral) {
+    b.wavelengths_ = floats(bytes, fields, "wavelengths", 1, path, &s_wl);
+    channels = b.wavelengths_;
+  }
   auto bad = [&](const std::string& what) {
     throw Error(path + ": " + what + " (an RGL material-database file's fields disagree)");
   };
   const uint64_t nt = s_theta[0], np = s_phi[0];
   if (nt < 2 || np < 1) bad("theta_i needs at least 2 values and phi_i 1");
-  for (const auto* v : {&b.theta_i_, &b.phi_i_})
+  for (const auto* v : {&b.theta_i_, &b.phi_i_, &b.wavelengths_})
     for (size_t i = 1; i < v->size(); ++i)
       if (!((*v)[i] > (*v)[i - 1]))
-        bad(std::string(v == &b.theta_i_ ? "theta_i" : "phi_i") + " is not increasing");
+        bad(std::string(v == &b.theta_i_ ? "theta_i"
+                        : v == &b.phi_i_ ? "phi_i"
+                                         : "wavelengths") +
+            " is not increasing");
   for (const auto* s : {&s_ndf, &s_sigma})
     if ((*s)[0] < 2 || (*s)[1] < 2) bad("ndf and sigma need at least 2 x 2 values");
   if (s_vndf[0] != np || s_vndf[1] != nt || s_vndf[2] < 2 || s_vndf[3] < 2)
     bad("vndf's shape is not [phi_i, theta_i, >= 2, >= 2]");
-  if (s_rgb[0] != np || s_rgb[1] != nt || s_rgb[2] != 3 || s_rgb[3] < 2 || s_rgb[4] < 2)
-    bad("rgb's shape is not [phi_i, theta_i, 3, >= 2, >= 2]");
+  if (spectral && s_wl[0] < 1) bad("wavelengths is empty");
+  if (s_rgb[0] != np || s_rgb[1] != nt || s_rgb[2] != channels.size() || s_rgb[3] < 2 ||
+      s_rgb[4] < 2)
+    bad(spectral ? "spectra's shape is not [phi_i, theta_i, wavelengths, >= 2, >= 2]"
+                 : "rgb's shape is not [phi_i, theta_i, 3, >= 2, >= 2]");
+  if (spectral) {
+    try {
+      b.rgb_weights_ = spectrum_rgb_weights(b.wavelengths_);
+    } catch (const Error& e) {
+      throw Error(path + ": " + e.what());
+    }
+  }
   if (fields.count("description") && fields.at("description").dtype == kUInt8) {
     const Field& d = fields.at("description");
     b.description_ = bytes.substr(d.offset, d.bytes);
@@ -327,17 +344,18 @@ RglBsdf RglBsdf::read(const std::string& path) {
   b.vndf_.build(static_cast<uint32_t>(s_vndf[3]), static_cast<uint32_t>(s_vndf[2]), vndf.data(),
                 {b.phi_i_, b.theta_i_}, true);
   b.rgb_.build(static_cast<uint32_t>(s_rgb[4]), static_cast<uint32_t>(s_rgb[3]), rgb.data(),
-               {b.phi_i_, b.theta_i_, {0.f, 1.f, 2.f}}, false);
+               {b.phi_i_, b.theta_i_, channels}, false);
   return b;
 }
 
-std::array<float, 3> RglBsdf::eval(const LocalDir& L, const LocalDir& V) const {
+bool RglBsdf::locate(const LocalDir& L, const LocalDir& V, float* sx, float* sy, float* scale,
+                     float params[2]) const {
   // The reader's wi is toward the viewer, wo toward the light.
   const float ix = static_cast<float>(V.u), iy = static_cast<float>(V.w),
               iz = static_cast<float>(V.n);
   const float ox = static_cast<float>(L.u), oy = static_cast<float>(L.w),
               oz = static_cast<float>(L.n);
-  if (iz <= 0 || oz <= 0) return {0, 0, 0};
+  if (iz <= 0 || oz <= 0) return false;
   float mx = ix + ox, my = iy + oy, mz = iz + oz;
   const float inv = 1.f / std::sqrt(mx * mx + my * my + mz * mz);
   mx *= inv, my *= inv, mz *= inv;
@@ -346,17 +364,78 @@ std::array<float, 3> RglBsdf::eval(const LocalDir& L, const LocalDir& V) const {
   const float ui_x = theta2u(theta_i), ui_y = phi2u(phi_i);
   float um_x = theta2u(theta_m), um_y = phi2u(isotropic_ ? phi_m - phi_i : phi_m);
   um_y -= std::floor(um_y);
-  const float params[2] = {phi_i, theta_i};
-  float sx = um_x, sy = um_y;
-  vndf_.invert(&sx, &sy, params);
-  std::array<float, 3> f;
+  params[0] = phi_i, params[1] = theta_i;
+  *sx = um_x, *sy = um_y;
+  vndf_.invert(sx, sy, params);
+  *scale = ndf_.eval(um_x, um_y, nullptr) / (4 * sigma_.eval(ui_x, ui_y, nullptr));
+  return true;
+}
+
+std::vector<float> RglBsdf::eval_spectrum(const LocalDir& L, const LocalDir& V) const {
+  std::vector<float> f(wavelengths_.size(), 0.f);
+  float sx, sy, scale, params[2];
+  if (wavelengths_.empty() || !locate(L, V, &sx, &sy, &scale, params)) return f;
+  for (size_t k = 0; k < f.size(); ++k) {
+    const float p[3] = {params[0], params[1], wavelengths_[k]};
+    f[k] = rgb_.eval(sx, sy, p) * scale;
+  }
+  return f;
+}
+
+std::array<float, 3> RglBsdf::eval(const LocalDir& L, const LocalDir& V) const {
+  std::array<float, 3> f{0, 0, 0};
+  if (spectral()) {
+    const std::vector<float> s = eval_spectrum(L, V);
+    for (size_t k = 0; k < s.size(); ++k)
+      for (int c = 0; c < 3; ++c) f[c] += rgb_weights_[k][c] * s[k];
+    for (float& v : f) v = std::max(0.f, v);
+    return f;
+  }
+  float sx, sy, scale, params[2];
+  if (!locate(L, V, &sx, &sy, &scale, params)) return f;
   for (int c = 0; c < 3; ++c) {
-    const float p[3] = {phi_i, theta_i, static_cast<float>(c)};
+    const float p[3] = {params[0], params[1], static_cast<float>(c)};
     f[c] = std::max(0.f, rgb_.eval(sx, sy, p));
   }
-  const float scale = ndf_.eval(um_x, um_y, nullptr) / (4 * sigma_.eval(ui_x, ui_y, nullptr));
   for (float& v : f) v *= scale;
   return f;
+}
+
+std::vector<std::array<float, 3>> spectrum_rgb_weights(const std::vector<float>& nm) {
+  // One lobe of the fit: a Gaussian of different widths below and above its peak.
+  auto lobe = [](double l, double mu, double below, double above) {
+    const double t = (l - mu) / (l < mu ? below : above);
+    return std::exp(-0.5 * t * t);
+  };
+  constexpr double kXyzToRgb[3][3] = {{3.2404542, -1.5371385, -0.4985314},
+                                      {-0.9692660, 1.8760108, 0.0415560},
+                                      {0.0556434, -0.2040259, 1.0572252}};
+  std::vector<std::array<double, 3>> w(nm.size(), {0, 0, 0});
+  double total[3] = {0, 0, 0};
+  for (size_t k = 0; k < nm.size(); ++k) {
+    const double l = nm[k];
+    const double width =
+        nm.size() == 1 ? 1.0 : 0.5 * (nm[std::min(k + 1, nm.size() - 1)] - nm[k > 0 ? k - 1 : 0]);
+    const double xyz[3] = {1.056 * lobe(l, 599.8, 37.9, 31.0) + 0.362 * lobe(l, 442.0, 16.0, 26.7) -
+                               0.065 * lobe(l, 501.1, 20.4, 26.2),
+                           0.821 * lobe(l, 568.8, 46.9, 40.5) + 0.286 * lobe(l, 530.9, 16.3, 31.1),
+                           1.217 * lobe(l, 437.0, 11.8, 36.0) + 0.681 * lobe(l, 459.0, 26.0, 13.8)};
+    for (int c = 0; c < 3; ++c) {
+      w[k][c] =
+          width * (kXyzToRgb[c][0] * xyz[0] + kXyzToRgb[c][1] * xyz[1] + kXyzToRgb[c][2] * xyz[2]);
+      total[c] += w[k][c];
+    }
+  }
+  constexpr double kVisible = 1e-3;  // of a channel's weight over the visible range (~100 nm)
+  for (int c = 0; c < 3; ++c)
+    if (!(total[c] > kVisible))
+      throw Error("wavelengths: from " + std::to_string(nm.front()) + " to " +
+                  std::to_string(nm.back()) +
+                  " nm, too few in the visible range to give R, G and B");
+  std::vector<std::array<float, 3>> out(nm.size());
+  for (size_t k = 0; k < nm.size(); ++k)
+    for (int c = 0; c < 3; ++c) out[k][c] = static_cast<float>(w[k][c] / total[c]);
+  return out;
 }
 
 bool is_rgl_bsdf(const std::string& path) {

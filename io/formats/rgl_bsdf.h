@@ -33,9 +33,15 @@ class RglBsdf {
 
   // f_r cos(theta_L) per RGB channel for light L and view V in the sample's frame (zero below
   // either horizon). Negative values (out-of-gamut spectra) are clamped to 0, as the reader does.
+  // A spectral file's spectrum is turned into linear sRGB (spectrum_rgb_weights).
   std::array<float, 3> eval(const LocalDir& L, const LocalDir& V) const;
+  // A spectral file's f_r cos(theta_L) at each of its wavelengths, as the database's spectral
+  // reader gives it (not clamped); empty for an RGB file.
+  std::vector<float> eval_spectrum(const LocalDir& L, const LocalDir& V) const;
 
   bool isotropic() const { return isotropic_; }
+  bool spectral() const { return !wavelengths_.empty(); }
+  const std::vector<float>& wavelengths() const { return wavelengths_; }  // nm
   const std::string& description() const { return description_; }
   const std::vector<float>& theta_i() const { return theta_i_; }
   const std::vector<float>& phi_i() const { return phi_i_; }
@@ -64,11 +70,26 @@ class RglBsdf {
   };
 
  private:
-  Grid ndf_, sigma_, vndf_, rgb_;
+  // The warp's sample position and the scale ndf / (4 sigma) for a light and view (false below
+  // either horizon); params: phi_i, theta_i.
+  bool locate(const LocalDir& L, const LocalDir& V, float* sx, float* sy, float* scale,
+              float params[2]) const;
+
+  Grid ndf_, sigma_, vndf_, rgb_;  // rgb_: the spectra of a spectral file, per wavelength
   bool isotropic_ = true;
+  std::vector<float> wavelengths_;
+  std::vector<std::array<float, 3>> rgb_weights_;  // per wavelength: its share of R, G and B
   std::string description_;
   std::vector<float> theta_i_, phi_i_;
 };
+
+// Linear sRGB from a spectrum sampled at `nm` (increasing): per sample, its weight in R, G and B.
+// The CIE 1931 2-degree colour matching functions (the multi-lobe Gaussian fit of Wyman, Sloan
+// and Shirley 2013, within about 1 % of the tabulated ones) integrated by the trapezoid rule over
+// the samples, XYZ to linear sRGB, each channel scaled so that a flat spectrum of 1 gives RGB
+// (1, 1, 1): a reflectance under an equal-energy light, white balanced in RGB. Throws where
+// no sample lies in the visible range.
+std::vector<std::array<float, 3>> spectrum_rgb_weights(const std::vector<float>& nm);
 
 // The file as a sample table for a fit, on its own grid: each viewer direction of the file's
 // (theta_i, phi_i) nodes below 80 degrees (an isotropic file at azimuths 0, 45, 90 and 135
