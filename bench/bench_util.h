@@ -74,5 +74,6 @@ inline Errs errors_of(const Material& m, const Material& t) {
 nlohmann::json bench_fit(const std::string& work, bool quick);
 nlohmann::json bench_fit_process(const std::string& work, bool quick);
 nlohmann::json bench_fiber(bool quick);
+nlohmann::json bench_measured(bool quick);
 
 }  // namespace aniso::benchutil

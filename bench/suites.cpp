@@ -502,12 +502,13 @@ json bench_skips(const std::string& work, bool quick) {
 
 void run_bench(const std::string& suite, const std::string& out_path, const std::string& work_dir,
                bool quick) {
-  static const char* kSuites[] = {"fit", "fiber", "bake", "capture", "preview", "skips", "all"};
+  static const char* kSuites[] = {"fit",     "fiber", "bake",     "capture",
+                                  "preview", "skips", "measured", "all"};
   bool known = false;
   for (const char* s : kSuites) known |= suite == s;
   if (!known)
     throw Error("bench: unknown suite '" + suite +
-                "' (fit, fiber, bake, capture, preview, skips, all)");
+                "' (fit, fiber, bake, capture, preview, skips, measured, all)");
   // The work folder is the bench's own: new, empty, or one it wrote before (its marker); with
   // --force anything else there is moved aside. It replaces the sets and files it writes there
   // (obs_*.bin among them) on every run.
@@ -532,6 +533,7 @@ void run_bench(const std::string& suite, const std::string& out_path, const std:
   if (suite == "capture" || suite == "all") add(bench_capture(work_dir, quick));
   if (suite == "preview" || suite == "all") add(bench_preview(quick));
   if (suite == "skips" || suite == "all") add(bench_skips(work_dir, quick));
+  if (suite == "measured" || suite == "all") add(bench_measured(quick));
   json doc = {{"format", "aniso-bench"},
               {"version", 1},
               {"suite", suite},

@@ -55,8 +55,8 @@ Command add_bench(CLI::App& app) {
   auto* bench = app.add_subcommand(
       "bench",
       "End-to-end comparisons in one run: fit (vs SciPy), fiber (vs brute force), bake, capture "
-      "(vs bare Embree), preview (vs a plain pass), skips, all");
-  bench->add_option("SUITE", a->suite, "fit, fiber, bake, capture, preview, skips or all")
+      "(vs bare Embree), preview (vs a plain pass), skips, measured (RGL files vs libbsdf), all");
+  bench->add_option("SUITE", a->suite, "fit, fiber, bake, capture, preview, skips, measured or all")
       ->required();
   bench
       ->add_option("--out", a->out,

@@ -11,9 +11,10 @@
 namespace aniso::fitting {
 
 // At most this many observations (every k-th) take part in the comparison: BIC's preference is
-// settled long before; where the isotropic material is written, it is fitted again on at most
-// kIsotropicWrittenObservations.
-inline constexpr size_t kIsotropicTestObservations = 20000;
+// settled long before (a GGX-rendered shoot's line model with both parts was 53 000 lower than
+// the isotropic part alone over 57 255 values); where the isotropic material is written, it is
+// fitted again on at most kIsotropicWrittenObservations.
+inline constexpr size_t kIsotropicTestObservations = 5000;
 inline constexpr size_t kIsotropicWrittenObservations = 200000;
 // A difference of BIC below this is weak evidence for either model (Kass & Raftery's "very
 // strong" starts at 10).
