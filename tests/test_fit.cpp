@@ -13,7 +13,9 @@
 #include "core/error.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
+#include "fit/solvers/isotropic_pixel.h"
 #include "fit/solvers/line_simd.h"
+#include "fit/solvers/model_fit.h"
 #include "io/files/files.h"
 #include "io/formats/material_io.h"
 #include "io/images/image_io.h"
@@ -550,6 +552,84 @@ TEST(FitPaths, NormalEquationCovarianceMatchesCeres) {
     EXPECT_LT(worst, 1e-6) << c.preset;
     EXPECT_LT(worst_corr, 1e-6) << c.preset;
   }
+}
+
+}  // namespace
+}  // namespace aniso
+
+namespace aniso {
+namespace {
+
+// The line model with its isotropic part, hand-written derivatives (--fit-isotropic and the
+// comparison with the isotropic part alone) against Ceres' automatic derivatives of
+// models/line_model.h, at random pixels of two lights each (above the horizon, as the records
+// hold them) and random parameters.
+struct LineIsotropicByJets {
+  const fitting::Observation* obs;
+  const fitting::ObsLight* lights;
+  template <class T>
+  bool operator()(const T* kd, const T* ks, const T* logn, const T* psi, const T* iso, T* r) const {
+    LineParamsT<T> p = fitting::fitted_params(kd, ks, logn, psi);
+    p.isotropic = true;
+    for (int k = 0; k < 3; ++k) p.kd_iso[k] = iso[k], p.ks_iso[k] = iso[3 + k];
+    p.n_iso = exp(iso[6]);
+    fitting::pixel_residual(
+        obs, lights,
+        [&](const LocalDir& L, const LocalDir& V, T* f) { line_reflectance(p, L, V, f); }, r);
+    return true;
+  }
+};
+
+TEST(FitPaths, TheIsotropicPartsHandWrittenDerivativesAreAutomaticOnes) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1), pos(0.05, 0.9);
+  auto dir = [&]() {
+    double x = u(rng), y = u(rng), z = pos(rng);
+    const double l = std::sqrt(x * x + y * y + z * z);
+    return LocalDir{x / l, y / l, z / l};
+  };
+  fitting::ObsSet os;
+  for (int i = 0; i < 200; ++i) {
+    fitting::Observation o;
+    o.V = dir();
+    o.first_light = static_cast<uint32_t>(os.lights.size());
+    o.num_lights = 2;
+    for (int k = 0; k < 2; ++k) {
+      fitting::ObsLight l;
+      l.L = dir();  // the records hold lights above the horizon only
+      for (float& e : l.E) e = static_cast<float>(pos(rng));
+      os.lights.push_back(l);
+    }
+    for (float& y : o.y) y = static_cast<float>(pos(rng));
+    os.obs.push_back(o);
+  }
+  double worst = 0, scale = 0;
+  for (size_t i = 0; i < os.obs.size(); ++i) {
+    const double kd[3] = {pos(rng), pos(rng), pos(rng)}, ks[3] = {pos(rng), pos(rng), pos(rng)};
+    const double logn = std::log(2 + 60 * pos(rng)), psi = 3 * u(rng);
+    const double iso[7] = {
+        pos(rng), pos(rng), pos(rng), pos(rng), pos(rng), pos(rng), std::log(1 + 40 * pos(rng))};
+    double ra[3], rb[3], ja[5][21], jb[5][21];
+    double* Ja[5] = {ja[0], ja[1], ja[2], ja[3], ja[4]};
+    double* Jb[5] = {jb[0], jb[1], jb[2], jb[3], jb[4]};
+    fitting::line_isotropic_pixel(os, i, kd, ks, logn, psi, iso, ra, Ja);
+    ceres::AutoDiffCostFunction<LineIsotropicByJets, 3, 3, 3, 1, 1, 7> jets(
+        new LineIsotropicByJets{&os.obs[i], os.lights.data()});
+    const double* params[5] = {kd, ks, &logn, &psi, iso};
+    ASSERT_TRUE(jets.Evaluate(params, rb, Jb));
+    const int sizes[5] = {9, 9, 3, 3, 21};
+    for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(ra[c] - rb[c]));
+    for (int b = 0; b < 5; ++b)
+      for (int k = 0; k < sizes[b]; ++k) {
+        worst = std::max(worst, std::abs(ja[b][k] - jb[b][k]));
+        scale = std::max(scale, std::abs(jb[b][k]));
+      }
+  }
+  std::printf(
+      "line + isotropic pixel: hand-written against automatic derivatives within %.2e "
+      "(largest entry %.3g)\n",
+      worst, scale);
+  EXPECT_LT(worst, 1e-9 * std::max(1.0, scale));
 }
 
 }  // namespace

@@ -9,7 +9,7 @@
 
 #include "core/angles.h"
 #include "fit/global/solve.h"
-#include "fit/solvers/line_pixel.h"
+#include "fit/solvers/isotropic_pixel.h"
 #include "fit/solvers/model_fit.h"
 #include "models/evaluate.h"
 
@@ -17,34 +17,7 @@ namespace aniso::fitting {
 
 namespace {
 
-constexpr int kParams = 7;  // k_d,iso (3), k_s,iso (3), log n_iso
-
-// The sums over a pixel's lights of E <N,L>^+ (bd), E (<N,H>^+)^n (bs) and E (<N,H>^+)^n ln<N,H>
-// (dbs: the derivative of bs by log n, over n), per channel.
-void basis(const ObsSet& os, size_t i, double n, double bd[3], double bs[3], double dbs[3]) {
-  const Observation& o = os.obs[i];
-  const LocalDir V = o.V;
-  for (int c = 0; c < 3; ++c) bd[c] = bs[c] = dbs[c] = 0;
-  for (uint32_t k = 0; k < o.num_lights; ++k) {
-    const ObsLight& l = os.lights[o.first_light + k];
-    const LocalDir L = l.L;
-    if (!(L.n > 0.0)) continue;  // as line_reflectance: below the horizon nothing
-    const double hu = L.u + V.u, hw = L.w + V.w, hn = L.n + V.n;
-    const double hl = std::sqrt(hu * hu + hw * hw + hn * hn);
-    const double nh = hl > 0.0 ? hn / hl : 0.0;
-    double spec = 0, dspec = 0;
-    if (nh > 0.0) {
-      const double lg = std::log(nh);
-      spec = std::exp(n * lg);
-      dspec = spec * lg;
-    }
-    for (int c = 0; c < 3; ++c) {
-      bd[c] += l.E[c] * L.n;
-      bs[c] += l.E[c] * spec;
-      dbs[c] += l.E[c] * dspec;
-    }
-  }
-}
+constexpr int kParams = kIsotropicParams;
 
 // One observation's residual, per channel: E (k_d,iso <N,L>^+ + k_s,iso (<N,H>^+)^n) - y summed
 // over its lights, with hand-written derivatives (k_d,iso 3, k_s,iso 3, log n_iso 1).
@@ -54,7 +27,7 @@ class IsotropicPixel : public ceres::SizedCostFunction<3, 3, 3, 1> {
   bool Evaluate(double const* const* p, double* r, double** J) const override {
     const double n = std::exp(p[2][0]);
     double bd[3], bs[3], dbs[3];
-    basis(*os_, i_, n, bd, bs, dbs);
+    isotropic_basis(*os_, i_, n, bd, bs, dbs);
     for (int c = 0; c < 3; ++c) {
       r[c] = p[0][c] * bd[c] + p[1][c] * bs[c] - os_->obs[i_].y[c];
       if (!J) continue;
@@ -74,36 +47,13 @@ class IsotropicPixel : public ceres::SizedCostFunction<3, 3, 3, 1> {
 
 // The line model with its isotropic part (docs/models.md §3): the model both others are a part
 // of, fitted only where the isotropic part alone beats the fitted material, to tell "no
-// anisotropic lobe" from "a lobe the fitted model draws worse than Blinn-Phong does". Hand-written
-// derivatives: the line part's from fit/solvers/line_pixel.h, the isotropic part's from basis().
-// Blocks: k_d 3, k_s 3, log n 1, psi 1, isotropic (k_d,iso 3, k_s,iso 3, log n_iso 1).
-class LineWithIsotropic : public ceres::SizedCostFunction<3, 3, 3, 1, 1, 7> {
+// anisotropic lobe" from "a lobe the fitted model draws worse than Blinn-Phong does"
+// (fit/solvers/isotropic_pixel.h). Blocks: k_d 3, k_s 3, log n 1, psi 1, isotropic 7.
+class LineWithIsotropic : public ceres::SizedCostFunction<3, 3, 3, 1, 1, kIsotropicParams> {
  public:
   LineWithIsotropic(const ObsSet* os, size_t i) : os_(os), i_(i) {}
   bool Evaluate(double const* const* p, double* r, double** J) const override {
-    PixelDerivs d;
-    line_pixel_derivs(os_->obs[i_], os_->lights.data(), p[0], p[1], p[2][0], p[3][0], &d);
-    const double* iso = p[4];
-    const double n = std::exp(iso[6]);
-    double bd[3], bs[3], dbs[3];
-    basis(*os_, i_, n, bd, bs, dbs);
-    for (int c = 0; c < 3; ++c) {
-      r[c] = d.r[c] + iso[c] * bd[c] + iso[3 + c] * bs[c];
-      if (!J) continue;
-      for (int q = 0; q < 3; ++q) {
-        if (J[0]) J[0][c * 3 + q] = q == c ? d.dkd[c] : 0.0;
-        if (J[1]) J[1][c * 3 + q] = q == c ? d.dks[c] : 0.0;
-      }
-      if (J[2]) J[2][c] = d.dlogn[c];
-      if (J[3]) J[3][c] = d.dpsi[c];
-      if (J[4]) {
-        double* row = J[4] + c * kParams;
-        std::fill(row, row + kParams, 0.0);
-        row[c] = bd[c];
-        row[3 + c] = bs[c];
-        row[6] = iso[3 + c] * dbs[c] * n;
-      }
-    }
+    line_isotropic_pixel(*os_, i_, p[0], p[1], p[2][0], p[3][0], p[4], r, J);
     return true;
   }
 
@@ -152,7 +102,7 @@ IsotropicFit grid_start(const ObsSet& os, size_t stride) {
     double s[3][6] = {};  // per channel: dd, ds, ss, dy, sy, yy
     for (size_t i = 0; i < os.obs.size(); i += stride) {
       double bd[3], bs[3], dbs[3];
-      basis(os, i, n, bd, bs, dbs);
+      isotropic_basis(os, i, n, bd, bs, dbs);
       for (int c = 0; c < 3; ++c) {
         const double y = os.obs[i].y[c];
         s[c][0] += bd[c] * bd[c], s[c][1] += bd[c] * bs[c], s[c][2] += bs[c] * bs[c];
@@ -184,7 +134,7 @@ void residual_scaled_sigmas(const ObsSet& os, size_t stride, const ceres::LossFu
   double wrss = 0, values = 0;
   for (size_t i = 0; i < os.obs.size(); i += stride) {
     double bd[3], bs[3], dbs[3], r[3], w = 1;
-    basis(os, i, f->n, bd, bs, dbs);
+    isotropic_basis(os, i, f->n, bd, bs, dbs);
     for (int c = 0; c < 3; ++c) r[c] = f->kd[c] * bd[c] + f->ks[c] * bs[c] - os.obs[i].y[c];
     robust(loss, r, &w);
     for (int c = 0; c < 3; ++c) {
@@ -290,7 +240,7 @@ IsotropicFit fit_isotropic_part(const ObsSet& os, size_t stride, const FitOption
   f.rss = 0;
   for (size_t i = 0; i < os.obs.size(); i += stride) {
     double bd[3], bs[3], dbs[3];
-    basis(os, i, f.n, bd, bs, dbs);
+    isotropic_basis(os, i, f.n, bd, bs, dbs);
     for (int c = 0; c < 3; ++c) {
       const double r = f.kd[c] * bd[c] + f.ks[c] * bs[c] - os.obs[i].y[c];
       f.rss += r * r;
@@ -401,7 +351,7 @@ void test_isotropic_alternative(const ObsSet& os, const FitOptions& opt, FitResu
   double rss = 0;  // plain, over every observation: the report's RMS and BIC
   for (size_t i = 0; i < count; ++i) {
     double bd[3], bs[3], dbs[3];
-    basis(os, i, all.n, bd, bs, dbs);
+    isotropic_basis(os, i, all.n, bd, bs, dbs);
     for (int c = 0; c < 3; ++c) {
       const double r = all.kd[c] * bd[c] + all.ks[c] * bs[c] - os.obs[i].y[c];
       rss += r * r;

@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "core/angles.h"
+#include "fit/solvers/isotropic_pixel.h"
 #include "fit/solvers/line_lm.h"
 #include "fit/solvers/line_pixel.h"
 #include "fit/solvers/start.h"
@@ -84,6 +85,25 @@ class LineResidualAnalytic : public ceres::SizedCostFunction<3, 3, 3, 1, 1, 1, 1
  private:
   const Observation* obs_;
   const ObsLight* lights_;
+};
+
+// The line model with its isotropic part (--fit-isotropic, no second fiber) with hand-written
+// derivatives (fit/solvers/isotropic_pixel.h): the same residual as LineResidual<true, false>
+// (tests compare the two), without Jets of 15. Blocks as LineResidual's, the last a dummy.
+class LineIsotropicAnalytic : public ceres::SizedCostFunction<3, 3, 3, 1, 1, kIsotropicParams, 1> {
+ public:
+  LineIsotropicAnalytic(const ObsSet* os, size_t i) : os_(os), i_(i) {}
+
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    line_isotropic_pixel(*os_, i_, p[0], p[1], p[2][0], p[3][0], p[4], r, J);
+    if (J && J[5])
+      for (int k = 0; k < 3; ++k) J[5][k] = 0;
+    return true;
+  }
+
+ private:
+  const ObsSet* os_;
+  size_t i_;
 };
 
 // Many pixels per residual block (the default line fit): per-block overhead in Ceres, not the
@@ -282,6 +302,8 @@ class LineFit : public ModelFit {
       ceres::CostFunction* cf;
       if constexpr (!kIso && !kSecond)
         cf = new LineResidualAnalytic(&os.obs[i], os.lights.data());
+      else if constexpr (kIso && !kSecond)
+        cf = new LineIsotropicAnalytic(&os, i);
       else
         cf = LineResidual<kIso, kSecond>::Create(&os.obs[i], os.lights.data());
       pb->AddResidualBlock(cf, loss, core.kd, core.ks, &core.logn, &core.psi,
