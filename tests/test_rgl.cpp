@@ -94,6 +94,16 @@ std::string tensor_bytes(const std::vector<TensorField>& fields) {
   }
   return head + body;
 }
+// The light that mirrors viewer V about the half vector at (u, v) of the NDF's grid coordinates
+// (theta_h = u^2 pi / 2, phi_h = (2 v - 1) pi).
+LocalDir mirrored_light(const LocalDir& V, double u, double v) {
+  const double th = u * u * M_PI / 2, ph = (2 * v - 1) * M_PI;
+  const double hx = std::sin(th) * std::cos(ph), hy = std::sin(th) * std::sin(ph),
+               hz = std::cos(th);
+  const double d = V.u * hx + V.w * hy + V.n * hz;
+  return {2 * d * hx - V.u, 2 * d * hy - V.w, 2 * d * hz - V.n};
+}
+
 std::string float_bytes(const std::vector<float>& v) {
   return std::string(reinterpret_cast<const char*>(v.data()), v.size() * 4);
 }
@@ -120,12 +130,7 @@ std::vector<TensorField> file_of(const Material& m, int nphi, int ntheta, int n,
                        std::cos(theta[t])};
       for (int y = 0; y < n; ++y)
         for (int x = 0; x < n; ++x) {
-          const double u = double(x) / (n - 1), th = u * u * M_PI / 2,
-                       ph = (2.0 * y / (n - 1) - 1) * M_PI;
-          const double hx = std::sin(th) * std::cos(ph), hy = std::sin(th) * std::sin(ph),
-                       hz = std::cos(th);
-          const double d = V.u * hx + V.w * hy + V.n * hz;
-          const LocalDir L{2 * d * hx - V.u, 2 * d * hy - V.w, 2 * d * hz - V.n};
+          const LocalDir L = mirrored_light(V, double(x) / (n - 1), double(y) / (n - 1));
           double f[3] = {0, 0, 0};
           if (L.n > 0) ev(L, V, f);
           for (size_t c = 0; c < channels; ++c)
@@ -190,11 +195,7 @@ TEST(RglBsdf, AnAnisotropicFileRoundTripsAndFitsBackToItsMaterial) {
         // Half vectors on the grid's nodes (even k) and between them (odd k).
         const double u = (k % 2 == 0 ? (k / 2) % 8 * 4.0 : (k / 2) % 8 * 4.0 + 1.5) / (n - 1);
         const double v = (k % 2 == 0 ? (k * 7) % 32 : (k * 7) % 32 + 0.5) / (n - 1);
-        const double th = u * u * M_PI / 2, ph = (2 * v - 1) * M_PI;
-        const double hx = std::sin(th) * std::cos(ph), hy = std::sin(th) * std::sin(ph),
-                     hz = std::cos(th);
-        const double d = V.u * hx + V.w * hy + V.n * hz;
-        const LocalDir L{2 * d * hx - V.u, 2 * d * hy - V.w, 2 * d * hz - V.n};
+        const LocalDir L = mirrored_light(V, u, v);
         if (L.n < 0.1) continue;
         double f[3];
         ev(L, V, f);
@@ -331,12 +332,7 @@ TEST(RglBsdf, ASpectralFileReadsItsSpectraAndFitsInRgb) {
       const LocalDir V{std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
                        std::cos(theta)};
       for (int k = 0; k < 16; ++k) {  // half vectors on the grid's nodes
-        const double u = (k % 8) * 4.0 / 32, v = ((k * 7) % 32) / 32.0;
-        const double th = u * u * M_PI / 2, ph = (2 * v - 1) * M_PI;
-        const double hx = std::sin(th) * std::cos(ph), hy = std::sin(th) * std::sin(ph),
-                     hz = std::cos(th);
-        const double d = V.u * hx + V.w * hy + V.n * hz;
-        const LocalDir L{2 * d * hx - V.u, 2 * d * hy - V.w, 2 * d * hz - V.n};
+        const LocalDir L = mirrored_light(V, (k % 8) * 4.0 / 32, ((k * 7) % 32) / 32.0);
         if (L.n < 0.1) continue;
         double f[3];
         ev(L, V, f);

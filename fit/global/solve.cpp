@@ -61,6 +61,8 @@ class TerminalIterations : public ceres::IterationCallback {
   }
 };
 
+}  // namespace
+
 ceres::Solver::Options solver_options(const FitOptions& opt) {
   ceres::Solver::Options so;
   static TerminalIterations terminal;  // stateless: one for every solve
@@ -74,8 +76,6 @@ ceres::Solver::Options solver_options(const FitOptions& opt) {
   so.logging_type = ceres::SILENT;
   return so;
 }
-
-}  // namespace
 
 ceres::LossFunction* make_loss(FitLoss loss, double scale) {
   switch (loss) {

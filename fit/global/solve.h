@@ -32,6 +32,9 @@ struct Solution {
 // timings and misfit warning. The model's blocks hold the solution.
 Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* rep);
 
+// The global fit's Ceres options (--max-iterations, --threads, each iteration on a terminal).
+ceres::Solver::Options solver_options(const FitOptions& opt);
+
 // The robust loss of --loss at the given scale (null for none).
 ceres::LossFunction* make_loss(FitLoss loss, double scale);
 
