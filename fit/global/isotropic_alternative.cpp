@@ -130,7 +130,11 @@ void residual_scaled_sigmas(const ObsSet& os, size_t stride, const ceres::LossFu
   const double ks_max = std::max({f->ks[0], f->ks[1], f->ks[2]});
   f->n_determined = ks_max > kKsNegligible * std::max(1.0, kd_max);
   const int k = f->n_determined ? kParams : kParams - 1;
-  Eigen::MatrixXd info = Eigen::MatrixXd::Zero(k, k);
+  // Fixed sizes: no heap, and no instance of Eigen's dynamic decompositions beside the ones
+  // libceres holds (built without the sanitizers, they free what another instance allocates).
+  using Mat = Eigen::Matrix<double, kParams, kParams>;
+  using Vec = Eigen::Matrix<double, kParams, 1>;
+  Mat info = Mat::Zero();
   double wrss = 0, values = 0;
   for (size_t i = 0; i < os.obs.size(); i += stride) {
     double bd[3], bs[3], dbs[3], r[3], w = 1;
@@ -138,7 +142,7 @@ void residual_scaled_sigmas(const ObsSet& os, size_t stride, const ceres::LossFu
     for (int c = 0; c < 3; ++c) r[c] = f->kd[c] * bd[c] + f->ks[c] * bs[c] - os.obs[i].y[c];
     robust(loss, r, &w);
     for (int c = 0; c < 3; ++c) {
-      Eigen::VectorXd g = Eigen::VectorXd::Zero(k);
+      Vec g = Vec::Zero();
       g[c] = bd[c];
       g[3 + c] = bs[c];
       if (f->n_determined) g[6] = f->ks[c] * dbs[c] * f->n;
@@ -148,7 +152,16 @@ void residual_scaled_sigmas(const ObsSet& os, size_t stride, const ceres::LossFu
     }
   }
   const double dof = std::max(1.0, values - k);
-  const Eigen::MatrixXd cov = info.completeOrthogonalDecomposition().pseudoInverse() * (wrss / dof);
+  if (!f->n_determined) info(6, 6) = 1;  // n_iso held: its row and column out of the inverse
+  // The pseudo-inverse over the eigenvalues above 1e-12 of the largest (a channel the data leave
+  // at a bound gives none).
+  const Eigen::SelfAdjointEigenSolver<Mat> es(info);
+  const Vec ev = es.eigenvalues();
+  Vec inv = Vec::Zero();
+  for (int q = 0; q < kParams; ++q)
+    if (ev[q] > 1e-12 * ev.maxCoeff()) inv[q] = 1 / ev[q];
+  const Mat cov =
+      es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose() * (wrss / dof);
   for (int c = 0; c < 3; ++c) {
     f->sigma_kd[c] = std::sqrt(std::max(0.0, cov(c, c)));
     f->sigma_ks[c] = std::sqrt(std::max(0.0, cov(3 + c, 3 + c)));
@@ -162,11 +175,13 @@ std::string fmt(const char* f, double a, double b, double c, double d) {
   return buf;
 }
 
-// The global fit's options without its terminal lines, to a cost within 1e-9 of itself: that
-// moves a BIC over 10^5 values by 1e-4, far below any difference that decides.
-ceres::Solver::Options quiet_solver_options(const FitOptions& opt) {
+// The global fit's options without its terminal lines; for the comparison alone, to a cost within
+// 1e-9 of itself (that moves a BIC over 10^5 values by 1e-4, far below any difference that
+// decides); a material written, to the global fit's own tolerances.
+ceres::Solver::Options quiet_solver_options(const FitOptions& opt, bool written) {
   ceres::Solver::Options so = solver_options(opt);
   so.callbacks.clear();
+  if (written) return so;
   so.max_num_iterations = 100;
   so.function_tolerance = 1e-9;
   so.gradient_tolerance = 1e-12;
@@ -201,7 +216,7 @@ Sums fit_line_with_isotropic(const ObsSet& os, size_t stride, const FitOptions& 
   }
   set_param_bounds(&pb, b, 6, "isotropic.n");
   ceres::Solver::Summary sum;
-  ceres::Solve(quiet_solver_options(opt), &pb, &sum);
+  ceres::Solve(quiet_solver_options(opt, false), &pb, &sum);
   Sums out;
   const double* params[5] = {c.kd, c.ks, &c.logn, &c.psi, b};
   for (size_t i = 0; i < os.obs.size(); i += stride) {
@@ -231,7 +246,7 @@ IsotropicFit fit_isotropic_part(const ObsSet& os, size_t stride, const FitOption
   }
   set_param_bounds(&pb, &logn, 0, "isotropic.n");
   ceres::Solver::Summary sum;
-  ceres::Solve(quiet_solver_options(opt), &pb, &sum);
+  ceres::Solve(quiet_solver_options(opt, sigmas), &pb, &sum);
   f.n = std::exp(logn);
   f.cost = 2 * sum.final_cost;  // Ceres' cost is half the sum of rho
   f.converged = sum.termination_type == ceres::CONVERGENCE;
