@@ -122,6 +122,7 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
     rep.warnings.push_back("fiber_angle_deg: " + sol.other_minimum);
   }
   rep.covariance = res.report.covariance;
+  for (const auto& w : res.report.warnings) rep.warnings.push_back(w);
   rep.seconds_covariance = seconds_since(t_cov);
   rep.fiber_order = m->quadrature_order();
   rep.fiber_order_errors = m->quadrature_errors();

@@ -291,6 +291,12 @@ TEST(Import, AShootRenderedWithGgxKeepsPsiWithinItsWholeSigma) {
               test["lobe_share"].get<double>(), test["bic_isotropic"].get<double>(),
               test["bic_anisotropic"].get<double>(), test["bic_line_with_isotropic"].get<double>());
   EXPECT_EQ(test["preferred"], "anisotropic");
+  // With the isotropic part too, 15 numbers: 12 views cannot show their spread, and the fit says
+  // its sigma is the noise's alone.
+  r = test::run_cli("fit " + dir + "/cap --fit-isotropic --subsample 4 --out " + dir + "/i.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("WARNING: the uncertainty is the images' noise alone"), std::string::npos)
+      << r.output;
   // GGX stands for one fiber direction and one material: maps are refused, not dropped.
   r = test::run_cli("synth --photos swirl-plate " + dir + "/bad --brdf ggx --views 2");
   EXPECT_NE(r.status, 0);

@@ -214,8 +214,24 @@ class LineFit : public ModelFit {
     return true;
   }
 
+  // The whole model's, optional terms included: the views' spread (fit/global/view_sandwich.h)
+  // differentiates it.
   void residual(const ObsSet& os, size_t i, double r[3]) const override {
-    const LineResidualAnalytic one(&os.obs[i], os.lights.data());
+    const Observation* o = &os.obs[i];
+    const double* c[4] = {core.kd, core.ks, &core.logn, &core.psi};
+    if (iso_ && second_) {
+      LineResidual<true, true>(o, os.lights.data())(c[0], c[1], c[2], c[3], iso_block_, sec_, r);
+      return;
+    }
+    if (iso_) {
+      line_isotropic_pixel(os, i, core.kd, core.ks, core.logn, core.psi, iso_block_, r, nullptr);
+      return;
+    }
+    if (second_) {
+      LineResidual<false, true>(o, os.lights.data())(c[0], c[1], c[2], c[3], dummy_iso_, sec_, r);
+      return;
+    }
+    const LineResidualAnalytic one(o, os.lights.data());
     const double dummy = 0;
     const double* params[6] = {core.kd, core.ks, &core.logn, &core.psi, &dummy, &dummy};
     one.Evaluate(params, r, nullptr);

@@ -338,9 +338,18 @@ void whole_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, con
   size_t views = 0;
   const std::vector<double> c = per_view_covariance(m, os, free, ainv, opt.threads, &views);
   if (c.empty()) {
-    res->uncertainty_basis += "; not the whole uncertainty: the views' spread needs " +
-                              std::to_string(P + 2) + " views with pixels (this set has " +
-                              std::to_string(os.view_lights.size()) + ") and at most 2^25 pixels";
+    const std::string why = "the views' spread needs " + std::to_string(P + 2) +
+                            " views with pixels for " + std::to_string(P) +
+                            " fitted numbers (this set has " +
+                            std::to_string(os.view_lights.size()) + ") and at most 2^25 pixels";
+    res->uncertainty_basis += "; not the whole uncertainty: " + why;
+    // Said where a person reads it: the noise's sigma of a shoot or a misfit is often tens of
+    // times too small (docs/photo-shoot.md, "The uncertainty of a fit of an imported capture").
+    res->report.warnings.push_back(
+        "the uncertainty is the images' noise alone, not the whole (" + why +
+        "): the shoot's errors and the model's misfit are not in it, and it may be many times "
+        "too small. Fit fewer numbers (without --fit-isotropic or --fit-second-fiber) or "
+        "import more photos");
     return;
   }
   std::map<const double*, size_t> at;
