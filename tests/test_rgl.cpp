@@ -296,6 +296,14 @@ TEST(RglBsdf, AnIsotropicMaterialOnAnAnisotropicGridGetsNoFiberDirection) {
   EXPECT_NEAR(j["isotropic"]["n"].get<double>(), 30, 0.3);
   EXPECT_LT(j["report"]["measured"]["relative_rms"].get<double>(), 0.01);
   EXPECT_TRUE(j["uncertainty"]["isotropic"].is_object()) << j["uncertainty"].dump();
+  // It exports like any material, its glTF lobe from its Blinn-Phong lobe: hardly anisotropic.
+  r = test::run_cli("export " + dir + "/m.json --out " + dir + "/exp");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto ex = nlohmann::json::parse(read_text_file(dir + "/exp/export.json"));
+  std::printf("its glTF: roughness %.3f, anisotropy strength %.3f\n",
+              ex["gltf"]["roughness"].get<double>(),
+              ex["gltf"]["anisotropy_strength"].get<double>());
+  EXPECT_LT(ex["gltf"]["anisotropy_strength"].get<double>(), 0.2);
 
   r = test::run_cli("fit " + path + " --keep-anisotropic --out " + dir + "/k.json");
   ASSERT_EQ(r.status, 0) << r.output;

@@ -267,12 +267,18 @@ Material along_u(const Material& m_in) {
   return m;
 }
 
-// Its specular lobe alone (k_s = 1) at the pairs.
+// Its specular lobe alone (k_s = 1) at the pairs: the line lobe, or where the material has none
+// and an isotropic one (the isotropic part alone a fit writes where the data show no anisotropic
+// lobe), its Blinn-Phong lobe.
 std::vector<double> specular_lobe(const std::vector<Pair>& pairs, const Material& m) {
   Material spec = along_u(m);
+  const bool blinn_phong = m.ks[0] + m.ks[1] + m.ks[2] <= 0 && m.has_isotropic &&
+                           m.iso_ks[0] + m.iso_ks[1] + m.iso_ks[2] > 0;
   spec.kd = {0, 0, 0};
-  spec.ks = {1, 1, 1};
-  spec.has_isotropic = false;
+  spec.ks = blinn_phong ? RGB{0, 0, 0} : RGB{1, 1, 1};
+  spec.has_isotropic = blinn_phong;
+  spec.iso_kd = {0, 0, 0};
+  spec.iso_ks = {1, 1, 1};
   spec.has_second_fiber = false;
   spec.maps = MaterialMaps{};
   const Evaluator es(spec);
