@@ -1,20 +1,147 @@
 // aniso export: tables, shaders and glTF for engines and browsers (render/export/export.h).
+#include <stdlib.h>
+#include <sys/wait.h>
+
+#include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "cli/command.h"
 #include "core/angles.h"
+#include "core/error.h"
 #include "io/files/files.h"
 #include "io/formats/material_io.h"
+#include "io/images/image_io.h"
 #include "render/export/export.h"
 
 namespace aniso::cli {
+
+namespace {
+
+// --engines: the camera, lights and frame of the comparison, `aniso preview`'s flags and the
+// engines page's query alike (web/engines.js).
+constexpr const char* kEngineView = "0.3,-0.8,0.5";
+constexpr const char* kEngineLight = "0.6,-0.1,0.8";
+constexpr int kEngineW = 200, kEngineH = 160;
+
+std::string sh_quoted(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// Runs a shell command; its exit status (-1 where it did not exit) and its output.
+int run(const std::string& cmd, std::string* out) {
+  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return -1;
+  char buf[4096];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out->append(buf, n);
+  const int st = ::pclose(p);
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+// The mean absolute difference of two frames of one size, as a fraction of full scale, and the
+// second's mean value.
+double mean_abs_difference(const Image& a, const Image& b, double* b_mean) {
+  if (a.width != b.width || a.height != b.height) return NAN;
+  double sum = 0, lit = 0;
+  size_t n = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x)
+      for (int c = 0; c < 3; ++c, ++n) {
+        sum += std::abs(a.at(x, y, c) - b.at(x, y, c));
+        lit += b.at(x, y, c);
+      }
+  *b_mean = lit / static_cast<double>(n);
+  return sum / static_cast<double>(n);
+}
+
+// The repository's web/ with its npm packages (the engines' loaders): ANISO_WEB_DIR, else the
+// source tree's. Throws saying what is missing.
+std::string engines_web_dir() {
+  const char* env = std::getenv("ANISO_WEB_DIR");
+  const std::string web = env && *env ? env : std::string(ANISO_SOURCE_DIR) + "/web";
+  for (const char* need : {"/engines.sh", "/node_modules/babylonjs", "/node_modules/three",
+                           "/node_modules/@khronosgroup/gltf-viewer"})
+    if (!std::filesystem::exists(web + need))
+      throw Error("export --engines: " + web + need +
+                  " not found: the engines render in headless Chromium from the repository's "
+                  "web/ with its npm packages (scripts/install_deps.sh installs them; "
+                  "ANISO_WEB_DIR names another web/)");
+  return web;
+}
+
+// `aniso preview` of the material and each engine's frame of the export in `dir`: their mean
+// absolute differences (export.json's engines_measured).
+nlohmann::json measure_engines(const std::string& material, const std::string& dir,
+                               const std::string& web) {
+  std::string tmp = (std::filesystem::temp_directory_path() / "aniso-engines-XXXXXX").string();
+  if (!::mkdtemp(tmp.data())) throw Error("export --engines: cannot make a temporary folder");
+  struct Remove {
+    std::string p;
+    ~Remove() {
+      std::error_code ec;
+      std::filesystem::remove_all(p, ec);
+    }
+  } remove{tmp};
+  const std::string size = std::to_string(kEngineW) + "x" + std::to_string(kEngineH);
+  std::string out;
+  const std::string preview = tmp + "/preview.png";
+  std::string self = program_beside_self("aniso-full");
+  if (self.empty()) self = program_beside_self("aniso");
+  if (run(sh_quoted(self) + " preview " + sh_quoted(material) + " --shape sphere --view " +
+              kEngineView + " --light " + kEngineLight + " --size " + size + " --out " +
+              sh_quoted(preview),
+          &out) != 0)
+    throw Error("export --engines: aniso preview failed: " + out);
+  const Image exact = read_image(preview).image;
+  nlohmann::json j = {{"against", "aniso preview (the exact model) of the material"},
+                      {"camera", std::string("orthographic, view ") + kEngineView},
+                      {"light", std::string(kEngineLight) + " and the preview's fill"},
+                      {"size", {kEngineW, kEngineH}},
+                      {"shape", "sphere"},
+                      {"measure", "mean |difference| of the sRGB frames, fraction of full scale"}};
+  const std::string query =
+      std::string("view=") + kEngineView + "&light=" + kEngineLight + "&size=" + size;
+  std::map<std::string, Image> frames;
+  for (const char* engine : {"three", "babylon", "khronos"}) {
+    const std::string png = tmp + "/" + engine + ".png";
+    std::string said;
+    std::printf("export --engines: %s in headless Chromium...\n", engine);
+    std::fflush(stdout);
+    const int st = run(sh_quoted(web + "/engines.sh") + " " + sh_quoted(dir) + " " + engine + " " +
+                           sh_quoted(query) + " " + sh_quoted(png) + " " +
+                           std::to_string(kEngineW) + " " + std::to_string(kEngineH),
+                       &said);
+    if (st != 0 || !std::filesystem::exists(png)) {
+      j["engines"][engine] = {{"rendered", false}, {"why", said.substr(0, 400)}};
+      continue;
+    }
+    frames[engine] = read_image(png).image;
+    double mean = 0;
+    const double d = mean_abs_difference(frames[engine], exact, &mean);
+    j["engines"][engine] = {{"rendered", true}, {"mean_abs_difference", d}, {"preview_mean", mean}};
+  }
+  if (frames.count("three"))
+    for (const char* other : {"babylon", "khronos"})
+      if (frames.count(other)) {
+        double mean = 0;
+        j["three_against"][other] = mean_abs_difference(frames["three"], frames[other], &mean);
+      }
+  return j;
+}
+
+}  // namespace
 
 Command add_export(CLI::App& app) {
   struct Args {
     std::string mat, out, env;
     int size = 256;
+    bool engines = false;
   };
   auto a = std::make_shared<Args>();
   auto* ex = app.add_subcommand(
@@ -34,6 +161,12 @@ Command add_export(CLI::App& app) {
   ex->add_option("--env", a->env,
                  "also prefilter an equirectangular HDR environment (FILE.exr, z up) or the "
                  "built-in 'studio' for the material: the browser viewer then lights with it");
+  ex->add_flag(
+      "--engines", a->engines,
+      "also render the exported glTF with three.js's GLTFLoader, Babylon.js and the "
+      "Khronos glTF Sample Renderer in headless Chromium under `aniso preview`'s camera and "
+      "lights, and record each one's difference from the exact model in export.json "
+      "(engines_measured; needs the repository's web/ with its npm packages)");
   ex->add_option("--size", a->size, "line tables N x N")
       ->capture_default_str()
       ->check(CLI::Range(2, 8192));
@@ -48,6 +181,15 @@ Command add_export(CLI::App& app) {
         if (!a->env.empty()) {
           env = named_environment(a->env);
           o.environment = &env;
+        }
+        std::string web;
+        nlohmann::json measured;
+        if (a->engines) {
+          web = engines_web_dir();
+          o.measure_engines = [&](const std::string& dir) {
+            measured = measure_engines(a->mat, dir, web);
+            return measured;
+          };
         }
         const ExportSummary s = export_material(m, a->out, o);
         std::printf("export: %s model, %zu files in %.3f s -> %s\n", model_name(m.model),
@@ -94,6 +236,18 @@ Command add_export(CLI::App& app) {
               s.maps.n ? " n" : "", s.maps.s_map ? " s" : "",
               s.maps.topology_map ? " topology-map" : "", s.maps.amplitude ? " amplitude" : "",
               stack);
+        }
+        if (!measured.is_null()) {
+          std::printf(
+              "  engines against aniso preview (mean |diff| of the frames, export.json "
+              "engines_measured):");
+          for (const auto& [name, e] : measured["engines"].items()) {
+            if (e["rendered"].get<bool>())
+              std::printf(" %s %.4f", name.c_str(), e["mean_abs_difference"].get<double>());
+            else
+              std::printf(" %s not rendered", name.c_str());
+          }
+          std::printf("\n");
         }
         for (const std::string& w : s.warnings)
           std::fprintf(stderr, "export: WARNING: %s\n", w.c_str());

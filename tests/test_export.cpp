@@ -777,51 +777,46 @@ double viewer_against_preview(const std::string& root, const std::string& materi
 }
 
 // Real engines' own glTF loaders (three.js GLTFLoader, Babylon.js, the Khronos glTF Sample
-// Renderer) render the exported glTF under `aniso preview`'s camera and lights (web/engines.js):
-// each frame against the exact model's, and three.js against the other two. The glTF's lobe is GGX
-// fitted to the model's (a whole-model relative RMS of 0.36 for this material, export.json
-// errors.gltf), so the engines stand further from the exact model than the export's own viewer
-// (0.0001) but close to each other.
+// Renderer) render the exported glTF under `aniso preview`'s camera and lights (web/engines.js),
+// and `export --engines` records each frame against the exact model's, and three.js against the
+// other two, in export.json. The glTF's lobe is GGX fitted to the model's (a whole-model relative
+// RMS of 0.36 for this material, export.json errors.gltf), so the engines stand further from the
+// exact model than the export's own viewer (0.0001) but close to each other.
 TEST(Export, BrowserEnginesRenderTheGltfAsThePreview) {
   const std::string root = test::tmp_dir("engines_render");
   Material m = brushed();
   nlohmann::json j;
   material_to_json(m, &j);
   write_json_file(root + "/m.json", j);
-  auto r = test::run_cli("export " + root + "/m.json --out " + root + "/export");
+  auto r = test::run_cli("export " + root + "/m.json --engines --out " + root + "/export");
   ASSERT_EQ(r.status, 0) << r.output;
-  const std::string q = "view=0.3,-0.8,0.5&light=0.6,-0.1,0.8&size=200x160";
-  r = test::run_cli("preview " + root +
-                    "/m.json --shape sphere --view 0.3,-0.8,0.5 --light "
-                    "0.6,-0.1,0.8 --size 200x160 --out " +
-                    root + "/preview.png");
-  ASSERT_EQ(r.status, 0) << r.output;
-  std::map<std::string, double> against_model;
+  EXPECT_NE(r.output.find("engines against aniso preview"), std::string::npos) << r.output;
+  const auto e = nlohmann::json::parse(read_text_file(root + "/export/export.json"));
+  ASSERT_TRUE(e.contains("engines_measured")) << e.dump();
+  const auto& measured = e["engines_measured"];
   for (const char* engine : {"three", "babylon", "khronos"}) {
-    const auto shot = run_command("'" + web_dir() + "/engines.sh' '" + root + "/export' " + engine +
-                                  " '" + q + "' '" + root + "/" + engine + ".png' 200 160");
-    ASSERT_EQ(shot.status, 0) << shot.output;
-    EXPECT_NE(shot.output.find("aniso engines: rendered"), std::string::npos) << shot.output;
-    double lit = 0;
-    against_model[engine] =
-        mean_abs_difference(root + "/" + engine + ".png", root + "/preview.png", &lit);
+    const auto& x = measured["engines"][engine];
+    ASSERT_TRUE(x["rendered"].get<bool>()) << engine << ": " << x.dump();
+    const double d = x["mean_abs_difference"].get<double>(), lit = x["preview_mean"].get<double>();
     std::printf(
-        "%s vs aniso preview (the exact model): mean |diff| %.4f of full "
-        "scale (preview mean %.3f)\n",
-        engine, against_model[engine], lit);
+        "%s vs aniso preview (the exact model): mean |diff| %.4f of full scale (preview mean "
+        "%.3f)\n",
+        engine, d, lit);
     EXPECT_GT(lit, 0.1);
-    EXPECT_LT(against_model[engine], 0.05);
+    // A blank or unlit frame would stand the preview's mean away: the engine drew the sphere.
+    EXPECT_LT(d, 0.05);
   }
   for (const char* other : {"babylon", "khronos"}) {
-    double lit = 0;
-    const double between =
-        mean_abs_difference(root + "/three.png", root + "/" + other + ".png", &lit);
+    const double between = measured["three_against"][other].get<double>();
     std::printf("three.js vs %s: mean |diff| %.4f\n", other, between);
     EXPECT_LT(between, 0.03);
   }
-  // A blank or unlit frame would be far from the preview: the engines drew the sphere.
-  const Image t = read_image(root + "/three.png").image;
-  EXPECT_GT(t.at(100, 80, 0), 0.2f);
+  // Without the repository's web/, --engines says what it needs and writes nothing.
+  r = test::run_command("ANISO_WEB_DIR='" + root + "/nowhere' " + std::string(ANISO_BIN) +
+                        " export " + root + "/m.json --engines --out " + root + "/export2");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("npm packages"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(root + "/export2"));
 }
 
 // A material with maps on the flat sample (swirl-plate's fiber and k_d maps): the browser viewer

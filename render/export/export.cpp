@@ -607,7 +607,7 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
     json material;
     material_to_json(m, &material);
     sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const json j = {
+    json j = {
         {"format", "aniso-export"},
         {"version", 1},
         {"command", o.command},
@@ -672,6 +672,7 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
         {"errors", measured_errors(sum)},
         {"files", sum.files},
         {"seconds", sum.seconds}};
+    if (o.measure_engines) j["engines_measured"] = o.measure_engines(tmp);
     write_text_file(join_path(tmp, "export.json"), j.dump(2) + "\n");
   });
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -15,6 +15,8 @@
 //   render/export/export_engines.h) export.json  what was written, the conventions an integrator
 //   needs and the measured errors
 #pragma once
+#include <functional>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -33,6 +35,10 @@ struct ExportOptions {
   // tables/environment_t0..6.ktx2, which the browser viewer lights with (a line material with one
   // fiber and no maps).
   const Environment* environment = nullptr;
+  // Called with the export's folder as written so far (everything but export.json), before it
+  // replaces the output: what it returns goes into export.json as "engines_measured" (the CLI's
+  // --engines renders the glTF with real engines there; null: nothing added).
+  std::function<nlohmann::json(const std::string& dir)> measure_engines;
 };
 
 // Which maps the exported shaders sample (aniso_maps.glsl's defines) and, with a map of n, the
