@@ -10,10 +10,9 @@
 
 namespace aniso::fitting {
 
-// At most this many observations (every k-th) take part in the comparison: BIC's preference is
-// settled long before (a GGX-rendered shoot's line model with both parts was 53 000 lower than
-// the isotropic part alone over 57 255 values); where the isotropic material is written, it is
-// fitted again on at most kIsotropicWrittenObservations.
+// At most this many observations (every k-th) take part in the comparison: a lobe that counts
+// moves BIC by thousands over them; where the isotropic material is written, it is fitted again
+// on at most kIsotropicWrittenObservations.
 inline constexpr size_t kIsotropicTestObservations = 5000;
 inline constexpr size_t kIsotropicWrittenObservations = 200000;
 // A difference of BIC below this is weak evidence for either model (Kass & Raftery's "very
@@ -21,10 +20,9 @@ inline constexpr size_t kIsotropicWrittenObservations = 200000;
 inline constexpr double kBicStrong = 10.0;
 
 // The share of the signal's energy (sum of |y|^2) a model with an anisotropic lobe must draw
-// beyond the isotropic part alone (about 3 % of its amplitude) for the lobe to count as shown:
-// the line model with both parts drew 2e-4 more of the isotropic paper_white's readings (a shape
-// the Blinn-Phong lobe misses), 0.016 of a GGX-rendered brushed metal's and 0.019 of a swirl
-// plate's (tests/test_rgl.cpp, tests/test_photo.cpp).
+// beyond the isotropic part alone (about 3 % of its amplitude) for the lobe to count as shown;
+// below it a lobe draws a shape the Blinn-Phong lobe misses, not an anisotropy (docs/models.md §6
+// gives the shares of the tests' files).
 inline constexpr double kLobeShare = 1e-3;
 
 struct IsotropicFit {
