@@ -238,6 +238,8 @@ TEST(RglBsdf, AnAnisotropicFileRoundTripsAndFitsBackToItsMaterial) {
   EXPECT_GE(panels, 2);
   EXPECT_LT(worst, 0.05);
   EXPECT_FALSE(std::filesystem::exists(dir + "/rep/residual_histogram.svg"));  // no images' noise
+  EXPECT_NE(read_text_file(dir + "/rep/index.html").find("the data show an anisotropic lobe"),
+            std::string::npos);
   // eval: the file's values into a table.
   write_text_file(dir + "/dirs.csv", "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n30,0,30,180\n");
   r = test::run_cli("eval " + path + " --table " + dir + "/dirs.csv --out " + dir + "/v.csv");

@@ -219,6 +219,22 @@ ReportSummary write_report(const ReportOptions& o) {
   if (rep.contains("model_selection"))
     h << "; chosen by BIC: " << esc(rep["model_selection"].get<std::string>());
   h << ".</p>\n";
+  // Whether the data show an anisotropic lobe at all (the fit's comparison with the isotropic part
+  // alone, docs/models.md §6).
+  if (rep.contains("anisotropy_test")) {
+    const auto& t = rep["anisotropy_test"];
+    char buf[400];
+    std::snprintf(buf, sizeof buf,
+                  "Anisotropy: %s. BIC %.1f for the fitted anisotropic model against %.1f for the "
+                  "isotropic "
+                  "part alone (Lambert + Blinn-Phong) over %zu values; the best model with a lobe "
+                  "draws %.3g of the signal's energy beyond it.",
+                  t.value("preferred", "") == "isotropic" ? "the data show no anisotropic lobe"
+                                                          : "the data show an anisotropic lobe",
+                  t.value("bic_anisotropic", 0.0), t.value("bic_isotropic", 0.0),
+                  t.value("values", size_t{0}), t.value("lobe_share", 0.0));
+    h << "<p id='anisotropy'>" << esc(buf) << "</p>\n";
+  }
   // The parameters.
   h << "<h2>Parameters</h2>\n<p>"
     << esc(rep.value("uncertainty", std::string("sigma: one standard deviation from the images' "
