@@ -280,6 +280,7 @@ TEST(RglBsdf, AnIsotropicMaterialOnAnAnisotropicGridGetsNoFiberDirection) {
   auto r = test::run_cli("fit " + path + " --out " + dir + "/m.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("no anisotropic lobe"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("fiber_angle_deg  "), std::string::npos) << r.output;  // not as a value
   auto j = nlohmann::json::parse(read_text_file(dir + "/m.json"));
   const auto& test = j["report"]["anisotropy_test"];
   std::printf(

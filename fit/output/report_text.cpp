@@ -35,8 +35,16 @@ std::string describe_fit(const FitResult& r) {
       return {t->amplitude};
     return {};
   };
+  // The isotropic part alone (no anisotropic lobe in the data): the line lobe's numbers are 0 or
+  // stand-ins, said once instead of as values.
+  const bool isotropic_alone = r.report.anisotropy.isotropic_written;
+  if (isotropic_alone)
+    o << "  no anisotropic lobe: the isotropic part alone (k_d = k_s = 0; no n, no fiber "
+         "direction)\n";
   auto line = [&](const ParamSpec& p) {
     const std::string key(p.key);
+    if (isotropic_alone && (key == "kd" || key == "ks" || key == "n" || key == "fiber_angle_deg"))
+      return;
     const auto s = r.sigma.find(key);
     const bool undetermined = r.undetermined.count(key) > 0;
     if (s == r.sigma.end() && !undetermined) return;  // not fitted
