@@ -18,6 +18,7 @@
 #include "capture_sim/sim.h"
 #include "core/angles.h"
 #include "core/error.h"
+#include "core/shell.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
 #include "geometry/embree_device.h"
@@ -111,15 +112,10 @@ json bench_fit(const std::string& work, bool quick) {
     std::vector<double> start;
     const size_t rows = export_observations(set, fo, obs, &start);
     std::string cmd = "/usr/bin/python3 " + std::string(ANISO_SOURCE_DIR) + "/bench/scipy_fit.py " +
-                      obs + " '" + json(start).dump() + "' 2>&1";
+                      obs + " '" + json(start).dump() + "'";
     double scipy_s = NAN, scipy_load = NAN, scipy_err = NAN, apart = NAN;
     std::string outtxt;
-    if (FILE* p = popen(cmd.c_str(), "r")) {
-      char buf[4096];
-      size_t n;
-      while ((n = fread(buf, 1, sizeof buf, p)) > 0) outtxt.append(buf, n);
-      pclose(p);
-    }
+    run_shell(cmd, &outtxt);
     const json sj =
         json::parse(outtxt.substr(outtxt.find('{') == std::string::npos ? 0 : outtxt.find('{')),
                     nullptr, false);

@@ -2,8 +2,6 @@
 // tests/data/rgl against libbsdf's `lbfit` on the same file in the same run (its four models:
 // Unreal Engine 4, GGX, anisotropic GGX, Lambertian). lbfit is not a Debian package: it is run
 // where ANISO_LBFIT names it or `lbfit` is on the PATH, and the entry says so where it is not.
-#include <sys/wait.h>
-
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -12,6 +10,7 @@
 #include <vector>
 
 #include "bench/bench_util.h"
+#include "core/shell.h"
 #include "fit/fit.h"
 #include "io/formats/rgl_bsdf.h"
 #include "io/formats/table.h"
@@ -19,20 +18,6 @@
 namespace aniso::benchutil {
 
 namespace {
-
-// The relative RMS of a material against the readings of a table (the fit's report.measured).
-double relative_rms(const Material& m, const SampleTable& readings) {
-  SampleTable model = readings;
-  evaluate_table(m, &model);
-  double e2 = 0, m2 = 0;
-  for (size_t i = 0; i < readings.rows.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      const double d = model.rows[i].value[c] - readings.rows[i].value[c];
-      e2 += d * d;
-      m2 += readings.rows[i].value[c] * readings.rows[i].value[c];
-    }
-  return m2 > 0 ? std::sqrt(e2 / m2) : 0;
-}
 
 // lbfit's path: ANISO_LBFIT, else `lbfit` on the PATH, else "".
 std::string find_lbfit() {
@@ -52,18 +37,13 @@ std::string find_lbfit() {
 // measure: the mean difference on its specular-coordinates grid, not our relative RMS).
 bool run_lbfit(const std::string& lbfit, const std::string& file, double* seconds,
                std::vector<double>* errors) {
-  const std::string cmd = "'" + lbfit + "' '" + file + "' 2>&1";
   const auto t0 = Clock::now();
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (!p) return false;
-  char line[512];
-  while (std::fgets(line, sizeof line, p)) {
-    double e;
-    if (std::sscanf(line, "Error: %lf", &e) == 1) errors->push_back(e);
-  }
-  const int status = ::pclose(p);
+  std::string out;
+  const int status = run_shell(shell_quoted(lbfit) + " " + shell_quoted(file), &out);
   *seconds = since(t0);
-  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  for (size_t at = out.find("Error: "); at != std::string::npos; at = out.find("Error: ", at + 1))
+    errors->push_back(std::atof(out.c_str() + at + 7));
+  return status == 0;
 }
 
 }  // namespace
@@ -100,7 +80,7 @@ json bench_measured(bool quick) {
       per.push_back(
           {{"variant", v.what},
            {"seconds", since(t1)},
-           {"relative_rms", relative_rms(r.material, table)},
+           {"relative_rms", table_misfit(r.material, table).relative_rms},
            {"written", r.report.anisotropy.isotropic_written ? "isotropic part alone"
                                                              : model_name(r.material.model)}});
     }

@@ -6,8 +6,9 @@
 
 namespace aniso {
 
-// SUITE: fit, fiber, bake, capture, preview, skips, measured (RGL files vs libbsdf), or all. `work_dir` holds the synthetic sets.
-// `quick` shrinks every sweep (for tests). Writes the JSON atomically and prints a summary.
+// SUITE: fit, fiber, bake, capture, preview, skips, measured (RGL files vs libbsdf), or all.
+// `work_dir` holds the synthetic sets. `quick` shrinks every sweep (for tests). Writes the JSON
+// atomically and prints a summary.
 void run_bench(const std::string& suite, const std::string& out_path, const std::string& work_dir,
                bool quick);
 

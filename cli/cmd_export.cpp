@@ -1,6 +1,5 @@
 // aniso export: tables, shaders and glTF for engines and browsers (render/export/export.h).
 #include <stdlib.h>
-#include <sys/wait.h>
 
 #include <cmath>
 #include <cstdio>
@@ -12,6 +11,7 @@
 #include "cli/command.h"
 #include "core/angles.h"
 #include "core/error.h"
+#include "core/shell.h"
 #include "io/files/files.h"
 #include "io/formats/material_io.h"
 #include "io/images/image_io.h"
@@ -26,23 +26,6 @@ namespace {
 constexpr const char* kEngineView = "0.3,-0.8,0.5";
 constexpr const char* kEngineLight = "0.6,-0.1,0.8";
 constexpr int kEngineW = 200, kEngineH = 160;
-
-std::string sh_quoted(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-// Runs a shell command; its exit status (-1 where it did not exit) and its output.
-int run(const std::string& cmd, std::string* out) {
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return -1;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out->append(buf, n);
-  const int st = ::pclose(p);
-  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
 
 // The mean absolute difference of two frames of one size, as a fraction of full scale, and the
 // second's mean value.
@@ -93,10 +76,10 @@ nlohmann::json measure_engines(const std::string& material, const std::string& d
   const std::string preview = tmp + "/preview.png";
   std::string self = program_beside_self("aniso-full");
   if (self.empty()) self = program_beside_self("aniso");
-  if (run(sh_quoted(self) + " preview " + sh_quoted(material) + " --shape sphere --view " +
-              kEngineView + " --light " + kEngineLight + " --size " + size + " --out " +
-              sh_quoted(preview),
-          &out) != 0)
+  if (run_shell(shell_quoted(self) + " preview " + shell_quoted(material) +
+                    " --shape sphere --view " + kEngineView + " --light " + kEngineLight +
+                    " --size " + size + " --out " + shell_quoted(preview),
+                &out) != 0)
     throw Error("export --engines: aniso preview failed: " + out);
   const Image exact = read_image(preview).image;
   nlohmann::json j = {{"against", "aniso preview (the exact model) of the material"},
@@ -113,10 +96,10 @@ nlohmann::json measure_engines(const std::string& material, const std::string& d
     std::string said;
     std::printf("export --engines: %s in headless Chromium...\n", engine);
     std::fflush(stdout);
-    const int st = run(sh_quoted(web + "/engines.sh") + " " + sh_quoted(dir) + " " + engine + " " +
-                           sh_quoted(query) + " " + sh_quoted(png) + " " +
-                           std::to_string(kEngineW) + " " + std::to_string(kEngineH),
-                       &said);
+    const int st = run_shell(shell_quoted(web + "/engines.sh") + " " + shell_quoted(dir) + " " +
+                                 engine + " " + shell_quoted(query) + " " + shell_quoted(png) +
+                                 " " + std::to_string(kEngineW) + " " + std::to_string(kEngineH),
+                             &said);
     if (st != 0 || !std::filesystem::exists(png)) {
       j["engines"][engine] = {{"rendered", false}, {"why", said.substr(0, 400)}};
       continue;

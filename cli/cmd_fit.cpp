@@ -357,31 +357,10 @@ int run_fit_mpi(FitArgs& a) {
 // file's grid, and, where the file is isotropic, no fiber direction (whatever the lobe's fit
 // says, the file declares that there is none).
 void measured_fit_report(const RglBsdf& b, const SampleTable& table, FitResult* r) {
-  SampleTable model = table;
-  evaluate_table(r->material, &model);
-  std::map<double, std::pair<double, double>> per;  // theta_o: sum of squares of error, of data
-  double e2 = 0, m2 = 0;
-  for (size_t i = 0; i < table.rows.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      const double d = model.rows[i].value[c] - table.rows[i].value[c], m = table.rows[i].value[c];
-      e2 += d * d, m2 += m * m;
-      auto& p = per[std::round(table.rows[i].theta_o * 100) / 100];
-      p.first += d * d, p.second += m * m;
-    }
-  r->report.measured_rel_rms = m2 > 0 ? std::sqrt(e2 / m2) : 0;
-  // The median reading's own relative error: what the sum of squares, led by a sharp peak, hides.
-  std::vector<double> rel;
-  for (size_t i = 0; i < table.rows.size(); ++i) {
-    const double m = table.rows[i].value[1];
-    if (m > 0) rel.push_back(std::abs(model.rows[i].value[1] / m - 1));
-  }
-  if (!rel.empty()) {
-    std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
-    r->report.measured_median_rel = rel[rel.size() / 2];
-  }
-  for (const auto& [theta, p] : per)
-    r->report.measured_rel_rms_by_angle.push_back(
-        {theta, p.second > 0 ? std::sqrt(p.first / p.second) : 0});
+  const TableMisfit misfit = table_misfit(r->material, table);
+  r->report.measured_rel_rms = misfit.relative_rms;
+  r->report.measured_median_rel = misfit.median_relative;
+  r->report.measured_rel_rms_by_angle = misfit.relative_rms_by_theta_o;
   char buf[300];
   std::snprintf(buf, sizeof buf,
                 "the fitted material against the file's readings: relative RMS %.3f, median "

@@ -27,10 +27,9 @@ class IsotropicPixel : public ceres::SizedCostFunction<3, 3, 3, 1> {
   bool Evaluate(double const* const* p, double* r, double** J) const override {
     const double n = std::exp(p[2][0]);
     double bd[3], bs[3], dbs[3];
-    isotropic_basis(*os_, i_, n, bd, bs, dbs);
+    isotropic_residual(*os_, i_, p[0], p[1], n, r, bd, bs, dbs);
+    if (!J) return true;
     for (int c = 0; c < 3; ++c) {
-      r[c] = p[0][c] * bd[c] + p[1][c] * bs[c] - os_->obs[i_].y[c];
-      if (!J) continue;
       for (int q = 0; q < 3; ++q) {
         if (J[0]) J[0][c * 3 + q] = q == c ? bd[c] : 0.0;
         if (J[1]) J[1][c * 3 + q] = q == c ? bs[c] : 0.0;
@@ -70,6 +69,28 @@ double robust(const ceres::LossFunction* loss, const double r[3], double* weight
   if (loss) loss->Evaluate(s, rho);
   if (weight) *weight = rho[1];
   return rho[0];
+}
+
+// A model's residuals over obs[0], obs[stride], ...: the sum of rho(|r|^2) under a loss, and of
+// |r|^2.
+struct Sums {
+  double cost = 0, rss = 0;
+  void add(const ceres::LossFunction* loss, const double r[3]) {
+    cost += robust(loss, r);
+    rss += r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+  }
+};
+
+// The isotropic part's sums (f's numbers) over every stride-th observation.
+Sums isotropic_sums(const ObsSet& os, size_t stride, const IsotropicFit& f,
+                    const ceres::LossFunction* loss) {
+  Sums s;
+  for (size_t i = 0; i < os.obs.size(); i += stride) {
+    double r[3], bd[3], bs[3], dbs[3];
+    isotropic_residual(os, i, f.kd, f.ks, f.n, r, bd, bs, dbs);
+    s.add(loss, r);
+  }
+  return s;
 }
 
 // min over a, b >= 0 of sum (a d + b s - y)^2, from the sums of products.
@@ -138,8 +159,7 @@ void residual_scaled_sigmas(const ObsSet& os, size_t stride, const ceres::LossFu
   double wrss = 0, values = 0;
   for (size_t i = 0; i < os.obs.size(); i += stride) {
     double bd[3], bs[3], dbs[3], r[3], w = 1;
-    isotropic_basis(os, i, f->n, bd, bs, dbs);
-    for (int c = 0; c < 3; ++c) r[c] = f->kd[c] * bd[c] + f->ks[c] * bs[c] - os.obs[i].y[c];
+    isotropic_residual(os, i, f->kd, f->ks, f->n, r, bd, bs, dbs);
     robust(loss, r, &w);
     for (int c = 0; c < 3; ++c) {
       Vec g = Vec::Zero();
@@ -191,9 +211,6 @@ ceres::Solver::Options quiet_solver_options(const FitOptions& opt, bool written)
 
 // Sum of rho of the line model with its isotropic part on obs[0], obs[stride], ..., started from
 // the fitted material's line numbers and the isotropic part's fit.
-struct Sums {
-  double cost = 0, rss = 0;  // sum of rho(|r|^2), sum of |r|^2
-};
 
 Sums fit_line_with_isotropic(const ObsSet& os, size_t stride, const FitOptions& opt,
                              double loss_scale, const Material& fitted, const IsotropicFit& iso) {
@@ -222,8 +239,7 @@ Sums fit_line_with_isotropic(const ObsSet& os, size_t stride, const FitOptions& 
   for (size_t i = 0; i < os.obs.size(); i += stride) {
     double r[3];
     LineWithIsotropic(&os, i).Evaluate(params, r, nullptr);
-    out.cost += robust(loss.get(), r);
-    out.rss += r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    out.add(loss.get(), r);
   }
   return out;
 }
@@ -250,15 +266,7 @@ IsotropicFit fit_isotropic_part(const ObsSet& os, size_t stride, const FitOption
   f.n = std::exp(logn);
   f.cost = 2 * sum.final_cost;  // Ceres' cost is half the sum of rho
   f.converged = sum.termination_type == ceres::CONVERGENCE;
-  f.rss = 0;
-  for (size_t i = 0; i < os.obs.size(); i += stride) {
-    double bd[3], bs[3], dbs[3];
-    isotropic_basis(os, i, f.n, bd, bs, dbs);
-    for (int c = 0; c < 3; ++c) {
-      const double r = f.kd[c] * bd[c] + f.ks[c] * bs[c] - os.obs[i].y[c];
-      f.rss += r * r;
-    }
-  }
+  f.rss = isotropic_sums(os, stride, f, nullptr).rss;
   if (sigmas) residual_scaled_sigmas(os, stride, loss.get(), &f);
   return f;
 }
@@ -286,8 +294,7 @@ void test_isotropic_alternative(const ObsSet& os, const FitOptions& opt, FitResu
     pixel_residual(
         &o, os.lights.data(), [&](const LocalDir& L, const LocalDir& V, double* f) { ev(L, V, f); },
         r);
-    fitted.cost += robust(loss.get(), r);
-    fitted.rss += r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    fitted.add(loss.get(), r);
     for (int c = 0; c < 3; ++c) signal += double(o.y[c]) * o.y[c];
   }
   const double m = double(used) * per;
@@ -361,15 +368,8 @@ void test_isotropic_alternative(const ObsSet& os, const FitOptions& opt, FitResu
   const size_t every = std::max<size_t>(
       1, (count + kIsotropicWrittenObservations - 1) / kIsotropicWrittenObservations);
   const IsotropicFit all = fit_isotropic_part(os, every, opt, rep.loss_scale, &iso, true);
-  double rss = 0;  // plain, over every observation: the report's RMS and BIC
-  for (size_t i = 0; i < count; ++i) {
-    double bd[3], bs[3], dbs[3];
-    isotropic_basis(os, i, all.n, bd, bs, dbs);
-    for (int c = 0; c < 3; ++c) {
-      const double r = all.kd[c] * bd[c] + all.ks[c] * bs[c] - os.obs[i].y[c];
-      rss += r * r;
-    }
-  }
+  // Plain, over every observation: the report's RMS and BIC.
+  const double rss = isotropic_sums(os, 1, all, nullptr).rss;
   const FitReport before = rep;
   Material mat;
   mat.model = Model::kLine;

@@ -44,6 +44,14 @@ inline void isotropic_basis(const ObsSet& os, size_t i, double n, double bd[3], 
   }
 }
 
+// Pixel i's residual under the isotropic part alone (k_d,iso, k_s,iso, n_iso), with the basis it
+// was made of (isotropic_basis's bd, bs, dbs) for derivatives.
+inline void isotropic_residual(const ObsSet& os, size_t i, const double* kd, const double* ks,
+                               double n, double r[3], double bd[3], double bs[3], double dbs[3]) {
+  isotropic_basis(os, i, n, bd, bs, dbs);
+  for (int c = 0; c < 3; ++c) r[c] = kd[c] * bd[c] + ks[c] * bs[c] - os.obs[i].y[c];
+}
+
 // Pixel i's residual under the line model (k_d, k_s, log n, psi) plus the isotropic part `iso`,
 // and where J is given the Jacobian blocks J[0] (3x3 k_d), J[1] (3x3 k_s), J[2] (log n), J[3]
 // (psi), J[4] (3x7 isotropic), row-major; null blocks are skipped.

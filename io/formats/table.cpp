@@ -1,8 +1,10 @@
 #include "io/formats/table.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <optional>
 #include <sstream>
 
@@ -157,6 +159,36 @@ void evaluate_table(const Material& m, SampleTable* t) {
     for (int c = 0; c < 3; ++c) row.value[c] = f[c];
   }
   t->values = SampleTable::Values::kRGB;
+}
+
+TableMisfit table_misfit(const Material& m, const SampleTable& readings) {
+  SampleTable model = readings;
+  evaluate_table(m, &model);
+  std::map<double, std::pair<double, double>> per;  // theta_o: sum of squares of error, of data
+  double e2 = 0, m2 = 0;
+  std::vector<double> rel;
+  for (size_t i = 0; i < readings.rows.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const double d = model.rows[i].value[c] - readings.rows[i].value[c],
+                   y = readings.rows[i].value[c];
+      e2 += d * d, m2 += y * y;
+      auto& p = per[std::round(readings.rows[i].theta_o * 100) / 100];
+      p.first += d * d, p.second += y * y;
+    }
+    const double g = readings.rows[i].value[1];
+    if (g > 0) rel.push_back(std::abs(model.rows[i].value[1] / g - 1));
+  }
+  TableMisfit out;
+  out.relative_rms = m2 > 0 ? std::sqrt(e2 / m2) : 0;
+  if (!rel.empty()) {
+    std::nth_element(rel.begin(), rel.begin() + static_cast<std::ptrdiff_t>(rel.size() / 2),
+                     rel.end());
+    out.median_relative = rel[rel.size() / 2];
+  }
+  for (const auto& [theta, p] : per)
+    out.relative_rms_by_theta_o.push_back(
+        {theta, p.second > 0 ? std::sqrt(p.first / p.second) : 0});
+  return out;
 }
 
 }  // namespace aniso

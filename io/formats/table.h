@@ -36,4 +36,14 @@ LocalDir dir_from_angles(double theta_deg, double phi_deg);
 // model's topology per row; u, v columns the material's maps at the row's spot).
 void evaluate_table(const Material& m, SampleTable* t);
 
+// How far a material is from a table's readings: the relative RMS (sqrt of sum |model - reading|^2
+// over sum |reading|^2, every channel), the same per viewer angle theta_o (degrees, to 0.01), and
+// the median reading's own relative error (green), which the sum of squares, led by a sharp peak,
+// hides.
+struct TableMisfit {
+  double relative_rms = 0, median_relative = -1;
+  std::vector<std::pair<double, double>> relative_rms_by_theta_o;
+};
+TableMisfit table_misfit(const Material& m, const SampleTable& readings);
+
 }  // namespace aniso
