@@ -50,6 +50,7 @@ struct FusedSolve {
   int iterations = 0;  // accepted steps
   int passes = 0;      // passes over the observations
   bool converged = false;
+  bool crawled = false;  // converged by the crawl rule (fused_lm.h kCrawlLeftChi2)
   // With record_costs, the cost at the start and after each accepted step (the global fit's
   // convergence, for the report; texels leave it off).
   bool record_costs = false;

@@ -1,0 +1,95 @@
+// The fused Levenberg-Marquardt loop's stopping and bound rules (fit/solvers/fused_lm.h), on
+// problems whose answer is known in closed form.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "fit/solvers/fused_lm.h"
+
+namespace aniso::fitting {
+namespace {
+
+using V8 = VecP<8>;
+using M8 = MatP<8>;
+
+// A coupled positive definite matrix: every coordinate correlated with its neighbours.
+M8 coupled_matrix() {
+  M8 H = M8::Zero();
+  for (int k = 0; k < 8; ++k) {
+    H(k, k) = 4.0 + k;
+    if (k + 1 < 8) H(k, k + 1) = H(k + 1, k) = 1.5;
+  }
+  return H;
+}
+
+// The sums of cost(x) = (x - a)^T H (x - a) + floor, as a pass over `values` values gives them (cost
+// and rss alike: no robust loss; g = J^T r = H (x - a)).
+FusedSums<8> quadratic_sums(const M8& H, const V8& a, double floor, const V8& x) {
+  FusedSums<8> s;
+  const V8 d = x - a;
+  s.H = H;
+  s.g = H * d;
+  s.cost = s.rss = d.dot(H * d) + floor;
+  return s;
+}
+
+TEST(FitSolvers, AFitAtABoundConverges) {
+  // The unconstrained minimum has k_d,r (coordinate 0) at -0.5, outside its bound 0: the answer
+  // is the minimum with k_d,r held at 0, the others moved by the coupling (-H_ff^-1 H_f0 (0 - a0)).
+  const M8 H = coupled_matrix();
+  V8 a;
+  a << -0.5, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.2;
+  V8 lo = V8::Constant(-10), hi = V8::Constant(10);
+  lo(0) = 0;
+  const double values = 1000, floor = 990;  // residual variance 1
+  V8 expect = a;
+  expect(0) = 0;
+  const Eigen::Matrix<double, 7, 7> Hff = H.bottomRightCorner<7, 7>();
+  expect.tail<7>() = a.tail<7>() - Hff.ldlt().solve(H.block<7, 1>(1, 0) * (0 - a(0)));
+  V8 x = V8::Constant(0.1);
+  FusedSums<8> cur;
+  FusedSolve out;
+  fused_lm<8>([&](const V8& at, bool) { return quadratic_sums(H, a, floor, at); }, lo, hi, values,
+              200, &x, &cur, &out);
+  std::printf("at a bound: %d iterations, %d passes, converged %d, largest error %.2g\n",
+              out.iterations, out.passes, out.converged, (x - expect).cwiseAbs().maxCoeff());
+  EXPECT_TRUE(out.converged);
+  EXPECT_LE(out.iterations, 10);
+  EXPECT_EQ(x(0), 0.0);
+  EXPECT_LT((x - expect).cwiseAbs().maxCoeff(), 1e-4);  // sigma ~0.5: the loop stops under 1e-3
+}
+
+TEST(FitSolvers, AFusedCrawlStopsWithinATenthSigma) {
+  // The rest of a geometric series: falls 3.0 then 2.2 (ratio 0.733) leave 2.2 * 0.733 / 0.267 =
+  // 6.05 of cost, 2 * 6.05 / 3.3 = 3.67 in chi^2 at a residual variance 3.3.
+  EXPECT_NEAR(crawl_left_chi2(3.0, 2.2, 3.3), 2 * 2.2 * (2.2 / 3.0) / (1 - 2.2 / 3.0) / 3.3, 1e-12);
+  EXPECT_EQ(crawl_left_chi2(2.0, 2.5, 1.0), HUGE_VAL);  // not shrinking: nothing to estimate
+  EXPECT_EQ(crawl_left_chi2(0.0, 0.0, 1.0), HUGE_VAL);
+
+  // A crawl: every step accepted, its size many sigma (the steps' own rule never stops it), the
+  // cost falling toward `floor` by 0.8 a step. After 30 steps what is left is 0.8^30 of the first
+  // fall, 2.5e-3 in chi^2: under the rule's 0.01, where after 20 it was 0.023 (the windows' own
+  // estimate 0.0025 and 0.023 alike).
+  const double values = 1e6, floor = 1e6 - 8;  // residual variance 1
+  int calls = 0;
+  auto pass = [&](const V8&, bool) {
+    FusedSums<8> s;
+    s.H = M8::Identity();
+    s.g = V8::Constant(-1e6);  // steps of many sigma however damped
+    s.cost = s.rss = floor + std::pow(0.8, calls++);
+    return s;
+  };
+  V8 x = V8::Zero(), lo = V8::Constant(-1e9), hi = V8::Constant(1e9);
+  FusedSums<8> cur;
+  FusedSolve out;
+  fused_lm<8>(pass, lo, hi, values, 200, &x, &cur, &out);
+  const double left = 2 * (cur.cost - floor);
+  std::printf("crawl: %d steps, crawled %d, chi^2 left %.2g\n", out.iterations, out.crawled, left);
+  EXPECT_TRUE(out.crawled);
+  EXPECT_EQ(out.iterations, 30);
+  EXPECT_LT(left, kCrawlLeftChi2);
+}
+
+}  // namespace
+}  // namespace aniso::fitting
