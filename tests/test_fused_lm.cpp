@@ -23,8 +23,8 @@ M8 coupled_matrix() {
   return H;
 }
 
-// The sums of cost(x) = (x - a)^T H (x - a) + floor, as a pass over `values` values gives them (cost
-// and rss alike: no robust loss; g = J^T r = H (x - a)).
+// The sums of cost(x) = (x - a)^T H (x - a) + floor, as a pass over `values` values gives them
+// (cost and rss alike: no robust loss; g = J^T r = H (x - a)).
 FusedSums<8> quadratic_sums(const M8& H, const V8& a, double floor, const V8& x) {
   FusedSums<8> s;
   const V8 d = x - a;
@@ -62,15 +62,15 @@ TEST(FitSolvers, AFitAtABoundConverges) {
 
 TEST(FitSolvers, AFusedCrawlStopsWithinATenthSigma) {
   // The rest of a geometric series: falls 3.0 then 2.2 (ratio 0.733) leave 2.2 * 0.733 / 0.267 =
-  // 6.05 of cost, 2 * 6.05 / 3.3 = 3.67 in chi^2 at a residual variance 3.3.
-  EXPECT_NEAR(crawl_left_chi2(3.0, 2.2, 3.3), 2 * 2.2 * (2.2 / 3.0) / (1 - 2.2 / 3.0) / 3.3, 1e-12);
+  // 6.05 of the sum of squares, 6.05 / 3.3 = 1.83 in chi^2 at a residual variance 3.3.
+  EXPECT_NEAR(crawl_left_chi2(3.0, 2.2, 3.3), 2.2 * (2.2 / 3.0) / (1 - 2.2 / 3.0) / 3.3, 1e-12);
   EXPECT_EQ(crawl_left_chi2(2.0, 2.5, 1.0), HUGE_VAL);  // not shrinking: nothing to estimate
   EXPECT_EQ(crawl_left_chi2(0.0, 0.0, 1.0), HUGE_VAL);
 
   // A crawl: every step accepted, its size many sigma (the steps' own rule never stops it), the
   // cost falling toward `floor` by 0.8 a step. After 30 steps what is left is 0.8^30 of the first
-  // fall, 2.5e-3 in chi^2: under the rule's 0.01, where after 20 it was 0.023 (the windows' own
-  // estimate 0.0025 and 0.023 alike).
+  // fall, 1.2e-3 in chi^2: under the rule's 0.01, where after 20 it was 0.012 (the windows' own
+  // estimates alike).
   const double values = 1e6, floor = 1e6 - 8;  // residual variance 1
   int calls = 0;
   auto pass = [&](const V8&, bool) {
@@ -84,7 +84,7 @@ TEST(FitSolvers, AFusedCrawlStopsWithinATenthSigma) {
   FusedSums<8> cur;
   FusedSolve out;
   fused_lm<8>(pass, lo, hi, values, 200, &x, &cur, &out);
-  const double left = 2 * (cur.cost - floor);
+  const double left = cur.cost - floor;
   std::printf("crawl: %d steps, crawled %d, chi^2 left %.2g\n", out.iterations, out.crawled, left);
   EXPECT_TRUE(out.crawled);
   EXPECT_EQ(out.iterations, 30);

@@ -14,6 +14,7 @@
 #include "core/angles.h"
 #include "core/error.h"
 #include "core/timer.h"
+#include "fit/solvers/crawl.h"
 #include "fit/solvers/line_simd.h"
 #include "fit/solvers/start.h"
 #include "models/params.h"
@@ -59,6 +60,33 @@ class TerminalIterations : public ceres::IterationCallback {
     std::fflush(stderr);
     return ceres::SOLVER_CONTINUE;
   }
+};
+
+// fused_lm.h's crawl rule for a Ceres solve: every kCrawlWindow successful steps the cost's fall is
+// compared with the window's before, and the solve ends where the geometric rest of the falls is
+// under kCrawlLeftChi2 (Ceres' cost is half the sum of rho: twice its falls are the sums'; the
+// residual variance from the cost itself, 2 cost / (values - parameters), which under a robust
+// loss is smaller than the squares' and so stops later).
+class CrawlStop : public ceres::IterationCallback {
+ public:
+  CrawlStop(double values, size_t parameters)
+      : dof_(std::max(1.0, values - static_cast<double>(parameters))) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (s.iteration == 0) from_ = s.cost;
+    if (!s.step_is_successful || s.iteration == 0 || ++steps_ % kCrawlWindow)
+      return ceres::SOLVER_CONTINUE;
+    const double fell = 2 * (from_ - s.cost), s2 = 2 * s.cost / dof_;
+    const bool done = before_ > 0 && crawl_left_chi2(before_, fell, s2) < kCrawlLeftChi2;
+    before_ = fell;
+    from_ = s.cost;
+    if (done) crawled = true;
+    return done ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+  bool crawled = false;
+
+ private:
+  double dof_, from_ = 0, before_ = -1;
+  int steps_ = 0;
 };
 
 }  // namespace
@@ -248,6 +276,7 @@ bool solve_fused(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport
   rep->iterations = f.iterations;
   rep->convergence = f.costs;
   rep->termination = f.converged ? "CONVERGENCE" : "NO_CONVERGENCE";
+  rep->stopped_on_crawl = f.crawled;
   rep->residual_evaluations = rep->jacobian_evaluations = static_cast<size_t>(f.passes);
   rep->solver = "fused LM";
   rep->pass = m->model() == Model::kLine && line_simd_enabled() && opt.loss != FitLoss::kCauchy
@@ -373,7 +402,12 @@ Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* 
     for (size_t i = 0; i < all.size(); ++i) all[i] = i;
     sol.problem = new_problem();
     m->add_residuals(sol.problem.get(), os, all, loss.release());  // the problem owns it
-    ceres::Solve(solver_options(opt), sol.problem.get(), &sol.summary);
+    ceres::Solver::Options so = solver_options(opt);
+    CrawlStop crawl(static_cast<double>(os.obs.size()) * (os.grey ? 1 : 3), m->parameters());
+    so.callbacks.push_back(&crawl);
+    ceres::Solve(so, sol.problem.get(), &sol.summary);
+    if (crawl.crawled) sol.summary.termination_type = ceres::CONVERGENCE;
+    rep->stopped_on_crawl = crawl.crawled;
   }
   if (opt.progress && ::isatty(2)) std::fprintf(stderr, "\r%70s\r", "");  // the iteration line
   summarize(os, m->parameters(), &sol, rep);

@@ -246,6 +246,7 @@ jsonu::json report_json(const FitReport& p) {
                    {"parameters", p.parameters},
                    {"jacobian_evaluations", p.jacobian_evaluations}};
   if (!p.pass.empty()) j["pass"] = p.pass;
+  if (p.stopped_on_crawl) j["stopped_on_crawl"] = true;
   if (!p.convergence.empty() && std::all_of(p.convergence.begin(), p.convergence.end(),
                                             [](double c) { return std::isfinite(c); }))
     j["convergence"] = {{"cost", p.convergence},

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/angles.h"
+#include "fit/solvers/crawl.h"
 #include "fit/solvers/model_fit.h"
 #include "fit/types/fit_types.h"
 
@@ -255,24 +256,6 @@ constexpr double kLastStepInSigma = 0.1;
 // (fit/maps/texel_solve.cpp) and the fiber model's texels through fused_lm's `ridge_rule`.
 constexpr int kRidgeIterations = 30, kRidgeWindow = 10;
 constexpr double kRidgeSettledSigma = 0.1;
-
-// A crawl: where the steps stay damped in a curved valley (the fiber model's quadrature under a
-// robust loss on an isotropic measured file: ~1e-2 sigma a step, the cost falling by a steady
-// ratio a window), the cost's fall over each kCrawlWindow accepted steps is compared with the
-// window's before. Falling by a steady ratio q < 1, what is left to gain is the rest of that
-// geometric series, D q / (1 - q); the fit is done when that is under kCrawlLeftChi2 in units of
-// the residual variance (chi^2: 0.01 is a tenth of a sigma along the valley). A fit that converges
-// quadratically stops on the step's size first. Test: FitSolvers.AFusedCrawlStopsWithinATenthSigma.
-constexpr int kCrawlWindow = 10;
-constexpr double kCrawlLeftChi2 = 0.01;
-
-// The chi^2 a crawl has left to gain: the windows' falls `before` and `last` (costs), `s2` the
-// residual variance. Infinite where the falls are not shrinking.
-inline double crawl_left_chi2(double before, double last, double s2) {
-  if (!(before > 0 && last >= 0 && last < before && s2 > 0)) return HUGE_VAL;
-  const double q = last / before;
-  return 2 * last * q / (1 - q) / s2;
-}
 
 // Where Gauss-Newton converges only linearly (a model that does not describe the data, or the
 // robust weights still moving), consecutive steps point the same way and shrink by a steady ratio

@@ -244,6 +244,9 @@ struct FitReport {
   double rms = 0, noise_sigma = 0, loss_scale = 0;
   double pixel_noise = 0;  // of the images, from neighbouring pixels (0 for tables)
   std::string termination, loss;
+  // CONVERGENCE by the crawl rule (fit/solvers/crawl.h): the cost still fell, by a steady ratio,
+  // with under kCrawlLeftChi2 left to gain.
+  bool stopped_on_crawl = false;
   std::string covariance;  // how the uncertainty was computed
   std::string solver;      // which solver found the minimum ("fused LM" or "ceres")
   // The fused solver's pass: four pixels at a time (AVX2 and FMA, chosen at run time) or one; the

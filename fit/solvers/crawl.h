@@ -1,0 +1,27 @@
+// When a solve that only crawls is done: the rule fused_lm.h's loop and the global fit's Ceres
+// solve (fit/global/solve.cpp) share.
+#pragma once
+#include <cmath>
+
+namespace aniso::fitting {
+
+// A crawl: where the steps stay damped in a curved valley (the fiber model's quadrature under a
+// robust loss on an isotropic measured file: ~1e-2 sigma a step, the cost falling by a steady
+// ratio a window), the fall of the sum of squares over each kCrawlWindow accepted steps is
+// compared with the window's before. Falling by a steady ratio q < 1, what is left to gain is the
+// rest of that geometric series, D q / (1 - q); the fit is done when that is under kCrawlLeftChi2
+// in units of the residual variance (chi^2: 0.01 is a tenth of a sigma along the valley). A fit
+// that converges quadratically stops on its step's size first. Test:
+// FitSolvers.AFusedCrawlStopsWithinATenthSigma.
+constexpr int kCrawlWindow = 10;
+constexpr double kCrawlLeftChi2 = 0.01;
+
+// The chi^2 a crawl has left to gain: the windows' falls `before` and `last` of the sum of
+// squares, `s2` the residual variance. Infinite where the falls are not shrinking.
+inline double crawl_left_chi2(double before, double last, double s2) {
+  if (!(before > 0 && last >= 0 && last < before && s2 > 0)) return HUGE_VAL;
+  const double q = last / before;
+  return last * q / (1 - q) / s2;
+}
+
+}  // namespace aniso::fitting
