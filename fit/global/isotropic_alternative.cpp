@@ -314,7 +314,9 @@ void test_isotropic_alternative(const ObsSet& os, const FitOptions& opt, FitResu
     return b < t.bic_isotropic && iso.rss - x.rss > kLobeShare * signal;
   };
   t.isotropic_preferred = !shown(t.bic_anisotropic, fitted);
-  if (t.isotropic_preferred) {
+  // A line fit with its isotropic part is already the model that holds both.
+  const bool fitted_holds_both = opt.fit_isotropic && res->material.model == Model::kLine;
+  if (t.isotropic_preferred && !fitted_holds_both) {
     // Is there an anisotropic lobe the fitted model draws worse than Blinn-Phong (a GGX lobe, a
     // lobe of two parts)? The model that holds both answers it.
     const Sums both = fit_line_with_isotropic(os, stride, opt, rep.loss_scale, res->material, iso);
