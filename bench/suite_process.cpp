@@ -169,9 +169,21 @@ double texel_seconds(const std::string& mat) {
 }
 
 // The largest |a - b| / sigma_b over the determined texels of two --maps fits (k_d, k_s, n, psi).
+// The map file STEM.json names for `key`: "kd", "kd_sigma", "determined", "coverage", ... (from
+// its maps or maps_uncertainty block).
+std::string map_file(const std::string& stem, std::string key) {
+  const bool sigma = key.size() > 6 && key.compare(key.size() - 6, 6, "_sigma") == 0;
+  if (sigma) key.resize(key.size() - 6);
+  const bool uncertainty = sigma || key == "determined" || key == "coverage";
+  const std::string f =
+      named_map_file(stem + ".json", uncertainty ? "maps_uncertainty" : "maps", key);
+  if (f.empty()) throw Error(stem + ".json: names no map " + key);
+  return f;
+}
+
 double maps_difference(const std::string& a_stem, const std::string& b_stem) {
   auto img = [](const std::string& stem, const std::string& key) {
-    return read_image(stem + "_" + key + ".exr").image;
+    return read_image(map_file(stem, key)).image;
   };
   const Image det = img(b_stem, "determined");
   double worst = 0;
@@ -208,7 +220,9 @@ json maps_entry(const std::string& work, bool quick, int views) {
   set_exr_compression("none");
   simulate_capture(make_preset("swirl-plate", po), dir);
   const std::string grid = quick ? "8x8" : "64x64";
-  run_self({"fit", dir, "--subsample", "4", "--out", global});
+  // The plate as a whole shows no one direction (a swirl): --keep-anisotropic keeps the line
+  // fit the texels start from, as the isotropic part alone would be refused as --global.
+  run_self({"fit", dir, "--subsample", "4", "--keep-anisotropic", "--out", global});
   auto maps = [&](const char* solver) {
     return std::vector<std::string>{"fit",           dir,
                                     "--maps",        grid,
@@ -302,8 +316,8 @@ json bands_entry(const std::string& work, bool quick, int views) {
     bands = j["report"].value("maps_bands", 0);
     for (const char* k : {"kd", "ks", "n", "fiber", "kd_sigma", "ks_sigma", "n_sigma",
                           "fiber_sigma", "coverage", "determined"})
-      same = same && read_text_file(stem + "_one_" + k + ".exr") ==
-                         read_text_file(stem + "_bands_" + k + ".exr");
+      same = same && read_text_file(map_file(stem + "_one", k)) ==
+                         read_text_file(map_file(stem + "_bands", k));
   }
   json e = entry("fit",
                  "whole process: fit --maps " + grid + " --global on swirl-plate (" +

@@ -245,6 +245,15 @@ void load_material_maps(const std::string& path, Material* m) {
   mp.amplitude = load_map(path, mp.amplitude_file, "amplitude", 1, "topology.amplitude");
 }
 
+std::string named_map_file(const std::string& path, const std::string& block,
+                           const std::string& key) {
+  const json j = json::parse(read_text_file(path), nullptr, false);
+  if (!j.is_object() || !j.contains(block) || !j[block].is_object()) return "";
+  const json& b = j[block];
+  if (!b.contains(key) || !b[key].is_string()) return "";
+  return join_path(std::filesystem::path(path).parent_path().string(), b[key].get<std::string>());
+}
+
 std::vector<std::string> material_input_files(const Material& m, const std::string& path) {
   std::vector<std::string> f{path};
   if (const auto* t = m.topology_as<TopologyMapRef>()) f.push_back(join_path(m.base_dir, t->file));

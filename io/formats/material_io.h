@@ -16,6 +16,11 @@ void load_material_maps(const std::string& path, Material* m);
 
 // The material file and every map it names (resolved against its folder).
 std::vector<std::string> material_input_files(const Material& m, const std::string& path);
+// The image file a material at `path` names for a map: `block` "maps" (kd, ks, n, fiber, ...) or
+// "maps_uncertainty" (kd, ..., determined, coverage, residual), resolved against its folder; ""
+// where the file names none (fit --maps writes them as STEM_KEY.GEN.exr, one generation a run).
+std::string named_map_file(const std::string& path, const std::string& block,
+                           const std::string& key);
 Material material_from_json(const nlohmann::json& j, const std::string& file);
 void material_to_json(const Material& m, nlohmann::json* j);
 // Writes `j` (a material plus any extra blocks) atomically; refuses non-finite numbers.
