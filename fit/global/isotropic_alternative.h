@@ -37,8 +37,9 @@ struct IsotropicFit {
 
 // The isotropic part alone fitted to obs[0], obs[stride], ... under the fit's loss (--loss at
 // `loss_scale`): a grid over n_iso with k_d,iso and k_s,iso solved per channel (non-negative
-// least squares), then Ceres over all seven numbers from the best node (or from `from` where
-// given). With `sigmas`, the residual-scaled standard deviations too.
+// least squares), then the fused solver over all seven numbers from the best node (or from
+// `from` where given); Ceres where `sigmas` are asked (the material written) or opt.ceres_solver.
+// With `sigmas`, the residual-scaled standard deviations too.
 IsotropicFit fit_isotropic_part(const ObsSet& os, size_t stride, const FitOptions& opt,
                                 double loss_scale, const IsotropicFit* from = nullptr,
                                 bool sigmas = false);

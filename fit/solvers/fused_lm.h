@@ -1,5 +1,7 @@
 // fit/ internal: the fused Levenberg-Marquardt shared by the models that have one (the plain line
-// model, fit/solvers/line_lm.cpp; the fiber model, fit/solvers/fiber_lm.cpp). Every iteration is
+// model, fit/solvers/line_lm.cpp; the fiber model, fit/solvers/fiber_lm.cpp; the isotropic part
+// alone, fit/global/isotropic_alternative.cpp, P = 7 with log n_iso its one shared column and no
+// psi). Every iteration is
 // one pass over the observations that sums the robust cost, J^T W J and J^T W r together; the pass
 // runs on TBB in fixed chunks summed in order, so the answer does not depend on the scheduling. The
 // parameter vector is the core (k_d 3, k_s 3, log n, psi) and P - 8 of the model's own numbers; a
@@ -287,7 +289,7 @@ struct NielsenDamping {
   template <int P>
   void accepted(const FusedSums<P>& at, const VecP<P>& from, const VecP<P>& to, double cost) {
     VecP<P> d = to - from;
-    d(7) -= M_PI * std::round(d(7) / M_PI);  // psi's step, not its wrap
+    if constexpr (P > 7) d(7) -= M_PI * std::round(d(7) / M_PI);  // psi's step, not its wrap
     const double predicted = -2 * at.g.dot(d) - d.dot(at.step_matrix() * d);
     const double rho = predicted > 0 ? (at.cost - cost) / predicted : 1.0;
     lambda = std::max(lambda * std::max(1.0 / 3, 1 - std::pow(2 * rho - 1, 3)), 1e-12);
@@ -379,7 +381,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
   double last = 0;                 // its size in sigmas (0: none yet)
   auto to = [&](const VecP<P>& s) {
     VecP<P> xn = (*x + s).cwiseMax(lo).cwiseMin(hi);
-    xn(7) = wrap_half_turn(xn(7));
+    if constexpr (P > 7) xn(7) = wrap_half_turn(xn(7));
     return xn;
   };
   VecP<P> window_start = *x;  // the ridge rule's
@@ -449,7 +451,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
       if (ridge_rule && ++accepted % kRidgeWindow == 0) {
         VecP<P> moved = *x - window_start;
         moved.template segment<4>(3).setZero();  // k_s, log n: the ridge
-        moved(7) = std::remainder(moved(7), M_PI);
+        if constexpr (P > 7) moved(7) = std::remainder(moved(7), M_PI);
         if (it >= kRidgeIterations &&
             step_in_sigmas_p<P>(cur->H, moved, cur->rss, values) < kRidgeSettledSigma) {
           out->converged = true;

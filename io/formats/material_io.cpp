@@ -195,11 +195,12 @@ Material material_from_json(const json& j, const std::string& file) {
     root.at("format").fail("expected \"aniso-material\", got \"" + format + "\"");
   const double version = jsonu::num(jsonu::need(j, "version", root), root.at("version"));
   if (version != 1) root.at("version").fail("unsupported version (this reader knows 1)");
-  jsonu::check_keys(j,
-                    {"format", "version", "model", "kd", "ks", "n", "fiber_angle_deg", "ka",
-                     "isotropic", "second_fiber", "topology", "uncertainty", "fixed",
-                     "undetermined", "report", "maps", "maps_uncertainty", "previews", "written_by"},
-                    root);
+  jsonu::check_keys(
+      j,
+      {"format", "version", "model", "kd", "ks", "n", "fiber_angle_deg", "ka", "isotropic",
+       "second_fiber", "topology", "uncertainty", "fixed", "undetermined", "report", "maps",
+       "maps_uncertainty", "previews", "written_by"},
+      root);
   Material m;
   const std::string model = jsonu::str_or(j, "model", "line", root);
   if (model == "line")
