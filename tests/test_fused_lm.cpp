@@ -6,10 +6,13 @@
 #include <cstdio>
 
 #include "fit/global/isotropic_alternative.h"
+#include "fit/global/view_sandwich.h"
 #include "fit/records/observations.h"
 #include "fit/solvers/fused_lm.h"
+#include "io/formats/capture.h"
 #include "io/formats/rgl_bsdf.h"
 #include "io/formats/table.h"
+#include "test_util.h"
 
 namespace aniso::fitting {
 namespace {
@@ -126,6 +129,44 @@ TEST(FitSolvers, TheIsotropicPartFusedAsCeres) {
       EXPECT_NEAR(fused.ks[c], ref.ks[c], 1e-3 * std::max(ref.ks[c], 1e-2));
     }
   }
+}
+
+TEST(FitSolvers, TheViewsSpreadFromRowsAsFromDifferences) {
+  // The views' sandwich (fit/global/view_sandwich.h) of the fiber model, its per-view gradients
+  // from the fused solver's rows in one pass and by central differences of the residual, at a
+  // point off the minimum (the residuals large, so both sums are far from rounding): the same
+  // covariance to the differences' precision.
+  const std::string dir = test::tmp_dir("view_rows");
+  auto r =
+      test::run_cli("synth brushed-metal " + dir + "/set --noise 0.01 --size 48x48 --views 12");
+  ASSERT_EQ(r.status, 0) << r.output;
+  FitOptions opt;
+  opt.progress = false;
+  opt.model = FitModel::kFiber;
+  FitReport rep;
+  const ObsSet os = capture_observations(read_capture(dir + "/set"), opt, &rep);
+  std::unique_ptr<ModelFit> m = make_fiber_fit(opt, os);
+  m->start(os, false);
+  m->core.psi += 0.05;
+  std::vector<std::pair<double*, int>> blocks = {
+      {m->core.kd, 3}, {m->core.ks, 3}, {&m->core.logn, 1}, {&m->core.psi, 1}};
+  std::vector<double> ainv(64, 0.0);
+  for (int k = 0; k < 8; ++k) ainv[9 * k] = 1.0;
+  size_t views_rows = 0, views_diff = 0;
+  const std::vector<double> rows = per_view_covariance(m.get(), os, blocks, ainv, 2, &views_rows);
+  const std::vector<double> diff =
+      per_view_covariance(m.get(), os, blocks, ainv, 2, &views_diff, true);
+  ASSERT_EQ(rows.size(), 64u);
+  ASSERT_EQ(diff.size(), 64u);
+  EXPECT_EQ(views_rows, views_diff);
+  double worst = 0;
+  for (int k = 0; k < 8; ++k) {
+    const double a = std::sqrt(rows[9 * k]), b = std::sqrt(diff[9 * k]);
+    worst = std::max(worst, std::abs(a - b) / b);
+  }
+  std::printf("views' sigma from rows and from differences: largest relative difference %.2g\n",
+              worst);
+  EXPECT_LT(worst, 1e-5);
 }
 
 }  // namespace

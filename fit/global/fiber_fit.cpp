@@ -228,6 +228,18 @@ class FiberFit : public ModelFit {
     const FiberResidual f(os, i, mode_, acc_);
     f(core.kd, core.ks, &core.logn, &core.psi, topo_, r);
   }
+  bool residual_row(const ObsSet& os, size_t i, double r[3], double dkd[3], double dks[3],
+                    double shared[3][3]) const override {
+    if (mode_ == TopologyMode::kTexels) return false;
+    fiber_row(os, i, mode_, acc_, core, topo_[0], r, dkd, dks, shared);
+    return true;
+  }
+  std::vector<const double*> row_shared() const override {
+    if (mode_ == TopologyMode::kTexels) return {};
+    std::vector<const double*> v = {&core.logn, &core.psi};
+    if (mode_ != TopologyMode::kMathematical) v.push_back(topo_);
+    return v;
+  }
 
   std::vector<Block> blocks(ceres::Problem* pb) override {
     std::vector<Block> b;

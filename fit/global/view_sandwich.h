@@ -18,13 +18,15 @@ class ModelFit;
 
 // The covariance C above over the free parameter blocks `blocks` (pointer into m's state, size),
 // P coordinates in all, given (J^T J)^-1 over the same coordinates (`ainv`, P x P row-major).
-// J_v by central differences of m.residual (each coordinate moved and restored in place). Empty
+// J_v from the model's rows in one pass where it gives them (ModelFit::residual_row) unless
+// `differences`, else by central differences of m.residual (each coordinate moved and restored
+// in place). Empty
 // where the set has no views (a table), fewer than P + 2 views with observations, or more than
 // kMaxObservations (it holds 12 bytes an observation: the residuals at the solution).
 inline constexpr size_t kMaxObservations = size_t{1} << 25;
 std::vector<double> per_view_covariance(ModelFit* m, const ObsSet& os,
                                         const std::vector<std::pair<double*, int>>& blocks,
                                         const std::vector<double>& ainv, int threads,
-                                        size_t* views_used);
+                                        size_t* views_used, bool differences = false);
 
 }  // namespace aniso::fitting

@@ -3,6 +3,7 @@
 #include <ceres/jet.h>
 
 #include <cstdio>
+#include <type_traits>
 
 #include "fit/solvers/fused_lm.h"
 #include "fit/solvers/line_lm.h"
@@ -125,6 +126,34 @@ void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss
 }
 
 }  // namespace
+
+void fiber_row(const ObsSet& os, size_t i, TopologyMode mode, const FiberAccuracy& acc,
+               const Core& c, double topo, double r[3], double dkd[3], double dks[3],
+               double shared[3][3]) {
+  auto one = [&](auto p) {
+    constexpr int P = decltype(p)::value;
+    VecP<P> x;
+    x.template head<8>() = pack_core(c);
+    if constexpr (P == 9) x(8) = topo;
+    const FiberPass<P> pass{os, nullptr, mode, acc};
+    const double kd[3] = {x(0), x(1), x(2)}, ks[3] = {x(3), x(4), x(5)};
+    const J3 n = exp(J3(x(6), 0)), psi(x(7), 1);
+    const J3 t = P == 9 ? J3(x(P - 1), 2) : J3(0.0);
+    const J3 s = mode == TopologyMode::kGlobalS     ? t
+                 : mode == TopologyMode::kAmplitude ? topology_with_map(os.smath(i), t, os.mapv(i))
+                                                    : J3(os.smath(i));
+    ObsRow<P> d;
+    pass.row(os.obs[i], kd, ks, n, cos(psi), sin(psi), s, &d);
+    for (int k = 0; k < 3; ++k) {
+      r[k] = d.r[k], dkd[k] = d.dkd[k], dks[k] = d.dks[k];
+      for (int j = 0; j < 3; ++j) shared[k][j] = j < P - 6 ? d.shared[k][j] : 0.0;
+    }
+  };
+  if (mode == TopologyMode::kMathematical)
+    one(std::integral_constant<int, 8>());
+  else
+    one(std::integral_constant<int, 9>());
+}
 
 void fiber_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
                     int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc,

@@ -29,6 +29,12 @@ inline void fiber_columns(const ObsSet& os, const Observation& o, double c, doub
   }
 }
 
+// Observation i's residual and its rows as the fused solve's pass makes them (shared columns:
+// log n, psi and, unless the topology is the mathematical one, the topology `topo`).
+void fiber_row(const ObsSet& os, size_t i, TopologyMode mode, const FiberAccuracy& acc,
+               const Core& c, double topo, double r[3], double dkd[3], double dks[3],
+               double shared[3][3]);
+
 // A quadratic pull of the solve's numbers (k_d 3, k_s 3, log n, psi, the topology) toward b with
 // weights w, psi's difference taken modulo a half turn: --smooth for the fiber model's texels.
 struct FiberPull {

@@ -99,6 +99,16 @@ class ModelFit {
   virtual FiberOrderErrors quadrature_errors() const { return {}; }
   // The unweighted residual of observation i at the current parameters (for the weights).
   virtual void residual(const ObsSet&, size_t, double r[3]) const { r[0] = r[1] = r[2] = 0; }
+  // Observation i's residual with its derivatives, in one evaluation where the model has them (its
+  // fused solver's rows): channel k's row is nonzero at k_d[k] (dkd[k]), k_s[k] (dks[k]) and the
+  // shared coordinates row_shared() names (shared[k][j]). False where the model has none (the
+  // views' sandwich then differences `residual`).
+  virtual bool residual_row(const ObsSet&, size_t, double /*r*/[3], double /*dkd*/[3],
+                            double /*dks*/[3], double /*shared*/[3][3]) const {
+    return false;
+  }
+  // The coordinates of residual_row's shared columns (at most 3): log n, psi, the model's own.
+  virtual std::vector<const double*> row_shared() const { return {}; }
   // Coordinates the data cannot fix at this solution: held constant in pb, named in res.
   virtual void hold_undetermined(ceres::Problem*, double /*kd_max*/, FitResult*) {}
   // The model's own blocks for the covariance, and whether the full correlation is wanted (not
