@@ -164,6 +164,13 @@ void evaluate_table(const Material& m, SampleTable* t) {
 TableMisfit table_misfit(const Material& m, const SampleTable& readings) {
   SampleTable model = readings;
   evaluate_table(m, &model);
+  return table_misfit(model, readings);
+}
+
+TableMisfit table_misfit(const SampleTable& model, const SampleTable& readings) {
+  if (model.rows.size() != readings.rows.size())
+    throw Error("table_misfit: the model's table has " + std::to_string(model.rows.size()) +
+                " rows, the readings " + std::to_string(readings.rows.size()));
   std::map<double, std::pair<double, double>> per;  // theta_o: sum of squares of error, of data
   double e2 = 0, m2 = 0;
   std::vector<double> rel;

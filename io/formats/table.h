@@ -45,5 +45,8 @@ struct TableMisfit {
   std::vector<std::pair<double, double>> relative_rms_by_theta_o;
 };
 TableMisfit table_misfit(const Material& m, const SampleTable& readings);
+// The same measures for `model`, a table of the same rows (directions) holding another model's
+// values (another tool's fit evaluated at the readings' directions).
+TableMisfit table_misfit(const SampleTable& model, const SampleTable& readings);
 
 }  // namespace aniso
