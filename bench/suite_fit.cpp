@@ -92,7 +92,7 @@ json bench_fit(const std::string& work, bool quick) {
   po.views = quick ? 6 : 16;
   po.width = po.height = quick ? 64 : 128;
   po.noise = 0.01;
-  po.progress = false;
+  po.progress = nullptr;
   const SimOptions so = make_preset("brushed-metal", po);
   const std::string dir = join_path(work, "fit_line");
   simulate_capture(so, dir);
@@ -100,7 +100,7 @@ json bench_fit(const std::string& work, bool quick) {
   std::vector<int> subs = quick ? std::vector<int>{4, 1} : std::vector<int>{8, 4, 2, 1};
   for (int sub : subs) {
     FitOptions fo;
-    fo.progress = false;
+    fo.progress = nullptr;
     fo.subsample = sub;
     // SciPy's objective: plain least squares (our default, Huber's loss, has another minimum, and
     // "equal error" is only a fair test between solvers of one problem).
@@ -188,7 +188,7 @@ json bench_fit(const std::string& work, bool quick) {
         close(fds[0]);
         const long before = current_rss_kb();
         FitOptions fo;
-        fo.progress = false;
+        fo.progress = nullptr;
         const FitResult r = fit_capture(set, fo);
         const long peak = peak_rss_kb();
         char buf[128];
@@ -234,7 +234,7 @@ json bench_fit(const std::string& work, bool quick) {
     const CaptureSet fs = read_capture(fdir);
     for (int sub : quick ? std::vector<int>{4} : std::vector<int>{8, 4, 2, 1}) {
       FitOptions fo;
-      fo.progress = false;
+      fo.progress = nullptr;
       fo.model = FitModel::kFiber;
       fo.subsample = sub;
       const FitResult r = fit_capture(fs, fo);

@@ -184,7 +184,7 @@ json bench_measured(bool quick) {
     const SampleTable table = measured_table(b);
     for (const Variant& v : variants) {
       FitOptions o;
-      o.progress = false;
+      o.progress = nullptr;
       o.model = v.model;
       o.fit_isotropic = v.iso;
       const auto t1 = Clock::now();

@@ -132,7 +132,7 @@ json fiber_entry(const std::string& work, bool quick, const char* preset, const 
   po.width = po.height = quick ? 64 : 128;
   po.noise = 0.01;
   po.topology_s = 0.4;
-  po.progress = false;
+  po.progress = nullptr;
   const std::string stem = join_path(work, std::string(preset) + "_" + model);
   const std::string dir = stem + "_set";
   simulate_capture(make_preset(preset, po), dir);
@@ -214,7 +214,7 @@ json maps_entry(const std::string& work, bool quick, int views) {
   po.views = quick ? 8 : views;
   po.width = po.height = quick ? 64 : 256;
   po.noise = 0.01;
-  po.progress = false;
+  po.progress = nullptr;
   const std::string stem = join_path(work, "swirl" + std::to_string(po.views));
   const std::string dir = stem + "_set", global = stem + "_global.json";
   set_exr_compression("none");
@@ -352,7 +352,7 @@ json bench_fit_process(const std::string& work, bool quick) {
     po.views = quick ? s.views / 4 : s.views;
     po.width = po.height = quick ? s.side / 2 : s.side;
     po.noise = 0.01;
-    po.progress = false;
+    po.progress = nullptr;
     const SimOptions so = make_preset("brushed-metal", po);
     const std::string dir = join_path(work, s.name);
     set_exr_compression("none");  // what aniso synth writes by default

@@ -243,7 +243,7 @@ json bench_capture(const std::string& work, bool quick) {
     PresetOptions po;
     po.views = quick ? 4 : 16;
     po.width = po.height = quick ? 96 : 256;
-    po.progress = false;
+    po.progress = nullptr;
     c.so = make_preset("brushed-metal", po);
     c.so.shape = shape;
     c.so.shape_options.torus_r = 0.6;
@@ -345,7 +345,7 @@ json bench_preview_maps(bool quick) {
   PresetOptions po;
   po.views = 1;
   po.width = po.height = 16;
-  po.progress = false;
+  po.progress = nullptr;
   const Material m = make_preset("woven-patch", po).truth;
   Material mean = m;
   mean.maps = MaterialMaps{};
@@ -431,7 +431,7 @@ json bench_skips(const std::string& work, bool quick) {
   PresetOptions po;
   po.views = quick ? 4 : 16;
   po.width = po.height = quick ? 96 : 256;
-  po.progress = false;
+  po.progress = nullptr;
   // Shadow rays for a shape that cannot shadow itself (sphere).
   {
     SimOptions so = make_preset("satin-ball", po);

@@ -160,7 +160,7 @@ MicroMeasurement MicroPatch::measure(const LocalDir& L, const LocalDir& V, doubl
 }
 
 MicroSweepSummary micro_sweep(const std::string& csv_path, double n, int rays, uint64_t seed,
-                              bool progress) {
+                              const ProgressSink* progress) {
   const auto t0 = std::chrono::steady_clock::now();
   MicroSweepSummary sum;
   const double svals[] = {0.0, 0.25, 0.5, 0.75, 1.0};

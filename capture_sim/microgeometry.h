@@ -14,6 +14,8 @@
 
 namespace aniso {
 
+class ProgressSink;  // core/progress.h
+
 struct MicroMeasurement {
   double D = 0, S = 0;        // mean <n,L>^+ and (<R,V>^+)^n over visible points, lit only
   double D_se = 0, S_se = 0;  // standard errors of the means
@@ -44,6 +46,6 @@ struct MicroSweepSummary {
   double max_dD = 0, max_dS = 0, max_zD = 0, max_zS = 0, seconds = 0;
 };
 MicroSweepSummary micro_sweep(const std::string& csv_path, double n, int rays, uint64_t seed,
-                              bool progress);
+                              const ProgressSink* progress);
 
 }  // namespace aniso

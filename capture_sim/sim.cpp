@@ -419,12 +419,15 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       tr.images = Images::kWrite;  // the white level changes nothing: each view as it comes
     } else if (kept > opt.kept_radiance_bytes) {
       // Bounded memory: every view traced and shaded twice, the white level first.
-      if (opt.progress)
-        std::fprintf(stderr,
-                     "capture_sim: keeping every view's radiance for the white level would take "
-                     "%.3f GB (over the %.3f GB allowed, --kept-radiance-gb): the views are "
-                     "shaded twice instead, the white level first\n",
-                     kept / 1e9, opt.kept_radiance_bytes / 1e9);
+      if (opt.progress) {
+        char line[300];
+        std::snprintf(line, sizeof line,
+                      "capture_sim: keeping every view's radiance for the white level would take "
+                      "%.3f GB (over the %.3f GB allowed, --kept-radiance-gb): the views are "
+                      "shaded twice instead, the white level first",
+                      kept / 1e9, opt.kept_radiance_bytes / 1e9);
+        opt.progress->note(line);
+      }
       Traced probe;
       probe.images = Images::kMeasure;
       probe.label = "capture_sim: the white level (pass 1 of 2)";

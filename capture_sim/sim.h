@@ -14,6 +14,8 @@
 
 namespace aniso {
 
+class ProgressSink;  // core/progress.h
+
 struct RigView {
   Mat4 world_from_camera;
   std::vector<Light> lights;
@@ -48,7 +50,7 @@ struct SimOptions {
   SensorOptions sensor;
   uint64_t seed = 1;
   std::string preset;  // recorded in the set
-  bool progress = true;
+  const ProgressSink* progress = nullptr;  // core/progress.h; null: silent
   // Fiber model topology. "torus" / "sphere": the per-pixel mathematical topology s_math of that
   // shape is written as the `topology` buffer. A non-empty map (values h in [0, 1]) is stored as
   // maps/topology.png (16-bit) and named by the set's "topology_map".

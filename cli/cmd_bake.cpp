@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "cli/command.h"
+#include "cli/terminal_progress.h"
 #include "io/files/files.h"
 #include "io/formats/material_io.h"
 #include "render/bake/bake.h"
@@ -39,7 +40,7 @@ Command add_bake(CLI::App& app) {
             const BakeTables t = bake_line(m, a->size, parse_index(a->index));
             FiberBakeTables fb;
             if (m.fiber()) {
-              fb = bake_fiber(m, t);
+              fb = bake_fiber(m, t, 64, 9, 16, 1, terminal_progress());
               std::printf(
                   "bake: fiber factor tables %dx%dx%d (G) and x%d (F) in %.2f s; baked vs full "
                   "fiber model over %zu samples: max abs %.3g, p99 %.3g, RMS %.3g (peak %.3g)\n",

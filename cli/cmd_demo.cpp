@@ -5,6 +5,7 @@
 
 #include "capture_sim/sim.h"
 #include "cli/command.h"
+#include "cli/terminal_progress.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
 #include "io/files/files.h"
@@ -32,6 +33,7 @@ int run(const DemoArgs& a) {
   check_output_file(join_path(a.out, "preview.png"), OutputKind::kPreview);
   std::filesystem::create_directories(a.out);
   PresetOptions dp;
+  dp.progress = terminal_progress();
   dp.views = a.views;
   dp.width = w;
   dp.height = h;
@@ -44,7 +46,9 @@ int run(const DemoArgs& a) {
       st.primary_rays, st.shadow_rays, st.seconds, cap.c_str());
   std::printf("== 2/4 fit: line model\n");
   const std::string mat = join_path(a.out, "material.json");
-  run_fit(cap, FitOptions{}, mat, "");
+  FitOptions fo;
+  fo.progress = terminal_progress();
+  run_fit(cap, fo, mat, "");
   std::printf("== 3/4 bake\n");
   const Material m = read_material(mat);
   const BakeTables t = bake_line(m, 256);
@@ -55,6 +59,7 @@ int run(const DemoArgs& a) {
       "== 4/4 preview: satin sphere with the fitted material (fibers along dP/du, rotated by "
       "psi)\n");
   PreviewOptions p;
+  p.progress = terminal_progress();
   p.reference = true;
   const PreviewResult r = render_preview(m, p);
   const std::string png = join_path(a.out, "preview.png");

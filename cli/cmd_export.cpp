@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/terminal_progress.h"
 #include "core/angles.h"
 #include "core/error.h"
 #include "core/shell.h"
@@ -158,6 +159,7 @@ Command add_export(CLI::App& app) {
         const Material m = read_material(a->mat);
         check_outputs_apart({a->out}, material_input_files(m, a->mat));
         ExportOptions o;
+        o.progress = terminal_progress();
         o.size = a->size;
         o.command = shareable_command_line(a->out);
         Environment env;

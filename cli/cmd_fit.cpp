@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "cli/command.h"
+#include "cli/terminal_progress.h"
 #include "core/error.h"
 #include "fit/fit.h"
 #include "io/files/files.h"
@@ -46,6 +47,7 @@ struct FitArgs {
   FitOptions fo = [] {
     FitOptions o;
     o.threads = default_fit_threads();  // every core this process may use
+    o.progress = terminal_progress();
     return o;
   }();
 };
@@ -316,7 +318,7 @@ int run_fit_mpi(FitArgs& a) {
   check_output_file(a.out, OutputKind::kMaterial);
   if (world->rank != 0) {
     if (!std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
-    a.fo.progress = false;
+    a.fo.progress = nullptr;
   }
   g_mpi_rank = true;
   FitOptions fo = a.fo;

@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "cli/command.h"
+#include "cli/terminal_progress.h"
 #include "core/error.h"
 #include "io/files/files.h"
 #include "photo/import/import.h"
@@ -13,7 +14,11 @@ namespace {
 
 struct ImportArgs {
   std::string shoot, out, compression = "zip";
-  ImportOptions o;
+  ImportOptions o = [] {
+    ImportOptions i;
+    i.progress = terminal_progress();
+    return i;
+  }();
   double margin_mm = 3;
   bool no_overlays = false, quiet = false, lamps_as_written = false, no_vignetting = false;
 };

@@ -4,8 +4,8 @@
 #include <memory>
 
 #include "cli/command.h"
+#include "cli/terminal_progress.h"
 #include "core/error.h"
-#include "core/progress.h"
 #include "io/files/files.h"
 #include "io/formats/capture.h"
 #include "io/formats/material_io.h"
@@ -44,7 +44,8 @@ Image turntable(const Material& m, PreviewOptions p, int n, PreviewResult* last)
   Image sheet(p.width * n, p.height, 3);
   const Vec3 v0 = p.view_dir;
   PreviewBakes bakes;  // one material: its tables baked once for every frame
-  Progress bar("preview --turntable: the tables, then " + std::to_string(n) + " frames", n + 1);
+  Progress bar("preview --turntable: the tables, then " + std::to_string(n) + " frames", n + 1,
+               terminal_progress());
   bake_for_frames(m, &p, &bakes);
   EnvironmentTables prefiltered;  // an environment: prefiltered once too
   if (p.environment && !p.prefiltered) {
@@ -102,6 +103,7 @@ int run(const PreviewArgs& a) {
     check_output_file(a.exr, OutputKind::kPreview);
   }
   PreviewOptions p;
+  p.progress = terminal_progress();
   p.shape = default_shape(a.shape, m, "preview");
   p.fiber_field = a.field;
   parse_size(a.size, &p.width, &p.height);

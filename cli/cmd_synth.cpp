@@ -4,6 +4,7 @@
 
 #include "capture_sim/sim.h"
 #include "cli/command.h"
+#include "cli/terminal_progress.h"
 #include "core/error.h"
 #include "datasets_synth/presets.h"
 #include "io/files/files.h"
@@ -17,7 +18,11 @@ namespace {
 struct SynthArgs {
   std::string preset, out, size = "128x128", truth, compression = "none", walk = "turned",
                            brdf = "truth";
-  PresetOptions po;
+  PresetOptions po = [] {
+    PresetOptions p;
+    p.progress = terminal_progress();
+    return p;
+  }();
   double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
   bool list = false, photos = false, dng = false, jpeg = false, hide_intensity = false,
        fill_lamp = false;
@@ -29,6 +34,7 @@ struct SynthArgs {
 // --photos: a photo shoot of the preset's material on a ChArUco board (photo/import/synth_shoot.h).
 int run_photos(const SynthArgs& a) {
   PhotoShootOptions o;
+  o.progress = terminal_progress();
   o.truth = a.truth.empty() ? make_preset(a.preset, a.po).truth : read_material(a.truth);
   o.seed = a.po.seed;
   if (a.app->count("--size")) parse_size(a.size, &o.width, &o.height);

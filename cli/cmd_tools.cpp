@@ -5,6 +5,7 @@
 #include "bench/suites.h"
 #include "capture_sim/microgeometry.h"
 #include "cli/command.h"
+#include "cli/terminal_progress.h"
 #include "io/files/files.h"
 #include "models/params.h"
 
@@ -34,7 +35,8 @@ Command add_microgeometry(CLI::App& app) {
   micro->add_option("--seed", a->seed, "seed of the ray jitter")->capture_default_str();
   return {micro, [a] {
             check_output_file(a->out, OutputKind::kTable);
-            const MicroSweepSummary m = micro_sweep(a->out, a->n, a->rays, a->seed, true);
+            const MicroSweepSummary m =
+                micro_sweep(a->out, a->n, a->rays, a->seed, terminal_progress());
             std::printf(
                 "microgeometry: %zu configurations (5 topology values x 144 direction pairs), "
                 "%zu rays, %.1f s -> %s\n"

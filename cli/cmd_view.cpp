@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "cli/command.h"
+#include "cli/terminal_progress.h"
 #include "core/error.h"
 #include "io/files/files.h"
 #include "io/files/json_util.h"
@@ -115,6 +116,7 @@ Command add_view(CLI::App& app) {
             const Material m = read_view_input(a->input, &bake);
             ViewerOptions o;
             PreviewOptions& p = o.preview;
+            p.progress = terminal_progress();
             parse_size(a->size, &p.width, &p.height);
             p.shape = default_shape(a->shape, m, "view");
             p.fiber_field = a->field;

@@ -10,6 +10,8 @@
 
 namespace aniso {
 
+class ProgressSink;  // core/progress.h
+
 struct PresetOptions {
   int views = 16;
   int width = 128, height = 128;
@@ -20,7 +22,7 @@ struct PresetOptions {
   double saturation = 0;  // clip at this fraction of the white level (0 = no clipping)
   std::string rig;        // "" = the preset's own, "fixed-camera", "orbit", or a rig JSON file
   uint64_t seed = 1;
-  bool progress = true;
+  const ProgressSink* progress = nullptr;  // core/progress.h; null: silent
   // Fiber-model presets.
   double topology_s = 0.3;        // fiber-flat: the sample's topology value
   std::string topology_map_file;  // silk-torus: any image (first channel = h); default procedural

@@ -15,6 +15,7 @@
 
 #include "core/angles.h"
 #include "core/error.h"
+#include "core/progress.h"
 #include "core/timer.h"
 #include "fit/global/isotropic_alternative.h"
 #include "fit/global/solve.h"
@@ -245,12 +246,11 @@ FitResult solve_model(const ObsSet& os, const FitOptions& opt, const FitReport& 
     test_isotropic_alternative(os, opt, &r);
     return r;
   }
-  const bool tty = opt.progress && ::isatty(2);
-  if (tty) std::fprintf(stderr, "fit: --model auto: 1/2 the line model\n");
+  if (opt.progress) opt.progress->status("fit: --model auto: 1/2 the line model");
   FitResult rl = fit_one_model(Model::kLine, os, opt, rep, ka);
-  if (tty) std::fprintf(stderr, "\nfit: --model auto: 2/2 the fiber model (the slow half)\n");
+  if (opt.progress) opt.progress->status("fit: --model auto: 2/2 the fiber model (the slow half)");
   FitResult rf = fit_one_model(Model::kFiber, os, opt, rep, ka);
-  if (tty) std::fprintf(stderr, "\n");
+  if (opt.progress) opt.progress->status("");
   const bool pick_fiber = rf.report.bic < rl.report.bic;
   char buf[400];
   std::snprintf(buf, sizeof buf,

@@ -30,7 +30,7 @@ std::string good_capture(const std::string& dir) {
   PresetOptions p;
   p.views = 2;
   p.width = p.height = 24;
-  p.progress = false;
+  p.progress = nullptr;
   simulate_capture(make_preset("brushed-metal", p), dir);
   return dir;
 }

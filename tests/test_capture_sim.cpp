@@ -24,7 +24,7 @@ PresetOptions small(int views = 4) {
   PresetOptions p;
   p.views = views;
   p.width = p.height = 48;
-  p.progress = false;
+  p.progress = nullptr;
   return p;
 }
 
@@ -280,7 +280,7 @@ TEST(CaptureSim, ExplicitRigWithSpotAndDirectionalLights) {
   PresetOptions p;
   p.views = 1;
   p.width = p.height = 64;
-  p.progress = false;
+  p.progress = nullptr;
   p.rig = dir + "/rig.json";
   const SimOptions so = make_preset("brushed-metal", p);
   ASSERT_EQ(so.rig.size(), 4u);
@@ -292,7 +292,7 @@ TEST(CaptureSim, ExplicitRigWithSpotAndDirectionalLights) {
   EXPECT_DOUBLE_EQ(s.views[2].lights[0].attenuation[0], 1);
   EXPECT_NE(s.views[0].geometry.position, s.views[2].geometry.position);  // the camera moved
   FitOptions fo;
-  fo.progress = false;
+  fo.progress = nullptr;
   const FitResult r = fit_capture(s, fo);
   EXPECT_NEAR(r.material.n, so.truth.n, 0.01 * so.truth.n);
   EXPECT_NEAR(r.material.kd[0], so.truth.kd[0], 0.005 * so.truth.kd[0]);

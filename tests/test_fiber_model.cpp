@@ -392,12 +392,12 @@ TEST(FitFiber, FusedSolverAndCeresReachTheSameMinimum) {
     p.noise = 0.01;
     p.topology_s = 0.3;
     p.topology_amplitude = 0.3;
-    p.progress = false;
+    p.progress = nullptr;
     const std::string dir = test::tmp_dir("fiber_paths_" + preset);
     simulate_capture(make_preset(preset, p), dir);
     const CaptureSet set = read_capture(dir);
     FitOptions fused;
-    fused.progress = false;
+    fused.progress = nullptr;
     fused.model = FitModel::kFiber;
     fused.fiber_order = 8;
     FitOptions ceres = fused, automatic = fused, reference = fused;

@@ -6,11 +6,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
 
 #include "core/error.h"
+#include "core/progress.h"
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
 #include "fit/solvers/isotropic_pixel.h"
@@ -30,13 +32,13 @@ PresetOptions small(int views = 8, int size = 64) {
   PresetOptions p;
   p.views = views;
   p.width = p.height = size;
-  p.progress = false;
+  p.progress = nullptr;
   return p;
 }
 
 FitOptions quiet() {
   FitOptions f;
-  f.progress = false;
+  f.progress = nullptr;
   return f;
 }
 
@@ -349,6 +351,50 @@ double worst_in_sigma(const FitResult& ra, const FitResult& rb, double limit) {
 // step, fit/solvers/line_lm.h), Ceres on 256-pixel blocks with analytic derivatives and Huber by
 // reweighting (--solver ceres), and Ceres with one autodiff block per pixel and its own Huber loss
 // (the plainest statement of the problem). Same minimum within a tenth of sigma.
+// Progress is told to the sink the options carry (core/progress.h), never printed by the library:
+// a fiber fit (views loaded, the start grid, the fused solver's passes) and a Ceres one (its
+// iterations) with a recording sink write nothing to stderr.
+TEST(FitPaths, ProgressGoesToTheSinkNotTheTerminal) {
+  struct Recorder : ProgressSink {
+    mutable std::vector<std::string> labels, statuses;
+    mutable std::mutex mu;
+    void advance(const std::string& label, size_t, size_t) const override {
+      std::lock_guard<std::mutex> lock(mu);
+      if (labels.empty() || labels.back() != label) labels.push_back(label);
+    }
+    void finish(const std::string&) const override {}
+    void status(const std::string& text) const override {
+      std::lock_guard<std::mutex> lock(mu);
+      statuses.push_back(text);
+    }
+    void note(const std::string& text) const override { status(text); }
+  };
+  const std::string dir = test::tmp_dir("progress_sink");
+  PresetOptions p = small(6, 48);
+  simulate_capture(make_preset("brushed-metal", p), dir);
+  const CaptureSet set = read_capture(dir);
+  for (const bool ceres : {false, true}) {
+    Recorder rec;
+    FitOptions o = quiet();
+    o.progress = &rec;
+    o.model = FitModel::kFiber;
+    o.ceres_solver = ceres;
+    o.max_iterations = 5;
+    testing::internal::CaptureStderr();
+    fit_capture(set, o);
+    const std::string printed = testing::internal::GetCapturedStderr();
+    EXPECT_EQ(printed, "") << (ceres ? "Ceres" : "fused");
+    auto has = [](const std::vector<std::string>& v, const std::string& start) {
+      return std::any_of(v.begin(), v.end(),
+                         [&](const std::string& x) { return x.rfind(start, 0) == 0; });
+    };
+    EXPECT_TRUE(has(rec.labels, "fit: loading views")) << rec.labels.size();
+    EXPECT_TRUE(has(rec.labels, "fit: start grid"));
+    EXPECT_TRUE(has(rec.statuses, ceres ? "fit: iteration" : "fit: fiber model, pass"));
+    EXPECT_TRUE(has(rec.statuses, ""));  // the status line taken away at the end
+  }
+}
+
 TEST(FitPaths, FusedSolverAndCeresReachTheSameMinimum) {
   const std::string dir = test::tmp_dir("set");
   PresetOptions p = small(8, 64);

@@ -498,7 +498,7 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
     FitOptions opt;
     opt.subsample = std::abs(stride);
     opt.maps_w = 24, opt.maps_h = 20;
-    opt.progress = false;
+    opt.progress = nullptr;
     FitReport shared_rep, alone_rep;
     set_shared_lanes_avx512(stride > 0);
     const ObsSet shared = capture_observations(set, opt, &shared_rep);
@@ -519,12 +519,12 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
   // With --global the maps load band by band, each band's pixels shared: the same maps, bit for
   // bit.
   FitOptions g;
-  g.progress = false;
+  g.progress = nullptr;
   g.keep_anisotropic = true;  // a global fit for --global, as docs/maps.md asks
   g.subsample = 2;
   const FitResult global = fit_capture(set, g);
   FitOptions opt;
-  opt.progress = false;
+  opt.progress = nullptr;
   opt.maps_w = 24, opt.maps_h = 20;
   opt.maps_memory_mb = 0.05;  // several bands
   opt.global = given_global(fit_text(global), "global", set.dir);
@@ -565,7 +565,7 @@ TEST(FitMaps, APlainMapsFitTakesAtMostItsGlobalPixels) {
   ASSERT_EQ(r.status, 0) << r.output;
   const CaptureSet set = read_capture(dir + "/set");
   FitOptions opt;
-  opt.progress = false;
+  opt.progress = nullptr;
   opt.maps_w = 24, opt.maps_h = 20;
   opt.maps_memory_mb = 0.3;
   opt.maps_global_pixels = 1e12;  // the records' budget alone
@@ -581,7 +581,7 @@ TEST(FitMaps, APlainMapsFitTakesAtMostItsGlobalPixels) {
       by_memory.report.pixels, k0, k, opt.maps_global_pixels);
   EXPECT_GE(k, 7);  // sqrt(40) = 6.3
   FitOptions g;
-  g.progress = false;
+  g.progress = nullptr;
   g.keep_anisotropic = true;  // a global fit for --global, as docs/maps.md asks
   g.subsample = k;
   const FitResult global = fit_capture(set, g);

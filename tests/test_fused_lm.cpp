@@ -107,7 +107,7 @@ TEST(FitSolvers, TheIsotropicPartFusedAsCeres) {
     const SampleTable table =
         measured_table(RglBsdf::read(std::string(ANISO_SOURCE_DIR) + "/tests/data/rgl/" + name));
     FitOptions opt;
-    opt.progress = false;
+    opt.progress = nullptr;
     FitReport rep;
     const ObsSet os = table_observations(table, opt, &rep);
     double mean = 0;
@@ -141,12 +141,12 @@ TEST(FitSolvers, TheViewsSpreadFromRowsAsFromDifferences) {
       test::run_cli("synth brushed-metal " + dir + "/set --noise 0.01 --size 48x48 --views 12");
   ASSERT_EQ(r.status, 0) << r.output;
   FitOptions opt;
-  opt.progress = false;
+  opt.progress = nullptr;
   opt.model = FitModel::kFiber;
   FitReport rep;
   const ObsSet os = capture_observations(read_capture(dir + "/set"), opt, &rep);
   std::unique_ptr<ModelFit> m = make_fiber_fit(opt, os);
-  m->start(os, false);
+  m->start(os, nullptr);
   m->core.psi += 0.05;
   std::vector<std::pair<double*, int>> blocks = {
       {m->core.kd, 3}, {m->core.ks, 3}, {&m->core.logn, 1}, {&m->core.psi, 1}};

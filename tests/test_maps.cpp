@@ -466,7 +466,7 @@ TEST(FitMaps, FiberTexelsTakeTheQuadratureOrderTheirValuesAllow) {
   // The order checked at a texel's own solution (300 of the set's pixels at the truth): order 3
   // misses the allowance of that many values, the global fit's order 4 and above meet it.
   FitOptions fo;
-  fo.progress = false;
+  fo.progress = nullptr;
   fo.model = FitModel::kFiber;
   FitReport fr;
   const fitting::ObsSet os = fitting::capture_observations(read_capture(dir + "/set"), fo, &fr);

@@ -139,7 +139,7 @@ TEST(Verify, TruthReproducesTheCaptureAndAWrongMaterialDoesNot) {
   PresetOptions po;
   po.views = 3;
   po.width = po.height = 48;
-  po.progress = false;
+  po.progress = nullptr;
   const SimOptions so = make_preset("satin-ball", po);
   simulate_capture(so, dir);
   const CaptureSet s = read_capture(dir);
@@ -564,7 +564,7 @@ TEST(Preview, LineModelMapsAreDrawnPerFragment) {
     PresetOptions po;
     po.views = 1;
     po.width = po.height = 16;
-    po.progress = false;
+    po.progress = nullptr;
     const Material m = make_preset(preset, po).truth;
     ASSERT_TRUE(m.maps.fiber && m.maps.kd) << preset;
     PreviewOptions p;
@@ -641,7 +641,7 @@ TEST(FiberPreview, MapsAreDrawnPerFragment) {
   PresetOptions po;
   po.views = 1;
   po.width = po.height = 16;
-  po.progress = false;
+  po.progress = nullptr;
   Material swirl = make_preset("swirl-plate", po).truth;
   swirl.model = Model::kFiber;
   swirl.topology = UniformS{0.3};

@@ -145,7 +145,7 @@ std::string small_set(const std::string& dir, int views, uint64_t seed = 1) {
   PresetOptions p;
   p.views = views;
   p.width = p.height = 40;
-  p.progress = false;
+  p.progress = nullptr;
   p.seed = seed;
   simulate_capture(make_preset("brushed-metal", p), dir);
   return dir;

@@ -38,7 +38,7 @@ std::string capture_of(const std::string& dir, const std::string& preset, int vi
   p.noise = noise;
   p.bits = bits;
   p.encoding = enc;
-  p.progress = false;
+  p.progress = nullptr;
   simulate_capture(make_preset(preset, p), dir);
   return dir;
 }

@@ -115,7 +115,7 @@ class FiberFit : public ModelFit {
   // at the line's n, then over n around it at the best topology, k_d, k_s solved in closed form
   // at every node (the nodes in parallel, each alone: the same start on any number of threads;
   // the specular integral at order 4, plenty to rank nodes). Then the quadrature order.
-  std::string start(const ObsSet& os, bool progress) override {
+  std::string start(const ObsSet& os, const ProgressSink* progress) override {
     const std::string line = line_grid_start(os, &core, progress, &other);
     const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
     std::vector<double> topo_values;
@@ -205,7 +205,7 @@ class FiberFit : public ModelFit {
                    const FitOptions& opt, FusedSolve* out) override {
     if (mode_ == TopologyMode::kTexels || opt.ceres_solver || opt.ceres_covariance) return false;
     fiber_lm_solve(os, subset, loss, scale, opt.max_iterations, opt.threads, mode_, acc_, &core,
-                   topo_, out, nullptr, false, 0, opt.progress && ::isatty(2));
+                   topo_, out, nullptr, false, 0, opt.progress);
     out->order = {{core.kd, 3}, {core.ks, 3}, {&core.logn, 1}, {&core.psi, 1}};
     if (fitted_topology()) out->order.push_back({topo_, 1});
     return true;

@@ -158,7 +158,7 @@ class LineFit : public ModelFit {
   Model model() const override { return Model::kLine; }
   size_t parameters() const override { return 8 + (iso_ ? 7 : 0) + (second_ ? 2 : 0); }
 
-  std::string start(const ObsSet& os, bool progress) override {
+  std::string start(const ObsSet& os, const ProgressSink* progress) override {
     // The second look only where the core is all there is (optional terms start from the core).
     std::string s = line_grid_start(os, &core, progress, iso_ || second_ ? nullptr : &other);
     sec_[0] = wrap_half_turn(core.psi + M_PI / 2);

@@ -10,9 +10,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <memory>
+#include <mutex>
 
 #include "core/angles.h"
 #include "core/error.h"
+#include "core/progress.h"
 #include "core/timer.h"
 #include "fit/solvers/crawl.h"
 #include "fit/solvers/line_simd.h"
@@ -51,16 +55,31 @@ class HalfTurnManifold : public ceres::Manifold {
   static double wrap(double a) { return wrap_half_turn(a); }
 };
 
-// Each solver iteration on the terminal (stderr), overwriting one line; nothing when piped.
-class TerminalIterations : public ceres::IterationCallback {
+// Each solver iteration as the progress sink's status line.
+class IterationStatus : public ceres::IterationCallback {
  public:
+  explicit IterationStatus(const ProgressSink* sink) : sink_(sink) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
-    std::fprintf(stderr, "\rfit: iteration %3d, cost %.6g, step %.3g      ", s.iteration, s.cost,
-                 s.step_norm);
-    std::fflush(stderr);
+    char line[120];
+    std::snprintf(line, sizeof line, "fit: iteration %3d, cost %.6g, step %.3g", s.iteration,
+                  s.cost, s.step_norm);
+    sink_->status(line);
     return ceres::SOLVER_CONTINUE;
   }
+
+ private:
+  const ProgressSink* sink_;
 };
+
+// The callback of a sink (one per sink for the process's life: Ceres' options hold a pointer).
+ceres::IterationCallback* iteration_status(const ProgressSink* sink) {
+  static std::mutex mu;
+  static std::map<const ProgressSink*, std::unique_ptr<IterationStatus>> made;
+  std::lock_guard<std::mutex> lock(mu);
+  auto& c = made[sink];
+  if (!c) c = std::make_unique<IterationStatus>(sink);
+  return c.get();
+}
 
 // fused_lm.h's crawl rule for a Ceres solve: every kCrawlWindow successful steps the cost's fall is
 // compared with the window's before, and the solve ends where the geometric rest of the falls is
@@ -93,8 +112,7 @@ class CrawlStop : public ceres::IterationCallback {
 
 ceres::Solver::Options solver_options(const FitOptions& opt) {
   ceres::Solver::Options so;
-  static TerminalIterations terminal;  // stateless: one for every solve
-  if (opt.progress && ::isatty(2)) so.callbacks.push_back(&terminal);
+  if (opt.progress) so.callbacks.push_back(iteration_status(opt.progress));
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // at most 17 parameters
   so.max_num_iterations = opt.max_iterations;
   so.num_threads = std::max(1, opt.threads);
@@ -409,7 +427,7 @@ Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* 
     if (crawl.crawled) sol.summary.termination_type = ceres::CONVERGENCE;
     rep->stopped_on_crawl = crawl.crawled;
   }
-  if (opt.progress && ::isatty(2)) std::fprintf(stderr, "\r%70s\r", "");  // the iteration line
+  if (opt.progress) opt.progress->status("");  // the iteration line
   summarize(os, m->parameters(), &sol, rep);
   if (sol.weights_change >= kWeightsSettled) {
     char buf[64];

@@ -3,6 +3,10 @@
 #include "fit/records/texel_grid.h"
 #include "fit/solvers/model_fit.h"
 
+namespace aniso {
+class ProgressSink;  // core/progress.h
+}  // namespace aniso
+
 namespace aniso::fitting {
 
 // The texel rows of --tile i/N: [row0, row1) are the tile's, [band0, band1) are fitted (with
@@ -34,7 +38,7 @@ struct TexelMapOptions {
   // beyond its band reproduces the untiled run exactly).
   double smooth = 0;
   int sweeps = 10;
-  bool progress = false;
+  const ProgressSink* progress = nullptr;  // core/progress.h; null: silent
   // The fiber model (fiber_order > 0: its quadrature order): every texel also fits s (a flat
   // sample's one topology value, `s` from the global fit) unless the topology is mathematical.
   int fiber_order = 0;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <type_traits>
 
+#include "core/progress.h"
 #include "fit/solvers/fused_lm.h"
 #include "fit/solvers/line_lm.h"
 #include "models/params.h"
@@ -88,7 +89,7 @@ template <int P>
 void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss& loss,
            int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc, Core* c,
            double* topo, FusedSolve* out, const FiberPull* pull, bool ridge_rule, double lambda0,
-           bool progress) {
+           const ProgressSink* progress) {
   tbb::task_arena arena(std::max(1, threads));
   const FiberPass<P> pass{os, subset, mode, acc};
   VecP<P> lo, hi, x;
@@ -109,9 +110,10 @@ void solve(const ObsSet& os, const std::vector<size_t>* subset, const RobustLoss
     FusedSums<P> s = pass(at, loss, jac, &arena);
     if (pull) add_pull<P>(*pull, at, &s);
     if (progress) {
-      std::fprintf(stderr, "\rfit: fiber model, pass %d over %.0f values, cost %.6g      ",
-                   ++passes, values, s.cost);
-      std::fflush(stderr);
+      char line[120];
+      std::snprintf(line, sizeof line, "fit: fiber model, pass %d over %.0f values, cost %.6g",
+                    ++passes, values, s.cost);
+      progress->status(line);
     }
     return s;
   };
@@ -158,7 +160,7 @@ void fiber_row(const ObsSet& os, size_t i, TopologyMode mode, const FiberAccurac
 void fiber_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
                     int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc,
                     Core* c, double* topo, FusedSolve* out, const FiberPull* pull, bool ridge_rule,
-                    double lambda0, bool progress) {
+                    double lambda0, const ProgressSink* progress) {
   const RobustLoss l{loss, scale};
   if (mode == TopologyMode::kMathematical)
     solve<8>(os, subset, l, max_iterations, threads, mode, acc, c, topo, out, pull, ridge_rule,

@@ -46,10 +46,11 @@ struct FiberPull {
 // out->info and out->rss are then still the data's own (the pull taken out at the solution).
 // `ridge_rule`: a texel's solve, done on a ridge of k_s and n (fit/solvers/fused_lm.h
 // kRidgeIterations). `lambda0`: the first step's damping (0: fused_lm's own). `progress`: each pass
-// over the observations said on the terminal (the global fit's: seconds each on a large set).
+// over the observations said as its status line (the global fit's: seconds each on a large set).
 void fiber_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
                     int max_iterations, int threads, TopologyMode mode, const FiberAccuracy& acc,
                     Core* c, double* topo, FusedSolve* out, const FiberPull* pull = nullptr,
-                    bool ridge_rule = false, double lambda0 = 0, bool progress = false);
+                    bool ridge_rule = false, double lambda0 = 0,
+                    const ProgressSink* progress = nullptr);
 
 }  // namespace aniso::fitting

@@ -72,7 +72,7 @@ class ModelFit {
   // Fitted numbers, the core's eight included.
   virtual size_t parameters() const = 0;
   // Sets the core and the model's own blocks from a deterministic grid; says which node won.
-  virtual std::string start(const ObsSet& os, bool progress) = 0;
+  virtual std::string start(const ObsSet& os, const ProgressSink* progress) = 0;
   // One residual block per observation in idx (loss may be null), the bounds of every block.
   virtual void add_residuals(ceres::Problem* pb, const ObsSet& os, const std::vector<size_t>& idx,
                              ceres::LossFunction* loss) = 0;

@@ -226,7 +226,8 @@ ObsSet compact(const ObsSet& os, const std::vector<size_t>& subset) {
 
 }  // namespace
 
-std::string line_grid_start(const ObsSet& os, Core* st, bool progress, std::optional<Core>* other) {
+std::string line_grid_start(const ObsSet& os, Core* st, const ProgressSink* progress,
+                            std::optional<Core>* other) {
   Progress bar("fit: start grid (psi x n)", kGridPsi, progress);
   const std::vector<size_t> subset = start_subset(os.obs.size(), kMaxStartObs);
   const ObsSet some = compact(os, subset);

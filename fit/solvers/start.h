@@ -84,7 +84,7 @@ void set_start_kd_ks(const double kd[3], const double ks[3], Core* c);
 // the best node of another valley of the grid's costs over psi (its lowest over n, 15 degrees or
 // more from the best node's psi), where there is one: the start of a second look
 // (fit/global/solve.cpp).
-std::string line_grid_start(const ObsSet& os, Core* c, bool progress = false,
+std::string line_grid_start(const ObsSet& os, Core* c, const ProgressSink* progress = nullptr,
                             std::optional<Core>* other = nullptr);
 
 }  // namespace aniso::fitting

@@ -14,6 +14,8 @@
 
 namespace aniso {
 
+class ProgressSink;  // core/progress.h
+
 // --model: one of the two models, or both with the lower BIC kept.
 enum class FitModel { kLine, kFiber, kAuto };
 // --loss: the robust loss of the final solve, scaled to 3 robust sigmas of the residuals.
@@ -103,7 +105,7 @@ struct FitOptions {
   int max_iterations = 200;
   int threads = 2;  // every phase of the fit: loading, solving, the maps' texels
   FitLoss loss = FitLoss::kHuber;
-  bool progress = true;
+  const ProgressSink* progress = nullptr;  // core/progress.h; null: silent
   // fiber model: Gauss-Legendre order per specular panel (0: chosen from the noise,
   // fit/global/fiber_order.h)
   int fiber_order = 0;

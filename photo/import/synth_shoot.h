@@ -16,6 +16,8 @@
 
 namespace aniso {
 
+class ProgressSink;  // core/progress.h
+
 struct PhotoShootOptions {
   Material truth;
   BoardSpec board;
@@ -32,7 +34,7 @@ struct PhotoShootOptions {
   bool jpeg = false;          // ... or 8-bit sRGB JPEGs (quality 95), as a camera writes them
   std::array<double, 5> distortion{-0.08, 0.03, 0, 0, 0};
   uint64_t seed = 1;
-  bool progress = true;
+  const ProgressSink* progress = nullptr;  // core/progress.h; null: silent
   // How the photographer holds the camera: "upright" (walking round the board, the camera level
   // with the horizon, 40-70 degrees above the board: every photo tilts the board the same way in
   // its frame, as a person's shoot does) or "turned" (the camera turned with the board, as if the

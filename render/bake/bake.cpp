@@ -199,7 +199,7 @@ void bake_fiber_F(double n, int nphi, int ns, int nk, float* F) {
 }
 
 FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, int ns, int nk,
-                           uint64_t seed) {
+                           uint64_t seed, const ProgressSink* progress) {
   if (nphi < 2 || ns < 2 || nk < 2) throw Error("bake: fiber table sizes must be at least 2");
   const auto t0 = std::chrono::steady_clock::now();
   FiberBakeTables fb;
@@ -208,7 +208,7 @@ FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi, 
   fb.nk = nk;
   fb.G.assign(static_cast<size_t>(nphi) * nphi * ns, 0.f);
   fb.F.assign(static_cast<size_t>(nphi) * nphi * ns * nk, 0.f);
-  Progress bar("bake: fiber factor tables", static_cast<size_t>(ns) * nphi);
+  Progress bar("bake: fiber factor tables", static_cast<size_t>(ns) * nphi, progress);
   tbb::parallel_for(0, ns, [&](int is) {
     const double s = static_cast<double>(is) / (ns - 1);
     for (int j = 0; j < nphi; ++j, bar.advance())

@@ -26,6 +26,8 @@
 
 namespace aniso {
 
+class ProgressSink;  // core/progress.h
+
 enum class BakeIndex { kCosine, kAngle };
 const char* index_name(BakeIndex i);
 BakeIndex parse_index(const std::string& name);  // "cosine" | "angle"; throws otherwise
@@ -78,7 +80,7 @@ struct FiberBakeTables {
 };
 
 FiberBakeTables bake_fiber(const Material& m, const BakeTables& line, int nphi = 64, int ns = 9,
-                           int nk = 16, uint64_t seed = 1);
+                           int nk = 16, uint64_t seed = 1, const ProgressSink* progress = nullptr);
 
 // What the preview's shader computes, on the CPU: k_d D + k_s S from the baked tables for L, V in
 // the fiber frame (u = T, w = B, n = N) at topology s.
@@ -169,7 +171,7 @@ struct FiberStack {
 // tables' own error against the full model is 4.8e-3 RMS and 0.32 at most (phi, s and kappa).
 FiberStack bake_fiber_stack(const Material& m, const FiberBakeTables& fb, const BakeTables& line,
                             const SpecularStack& st, double max_log_step = 0.2, int max_levels = 28,
-                            uint64_t seed = 1);
+                            uint64_t seed = 1, const ProgressSink* progress = nullptr);
 
 // What the fiber pass computes with a map of n, on the CPU: k_d D + k_s S at the fragment's n
 // (m's k_d, k_s; its n ignored), L and V in the fiber frame, topology s.

@@ -28,7 +28,7 @@ void level_of(double n, double logn0, double step, int levels, int* k0, double* 
 
 FiberStack bake_fiber_stack(const Material& m, const FiberBakeTables& fb, const BakeTables& line,
                             const SpecularStack& st, double max_log_step, int max_levels,
-                            uint64_t seed) {
+                            uint64_t seed, const ProgressSink* progress) {
   const auto t0 = std::chrono::steady_clock::now();
   FiberStack fs;
   fs.seed = seed;
@@ -39,7 +39,7 @@ FiberStack bake_fiber_stack(const Material& m, const FiberBakeTables& fb, const 
   fs.level_floats = static_cast<size_t>(fb.nphi) * fb.nphi * fb.ns * fb.nk;
   fs.F.assign(fs.level_floats * fs.levels, 0.f);
   {
-    Progress bar("bake: fiber factor F over the map's n", fs.levels);
+    Progress bar("bake: fiber factor F over the map's n", fs.levels, progress);
     for (int k = 0; k < fs.levels; ++k, bar.advance())
       bake_fiber_F(std::exp(fs.logn0 + k * fs.log_step()), fb.nphi, fb.ns, fb.nk,
                    fs.F.data() + k * fs.level_floats);

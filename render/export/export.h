@@ -27,10 +27,12 @@
 
 namespace aniso {
 
+class ProgressSink;  // core/progress.h
+
 struct ExportOptions {
-  int size = 256;        // line tables N x N
-  std::string command;   // recorded in export.json
-  bool progress = true;  // a bar on stderr (a terminal only): tables, maps, shaders, glTF, viewer
+  int size = 256;                          // line tables N x N
+  std::string command;                     // recorded in export.json
+  const ProgressSink* progress = nullptr;  // its bar: tables, maps, shaders, glTF, viewer
   // --env: this environment prefiltered for the material (render/bake/environment.h) as
   // tables/environment_t0..6.ktx2, which the browser viewer lights with (a line material with one
   // fiber and no maps).

@@ -95,7 +95,7 @@ json write_tables(const std::string& dir, const Material& m, const ExportOptions
        "k_d D + k_s S in RGB, alpha 1 (colours baked in)");
   if (!m.fiber()) return tables;
   sum->fiber = true;
-  sum->fiber_tables = bake_fiber(m, t);
+  sum->fiber_tables = bake_fiber(m, t, 64, 9, 16, 1, o.progress);
   const FiberBakeTables& fb = sum->fiber_tables;
   write_ktx2(join_path(dir, "tables/fiber_G.ktx2"),
              ktx_array(fb.G, fb.nphi, fb.nphi, fb.ns, "fiber factor G(phi_l, phi_v; s)"));
@@ -128,7 +128,8 @@ namespace {
 void write_fiber_stack(const std::string& dir, const Material& m, const ExportOptions& o,
                        const SpecularStack& st, ExportSummary* sum, json* tables) {
   const FiberBakeTables& fb = sum->fiber_tables;
-  FiberStack fs = bake_fiber_stack(m, fb, bake_line(m, o.size, BakeIndex::kAngle), st);
+  FiberStack fs =
+      bake_fiber_stack(m, fb, bake_line(m, o.size, BakeIndex::kAngle), st, 0.2, 28, 1, o.progress);
   const std::vector<float> layers = fiber_stack_layers(fb, fs);
   write_ktx2(join_path(dir, "tables/fiber_F_stack.ktx2"),
              ktx_array(layers, fb.nk * fb.nphi, fb.nphi, fs.levels * fb.ns,

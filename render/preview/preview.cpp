@@ -175,8 +175,9 @@ void make_map_lookups(const Material& m, const PreviewOptions& opt, Lookups* lk)
   lk->n_map.texels(*mp.n);
   lk->s_stack.array(stack_levels(lk->stack), lk->stack.size, lk->stack.size, lk->stack.levels);
   if (!m.fiber()) return;
-  lk->fstack = opt.baked_fiber_stack ? *opt.baked_fiber_stack
-                                     : bake_fiber_stack(m, lk->fb, lk->tables, lk->stack);
+  lk->fstack = opt.baked_fiber_stack
+                   ? *opt.baked_fiber_stack
+                   : bake_fiber_stack(m, lk->fb, lk->tables, lk->stack, 0.2, 28, 1, opt.progress);
   lk->f_stack.array(fiber_stack_layers(lk->fb, lk->fstack), lk->fb.nk * lk->fb.nphi, lk->fb.nphi,
                     lk->fstack.levels * lk->fb.ns);
 }
@@ -215,7 +216,8 @@ void make_lookups(const Material& m, const PreviewOptions& opt, bool fiber, bool
   lk->D.table(lk->tables.diffuse);
   lk->S.table(lk->tables.specular);
   if (fiber) {  // before the maps: a map of n stacks F on the same grid
-    lk->fb = opt.baked_fiber ? *opt.baked_fiber : bake_fiber(m, lk->tables);
+    lk->fb =
+        opt.baked_fiber ? *opt.baked_fiber : bake_fiber(m, lk->tables, 64, 9, 16, 1, opt.progress);
     lk->G.array(lk->fb.G, lk->fb.nphi, lk->fb.nphi, lk->fb.ns);
     lk->F.array(lk->fb.F, lk->fb.nphi, lk->fb.nphi, lk->fb.ns * lk->fb.nk);
   }
@@ -459,7 +461,7 @@ void bake_for_frames(const Material& m, PreviewOptions* p, PreviewBakes* keep) {
     p->baked = &keep->tables;
   }
   if (m.fiber() && !p->baked_fiber) {
-    keep->fiber = bake_fiber(m, *p->baked);
+    keep->fiber = bake_fiber(m, *p->baked, 64, 9, 16, 1, p->progress);
     p->baked_fiber = &keep->fiber;
   }
   if (!m.maps.n || p->plain) return;
@@ -468,7 +470,8 @@ void bake_for_frames(const Material& m, PreviewOptions* p, PreviewBakes* keep) {
     p->baked_stack = &keep->stack;
   }
   if (m.fiber() && !p->baked_fiber_stack) {
-    keep->fiber_stack = bake_fiber_stack(m, *p->baked_fiber, *p->baked, *p->baked_stack);
+    keep->fiber_stack =
+        bake_fiber_stack(m, *p->baked_fiber, *p->baked, *p->baked_stack, 0.2, 28, 1, p->progress);
     p->baked_fiber_stack = &keep->fiber_stack;
   }
 }

@@ -16,9 +16,12 @@
 
 namespace aniso {
 
+class ProgressSink;  // core/progress.h
+
 struct PreviewOptions {
-  std::string shape = "sphere";  // shape name or .obj path
-  std::string fiber_field;       // "", radial, circular, meridian
+  const ProgressSink* progress = nullptr;  // the bakes' bars (core/progress.h); null: silent
+  std::string shape = "sphere";            // shape name or .obj path
+  std::string fiber_field;                 // "", radial, circular, meridian
   ShapeOptions shape_options;
   int width = 512, height = 512;
   int table_size = 256;
