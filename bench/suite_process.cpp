@@ -217,8 +217,9 @@ json maps_entry(const std::string& work, bool quick, int views) {
   po.progress = nullptr;
   const std::string stem = join_path(work, "swirl" + std::to_string(po.views));
   const std::string dir = stem + "_set", global = stem + "_global.json";
-  set_exr_compression("none");
-  simulate_capture(make_preset("swirl-plate", po), dir);
+  SimOptions swirl = make_preset("swirl-plate", po);
+  swirl.compression = ExrCompression::kNone;  // what aniso synth writes by default
+  simulate_capture(swirl, dir);
   const std::string grid = quick ? "8x8" : "64x64";
   // The plate as a whole shows no one direction (a swirl): --keep-anisotropic keeps the line
   // fit the texels start from, as the isotropic part alone would be refused as --global.
@@ -353,9 +354,9 @@ json bench_fit_process(const std::string& work, bool quick) {
     po.width = po.height = quick ? s.side / 2 : s.side;
     po.noise = 0.01;
     po.progress = nullptr;
-    const SimOptions so = make_preset("brushed-metal", po);
+    SimOptions so = make_preset("brushed-metal", po);
+    so.compression = ExrCompression::kNone;  // what aniso synth writes by default
     const std::string dir = join_path(work, s.name);
-    set_exr_compression("none");  // what aniso synth writes by default
     simulate_capture(so, dir);
     // The set on disk before the clock starts, as a user's set is: not the kernel writing back
     // the 15-60 MB just written while the fits are timed.

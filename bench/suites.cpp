@@ -245,6 +245,7 @@ json bench_capture(const std::string& work, bool quick) {
     po.width = po.height = quick ? 96 : 256;
     po.progress = nullptr;
     c.so = make_preset("brushed-metal", po);
+    c.so.compression = ExrCompression::kNone;  // the synth default
     c.so.shape = shape;
     c.so.shape_options.torus_r = 0.6;
     c.so.camera = frame_camera(po.width, po.height, 1.6, 4.0);
@@ -259,7 +260,6 @@ json bench_capture(const std::string& work, bool quick) {
     for (int r = 0; r < kRepeats; ++r) remove_output(c.run_dir(r));
     scenes.push_back(std::move(c));
   }
-  set_exr_compression("none");  // the synth default
   for (CaptureScene& c : scenes) {
     SimOptions dry = c.so;  // the same views traced and shaded, no file written
     dry.write_files = false;

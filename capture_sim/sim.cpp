@@ -147,7 +147,7 @@ void topology_images(const SimOptions& opt, const TopologyMap& map, const Image&
 // The geometry buffers of one pose under `dir`, named after `stem`: their names, and one job per
 // file in *jobs (each writes its file when called; g and smath must outlive them).
 GeometrySpec geometry_files(const std::string& dir, const GBuffer& g, const Image& smath,
-                            const std::string& stem, bool with_topology,
+                            const std::string& stem, bool with_topology, ExrCompression c,
                             std::vector<std::function<void()>>* jobs) {
   GeometrySpec gs;
   gs.position = "geometry/" + stem + "_P.exr";
@@ -156,7 +156,7 @@ GeometrySpec geometry_files(const std::string& dir, const GBuffer& g, const Imag
   gs.uv = "geometry/" + stem + "_uv.exr";
   gs.mask = "geometry/" + stem + "_mask.png";
   auto exr = [&](const std::string& rel, const Image& img) {
-    jobs->push_back([path = join_path(dir, rel), &img] { write_exr(path, img); });
+    jobs->push_back([path = join_path(dir, rel), &img, c] { write_exr(path, img, c); });
   };
   exr(gs.position, g.P);
   exr(gs.normal, g.N);
@@ -233,7 +233,7 @@ void write_view_image(const std::string& dir, const SimOptions& opt, const Senso
   if (opt.sensor.bits)
     write_png(path, *radiance, opt.sensor.bits);
   else
-    write_exr(path, *radiance);
+    write_exr(path, *radiance, opt.compression);
 }
 
 // What is traced per camera pose, and the views' noise-free radiance. Two sets of geometry
@@ -304,7 +304,8 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
         const std::string name = tr->fixed_camera ? "all" : view_stem(i);
         GeometrySpec* spec = geometry ? &tr->geometry[tr->fixed_camera ? 0 : i] : nullptr;
         std::vector<std::function<void()>> jobs;
-        if (spec) *spec = geometry_files(dir, g, tr->smath[b], name, with_topology, &jobs);
+        if (spec) *spec = geometry_files(dir, g, tr->smath[b], name, with_topology,
+                                        opt.compression, &jobs);
         if (image)
           jobs.push_back(
               [&dir, &opt, lv = &tr->levels, img, i] { write_view_image(dir, opt, *lv, i, img); });
@@ -369,7 +370,7 @@ CaptureSet set_header(const SimOptions& opt, double saturation) {
 
 // truth.json, with its maps (float EXR beside it) and the set's topology maps named.
 void write_truth(const std::string& dir, const Material& truth, const std::string& topology_map,
-                 bool s_map) {
+                 bool s_map, ExrCompression c) {
   Material truth_m = truth;
   if (auto* t = truth_m.topology_as<TopologyMapRef>()) t->file = topology_map;
   if (s_map) truth_m.topology = SMapRef{"maps/topology_s.png"};
@@ -377,7 +378,7 @@ void write_truth(const std::string& dir, const Material& truth, const std::strin
   auto put = [&](const std::shared_ptr<const Image>& img, std::string* file, const char* name) {
     if (!img) return;
     *file = std::string("maps/truth_") + name + ".exr";
-    write_exr(join_path(dir, *file), *img);
+    write_exr(join_path(dir, *file), *img, c);
   };
   put(mp.kd, &mp.kd_file, "kd");
   put(mp.ks, &mp.ks_file, "ks");
@@ -465,7 +466,7 @@ SimStats simulate_capture(const SimOptions& opt, const std::string& out_dir) {
       set.views[i] = v;
       bar.advance();
     });
-    write_truth(dir, opt.truth, set.topology_map, !s_map.empty());
+    write_truth(dir, opt.truth, set.topology_map, !s_map.empty(), opt.compression);
     set.provenance = provenance(opt, st, lv.white, tr.fixed_camera);
     write_capture_json(set, join_path(dir, "capture.json"));
     st.seconds_write += seconds_since(t_write);

@@ -10,6 +10,7 @@
 #include "geometry/mesh.h"
 #include "geometry/topology.h"
 #include "io/formats/capture.h"
+#include "io/images/exr_compression.h"
 #include "models/material.h"
 
 namespace aniso {
@@ -51,6 +52,7 @@ struct SimOptions {
   uint64_t seed = 1;
   std::string preset;  // recorded in the set
   const ProgressSink* progress = nullptr;  // core/progress.h; null: silent
+  ExrCompression compression = ExrCompression::kZip;  // the images and geometry buffers
   // Fiber model topology. "torus" / "sphere": the per-pixel mathematical topology s_math of that
   // shape is written as the `topology` buffer. A non-empty map (values h in [0, 1]) is stored as
   // maps/topology.png (16-bit) and named by the set's "topology_map".

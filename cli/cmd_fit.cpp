@@ -347,7 +347,7 @@ int run_fit_mpi(FitArgs& a) {
     write_text_file(tiles.back(), all[r].second);
   }
   check_outputs_apart(outputs, tiles);
-  merge_maps_tiles(tiles, a.out);
+  merge_maps_tiles(tiles, a.out, a.fo.maps_compression);
   std::printf("fit --mpi: %zu ranks, one tile each, merged -> %s (and its maps)\n", all.size(),
               a.out.c_str());
   return 0;
@@ -482,7 +482,7 @@ int fit_and_report(const std::string& input, const FitOptions& fo, const std::st
     if (!g_mpi_rank) std::fprintf(o, "fit: then: aniso merge TILE.json... --out material.json\n");
     return 0;
   }
-  write_fit(out, r);
+  write_fit(out, r, fo.maps_compression);
   print_report(o, r);
   // A plain --maps fit holds every pixel's record at once (for the global fit): say how to bound
   // that when it is more than the bands would hold.
@@ -667,7 +667,7 @@ Command add_fit(CLI::App& app) {
   add_maps_options(fit, a.get());
   return {fit, [a, fit] {
             if (!a->maps.empty()) parse_size(a->maps, &a->fo.maps_w, &a->fo.maps_h, "--maps");
-            set_exr_compression(a->compression);
+            a->fo.maps_compression = exr_compression_named(a->compression);
             a->fo.maps_ceres = a->maps_solver == "ceres";
             a->fo.maps_lanes = a->maps_lanes == "auto" ? 0 : std::stoi(a->maps_lanes);
             a->fo.ceres_solver = a->solver == "ceres";

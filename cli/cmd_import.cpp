@@ -30,8 +30,8 @@ int run(const ImportArgs& a) {
   for (const auto& p : s.photos)
     for (const auto& im : p.images) inputs.push_back(join_path(s.dir, im.file));
   check_outputs_apart({a.out}, inputs);
-  set_exr_compression(a.compression);
   ImportOptions o = a.o;
+  o.compression = exr_compression_named(a.compression);
   o.overlays = !a.no_overlays;
   o.find_lamps = !a.lamps_as_written;
   o.vignetting = !a.no_vignetting;

@@ -29,8 +29,7 @@ Command add_merge(CLI::App& app) {
             const std::vector<std::string> outputs{a->out};
             check_outputs_apart(outputs, a->tiles);
             check_output_file(a->out, OutputKind::kMaterial);
-            set_exr_compression(a->compression);
-            merge_maps_tiles(a->tiles, a->out);
+            merge_maps_tiles(a->tiles, a->out, exr_compression_named(a->compression));
             std::printf("merge: %zu tiles -> %s (and its maps)\n", a->tiles.size(), a->out.c_str());
             return 0;
           }};

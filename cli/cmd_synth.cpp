@@ -83,8 +83,8 @@ int run(const SynthArgs& a) {
   parse_size(a.size, &po.width, &po.height);
   check_output_folder(a.out, OutputKind::kCapture);
   check_outputs_apart({a.out}, {a.truth, po.topology_map_file, po.rig});
-  set_exr_compression(a.compression);
   SimOptions so = make_preset(a.preset, po);
+  so.compression = exr_compression_named(a.compression);
   if (!a.truth.empty()) so.truth = read_material(a.truth);
   so.kept_radiance_bytes = a.kept_gb * 1e9;
   const SimStats st = simulate_capture(so, a.out);

@@ -73,7 +73,7 @@ const MpiWorld* mpi_world();
 void parse_size(const std::string& s, int* w, int* h, const char* opt = "--size");
 // `--exr-compression` of a command that writes float EXRs (`what` names them in its help): none,
 // zip or piz, into *value (its default is the command's); the command hands it to
-// set_exr_compression when it runs.
+// exr_compression_named (io/images/exr_compression.h) into the options it passes on.
 void add_exr_compression(CLI::App* sub, std::string* value, const std::string& what);
 // A non-zero direction "x,y,z" for option `opt`.
 Vec3 parse_vec(const std::string& s, const std::string& opt);

@@ -79,9 +79,7 @@ TEST(ImageIO, UncompressedExrFromOurWriterReadsBackThroughOpenExr) {
     for (size_t i = 0; i < a.px.size(); ++i) a.px[i] = std::sin(0.37 * i) * 1e3f - 0.5f;
     const std::string ours = dir + "/ours" + std::to_string(channels) + ".exr";
     const std::string theirs = dir + "/theirs" + std::to_string(channels) + ".exr";
-    set_exr_compression("none");
-    write_exr(ours, a);
-    set_exr_compression("zip");
+    write_exr(ours, a, ExrCompression::kNone);
     write_exr(theirs, a);
     Imf::InputFile in(ours.c_str());
     EXPECT_EQ(in.header().compression(), Imf::NO_COMPRESSION);
@@ -106,12 +104,11 @@ TEST(ImageIO, UncompressedExrFromOurWriterReadsBackThroughOpenExr) {
 // buffers); a second scope while one is alive reads without buffers of its own.
 TEST(ImageIO, ReusedReadBuffersReadEveryFileAsAFreshOne) {
   const std::string dir = test::tmp_dir("img");
-  set_exr_compression("none");
   Image big(61, 40, 3), small(9, 7, 1);
   for (size_t i = 0; i < big.px.size(); ++i) big.px[i] = std::cos(0.1 * i);
   for (size_t i = 0; i < small.px.size(); ++i) small.px[i] = -0.5f * i;
-  write_exr(dir + "/big.exr", big);
-  write_exr(dir + "/small.exr", small);
+  write_exr(dir + "/big.exr", big, ExrCompression::kNone);
+  write_exr(dir + "/small.exr", small, ExrCompression::kNone);
   write_text_file(dir + "/cut.exr", read_text_file(dir + "/big.exr").substr(0, 3000));
   ExrReadBuffers outer;
   const ExrReadBuffers inner;  // refused quietly: the outer one stays in use
@@ -249,8 +246,7 @@ TEST(ImageIO, OnlyTheRowsAskedForAreRead) {
         for (int c = 0; c < 3; ++c)
           ASSERT_EQ(got.at(x, y, c), rows[y] ? want.at(x, y, c) : 0.f) << what << x << " " << y;
   };
-  set_exr_compression("none");
-  write_exr(dir + "/ours.exr", a);
+  write_exr(dir + "/ours.exr", a, ExrCompression::kNone);
   expect_rows(a, read_image(dir + "/ours.exr", 23, 17, &rows).image, "ours");
   {  // into an allocation given back holding the whole image: the rows not asked for are 0 again
     ExrReadBuffers buffers;
@@ -299,7 +295,6 @@ TEST(ImageIO, OnlyTheRowsAskedForAreRead) {
       EXPECT_EQ(got.px, want.px);  // read whole
     }
   }
-  set_exr_compression("zip");
 }
 
 // Uncompressed EXRs are read through a mapping of the file (io/files/mapped_file.h). A file another
@@ -555,13 +550,12 @@ TEST(ImageIO, RefusesNonFiniteValues) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/nan.exr"));
   // Uncompressed (synth's default, our own encoder) too: a bad value in the last line leaves no
   // file nor a temporary behind, and the message names the file.
-  set_exr_compression("none");
   Image b(300, 400, 3, 0.25f);
   for (const float bad : {NAN, INFINITY, -INFINITY}) {
     b.at(299, 399, 2) = bad;
     const std::string path = dir + "/late.exr";
     try {
-      write_exr(path, b);
+      write_exr(path, b, ExrCompression::kNone);
       ADD_FAILURE() << "wrote " << bad;
     } catch (const Error& e) {
       EXPECT_NE(std::string(e.what()).find(path + ": refusing to write a non-finite value"),
@@ -571,9 +565,9 @@ TEST(ImageIO, RefusesNonFiniteValues) {
     EXPECT_FALSE(std::filesystem::exists(path));
   }
   b.at(299, 399, 2) = 0.5f;
-  write_exr(dir + "/late.exr", b);  // the same image, finite: written and read back
+  write_exr(dir + "/late.exr", b,
+            ExrCompression::kNone);  // the same image, finite: written and read back
   EXPECT_EQ(read_image(dir + "/late.exr").image.px, b.px);
-  set_exr_compression("zip");
   size_t files = 0;
   for (const auto& f : std::filesystem::directory_iterator(dir)) files += f.is_regular_file();
   EXPECT_EQ(files, 1u) << "a temporary was left";

@@ -585,8 +585,7 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   // A float photo with NaN pixels: named, not a temporary file of the output.
   expect_refused("photos/nan.exr: 3 values are NaN or infinite", [&](auto& j) {
     // write_exr refuses non-finite values: three of the file's 0.5s become NaN by hand.
-    set_exr_compression("none");
-    write_exr(dir + "/shoot/photos/nan.exr", Image(640, 480, 3, 0.5f));
+    write_exr(dir + "/shoot/photos/nan.exr", Image(640, 480, 3, 0.5f), ExrCompression::kNone);
     std::string bytes = read_text_file(dir + "/shoot/photos/nan.exr");
     const float half = 0.5f, nan = std::numeric_limits<float>::quiet_NaN();
     const std::string pattern(reinterpret_cast<const char*>(&half), 4);

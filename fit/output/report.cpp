@@ -72,7 +72,8 @@ namespace {
 
 // --maps: the maps (docs/formats.md "Material maps") of the material at `path`, written into
 // `dir` under their plain names, and those names in j (write_material renames both).
-void add_maps(const std::string& path, const std::string& dir, const TexelMaps& t, jsonu::json* j) {
+void add_maps(const std::string& path, const std::string& dir, const TexelMaps& t, jsonu::json* j,
+              ExrCompression compression) {
   const std::vector<std::string> f = map_files(path);
   const size_t N = static_cast<size_t>(t.w) * t.h;
   // Each file as one job: compressing them (zlib) one after the other took ~2 s of one core for
@@ -88,7 +89,7 @@ void add_maps(const std::string& path, const std::string& dir, const TexelMaps& 
         for (int c = 0; c < channels; ++c)
           img.px[channels * i + c] =
               static_cast<float>(std::clamp<double>(value(i, c), -kMax, kMax));
-      write_exr(join_path(dir, f[file]), img);
+      write_exr(join_path(dir, f[file]), img, compression);
     });
   };
   const double d2r = M_PI / 90;                                 // doubled angle, degrees to radians
@@ -352,7 +353,8 @@ void put_maps_means(const TexelMaps& t, jsonu::json* j) {
 // What write_fit writes, maps aside. A map of s (--topology-map) goes into *s_map (R = s, G = its
 // sigma, -1 where undetermined) under the name the material gives it; without s_map it is written
 // beside the material at once (a tile's).
-jsonu::json fit_json(const std::string& path, const FitResult& r, Image* s_map = nullptr) {
+jsonu::json fit_json(const std::string& path, const FitResult& r, Image* s_map = nullptr,
+                     ExrCompression compression = ExrCompression::kZip) {
   jsonu::json j;
   Material m = r.material;
   std::string s_map_path;
@@ -403,7 +405,7 @@ jsonu::json fit_json(const std::string& path, const FitResult& r, Image* s_map =
     if (s_map)
       *s_map = std::move(img);
     else
-      write_exr(s_map_path, img);
+      write_exr(s_map_path, img, compression);
   }
   return j;
 }
@@ -480,9 +482,9 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
   return g;
 }
 
-void write_fit(const std::string& path, const FitResult& r) {
+void write_fit(const std::string& path, const FitResult& r, ExrCompression maps) {
   if (r.maps.w == 0 && r.s_texels.empty()) {
-    write_json_file(path, fit_json(path, r));
+    write_json_file(path, fit_json(path, r, nullptr, maps));
     return;
   }
   Image s_map;
@@ -499,8 +501,8 @@ void write_fit(const std::string& path, const FitResult& r) {
   write_material(path, &j, [&](const std::string& dir) {
     if (!r.s_texels.empty())
       write_exr(join_path(dir, std::filesystem::path(path).stem().string() + "_topology_s.exr"),
-                s_map);
-    if (r.maps.w > 0) add_maps(path, dir, r.maps, &j);
+                s_map, maps);
+    if (r.maps.w > 0) add_maps(path, dir, r.maps, &j, maps);
   });
 }
 
@@ -530,7 +532,8 @@ void write_maps_tile(const std::string& path, const FitResult& r, const FitOptio
   write_json_file(path, j);
 }
 
-void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& out) {
+void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& out,
+                      ExrCompression maps) {
   if (tiles.empty()) throw Error("merge: no tiles given");
   TexelMaps m;
   jsonu::json fit;
@@ -699,7 +702,7 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
         relative_to(join_path(parent_dir(tiles[0]), fit["topology"]["map"].get<std::string>()),
                     parent_dir(out));
   put_maps_means(m, &fit);
-  write_material(out, &fit, [&](const std::string& dir) { add_maps(out, dir, m, &fit); });
+  write_material(out, &fit, [&](const std::string& dir) { add_maps(out, dir, m, &fit, maps); });
 }
 
 }  // namespace aniso

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "fit/types/fit_types.h"
+#include "io/images/exr_compression.h"
 
 namespace aniso {
 
@@ -22,14 +23,17 @@ std::string fit_text(const FitResult& r);
 // `base_dir`): its material without maps (only the global values count), sigmas, report.
 GivenGlobal given_global(const std::string& text, const std::string& file,
                          const std::string& base_dir);
-void write_fit(const std::string& path, const FitResult& r);
+// The maps' EXRs (and a map of s) compressed as `maps`.
+void write_fit(const std::string& path, const FitResult& r,
+               ExrCompression maps = ExrCompression::kZip);
 
 // --tile: a self-describing tile of a maps fit (format "aniso-maps-tile": the tile, the grid, its
 // rows, the global fit as write_fit writes it, and every texel's numbers, doubles written
 // exactly), and `aniso merge`: tiles covering every row once, of one grid and one global fit,
 // joined into the material and its maps: the same files as an untiled run, bit for bit.
 void write_maps_tile(const std::string& path, const FitResult& r, const FitOptions& opt);
-void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& out);
+void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& out,
+                      ExrCompression maps = ExrCompression::kZip);
 
 // A table of every parameter against the truth (value, sigma, error, error/sigma). Also returns
 // the worst relative errors through the optional pointers (for tests).

@@ -10,6 +10,7 @@
 
 #include "io/formats/capture.h"
 #include "io/formats/table.h"
+#include "io/images/exr_compression.h"
 #include "models/material.h"
 
 namespace aniso {
@@ -106,6 +107,8 @@ struct FitOptions {
   int threads = 2;  // every phase of the fit: loading, solving, the maps' texels
   FitLoss loss = FitLoss::kHuber;
   const ProgressSink* progress = nullptr;  // core/progress.h; null: silent
+  // How the maps' EXRs are written (fit/output/report.h write_fit): not what the fit computes.
+  ExrCompression maps_compression = ExrCompression::kZip;
   // fiber model: Gauss-Legendre order per specular panel (0: chosen from the noise,
   // fit/global/fiber_order.h)
   int fiber_order = 0;

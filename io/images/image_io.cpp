@@ -405,7 +405,6 @@ Image read_exr(const std::string& path, int expect_w, int expect_h,
   return read_exr_openexr(path, expect_w, expect_h);
 }
 
-std::atomic<int> g_compression{static_cast<int>(Imf::ZIP_COMPRESSION)};
 
 // Little-endian bytes (OpenEXR's byte order; the machines this builds for are little-endian too).
 template <class T>
@@ -500,15 +499,11 @@ void encode_exr_uncompressed(const Image& img, const ByteSink& sink, const std::
   }
 }
 
-void set_exr_compression(const std::string& name) {
-  if (name == "zip")
-    g_compression = Imf::ZIP_COMPRESSION;
-  else if (name == "piz")
-    g_compression = Imf::PIZ_COMPRESSION;
-  else if (name == "none")
-    g_compression = Imf::NO_COMPRESSION;
-  else
-    throw Error("EXR compression must be zip, piz or none (got '" + name + "')");
+ExrCompression exr_compression_named(const std::string& name) {
+  if (name == "zip") return ExrCompression::kZip;
+  if (name == "piz") return ExrCompression::kPiz;
+  if (name == "none") return ExrCompression::kNone;
+  throw Error("EXR compression must be zip, piz or none (got '" + name + "')");
 }
 
 namespace {
@@ -603,10 +598,10 @@ void image_dimensions(const std::string& path, int* w, int* h) {
   throw Error(path + ": no size in its header");
 }
 
-void write_exr(const std::string& path, const Image& img) {
+void write_exr(const std::string& path, const Image& img, ExrCompression c) {
   if (img.channels < 1 || img.channels > 3) throw Error(path + ": EXR writer takes 1-3 channels");
   if (!all_finite(img.px)) throw Error(path + ": refusing to write a non-finite value");
-  if (g_compression.load() == Imf::NO_COMPRESSION) {
+  if (c == ExrCompression::kNone) {
     // At memory speed: OpenEXR's scanline writer took 84-116 ms for what writing the bytes
     // ourselves does in 8-12 ms, in 64 KiB pieces; read back by OpenEXR in the tests.
     const std::string software = output_stamp(path);
@@ -621,7 +616,8 @@ void write_exr(const std::string& path, const Image& img) {
       // zlib level 1: within a few % of the default's size on float buffers, several times faster.
       constexpr int kZipLevel = 1;
       header.zipCompressionLevel() = kZipLevel;
-      header.compression() = static_cast<Imf::Compression>(g_compression.load());
+      header.compression() =
+          c == ExrCompression::kPiz ? Imf::PIZ_COMPRESSION : Imf::ZIP_COMPRESSION;
       header.insert("software", Imf::StringAttribute(output_stamp(path)));
       for (int c = 0; c < img.channels; ++c)
         header.channels().insert(kNames[c], Imf::Channel(Imf::FLOAT));

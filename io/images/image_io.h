@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "io/images/exr_compression.h"
 #include "core/image.h"
 #include "io/files/files.h"
 
@@ -51,10 +52,6 @@ std::unique_ptr<CodeRows> read_image_rows(const std::string& path);
 // An image's declared width and height, read from its header (nothing decoded); throws naming the
 // file as read_image does.
 void image_dimensions(const std::string& path, int* w, int* h);
-
-// EXR compression for everything written after the call: "zip" (default, zlib level 1), "piz",
-// "none". Throws on another name.
-void set_exr_compression(const std::string& name);
 
 // The bytes of an uncompressed float EXR (scanline, channels R[,G[,B]]), written by hand: what
 // write_exr writes with compression "none". Handed to `sink` in pieces of at most ~64 KiB
@@ -101,8 +98,9 @@ class ExrReadBuffers {
 // images whose owner cannot reach the loader's, such as a band's rows of a view's geometry.
 void give_back_to_read_buffers(Image&& img);
 
-// Float EXR with channels R[,G[,B]] (1, 2 or 3 channels). Written atomically.
-void write_exr(const std::string& path, const Image& img);
+// Float EXR with channels R[,G[,B]] (1, 2 or 3 channels), compressed as `c`. Written atomically.
+void write_exr(const std::string& path, const Image& img,
+               ExrCompression c = ExrCompression::kZip);
 
 // 8- or 16-bit PNG of values clamped to [0, 1] (already encoded by the caller). Written atomically.
 void write_png(const std::string& path, const Image& img, int bits);

@@ -491,7 +491,8 @@ OverlayMarks photo_marks(const Shoot& s, size_t i, const Detected& det, const In
 // The view's files: its merged image cropped to the sample, position, normal, tangent, uv, mask.
 void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCrop& mc,
                 const Intrinsics& k, const ImportedPhoto& p, const Vignetting& vignetting,
-                const std::string& dir, const std::string& out_dir, ViewSpec* view) {
+                const std::string& dir, const std::string& out_dir, ExrCompression c,
+                ViewSpec* view) {
   char stem[32];
   std::snprintf(stem, sizeof stem, "%03zu", i);
   view->image = std::string("images/") + stem + ".exr";
@@ -524,11 +525,11 @@ void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCro
         const float inv = static_cast<float>(1 / vignetting.at(g.x0 + x, g.y0 + y));
         for (int c = 0; c < 3; ++c) img.at(x, y, c) *= inv;
       }
-  write_exr(join_path(dir, view->image), img);
-  write_exr(join_path(dir, gs.position), g.P);
-  write_exr(join_path(dir, gs.normal), g.N);
-  write_exr(join_path(dir, gs.tangent), g.U);
-  write_exr(join_path(dir, gs.uv), g.uv);
+  write_exr(join_path(dir, view->image), img, c);
+  write_exr(join_path(dir, gs.position), g.P, c);
+  write_exr(join_path(dir, gs.normal), g.N, c);
+  write_exr(join_path(dir, gs.tangent), g.U, c);
+  write_exr(join_path(dir, gs.uv), g.uv, c);
   Image mask(g.w, g.h, 1);
   for (size_t q = 0; q < g.mask.size(); ++q) mask.px[q] = g.mask[q];
   write_png(join_path(dir, gs.mask), mask, 8);
@@ -555,7 +556,7 @@ void write_photo(const Shoot& s, size_t i, Detected& det, const std::string& dir
   }
   if (p.accepted) {
     p.sample_pixels = g.pixels;
-    write_view(s, i, g, det.crop, r->camera, p, r->vignetting, dir, out_dir, view);
+    write_view(s, i, g, det.crop, r->camera, p, r->vignetting, dir, out_dir, o.compression, view);
     marks.mask = g.mask;
     marks.mask_x0 = g.x0, marks.mask_y0 = g.y0, marks.mask_w = g.w, marks.mask_h = g.h;
   } else {

@@ -12,6 +12,7 @@
 
 #include "core/camera.h"
 #include "core/vec.h"
+#include "io/images/exr_compression.h"
 #include "photo/lamps/lamps.h"
 #include "photo/shoot/raw.h"
 #include "photo/shoot/shoot.h"
@@ -26,6 +27,7 @@ struct ImportOptions {
   int min_corners = 8;             // fewer corners found: the photo is left out
   bool overlays = true;            // overlays/NNN.png for every photo
   const ProgressSink* progress = nullptr;  // core/progress.h; null: silent
+  ExrCompression compression = ExrCompression::kZip;  // the views' images and geometry buffers
   bool verbose = true;                     // one line per photo on stdout
   // The whole import's memory: photos are merged as many at once as fit in it beside what every
   // photo keeps between the passes; a shoot that does not fit is refused before any decoding.
