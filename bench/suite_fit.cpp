@@ -271,7 +271,8 @@ json lobe_lanes_entry(const std::vector<FiberCase>& cases, double n, bool quick)
   std::vector<double> t[2], S[2];
   for (int round = 0; round < 3; ++round)
     for (int k = 0; k < 2; ++k) {
-      fiber_detail::set_lobe_lanes(k == 0);
+      FiberAccuracy acc{8};
+      acc.lanes = k == 0 ? -1 : 0;
       S[k].assign(cases.size(), 0);
       const int reps = quick ? 1 : 5;
       const auto t0 = Clock::now();
@@ -280,12 +281,11 @@ json lobe_lanes_entry(const std::vector<FiberCase>& cases, double n, bool quick)
           const FiberCase& c = cases[i];
           T D, Sx, nj(n), s(0.5), a(c.a);
           if constexpr (jet) nj.v[0] = 1, a.v[1] = 1, s.v[2] = 1;
-          fiber_DS(T(c.lb), T(c.ln), T(c.vb), T(c.vn), a, T(c.b), nj, s, FiberAccuracy{8}, &D, &Sx);
+          fiber_DS(T(c.lb), T(c.ln), T(c.vb), T(c.vn), a, T(c.b), nj, s, acc, &D, &Sx);
           S[k][i] += ceres_value(Sx);
         }
       t[k].push_back(1e9 * since(t0) / (reps * cases.size()));
     }
-  fiber_detail::set_lobe_lanes(true);
   double diff = 0;
   for (size_t i = 0; i < cases.size(); ++i)
     diff = std::max(diff, std::abs(S[0][i] - S[1][i]) / std::max(std::abs(S[1][i]), 1e-3));

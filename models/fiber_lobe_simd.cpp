@@ -1,7 +1,6 @@
 // The lobe's quadrature nodes in double lanes (models/fiber_lobe_simd.h).
 #include "models/fiber_lobe_simd.h"
 
-#include <atomic>
 #include <cmath>
 #include <cstring>
 
@@ -51,21 +50,20 @@ int cpu_level() {
   }();
   return level;
 }
-std::atomic<bool> g_lanes{true}, g_avx512{true};
-bool wide() { return cpu_level() == 2 && g_avx512.load(std::memory_order_relaxed); }
 
 }  // namespace
 
-void set_lobe_lanes(bool on) { g_lanes = on; }
-void set_lobe_avx512(bool on) { g_avx512 = on; }
-int lobe_lanes() { return !lobe_lanes_enabled() ? 0 : wide() ? 8 : 4; }
-bool lobe_lanes_enabled() { return g_lanes.load(std::memory_order_relaxed) && cpu_level() > 0; }
+int lobe_lanes(int asked) {
+  const int level = cpu_level();
+  if (asked == 0 || level == 0) return 0;
+  return level == 2 && asked < 0 ? 8 : 4;
+}
 
 void lobe_nodes_in_lanes(LobeNodes<0>* nodes, double sum[1]) {
-  (wide() ? nodes0_avx512 : nodes0_avx2)(nodes, sum);
+  (nodes->width == 8 ? nodes0_avx512 : nodes0_avx2)(nodes, sum);
 }
 void lobe_nodes_in_lanes(LobeNodes<3>* nodes, double sum[4]) {
-  (wide() ? nodes3_avx512 : nodes3_avx2)(nodes, sum);
+  (nodes->width == 8 ? nodes3_avx512 : nodes3_avx2)(nodes, sum);
 }
 
 }  // namespace aniso::fiber_detail

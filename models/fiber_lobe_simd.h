@@ -24,21 +24,19 @@ struct LobeNodes {
   double cos_hv = 1, sin_hv = 0;  // of phi_h - phi_v (values)
   bool relative_to_peak = false;
   int count = 0;
+  int width = 4;  // the lanes: 4 (AVX2) or 8 (AVX-512)
   // Node i at mid + half x: mid[k][i], half[k][i] (k = 0 the value, 1 .. NV its derivatives).
   double mid[kSize][kMax], half[kSize][kMax], x[kMax], w[kMax];
 };
 
-// Adds the nodes' integral (value, then its derivatives) to sum and empties them. Only where
-// lobe_lanes_enabled() (the CPU has AVX2 and FMA): the caller gathers nodes only then.
+// Adds the nodes' integral (value, then its derivatives) to sum and empties them, nodes->width at
+// a time. Only where lobe_lanes() is not 0: the caller gathers nodes only then.
 void lobe_nodes_in_lanes(LobeNodes<0>* nodes, double sum[1]);
 void lobe_nodes_in_lanes(LobeNodes<3>* nodes, double sum[4]);
 
-// For the tests and the benchmark that compare the lanes with the scalar nodes, and the four
-// lanes (AVX2) with the eight (AVX-512) where the CPU has both.
-void set_lobe_lanes(bool on);
-bool lobe_lanes_enabled();
-void set_lobe_avx512(bool on);
-int lobe_lanes();  // 8, 4, or 0 (node by node)
+// The lanes `asked` (FiberAccuracy::lanes: -1 the widest, 4, 0) give on this CPU: 8, 4, or 0
+// (node by node).
+int lobe_lanes(int asked = -1);
 
 // How many derivatives a scalar type carries: 0 for double, N for a ceres::Jet<double, N>
 // (found by its DIMENSION), -1 for anything else.

@@ -74,6 +74,10 @@ inline void sin_cos(double x, double* s, double* c) { *s = std::sin(x), *c = std
 // Accuracy of the specular quadrature: Gauss-Legendre order per panel.
 struct FiberAccuracy {
   int order = 8;
+  // The specular lobe's nodes in SIMD lanes (models/fiber_lobe_simd.h): -1 the widest this CPU
+  // has (8 with AVX-512, 4 with AVX2 and FMA), 4 at most four, 0 node by node. The tests and the
+  // benchmark hold the forms to one another with it.
+  int lanes = -1;
 };
 
 template <class T>
@@ -334,9 +338,10 @@ void fiber_DS(const T& lb, const T& ln, const T& vb, const T& vn, const T& a, co
   // scalar an empty stand-in, never used).
   fiber_detail::LobeNodesOf<T> lanes_nodes, *nodes = nullptr;
   if constexpr (fiber_detail::kLobeInLanes<T>) {
-    if (spec && fiber_detail::lobe_lanes_enabled()) {
+    if (const int width = fiber_detail::lobe_lanes(acc.lanes); spec && width > 0) {
       constexpr int NV = fiber_detail::JetDim<T>::value;
       nodes = &lanes_nodes;
+      nodes->width = width;
       nodes->count = 0;
       nodes->relative_to_peak = relative_to_peak;
       const double hv = ceres_value(phi_h) - ceres_value(phi_v);
