@@ -138,9 +138,7 @@ TEST(BadInput, FloatPixelsAreSortedAsTheyAreDefined) {
   // Both forms where the CPU has the sixteen-pixel one (CI's AVX2 machines have only the other).
   for (const bool lanes : {true, false}) {
     SCOPED_TRACE(lanes ? "sixteen at a time where the CPU allows" : "one at a time");
-    set_classify_lanes(lanes);
-    const ViewData d = load_view(read_capture(dir), 0);
-    set_classify_lanes(true);
+    const ViewData d = load_view(read_capture(dir), 0, nullptr, nullptr, nullptr, lanes);
     size_t count[4] = {0, 0, 0, 0};
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x) {

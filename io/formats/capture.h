@@ -169,8 +169,11 @@ std::shared_ptr<const ViewGeometry> load_view_geometry_rows(const CaptureSet& se
 // `map` (the set's topology map, loaded once by the caller) fills ViewGeometry::mapv from the uv
 // buffer. With `cache`, buffers an earlier view also named are not decoded again. With `rows`,
 // only those rows of the image (else every row with a mask pixel, the others 0).
+// `lanes`: a float image's pixels sixteen at a time (AVX-512 F, BW, VL and BMI2) where the CPU has
+// them, else one at a time (the tests hold both forms to the definitions).
 ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nullptr,
-                   GeometryCache* cache = nullptr, const ViewRows* rows = nullptr);
+                   GeometryCache* cache = nullptr, const ViewRows* rows = nullptr,
+                   bool lanes = true);
 // The same into *into, whose allocation of pixel states (ViewData::use) is reused: a 2048^2 view's
 // is 4 MB of fresh pages otherwise, view after view. That allocation is empty or all kOff (as
 // clear_pixel_states leaves it): only the rows read are written, not the whole image's.
@@ -178,11 +181,7 @@ ViewData load_view(const CaptureSet& set, size_t i, const TopologyMap* map = nul
 // alone (load_view_geometry_rows), not through the cache.
 void load_view_into(const CaptureSet& set, size_t i, ViewData* into, const TopologyMap* map,
                     GeometryCache* cache, const ViewRows* rows,
-                    const std::vector<uint8_t>* geometry_rows = nullptr);
-// The float images' pixels sixteen at a time (AVX-512 F, BW, VL and BMI2) where the CPU has them,
-// unless switched off (for the tests, which hold both forms to the definitions); else one at a
-// time.
-void set_classify_lanes(bool on);
+                    const std::vector<uint8_t>* geometry_rows = nullptr, bool lanes = true);
 // d->use all kOff again, for another view's load_view_into: the rows read are cleared, the only
 // ones whose states can be other than kOff (clearing the whole image's was 4 MB a view a band).
 void clear_pixel_states(ViewData* d);

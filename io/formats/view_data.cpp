@@ -5,7 +5,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <exception>
 #include <limits>
@@ -239,11 +238,10 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
 // gathered to one a pixel by pext; the states stored as bytes under masks, the values off the
 // mask zeroed under their own. The same states, counts and values as the scalar loop.
 #define ANISO_CLASSIFY16 __attribute__((target("avx512f,avx512bw,avx512vl,bmi2")))
-std::atomic<bool> g_classify_lanes{true};
-bool classify16_enabled() {
+bool classify16_available() {
   static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
                           __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("bmi2");
-  return has && g_classify_lanes.load(std::memory_order_relaxed);
+  return has;
 }
 ANISO_CLASSIFY16 void classify16(float* v, const uint8_t* mask, const uint8_t* finite, float sat_f,
                                  uint8_t* use, size_t* on, size_t* bad, size_t* saturated) {
@@ -283,7 +281,7 @@ ANISO_CLASSIFY16 void classify16(float* v, const uint8_t* mask, const uint8_t* f
 // states, counts and zeros off the mask, without a branch per pixel (the loop's branches were
 // most of a band's classifying). `sat` as there: a value at or above it is saturated; compared
 // in float at the least float not below it, which is the same test.
-void classify_float_row(double sat, const ViewGeometry& g, int y, ViewData* d) {
+void classify_float_row(double sat, const ViewGeometry& g, int y, bool lanes, ViewData* d) {
   const int w = d->rgb.width;
   const size_t row = static_cast<size_t>(y) * w;
   float sat_f = static_cast<float>(sat);
@@ -295,7 +293,7 @@ void classify_float_row(double sat, const ViewGeometry& g, int y, ViewData* d) {
   constexpr float kMax = std::numeric_limits<float>::max();
   size_t on = 0, bad = 0, saturated = 0;
   int x = 0;
-  if (classify16_enabled())
+  if (lanes && classify16_available())
     for (; x + 16 <= w; x += 16)
       classify16(v + 3 * x, mask + x, finite + x, sat_f, use + x, &on, &bad, &saturated);
   for (; x < w; ++x) {
@@ -321,7 +319,7 @@ void classify_float_row(double sat, const ViewGeometry& g, int y, ViewData* d) {
 // Decodes the masked pixels of the rows d->rows to linear and sorts them: usable, saturated or
 // not finite (value or geometry). An RGB image is decoded in place (no second copy of the view);
 // pixels outside the mask read 0. `all_rows`: every row is looked at (rows not read hold 0).
-void classify_pixels(const CaptureSet& s, LoadedImage li, bool all_rows, ViewData* d) {
+void classify_pixels(const CaptureSet& s, LoadedImage li, bool all_rows, bool lanes, ViewData* d) {
   const ViewGeometry& g = *d->geo;
   const std::vector<uint8_t>& mask = g.mask;
   const Image& raw = li.image;
@@ -343,7 +341,7 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, bool all_rows, ViewDat
   const bool as_is = li.bits == 0 && in.channels == 3;
   if (as_is) {
     for (int y = 0; y < h; ++y)
-      if (all_rows || d->rows[y]) classify_float_row(sat, g, y, d);
+      if (all_rows || d->rows[y]) classify_float_row(sat, g, y, lanes, d);
     return;
   }
   for (int y = 0; y < h; ++y)
@@ -382,8 +380,6 @@ void classify_pixels(const CaptureSet& s, LoadedImage li, bool all_rows, ViewDat
 }
 
 }  // namespace
-
-void set_classify_lanes(bool on) { g_classify_lanes = on; }
 
 struct GeometryCache::Impl {
   // Not std::call_once: with GCC 12's libstdc++ a callable that throws leaves the flag stuck and
@@ -499,9 +495,9 @@ std::shared_ptr<const ViewGeometry> load_view_geometry_rows(const CaptureSet& s,
 }
 
 ViewData load_view(const CaptureSet& s, size_t i, const TopologyMap* map, GeometryCache* cache,
-                   const ViewRows* rows) {
+                   const ViewRows* rows, bool lanes) {
   ViewData d;
-  load_view_into(s, i, &d, map, cache, rows);
+  load_view_into(s, i, &d, map, cache, rows, nullptr, lanes);
   return d;
 }
 
@@ -514,7 +510,7 @@ void clear_pixel_states(ViewData* d) {
 
 void load_view_into(const CaptureSet& s, size_t i, ViewData* into, const TopologyMap* map,
                     GeometryCache* cache, const ViewRows* rows,
-                    const std::vector<uint8_t>* geometry_rows) {
+                    const std::vector<uint8_t>* geometry_rows, bool lanes) {
   const ViewSpec& v = s.views.at(i);
   const Intrinsics& k = v.camera;
   const std::string ctx = s.file + ": views[" + std::to_string(i) + "]";
@@ -533,7 +529,7 @@ void load_view_into(const CaptureSet& s, size_t i, ViewData* into, const Topolog
     throw Error(ctx + ": the rows asked for are not the image's");
   LoadedImage li = read_view_image(s, v, ctx, &d.rows, rows == nullptr);
   d.channels = li.image.channels;
-  classify_pixels(s, std::move(li), rows == nullptr, &d);
+  classify_pixels(s, std::move(li), rows == nullptr, lanes, &d);
 }
 
 }  // namespace aniso
