@@ -304,8 +304,8 @@ void trace_and_shade(const SimOptions& opt, const RayScene& scene, const Topolog
         const std::string name = tr->fixed_camera ? "all" : view_stem(i);
         GeometrySpec* spec = geometry ? &tr->geometry[tr->fixed_camera ? 0 : i] : nullptr;
         std::vector<std::function<void()>> jobs;
-        if (spec) *spec = geometry_files(dir, g, tr->smath[b], name, with_topology,
-                                        opt.compression, &jobs);
+        if (spec)
+          *spec = geometry_files(dir, g, tr->smath[b], name, with_topology, opt.compression, &jobs);
         if (image)
           jobs.push_back(
               [&dir, &opt, lv = &tr->levels, img, i] { write_view_image(dir, opt, *lv, i, img); });

@@ -50,8 +50,8 @@ struct SimOptions {
   RGB ambient{0, 0, 0};
   SensorOptions sensor;
   uint64_t seed = 1;
-  std::string preset;  // recorded in the set
-  const ProgressSink* progress = nullptr;  // core/progress.h; null: silent
+  std::string preset;                                 // recorded in the set
+  const ProgressSink* progress = nullptr;             // core/progress.h; null: silent
   ExrCompression compression = ExrCompression::kZip;  // the images and geometry buffers
   // Fiber model topology. "torus" / "sphere": the per-pixel mathematical topology s_math of that
   // shape is written as the `topology` buffer. A non-empty map (values h in [0, 1]) is stored as

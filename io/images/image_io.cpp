@@ -405,7 +405,6 @@ Image read_exr(const std::string& path, int expect_w, int expect_h,
   return read_exr_openexr(path, expect_w, expect_h);
 }
 
-
 // Little-endian bytes (OpenEXR's byte order; the machines this builds for are little-endian too).
 template <class T>
 void put(std::string* out, T v) {

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "io/images/exr_compression.h"
 #include "core/image.h"
 #include "io/files/files.h"
+#include "io/images/exr_compression.h"
 
 namespace aniso {
 
@@ -99,8 +99,7 @@ class ExrReadBuffers {
 void give_back_to_read_buffers(Image&& img);
 
 // Float EXR with channels R[,G[,B]] (1, 2 or 3 channels), compressed as `c`. Written atomically.
-void write_exr(const std::string& path, const Image& img,
-               ExrCompression c = ExrCompression::kZip);
+void write_exr(const std::string& path, const Image& img, ExrCompression c = ExrCompression::kZip);
 
 // 8- or 16-bit PNG of values clamped to [0, 1] (already encoded by the caller). Written atomically.
 void write_png(const std::string& path, const Image& img, int bits);

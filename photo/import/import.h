@@ -26,9 +26,9 @@ struct ImportOptions {
   double sample_margin_m = 0.003;  // corners this close to the sample's outline are dropped too
   int min_corners = 8;             // fewer corners found: the photo is left out
   bool overlays = true;            // overlays/NNN.png for every photo
-  const ProgressSink* progress = nullptr;  // core/progress.h; null: silent
+  const ProgressSink* progress = nullptr;             // core/progress.h; null: silent
   ExrCompression compression = ExrCompression::kZip;  // the views' images and geometry buffers
-  bool verbose = true;                     // one line per photo on stdout
+  bool verbose = true;                                // one line per photo on stdout
   // The whole import's memory: photos are merged as many at once as fit in it beside what every
   // photo keeps between the passes; a shoot that does not fit is refused before any decoding.
   double memory_mb = 4096;
