@@ -91,21 +91,16 @@ class CrawlStop : public ceres::IterationCallback {
   CrawlStop(double values, size_t parameters)
       : dof_(std::max(1.0, values - static_cast<double>(parameters))) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
-    if (s.iteration == 0) from_ = s.cost;
-    if (!s.step_is_successful || s.iteration == 0 || ++steps_ % kCrawlWindow)
-      return ceres::SOLVER_CONTINUE;
-    const double fell = 2 * (from_ - s.cost), s2 = 2 * s.cost / dof_;
-    const bool done = before_ > 0 && crawl_left_chi2(before_, fell, s2) < kCrawlLeftChi2;
-    before_ = fell;
-    from_ = s.cost;
-    if (done) crawled = true;
-    return done ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+    if (s.iteration == 0) watch_ = CrawlWatch(2 * s.cost);
+    if (s.iteration == 0 || !s.step_is_successful) return ceres::SOLVER_CONTINUE;
+    crawled = watch_.accepted(2 * s.cost, 2 * s.cost / dof_);
+    return crawled ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
   }
   bool crawled = false;
 
  private:
-  double dof_, from_ = 0, before_ = -1;
-  int steps_ = 0;
+  double dof_;
+  CrawlWatch watch_{0};
 };
 
 }  // namespace

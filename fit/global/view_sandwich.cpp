@@ -61,10 +61,8 @@ std::vector<double> per_view_covariance(ModelFit* m, const ObsSet& os,
     for (size_t j = 0; j < shared.size(); ++j)
       if (coords[k] == shared[j]) column[k] = 6 + static_cast<int>(j);
   }
-  double probe[3], pd[3], ps[3], psh[3][3];
-  const bool rows = !differences && !shared.empty() && N > 0 &&
-                    std::all_of(column.begin(), column.end(), [](int c) { return c >= 0; }) &&
-                    m->residual_row(os, 0, probe, pd, ps, psh);
+  const bool rows = !differences && !shared.empty() &&
+                    std::all_of(column.begin(), column.end(), [](int c) { return c >= 0; });
   if (rows) {
     tbb::enumerable_thread_specific<std::vector<double>> part(
         [&] { return std::vector<double>(G * P, 0.0); });

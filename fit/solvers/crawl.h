@@ -24,4 +24,22 @@ inline double crawl_left_chi2(double before, double last, double s2) {
   return last * q / (1 - q) / s2;
 }
 
+// The rule over a solve: started at its first cost, told the sum of squares' cost after each
+// accepted step with the residual variance there; true when the crawl is done.
+class CrawlWatch {
+ public:
+  explicit CrawlWatch(double cost) : from_(cost) {}
+  bool accepted(double cost, double s2) {
+    if (++steps_ % kCrawlWindow) return false;
+    const double fell = from_ - cost;
+    const bool done = before_ > 0 && crawl_left_chi2(before_, fell, s2) < kCrawlLeftChi2;
+    from_ = cost, before_ = fell;
+    return done;
+  }
+
+ private:
+  double from_, before_ = -1;
+  int steps_ = 0;
+};
+
 }  // namespace aniso::fitting

@@ -24,22 +24,32 @@ struct FiberPass {
   TopologyMode mode;
   FiberAccuracy acc;
 
+  // The solve's numbers at x, with log n, psi and the topology as the Jets' three variables.
+  struct At {
+    double kd[3], ks[3];
+    J3 n, c, sn, topo;
+  };
+  static At at(const VecP<P>& x) {
+    const J3 psi(x(7), 1);
+    return {{x(0), x(1), x(2)}, {x(3), x(4), x(5)}, exp(J3(x(6), 0)),
+            cos(psi),           sin(psi),           P == 9 ? J3(x(P - 1), 2) : J3(0.0)};
+  }
+
+  // Observation i's rows at a.
+  void pixel(const At& a, size_t i, ObsRow<P>* d) const {
+    const J3 s = mode == TopologyMode::kGlobalS ? a.topo
+                 : mode == TopologyMode::kAmplitude
+                     ? topology_with_map(os.smath(i), a.topo, os.mapv(i))
+                     : J3(os.smath(i));
+    row(os.obs[i], a.kd, a.ks, a.n, a.c, a.sn, s, d);
+  }
+
   FusedSums<P> operator()(const VecP<P>& x, const RobustLoss& loss, bool jac,
                           tbb::task_arena* arena) const {
-    const double kd[3] = {x(0), x(1), x(2)}, ks[3] = {x(3), x(4), x(5)};
-    const J3 n = exp(J3(x(6), 0)), psi(x(7), 1);
-    const J3 c = cos(psi), sn = sin(psi);
-    const J3 topo = P == 9 ? J3(x(P - 1), 2) : J3(0.0);
+    const At a = at(x);
     const size_t count = subset ? subset->size() : os.obs.size();
-    return fused_pass<P>(count, loss, jac, arena, [&](size_t j, ObsRow<P>* d) {
-      const size_t i = subset ? (*subset)[j] : j;
-      const Observation& o = os.obs[i];
-      const J3 s = mode == TopologyMode::kGlobalS ? topo
-                   : mode == TopologyMode::kAmplitude
-                       ? topology_with_map(os.smath(i), topo, os.mapv(i))
-                       : J3(os.smath(i));
-      row(o, kd, ks, n, c, sn, s, d);
-    });
+    return fused_pass<P>(count, loss, jac, arena,
+                         [&](size_t j, ObsRow<P>* d) { pixel(a, subset ? (*subset)[j] : j, d); });
   }
 
   // One pixel: r_k and its rows, as fiber_reflectance (models/fiber_model.h) computes it.
@@ -138,14 +148,8 @@ void fiber_row(const ObsSet& os, size_t i, TopologyMode mode, const FiberAccurac
     x.template head<8>() = pack_core(c);
     if constexpr (P == 9) x(8) = topo;
     const FiberPass<P> pass{os, nullptr, mode, acc};
-    const double kd[3] = {x(0), x(1), x(2)}, ks[3] = {x(3), x(4), x(5)};
-    const J3 n = exp(J3(x(6), 0)), psi(x(7), 1);
-    const J3 t = P == 9 ? J3(x(P - 1), 2) : J3(0.0);
-    const J3 s = mode == TopologyMode::kGlobalS     ? t
-                 : mode == TopologyMode::kAmplitude ? topology_with_map(os.smath(i), t, os.mapv(i))
-                                                    : J3(os.smath(i));
     ObsRow<P> d;
-    pass.row(os.obs[i], kd, ks, n, cos(psi), sin(psi), s, &d);
+    pass.pixel(FiberPass<P>::at(x), i, &d);
     for (int k = 0; k < 3; ++k) {
       r[k] = d.r[k], dkd[k] = d.dkd[k], dks[k] = d.dks[k];
       for (int j = 0; j < 3; ++j) shared[k][j] = j < P - 6 ? d.shared[k][j] : 0.0;

@@ -386,8 +386,7 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
   };
   VecP<P> window_start = *x;  // the ridge rule's
   int accepted = 0;
-  double crawl_from = cur->cost, crawl_fell = -1;  // the crawl rule's window: its start, last fall
-  int crawl_steps = 0;
+  CrawlWatch crawl(cur->cost);
   for (int it = 0; it < max_iterations && cur->finite; ++it) {
     const VecP<P> step = ridge_rule ? lm_step<P>(*cur, damp.lambda)
                                     : lm_step_in_box<P>(*cur, damp.lambda, *x, lo, hi);
@@ -438,15 +437,9 @@ void fused_lm(const Pass& pass, const VecP<P>& lo, const VecP<P>& hi, double val
         out->converged = true;
         break;
       }
-      if (!ridge_rule && ++crawl_steps % kCrawlWindow == 0) {
-        const double fell = crawl_from - cur->cost;
-        const double s2 = cur->rss / std::max(1.0, values - P);
-        if (crawl_fell > 0 && crawl_left_chi2(crawl_fell, fell, s2) < kCrawlLeftChi2) {
-          out->converged = out->crawled = true;
-          break;
-        }
-        crawl_from = cur->cost;
-        crawl_fell = fell;
+      if (!ridge_rule && crawl.accepted(cur->cost, cur->rss / std::max(1.0, values - P))) {
+        out->converged = out->crawled = true;
+        break;
       }
       if (ridge_rule && ++accepted % kRidgeWindow == 0) {
         VecP<P> moved = *x - window_start;

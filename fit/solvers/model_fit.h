@@ -107,7 +107,8 @@ class ModelFit {
                             double /*dks*/[3], double /*shared*/[3][3]) const {
     return false;
   }
-  // The coordinates of residual_row's shared columns (at most 3): log n, psi, the model's own.
+  // The coordinates of residual_row's shared columns (at most 3): log n, psi, the model's own;
+  // none where residual_row gives no rows.
   virtual std::vector<const double*> row_shared() const { return {}; }
   // Coordinates the data cannot fix at this solution: held constant in pb, named in res.
   virtual void hold_undetermined(ceres::Problem*, double /*kd_max*/, FitResult*) {}
