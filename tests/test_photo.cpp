@@ -354,6 +354,11 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   EXPECT_TRUE(vig["applied"].get<bool>());
   EXPECT_NEAR(vig["a1"].get<double>(), -0.3, 0.06);
   EXPECT_NEAR(vig["a2"].get<double>(), 0, 0.25);
+  // About the lens's axis: the principal point the calibration found (the simulator's is 6 px
+  // right of and 4 px above the image's centre, and its vignetting centred there).
+  EXPECT_EQ(vig["centre_px"][0].get<double>(), rep["camera"]["cx"].get<double>());
+  EXPECT_EQ(vig["centre_px"][1].get<double>(), rep["camera"]["cy"].get<double>());
+  EXPECT_NEAR(vig["centre_px"][0].get<double>(), 0.5 * (960 - 1) + 6, 3);
   const auto& card = rep["reference"];
   std::printf("grey card: paper %.4f +- %.4f (truth 0.78) from %zu photos, %zu points\n",
               card["paper_reflectance_found"][1].get<double>(),

@@ -715,8 +715,7 @@ void find_vignetting(const Shoot& s, std::vector<Detected>& det, ImportResult* r
     if (ph.lights.size() == 1 && inverse_square_point(ph.lights[0])) lights[i] = &ph.lights[0];
     sigma[i] = sigma_of(ph, 0);
   }
-  const Vignetting v =
-      fit_vignetting(paper, lights, sigma, s.height_m, det[0].width, det[0].height);
+  const Vignetting v = fit_vignetting(paper, lights, sigma, s.height_m, r->camera);
   r->vignetting = v;
   if (!v.applied) return;
   tbb::parallel_for(size_t(0), det.size(), [&](size_t i) {
@@ -781,7 +780,6 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
       });
     });
   }
-  if (o.find_lamps && o.vignetting) arena.execute([&] { find_vignetting(s, det, &r); });
   int markers = 0;
   for (size_t i = 0; i < det.size(); ++i) {
     ImportedPhoto& p = r.photos[i];
@@ -791,7 +789,6 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
     p.corners_dropped = static_cast<int>(det[i].dropped.size());
     p.saturated_pixels = det[i].saturated;
     p.raw = det[i].raw;
-    p.lamps = det[i].lamps;
     markers += det[i].markers;
     if (s.camera_given && (det[i].width != s.camera.width || det[i].height != s.camera.height))
       throw Error(s.file + ": " + photo_name(s, i) + " is " + std::to_string(det[i].width) + "x" +
@@ -808,6 +805,9 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
   r.seconds_detect = seconds_since(t0);
   const auto tc = Clock::now();
   solve_cameras(s, det, o, &r);
+  // The lens's vignetting is centred on the principal point the calibration found.
+  if (o.find_lamps && o.vignetting) arena.execute([&] { find_vignetting(s, det, &r); });
+  for (size_t i = 0; i < det.size(); ++i) r.photos[i].lamps = det[i].lamps;
   r.seconds_calibrate = seconds_since(tc);
   r.warnings = lamp_warnings(s, r);
   if (o.find_lamps && s.reference_given()) scale_by_card(s, &r);

@@ -103,64 +103,65 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
     cal["calibrated_on_photos"] = r.calibrated_on;
     cal["held"] = r.held;
   }
-  return {
-      {"format", "aniso-import-report"},
-      {"version", 1},
-      {"shoot", s.file},
-      {"camera", cal},
-      {"merge",
-       "own: decoded by color, clipped codes dropped, near-black codes only as a last "
-       "resort, weighted by exposure (photo/shoot/merge.h says why not cv::MergeDebevec)"},
-      {"options",
-       {{"max_rms_px", o.max_rms_px},
-        {"sample_margin_m", o.sample_margin_m},
-        {"min_corners", o.min_corners},
-        {"memory_mb", o.memory_mb},
-        {"calibrate_on", o.calibrate_on}}},
-      {"memory",
-       {{"photos_merged_at_once", r.merge_threads}, {"estimate_mb", r.memory_estimate_mb}}},
-      {"photos", photos},
-      {"views", r.views},
-      {"intensities", r.intensities},
-      {"warnings", r.warnings},
-      {"vignetting",
-       r.vignetting.found
-           ? json{{"model",
-                   "V(r) = 1 + a1 r^2 + a2 r^4, r the distance from the image's centre over "
-                   "the half diagonal; where applied (V at the paper's largest r more than 3 sigma "
-                   "from 1) the lamps are found through it and the views' images divided by "
-                   "it"},
-                  {"a1", r.vignetting.a1},
-                  {"a2", r.vignetting.a2},
-                  {"sigma_a1", r.vignetting.sigma_a1},
-                  {"sigma_a2", r.vignetting.sigma_a2},
-                  {"corner", r.vignetting.at(0, 0)},
-                  {"applied", r.vignetting.applied},
-                  {"sigma_at_r_max", r.vignetting.sigma_edge},
-                  {"r_max_seen", r.vignetting.r_max},
-                  {"photos", r.vignetting.photos},
-                  {"points", r.vignetting.points}}
-           : json(nullptr)},
-      {"reference", s.reference_given()
-                        ? json{{"reflectance", jsonu::to_json(s.reference.reflectance)},
-                               {"read", r.card.found},
-                               {"photos", r.card.photos},
-                               {"points", r.card.points},
-                               {"paper_reflectance_found", jsonu::to_json(r.card.paper)},
-                               {"paper_reflectance_sigma", jsonu::to_json(r.card.sigma)}}
-                        : json(nullptr)},
-      {"caveats",
-       {"lamps are found from the board's paper where they are point lamps of "
-        "inverse-square falloff (several in a photo together); other lights are taken as "
-        "written",
-        "the paper is taken as Lambertian; the lens's vignetting as 1 + a1 r^2 + a2 r^4 "
-        "about the image's centre",
-        "the sample is a plane at z = -height_m; a warped or thick sample is not modelled"}},
-      {"seconds",
-       {{"detect", r.seconds_detect},
-        {"calibrate", r.seconds_calibrate},
-        {"write", r.seconds_write},
-        {"total", r.seconds}}}};
+  return {{"format", "aniso-import-report"},
+          {"version", 1},
+          {"shoot", s.file},
+          {"camera", cal},
+          {"merge",
+           "own: decoded by color, clipped codes dropped, near-black codes only as a last "
+           "resort, weighted by exposure (photo/shoot/merge.h says why not cv::MergeDebevec)"},
+          {"options",
+           {{"max_rms_px", o.max_rms_px},
+            {"sample_margin_m", o.sample_margin_m},
+            {"min_corners", o.min_corners},
+            {"memory_mb", o.memory_mb},
+            {"calibrate_on", o.calibrate_on}}},
+          {"memory",
+           {{"photos_merged_at_once", r.merge_threads}, {"estimate_mb", r.memory_estimate_mb}}},
+          {"photos", photos},
+          {"views", r.views},
+          {"intensities", r.intensities},
+          {"warnings", r.warnings},
+          {"vignetting",
+           r.vignetting.found
+               ? json{{"model",
+                       "V(r) = 1 + a1 r^2 + a2 r^4, r the distance from the principal point "
+                       "(centre_px) over the image's half diagonal; where applied (V at the "
+                       "paper's largest r more than 3 sigma "
+                       "from 1) the lamps are found through it and the views' images divided by "
+                       "it"},
+                      {"centre_px", {r.vignetting.cx, r.vignetting.cy}},
+                      {"a1", r.vignetting.a1},
+                      {"a2", r.vignetting.a2},
+                      {"sigma_a1", r.vignetting.sigma_a1},
+                      {"sigma_a2", r.vignetting.sigma_a2},
+                      {"corner", r.vignetting.at(0, 0)},
+                      {"applied", r.vignetting.applied},
+                      {"sigma_at_r_max", r.vignetting.sigma_edge},
+                      {"r_max_seen", r.vignetting.r_max},
+                      {"photos", r.vignetting.photos},
+                      {"points", r.vignetting.points}}
+               : json(nullptr)},
+          {"reference", s.reference_given()
+                            ? json{{"reflectance", jsonu::to_json(s.reference.reflectance)},
+                                   {"read", r.card.found},
+                                   {"photos", r.card.photos},
+                                   {"points", r.card.points},
+                                   {"paper_reflectance_found", jsonu::to_json(r.card.paper)},
+                                   {"paper_reflectance_sigma", jsonu::to_json(r.card.sigma)}}
+                            : json(nullptr)},
+          {"caveats",
+           {"lamps are found from the board's paper where they are point lamps of "
+            "inverse-square falloff (several in a photo together); other lights are taken as "
+            "written",
+            "the paper is taken as Lambertian; the lens's vignetting as 1 + a1 r^2 + a2 r^4 "
+            "about the principal point",
+            "the sample is a plane at z = -height_m; a warped or thick sample is not modelled"}},
+          {"seconds",
+           {{"detect", r.seconds_detect},
+            {"calibrate", r.seconds_calibrate},
+            {"write", r.seconds_write},
+            {"total", r.seconds}}}};
 }
 
 }  // namespace aniso

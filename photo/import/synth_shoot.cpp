@@ -238,7 +238,7 @@ Image render_photo(const PhotoShootOptions& o, const Intrinsics& k, const RaySce
         }
         double lens = 1;
         if (o.vignetting != 0) {
-          const double du = x - 0.5 * (w - 1), dv = y - 0.5 * (h - 1);
+          const double du = x - k.cx, dv = y - k.cy;  // about the lens's axis
           lens += o.vignetting * (du * du + dv * dv) / (0.25 * (double(w) * w + double(h) * h));
         }
         for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(lens * I[c]);

@@ -655,11 +655,11 @@ struct VignettedPaperCost {
 
 Vignetting fit_vignetting(const std::vector<std::vector<PaperSample>>& paper,
                           const std::vector<const Light*>& lights,
-                          const std::vector<double>& sigma_m, double sample_height_m, int width,
-                          int height) {
+                          const std::vector<double>& sigma_m, double sample_height_m,
+                          const Intrinsics& camera) {
   Vignetting vg;
-  vg.cx = 0.5 * (width - 1), vg.cy = 0.5 * (height - 1);
-  vg.half_diagonal = 0.5 * std::hypot(width, height);
+  vg.cx = camera.cx, vg.cy = camera.cy;
+  vg.half_diagonal = 0.5 * std::hypot(camera.width, camera.height);
   auto r2_of = [&](const PaperSample& sm) {
     const double du = sm.u - vg.cx, dv = sm.v - vg.cy;
     return (du * du + dv * dv) / (vg.half_diagonal * vg.half_diagonal);

@@ -143,16 +143,16 @@ PaperFromCard paper_from_card(const std::vector<const LampFound*>& lamps, const 
 
 // The lens's vignetting, shared by every photo of the shoot (one camera at one setting): an image
 // reads V(r) times what the scene sends, V(r) = 1 + a1 r^2 + a2 r^4, r a pixel's distance from
-// the image's centre over the half diagonal. Within one photo a falloff from the frame's centre
-// looks much like a lamp's own falloff, and a lamp placed from the paper alone takes it up (8 %
-// over the board put lamps 16 cm off); over many photos, each with its written lamp as a
-// measurement, the board's paper is seen at different places of the frame under lamps from
-// different sides, and V is what they share. So a1, a2 are fitted with every photo's lamp
-// position and rho I, the written positions as priors of their position_sigma_m; a photo whose
-// lamp the paper then puts more than kDisagreeSigmas from where it is written (a tape measured
-// from the wrong edge) has its prior dropped and the fit runs again. The priors are the written
-// positions times one common scale k, fitted too: a wrong board.square_m scales the board frame,
-// and every lamp with it, which V must not take up.
+// the principal point (where the lens's axis meets the image) over the image's half diagonal.
+// Within one photo a falloff from the frame's centre looks much like a lamp's own falloff, and a
+// lamp placed from the paper alone takes it up (8 % over the board put lamps 16 cm off); over many
+// photos, each with its written lamp as a measurement, the board's paper is seen at different
+// places of the frame under lamps from different sides, and V is what they share. So a1, a2 are
+// fitted with every photo's lamp position and rho I, the written positions as priors of their
+// position_sigma_m; a photo whose lamp the paper then puts more than kDisagreeSigmas from where it
+// is written (a tape measured from the wrong edge) has its prior dropped and the fit runs again.
+// The priors are the written positions times one common scale k, fitted too: a wrong board.square_m
+// scales the board frame, and every lamp with it, which V must not take up.
 struct Vignetting {
   double a1 = 0, a2 = 0;
   double sigma_a1 = 0, sigma_a2 = 0;
@@ -179,8 +179,8 @@ inline constexpr double kVignettingSigmas = 3;
 // with a lamp reach r of 0.5 between them.
 Vignetting fit_vignetting(const std::vector<std::vector<PaperSample>>& paper,
                           const std::vector<const Light*>& lights,
-                          const std::vector<double>& sigma_m, double sample_height_m, int width,
-                          int height);
+                          const std::vector<double>& sigma_m, double sample_height_m,
+                          const Intrinsics& camera);
 // The samples' readings divided by V at their pixels.
 void correct_vignetting(const Vignetting& v, std::vector<PaperSample>* samples);
 
