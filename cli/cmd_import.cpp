@@ -13,7 +13,7 @@ namespace aniso::cli {
 namespace {
 
 struct ImportArgs {
-  std::string shoot, out, compression = "zip";
+  std::string shoot, out, compression = "zip", raw_develop = "aniso";
   ImportOptions o = [] {
     ImportOptions i;
     i.progress = terminal_progress();
@@ -35,6 +35,7 @@ int run(const ImportArgs& a) {
   o.overlays = !a.no_overlays;
   o.find_lamps = !a.lamps_as_written;
   o.vignetting = !a.no_vignetting;
+  o.raw_develop = raw_develop_named(a.raw_develop);
   o.sample_margin_m = a.margin_mm / 1000;
   const ImportResult r = import_shoot(s, a.out, o);
   const Intrinsics& k = r.camera;
@@ -86,15 +87,21 @@ int run(const ImportArgs& a) {
         r.vignetting.sigma_a2, r.vignetting.at(0, 0), r.vignetting.r_max,
         r.vignetting.applied ? "taken out of the views" : "not told from 1 there, so not used");
   for (const std::string& w : r.warnings) std::fprintf(stderr, "import: WARNING: %s\n", w.c_str());
+  size_t decoded_twice = 0;
+  for (const auto& p : r.photos) decoded_twice += p.decoded_twice;
+  const std::string twice =
+      decoded_twice ? " (" + std::to_string(decoded_twice) +
+                          " decoded twice: their samples' regions were not kept between the passes)"
+                    : "";
   std::printf(
       "import: %zu of %zu photos -> %s (%zu views; import_report.json, overlays/); %.2f s "
       "(merge+detect %.2f, calibrate+pose %.2f, write %.2f); %d photos merged at once within "
-      "--memory %.0f MB (estimate %.0f MB)\n"
+      "--memory %.0f MB (merges %.0f MB, samples' regions up to %.0f MB)%s\n"
       "import: lamp intensities %s\n"
       "import: then: aniso fit %s --out material.json\n",
       r.views, r.photos.size(), a.out.c_str(), r.views, r.seconds, r.seconds_detect,
       r.seconds_calibrate, r.seconds_write, r.merge_threads, o.memory_mb, r.memory_estimate_mb,
-      r.intensities.c_str(), a.out.c_str());
+      r.crop_budget_mb, twice.c_str(), r.intensities.c_str(), a.out.c_str());
   return 0;
 }
 
@@ -124,8 +131,10 @@ Command add_import(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(4, 10000));
   c->add_option("--memory", a->o.memory_mb,
-                "memory budget of the whole import, MB: photos are merged as many at once as fit; "
-                "a shoot that does not fit is refused before decoding")
+                "memory budget of the whole import, MB: photos are merged as many at once as fit, "
+                "the merged region around each sample kept between the passes while it fits "
+                "(else the photo is decoded again); a shoot whose one photo does not fit is "
+                "refused before decoding")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 1e7));
   c->add_option("--calibrate-on", a->o.calibrate_on,
@@ -141,6 +150,13 @@ Command add_import(CLI::App& app) {
               "take the lens as free of vignetting (by default it is found from the board's "
               "paper and taken out of the views' images)");
   add_exr_compression(c, &a->compression, "the views' images and geometry buffers");
+  c->add_option("--raw-develop", a->raw_develop,
+                "who develops RAW files: aniso (streamed a row at a time, a Bayer mosaic by "
+                "bilinear interpolation: LibRaw's own arithmetic, its memory 2 bytes a pixel), "
+                "libraw (LibRaw's dcraw_process, bilinear, whole) or libraw-ahd (LibRaw's AHD "
+                "demosaic: finer colour at sharp edges, slowest)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"aniso", "libraw", "libraw-ahd"}));
   c->add_flag("--quiet", a->quiet, "print only the summary and the photos left out");
   add_force_flag(c);
   return {c, [a] { return run(*a); }};

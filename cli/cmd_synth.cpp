@@ -24,8 +24,8 @@ struct SynthArgs {
     return p;
   }();
   double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
-  bool list = false, photos = false, dng = false, jpeg = false, hide_intensity = false,
-       fill_lamp = false;
+  bool list = false, photos = false, dng = false, bayer = false, jpeg = false,
+       hide_intensity = false, fill_lamp = false;
   double lamp_error_m = 0, ggx_alpha_b = PhotoShootOptions{}.ggx_alpha_b,
          paper = PhotoShootOptions{}.paper_albedo, grey_card = 0, vignetting = 0;
   CLI::App* app = nullptr;
@@ -41,7 +41,8 @@ int run_photos(const SynthArgs& a) {
   if (a.app->count("--views")) o.photos = a.po.views;
   if (a.app->count("--noise")) o.read_noise = a.po.noise;
   if (a.po.bits == 16) o.raw16 = true;
-  o.dng = a.dng;
+  o.dng = a.dng || a.bayer;
+  o.bayer = a.bayer;
   o.jpeg = a.jpeg;
   o.walk = a.walk;
   o.lamp_error_m = a.lamp_error_m;
@@ -60,7 +61,8 @@ int run_photos(const SynthArgs& a) {
       "rays, %zu shadow rays, %.1f%% of codes saturated; %.2f s\n"
       "synth --photos: then: aniso import %s/shoot.json --out CAPTURE_DIR\n",
       a.preset.c_str(), a.out.c_str(), st.photos, o.bracket.size(), o.width, o.height,
-      o.dng     ? "linear DNG"
+      o.bayer   ? "Bayer (RGGB) DNG"
+      : o.dng   ? "linear DNG"
       : o.jpeg  ? "8-bit sRGB JPEG"
       : o.raw16 ? "16-bit linear"
                 : "8-bit sRGB",
@@ -118,7 +120,11 @@ Command add_synth(CLI::App& app) {
   synth->add_flag("--jpeg", a->jpeg,
                   "--photos: write 8-bit sRGB JPEGs (quality 95), as a camera does");
   synth->add_flag("--dng", a->dng,
-                  "--photos: write linear DNG files (16-bit, read by aniso import through LibRaw)");
+                  "--photos: write linear DNG files (16-bit, three channels a pixel, read by aniso "
+                  "import through LibRaw)");
+  synth->add_flag("--bayer", a->bayer,
+                  "--photos: write DNG files as a camera's sensor records them: one channel a "
+                  "pixel in an RGGB mosaic (16-bit), demosaiced at import");
   synth
       ->add_option("--walk", a->walk,
                    "--photos: how the camera is held: upright (walking round the board, level "

@@ -15,6 +15,7 @@
 #include "io/images/image_io.h"
 #include "photo/import/plan.h"
 #include "photo/shoot/board.h"
+#include "photo/shoot/raw.h"
 #include "photo/shoot/shoot.h"
 #include "test_util.h"
 
@@ -616,7 +617,9 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   EXPECT_NE(r.output.find("raise --max-rms"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out)) << r.output;
   // The whole shoot's memory: refused before any decoding where even one photo at a time does
-  // not fit; merged one at a time where two do not; the calibration on a spread subset.
+  // not fit; merged one at a time where two do not, the samples' regions kept between the passes
+  // while they fit and the others' photos decoded again, to the same views; the calibration on a
+  // spread subset.
   write_text_file(shoot, good);
   r = test::run_cli("import " + shoot + " --out " + out + " --no-overlays --memory 5");
   EXPECT_EQ(r.status, 1) << r.output;
@@ -624,14 +627,30 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   EXPECT_EQ(r.output.find("finding the board"), std::string::npos) << r.output;  // none decoded
   EXPECT_FALSE(fs::exists(out)) << r.output;
   r = test::run_cli("import " + shoot + " --out " + out +
-                    " --no-overlays --memory 14 --calibrate-on 4");
+                    " --no-overlays --memory 7 --calibrate-on 4");
   ASSERT_EQ(r.status, 0) << r.output;
+  const std::string roomy = dir + "/cap_roomy";
+  ASSERT_EQ(test::run_cli("import " + shoot + " --out " + roomy + " --no-overlays --calibrate-on 4")
+                .status,
+            0);
   {
     const auto rep = nlohmann::json::parse(read_text_file(out + "/import_report.json"));
     EXPECT_EQ(rep["memory"]["photos_merged_at_once"], 1);
-    EXPECT_LE(rep["memory"]["estimate_mb"].get<double>(), 14);
+    EXPECT_LE(
+        rep["memory"]["estimate_mb"].get<double>() + rep["memory"]["crop_budget_mb"].get<double>(),
+        7 + 1e-9);
+    int twice = 0;
+    for (const auto& p : rep["photos"]) twice += p["decoded_twice"].get<bool>();
+    std::printf("--memory 7: %d of 6 photos decoded twice\n", twice);
+    EXPECT_GE(twice, 1);
+    EXPECT_LT(twice, 6);
+    EXPECT_NE(r.output.find("decoded twice"), std::string::npos) << r.output;
     EXPECT_EQ(rep["camera"]["calibrated_on_photos"], 4);
     EXPECT_EQ(rep["views"], 6);  // the other two posed against the camera of four
+    for (const auto& f : fs::directory_iterator(roomy + "/images"))
+      EXPECT_EQ(read_text_file(f.path().string()),
+                read_text_file(out + "/images/" + f.path().filename().string()))
+          << f.path();
   }
   fs::remove_all(out);
   expect_refused("too little tilt", [](auto& j) {
@@ -660,9 +679,9 @@ TEST(Import, MistakesAreNamedAndNothingIsWrittenHalf) {
   EXPECT_TRUE(fs::exists(out + "/overlays/004.png"));  // the overlay shows what was (not) found
 }
 
-// RAW photos: the simulator's shoot written as linear DNG files is decoded by LibRaw (linear, no
-// auto-brightness, camera white balance recorded) to the same radiance as the same shoot written
-// as 16-bit linear PNGs.
+// RAW photos: the simulator's shoot written as linear DNG files, unpacked by LibRaw and developed
+// linearly (camera white balance recorded), gives the same radiance as the same shoot written as
+// 16-bit linear PNGs; written as a camera's Bayer mosaic, the same light.
 TEST(Import, RawPhotosDecodeLinearlyThroughLibRaw) {
   const std::string dir = test::tmp_dir("raw");
   for (const std::string kind : {"dng", "png16"}) {
@@ -684,7 +703,8 @@ TEST(Import, RawPhotosDecodeLinearlyThroughLibRaw) {
   ASSERT_EQ(a.height, b.height);
   double worst = 0, mean = 0;
   for (size_t i = 0; i < a.px.size(); ++i) {
-    worst = std::max(worst, std::abs(double(a.px[i]) - b.px[i]) / std::max(0.05, double(b.px[i])));
+    const double d = std::abs(double(a.px[i]) - b.px[i]) / std::max(0.05, double(b.px[i]));
+    worst = std::max(worst, d);
     mean += b.px[i] / a.px.size();
   }
   std::printf(
@@ -693,6 +713,111 @@ TEST(Import, RawPhotosDecodeLinearlyThroughLibRaw) {
       worst, mean);
   EXPECT_LT(worst, 1e-3);
   EXPECT_GT(mean, 0.05);
+  // As a camera's sensor records it: an RGGB mosaic, developed here (bilinear). The views are
+  // the same light, each pixel's missing channels interpolated from its neighbours.
+  auto r = test::run_cli("synth --photos brushed-metal " + dir +
+                         "/bayer --views 6 --size 640x480 --bayer");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("import " + dir + "/bayer/shoot.json --out " + dir +
+                    "/cap_bayer --no-overlays");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto rb = nlohmann::json::parse(read_text_file(dir + "/cap_bayer/import_report.json"));
+  EXPECT_NE(rb["photos"][0]["raw"][0]["decoded_by"].get<std::string>().find("aniso, streamed"),
+            std::string::npos);
+  const Image c = read_image(dir + "/cap_bayer/images/000.exr").image;
+  ASSERT_EQ(c.width, b.width);
+  // Pixel by pixel the two differ by the noise (each channel's drawn apart and interpolated in
+  // the mosaic); over the view the light is the same.
+  double diff = 0, sum = 0, mean_c[3] = {0, 0, 0}, mean_b[3] = {0, 0, 0};
+  for (size_t i = 0; i < c.px.size(); ++i) {
+    diff += std::abs(double(c.px[i]) - b.px[i]), sum += b.px[i];
+    mean_c[i % 3] += c.px[i], mean_b[i % 3] += b.px[i];
+  }
+  double bias = 0;
+  for (int k = 0; k < 3; ++k) bias = std::max(bias, std::abs(mean_c[k] / mean_b[k] - 1));
+  std::printf(
+      "Bayer DNG against 16-bit PNG: mean |difference| %.2e of the mean radiance, the "
+      "channels' means %.2e apart at most\n",
+      diff / sum, bias);
+  EXPECT_LT(diff / sum, 0.05);
+  EXPECT_LT(bias, 0.003);
+}
+
+// A RAW file's rows, developed by `d`, whole.
+std::vector<uint16_t> developed(const std::string& path, RawDevelop d, int* w, int* h,
+                                std::string* by = nullptr) {
+  RawInfo info;
+  auto rows = read_raw_rows(path, &info, d);
+  *w = rows->width, *h = rows->height;
+  std::vector<uint16_t> all;
+  for (int y = 0; y < rows->height; ++y) {
+    const uint16_t* r = rows->next();
+    all.insert(all.end(), r, r + 3 * static_cast<size_t>(rows->width));
+  }
+  if (by) *by = info.developed_by;
+  return all;
+}
+
+// The streamed developer is LibRaw's own bilinear develop (dcraw_process, user_qual 0), on a
+// camera's mosaic and on a linear DNG, held each way a camera can say it was held; a clipped value
+// clips the channel of each pixel made from it.
+TEST(RawRows, TheStreamedDevelopIsLibRawsBilinearOne) {
+  const std::string dir = test::tmp_dir("rawrows");
+  const int W = 96, H = 64;
+  Image img(W, H, 3);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const bool square = (x / 16 + y / 16) % 2 == 0;  // sharp edges, as a board's squares
+      img.at(x, y, 0) = 0.1f + 0.6f * x / W * (square ? 1.f : 0.3f);
+      img.at(x, y, 1) = 0.2f + 0.5f * y / H * (square ? 1.f : 0.4f);
+      img.at(x, y, 2) = 0.05f + 0.3f * (x + y) / (W + H);
+    }
+  for (int y = 40; y < 44; ++y)
+    for (int x = 60; x < 64; ++x) img.at(x, y, 1) = 1.0f;  // a clipped highlight, green alone
+  for (const DngLayout layout : {DngLayout::kBayerRggb, DngLayout::kLinear})
+    for (const int orientation : {1, 3, 6, 8}) {
+      const std::string path = dir + "/o" + std::to_string(orientation) +
+                               (layout == DngLayout::kLinear ? "_linear" : "_bayer") + ".dng";
+      write_dng(path, img, layout, orientation);
+      int ws = 0, hs = 0, wl = 0, hl = 0;
+      std::string by;
+      const auto ours = developed(path, RawDevelop::kStreamed, &ws, &hs, &by);
+      const auto ref = developed(path, RawDevelop::kLibRaw, &wl, &hl);
+      EXPECT_EQ(by, "aniso, streamed (bilinear demosaic)");
+      ASSERT_EQ(ws, wl) << path;
+      ASSERT_EQ(hs, hl) << path;
+      EXPECT_EQ(ws, orientation >= 5 ? H : W) << path;
+      int worst = 0, clipped = 0, clipped_else = 0;
+      for (size_t p = 0; p < ours.size() / 3; ++p) {
+        const uint16_t* a = &ours[3 * p];
+        const uint16_t* b = &ref[3 * p];
+        clipped += a[1] == 65535;
+        clipped_else += a[0] == 65535 || a[2] == 65535;
+        for (int c = 0; c < 3; ++c)
+          if (a[c] != 65535) worst = std::max(worst, std::abs(int(a[c]) - int(b[c])));
+      }
+      std::printf("%s: streamed against LibRaw, worst %d codes of 65535, %d pixels clipped\n",
+                  path.c_str(), worst, clipped);
+      // LibRaw's interpolation sums and divides in integers: a code or two.
+      EXPECT_LE(worst, layout == DngLayout::kLinear ? 1 : 2) << path;
+      // The 4x4 clipped green values; in the mosaic, its 8 green sites and the 16 red or blue
+      // pixels that take one of them as an orthogonal neighbour. The camera's matrix is the
+      // identity: red and blue are not made from green, and stay.
+      EXPECT_EQ(clipped, layout == DngLayout::kLinear ? 16 : 24) << path;
+      EXPECT_EQ(clipped_else, 0) << path;
+    }
+  // Unclipped, a mosaic of one colour develops to that colour.
+  Image flat(32, 32, 3);
+  for (int p = 0; p < 32 * 32; ++p)
+    flat.px[3 * p] = 0.3f, flat.px[3 * p + 1] = 0.5f, flat.px[3 * p + 2] = 0.2f;
+  write_dng(dir + "/flat.dng", flat, DngLayout::kBayerRggb);
+  int w = 0, h = 0;
+  const auto f = developed(dir + "/flat.dng", RawDevelop::kStreamed, &w, &h);
+  for (size_t p = 0; p < f.size() / 3; ++p) {
+    EXPECT_NEAR(f[3 * p] / 65535.0, 0.3, 1e-4);
+    EXPECT_NEAR(f[3 * p + 1] / 65535.0, 0.5, 1e-4);
+    EXPECT_NEAR(f[3 * p + 2] / 65535.0, 0.2, 1e-4);
+  }
 }
 
 }  // namespace

@@ -5,9 +5,12 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <mutex>
 #include <nlohmann/json.hpp>
 
 #include "core/angles.h"
@@ -105,8 +108,25 @@ std::vector<LampFound> find_lamps(const Shoot& s, size_t i, const std::vector<Pa
   return out;
 }
 
-Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o, const PaperPoints& paper) {
-  const MergedPhoto m = merge_bracket(s, i);
+// The merged regions around the samples kept between the passes while they fit in their budget;
+// a photo whose region does not is decoded again for its view.
+class CropKeeper {
+ public:
+  explicit CropKeeper(double budget_mb) : left_(static_cast<long long>(budget_mb * 1e6)) {}
+  bool keep(const MergedCrop& c) {
+    const long long bytes = static_cast<long long>(c.rgb.px.size() * 4 + c.saturated.size());
+    if (left_.fetch_sub(bytes) >= bytes) return true;
+    left_.fetch_add(bytes);
+    return false;
+  }
+
+ private:
+  std::atomic<long long> left_;
+};
+
+Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o, const PaperPoints& paper,
+                      CropKeeper& crops) {
+  const MergedPhoto m = merge_bracket(s, i, o.raw_develop);
   Detected d;
   d.width = m.rgb.width;
   d.height = m.rgb.height;
@@ -122,6 +142,7 @@ Detected detect_photo(const Shoot& s, size_t i, const ImportOptions& o, const Pa
     (near ? d.dropped : d.corners).push_back(c);
   }
   estimate_crop(s, m, all, &d.crop);
+  if (!crops.keep(d.crop)) d.crop = MergedCrop{};
   if (o.find_lamps) {
     d.paper = paper_samples(s.board, paper, d.corners, m.rgb, m.saturated);
     d.card = card_samples(s.board, s.reference.polygon, d.corners, m.rgb, m.saturated);
@@ -537,17 +558,52 @@ void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCro
     view->source.push_back(relative_to(join_path(s.dir, im.file), out_dir));
 }
 
+// At most n photos decoded at once (the merges memory_mb allows) while the views are written on
+// every core.
+class DecodeGate {
+ public:
+  explicit DecodeGate(int n) : free_(n) {}
+  template <class F>
+  auto run(F&& f) {
+    {
+      std::unique_lock<std::mutex> lock(m_);
+      cv_.wait(lock, [&] { return free_ > 0; });
+      --free_;
+    }
+    struct Leave {
+      DecodeGate* g;
+      ~Leave() {
+        {
+          std::lock_guard<std::mutex> lock(g->m_);
+          ++g->free_;
+        }
+        g->cv_.notify_one();
+      }
+    } leave{this};
+    return f();
+  }
+
+ private:
+  std::mutex m_;
+  std::condition_variable cv_;
+  int free_;
+};
+
 // Pass 2 for one photo: its view (if accepted) from the crop kept by pass 1 (the photo is decoded
-// again only if the sample lies outside it), and its overlay.
+// again, through `gate`, where the crop was not kept or the sample lies outside it), and its
+// overlay.
 void write_photo(const Shoot& s, size_t i, Detected& det, const std::string& dir,
-                 const std::string& out_dir, const ImportOptions& o, ImportResult* r,
-                 ViewSpec* view) {
+                 const std::string& out_dir, const ImportOptions& o, DecodeGate& gate,
+                 ImportResult* r, ViewSpec* view) {
   ImportedPhoto& p = r->photos[i];
   OverlayMarks marks = photo_marks(s, i, det, r->camera, p);
   ViewGeometry g;
   if (p.accepted && view_box(r->camera, marks.outline, &g)) {
     if (!det.crop.contains(g.x0, g.y0, g.w, g.h)) {
-      det.crop = crop_merged(merge_bracket(s, i), g.x0, g.y0, g.x0 + g.w - 1, g.y0 + g.h - 1);
+      det.crop = gate.run([&] {
+        return crop_merged(merge_bracket(s, i, o.raw_develop), g.x0, g.y0, g.x0 + g.w - 1,
+                           g.y0 + g.h - 1);
+      });
       p.decoded_twice = true;
     }
     if (!view_geometry(s, r->camera, p.world_from_camera, det.crop, &g)) p.accepted = false;
@@ -655,51 +711,53 @@ std::vector<std::string> lamp_warnings(const Shoot& s, const ImportResult& r) {
 // How many photos may be merged at once within o.memory_mb, from the photos' headers (nothing
 // decoded). A photo being merged holds, per pixel, its merged RGB (12 bytes), clipped mask and
 // detection image (1 each) and the board detector's working images (kDetectBytes), plus 12 bytes
-// for each image of its bracket that is read whole as floats (EXR, TIFF), 6 for each RAW file
-// (16-bit RGB) and LibRaw's buffers while one develops (kDevelopBytes); PNG and JPEG stream row
-// by row. Every photo keeps, between the passes, the merged RGB around the sample (kCropBytes a
-// photo pixel: the sample's region with its margin) and its overlay. Throws, saying why, where
-// even one at a time does not fit.
+// for each image of its bracket that is read whole as floats (EXR, TIFF) and what each RAW file's
+// developer holds (photo/shoot/raw.h raw_header); PNG and JPEG stream row by row. Every photo
+// keeps its overlay between the passes; what the budget leaves beside the merges is
+// r->crop_budget_mb, for the merged regions around the samples (CropKeeper). Throws, saying why,
+// where even one photo at a time does not fit.
 int merge_threads(const Shoot& s, const ImportOptions& o, ImportResult* r) {
-  constexpr double kDetectBytes = 6, kCropBytes = 2, kDevelopBytes = 16;
-  double kept = 0, largest = 0;
+  constexpr double kDetectBytes = 6;
+  double overlays = 0, largest = 0;
   for (size_t i = 0; i < s.photos.size(); ++i) {
     double bytes = 0, pixels = 0, develop = 0;
     int w = 0, h = 0;
     for (const auto& im : s.photos[i].images) {
       const std::string path = join_path(s.dir, im.file);
-      const bool raw = is_raw_photo(path);
-      if (raw)
-        raw_dimensions(path, &w, &h);
-      else
-        image_dimensions(path, &w, &h);
-      pixels = std::max(pixels, double(w) * h);
       const std::string ext = lower_ext(path);
-      if (raw)  // its 16-bit RGB, and LibRaw's buffers while it develops (one image at a time)
-        bytes += 6.0 * w * h, develop = std::max(develop, kDevelopBytes * w * h);
-      else if (ext == ".exr" || ext == ".tif" || ext == ".tiff")
-        bytes += 12.0 * w * h;  // float RGB
+      if (is_raw_photo(path)) {  // what its developer holds; one develops at a time
+        const RawHeader rh = raw_header(path, o.raw_develop);
+        w = rh.width, h = rh.height;
+        bytes += rh.held_bytes * w * h;
+        develop = std::max(develop, rh.developing_bytes * w * h);
+      } else {
+        image_dimensions(path, &w, &h);
+        if (ext == ".exr" || ext == ".tif" || ext == ".tiff") bytes += 12.0 * w * h;  // float RGB
+      }
+      pixels = std::max(pixels, double(w) * h);
     }
     bytes += develop + pixels * (12 + 1 + 1 + kDetectBytes);
     const int shrink = overlay_shrink(w, h);
-    const double overlay = o.overlays ? pixels / (shrink * shrink) : 0;
-    kept += pixels * kCropBytes + overlay;
+    overlays += o.overlays ? pixels / (shrink * shrink) : 0;
     largest = std::max(largest, bytes);
   }
   const double budget = o.memory_mb * 1e6;
   const int cores = tbb::info::default_concurrency();
-  const int fit = static_cast<int>(std::floor((budget - kept) / largest));
+  const int fit = static_cast<int>(std::floor((budget - overlays) / largest));
   char buf[512];
   if (fit < 1) {
     std::snprintf(buf, sizeof buf,
-                  ": the shoot needs about %.0f MB (%zu photos keep %.0f MB between the passes, "
-                  "and merging the largest bracket takes %.0f MB), over --memory %.0f MB; raise "
-                  "--memory, or import fewer photos or exposures at a time",
-                  (kept + largest) / 1e6, s.photos.size(), kept / 1e6, largest / 1e6, o.memory_mb);
+                  ": the shoot needs at least %.0f MB (%zu photos keep %.0f MB of overlays "
+                  "between the passes, and merging the largest bracket takes %.0f MB), over "
+                  "--memory %.0f MB; raise --memory, import without overlays (--no-overlays), or "
+                  "fewer photos or exposures at a time",
+                  (overlays + largest) / 1e6, s.photos.size(), overlays / 1e6, largest / 1e6,
+                  o.memory_mb);
     throw Error(s.file + buf);
   }
   r->merge_threads = std::min(fit, cores);
-  r->memory_estimate_mb = (kept + r->merge_threads * largest) / 1e6;
+  r->crop_budget_mb = (budget - overlays - r->merge_threads * largest) / 1e6;
+  r->memory_estimate_mb = (overlays + r->merge_threads * largest) / 1e6;
   return r->merge_threads;
 }
 
@@ -771,11 +829,12 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
   // Paper at least 5 mm from the sample (its edge, its shadow on a thin plate).
   const PaperPoints paper(s.board, s.polygon, 0.005 + 3 * s.height_m, s.reference.polygon);
   tbb::task_arena arena(merge_threads(s, o, &r));
+  CropKeeper crops(r.crop_budget_mb);
   {
     Progress bar("import: merging and finding the board", s.photos.size(), o.progress);
     arena.execute([&] {
       tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
-        det[i] = detect_photo(s, i, o, paper);
+        det[i] = detect_photo(s, i, o, paper, crops);
         bar.advance();
       });
     });
@@ -822,11 +881,10 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
   write_folder_atomically(out_dir, OutputKind::kImportedCapture, [&](const std::string& dir) {
     Progress bar("import: writing views", s.photos.size(), o.progress);
     std::vector<ViewSpec> views(s.photos.size());
-    arena.execute([&] {
-      tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
-        write_photo(s, i, det[i], dir, out_dir, o, &r, &views[i]);
-        bar.advance();
-      });
+    DecodeGate gate(r.merge_threads);
+    tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
+      write_photo(s, i, det[i], dir, out_dir, o, gate, &r, &views[i]);
+      bar.advance();
     });
     CaptureSet set;
     set.camera = r.camera;

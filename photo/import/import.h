@@ -40,6 +40,8 @@ struct ImportOptions {
   // The lens's vignetting found from the paper (with the lamps) and taken out of the views' images;
   // false: the camera is taken as free of it.
   bool vignetting = true;
+  // Who develops RAW files (photo/shoot/raw.h).
+  RawDevelop raw_develop = RawDevelop::kStreamed;
 };
 
 struct ImportedPhoto {
@@ -71,9 +73,12 @@ struct ImportResult {
   std::string intensities;            // how the lamps' intensities are known (intensity_note)
   std::vector<ImportedPhoto> photos;
   size_t views = 0;
-  size_t calibrated_on = 0;       // photos the calibration used (the rest posed against it)
-  int merge_threads = 0;          // photos merged at once (memory_mb)
-  double memory_estimate_mb = 0;  // the peak the budget was held to
+  size_t calibrated_on = 0;  // photos the calibration used (the rest posed against it)
+  int merge_threads = 0;     // photos merged at once (memory_mb)
+  // What memory_mb leaves beside the merges for the merged regions around the samples kept
+  // between the passes; a photo whose region did not fit is decoded again (decoded_twice).
+  double crop_budget_mb = 0;
+  double memory_estimate_mb = 0;  // the merges' and overlays' planned peak (crops beside it)
   double seconds = 0, seconds_detect = 0, seconds_calibrate = 0, seconds_write = 0;
 };
 

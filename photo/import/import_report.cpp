@@ -46,10 +46,12 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
     if (!p.raw.empty()) {
       json raw = json::array();
       for (const auto& ri : p.raw)
-        raw.push_back(
-            {{"decoded_by", "LibRaw, linear (gamma 1, no auto-brightness), sRGB primaries"},
-             {"camera", ri.camera},
-             {"white_balance_rgbg", ri.white_balance}});
+        raw.push_back({{"decoded_by",
+                        "LibRaw's unpacking; developed linearly (no transfer curve, no "
+                        "auto-brightness), camera white balance, sRGB primaries, by " +
+                            ri.developed_by},
+                       {"camera", ri.camera},
+                       {"white_balance_rgbg", ri.white_balance}});
       jp["raw"] = raw;
     }
     if (p.rms_px >= 0) {
@@ -117,7 +119,9 @@ nlohmann::json import_report_json(const Shoot& s, const ImportResult& r, const I
             {"memory_mb", o.memory_mb},
             {"calibrate_on", o.calibrate_on}}},
           {"memory",
-           {{"photos_merged_at_once", r.merge_threads}, {"estimate_mb", r.memory_estimate_mb}}},
+           {{"photos_merged_at_once", r.merge_threads},
+            {"estimate_mb", r.memory_estimate_mb},
+            {"crop_budget_mb", r.crop_budget_mb}}},
           {"photos", photos},
           {"views", r.views},
           {"intensities", r.intensities},

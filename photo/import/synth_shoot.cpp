@@ -419,7 +419,8 @@ PhotoShootStats simulate_photo_shoot(const PhotoShootOptions& o, const std::stri
         const Image img =
             expose(o, radiance, exposure, i, static_cast<int>(e), &st.saturated_codes);
         if (o.dng)
-          write_linear_dng(join_path(dir, name), img);
+          write_dng(join_path(dir, name), img,
+                    o.bayer ? DngLayout::kBayerRggb : DngLayout::kLinear);
         else if (o.jpeg)
           write_jpeg(join_path(dir, name), img, 95);
         else

@@ -31,6 +31,7 @@ struct PhotoShootOptions {
   double read_noise = 0.002;  // Gaussian sigma in linear units of full scale, before encoding
   bool raw16 = false;         // 16-bit linear PNGs (RAW-like) instead of 8-bit sRGB
   bool dng = false;           // ... or linear DNG files (16-bit; read back through LibRaw)
+  bool bayer = false;         // dng: a camera's RGGB mosaic, left for LibRaw to demosaic
   bool jpeg = false;          // ... or 8-bit sRGB JPEGs (quality 95), as a camera writes them
   std::array<double, 5> distortion{-0.08, 0.03, 0, 0, 0};
   uint64_t seed = 1;

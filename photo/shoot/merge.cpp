@@ -34,7 +34,8 @@ struct Shot {
   int bits() const { return rows ? rows->bits : whole.bits; }
 };
 
-std::vector<Shot> read_bracket(const Shoot& s, size_t i, std::vector<RawInfo>* raw_info) {
+std::vector<Shot> read_bracket(const Shoot& s, size_t i, RawDevelop develop,
+                               std::vector<RawInfo>* raw_info) {
   std::vector<Shot> shots;
   for (const auto& im : s.photos[i].images) {
     const std::string path = join_path(s.dir, im.file);
@@ -43,7 +44,7 @@ std::vector<Shot> read_bracket(const Shoot& s, size_t i, std::vector<RawInfo>* r
     shot.path = path;
     if (is_raw_photo(path)) {
       RawInfo info;
-      shot.rows = read_raw_rows(path, &info);
+      shot.rows = read_raw_rows(path, &info, develop);
       shot.raw = true;
       raw_info->push_back(info);
     } else if (!(shot.rows = read_image_rows(path))) {
@@ -135,9 +136,9 @@ MergedCrop crop_merged(const MergedPhoto& m, int x0, int y0, int x1, int y1) {
   return c;
 }
 
-MergedPhoto merge_bracket(const Shoot& s, size_t i) {
+MergedPhoto merge_bracket(const Shoot& s, size_t i, RawDevelop develop) {
   MergedPhoto m;
-  std::vector<Shot> shots = read_bracket(s, i, &m.raw);
+  std::vector<Shot> shots = read_bracket(s, i, develop, &m.raw);
   const int w = shots[0].width(), h = shots[0].height();
   m.rgb = Image(w, h, 3);
   m.saturated.assign(static_cast<size_t>(w) * h, 0);

@@ -44,6 +44,7 @@ MergedCrop crop_merged(const MergedPhoto& m, int x0, int y0, int x1, int y1);
 
 // Reads and merges photo i of the shoot. Throws naming the files when the images of the bracket
 // differ in size or channels, or when integer images come without a stated encoding.
-MergedPhoto merge_bracket(const Shoot& s, size_t i);
+// RAW files are developed by `develop` (photo/shoot/raw.h).
+MergedPhoto merge_bracket(const Shoot& s, size_t i, RawDevelop develop = RawDevelop::kStreamed);
 
 }  // namespace aniso
