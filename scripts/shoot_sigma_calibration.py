@@ -46,12 +46,16 @@ for seed in range(a.first_seed, a.first_seed + a.seeds):
     line = f"{seed:4d}"
     for kind, unc in (("whole", m["uncertainty"]), ("noise", m["report"].get("uncertainty_noise_only", m["uncertainty"]))):
         sig = {"psi": unc["fiber_angle_deg"], "n": unc["n"], "kd": unc["kd"]["g"] if isinstance(unc["kd"], dict) else unc["kd"][1]}
-        rows[kind].append({k: err[k] / sig[k] for k in err})
+        # A sigma that is not given (the number undetermined, as the isotropic part's n may be) is nan.
+        rows[kind].append({k: err[k] / sig[k] if sig[k] else float("nan") for k in err})
     w, n = rows["whole"][-1], rows["noise"][-1]
-    print(f"{seed:4d} {err['psi']:9.4f} {m['uncertainty']['fiber_angle_deg']:7.4f} {w['psi']:8.2f} {100 * err['n'] / truth['n']:8.3f} {w['n']:7.2f} "
+    print(f"{seed:4d} {err['psi']:9.4f} {m['uncertainty']['fiber_angle_deg'] or float('nan'):7.4f} {w['psi']:8.2f} {100 * err['n'] / truth['n']:8.3f} {w['n']:7.2f} "
           f"{100 * err['kd'] / truth['kd'][1]:9.3f} {w['kd']:7.2f}  [{n['psi']:.1f} {n['n']:.1f} {n['kd']:.1f}]", flush=True)
 for kind in ("whole", "noise"):
-    rms = {k: math.sqrt(sum(r[k] ** 2 for r in rows[kind]) / len(rows[kind])) for k in ("psi", "n", "kd")}
+    rms = {}
+    for k in ("psi", "n", "kd"):
+        v = [r[k] for r in rows[kind] if math.isfinite(r[k])]
+        rms[k] = math.sqrt(sum(x * x for x in v) / len(v)) if v else float("nan")
     print(f"RMS err/sigma over {len(rows[kind])} shoots, {kind:5s} sigma: psi {rms['psi']:.2f}, n {rms['n']:.2f}, k_d {rms['kd']:.2f}")
-    worst = max(abs(r["psi"]) for r in rows[kind])
+    worst = max((abs(r["psi"]) for r in rows[kind] if math.isfinite(r["psi"])), default=float("nan"))
     print(f"  largest |psi err| / sigma: {worst:.2f}")
