@@ -145,7 +145,7 @@ fitting::TexelLanes texel_lanes_of(size_t count) {
 
 // range(1): the lanes' width, 8 (AVX2) or 16 (AVX-512, where the CPU has it).
 bool texel_width(benchmark::State& st) {
-  if (!fitting::line_simd_enabled()) return st.SkipWithError("no AVX2 and FMA"), false;
+  if (!fitting::line_lanes_on(true)) return st.SkipWithError("no AVX2 and FMA"), false;
   if (st.range(1) == 16 && !fitting::texel_avx512_available())
     return st.SkipWithError("no AVX-512 on this CPU"), false;
   return true;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "core/cpu.h"
 #include "models/quadrature.h"
 
 namespace aniso::fiber_detail {
@@ -32,21 +33,16 @@ constexpr int kW = 8;
 #include "models/fiber_lobe_kernels.inc"
 }  // namespace w8
 
-#define LANES_AVX2 __attribute__((target("avx2,fma")))
-#define LANES_AVX512 __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma")))
-
-LANES_AVX2 void nodes0_avx2(LobeNodes<0>* nd, double* sum) { w4::lobe_nodes<0>(nd, sum); }
-LANES_AVX2 void nodes3_avx2(LobeNodes<3>* nd, double* sum) { w4::lobe_nodes<3>(nd, sum); }
-LANES_AVX512 void nodes0_avx512(LobeNodes<0>* nd, double* sum) { w8::lobe_nodes<0>(nd, sum); }
-LANES_AVX512 void nodes3_avx512(LobeNodes<3>* nd, double* sum) { w8::lobe_nodes<3>(nd, sum); }
+ANISO_AVX2_FMA void nodes0_avx2(LobeNodes<0>* nd, double* sum) { w4::lobe_nodes<0>(nd, sum); }
+ANISO_AVX2_FMA void nodes3_avx2(LobeNodes<3>* nd, double* sum) { w4::lobe_nodes<3>(nd, sum); }
+ANISO_AVX512 void nodes0_avx512(LobeNodes<0>* nd, double* sum) { w8::lobe_nodes<0>(nd, sum); }
+ANISO_AVX512 void nodes3_avx512(LobeNodes<3>* nd, double* sum) { w8::lobe_nodes<3>(nd, sum); }
 
 // 2: AVX-512 (F, DQ, VL), 1: AVX2 and FMA, 0: neither.
 int cpu_level() {
   static const int level = [] {
-    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-        __builtin_cpu_supports("avx512vl"))
-      return 2;
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? 1 : 0;
+    if (cpu_has_avx512_dq_vl()) return 2;
+    return cpu_has_avx2_fma() ? 1 : 0;
   }();
   return level;
 }

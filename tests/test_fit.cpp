@@ -419,12 +419,12 @@ TEST(FitPaths, FusedSolverAndCeresReachTheSameMinimum) {
   }
   // The 4-lane pass (fit/solvers/line_simd.h, where the CPU has AVX2) and the scalar pass: the same
   // function in another order of operations, so the same minimum to rounding.
-  std::printf("4-lane pass on this CPU: %s\n", fitting::line_simd_enabled() ? "yes" : "no");
-  EXPECT_EQ(ra.report.pass.rfind("4 pixels at a time", 0) == 0, fitting::line_simd_enabled())
+  std::printf("4-lane pass on this CPU: %s\n", fitting::line_lanes_on(true) ? "yes" : "no");
+  EXPECT_EQ(ra.report.pass.rfind("4 pixels at a time", 0) == 0, fitting::line_lanes_on(true))
       << ra.report.pass;
-  fitting::set_line_simd(false);
-  const FitResult rs = fit_capture(set, fused);
-  fitting::set_line_simd(true);
+  FitOptions scalar = fused;
+  scalar.line_lanes.simd = false;
+  const FitResult rs = fit_capture(set, scalar);
   EXPECT_EQ(rs.report.pass, "one pixel at a time");
   for (int k = 0; k < 3; ++k) {
     EXPECT_NEAR(ra.material.kd[k], rs.material.kd[k], 1e-6 * ra.sigma.at("kd")[k]);

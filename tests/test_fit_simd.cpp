@@ -33,7 +33,7 @@ namespace {
 // The 4-lane pass's own exp and log against libm's over the range the lobe uses (x^n with x in
 // (0, 1], n up to 10^4) and beyond: within 2 ulp.
 TEST(FitPaths, VectorExpAndLogWithinTwoUlpOfLibm) {
-  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  if (!line_lanes_on(true)) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(0, 1);
   double worst_exp = 0, worst_log = 0;
@@ -98,7 +98,7 @@ ObsSet random_set(bool chord, int lights) {
 }
 
 void compare_passes(bool chord) {
-  const ObsSet os = random_set(chord, 1);
+  ObsSet os = random_set(chord, 1);
   const double kd[3] = {0.2, 0.3, 0.1}, ks[3] = {0.5, 0.4, 0.6};
   const double psi = 0.5;
   for (double n : {1.0, 40.0, 5000.0})
@@ -107,11 +107,10 @@ void compare_passes(bool chord) {
       const RobustLoss loss{kind, 0.1};
       ChannelSums<8> lanes, scalar;
       HuberCurvature<8> lanes_c, scalar_c;
-      set_line_simd(true);
+      os.simd = true;
       line_chunk(os, nullptr, 0, os.obs.size(), p, loss, true, &lanes, &lanes_c);
-      set_line_simd(false);
+      os.simd = false;
       line_chunk(os, nullptr, 0, os.obs.size(), p, loss, true, &scalar, &scalar_c);
-      set_line_simd(true);
       auto near = [&](double a, double b) {
         EXPECT_NEAR(a, b, (chord ? 1e-9 : 1e-11) * (1 + std::abs(b)))
             << "n " << n << ", loss " << int(kind) << (chord ? ", chord" : "");
@@ -136,7 +135,7 @@ void compare_passes(bool chord) {
 }
 
 TEST(FitPaths, FourLanePassSumsAsTheScalarPass) {
-  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  if (!line_lanes_on(true)) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
   compare_passes(false);
   compare_passes(true);
 }
@@ -145,18 +144,18 @@ TEST(FitPaths, FourLanePassSumsAsTheScalarPass) {
 // k_s and cost to rounding, with one and three lights per pixel, n from 2 to 4096, six nodes (four
 // in lanes, two alone).
 TEST(FitPaths, FourStartNodesAtOnceAsOneByOne) {
-  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  if (!line_lanes_on(true)) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
   for (int lights : {1, 3}) {
-    const ObsSet os = random_set(false, lights);
+    ObsSet os = random_set(false, lights);
     std::vector<size_t> idx;
     for (size_t i = 0; i < os.obs.size(); i += 2) idx.push_back(i);
     const double psi[6] = {0, 0.3, 1.2, 2.0, 2.9, 3.1};
     for (int log2n : {1, 5, 12}) {
       NodeFit lanes[6], alone[6];
+      os.simd = true;
       line_nodes_cost(os, idx, psi, 6, log2n, lanes);
-      set_line_simd(false);
+      os.simd = false;
       line_nodes_cost(os, idx, psi, 6, log2n, alone);
-      set_line_simd(true);
       for (int k = 0; k < 6; ++k) {
         EXPECT_NEAR(lanes[k].cost, alone[k].cost, 1e-11 * alone[k].cost) << log2n << " " << k;
         for (int ch = 0; ch < 3; ++ch) {
@@ -212,14 +211,13 @@ TEST(FitPaths, EightNodesClosedFormAsOneByOne) {
 // The start's grid over (psi, n) four columns at a time against one: the same node, k_d, k_s
 // and n on a set with one and three lights per pixel.
 TEST(FitPaths, FourGridColumnsAtOnceAsOneByOne) {
-  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  if (!line_lanes_on(true)) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
   for (int lights : {1, 3}) {
-    const ObsSet os = random_set(false, lights);
+    ObsSet os = random_set(false, lights);
     Core lanes, alone;
     const std::string a = line_grid_start(os, &lanes);
-    set_line_simd(false);
+    os.simd = false;
     const std::string b = line_grid_start(os, &alone);
-    set_line_simd(true);
     EXPECT_EQ(a, b);
     EXPECT_EQ(lanes.psi, alone.psi);
     EXPECT_EQ(lanes.logn, alone.logn);
@@ -301,7 +299,7 @@ struct TexelWidths {
 // pass from the lanes to double's, and eight start nodes at once as the double nodes (same cost to
 // 1e-4, the same best node); at either lane width, with an even and an odd number of groups.
 TEST(FitPaths, TexelFloatLanesAsTheDoublePass) {
-  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  if (!line_lanes_on(true)) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
   const ObsSet os = random_set(false, 1);
   const TexelWidths widths;
   size_t groups[2] = {0, 0};
@@ -322,7 +320,7 @@ void grey_lights_as_three_channels(size_t count, bool wide);
 // rounding; a coloured light anywhere in the texel keeps the channels apart. At either lane width,
 // with 77 observations (10 groups) and 67 (9: the sixteen lanes' last group half padding).
 TEST(FitPaths, TexelGreyLightsAsThreeChannels) {
-  if (!line_simd_enabled()) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
+  if (!line_lanes_on(true)) GTEST_SKIP() << "no AVX2 and FMA on this CPU";
   const TexelWidths widths;
   for (const bool wide : widths.wide)
     for (const size_t count : {77, 67}) {  // not a whole number of groups or blocks
@@ -425,7 +423,7 @@ TEST(FitPaths, TexelBlockSolveAsTheDenseInverse) {
 // light_at one pixel at a time: the same bits, over random buffers with the cases that branch (a
 // zero normal, a tangent along the normal, the light on the point, an attenuation that is 0).
 TEST(FitPaths, PixelQuadsAreTheScalarFramesBitForBit) {
-  if (!pixel_quads_enabled()) GTEST_SKIP() << "no AVX2 on this CPU";
+  if (!line_lanes_on(true)) GTEST_SKIP() << "no AVX2 on this CPU";
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<float> u(-1, 1);
   auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
@@ -479,7 +477,7 @@ TEST(FitPaths, PixelQuadsAreTheScalarFramesBitForBit) {
 // for bit, with saturated pixels left out, a view whose eye moved (its own frames), --subsample and
 // --maps' texels; and band by band, the same maps.
 TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
-  if (!pixel_quads_enabled()) GTEST_SKIP() << "no AVX2 on this CPU";
+  if (!line_lanes_on(true)) GTEST_SKIP() << "no AVX2 on this CPU";
   const std::string dir = test::tmp_dir("shared_pixels");
   auto r = test::run_cli("synth swirl-plate " + dir + "/set --noise 0.01 --size 96x80 --views 6");
   ASSERT_EQ(r.status, 0) << r.output;
@@ -500,12 +498,10 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
     opt.maps_w = 24, opt.maps_h = 20;
     opt.progress = nullptr;
     FitReport shared_rep, alone_rep;
-    set_shared_lanes_avx512(stride > 0);
+    opt.line_lanes.avx512 = stride > 0;
     const ObsSet shared = capture_observations(set, opt, &shared_rep);
-    set_shared_lanes_avx512(true);
-    set_shared_pixels(false);
+    opt.line_lanes.shared_pixels = false;
     const ObsSet alone = capture_observations(set, opt, &alone_rep);
-    set_shared_pixels(true);
     ASSERT_GT(shared.obs.size(), 1000u);
     EXPECT_GT(shared_rep.saturated, 100u);
     EXPECT_TRUE(bytes(shared.obs) == bytes(alone.obs)) << "stride " << stride;
@@ -529,9 +525,9 @@ TEST(FitPaths, ViewsSharingAGeometryGiveTheRecordsOfEachViewAlone) {
   opt.maps_memory_mb = 0.05;  // several bands
   opt.global = given_global(fit_text(global), "global", set.dir);
   const FitResult shared = fit_capture(set, opt);
-  set_shared_pixels(false);
+  opt.line_lanes.shared_pixels = false;
   const FitResult alone = fit_capture(set, opt);
-  set_shared_pixels(true);
+  opt.line_lanes.shared_pixels = true;
   EXPECT_GT(shared.report.maps_bands, 2u);
   EXPECT_GT(shared.maps.fitted, 300u);
   for (const auto& arr : kTexelArrays)

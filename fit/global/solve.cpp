@@ -292,7 +292,8 @@ bool solve_fused(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport
   rep->stopped_on_crawl = f.crawled;
   rep->residual_evaluations = rep->jacobian_evaluations = static_cast<size_t>(f.passes);
   rep->solver = "fused LM";
-  rep->pass = m->model() == Model::kLine && line_simd_enabled() && opt.loss != FitLoss::kCauchy
+  rep->pass = m->model() == Model::kLine && line_lanes_on(opt.line_lanes.simd) &&
+                      opt.loss != FitLoss::kCauchy
                   ? "4 pixels at a time where a pixel has one light (AVX2, FMA)"
                   : "one pixel at a time";
   return true;

@@ -341,8 +341,8 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   m.rms = sv > 0 ? std::sqrt(sr / sv) : 0;
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   m.threads = tbb::this_task_arena::max_concurrency();
-  m.lanes =
-      o.fiber_order == 0 && !o.ceres ? texel_float_lanes(o.wide_lanes) : 0;  // the line model's LM
+  m.lanes = o.fiber_order == 0 && !o.ceres ? texel_float_lanes(os.simd, o.wide_lanes)
+                                           : 0;  // the line model's LM
   return m;
 }
 

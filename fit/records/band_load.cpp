@@ -142,7 +142,7 @@ std::vector<double> bytes_by_row_all(const CaptureSet& set, const FitOptions& op
   shared->assign(sum.size(), 0.0);
   for (size_t j = 0; j < todo.size(); ++j) {
     const size_t views = todo[j].views;
-    const double own = shares_pixels(views, set.views[todo[j].first])
+    const double own = shares_pixels(views, set.views[todo[j].first], opt.line_lanes)
                            ? static_cast<double>(kSharedPixelBytes)
                            : 0.0;
     const double each = static_cast<double>(views * per) + own;

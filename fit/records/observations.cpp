@@ -197,9 +197,9 @@ struct ViewPart {
 // (shares_pixels: its geometry its own or shared by fewer than kShareFrom views, or other than
 // one point light: add_pixel_observations' own cases) or its eye is not theirs.
 const SharedPixels* shared_of(LoadState* st, const std::string& key, size_t views,
-                              const ViewData& d, const ViewSpec& v, int stride,
-                              const UvBand& band) {
-  if (!shares_pixels(views, v)) return nullptr;
+                              const ViewData& d, const ViewSpec& v, int stride, const UvBand& band,
+                              const LineLanes& lanes) {
+  if (!shares_pixels(views, v, lanes)) return nullptr;
   std::lock_guard<std::mutex> lock(st->shared_mutex);
   auto it = st->shared.find(key);
   if (it == st->shared.end()) {
@@ -410,7 +410,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
         }
         p.shared = set.views[i].geometry.mesh.empty()
                        ? shared_of(st, key, st->geometries.at(key).views, p.d, set.views[i],
-                                   opt.subsample, band)
+                                   opt.subsample, band, opt.line_lanes)
                        : nullptr;
         p.bound =
             p.shared ? usable_shared(p.d, *p.shared) : usable_on_grid(p.d, opt.subsample, band);
@@ -423,9 +423,11 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
       tbb::parallel_for(b0, b1, [&](size_t i) {
         ViewPart& p = parts[i - b0];
         if (p.shared)
-          add_shared_observations(p.d, set.views[i], *p.shared, band, &p.slot, &p.rep);
+          add_shared_observations(p.d, set.views[i], *p.shared, band, opt.line_lanes.avx512,
+                                  &p.slot, &p.rep);
         else
-          add_pixel_observations(p.d, set.views[i], opt.subsample, band, &p.slot, &p.rep);
+          add_pixel_observations(p.d, set.views[i], opt.subsample, band, opt.line_lanes.simd,
+                                 &p.slot, &p.rep);
         st->read_buffers->give_back(std::move(p.d.rgb));
         {
           clear_pixel_states(&p.d);
@@ -450,6 +452,7 @@ void load_views(const CaptureSet& set, const FitOptions& opt, LoadState* st, Obs
   }
   // Grey images: the three channels repeat one measurement, counted once (as for grey tables).
   os.grey = grey_views == set.views.size();
+  os.simd = opt.line_lanes.simd;
   // A band counts the pixels of the texels it owns (its reach's are the next band's), as it
   // writes them.
   const size_t pixels = banded ? rep.pixels - pixels_before : os.obs.size();
@@ -479,6 +482,7 @@ ObsSet table_observations(const SampleTable& t, const FitOptions& opt, FitReport
     throw Error("fit: the sample table has no value columns (r,g,b or y)");
   ObsSet os;
   os.grey = t.values == SampleTable::Values::kGrey;
+  os.simd = opt.line_lanes.simd;
   for (const auto& row : t.rows) {
     Observation o;
     o.V = dir_from_angles(row.theta_o, row.phi_o);

@@ -102,6 +102,9 @@ struct ObsSet {
   std::string topology_map;  // recorded in the result
   MathTopology topology_mathematical = MathTopology::kNone;
   bool grey = false;  // a grey table: the three channels repeat one value
+  // The line model's passes over these records take four pixels at a time (FitOptions::line_lanes
+  // .simd, on a CPU with AVX2 and FMA: line_lanes_on in fit/records/pixel_frames.h).
+  bool simd = true;
   // Where each view's lights begin in `lights`, in view order (a view's observations name lights
   // of their own view only): which view an observation is of, for the uncertainty that errors
   // shared by a view's pixels add (fit/global/view_sandwich.h). Empty for tables.

@@ -7,17 +7,14 @@
 
 #include <immintrin.h>
 
-#include <atomic>
 #include <cstring>
 
 #include "core/cpu.h"
+#include "fit/records/observations.h"
 
 namespace aniso::fitting {
 
 namespace {
-
-#define ANISO_AVX2_ONLY __attribute__((target("avx2")))
-#define ANISO_AVX2_ONLY_INLINE __attribute__((target("avx2"), always_inline)) inline
 
 typedef double v4d __attribute__((vector_size(32)));
 
@@ -25,44 +22,40 @@ struct V3 {
   v4d x, y, z;
 };
 
-ANISO_AVX2_ONLY_INLINE v4d splat(double v) { return v4d{v, v, v, v}; }
-ANISO_AVX2_ONLY_INLINE v4d vsqrt(v4d a) { return v4d(_mm256_sqrt_pd(__m256d(a))); }
+ANISO_AVX2_INLINE v4d splat(double v) { return v4d{v, v, v, v}; }
+ANISO_AVX2_INLINE v4d vsqrt(v4d a) { return v4d(_mm256_sqrt_pd(__m256d(a))); }
 // a > b per lane (false for NaN), as all-ones or zero bits.
-ANISO_AVX2_ONLY_INLINE v4d gt(v4d a, v4d b) {
+ANISO_AVX2_INLINE v4d gt(v4d a, v4d b) {
   return v4d(_mm256_cmp_pd(__m256d(a), __m256d(b), _CMP_GT_OQ));
 }
-ANISO_AVX2_ONLY_INLINE v4d pick(v4d mask, v4d a, v4d b) {
+ANISO_AVX2_INLINE v4d pick(v4d mask, v4d a, v4d b) {
   return v4d(_mm256_blendv_pd(__m256d(b), __m256d(a), __m256d(mask)));
 }
 // dot(a, b) = a.x b.x + a.y b.y + a.z b.z, left to right (core/vec.h).
-ANISO_AVX2_ONLY_INLINE v4d vdot(const V3& a, const V3& b) {
-  return a.x * b.x + a.y * b.y + a.z * b.z;
-}
+ANISO_AVX2_INLINE v4d vdot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 // normalize(a): a / length(a) where the length is > 0, else 0.
-ANISO_AVX2_ONLY_INLINE V3 vnormalize(const V3& a) {
+ANISO_AVX2_INLINE V3 vnormalize(const V3& a) {
   const v4d l = vsqrt(vdot(a, a)), ok = gt(l, splat(0.0)), z = splat(0.0);
   return {pick(ok, a.x / l, z), pick(ok, a.y / l, z), pick(ok, a.z / l, z)};
 }
-ANISO_AVX2_ONLY_INLINE V3 load3(const double (&a)[3][4]) {
+ANISO_AVX2_INLINE V3 load3(const double (&a)[3][4]) {
   return {v4d{a[0][0], a[0][1], a[0][2], a[0][3]}, v4d{a[1][0], a[1][1], a[1][2], a[1][3]},
           v4d{a[2][0], a[2][1], a[2][2], a[2][3]}};
 }
-ANISO_AVX2_ONLY_INLINE V3 from(const Vec3& v) { return {splat(v.x), splat(v.y), splat(v.z)}; }
-ANISO_AVX2_ONLY_INLINE V3 sub(const V3& a, const V3& b) {
-  return {a.x - b.x, a.y - b.y, a.z - b.z};
-}
+ANISO_AVX2_INLINE V3 from(const Vec3& v) { return {splat(v.x), splat(v.y), splat(v.z)}; }
+ANISO_AVX2_INLINE V3 sub(const V3& a, const V3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 // The frame's coordinates of d (core/frame.h to_local): along U, W, N.
-ANISO_AVX2_ONLY_INLINE void put_local(const V3& d, const V3& U, const V3& W, const V3& N,
-                                      LocalDir out[4]) {
+ANISO_AVX2_INLINE void put_local(const V3& d, const V3& U, const V3& W, const V3& N,
+                                 LocalDir out[4]) {
   const v4d u = vdot(d, U), w = vdot(d, W), n = vdot(d, N);
   for (int l = 0; l < 4; ++l) out[l] = {u[l], w[l], n[l]};
 }
 
-ANISO_AVX2_ONLY_INLINE void store3(const V3& v, double (&a)[3][4]) {
+ANISO_AVX2_INLINE void store3(const V3& v, double (&a)[3][4]) {
   for (int l = 0; l < 4; ++l) a[0][l] = v.x[l], a[1][l] = v.y[l], a[2][l] = v.z[l];
 }
 
-ANISO_AVX2_ONLY void frame_quad(const Vec3& eye, PixelQuad* q) {
+ANISO_AVX2 void frame_quad(const Vec3& eye, PixelQuad* q) {
   const V3 P = load3(q->P), N_in = load3(q->N), U_in = load3(q->U);
   // make_frame
   const V3 N = vnormalize(N_in);
@@ -104,7 +97,7 @@ __attribute__((always_inline)) inline void light_local(const Light& light, const
   L_out[2] = L[0] * N[0] + L[1] * N[1] + L[2] * N[2];
 }
 
-ANISO_AVX2_ONLY void light_quad(const Light& light, PixelQuad* q) {
+ANISO_AVX2 void light_quad(const Light& light, PixelQuad* q) {
   const V3 P = load3(q->P), U = load3(q->fU), W = load3(q->fW), N = load3(q->fN);
   const v4d Pv[3] = {P.x, P.y, P.z}, Uv[3] = {U.x, U.y, U.z}, Wv[3] = {W.x, W.y, W.z},
             Nv[3] = {N.x, N.y, N.z};
@@ -138,8 +131,8 @@ __attribute__((always_inline)) inline void shared_out(const Light& light, const 
                 out->lit[at + l] = lit[l] != 0;
 }
 
-ANISO_AVX2_ONLY void shared_lanes_avx2(const Light& light, const double* frame, size_t padded,
-                                       size_t i, LightLanes* out) {
+ANISO_AVX2 void shared_lanes_avx2(const Light& light, const double* frame, size_t padded, size_t i,
+                                  LightLanes* out) {
   for (int at = 0; at < kSharedLanes; at += 4) {
     v4d rows[12], dl[3], r2;
     shared_rows(light, frame, padded, i + at, rows, dl, &r2);
@@ -151,9 +144,8 @@ ANISO_AVX2_ONLY void shared_lanes_avx2(const Light& light, const double* frame, 
 // Eight lanes in one (AVX-512F's fused multiply-add is not used: the file is built with
 // -ffp-contract=off, so a * b + c rounds twice as in the scalar form).
 typedef double v8d __attribute__((vector_size(64)));
-__attribute__((target("avx512f"))) void shared_lanes_avx512(const Light& light, const double* frame,
-                                                            size_t padded, size_t i,
-                                                            LightLanes* out) {
+ANISO_AVX512F void shared_lanes_avx512(const Light& light, const double* frame, size_t padded,
+                                       size_t i, LightLanes* out) {
   v8d rows[12], dl[3], r2;
   shared_rows(light, frame, padded, i, rows, dl, &r2);
   // The builtin itself: _mm512_sqrt_pd's undefined pass-through trips GCC 12's maybe-uninitialized.
@@ -163,22 +155,8 @@ __attribute__((target("avx512f"))) void shared_lanes_avx512(const Light& light, 
 
 }  // namespace
 
-namespace {
-
-std::atomic<bool> g_simd_on{true};
-
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
-
-}  // namespace
-
-bool line_simd_enabled() { return g_simd_on.load() && cpu_has_avx2(); }
-
-void set_line_simd(bool on) { g_simd_on = on; }
-
-bool pixel_quads_enabled() { return line_simd_enabled(); }
+bool line_lanes_on(bool asked) { return asked && cpu_has_avx2_fma(); }
+bool line_lanes_on(const ObsSet& os) { return line_lanes_on(os.simd); }
 
 void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q) {
   frame_quad(eye, q);
@@ -187,15 +165,9 @@ void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q) {
 void pixel_frame_quad(const Vec3& eye, PixelQuad* q) { frame_quad(eye, q); }
 void pixel_light_quad(const Light& point, PixelQuad* q) { light_quad(point, q); }
 
-namespace {
-std::atomic<bool> g_shared_avx512{true};
-}  // namespace
-
-void set_shared_lanes_avx512(bool on) { g_shared_avx512 = on; }
-
 void shared_light_lanes(const Light& point, const double* frame, size_t padded, size_t i,
-                        LightLanes* out) {
-  if (g_shared_avx512.load(std::memory_order_relaxed) && cpu_has_avx512f())
+                        bool avx512, LightLanes* out) {
+  if (avx512 && cpu_has_avx512f())
     shared_lanes_avx512(point, frame, padded, i, out);
   else
     shared_lanes_avx2(point, frame, padded, i, out);

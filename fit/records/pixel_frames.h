@@ -26,14 +26,11 @@ struct PixelQuad {
   bool lit[4];
 };
 
-// This CPU has AVX2 and FMA, and the 4-lane pass is not switched off (set_line_simd, for tests
-// that compare it with the scalar pass).
-bool line_simd_enabled();
-void set_line_simd(bool on);
-
-// False where the CPU has no AVX2 or the lanes are switched off (set_line_simd): the scalar
-// forms then.
-bool pixel_quads_enabled();
+// Whether the line model's four-pixel passes run: asked (FitOptions::line_lanes.simd, carried by
+// the records as ObsSet::simd) and this CPU has AVX2 and FMA; the scalar forms otherwise.
+bool line_lanes_on(bool asked);
+struct ObsSet;  // fit/records/observations.h
+bool line_lanes_on(const ObsSet& os);
 // Fills q's outputs from its inputs for a camera at `eye` and one point light: the frame's part,
 // then the light's.
 void pixel_quad(const Vec3& eye, const Light& point, PixelQuad* q);
@@ -44,8 +41,8 @@ void pixel_light_quad(const Light& point, PixelQuad* q);
 
 // The light's part for pixels whose position and frame are arrays (fit/records/pixel_records.h
 // SharedPixels: rows P x y z, U x y z, W x y z, N x y z, each `padded` long): kSharedLanes pixels
-// from index i at once (eight lanes of AVX-512 where the CPU has it, else two of four), the same
-// bits as pixel_light_quad.
+// from index i at once (eight lanes of AVX-512 where `avx512` and the CPU have it, else two of
+// four), the same bits as pixel_light_quad.
 constexpr int kSharedLanes = 8;
 struct LightLanes {
   LocalDir L[kSharedLanes];
@@ -53,9 +50,6 @@ struct LightLanes {
   bool lit[kSharedLanes];
 };
 void shared_light_lanes(const Light& point, const double* frame, size_t padded, size_t i,
-                        LightLanes* out);
-// The eight lanes of AVX-512 switched off (the two of four of AVX2 instead), for the tests that
-// hold both to the scalar form's bits on a CPU that has both.
-void set_shared_lanes_avx512(bool on);
+                        bool avx512, LightLanes* out);
 
 }  // namespace aniso::fitting

@@ -133,10 +133,10 @@ void add_pixel_quad(const ViewData& d, const ViewSpec& v, int y, const int* xs, 
 }  // namespace
 
 void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, const UvBand& band,
-                            RecordSlot* out, FitReport* rep) {
+                            bool simd, RecordSlot* out, FitReport* rep) {
   const int w = d.rgb.width, h = d.rgb.height;
   const bool quads =
-      pixel_quads_enabled() && v.lights.size() == 1 && v.lights[0].type == Light::Type::kPoint;
+      line_lanes_on(simd) && v.lights.size() == 1 && v.lights[0].type == Light::Type::kPoint;
   int xs[4];
   long ts[4];
   for (int y = 0; y < h; y += stride) {
@@ -157,20 +157,14 @@ void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, co
   }
 }
 
-namespace {
-std::atomic<bool> g_share{true};
-}  // namespace
-
-void set_shared_pixels(bool on) { g_share = on; }
-
-bool shares_pixels(size_t views, const ViewSpec& v) {
+bool shares_pixels(size_t views, const ViewSpec& v, const LineLanes& lanes) {
   return views >= kShareFrom && v.geometry.mesh.empty() && v.lights.size() == 1 &&
-         v.lights[0].type == Light::Type::kPoint && pixel_quads_enabled() && g_share;
+         v.lights[0].type == Light::Type::kPoint && line_lanes_on(lanes.simd) &&
+         lanes.shared_pixels;
 }
 
 std::unique_ptr<const SharedPixels> shared_pixels(const ViewData& d, int stride,
                                                   const UvBand& band) {
-  if (!pixel_quads_enabled() || !g_share) return nullptr;
   const ViewGeometry& g = *d.geo;
   const int w = d.rgb.width, h = d.rgb.height;
   auto sp = std::make_unique<SharedPixels>();
@@ -217,7 +211,7 @@ size_t usable_shared(const ViewData& d, const SharedPixels& sp) {
 }
 
 void add_shared_observations(const ViewData& d, const ViewSpec& v, const SharedPixels& sp,
-                             const UvBand& band, RecordSlot* out, FitReport* rep) {
+                             const UvBand& band, bool avx512, RecordSlot* out, FitReport* rep) {
   const size_t w = static_cast<size_t>(d.rgb.width), n = sp.x.size();
   LightLanes ll;
   for (size_t i0 = 0; i0 < n; i0 += kSharedLanes) {
@@ -229,7 +223,7 @@ void add_shared_observations(const ViewData& d, const ViewSpec& v, const SharedP
       any = any || use[l];
     }
     if (!any) continue;
-    shared_light_lanes(v.lights[0], sp.frame.data(), sp.padded, i0, &ll);
+    shared_light_lanes(v.lights[0], sp.frame.data(), sp.padded, i0, avx512, &ll);
     for (size_t l = 0; l < m; ++l)
       if (use[l]) {
         const size_t i = i0 + l;

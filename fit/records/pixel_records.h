@@ -58,9 +58,10 @@ UvBand uv_band(const FitOptions& opt);
 // The usable pixels on the stride grid that the band keeps: the most records a view can give.
 size_t usable_on_grid(const ViewData& d, int stride, const UvBand& band);
 // View d's usable pixels on the stride grid that the band keeps, as records in *out (the others
-// counted in *rep: a frame the buffers do not define, unlit).
+// counted in *rep: a frame the buffers do not define, unlit); four at a time where `simd`
+// (fit/records/pixel_frames.h line_lanes_on) and the view has one point light.
 void add_pixel_observations(const ViewData& d, const ViewSpec& v, int stride, const UvBand& band,
-                            RecordSlot* out, FitReport* rep);
+                            bool simd, RecordSlot* out, FitReport* rep);
 
 // The pixels of a geometry that views share (a fixed camera) which a load keeps: on the stride
 // grid, in the rows it reads, on the mask with finite buffers, of a texel it keeps; in the order
@@ -90,23 +91,22 @@ struct SharedPixels {
 // records 56 bytes and more: BENCHMARKS.md's bound is 112); two views of a large sample would
 // have held 1.3 times their records more.
 constexpr size_t kShareFrom = 4;
-// Whether view v, one of `views` naming its geometry, shares its pixels (set_shared_pixels and the
-// CPU's pixel quads allowing).
-bool shares_pixels(size_t views, const ViewSpec& v);
+// Whether view v, one of `views` naming its geometry, shares its pixels (lanes.shared_pixels and
+// the four-pixel passes, line_lanes_on(lanes.simd), allowing).
+bool shares_pixels(size_t views, const ViewSpec& v, const LineLanes& lanes);
 // The most a shared pixel holds (its arrays grown by doubling), for the bands' plan.
 constexpr size_t kSharedPixelBytes = 2 * (2 * sizeof(int) + sizeof(long)) +
                                      SharedPixels::kSharedRows * sizeof(double) + sizeof(LocalDir) +
                                      sizeof(uint8_t);
-// Null where pixel quads do not apply (pixel_quads_enabled() is false) or sharing is switched off
-// (set_shared_pixels, for tests comparing the two).
-void set_shared_pixels(bool on);
+// Found for views that shares_pixels allows.
 std::unique_ptr<const SharedPixels> shared_pixels(const ViewData& d, int stride,
                                                   const UvBand& band);
 // A view's records from the pixels it shares (its geometry and eye those of `sp`, its rows
 // those `sp` was found in, one point light): what usable_on_grid and add_pixel_observations give,
-// the same records in the same order.
+// the same records in the same order; the light eight pixels at a time where `avx512`
+// (fit/records/pixel_frames.h shared_light_lanes).
 size_t usable_shared(const ViewData& d, const SharedPixels& sp);
 void add_shared_observations(const ViewData& d, const ViewSpec& v, const SharedPixels& sp,
-                             const UvBand& band, RecordSlot* out, FitReport* rep);
+                             const UvBand& band, bool avx512, RecordSlot* out, FitReport* rep);
 
 }  // namespace aniso::fitting

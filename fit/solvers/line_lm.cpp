@@ -20,7 +20,7 @@ void line_chunk(const ObsSet& os, const size_t* idx, size_t begin, size_t end,
                 HuberCurvature<8>* curv) {
   // Pixels with one light go four at a time where the CPU can (fit/solvers/line_simd.h); the rest,
   // and Cauchy's loss, one at a time.
-  const bool simd = line_simd_enabled() && loss.kind != FitLoss::kCauchy;
+  const bool simd = line_lanes_on(os) && loss.kind != FitLoss::kCauchy;
   size_t ids[kFusedChunk];
   ObsRow<8> row;
   for (size_t b = begin; b < end; b += kFusedChunk) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "core/cpu.h"
 #include "fit/solvers/start.h"
 #include "fit/solvers/texel_simd.h"
 
@@ -15,18 +16,16 @@ namespace {
 // the two reinterprets the bits. Everything that touches them is compiled for AVX2 and FMA only.
 typedef double v4d __attribute__((vector_size(32)));
 typedef long long v4i __attribute__((vector_size(32)));
-#define ANISO_AVX2 __attribute__((target("avx2,fma")))
-#define ANISO_AVX2_INLINE __attribute__((target("avx2,fma"), always_inline)) inline
 
-ANISO_AVX2_INLINE v4d splat(double x) { return v4d{x, x, x, x}; }
-ANISO_AVX2_INLINE v4d select(v4i m, v4d a, v4d b) { return m ? a : b; }
-ANISO_AVX2_INLINE v4d vmax(v4d a, v4d b) { return select(a > b, a, b); }
-ANISO_AVX2_INLINE v4d vmin(v4d a, v4d b) { return select(a < b, a, b); }
-ANISO_AVX2_INLINE v4d vsqrt(v4d a) { return __builtin_ia32_sqrtpd256(a); }
+ANISO_AVX2_FMA_INLINE v4d splat(double x) { return v4d{x, x, x, x}; }
+ANISO_AVX2_FMA_INLINE v4d select(v4i m, v4d a, v4d b) { return m ? a : b; }
+ANISO_AVX2_FMA_INLINE v4d vmax(v4d a, v4d b) { return select(a > b, a, b); }
+ANISO_AVX2_FMA_INLINE v4d vmin(v4d a, v4d b) { return select(a < b, a, b); }
+ANISO_AVX2_FMA_INLINE v4d vsqrt(v4d a) { return __builtin_ia32_sqrtpd256(a); }
 
 // exp(t): t = k ln 2 + r, |r| <= ln 2 / 2, e^r by its Taylor series to r^13 (truncation below
 // 5e-18), times 2^k built in the exponent bits. 0 below -708 (where 2^k would be subnormal).
-ANISO_AVX2_INLINE v4d vexp(v4d t) {
+ANISO_AVX2_FMA_INLINE v4d vexp(v4d t) {
   const v4d magic = splat(6755399441055744.0);  // 1.5 * 2^52: adding it rounds to an integer
   const v4d tc = vmin(vmax(t, splat(-708.0)), splat(709.0));
   const v4d kd = (tc * splat(1.4426950408889634) + magic) - magic;
@@ -57,7 +56,7 @@ ANISO_AVX2_INLINE v4d vexp(v4d t) {
 // log(x), x > 0 (subnormals are taken as the smallest normal): x = m 2^e with m in
 // [sqrt(1/2), sqrt(2)), log m = 2 atanh(s), s = (m - 1) / (m + 1), |s| <= 0.1716, by its series
 // to s^23 (truncation below 1e-17).
-ANISO_AVX2_INLINE v4d vlog(v4d x) {
+ANISO_AVX2_FMA_INLINE v4d vlog(v4d x) {
   x = vmax(x, splat(2.2250738585072014e-308));
   const v4i bits = (v4i)x;
   const v4i e0 = ((bits >> 52) & 0x7ff) - 1023;
@@ -81,7 +80,7 @@ ANISO_AVX2_INLINE v4d vlog(v4d x) {
 }
 
 // sqrt(1 - a^2) and its derivative, as sin_and_derivative (fit/solvers/line_pixel.h) lane by lane.
-ANISO_AVX2_INLINE void vsin(v4d a, v4d* s, v4d* ds) {
+ANISO_AVX2_FMA_INLINE void vsin(v4d a, v4d* s, v4d* ds) {
   const v4d x = splat(1.0) - a * a;
   const double chord = 1 / std::sqrt(kSqrtChordEps);
   const v4d root = vsqrt(vmax(x, splat(kSqrtChordEps)));
@@ -90,7 +89,7 @@ ANISO_AVX2_INLINE void vsin(v4d a, v4d* s, v4d* ds) {
   *ds = select(zero, splat(0.0), select(near, splat(-2.0 * chord) * a, -a / root));
 }
 
-ANISO_AVX2_INLINE double hsum(v4d v) { return (v[0] + v[1]) + (v[2] + v[3]); }
+ANISO_AVX2_FMA_INLINE double hsum(v4d v) { return (v[0] + v[1]) + (v[2] + v[3]); }
 
 // Per-lane sums of a chunk (the layout of ChannelSums<8>, four lanes each).
 struct LaneSums {
@@ -102,14 +101,14 @@ struct LaneCurvature {
   v4d c[36];
 };
 
-ANISO_AVX2_INLINE bool any(v4i m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
+ANISO_AVX2_FMA_INLINE bool any(v4i m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
 
 // The four observations' values, lane by lane.
 struct Lanes {
   v4d Vu, Vw, Lu, Lw, Ln, E[3], y[3], mask;
 };
 
-ANISO_AVX2_INLINE v4d load4(const double* p) {
+ANISO_AVX2_FMA_INLINE v4d load4(const double* p) {
   v4d v;
   std::memcpy(&v, p, sizeof v);
   return v;
@@ -117,7 +116,7 @@ ANISO_AVX2_INLINE v4d load4(const double* p) {
 
 // Each lane vector built from its four values in registers (scalar stores to a table read back
 // as 32-byte loads stall: a load cannot take its bytes from several stores in flight).
-ANISO_AVX2_INLINE void gather(const ObsSet& os, const size_t* idx, size_t count, Lanes* q) {
+ANISO_AVX2_FMA_INLINE void gather(const ObsSet& os, const size_t* idx, size_t count, Lanes* q) {
   const Observation* o[4];
   const ObsLight* l[4];
   for (int i = 0; i < 4; ++i) {
@@ -135,8 +134,8 @@ ANISO_AVX2_INLINE void gather(const ObsSet& os, const size_t* idx, size_t count,
   q->mask = v4d{1.0, count > 1 ? 1.0 : 0.0, count > 2 ? 1.0 : 0.0, count > 3 ? 1.0 : 0.0};
 }
 
-ANISO_AVX2 void group(const Lanes& q, const LinePixelParams& p, const RobustLoss& loss, bool jac,
-                      LaneCurvature* curv, LaneSums* acc) {
+ANISO_AVX2_FMA void group(const Lanes& q, const LinePixelParams& p, const RobustLoss& loss,
+                          bool jac, LaneCurvature* curv, LaneSums* acc) {
   const v4d c = splat(p.c), sn = splat(p.sn), n = splat(p.n);
   const v4d one = splat(1.0), minus = splat(-1.0);
   const v4d b = vmin(vmax(c * q.Vu + sn * q.Vw, minus), one), db = c * q.Vw - sn * q.Vu;
@@ -197,7 +196,7 @@ ANISO_AVX2 void group(const Lanes& q, const LinePixelParams& p, const RobustLoss
 }
 
 // The lane sums into the chunk's: lane by lane, a fixed order.
-ANISO_AVX2 void add_lanes(const LaneSums& acc, ChannelSums<8>* sums) {
+ANISO_AVX2_FMA void add_lanes(const LaneSums& acc, ChannelSums<8>* sums) {
   sums->cost += hsum(acc.cost);
   sums->rss += hsum(acc.rss);
   for (int k = 0; k < 3; ++k) {
@@ -206,9 +205,9 @@ ANISO_AVX2 void add_lanes(const LaneSums& acc, ChannelSums<8>* sums) {
   }
 }
 
-ANISO_AVX2 void pass_avx2(const ObsSet& os, const size_t* idx, size_t count,
-                          const LinePixelParams& p, const RobustLoss& loss, bool jac,
-                          ChannelSums<8>* sums, HuberCurvature<8>* curv) {
+ANISO_AVX2_FMA void pass_avx2(const ObsSet& os, const size_t* idx, size_t count,
+                              const LinePixelParams& p, const RobustLoss& loss, bool jac,
+                              ChannelSums<8>* sums, HuberCurvature<8>* curv) {
   LaneSums acc;
   std::memset(&acc, 0, sizeof acc);
   Lanes q;
@@ -225,14 +224,14 @@ ANISO_AVX2 void pass_avx2(const ObsSet& os, const size_t* idx, size_t count,
 }
 
 // Four floats of row k of a group of eight, as doubles.
-ANISO_AVX2_INLINE v4d row4(const float* g, int k) {
+ANISO_AVX2_FMA_INLINE v4d row4(const float* g, int k) {
   return v4d{g[8 * k], g[8 * k + 1], g[8 * k + 2], g[8 * k + 3]};
 }
 
 // The texel's transposed rows (fit/solvers/texel_simd.h) in double, four lanes at a time: the
 // weights already times n_L (Ln 1).
-ANISO_AVX2 void lanes_pass_avx2(const TexelLanes& t, const LinePixelParams& p, bool jac,
-                                ChannelSums<8>* sums) {
+ANISO_AVX2_FMA void lanes_pass_avx2(const TexelLanes& t, const LinePixelParams& p, bool jac,
+                                    ChannelSums<8>* sums) {
   LaneSums acc;
   std::memset(&acc, 0, sizeof acc);
   const RobustLoss none{FitLoss::kNone, 0};
@@ -252,8 +251,8 @@ ANISO_AVX2 void lanes_pass_avx2(const TexelLanes& t, const LinePixelParams& p, b
 // Four start nodes at once, psi in the lanes (n = 2^log2n, x^n by squaring): line_node_cost's
 // columns and sums (fit/solvers/start.cpp) lane by lane, over observations with any number of
 // lights.
-ANISO_AVX2 void nodes_avx2(const ObsSet& os, const size_t* idx, size_t count, const double psi[4],
-                           int log2n, KdKsSums out[4]) {
+ANISO_AVX2_FMA void nodes_avx2(const ObsSet& os, const size_t* idx, size_t count,
+                               const double psi[4], int log2n, KdKsSums out[4]) {
   v4d c, sn;
   for (int i = 0; i < 4; ++i) c[i] = std::cos(psi[i]), sn[i] = std::sin(psi[i]);
   const v4d one = splat(1.0), minus = splat(-1.0), zero = splat(0.0);
@@ -299,7 +298,7 @@ ANISO_AVX2 void nodes_avx2(const ObsSet& os, const size_t* idx, size_t count, co
 // Four columns of the start's grid at once, psi in the lanes: for every pixel the lobe x^n for
 // n = 2, 4, ..., 2^N by repeated squaring (grid_column in fit/solvers/start.cpp, lane by lane).
 template <int N>
-ANISO_AVX2 void grid_avx2(const ObsSet& os, const double psi[4], KdKsSums out[4][N]) {
+ANISO_AVX2_FMA void grid_avx2(const ObsSet& os, const double psi[4], KdKsSums out[4][N]) {
   v4d c, sn;
   for (int i = 0; i < 4; ++i) c[i] = std::cos(psi[i]), sn[i] = std::sin(psi[i]);
   const v4d one = splat(1.0), minus = splat(-1.0), zero = splat(0.0);
@@ -351,7 +350,7 @@ ANISO_AVX2 void grid_avx2(const ObsSet& os, const double psi[4], KdKsSums out[4]
       }
 }
 
-ANISO_AVX2 void exp_log_avx2(const double in[4], double exp_out[4], double log_out[4]) {
+ANISO_AVX2_FMA void exp_log_avx2(const double in[4], double exp_out[4], double log_out[4]) {
   v4d x;
   std::memcpy(&x, in, sizeof x);
   const v4d e = vexp(x), l = vlog(x);

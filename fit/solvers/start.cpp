@@ -54,7 +54,7 @@ double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, doubl
 void line_nodes_cost(const ObsSet& os, const std::vector<size_t>& subset, const double* psi,
                      int count, int log2n, NodeFit* out) {
   int i = 0;
-  if (line_simd_enabled())
+  if (line_lanes_on(os))
     for (; i + 4 <= count; i += 4) {
       KdKsSums sums[4];
       line_nodes_simd(os, subset.data(), subset.size(), psi + i, log2n, sums);
@@ -68,7 +68,7 @@ namespace {
 
 typedef double v8d __attribute__((vector_size(64)));
 typedef long v8l __attribute__((vector_size(64)));
-#define ANISO_KDKS8 __attribute__((target("avx512f"), optimize("fp-contract=off")))
+#define ANISO_KDKS8 ANISO_AVX512F __attribute__((optimize("fp-contract=off")))
 
 // The sum of squares at (a, b): KdKsSums::solve's sse, term by term.
 ANISO_KDKS8 __attribute__((always_inline)) inline v8d sse8(v8d a, v8d b, v8d dd, v8d ds, v8d ss,
@@ -213,6 +213,7 @@ void grid_column(const ObsSet& os, double psi, KdKsSums sums[kGridN]) {
 // times, and scattered over the whole set they were most of its time (cache misses).
 ObsSet compact(const ObsSet& os, const std::vector<size_t>& subset) {
   ObsSet out;
+  out.simd = os.simd;
   out.obs.reserve(subset.size());
   for (size_t i : subset) {
     Observation o = os.obs[i];
@@ -233,7 +234,7 @@ std::string line_grid_start(const ObsSet& os, Core* st, const ProgressSink* prog
   const ObsSet some = compact(os, subset);
   std::vector<KdKsSums> sums(kGridPsi * kGridN);
   // Four columns at a time where the CPU has AVX2 and FMA (the same sums up to FMA's rounding).
-  const bool simd = line_simd_enabled();
+  const bool simd = line_lanes_on(os);
   tbb::parallel_for(0, simd ? kGridPsi / 4 : kGridPsi, [&](int task) {
     if (simd) {
       const double psi[4] = {4 * task * M_PI / kGridPsi, (4 * task + 1) * M_PI / kGridPsi,

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "core/cpu.h"
 #include "fit/solvers/line_simd.h"
 #include "fit/solvers/start.h"
 
@@ -17,13 +18,8 @@ namespace {
 
 // GCC's vector types: eight floats (one AVX2 register).
 typedef float v8f __attribute__((vector_size(32)));
-#define ANISO_AVX2 __attribute__((target("avx2,fma")))
-#define ANISO_AVX2_INLINE __attribute__((target("avx2,fma"), always_inline)) inline
-#define ANISO_AVX512 __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma")))
-#define ANISO_AVX512_INLINE \
-  __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"), always_inline)) inline
 
-ANISO_AVX2_INLINE v8f load8(const float* p) {
+ANISO_AVX2_FMA_INLINE v8f load8(const float* p) {
   v8f v;
   std::memcpy(&v, p, sizeof v);  // one unaligned 32-byte load
   return v;
@@ -31,7 +27,7 @@ ANISO_AVX2_INLINE v8f load8(const float* p) {
 
 // The eight lanes' sum in double: the halves widened and added, then pairwise (eight additions
 // in a row were a chain of 32 cycles, ~100 of them a pass).
-ANISO_AVX2_INLINE double hsum8(v8f v) {
+ANISO_AVX2_FMA_INLINE double hsum8(v8f v) {
   const __m256d a = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(__m256(v))),
                                   _mm256_cvtps_pd(_mm256_extractf128_ps(__m256(v), 1)));
   const __m128d b = _mm_add_pd(_mm256_castpd256_pd128(a), _mm256_extractf128_pd(a, 1));
@@ -44,8 +40,8 @@ namespace x8 {
 typedef float vf __attribute__((vector_size(32)));
 typedef int vi __attribute__((vector_size(32)));
 constexpr int kWidth = 8, kLanes = 1;
-#define TK_TARGET ANISO_AVX2
-#define TK_INLINE ANISO_AVX2_INLINE
+#define TK_TARGET ANISO_AVX2_FMA
+#define TK_INLINE ANISO_AVX2_FMA_INLINE
 TK_INLINE vf splat(float x) { return vf{x, x, x, x, x, x, x, x}; }
 TK_INLINE vf vsqrt(vf a) { return __builtin_ia32_sqrtps256(a); }
 TK_INLINE double hsum(vf v) { return hsum8(v); }
@@ -94,17 +90,11 @@ TK_INLINE vf node_row(const float* f, size_t j, int k) {
 #undef TK_INLINE
 }  // namespace x16
 
-bool cpu_has_avx512() {
-  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-                          __builtin_cpu_supports("avx512vl");
-  return has;
-}
-
 }  // namespace
 
 bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* out, bool wide) {
-  if (!line_simd_enabled()) return false;  // the same CPU check and switch as the double lanes
-  out->wide = wide && cpu_has_avx512();
+  if (!line_lanes_on(os)) return false;  // the same CPU check and option as the double lanes
+  out->wide = wide && cpu_has_avx512_dq_vl();
   out->count = idx.size();
   out->groups = (idx.size() + 7) / 8;
   out->f.resize(TexelLanes::stored_groups(out->groups) * TexelLanes::kRows * 8);
@@ -152,10 +142,10 @@ bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* o
   return true;
 }
 
-bool texel_avx512_available() { return cpu_has_avx512(); }
+bool texel_avx512_available() { return cpu_has_avx512_dq_vl(); }
 
-int texel_float_lanes(bool wide) {
-  return !line_simd_enabled() ? 0 : wide && texel_avx512_available() ? 16 : 8;
+int texel_float_lanes(bool simd, bool wide) {
+  return !line_lanes_on(simd) ? 0 : wide && texel_avx512_available() ? 16 : 8;
 }
 
 void texel_pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac, ChannelSums<8>* s) {

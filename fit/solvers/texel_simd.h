@@ -32,9 +32,9 @@ struct TexelLanes {
   bool wide = false;         // its passes sixteen lanes at a time (AVX-512), else eight (AVX2)
 };
 
-// The texel's observations idx as lanes; false (*out is then not to be read) where
-// line_simd_enabled() is false (no AVX2/FMA, or switched off) or an observation has other than
-// one light.
+// The texel's observations idx as lanes; false (*out is then not to be read) where the records'
+// four-pixel passes are off (fit/records/pixel_frames.h line_lanes_on: no AVX2/FMA, or not asked)
+// or an observation has other than one light.
 // `wide` asks for the sixteen-lane kernels (AVX-512F, DQ and VL), taken where the CPU has them;
 // else eight lanes (AVX2 and FMA). The choice travels with the lanes, so fits of different
 // widths may run side by side in one process.
@@ -44,8 +44,8 @@ bool texel_lanes(const ObsSet& os, const std::vector<size_t>& idx, TexelLanes* o
 // Whether this CPU has the sixteen-lane kernels' AVX-512 (F, DQ and VL).
 bool texel_avx512_available();
 // The lanes a texel's passes take for a request: 16 where `wide` and the CPU allow, else 8; 0
-// where texel_lanes refuses every texel (no AVX2 and FMA, or switched off).
-int texel_float_lanes(bool wide);
+// where texel_lanes refuses every texel (no AVX2 and FMA, or `simd` false).
+int texel_float_lanes(bool simd, bool wide);
 
 // The texel's pass at p (no robust loss, as every texel's fit): cost, and the J^T J and J^T r
 // sums with `jac`.

@@ -92,6 +92,14 @@ inline constexpr double kMapsGlobalPixels = 1e6;
 inline constexpr double kStagedPixels = 1e6;
 inline constexpr int kStagedStride = 16, kMinStagedStride = 4;
 
+// Which of the equal forms of the line model's passes run; the widest the CPU has by default, the
+// others for the tests that hold them to one another (bit for bit, or to the sums' rounding).
+struct LineLanes {
+  bool simd = true;           // four pixels at a time (AVX2 and FMA) where the CPU has them
+  bool shared_pixels = true;  // views of one geometry and eye share their pixels' frames (simd)
+  bool avx512 = true;         // the shared pixels' light eight at a time where the CPU has AVX-512F
+};
+
 struct FitOptions {
   FitModel model = FitModel::kLine;
   bool fit_isotropic = false;
@@ -156,6 +164,7 @@ struct FitOptions {
   // keeps only the observations whose uv falls in its rows (and its --smooth band): a tile's
   // memory is its share of the sample, not the whole set.
   std::optional<GivenGlobal> global;
+  LineLanes line_lanes;
 };
 
 // --maps: every texel's fit (row-major, glTF uv: texel (i, j) covers u in [i/W, (i+1)/W)). Texels

@@ -12,6 +12,7 @@
 #include <mutex>
 
 #include "core/color.h"
+#include "core/cpu.h"
 #include "core/error.h"
 #include "core/texture.h"
 #include "geometry/raycast.h"
@@ -237,14 +238,8 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
 // values' tests as a bit, three bits a pixel joined (finite: all three; saturated: any) and
 // gathered to one a pixel by pext; the states stored as bytes under masks, the values off the
 // mask zeroed under their own. The same states, counts and values as the scalar loop.
-#define ANISO_CLASSIFY16 __attribute__((target("avx512f,avx512bw,avx512vl,bmi2")))
-bool classify16_available() {
-  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-                          __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("bmi2");
-  return has;
-}
-ANISO_CLASSIFY16 void classify16(float* v, const uint8_t* mask, const uint8_t* finite, float sat_f,
-                                 uint8_t* use, size_t* on, size_t* bad, size_t* saturated) {
+ANISO_AVX512BW void classify16(float* v, const uint8_t* mask, const uint8_t* finite, float sat_f,
+                               uint8_t* use, size_t* on, size_t* bad, size_t* saturated) {
   const __m512 max = _mm512_set1_ps(std::numeric_limits<float>::max());
   const __m512 sat = _mm512_set1_ps(sat_f);
   uint64_t fin = 0, hot = 0;
@@ -293,7 +288,7 @@ void classify_float_row(double sat, const ViewGeometry& g, int y, bool lanes, Vi
   constexpr float kMax = std::numeric_limits<float>::max();
   size_t on = 0, bad = 0, saturated = 0;
   int x = 0;
-  if (lanes && classify16_available())
+  if (lanes && cpu_has_avx512_bw_vl_bmi2())
     for (; x + 16 <= w; x += 16)
       classify16(v + 3 * x, mask + x, finite + x, sat_f, use + x, &on, &bad, &saturated);
   for (; x < w; ++x) {
