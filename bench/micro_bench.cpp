@@ -7,6 +7,7 @@
 #include <random>
 #include <vector>
 
+#include "fit/solvers/line_lm.h"
 #include "fit/solvers/line_simd.h"
 #include "fit/solvers/start.h"
 #include "fit/solvers/texel_simd.h"
@@ -121,6 +122,41 @@ void BM_Bake(benchmark::State& st) {
     benchmark::DoNotOptimize(bake_line(m, static_cast<int>(st.range(0))).combined.px.data());
 }
 BENCHMARK(BM_Bake)->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond);
+
+// The global fit's pass over `range(0)` observations of one light (fit/solvers/line_lm.h
+// line_chunk, with J^T J and J^T r, no robust loss): four at a time in AVX2 lanes (range(1) 1) or
+// one at a time (0), the same equation (fit/solvers/line_equation.inc).
+void BM_LinePass(benchmark::State& st) {
+  const size_t count = static_cast<size_t>(st.range(0));
+  if (st.range(1) == 1 && !fitting::line_lanes_on(true)) return st.SkipWithError("no AVX2 and FMA");
+  const auto v = dirs(count, 8), l = dirs(count, 9);
+  fitting::ObsSet os;
+  os.simd = st.range(1) == 1;
+  for (size_t j = 0; j < count; ++j) {
+    fitting::Observation o;
+    o.V = v[j];
+    o.first_light = static_cast<uint32_t>(j);
+    o.num_lights = 1;
+    fitting::ObsLight li;
+    li.L = l[j];
+    for (int k = 0; k < 3; ++k)
+      li.E[k] = 16.0, o.y[k] = static_cast<float>(0.2 * 16 * l[j].n + 0.1);
+    os.obs.push_back(o);
+    os.lights.push_back(li);
+  }
+  const double kd[3] = {0.2, 0.2, 0.2}, ks[3] = {0.6, 0.6, 0.6};
+  const fitting::LinePixelParams p{kd, ks, 40.0, std::cos(0.5), std::sin(0.5)};
+  const fitting::RobustLoss none{FitLoss::kNone, 0};
+  for (auto _ : st) {
+    fitting::ChannelSums<8> s;
+    fitting::line_chunk(os, nullptr, 0, count, p, none, true, &s, nullptr);
+    benchmark::DoNotOptimize(s);
+  }
+  st.counters["ns_per_obs"] =
+      benchmark::Counter(static_cast<double>(st.iterations() * st.range(0)),
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_LinePass)->ArgsProduct({{4096}, {0, 1}});
 
 // One texel of --maps in float lanes (fit/solvers/texel_simd.h): the pass with J^T J and J^T r, and
 // the eight start nodes (n = 2^4, the power of two nearest that set's global n, 15.7), over

@@ -1,5 +1,6 @@
-// fit/ internal: one pixel of the plain line model (docs/models.md §3) with its derivatives,
-// written out by hand: the residual exposure * I - y per channel and d/d(k_d, k_s, log n, psi).
+// fit/ internal: one pixel of the plain line model (docs/models.md §3) with its derivatives by
+// hand (the equation itself in fit/solvers/line_equation.h): the residual exposure * I - y per
+// channel and d/d(k_d, k_s, log n, psi).
 // Shared by the Ceres cost (LineResidualAnalytic) and the per-texel Levenberg-Marquardt of --maps,
 // so the two solve exactly the same function. d sqrt(1 - a^2)/da uses the chord of
 // models/safe_math.h below kSqrtChordEps.
@@ -37,40 +38,38 @@ struct LinePixelParams {
   double n, c, sn;  // n = exp(log n), cos psi, sin psi
 };
 
+#define LE_INLINE inline
+#include "fit/solvers/line_equation.inc"
+#undef LE_INLINE
+
+// The scalar primitives of fit/solvers/line_equation.inc.
+struct ScalarLineOps {
+  static double clamp_unit(double a) { return aniso::clamp_unit(a); }
+  static void sin(double a, double* s, double* ds) { sin_and_derivative(a, s, ds); }
+  static double exp(double t) { return std::exp(t); }
+  static double lit(double x, double a, double b) { return x > 0 ? a : b; }
+};
+
 inline void line_pixel_derivs(const Observation& o, const ObsLight* lights,
                               const LinePixelParams& p, PixelDerivs* d) {
   const double* kd = p.kd;
   const double* ks = p.ks;
-  const double n = p.n, c = p.c, sn = p.sn;
-  const LocalDir& V = o.V;
-  const double b = clamp_unit(c * V.u + sn * V.w), db = -sn * V.u + c * V.w;
-  double sV, dsV;
-  sin_and_derivative(b, &sV, &dsV);
+  const LineView<double> view = line_view<ScalarLineOps, double>(p.c, p.sn, o.V.u, o.V.w);
   double f[3] = {0, 0, 0};
   for (int k = 0; k < 3; ++k) d->dkd[k] = d->dks[k] = d->dlogn[k] = d->dpsi[k] = 0;
   for (uint32_t i = 0; i < o.num_lights; ++i) {
     const ObsLight& l = lights[o.first_light + i];
-    const double nl = l.L.n;
-    const double a = clamp_unit(c * l.L.u + sn * l.L.w), da = -sn * l.L.u + c * l.L.w;
-    double sL, dsL;
-    sin_and_derivative(a, &sL, &dsL);
-    const double x = sL * sV - a * b;
-    double S = 0, dS_dx = 0, dS_dlogn = 0;
-    if (x > 0) {
-      const double lx = std::log(x);
-      S = std::exp(n * lx);
-      dS_dx = n * S / x;
-      dS_dlogn = S * n * lx;
-    }
-    const double dx_dpsi = (dsL * sV - b) * da + (sL * dsV - a) * db;
-    const double dD_dpsi = dsL * da;
+    const double nl = l.L.n;  // E (float) times <N, L> in double
+    const LineLight<double> g = line_light<ScalarLineOps, double>(p.c, p.sn, l.L.u, l.L.w, view);
+    const double xs = g.x > 0 ? g.x : 1;
+    const LineLobe<double> lobe = line_lobe<ScalarLineOps, double>(p.n, g.x, xs, std::log(xs));
     for (int k = 0; k < 3; ++k) {
       const double w = l.E[k] * nl;
-      f[k] += w * (kd[k] * sL + ks[k] * S);
-      d->dkd[k] += w * sL;
-      d->dks[k] += w * S;
-      d->dlogn[k] += w * ks[k] * dS_dlogn;
-      d->dpsi[k] += w * (kd[k] * dD_dpsi + ks[k] * dS_dx * dx_dpsi);
+      f[k] += w * (kd[k] * g.sL + ks[k] * lobe.S);
+      d->dkd[k] += w * g.sL;
+      d->dks[k] += w * lobe.S;
+      d->dlogn[k] += w * ks[k] * lobe.dS_dlogn;
+      d->dpsi[k] += w * (kd[k] * g.dD_dpsi + ks[k] * lobe.dS_dx * g.dx_dpsi);
     }
   }
   for (int k = 0; k < 3; ++k) d->r[k] = f[k] - o.y[k];

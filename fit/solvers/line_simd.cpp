@@ -134,31 +134,36 @@ ANISO_AVX2_FMA_INLINE void gather(const ObsSet& os, const size_t* idx, size_t co
   q->mask = v4d{1.0, count > 1 ? 1.0 : 0.0, count > 2 ? 1.0 : 0.0, count > 3 ? 1.0 : 0.0};
 }
 
+#define LE_INLINE ANISO_AVX2_FMA_INLINE
+#include "fit/solvers/line_equation.inc"
+#undef LE_INLINE
+
+// fit/solvers/line_equation.inc's primitives in four double lanes.
+struct LaneOps {
+  ANISO_AVX2_FMA_INLINE static v4d clamp_unit(v4d a) {
+    return vmin(vmax(a, splat(-1.0)), splat(1.0));
+  }
+  ANISO_AVX2_FMA_INLINE static void sin(v4d a, v4d* s, v4d* ds) { vsin(a, s, ds); }
+  ANISO_AVX2_FMA_INLINE static v4d exp(v4d t) { return vexp(t); }
+  ANISO_AVX2_FMA_INLINE static v4d lit(v4d x, v4d a, v4d b) { return select(x > splat(0.0), a, b); }
+};
+
 ANISO_AVX2_FMA void group(const Lanes& q, const LinePixelParams& p, const RobustLoss& loss,
                           bool jac, LaneCurvature* curv, LaneSums* acc) {
   const v4d c = splat(p.c), sn = splat(p.sn), n = splat(p.n);
-  const v4d one = splat(1.0), minus = splat(-1.0);
-  const v4d b = vmin(vmax(c * q.Vu + sn * q.Vw, minus), one), db = c * q.Vw - sn * q.Vu;
-  const v4d a = vmin(vmax(c * q.Lu + sn * q.Lw, minus), one), da = c * q.Lw - sn * q.Lu;
-  v4d sV, dsV, sL, dsL;
-  vsin(b, &sV, &dsV);
-  vsin(a, &sL, &dsL);
-  const v4d x = sL * sV - a * b;
-  const v4i lit = x > splat(0.0);
-  const v4d lx = vlog(select(lit, x, one));
-  const v4d S = select(lit, vexp(n * lx), splat(0.0));
-  const v4d dS_dx = select(lit, n * S / select(lit, x, one), splat(0.0));
-  const v4d dS_dlogn = S * n * lx;
-  const v4d dx_dpsi = (dsL * sV - b) * da + (sL * dsV - a) * db;
-  const v4d dD_dpsi = dsL * da;
+  const v4d one = splat(1.0);
+  const LineView<v4d> view = line_view<LaneOps>(c, sn, q.Vu, q.Vw);
+  const LineLight<v4d> g = line_light<LaneOps>(c, sn, q.Lu, q.Lw, view);
+  const v4d xs = LaneOps::lit(g.x, g.x, one);
+  const LineLobe<v4d> lobe = line_lobe<LaneOps>(n, g.x, xs, vlog(xs));
   v4d r[3], v[3][4];
   for (int k = 0; k < 3; ++k) {
     const v4d w = q.E[k] * q.Ln, kd = splat(p.kd[k]), ks = splat(p.ks[k]);
-    r[k] = w * (kd * sL + ks * S) - q.y[k];
-    v[k][0] = w * sL;
-    v[k][1] = w * S;
-    v[k][2] = w * ks * dS_dlogn;
-    v[k][3] = w * (kd * dD_dpsi + ks * dS_dx * dx_dpsi);
+    r[k] = w * (kd * g.sL + ks * lobe.S) - q.y[k];
+    v[k][0] = w * g.sL;
+    v[k][1] = w * lobe.S;
+    v[k][2] = w * ks * lobe.dS_dlogn;
+    v[k][3] = w * (kd * g.dD_dpsi + ks * lobe.dS_dx * g.dx_dpsi);
   }
   const v4d r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
   v4d rho = r2, wt = one;
