@@ -167,6 +167,10 @@ TEST(FitSolvers, TheViewsSpreadFromRowsAsFromDifferences) {
   std::printf("views' sigma from rows and from differences: largest relative difference %.2g\n",
               worst);
   EXPECT_LT(worst, 1e-5);
+  // The same bits on one thread as on two, both ways (sums over fixed chunks, added in order).
+  size_t views_one = 0;
+  EXPECT_TRUE(per_view_covariance(m.get(), os, blocks, ainv, 1, &views_one) == rows);
+  EXPECT_TRUE(per_view_covariance(m.get(), os, blocks, ainv, 1, &views_one, true) == diff);
 }
 
 }  // namespace

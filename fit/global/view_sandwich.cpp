@@ -1,7 +1,6 @@
 #include "fit/global/view_sandwich.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -63,31 +62,48 @@ std::vector<double> per_view_covariance(ModelFit* m, const ObsSet& os,
   }
   const bool rows = !differences && !shared.empty() &&
                     std::all_of(column.begin(), column.end(), [](int c) { return c >= 0; });
-  if (rows) {
-    tbb::enumerable_thread_specific<std::vector<double>> part(
-        [&] { return std::vector<double>(G * P, 0.0); });
+  // Sums over fixed chunks of observations, each a few views' partial sums, added in the chunks'
+  // order: the same bits whatever the threads (a run's σ repeat to the last digit).
+  constexpr size_t kChunk = 4096;
+  const size_t chunks = (N + kChunk - 1) / kChunk;
+  struct ChunkSums {
+    std::vector<size_t> views;  // the views the chunk's observations are of, as met
+    std::vector<double> sums;   // width values per view, in that order
+  };
+  auto in_chunks = [&](size_t width, auto&& add) {  // add(i, sums of i's view in its chunk)
+    std::vector<ChunkSums> part(chunks);
     arena.execute([&] {
-      tbb::parallel_for(
-          tbb::blocked_range<size_t>(0, N, 4096), [&](const tbb::blocked_range<size_t>& range) {
-            std::vector<double>& mine = part.local();
-            double r[3], dkd[3], dks[3], sh[3][3];
-            for (size_t i = range.begin(); i < range.end(); ++i) {
-              m->residual_row(os, i, r, dkd, dks, sh);
-              double* gv = &mine[view_of(i) * P];
-              for (size_t k = 0; k < P; ++k) {
-                const int col = column[k];
-                if (col < 3)
-                  gv[k] += r[col] * dkd[col];
-                else if (col < 6)
-                  gv[k] += r[col - 3] * dks[col - 3];
-                else
-                  gv[k] += r[0] * sh[0][col - 6] + r[1] * sh[1][col - 6] + r[2] * sh[2][col - 6];
-              }
-            }
-          });
+      tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+        ChunkSums& cs = part[c];
+        for (size_t i = c * kChunk; i < std::min(N, (c + 1) * kChunk); ++i) {
+          const size_t v = view_of(i);
+          if (cs.views.empty() || cs.views.back() != v) {
+            cs.views.push_back(v);
+            cs.sums.resize(cs.sums.size() + width, 0.0);
+          }
+          add(i, &cs.sums[cs.sums.size() - width]);
+        }
+      });
     });
-    for (const auto& mine : part)
-      for (size_t q = 0; q < G * P; ++q) g[q] += mine[q];
+    return part;
+  };
+  if (rows) {
+    const auto part = in_chunks(P, [&](size_t i, double* gv) {
+      double r[3], dkd[3], dks[3], sh[3][3];
+      m->residual_row(os, i, r, dkd, dks, sh);
+      for (size_t k = 0; k < P; ++k) {
+        const int col = column[k];
+        if (col < 3)
+          gv[k] += r[col] * dkd[col];
+        else if (col < 6)
+          gv[k] += r[col - 3] * dks[col - 3];
+        else
+          gv[k] += r[0] * sh[0][col - 6] + r[1] * sh[1][col - 6] + r[2] * sh[2][col - 6];
+      }
+    });
+    for (const ChunkSums& cs : part)
+      for (size_t j = 0; j < cs.views.size(); ++j)
+        for (size_t k = 0; k < P; ++k) g[cs.views[j] * P + k] += cs.sums[j * P + k];
   }
   // The residuals at the solution (float: only weights below, the same in both differences).
   std::vector<float> r0(rows ? 0 : 3 * N);
@@ -104,16 +120,16 @@ std::vector<double> per_view_covariance(ModelFit* m, const ObsSet& os,
     const double x0 = *x, h = 1e-5 * std::max(1.0, std::abs(x0));
     for (int side = 0; side < 2; ++side) {
       *x = side == 0 ? x0 + h : x0 - h;
-      tbb::enumerable_thread_specific<std::vector<double>> part(
-          [&] { return std::vector<double>(G, 0.0); });
-      each([&](size_t i, const double* res) {
-        double s = 0;
-        for (int c = 0; c < 3; ++c) s += res[c] * r0[3 * i + c];
-        part.local()[view_of(i)] += s;
+      const auto part = in_chunks(1, [&](size_t i, double* s) {
+        double res[3];
+        m->residual(os, i, res);
+        double t = 0;
+        for (int c = 0; c < 3; ++c) t += res[c] * r0[3 * i + c];
+        *s += t;
       });
       const double sign = side == 0 ? 1 / (2 * h) : -1 / (2 * h);
-      for (const auto& mine : part)
-        for (size_t v = 0; v < G; ++v) g[v * P + k] += sign * mine[v];
+      for (const ChunkSums& cs : part)
+        for (size_t j = 0; j < cs.views.size(); ++j) g[cs.views[j] * P + k] += sign * cs.sums[j];
     }
     *x = x0;
   }
