@@ -37,7 +37,8 @@ Command add_params(CLI::App& app);
 // The commands this binary runs: every one (`aniso-full`, `aniso-mpi`: cli/commands_full.cpp), or
 // the fit and its neighbours (`aniso`: cli/commands_lean.cpp), which hands every other command
 // line to `aniso-full` beside it, so that a fit does not load the preview's and the photo
-// import's libraries (OpenCV, OpenGL, GLFW, LibRaw: ~8 ms of every process's start).
+// import's libraries (OpenCV, OpenGL, GLFW, LibRaw: their loading is most of a small fit's
+// process start; BENCHMARKS.md, "fit").
 std::vector<Command> register_commands(CLI::App& app);
 // False where this binary hands the command line to `aniso-full` (the lean `aniso` only).
 bool runs_here(int argc, char** argv);

@@ -311,9 +311,7 @@ namespace {
 // pixels number more than FitOptions::maps_global_pixels: the every k-th pixel in x and y (k > 1)
 // at which the records fit it and the global fit takes at most that many pixels (its values only
 // start the texels and fill those the data do not determine); 0 where both hold as they are, or
-// the fit is not one the maps in bands can follow (optional terms, --topology-map). 64 views of
-// 512^2 (4.7 M pixels, 284 MB of records), --maps 256x256: 1.44 s with the global fit on every
-// pixel, 0.51 s as a global fit on 1 in 3 and the maps from it.
+// the fit is not one the maps in bands can follow (optional terms, --topology-map).
 int global_subsample_for(const CaptureSet& set, const FitOptions& opt) {
   if (opt.maps_w == 0 || opt.global || opt.tile_count > 0 || opt.fit_isotropic || opt.fit_second ||
       opt.topology_texels > 0 || set.views.empty())

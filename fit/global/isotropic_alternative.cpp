@@ -248,9 +248,9 @@ Sums fit_line_with_isotropic(const ObsSet& os, size_t stride, const FitOptions& 
 
 // The isotropic part by the fused solver (fit/solvers/fused_lm.h, P = 7: k_d,iso and k_s,iso per
 // channel, log n_iso shared) from `f`: one pass over obs[0], obs[stride], ... a step, where Ceres'
-// residual block a pixel cost five times the model itself (the whole comparison was 50 ms of a
-// 60 ms fit of 16 views of 128^2). Its minimum is Ceres' with the same loss (the loss by its
-// weights, as the global fit's fused solve): FitSolvers.TheIsotropicPartFusedAsCeres.
+// residual block a pixel costs several times the model itself. Its minimum is Ceres' with the
+// same loss (the loss by its weights, as the global fit's fused solve):
+// FitSolvers.TheIsotropicPartFusedAsCeres.
 void fused_isotropic_part(const ObsSet& os, size_t stride, const FitOptions& opt, double loss_scale,
                           IsotropicFit* f) {
   const size_t count = (os.obs.size() + stride - 1) / stride;

@@ -294,7 +294,7 @@ TexelMaps fit_texel_maps(const ObsSet& os, const Core& global, const TexelMapOpt
   start.c = global;
   start.s = o.s;
   // Every texel alone, each entry written first by the thread that solves it (~170 MB for a
-  // 1024^2 map: filling it with the start ahead of the threads took ~0.1 s of one core).
+  // 1024^2 map: filled with the start ahead of the threads, one core would fault it all in).
   TexelResults& first = scratch.first;
   if (o.scratch) first.reserve(static_cast<size_t>(h) * w);  // every band's room at once
   first.resize(B);

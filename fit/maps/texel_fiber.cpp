@@ -128,8 +128,7 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   // of its 1 289 determined texels, sigma ~0.85 degrees (64 more 20-45 degrees off). So the fiber
   // model's own nodes every 22.5 degrees (and the global psi) are kept for the second look
   // (fiber_other_valley): none of its 1 114 determined texels is left more than 45 degrees off,
-  // 1 from 20 to 45, at twice the maps' time (19.7 -> 38.3 s; 29.9 s with the ridge rule, which
-  // ends 286 of the 333 texel solves that had crawled to their iteration limit).
+  // 1 from 20 to 45, at about twice the maps' time.
   if (nodes) {
     double kd[3], ks[3];
     nodes->start_cost = node(t.c.psi, t.s, kd, ks);

@@ -129,8 +129,7 @@ void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_
 // (Delta / kPsiUndeterminedDeg)^2 sigma^2 (at most the second look's kAsWellSigma2), the direction
 // is not known: the texel is not determined. On satin-ball 6 547 texels were checked so: where a
 // held solve ended within 16 sigma^2 of deciding it had lowered its node by at most 15 sigma^2, and
-// the margin leaves 227 of the ~66 000 held directions looked at to solve (the maps' time 1.00 ->
-// 1.08 s).
+// the margin leaves 227 of the ~66 000 held directions looked at to solve.
 constexpr double kProfileStepDeg = 15;
 constexpr int kProfileHeld = 11;  // 180 / kProfileStepDeg - 1
 constexpr double kProfileMarginSigma2 = 2 * kAsWellSigma2;
@@ -216,7 +215,7 @@ inline auto line_profile_nodes(const ObsSet& os, const std::vector<size_t>& idx,
 // k_s 37, n 48, 1.2 sigma^2 lower. Such a texel, where it is not determined there, is solved again
 // from its start with the first step damped kCautiousLambda, not 1e-3, and the lower of the two
 // kept (on that set ~5 000 of 33 149 texels end at the top of the bounds; retrying those that are
-// determined there too gave 2 fewer determined texels and took 0.15-0.3 s more of the ~1.5 s).
+// determined there too gave 2 fewer determined texels, at more time).
 // The fiber model's fused solver (its first step damped 1e-4) did the same: on satin-sphere-fiber's
 // orbit set (16 views of 256^2, --maps 64x64) texels Ceres determined ended at n 10^4, (63, 15) at
 // 1.8 times Ceres' sum of squares (0.094 against 0.051). There every solve of a texel, in both

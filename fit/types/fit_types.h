@@ -71,24 +71,19 @@ constexpr int kTexelIterations = 100;
 
 // --maps with --global in bands: views that share a geometry (a fixed camera) each read its pixels
 // (fit/records/pixel_records.h SharedPixels: position and frame, ~150 bytes a pixel), so a band
-// holds at most this many bytes of them, which then stay in the last-level cache from view to view.
-// The 2048^2 swirl's 64 views at --maps-memory 512 held 17.6 MB of them a band, read from memory 64
-// times: the light's lanes (shared_light_lanes) took 793 samples of a run against 388 at 4.4 MB a
-// band, the load 1.36-1.40 s against 1.09-1.11 s.
+// holds at most this many bytes of them, which then stay in the last-level cache from view to view
+// (read from memory once a view, they made the band's load memory-bound: BENCHMARKS.md, "Maps").
 inline constexpr double kMapsSharedBandBytes = 4e6;
 // A plain --maps fit whose records pass --maps-memory fits its global values first on a
 // --subsample (fit/fit.cpp global_subsample_for) of at most this many pixels: they only start
-// the texels and fill those the data do not determine. The 2048^2 swirl's 75.8 M pixels at 1 in 3
-// (8.4 M, the records' budget alone) took 4.2 s of a 6.5 s run; at 1 in 9 (0.94 M) 0.6 s of
-// 4.2 s, its 1024^2 maps within 0.0018 sigma of those.
+// the texels and fill those the data do not determine, so more pixels there cost time and change
+// the maps by thousandths of a sigma (BENCHMARKS.md, "Maps").
 inline constexpr double kMapsGlobalPixels = 1e6;
 // The global fit's robust stage on a set of at least kMinStagedStride x kStagedPixels pixels runs
 // first on every k-th pixel (k = pixels / kStagedPixels, at most kStagedStride), then on every
 // pixel from the point it reached: the same minimum (the solver's own stopping rule, on every
 // pixel, decides where it ends), in a few passes over every pixel instead of one per iteration.
-// The 1024^2 swirl-plate's 64 views (19 M pixels, a model that does not fit it: 21 iterations)
-// took 5.1 s in that stage, 2.6 s so; the same views of brushed metal 0.75 s, 0.57 s. Below
-// kMinStagedStride the iterations on the subsample cost about what they save.
+// Below kMinStagedStride the iterations on the subsample cost about what they save.
 inline constexpr double kStagedPixels = 1e6;
 inline constexpr int kStagedStride = 16, kMinStagedStride = 4;
 

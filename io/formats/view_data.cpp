@@ -207,8 +207,8 @@ ViewGeometry read_geometry_buffers(const CaptureSet& s, const ViewSpec& v, const
     });
   };
   // Position, normal, tangent, topology and uv decoded side by side (each its own file and
-  // image: a fixed camera's 2048^2 geometry took 0.2 s of one core before any view was read); a
-  // failure is reported as the serial order would have met it first.
+  // image: one after the other they held one core before any view was read); a failure is
+  // reported as the serial order would have met it first.
   std::exception_ptr failed[5];
   tbb::parallel_for(0, 5, [&](int i) {
     try {

@@ -1,6 +1,6 @@
 // io/ internal: PNG, JPEG and TIFF through libpng, libjpeg-turbo and libtiff directly. OpenCV's
-// imgcodecs did this before, but it links about 140 libraries (GDAL among them) and every process
-// linked to it paid ~150 ms at start, more than a whole small fit.
+// imgcodecs links about 140 libraries (GDAL among them), and every process linked to it pays their
+// loading at start, more than a whole small fit takes.
 #pragma once
 #include <cstdint>
 #include <functional>

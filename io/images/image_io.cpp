@@ -470,9 +470,8 @@ void encode_exr_uncompressed(const Image& img, const ByteSink& sink, const std::
   // Blocks in batches of rows through one buffer of about 1 MiB per thread, kept for the thread's
   // next file (fresh pages from the kernel for each file cost more than the copy): a 256^2 RGB
   // file in one write with its header (write_file_pieces holds the header for it). A write of
-  // 256 KiB costs the kernel about 12 % less per byte than one of 64 KiB (96 files of 790 KB into
-  // ext4: 21.8 against 19.4 ms of kernel CPU, medians of six); each write that grows a file costs
-  // a journaled ext4 an update of the inode too.
+  // 256 KiB costs the kernel about 12 % less per byte than one of 64 KiB (BENCHMARKS.md,
+  // "Capture"); each write that grows a file costs a journaled ext4 an update of the inode too.
   constexpr size_t kBatchBytes = size_t(1) << 20;
   const size_t block = 2 + line / sizeof(float);  // in 4-byte words: y, the byte count, the line
   const int rows = static_cast<int>(std::max<size_t>(1, kBatchBytes / (4 * block)));
@@ -601,8 +600,8 @@ void write_exr(const std::string& path, const Image& img, ExrCompression c) {
   if (img.channels < 1 || img.channels > 3) throw Error(path + ": EXR writer takes 1-3 channels");
   if (!all_finite(img.px)) throw Error(path + ": refusing to write a non-finite value");
   if (c == ExrCompression::kNone) {
-    // At memory speed: OpenEXR's scanline writer took 84-116 ms for what writing the bytes
-    // ourselves does in 8-12 ms, in 64 KiB pieces; read back by OpenEXR in the tests.
+    // At memory speed: OpenEXR's scanline writer takes about ten times as long as writing the
+    // bytes ourselves; read back by OpenEXR in the tests.
     const std::string software = output_stamp(path);
     write_file_pieces(path,
                       [&](const ByteSink& sink) { encode_exr_uncompressed(img, sink, software); });
