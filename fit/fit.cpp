@@ -362,7 +362,7 @@ FitResult maps_after_subsampled_global(const CaptureSet& set, const FitOptions& 
   g.test_isotropic = false;
   const FitResult gr = fit_capture(set, g);
   FitOptions m = opt;
-  m.global = given_global(fit_text(gr), "this fit's global fit", set.dir);
+  m.global = given_global_of(gr, "this fit's global fit", set.dir);
   if (opt.model == FitModel::kAuto)
     m.model = gr.material.model == Model::kFiber ? FitModel::kFiber : FitModel::kLine;
   FitResult r = fit_capture(set, m);

@@ -482,6 +482,32 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
   return g;
 }
 
+GivenGlobal given_global_of(const FitResult& r, const std::string& file,
+                            const std::string& base_dir) {
+  if (r.maps.w > 0) throw Error("given_global_of: a result with maps");
+  GivenGlobal g;
+  g.file = file;
+  g.material = r.material;
+  g.material.base_dir = base_dir;
+  const FitReport& rep = r.report;
+  if (rep.fiber_order >= 1 && rep.fiber_order <= 16) g.fiber_order = rep.fiber_order;
+  if (rep.fiber_order_errors.count > 0) g.fiber_order_errors = rep.fiber_order_errors;
+  g.views = rep.views;
+  if (std::isfinite(rep.implausible_limit) && rep.implausible_limit > 0)
+    g.implausible_limit = rep.implausible_limit;
+  g.rms = rep.rms;
+  g.capture_layout = rep.capture_layout;
+  g.warnings = rep.warnings;
+  // As the file's "uncertainty" is read: the top-level keys with finite values, not those the
+  // data do not determine (null there), not the nested ones ("topology.s").
+  for (const auto& [key, v] : r.sigma) {
+    if (key.find('.') != std::string::npos || r.undetermined.count(key) || v.empty()) continue;
+    if (std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); }))
+      g.sigma[key] = v;
+  }
+  return g;
+}
+
 void write_fit(const std::string& path, const FitResult& r, ExrCompression maps) {
   if (r.maps.w == 0 && r.s_texels.empty()) {
     write_json_file(path, fit_json(path, r, nullptr, maps));

@@ -23,6 +23,11 @@ std::string fit_text(const FitResult& r);
 // `base_dir`): its material without maps (only the global values count), sigmas, report.
 GivenGlobal given_global(const std::string& text, const std::string& file,
                          const std::string& base_dir);
+// The same from a result in memory (a fit's own global fit before its maps): what given_global
+// reads from fit_text(r), without the text (test FitMaps.APlainMapsFitTakesAtMostItsGlobalPixels:
+// the maps bit for bit those of the two steps through a file).
+GivenGlobal given_global_of(const FitResult& r, const std::string& file,
+                            const std::string& base_dir);
 // The maps' EXRs (and a map of s) compressed as `maps`.
 void write_fit(const std::string& path, const FitResult& r,
                ExrCompression maps = ExrCompression::kZip);
