@@ -4,7 +4,7 @@
 // load) is waited for rather than cut off, as --virtual-time-budget can cut it.
 // Usage: node render_page.mjs URL TITLE_PREFIX OUT.png W H [SECONDS]
 import { spawn } from 'node:child_process';
-import { mkdtempSync, rmSync, writeFileSync } from 'node:fs';
+import { existsSync, mkdtempSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import WebSocket from 'ws';
@@ -13,11 +13,19 @@ const [url, prefix, out, w, h, seconds = '120'] = process.argv.slice(2);
 const profile = mkdtempSync(join(tmpdir(), 'aniso-chromium-'));
 const chromium = spawn('chromium', ['--headless=new', '--no-sandbox', '--use-angle=swiftshader',
   '--enable-unsafe-swiftshader', `--user-data-dir=${profile}`, `--window-size=${w},${h}`,
-  '--remote-debugging-port=0', 'about:blank'], { stdio: ['ignore', 'ignore', 'pipe'] });
-const finish = (code, message) => {
+  '--remote-debugging-port=0', 'about:blank'],
+  { stdio: ['ignore', 'ignore', 'pipe'], detached: true });
+// Chromium and its helper processes (its own process group) killed and waited for, then the
+// profile removed: a helper still writing into it would leave it behind in the temporary folder.
+const finish = async (code, message) => {
   if (message) console.log(message);
-  chromium.kill('SIGKILL');
-  rmSync(profile, { recursive: true, force: true });
+  const exited = new Promise((resolve) => chromium.once('exit', resolve));
+  try { process.kill(-chromium.pid, 'SIGKILL'); } catch { chromium.kill('SIGKILL'); }
+  await Promise.race([exited, new Promise((resolve) => setTimeout(resolve, 5000))]);
+  for (let i = 0; i < 20 && existsSync(profile); ++i) {
+    rmSync(profile, { recursive: true, force: true });
+    await new Promise((resolve) => setTimeout(resolve, 100));
+  }
   process.exit(code);
 };
 setTimeout(() => finish(1, '<title>timed out</title>'), Number(seconds) * 1000);
@@ -34,6 +42,7 @@ const port = new URL(browser).port;
 const target = await (await fetch(`http://127.0.0.1:${port}/json/new?${encodeURIComponent(url)}`,
                                   { method: 'PUT' })).json();
 const ws = new WebSocket(target.webSocketDebuggerUrl);
+ws.on('error', () => {});  // the browser killed at the end
 await new Promise((resolve) => ws.on('open', resolve));
 let id = 0;
 const pending = new Map();
@@ -51,7 +60,7 @@ for (;;) {
     const png = await evaluate("(document.getElementById('png') || {}).textContent || ''");
     if (png.startsWith('data:image/png;base64,'))
       writeFileSync(out, Buffer.from(png.slice('data:image/png;base64,'.length), 'base64'));
-    finish(0, `<title>${title}</title>`);
+    await finish(0, `<title>${title}</title>`);
   }
   await new Promise((r) => setTimeout(r, 200));
 }
