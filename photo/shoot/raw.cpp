@@ -127,11 +127,12 @@ class StreamedRows : public CodeRows {
     pattern_rows_ = col.cblack[4], pattern_cols_ = col.cblack[5];
     if (pattern_rows_ * pattern_cols_ > 0)
       pattern_.assign(col.cblack + 6, col.cblack + 6 + pattern_rows_ * pattern_cols_);
-    // The common part of the per-channel blacks, as LibRaw's adjust_bl moves it, is in the sum.
+    // LibRaw's unpack found the blacks (from the masked pixels where a camera has them) and moved
+    // their common part into `black`; its scale_colors divides by the white level less that part.
     white_ = col.maximum;
     for (int c = 0; c < 4; ++c)
       scale_[c] = static_cast<float>(pre[c] / least * 65535.0 /
-                                     std::max(1.0, double(col.maximum) - black_ - cblack_[c]));
+                                     std::max(1.0, double(col.maximum) - black_));
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 4; ++c) cam_[r][c] = col.rgb_cam[r][c];
     out_.resize(static_cast<size_t>(width) * 3);
