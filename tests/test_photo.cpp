@@ -760,7 +760,8 @@ std::vector<uint16_t> developed(const std::string& path, RawDevelop d, int* w, i
 
 // The streamed developer is LibRaw's own bilinear develop (dcraw_process, user_qual 0), on a
 // camera's mosaic and on a linear DNG, held each way a camera can say it was held; a clipped value
-// clips the channel of each pixel made from it.
+// clips the channel of each pixel made from it, also where the sensor saturates below its nominal
+// white level.
 TEST(RawRows, TheStreamedDevelopIsLibRawsBilinearOne) {
   const std::string dir = test::tmp_dir("rawrows");
   const int W = 96, H = 64;
@@ -817,6 +818,27 @@ TEST(RawRows, TheStreamedDevelopIsLibRawsBilinearOne) {
     EXPECT_NEAR(f[3 * p] / 65535.0, 0.3, 1e-4);
     EXPECT_NEAR(f[3 * p + 1] / 65535.0, 0.5, 1e-4);
     EXPECT_NEAR(f[3 * p + 2] / 65535.0, 0.2, 1e-4);
+  }
+  // A sensor that saturates below its nominal white level: a plateau of equal values at 0.9 of
+  // it is taken as clipped, and the scale stays the nominal one (the same for every exposure).
+  Image sat = flat;
+  for (int y = 10; y < 16; ++y)
+    for (int x = 10; x < 16; ++x) sat.at(x, y, 1) = 0.9f;
+  for (const DngLayout layout : {DngLayout::kBayerRggb, DngLayout::kLinear}) {
+    write_dng(dir + "/sat.dng", sat, layout);
+    const auto d = developed(dir + "/sat.dng", RawDevelop::kStreamed, &w, &h);
+    int clipped = 0, kept = 0;
+    for (size_t p = 0; p < d.size() / 3; ++p) {
+      EXPECT_NEAR(d[3 * p] / 65535.0, 0.3, 1e-4);
+      if (d[3 * p + 1] == 65535)
+        ++clipped;
+      else if (std::abs(d[3 * p + 1] / 65535.0 - 0.5) < 1e-4)
+        ++kept;
+    }
+    // Linear: the 36 values; the mosaic: its 18 green sites and the 30 red or blue pixels that
+    // take one of them as an orthogonal neighbour (18 inside the patch, 12 beside its edges).
+    EXPECT_EQ(clipped, layout == DngLayout::kLinear ? 36 : 48);
+    EXPECT_EQ(clipped + kept, 32 * 32);
   }
 }
 

@@ -129,7 +129,7 @@ class StreamedRows : public CodeRows {
       pattern_.assign(col.cblack + 6, col.cblack + 6 + pattern_rows_ * pattern_cols_);
     // LibRaw's unpack found the blacks (from the masked pixels where a camera has them) and moved
     // their common part into `black`; its scale_colors divides by the white level less that part.
-    white_ = col.maximum;
+    white_ = clip_level(col.maximum);
     for (int c = 0; c < 4; ++c)
       scale_[c] = static_cast<float>(pre[c] / least * 65535.0 /
                                      std::max(1.0, double(col.maximum) - black_));
@@ -167,6 +167,29 @@ class StreamedRows : public CodeRows {
         ++seen[k == 3 ? 1 : k];
       }
     return seen[0] && seen[1] && seen[2];
+  }
+
+  // The raw value at which a value is taken as clipped: the white level as written, or, where the
+  // file's largest value lies within a quarter of it and at least kPlateau values sit there, that
+  // value (a sensor that saturates below its nominal white level, which LibRaw's adjust_maximum
+  // also looks for). The scale stays the nominal white level's, the same for every exposure of a
+  // bracket (LibRaw's adjust_maximum changes it file by file).
+  unsigned clip_level(unsigned white) const {
+    constexpr size_t kPlateau = 16;
+    unsigned top = 0;
+    size_t at_top = 0;
+    auto see = [&](unsigned v) {
+      if (v > top) top = v, at_top = 0;
+      if (v == top) ++at_top;
+    };
+    for (int r = 0; r < sh_; ++r) {
+      const size_t row = static_cast<size_t>(r + top_) * pitch_ + left_;
+      for (int c = 0; c < sw_; ++c) {
+        if (bayer_) see(bayer_[row + c]);
+        for (int k = 0; k < 3 && !bayer_; ++k) see(c3_ ? c3_[row + c][k] : c4_[row + c][k]);
+      }
+    }
+    return top < white && top > 0.75 * white && at_top >= kPlateau ? top : white;
   }
 
   const uint16_t* next() override {
