@@ -52,7 +52,8 @@ void check_libraw(const std::string& path, int rc, const char* what) {
 // The file developed linearly by LibRaw's own pipeline, whole (no transfer curve, no
 // auto-brightening, the camera's white balance, sRGB primaries, 16 bits, clipped highlights kept at
 // the largest code).
-MemImage develop_by_libraw(std::unique_ptr<LibRaw> raw, const std::string& path, bool ahd) {
+MemImage develop_by_libraw(std::unique_ptr<LibRaw> raw, const std::string& path, bool ahd,
+                           bool unpacked = false) {
   auto& p = raw->imgdata.params;
   p.output_bps = 16;
   p.gamm[0] = 1.0;  // linear: no transfer curve
@@ -62,7 +63,7 @@ MemImage develop_by_libraw(std::unique_ptr<LibRaw> raw, const std::string& path,
   p.output_color = 1;  // sRGB primaries, linear
   p.highlight = 0;     // clip: a clipped value stays at the largest code (and is left out)
   p.user_qual = ahd ? 3 : 0;
-  check_libraw(path, raw->unpack(), "unpack");
+  if (!unpacked) check_libraw(path, raw->unpack(), "unpack");
   check_libraw(path, raw->dcraw_process(), "process");
   int rc = 0;
   MemImage img(raw->dcraw_make_mem_image(&rc), LibRaw::dcraw_clear_mem);
@@ -101,8 +102,8 @@ class LibRawRows : public CodeRows {
 // RawRows.TheStreamedDevelopIsLibRawsBilinearOne holds it to LibRaw's dcraw_process.
 class StreamedRows : public CodeRows {
  public:
-  StreamedRows(std::unique_ptr<LibRaw> raw, const std::string& path) : raw_(std::move(raw)) {
-    check_libraw(path, raw_->unpack(), "unpack");
+  // `raw` unpacked, its values where unpacked_here says.
+  explicit StreamedRows(std::unique_ptr<LibRaw> raw) : raw_(std::move(raw)) {
     const auto& sz = raw_->imgdata.sizes;
     const auto& rd = raw_->imgdata.rawdata;
     const auto& col = raw_->imgdata.color;
@@ -167,6 +168,13 @@ class StreamedRows : public CodeRows {
         ++seen[k == 3 ? 1 : k];
       }
     return seen[0] && seen[1] && seen[2];
+  }
+  // After unpack: whether its values are where this developer reads them (a mosaic in raw_image,
+  // three or four channels in color3_image or color4_image; not a float DNG's float buffers).
+  static bool unpacked_here(const LibRaw& raw) {
+    const auto& rd = raw.imgdata.rawdata;
+    return raw.imgdata.idata.filters ? rd.raw_image != nullptr
+                                     : rd.color3_image != nullptr || rd.color4_image != nullptr;
   }
 
   // The raw value at which a value is taken as clipped: the white level as written, or, where the
@@ -321,13 +329,18 @@ RawHeader raw_header(const std::string& path, RawDevelop develop) {
 std::unique_ptr<CodeRows> read_raw_rows(const std::string& path, RawInfo* info,
                                         RawDevelop develop) {
   auto raw = open_raw(path, info);
+  bool unpacked = false;
   if (develop == RawDevelop::kStreamed && StreamedRows::handles(*raw)) {
-    if (info) info->developed_by = "aniso, streamed (bilinear demosaic)";
-    return std::make_unique<StreamedRows>(std::move(raw), path);
+    check_libraw(path, raw->unpack(), "unpack");
+    unpacked = true;
+    if (StreamedRows::unpacked_here(*raw)) {
+      if (info) info->developed_by = "aniso, streamed (bilinear demosaic)";
+      return std::make_unique<StreamedRows>(std::move(raw));
+    }
   }
   const bool ahd = develop == RawDevelop::kLibRawAhd;
   if (info) info->developed_by = ahd ? "LibRaw (AHD demosaic)" : "LibRaw (bilinear demosaic)";
-  return std::make_unique<LibRawRows>(develop_by_libraw(std::move(raw), path, ahd));
+  return std::make_unique<LibRawRows>(develop_by_libraw(std::move(raw), path, ahd, unpacked));
 }
 
 void write_dng(const std::string& path, const Image& img, DngLayout layout, int orientation) {
