@@ -881,10 +881,16 @@ ImportResult import_shoot(const Shoot& s, const std::string& out_dir, const Impo
   write_folder_atomically(out_dir, OutputKind::kImportedCapture, [&](const std::string& dir) {
     Progress bar("import: writing views", s.photos.size(), o.progress);
     std::vector<ViewSpec> views(s.photos.size());
+    // A view's writing holds its crop's geometry, a few times less than a merge holds: twice the
+    // merges at once (at most the cores), the decodes among them at most the merges.
     DecodeGate gate(r.merge_threads);
-    tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
-      write_photo(s, i, det[i], dir, out_dir, o, gate, &r, &views[i]);
-      bar.advance();
+    tbb::task_arena writers(
+        std::min(tbb::info::default_concurrency(), std::max(1, 2 * r.merge_threads)));
+    writers.execute([&] {
+      tbb::parallel_for(size_t(0), s.photos.size(), [&](size_t i) {
+        write_photo(s, i, det[i], dir, out_dir, o, gate, &r, &views[i]);
+        bar.advance();
+      });
     });
     CaptureSet set;
     set.camera = r.camera;
