@@ -48,7 +48,8 @@ std::vector<double> per_view_covariance(ModelFit* m, const ObsSet& os,
   // Where the model gives its rows (ModelFit::residual_row), g in one pass: each coordinate's
   // column in a row (k_d[c] and k_s[c] in channel c's alone, the shared ones in every channel).
   // The fiber model's: one pass of its fused solver where the differences below take 2P + 1.
-  // Both ways agree to the differences' precision: FitSolvers.TheViewsSpreadFromRowsAsFromDifferences.
+  // Both ways agree to the differences' precision:
+  // FitSolvers.TheViewsSpreadFromRowsAsFromDifferences.
   std::vector<int> column(P, -1);  // 0-2 k_d[c], 3-5 k_s[c], 6 + j shared j
   const std::vector<const double*> shared = m->row_shared();
   for (size_t k = 0; k < P; ++k) {

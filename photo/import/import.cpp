@@ -558,8 +558,8 @@ void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCro
     view->source.push_back(relative_to(join_path(s.dir, im.file), out_dir));
 }
 
-// At most n photos decoded at once (the merges memory_mb allows) while the views are written on
-// every core.
+// At most n photos decoded at once (the merges memory_mb allows) while more views than that are
+// written at once.
 class DecodeGate {
  public:
   explicit DecodeGate(int n) : free_(n) {}

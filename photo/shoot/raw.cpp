@@ -32,6 +32,12 @@ namespace {
 
 using MemImage = std::unique_ptr<libraw_processed_image_t, void (*)(libraw_processed_image_t*)>;
 
+// LibRaw's channel (0..3, 3 the second green) of a 2x2-patterned mosaic at a visible pixel, from
+// its `filters` word (LibRaw's FC, usable on a const LibRaw).
+int mosaic_channel(unsigned filters, int r, int c) {
+  return filters >> (((r << 1 & 14) | (c & 1)) << 1) & 3;
+}
+
 std::unique_ptr<LibRaw> open_raw(const std::string& path, RawInfo* info) {
   auto raw = std::make_unique<LibRaw>();
   const int rc = raw->open_file(path.c_str());
@@ -159,12 +165,10 @@ class StreamedRows : public CodeRows {
     if (id.filters < 1000 || id.colors != 3) return false;  // X-Trans, leaf, CMYG
     // A 2x2 pattern repeated: every pair of rows the same, R, B and G all present.
     int seen[4] = {0, 0, 0, 0};
-    const unsigned f = id.filters;
     for (int r = 0; r < 8; ++r)
       for (int c = 0; c < 2; ++c) {
-        const int k = f >> (((r << 1 & 14) | (c & 1)) << 1) & 3;
-        const int k0 = f >> ((((r & 1) << 1 & 14) | (c & 1)) << 1) & 3;
-        if (k != k0) return false;
+        const int k = mosaic_channel(id.filters, r, c);
+        if (k != mosaic_channel(id.filters, r & 1, c)) return false;
         ++seen[k == 3 ? 1 : k];
       }
     return seen[0] && seen[1] && seen[2];
@@ -231,12 +235,12 @@ class StreamedRows : public CodeRows {
   }
 
  private:
-  int colour(int r, int c) const {  // 0 R, 1 G, 2 B of the mosaic at a visible pixel
-    const int k = raw_->imgdata.idata.filters >> (((r << 1 & 14) | (c & 1)) << 1) & 3;
-    return k == 3 ? 1 : k;
-  }
   int mosaic_index(int r, int c) const {  // LibRaw's channel 0..3 (3: the second green)
-    return raw_->imgdata.idata.filters >> (((r << 1 & 14) | (c & 1)) << 1) & 3;
+    return mosaic_channel(raw_->imgdata.idata.filters, r, c);
+  }
+  int colour(int r, int c) const {  // 0 R, 1 G, 2 B of the mosaic at a visible pixel
+    const int k = mosaic_index(r, c);
+    return k == 3 ? 1 : k;
   }
   double black(int r, int c, int k) const {
     double b = black_ + cblack_[k];
