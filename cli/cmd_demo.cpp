@@ -21,16 +21,17 @@ struct DemoArgs {
   std::string out = "demo_out", size = "128x128";
   int views = 16;
   uint64_t seed = 1;
+  bool force = false;
 };
 
 int run(const DemoArgs& a) {
   int w, h;
   parse_size(a.size, &w, &h);
   const std::string cap = join_path(a.out, "capture"), bake = join_path(a.out, "bake");
-  check_output_folder(cap, OutputKind::kCapture);
-  check_output_folder(bake, OutputKind::kBake);
-  check_output_file(join_path(a.out, "material.json"), OutputKind::kMaterial);
-  check_output_file(join_path(a.out, "preview.png"), OutputKind::kPreview);
+  check_output_folder(cap, OutputKind::kCapture, a.force);
+  check_output_folder(bake, OutputKind::kBake, a.force);
+  check_output_file(join_path(a.out, "material.json"), OutputKind::kMaterial, a.force);
+  check_output_file(join_path(a.out, "preview.png"), OutputKind::kPreview, a.force);
   std::filesystem::create_directories(a.out);
   PresetOptions dp;
   dp.progress = terminal_progress();
@@ -84,7 +85,7 @@ Command add_demo(CLI::App& app) {
       ->check(CLI::Range(1, 1000));
   demo->add_option("--size", a->size, "image size WxH")->capture_default_str();
   demo->add_option("--seed", a->seed, "seed for every random choice")->capture_default_str();
-  add_force_flag(demo);
+  add_force_flag(demo, &a->force);
   return {demo, [a] { return run(*a); }};
 }
 

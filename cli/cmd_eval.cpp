@@ -13,6 +13,7 @@ namespace aniso::cli {
 Command add_eval(CLI::App& app) {
   struct Args {
     std::string mat, table, out;
+    bool force = false;
   };
   auto a = std::make_shared<Args>();
   auto* eval = app.add_subcommand("eval", "Fill in a sample table (CSV) by evaluating a material");
@@ -26,13 +27,13 @@ Command add_eval(CLI::App& app) {
       ->required();
   eval->add_option("--out", a->out, "table to write with r,g,b ('-' = standard output)")
       ->required();
-  add_force_flag(eval);
+  add_force_flag(eval, &a->force);
   return {eval, [a] {
             if (is_rgl_bsdf(a->mat)) {
               const RglBsdf b = RglBsdf::read(a->mat);
               SampleTable t = read_table(a->table);
               check_outputs_apart({a->out}, {a->mat, a->table});
-              check_output_file(a->out, OutputKind::kTable);
+              check_output_file(a->out, OutputKind::kTable, a->force);
               evaluate_table(b, &t);
               write_table(a->out, t);
               std::fprintf(stderr, "eval: %zu rows of %s (%s) -> %s\n", t.rows.size(),
@@ -43,7 +44,7 @@ Command add_eval(CLI::App& app) {
             SampleTable t = read_table(a->table);
             if (!t.has_uv) note_material_maps(m, "eval (a table without u, v columns)");
             check_outputs_apart({a->out}, {a->mat, a->table});
-            check_output_file(a->out, OutputKind::kTable);
+            check_output_file(a->out, OutputKind::kTable, a->force);
             evaluate_table(m, &t);
             write_table(a->out, t);
             // The table may be on standard output: the summary goes to the error stream.

@@ -43,7 +43,7 @@ struct FitArgs {
   std::string in, out, truth, maps, tile, global, maps_solver = "lm", solver = "fused", report;
   std::string maps_lanes = "auto";
   std::string compression = "none";  // the maps' EXRs
-  bool mpi = false;
+  bool mpi = false, force = false;
   FitOptions fo = [] {
     FitOptions o;
     o.threads = default_fit_threads();  // every core this process may use
@@ -315,7 +315,7 @@ int run_fit_mpi(FitArgs& a) {
     const CaptureSet set = read_capture(a.in);
     check_outputs_apart(outputs, capture_input_files(set));
   }
-  check_output_file(a.out, OutputKind::kMaterial);
+  check_output_file(a.out, OutputKind::kMaterial, a.force);
   if (world->rank != 0) {
     if (!std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
     a.fo.progress = nullptr;
@@ -383,7 +383,7 @@ namespace {
 
 // run_fit, and with report_dir (--report) the page of what it wrote.
 int fit_and_report(const std::string& input, const FitOptions& fo, const std::string& out,
-                   const std::string& truth_path, const std::string& report_dir) {
+                   const std::string& truth_path, const std::string& report_dir, bool force) {
   // Every input is read and checked before the (long) fit; the output never replaces one.
   std::vector<std::string> inputs{input};
   std::vector<size_t> repeated;  // views that repeat an earlier one, left out
@@ -437,8 +437,8 @@ int fit_and_report(const std::string& input, const FitOptions& fo, const std::st
                 std::to_string(fo.maps_h) + " texel rows, so at most " + std::to_string(fo.maps_h) +
                 " tiles (each holds whole rows)");
   check_outputs_apart(outputs, inputs);
-  check_output_file(out, fo.tile_count > 0 ? OutputKind::kMapsTile : OutputKind::kMaterial);
-  if (!report_dir.empty()) check_output_folder(report_dir, OutputKind::kText);
+  check_output_file(out, fo.tile_count > 0 ? OutputKind::kMapsTile : OutputKind::kMaterial, force);
+  if (!report_dir.empty()) check_output_folder(report_dir, OutputKind::kText, force);
   // What this fit read and how: a --global material must be of the same capture, and the tiles of
   // one merge must share both (merge compares them).
   const std::string capture_fp = is_table ? files_fingerprint({input}, parent_dir(input))
@@ -523,7 +523,7 @@ int fit_and_report(const std::string& input, const FitOptions& fo, const std::st
 
 int run_fit(const std::string& input, const FitOptions& fo, const std::string& out,
             const std::string& truth_path) {
-  return fit_and_report(input, fo, out, truth_path, "");
+  return fit_and_report(input, fo, out, truth_path, "", false);
 }
 
 // The options of --maps (per-texel maps, their solver, smoothing, tiles and MPI ranks).
@@ -615,7 +615,7 @@ Command add_fit(CLI::App& app) {
   fit->add_option("--report", a->report,
                   "also write the fit as a page (DIR/index.html), as `aniso report` does with "
                   "this capture");
-  add_force_flag(fit);
+  add_force_flag(fit, &a->force);
   fit->add_option(
       "--truth", a->truth,
       "ground-truth material: print every parameter's error (default: the set's truth)");
@@ -678,7 +678,7 @@ Command add_fit(CLI::App& app) {
                 a->fo.model = a->fo.global->material.fiber() ? FitModel::kFiber : FitModel::kLine;
             }
             if (a->mpi) return run_fit_mpi(*a);
-            return fit_and_report(a->in, a->fo, a->out, a->truth, a->report);
+            return fit_and_report(a->in, a->fo, a->out, a->truth, a->report, a->force);
           }};
 }
 

@@ -25,7 +25,7 @@ struct SynthArgs {
   }();
   double kept_gb = SimOptions{}.kept_radiance_bytes / 1e9;  // --kept-radiance-gb: the library's
   bool list = false, photos = false, dng = false, bayer = false, jpeg = false,
-       hide_intensity = false, fill_lamp = false;
+       hide_intensity = false, fill_lamp = false, force = false;
   double lamp_error_m = 0, ggx_alpha_b = PhotoShootOptions{}.ggx_alpha_b,
          paper = PhotoShootOptions{}.paper_albedo, grey_card = 0, vignetting = 0;
   CLI::App* app = nullptr;
@@ -53,7 +53,7 @@ int run_photos(const SynthArgs& a) {
   o.grey_card = a.grey_card;
   o.vignetting = a.vignetting;
   o.fill_lamp = a.fill_lamp;
-  check_output_folder(a.out, OutputKind::kPhotoShoot);
+  check_output_folder(a.out, OutputKind::kPhotoShoot, a.force);
   check_outputs_apart({a.out}, {a.truth});
   const PhotoShootStats st = simulate_photo_shoot(o, a.out);
   std::printf(
@@ -83,7 +83,7 @@ int run(const SynthArgs& a) {
   if (a.photos) return run_photos(a);
   PresetOptions po = a.po;
   parse_size(a.size, &po.width, &po.height);
-  check_output_folder(a.out, OutputKind::kCapture);
+  check_output_folder(a.out, OutputKind::kCapture, a.force);
   check_outputs_apart({a.out}, {a.truth, po.topology_map_file, po.rig});
   SimOptions so = make_preset(a.preset, po);
   so.compression = exr_compression_named(a.compression);
@@ -175,7 +175,7 @@ Command add_synth(CLI::App& app) {
                   "--photos: light every photo with a second lamp, a fill beside the camera at 0.4 "
                   "of the key lamp's irradiance (both written in the shoot)");
   a->app = synth;
-  add_force_flag(synth);
+  add_force_flag(synth, &a->force);
   synth
       ->add_option("--noise", po.noise,
                    "Gaussian read noise sigma, as a fraction of the white level (0.01 = 1%)")

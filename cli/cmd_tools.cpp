@@ -17,6 +17,7 @@ Command add_microgeometry(CLI::App& app) {
     int rays = 20000;
     double n = 20;
     uint64_t seed = 1;
+    bool force = false;
   };
   auto a = std::make_shared<Args>();
   auto* micro = app.add_subcommand("microgeometry",
@@ -25,7 +26,7 @@ Command add_microgeometry(CLI::App& app) {
                                    "and topology values");
   micro->add_option("--out", a->out, "CSV with model and measured D, S per configuration")
       ->required();
-  add_force_flag(micro);
+  add_force_flag(micro, &a->force);
   micro->add_option("--rays", a->rays, "primary rays per configuration")
       ->capture_default_str()
       ->check(CLI::Range(100, 100000000));
@@ -34,7 +35,7 @@ Command add_microgeometry(CLI::App& app) {
       ->check(CLI::Range(line_param("n").lo, line_param("n").hi));
   micro->add_option("--seed", a->seed, "seed of the ray jitter")->capture_default_str();
   return {micro, [a] {
-            check_output_file(a->out, OutputKind::kTable);
+            check_output_file(a->out, OutputKind::kTable, a->force);
             const MicroSweepSummary m =
                 micro_sweep(a->out, a->n, a->rays, a->seed, terminal_progress());
             std::printf(
@@ -51,7 +52,7 @@ Command add_microgeometry(CLI::App& app) {
 Command add_bench(CLI::App& app) {
   struct Args {
     std::string suite, out, work = "bench_work";
-    bool quick = false;
+    bool quick = false, force = false;
   };
   auto a = std::make_shared<Args>();
   auto* bench = app.add_subcommand(
@@ -69,10 +70,12 @@ Command add_bench(CLI::App& app) {
                    "folder for the synthetic sets it makes: new, empty or an earlier bench's "
                    "(replaced run after run)")
       ->capture_default_str();
-  add_force_flag(bench);
+  add_force_flag(bench, &a->force);
   bench->add_flag("--quick", a->quick, "small sweeps (for tests)");
   return {bench, [a] {
-            check_output_file(a->out, OutputKind::kBenchResult);
+            check_output_file(a->out, OutputKind::kBenchResult, a->force);
+            // The work folder is claimed with the flag; the bench checks it again before use.
+            if (a->force) check_output_folder(a->work, OutputKind::kBenchWork, true);
             run_bench(a->suite, a->out, a->work, a->quick);
             return 0;
           }};

@@ -93,7 +93,7 @@ std::string default_shape(const std::string& given, const Material& m, const cha
 
 // `--force`: what the command would refuse to replace is moved aside, never deleted
 // (io/files/files.h); `help` replaces the common text.
-void add_force_flag(CLI::App* sub, const char* help = nullptr);
+void add_force_flag(CLI::App* sub, bool* force, const char* help = nullptr);
 // Says on stderr that a material's maps (k_d, k_s, n, fiber over uv) are not used by `what`, which
 // takes the scalar (mean) values instead. Nothing when the material has no maps.
 void note_material_maps(const Material& m, const char* what);

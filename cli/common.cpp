@@ -114,9 +114,9 @@ std::string default_shape(const std::string& given, const Material& m, const cha
   return "flat";
 }
 
-void add_force_flag(CLI::App* sub, const char* help) {
-  sub->add_flag_callback(
-      "--force", [] { set_force_overwrite(true); },
+void add_force_flag(CLI::App* sub, bool* force, const char* help) {
+  sub->add_flag(
+      "--force", *force,
       help ? help
            : "where an output would be refused (a folder or file aniso did not write, one of "
              "another kind, or one changed since), move what is there aside to NAME.aniso-old-N "

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/error.h"
 #include "io/files/files.h"
 #include "test_util.h"
 
@@ -415,6 +416,47 @@ TEST(Files, ATruncatedJpegIsRefusedByName) {
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("cut.jpg: damaged JPEG"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("Premature end of JPEG file\n"), std::string::npos) << r.output;
+}
+
+// Force is an output's own, given where it is claimed: in one process, a file and a folder claimed
+// with it move what is in their way aside; another file and folder claimed without it are refused,
+// and the library's own check of a folder (before it writes) keeps the force the command gave.
+TEST(Files, ForceBelongsToTheOutputThatWasGivenIt) {
+  const std::string ws = workspace();
+  std::ofstream(ws + "/mine.png") << "a person's picture";
+  std::ofstream(ws + "/theirs.png") << "another picture";
+  fs::create_directories(ws + "/forced");
+  std::ofstream(ws + "/forced/notes.txt") << "notes";
+  fs::create_directories(ws + "/kept");
+  std::ofstream(ws + "/kept/notes.txt") << "notes";
+
+  check_output_file(ws + "/mine.png", OutputKind::kPreview, true);
+  EXPECT_THROW(check_output_file(ws + "/theirs.png", OutputKind::kPreview), Error);
+  check_output_folder(ws + "/forced", OutputKind::kBake, true);
+  EXPECT_THROW(check_output_folder(ws + "/kept", OutputKind::kBake), Error);
+
+  write_atomically(ws + "/mine.png", [](const std::string& p) { std::ofstream(p) << "new"; });
+  EXPECT_EQ(slurp(ws + "/mine.png"), "new");
+  EXPECT_EQ(slurp(ws + "/mine.aniso-old-1.png"), "a person's picture");
+  // Written without a claim's force, the person's file stays and the new one is kept beside it.
+  check_output_file(ws + "/other.png", OutputKind::kPreview);
+  std::ofstream(ws + "/other.png") << "came meanwhile";
+  EXPECT_THROW(
+      write_atomically(ws + "/other.png", [](const std::string& p) { std::ofstream(p) << "new"; }),
+      Error);
+  EXPECT_EQ(slurp(ws + "/other.png"), "came meanwhile");
+
+  const auto fill = [](const std::string& dir) { std::ofstream(dir + "/t.txt") << "table"; };
+  write_folder_atomically(ws + "/forced", OutputKind::kBake, fill);  // checks again: keeps force
+  EXPECT_EQ(slurp(ws + "/forced/t.txt"), "table");
+  bool aside = false;
+  for (const auto& e : fs::directory_iterator(ws))
+    aside = aside || (e.path().filename().string().find("forced.aniso-old") == 0 &&
+                      slurp((e.path() / "notes.txt").string()) == "notes");
+  EXPECT_TRUE(aside) << "the person's folder was moved aside whole";
+  EXPECT_THROW(write_folder_atomically(ws + "/kept", OutputKind::kBake, fill), Error);
+  EXPECT_EQ(slurp(ws + "/kept/notes.txt"), "notes");
+  EXPECT_FALSE(fs::exists(ws + "/kept/t.txt"));
 }
 
 }  // namespace

@@ -18,6 +18,7 @@ Command add_board(CLI::App& app) {
     // Fits A4 and US Letter landscape with 10 mm margins and the scale bar (240 x 168 mm).
     std::string out, shoot, squares = "10x7", dictionary = "DICT_5X5_100", paper = "a4";
     double square_mm = 24, marker_mm = 17, dpi = 300;
+    bool force = false;
   };
   auto a = std::make_shared<Args>();
   auto* b = app.add_subcommand(
@@ -45,7 +46,7 @@ Command add_board(CLI::App& app) {
   b->add_option("--dpi", a->dpi, "print resolution (recorded in the PNG)")
       ->capture_default_str()
       ->check(CLI::Range(30.0, 2400.0));
-  add_force_flag(b);
+  add_force_flag(b, &a->force);
   return {b, [a] {
             BoardSpec spec;
             parse_size(a->squares, &spec.squares_x, &spec.squares_y);
@@ -56,8 +57,8 @@ Command add_board(CLI::App& app) {
             const std::string shoot =
                 a->shoot.empty() ? join_path(parent_dir(a->out), "shoot.json") : a->shoot;
             check_outputs_apart({a->out, shoot}, {});
-            check_output_file(a->out, OutputKind::kBoard);
-            check_output_file(shoot, OutputKind::kShoot);
+            check_output_file(a->out, OutputKind::kBoard, a->force);
+            check_output_file(shoot, OutputKind::kShoot, a->force);
             const Image img = a->paper == "none"
                                   ? render_board(spec, a->dpi)
                                   : render_board_page(spec, paper_named(a->paper), a->dpi);

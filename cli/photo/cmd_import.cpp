@@ -21,11 +21,12 @@ struct ImportArgs {
   }();
   double margin_mm = 3;
   bool no_overlays = false, quiet = false, lamps_as_written = false, no_vignetting = false;
+  bool force = false;
 };
 
 int run(const ImportArgs& a) {
   const Shoot s = read_shoot(a.shoot);
-  check_output_folder(a.out, OutputKind::kImportedCapture);
+  check_output_folder(a.out, OutputKind::kImportedCapture, a.force);
   std::vector<std::string> inputs{a.shoot};
   for (const auto& p : s.photos)
     for (const auto& im : p.images) inputs.push_back(join_path(s.dir, im.file));
@@ -158,7 +159,7 @@ Command add_import(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::IsMember({"aniso", "libraw", "libraw-ahd"}));
   c->add_flag("--quiet", a->quiet, "print only the summary and the photos left out");
-  add_force_flag(c);
+  add_force_flag(c, &a->force);
   return {c, [a] { return run(*a); }};
 }
 

@@ -15,6 +15,7 @@ Command add_bake(CLI::App& app) {
   struct Args {
     std::string mat, out, index = "angle";
     int size = 256;
+    bool force = false;
   };
   auto a = std::make_shared<Args>();
   auto* bake =
@@ -23,7 +24,7 @@ Command add_bake(CLI::App& app) {
   bake->add_option("--out", a->out,
                    "output folder: new, empty, or an earlier aniso output (replaced atomically)")
       ->required();
-  add_force_flag(bake);
+  add_force_flag(bake, &a->force);
   bake->add_option("--size", a->size, "table size N (N x N)")
       ->capture_default_str()
       ->check(CLI::Range(2, 8192));
@@ -36,7 +37,7 @@ Command add_bake(CLI::App& app) {
             if (m.fiber())
               note_material_maps(m, "bake (the fiber model's tables; the maps are carried)");
             check_outputs_apart({a->out}, material_input_files(m, a->mat));
-            check_output_folder(a->out, OutputKind::kBake);
+            check_output_folder(a->out, OutputKind::kBake, a->force);
             const BakeTables t = bake_line(m, a->size, parse_index(a->index));
             FiberBakeTables fb;
             if (m.fiber()) {

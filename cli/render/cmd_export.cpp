@@ -125,7 +125,7 @@ Command add_export(CLI::App& app) {
   struct Args {
     std::string mat, out, env;
     int size = 256;
-    bool engines = false;
+    bool engines = false, force = false;
   };
   auto a = std::make_shared<Args>();
   auto* ex = app.add_subcommand(
@@ -141,7 +141,7 @@ Command add_export(CLI::App& app) {
                  "export folder: new, empty, or an earlier export (replaced "
                  "atomically)")
       ->required();
-  add_force_flag(ex);
+  add_force_flag(ex, &a->force);
   ex->add_option("--env", a->env,
                  "also prefilter an equirectangular HDR environment (FILE.exr, z up) or the "
                  "built-in 'studio' for the material: the browser viewer then lights with it");
@@ -158,6 +158,7 @@ Command add_export(CLI::App& app) {
       ex, [a] {
         const Material m = read_material(a->mat);
         check_outputs_apart({a->out}, material_input_files(m, a->mat));
+        check_output_folder(a->out, OutputKind::kExport, a->force);
         ExportOptions o;
         o.progress = terminal_progress();
         o.size = a->size;

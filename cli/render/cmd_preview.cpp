@@ -74,6 +74,7 @@ struct PreviewArgs {
   int table = 256, turntable = 0;
   bool per_vertex = false;
   bool env_check = false;
+  bool force = false;
 };
 
 // Brute force under an environment costs the image's pixels times 8192 directions: checked by
@@ -97,10 +98,10 @@ int run(const PreviewArgs& a) {
     throw Error("preview: --out " + a.out +
                 ": writes .png (8-bit sRGB), .jpg (sRGB) or .exr "
                 "(linear float); give one of those extensions");
-  check_output_file(a.out, OutputKind::kPreview);
+  check_output_file(a.out, OutputKind::kPreview, a.force);
   if (!a.exr.empty()) {
     if (lower_ext(a.exr) != ".exr") throw Error("preview: --exr " + a.exr + ": give a .exr name");
-    check_output_file(a.exr, OutputKind::kPreview);
+    check_output_file(a.exr, OutputKind::kPreview, a.force);
   }
   PreviewOptions p;
   p.progress = terminal_progress();
@@ -248,7 +249,7 @@ Command add_preview(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(2, 8192));
   prev->add_option("--exr", a->exr, "also write the linear float image here");
-  add_force_flag(prev);
+  add_force_flag(prev, &a->force);
   prev->add_flag("--per-vertex", a->per_vertex,
                  "the paper's construction exactly: texture matrix per vertex, cosine table");
   prev->add_option("--topology-map", a->map,

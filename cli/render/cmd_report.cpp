@@ -10,6 +10,7 @@ namespace aniso::cli {
 
 Command add_report(CLI::App& app) {
   auto a = std::make_shared<ReportOptions>();
+  auto force = std::make_shared<bool>(false);
   auto* c = app.add_subcommand(
       "report",
       "Write a fit as a page a person can open offline (DIR/index.html): the parameters with their "
@@ -24,12 +25,12 @@ Command add_report(CLI::App& app) {
                 "and the lobe against the data), or a sample table .csv or measured .bsdf file "
                 "(its readings' lobe against the fitted one)");
   c->add_option("--out", a->out, "folder to write (index.html and its pictures)")->required();
-  add_force_flag(c);
-  return {c, [a] {
+  add_force_flag(c, force.get());
+  return {c, [a, force] {
             std::vector<std::string> inputs{a->material};
             if (!a->capture.empty()) inputs.push_back(a->capture);
             check_outputs_apart({a->out}, inputs);
-            check_output_folder(a->out, OutputKind::kText);
+            check_output_folder(a->out, OutputKind::kText, *force);
             const ReportSummary s = write_report(*a);
             std::printf(
                 "report: %s -> %s/index.html: %zu parameters, %zu warnings, %zu notes, %zu map "

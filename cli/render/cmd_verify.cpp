@@ -15,6 +15,7 @@ namespace aniso::cli {
 Command add_verify(CLI::App& app) {
   struct Args {
     std::string cap, mat, resid;
+    bool force = false;
   };
   auto a = std::make_shared<Args>();
   auto* ver = app.add_subcommand(
@@ -23,7 +24,7 @@ Command add_verify(CLI::App& app) {
   ver->add_option("MATERIAL", a->mat, "material file")->required();
   ver->add_option("--residuals", a->resid,
                   "folder for per-view residual images (model - image, float EXR)");
-  add_force_flag(ver);
+  add_force_flag(ver, &a->force);
   return {ver, [a] {
             const CaptureSet set = read_capture(a->cap);
             const Material m = read_material(a->mat);
@@ -31,7 +32,7 @@ Command add_verify(CLI::App& app) {
               std::vector<std::string> inputs = capture_input_files(set);
               for (const auto& f : material_input_files(m, a->mat)) inputs.push_back(f);
               check_outputs_apart({a->resid}, inputs);
-              check_output_folder(a->resid, OutputKind::kResiduals);
+              check_output_folder(a->resid, OutputKind::kResiduals, a->force);
             }
             const VerifyResult r = verify_capture(set, m, a->resid);
             std::printf("%-6s %8s %12s %12s %10s %10s %9s  %s\n", "view", "pixels", "rms",

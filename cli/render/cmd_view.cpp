@@ -20,6 +20,7 @@ struct ViewArgs {
   std::string input, size = "1024x768", shape, field, view, light, screenshot, env;
   int frames = 3;
   std::string show = "tables";
+  bool force = false;
 };
 
 // A material file, a bake folder (its material and tables) or an export folder (its material).
@@ -102,7 +103,7 @@ Command add_view(CLI::App& app) {
                 "--light is given) or 'none' (the light); the panel switches between the two");
   v->add_option("--screenshot", a->screenshot,
                 "render, save the window (panel included) as this PNG and exit (scripted use)");
-  add_force_flag(v);
+  add_force_flag(v, &a->force);
   v->add_option("--show", a->show,
                 "starting display: tables (as an engine draws them), exact (the model on the "
                 "CPU) or error (|tables - exact| x 10)")
@@ -147,7 +148,7 @@ Command add_view(CLI::App& app) {
             o.title = "aniso view: " + a->input;
             if (!o.screenshot.empty()) {
               check_outputs_apart({o.screenshot}, {a->input});
-              check_output_file(o.screenshot, OutputKind::kScreenshot);
+              check_output_file(o.screenshot, OutputKind::kScreenshot, a->force);
             }
             run_viewer(m, o);
             if (!o.screenshot.empty()) std::printf("view: wrote %s\n", o.screenshot.c_str());

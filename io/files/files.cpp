@@ -28,7 +28,6 @@ namespace aniso {
 
 namespace {
 
-std::atomic<bool> g_force{false};
 std::atomic<unsigned> g_counter{0};
 
 // A folder being filled holds this file until its swap: a stale temporary folder that has it is
@@ -36,9 +35,15 @@ std::atomic<unsigned> g_counter{0};
 // finished one), cleaned by the marker's rule.
 constexpr const char* kStagingSentinel = ".aniso-staging";
 
-// File outputs claimed by check_output_file: absolute normal path -> kind.
+// Outputs claimed by check_output_file and check_output_folder: absolute normal path -> what was
+// claimed. A claim's `force` is that output's own: another output of the same run keeps its own.
+struct Claim {
+  OutputKind kind;
+  bool force = false;
+};
 std::mutex g_claims_mutex;
-std::map<std::string, OutputKind> g_claims;
+std::map<std::string, Claim> g_claims;         // files
+std::map<std::string, Claim> g_folder_claims;  // folders
 
 std::string errno_text() { return std::strerror(errno); }
 
@@ -446,13 +451,26 @@ std::string force_hint(const fs::path& target, bool folder) {
          " (or the next free number) and write there: nothing is deleted";
 }
 
-std::optional<OutputKind> claimed_kind(const std::string& path) {
+std::optional<Claim> file_claim(const std::string& path) {
   if (path.empty() || is_stream_path(path)) return std::nullopt;
   const std::string key = normal_target(path).string();
   std::lock_guard<std::mutex> lock(g_claims_mutex);
   const auto it = g_claims.find(key);
   if (it == g_claims.end()) return std::nullopt;
   return it->second;
+}
+
+std::optional<OutputKind> claimed_kind(const std::string& path) {
+  const auto c = file_claim(path);
+  return c ? std::optional<OutputKind>(c->kind) : std::nullopt;
+}
+
+// Whether the folder output `target` was claimed with force (by the command, before the library
+// that writes it checks it again without knowing the flag).
+bool folder_force(const fs::path& target) {
+  std::lock_guard<std::mutex> lock(g_claims_mutex);
+  const auto it = g_folder_claims.find(target.string());
+  return it != g_folder_claims.end() && it->second.force;
 }
 
 // Why an existing regular file may not be replaced by a file output of `kind` ("" if it may).
@@ -468,9 +486,6 @@ std::string file_refusal(const std::string& path, OutputKind kind) {
 }
 
 }  // namespace
-
-void set_force_overwrite(bool force) { g_force = force; }
-bool force_overwrite() { return g_force; }
 
 void write_atomically(const std::string& path,
                       const std::function<void(const std::string&)>& write) {
@@ -517,11 +532,11 @@ void write_atomically(const std::string& path,
   remove_stale_temps(target);
   const std::string tmp = temp_name(target).string();
   run_writer(tmp, path, write);
-  if (const auto kind = claimed_kind(path);
-      kind && ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+  if (const auto claim = file_claim(path);
+      claim && ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
     // Checked before the work; again now, as the file may have come or changed meanwhile.
-    const std::string why = file_refusal(path, *kind);
-    if (!why.empty() && !force_overwrite()) {
+    const std::string why = file_refusal(path, claim->kind);
+    if (!why.empty() && !claim->force) {
       const fs::path kept = move_aside(tmp, target, false, "new");
       throw Error(path + ": " + why + "; it was not replaced, and this run's output is at " +
                   kept.string());
@@ -709,19 +724,22 @@ std::string stamped_kind(const std::string& path) {
   return "";
 }
 
-void check_output_folder(const std::string& dir, OutputKind kind) {
+void check_output_folder(const std::string& dir, OutputKind kind, bool force) {
   if (dir.empty()) throw Error("output folder: empty path");
   const fs::path target = normal_target(dir);
   check_utf8_path(target, dir);
   check_writable_place(target, dir);
+  force = force || folder_force(target);
   const FolderState s = folder_state(target, kind);
-  if (s.what == FolderState::kOther && !force_overwrite())
+  if (s.what == FolderState::kOther && !force)
     throw Error(dir + ": " + s.why + force_hint(target, s.is_folder));
+  std::lock_guard<std::mutex> lock(g_claims_mutex);
+  g_folder_claims[target.string()] = Claim{kind, force};
 }
 
 void mark_folder(const std::string& dir, OutputKind kind) { write_marker(dir, kind); }
 
-void check_output_file(const std::string& path, OutputKind kind) {
+void check_output_file(const std::string& path, OutputKind kind, bool force) {
   if (path.empty()) throw Error("output path is empty");
   if (is_stream_path(path)) return;
   struct stat st;
@@ -731,12 +749,13 @@ void check_output_file(const std::string& path, OutputKind kind) {
   const fs::path target = normal_target(path);
   check_utf8_path(target, path);
   check_writable_place(exists ? fs::canonical(path) : target, path);
-  if (exists && S_ISREG(st.st_mode) && !force_overwrite()) {
+  if (const auto earlier = file_claim(path)) force = force || earlier->force;
+  if (exists && S_ISREG(st.st_mode) && !force) {
     const std::string why = file_refusal(path, kind);
     if (!why.empty()) throw Error(path + ": " + why + force_hint(target, false));
   }
   std::lock_guard<std::mutex> lock(g_claims_mutex);
-  g_claims[target.string()] = kind;
+  g_claims[target.string()] = Claim{kind, force};
 }
 
 void write_folder_atomically(const std::string& dir, OutputKind kind,
@@ -773,7 +792,7 @@ void write_folder_atomically(const std::string& dir, OutputKind kind,
   // the work; a finished output that may not go in is kept beside it, not thrown away.
   const FolderState s = folder_state(target, kind);
   fs::remove(tmp / kStagingSentinel, ec);
-  if (s.what == FolderState::kOther && !force_overwrite()) {
+  if (s.what == FolderState::kOther && !folder_force(target)) {
     const fs::path kept = move_aside(tmp, target, true, "new");
     throw Error(dir + ": " + s.why + "; nothing there was replaced, and this run's output is at " +
                 kept.string());

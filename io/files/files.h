@@ -6,7 +6,8 @@
 //    a stamp inside the file ("aniso KIND": a JSON key, a PNG text chunk, an EXR attribute, a
 //    JPEG comment). An output replaces only an earlier output of its own kind that still holds
 //    exactly what aniso wrote; anything else is refused, naming the file, before the work starts.
-//  - `force`: what would be refused is moved aside (NAME.aniso-old-N), never deleted; the files an
+//  - `force` (an output's own, given where it is claimed): what would be refused is moved aside
+//  (NAME.aniso-old-N), never deleted; the files an
 //    earlier output of the same kind wrote, unchanged, are replaced.
 //  - A file output is written to a temporary sibling and renamed over the target in one step, so
 //    a failed or killed run leaves the previous file as it was. A replaced file keeps its mode
@@ -53,11 +54,6 @@ const char* kind_name(OutputKind kind);
 // Whether a file of this kind carries a stamp (a table and a shoot do not: never replaced).
 bool stamped(OutputKind kind);
 
-// Process-wide: may an output move aside what it would otherwise refuse to replace? Set once by
-// the CLI from `--force`; off by default.
-void set_force_overwrite(bool force);
-bool force_overwrite();
-
 // The text a file output of this path carries as its stamp: "aniso KIND" where the path was
 // claimed by check_output_file, "aniso" otherwise (files inside a folder output).
 std::string output_stamp(const std::string& path);
@@ -91,9 +87,10 @@ void read_file_into(const std::string& path, size_t max_bytes, std::string* out)
 
 // Throws unless `dir` may be (re)written by a folder output of `kind`: it does not exist, is an
 // empty folder, or is an earlier output of that kind holding exactly the files it recorded. With
-// force_overwrite() anything passes (it is moved aside). Also throws when the folder could not
-// be created or written. Call it before a long run.
-void check_output_folder(const std::string& dir, OutputKind kind);
+// `force` anything passes (it is moved aside when the folder is written). Also throws when the
+// folder could not be created or written. Claims the folder: a later check of it (the library's,
+// before it writes) keeps the force given here. Call it before a long run.
+void check_output_folder(const std::string& dir, OutputKind kind, bool force = false);
 
 // Writes a whole folder: fill(tmp_dir), then the marker (kind and files), then one atomic swap
 // into place. While fill runs, files written under tmp_dir go straight to their names (the folder
@@ -105,11 +102,11 @@ void write_folder_atomically(const std::string& dir, OutputKind kind,
 void mark_folder(const std::string& dir, OutputKind kind);
 
 // Throws unless `path` may be written as a file output of `kind`: it does not exist, is "-" or a
-// device or FIFO, or is a file whose stamp names the same kind; with force_overwrite() any file
-// (moved aside when written). Also throws when its folder could not be created or written. Claims
-// the path: its stamp and the same check at the moment it is replaced follow from here. Call it
-// before a long run.
-void check_output_file(const std::string& path, OutputKind kind);
+// device or FIFO, or is a file whose stamp names the same kind; with `force` any file (moved
+// aside when written). Also throws when its folder could not be created or written. Claims the
+// path: its stamp, its force and the same check at the moment it is replaced follow from here.
+// Call it before a long run.
+void check_output_file(const std::string& path, OutputKind kind, bool force = false);
 
 // The files that belong with one output file `owner` (a material's maps), written as one
 // generation: fill(dir) writes them under plain names ("m_kd.exr") into a private folder beside
