@@ -183,10 +183,8 @@ std::unique_ptr<ceres::Problem> new_problem() {
 // Robust loss by iteratively reweighted least squares: per pixel w = rho'(|r|^2) of the loss
 // Ceres would apply, re-solved until the weights settle (at most kIrlsRounds; sol->weights_change
 // says by how much they last moved). False if the model has no reweighted form. The rounds converge
-// linearly where many pixels lie outside the loss's core: on a 16-view swirl (one material for a
-// varying sample) the largest change went 0.70, 0.18, 0.058, ... shrinking 0.4x a round. Settled
-// at 1e-3 (round 8) psi was still 0.09 sigma from the minimum; at 1e-4 (round 11) 0.01 sigma. The
-// old limit of 6 rounds stopped it at 0.5 sigma, and said CONVERGENCE.
+// linearly where many pixels lie outside the loss's core: settled at 1e-4, psi is ~0.01 sigma from
+// the minimum (docs/solver-rules.md "The reweighted rounds").
 constexpr int kIrlsRounds = 30;
 constexpr double kWeightsSettled = 1e-4;
 

@@ -43,8 +43,7 @@ void put_texel(const TexelResult& res, size_t t, const Core& global, double s, c
   m->determined[t] = res.determined;
   // Without a lobe (texel_sigmas' NoLobe hold) the data do not move n, nor the fiber model's k_s:
   // their sigma is past every spread, and their value is written as the global's n and k_s 0 (no
-  // lobe seen), not wherever the solver left them (the fused fiber solve a needle, k_s 28 at n
-  // 10^4 lighting no pixel, Ceres k_s 0 at n 1: silk-torus' texel (2, 3) of a 4 x 4 map).
+  // lobe seen), not wherever the solver left them (the two solvers leave them at opposite bounds).
   Core c = res.determined ? res.c : global;
   if (res.determined && res.sigma[6] >= kUnmovedSigma) c.logn = global.logn;
   for (int k = 0; k < 3; ++k)
@@ -138,9 +137,9 @@ void size_maps(size_t texels, bool fit_s, TexelMaps* m) {
 // (a list per texel took 8 bytes an observation and a million allocations). A counting sort in two
 // levels, stable at both: each observation's index goes first to its band of 2^shift texels
 // (one stream per band, written in order), then each band is sorted by texel in a buffer that stays
-// in cache. Placing each index at once at its texel wrote at random over the whole array (300 MB
-// for the 2048^2 set's map): ~1 s of its texel phase. `idx` is left unwritten until placed: the
-// threads fault its pages in where a serial zero fill took a third of the bins' time then.
+// in cache, where placing each index at once at its texel writes at random over the whole array.
+// `idx` is left unwritten until placed: the threads fault its pages in, not a serial zero fill
+// (docs/solver-rules.md "Texels binned").
 struct TexelBins {
   std::vector<uint32_t, RecordAllocator<uint32_t>> idx;
   std::vector<size_t> at;

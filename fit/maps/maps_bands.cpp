@@ -14,9 +14,9 @@ namespace aniso::fitting {
 // The bands' rows [row0, row1) over the rows of all_. Given the records' bytes by texel row, each
 // band takes rows while its records, its --smooth reach's included, stay within --maps-memory (a
 // row alone above it is a band of its own) and the pixels its views share within
-// FitOptions::maps_shared_band_bytes: a sphere's uv crowds its pixels into some rows, and equal
-// rows held up to 2.2x the budget at once in 4 bands of satin-ball. Without (a mesh traced per
-// view), as many bands of equal rows as the whole estimate takes.
+// FitOptions::maps_shared_band_bytes: a sphere's uv crowds its pixels into some rows, where bands
+// of equal rows exceed the budget (docs/solver-rules.md "Bands"). Without (a mesh traced per view),
+// as many bands of equal rows as the whole estimate takes.
 std::vector<std::pair<int, int>> MapsInBands::band_limits(
     const std::vector<double>& row_bytes, const std::vector<double>& shared_row_bytes,
     const FitOptions& opt) const {

@@ -115,8 +115,7 @@ void add_maps_warnings(const TexelMaps& m, double noise, int iterations, FitRepo
   }
   // A grid finer than the data support: many texels inside the sample undetermined. A texel's
   // data grow with its area; the grid whose texels are 1 / (share determined) times larger is
-  // the one suggested (the same aspect ratio). On 8 views of a 64^2 swirl: 32x32 determines 198
-  // of 1024 texels and suggests 14x14; 16x16 determines 255 of 256.
+  // the one suggested (the same aspect ratio; docs/solver-rules.md "A grid finer than the data").
   const size_t inside = m.determined.size() - outside, lacking = weak + holes;
   if (inside > 0 && lacking > kFinerThanDataShare * inside) {
     const double share = static_cast<double>(inside - lacking) / static_cast<double>(inside);

@@ -123,12 +123,9 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
   };
   // The line model's psi is the fiber model's where the fibers lie flat; where they climb (a
   // mathematical topology, a sphere's fibers toward its poles) the lobe it sees is turned from
-  // theirs: satin-sphere-fiber's orbit set (16 views of 256^2, --maps 64x64) gave psi 35-47 degrees
-  // off across the sphere's middle, and the fiber solve from there ended 45-90 degrees off in 299
-  // of its 1 289 determined texels, sigma ~0.85 degrees (64 more 20-45 degrees off). So the fiber
+  // theirs, and a fiber solve from it can end in the wrong valley with a small sigma. So the fiber
   // model's own nodes every 22.5 degrees (and the global psi) are kept for the second look
-  // (fiber_other_valley): none of its 1 114 determined texels is left more than 45 degrees off,
-  // 1 from 20 to 45, at about twice the maps' time.
+  // (fiber_other_valley; docs/solver-rules.md "The fiber model's own nodes in ψ").
   if (nodes) {
     double kd[3], ks[3];
     nodes->start_cost = node(t.c.psi, t.s, kd, ks);
@@ -156,16 +153,13 @@ TexelResult fiber_texel_start(const ObsSet& os, const std::vector<size_t>& idx,
 // from the fiber model's other valley in psi and then in s (topology_other_valley), and psi's
 // profile where the data do not know the lobe (texel_psi_profile, the fiber model's own nodes at
 // the texel's s and quadrature order).
-// Satin-sphere-fiber's orbit set (16 views of 256^2, --maps 64x64) held determined texels such as
-// one with k_s 100 and n 10^4 (the bounds' corner), psi 10 degrees off the truth with sigma 0.46.
-// Every solve without a pull that ends with its lobe at the top of its bounds or without one
-// (fiber_lobe_suspect) is taken again cautiously from the same start, the lower kept, determined
-// there or not (without a lobe the diffuse term determines the texel: satin-sphere-fiber's
-// (28, 16) ended at n 10^4, psi 10 degrees off, where damped it finds the fibers' lobe, n 25, psi
-// 1 degree off, its sum of squares 0.62 times). One that stays suspect is solved a third time, from
-// the global fit's lobe (k_s, n) at the psi it reached, damped, the lowest kept: with the fused
-// solver's damping floor at Ceres', satin-sphere-fiber's (10, 2) ended in both solvers with a
-// needle lighting no pixel (n 7 710) at 4 times the sum of squares of the lobe at n 24.
+// A solve can end determined at the bounds' corner (k_s 100, n 10^4) with the direction off and a
+// small sigma. Every solve without a pull that ends with its lobe at the top of its bounds or
+// without one (fiber_lobe_suspect) is taken again cautiously from the same start, the lower kept,
+// determined there or not (without a lobe the diffuse term determines the texel). One that stays
+// suspect is solved a third time, from the global fit's lobe (k_s, n) at the psi it reached,
+// damped, the lowest kept: a needle lighting no pixel can cost more than the lobe yet hold both
+// solvers. The cases: docs/solver-rules.md "A fiber texel without a lobe".
 template <class SolveFrom>
 TexelResult fiber_texel(const ObsSet& os, const std::vector<size_t>& idx, const TexelResult& from,
                         const TexelMapOptions& o, const TexelPrior* prior,

@@ -38,24 +38,14 @@ void texel_nodes(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
 // more than a degree apart, the lower minimum is taken, and where they are within kAsWellSigma2
 // sigma^2 of each other in the sum of squares (fit/solvers/start.h) the data do not tell the two
 // directions apart: the texel is not determined; so too where the second stopped before converging
-// no more than that above the first (its sum of squares bounds its valley's from above). Without
-// it, satin-ball's orbit set at --maps 256x256 held 98 determined texels of 20185 with psi more
-// than 45 degrees off the truth, their sigma 0.04 to 10 degrees (median 1.6). A first solve that
-// stopped at its iteration limit where the second converged elsewhere is solved on from where it
-// stopped (`resume`) before the two are compared: its sum of squares there bounds its valley's
-// minimum only from above, so a second one lower is not yet the better (on satin-ball 7 such second
-// solves converged ~83 degrees off the truth), and left as it was, the texel was lost where the
-// second was right: satin-sphere-fiber's fiber texels started 100 degrees off (the line model's psi
-// where the fibers climb) crawled without a lobe (k_s 0) to the limit at a sum of squares 16 times
-// the second's, which Ceres, converging there, then took. So too a second that stopped below the
-// first: satin-sphere-fiber's (31, 22), the fused solve at psi 115 degrees without a lobe, its
-// second from the 0-degree node stopped at a fifth of that sum of squares crawling toward n 1; the
-// texel was left undetermined with the first's psi, where solved on the second converges (psi 0.17
-// +- 0.37, Ceres 0.15 +- 0.33). Two minima as good in one direction (within a degree), apart in the
+// no more than that above the first (its sum of squares bounds its valley's from above). A first
+// solve that stopped at its iteration limit where the second converged elsewhere is solved on from
+// where it stopped (`resume`) before the two are compared: its sum of squares there bounds its
+// valley's minimum only from above, so a second one lower is not yet the better; so too a second
+// that stopped below the first. Two minima as good in one direction (within a degree), apart in the
 // fiber model's topology value s alone, leave the direction known: the texel stays determined, each
-// of its sigmas widened to the two minima's distance in that parameter (fiber-flat-map's texel (2,
-// 4) of a 6 x 6 map: s 0.41 and 0.51, sigma 0.008 at either, psi 0.18 degrees apart, 2.4 sigma^2
-// between them).
+// of its sigmas widened to the two minima's distance in that parameter. The cases that set these:
+// docs/solver-rules.md "The other valley".
 constexpr double kOtherValleyGate = kAsWellSigma2;
 
 // Two solves settled in one valley: psi within a degree and the topology value s (the fiber
@@ -127,9 +117,8 @@ void texel_second_look(const OtherValley& other, size_t values, SolveFrom solve_
 // k_s and n instead, a lobe turned away from every pixel had no slope to leave by). Where psi held
 // Delta away rises by no more than a sigma of kPsiUndeterminedDeg would give,
 // (Delta / kPsiUndeterminedDeg)^2 sigma^2 (at most the second look's kAsWellSigma2), the direction
-// is not known: the texel is not determined. On satin-ball 6 547 texels were checked so: where a
-// held solve ended within 16 sigma^2 of deciding it had lowered its node by at most 15 sigma^2, and
-// the margin leaves 227 of the ~66 000 held directions looked at to solve.
+// is not known: the texel is not determined. A held solve lowers its node by less than the margin
+// (docs/solver-rules.md "psi's profile").
 constexpr double kProfileStepDeg = 15;
 constexpr int kProfileHeld = 11;  // 180 / kProfileStepDeg - 1
 constexpr double kProfileMarginSigma2 = 2 * kAsWellSigma2;
@@ -210,18 +199,12 @@ inline auto line_profile_nodes(const ObsSet& os, const std::vector<size_t>& idx,
 // A lobe that ends at the top of k_s's or n's bounds may have got there in one step that jumped
 // the valley it was in: where k_s and n trade off along a ridge, a Gauss-Newton step far along it
 // is clamped to the bounds' corner, which can cost less than the point it left and more than the
-// ridge's own minimum. Satin-ball's texel (219, 63): from k_s 5.5, n 52 one step went to k_s 100,
-// n 10^4 and stayed (its J^T J there failing the rank test: not determined), where Ceres settled at
-// k_s 37, n 48, 1.2 sigma^2 lower. Such a texel, where it is not determined there, is solved again
-// from its start with the first step damped kCautiousLambda, not 1e-3, and the lower of the two
-// kept (on that set ~5 000 of 33 149 texels end at the top of the bounds; retrying those that are
-// determined there too gave 2 fewer determined texels, at more time).
-// The fiber model's fused solver (its first step damped 1e-4) did the same: on satin-sphere-fiber's
-// orbit set (16 views of 256^2, --maps 64x64) texels Ceres determined ended at n 10^4, (63, 15) at
-// 1.8 times Ceres' sum of squares (0.094 against 0.051). There every solve of a texel, in both
-// solvers, is taken again so where fiber_lobe_suspect (fit/maps/texel_fiber.cpp fiber_texel;
-// retrying the undetermined ones at the upper bounds alone: 863 solves, 93 of them ending lower and
-// determined, 1 416 -> 1 457 texels determined).
+// ridge's own minimum, and stay there (its J^T J failing the rank test: not determined). Such a
+// texel, where it is not determined there, is solved again from its start with the first step
+// damped kCautiousLambda, not 1e-3, and the lower of the two kept (retrying the determined ones too
+// loses more than it finds). The fiber model's solves are taken again so in both solvers wherever
+// fiber_lobe_suspect (fit/maps/texel_fiber.cpp fiber_texel). The cases: docs/solver-rules.md
+// "The cautious retry".
 constexpr double kCautiousLambda = 1;
 inline bool lobe_at_upper_bound(const Core& c) {
   static const double ks = line_param("ks").hi, n = line_param("n").hi;  // per texel
@@ -229,8 +212,8 @@ inline bool lobe_at_upper_bound(const Core& c) {
 }
 // The fiber model's solves are taken again so where they end at the lobe's upper bounds or without
 // a lobe (k_s at or under kNoLobeKs in every channel, or a lobe that lights no pixel: n held by
-// texel_sigmas): Ceres, from satin-sphere-fiber's (28, 16), ended with k_s 0 at n 2 450, psi 7.4
-// degrees off; damped, both solvers find the fibers' lobe.
+// texel_sigmas): undamped, either solver can end in a needle or without a lobe, the direction off;
+// damped, both find the fibers' lobe (docs/solver-rules.md "A fiber texel without a lobe").
 inline bool fiber_lobe_suspect(const TexelResult& t) {
   const Core& c = t.c;
   return lobe_at_upper_bound(c) || std::max({c.ks[0], c.ks[1], c.ks[2]}) <= kNoLobeKs ||

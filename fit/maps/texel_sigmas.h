@@ -135,14 +135,11 @@ constexpr double kNoLobeKs = 1e-4;
 // bound) and 1e-4 of the others at the start's floor (Ceres), either way failing the rank test: the
 // others' sigmas from the rest of the matrix, n's kUnmovedSigma. (Any other zero column still fails
 // it: a lobe at the bounds' corner lit by no pixel is not determined, and is solved again.)
-// Satin-ball's orbit set at 256^2: 26 005 -> 30 536 texels determined by the LM, 26 259 -> 30 581
-// by Ceres, the two agreeing on all but 55; psi's error over its sigma above 3 in 0.34 % of them.
 // The fiber model holds k_s too: without a lobe the cost does not depend on n, and its two solvers
-// left n at opposite bounds (the fused one at 10^4, Ceres at 1: silk-torus' texel (2, 3) of a 4 x 4
-// map, the same sum of squares), where k_s's column is a needle lit by a pixel or two or a broad
-// lobe (the fused one's k_s 28 and 29 in two channels, lighting no pixel); holding n alone
-// determined the texel in Ceres and failed the rank test in the LM. k_d, psi and s come from the
-// diffuse term alone, the same in both.
+// can leave n at opposite bounds with the same sum of squares, where k_s's column is a needle lit
+// by a pixel or two or a broad lobe lighting none; holding n alone then decides the rank test
+// differently in the two. k_d, psi and s come from the diffuse term alone, the same in both.
+// The cases: docs/solver-rules.md "n (and the fiber model's k_s) held without a lobe".
 enum class NoLobe { kNone, kHoldN, kHoldLobe };
 template <class M>
 void texel_sigmas(const M& info, double rss, double values, TexelResult* t,

@@ -37,9 +37,9 @@ namespace {
 // Grid over psi with k_d, k_s in closed form at the power of two nearest the global n (x^n by
 // squaring: this grid was most of the texel phase with a pow per pixel): the texel's start. With
 // `lanes`, eight nodes at a time in float (fit/solvers/texel_simd.h). Every 22.5 degrees, then 5.6
-// and 11.25 degrees either side of the best two: 16 nodes, as many as a 15-degree grid with four
-// more around its best took, which ended in another basin than the truth's in 13 of 4096
-// texels of a swirl where this does in 2. With `other`, the best node of another valley too.
+// and 11.25 degrees either side of the best two: 16 nodes, which end in another basin than the
+// truth's less often than a 15-degree grid with four more (docs/solver-rules.md "The start's
+// grid"). With `other`, the best node of another valley too.
 void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLanes* lanes, Core* c,
                  OtherValley* other) {
   const int log2n = std::clamp(static_cast<int>(std::lround(c->logn / std::log(2.0))), 1, 12);
@@ -73,10 +73,9 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
   // A best node whose k_s the closed form put on its bound: a lobe at this n lighting next to no
   // pixel, where the LM stays at its start (n's column all but zero, each step in n huge and
   // rejected until the step is "small" in sigmas). Nodes within 22.5 degrees of it again at
-  // broader lobes (a quarter of n, and 2), the lowest kept (not the whole half turn: a broad
-  // lobe's nodes put 19 determined texels of satin-ball's 16 views at 128^2 in the wrong valley,
-  // more than 45 degrees off, where Trust.TexelsWhoseWrongValleyWinsByChanceAreFew allows 2):
-  // test Trust.AStartWhoseLobeLightsNoPixelIsLookedForAtBroaderLobes.
+  // broader lobes (a quarter of n, and 2), the lowest kept (not the whole half turn: a broad lobe
+  // fits a wrong valley as well; docs/solver-rules.md "Broader lobes"): test
+  // Trust.AStartWhoseLobeLightsNoPixelIsLookedForAtBroaderLobes.
   static const double ks_hi = line_param("ks").hi;
   if (std::max({fit[best].ks[0], fit[best].ks[1], fit[best].ks[2]}) >= ks_hi) {
     double near[8];
@@ -101,8 +100,8 @@ void texel_start(const ObsSet& os, const std::vector<size_t>& idx, const TexelLa
   if (!other) return;
   other->best_cost = fit[best].cost;
   // Whether two nodes of the grid lie kOtherValleyDeg or more apart modulo a half turn: the same
-  // test on the same doubles, once for every pair of the grid's 32 places (std::remainder per
-  // node was 1.7 % of a 1024^2 map's samples).
+  // test on the same doubles, once for every pair of the grid's 32 places (not a std::remainder per
+  // node).
   static const auto far_apart = [] {
     std::array<std::array<bool, 32>, 32> t{};
     for (int a = 0; a < 32; ++a)
@@ -175,9 +174,9 @@ Vec8 texel_inverse_diagonal(const Mat8& H);
 // The ridge rule of the LM (fit/solvers/fused_lm.h kRidgeIterations) for a line texel's Ceres
 // solve: past kRidgeIterations, every kRidgeWindow successful steps, done where k_d and psi moved
 // less than kRidgeSettledSigma of their sigma (J^T J of the texel's data at the point, in double
-// from its records: Problem::Evaluate may not be called during a solve). Without it Ceres crawled
-// along the ridge to its iteration limit where the LM stopped: satin-ball's orbit set at 256^2, 111
-// texels stopped against the LM's 34.
+// from its records: Problem::Evaluate may not be called during a solve). Without it Ceres crawls
+// along the ridge to its iteration limit where the LM stops (docs/solver-rules.md "The ridge
+// rule").
 class TexelRidgeCallback : public ceres::IterationCallback {
  public:
   TexelRidgeCallback(const ObsSet& os, const std::vector<size_t>& idx, const Core* c)
@@ -341,9 +340,9 @@ Vec8 texel_solve(const Mat8& A, const Vec8& b) {
 // cost (~1e-7 of it) starts to hide a step's gain; then in double from there to the end (J^T J, J^T
 // r and the sigmas too).
 constexpr double kFloatStepInSigma = 0.05;
-// A texel's last step is taken unconfirmed only under this (the global solve's 0.1 let a few
-// texels of a swirl end 0.014 sigma from Ceres' minimum, against 0.0024 confirming every step;
-// at 0.02, 0.0055; 4.1 float passes a texel against 4.0 and 5.0).
+// A texel's last step is taken unconfirmed only under this: the global solve's 0.1 leaves texels
+// further from Ceres' minimum, confirming every step costs a pass (docs/solver-rules.md "The last
+// step").
 constexpr double kTexelLastStepInSigma = 0.02;
 constexpr int kZigZagIterations = 20;
 // A ridge (fit/solvers/fused_lm.h kRidgeIterations): k_s and n trading off, k_d and psi put.
@@ -429,11 +428,9 @@ struct TexelObjective {
     for (int it = 0; it < max_iterations; ++it) {
       // Damped by lambda times J^T J's diagonal, floored at kMinDiagonal (fit/solvers/fused_lm.h:
       // Ceres' min_diagonal): a parameter the data hardly see (n where a lobe lights next to no
-      // pixel) is damped too. With 1e-12 such a column's steps stayed huge and were clamped at the
-      // bounds, lambda grew until every step was a thousandth of a sigma, and the LM called its
-      // start converged: satin-ball's orbit set (32 x 512^2, --maps 256x256) had 129 determined
-      // texels whose RMS residual was over 1.01 times Ceres' from the same start, 25 with the
-      // floor.
+      // pixel) is damped too: with a smaller floor such a column's steps stay huge and are clamped
+      // at the bounds, lambda grows until every step is a thousandth of a sigma, and the LM calls
+      // its start converged (docs/solver-rules.md "The damping floor").
       Mat8 a = cur->h;
       a.diagonal() += lambda * cur->h.diagonal().cwiseMax(kMinDiagonal);
       const Vec8 step = step_of(a, cur->g);
@@ -522,8 +519,8 @@ TexelResult texel_lm_from(const ObsSet& os, const std::vector<size_t>& idx, cons
   texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t, NoLobe::kHoldN);
   // J^T J in float fails the rank test where a column is a few orders below the others (k_s at
   // 1e-4, no lobe: n's column is k_s times the lobe's): float's rounding of its sums is then not
-  // small against them. In double the test is Ceres' (satin-ball at 256^2: 1 414 texels Ceres
-  // determined and the LM did not, at the same minimum).
+  // small against them. In double the test is Ceres' (docs/solver-rules.md "The rank test in
+  // double").
   if (from_float && t.sigma[7] == 0) {
     obj.evaluate(x, &cur);
     texel_sigmas(cur.info, cur.rss, 3.0 * idx.size(), &t, NoLobe::kHoldN);

@@ -76,8 +76,8 @@ void add_maps(const std::string& path, const std::string& dir, const TexelMaps& 
               ExrCompression compression) {
   const std::vector<std::string> f = map_files(path);
   const size_t N = static_cast<size_t>(t.w) * t.h;
-  // Each file as one job: compressing them (zlib) one after the other took ~2 s of one core for
-  // a 1024^2 map, the whole run's serial tail. The files are independent: written in parallel.
+  // Each file as one job: compressed (zlib) one after the other they are the whole run's serial
+  // tail for a large map. The files are independent: written in parallel.
   std::vector<std::function<void()>> writes;
   auto put = [&](size_t file, int channels, auto value) {
     writes.push_back([&, file, channels, value] {

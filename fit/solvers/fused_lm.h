@@ -88,12 +88,11 @@ struct ObsRow {
 // is rho' J^T (I - r r^T / |r|^2) J, not the rho' J^T J that the weights give (and that Ceres uses
 // too, since Huber's rho'' < 0). Both share the gradient, so the minimum. Where many observations
 // lie outside the core (a model that does not describe the sample, as a global fit of a swirled
-// plate), steps with the weights' matrix converge only linearly, at 0.95 to 0.99 a step: the
-// 2048^2 swirl ran out of 200 iterations. An observation just outside the core may step back into
-// it, where the curvature along r is whole again: the part taken away grows from none at |r| = a
-// to all of it at |r| >= 2a (all of it at once cost the small sets 2 to 3 more steps). Summed here:
-// f (rho' / |r|^2) u u^T with u = sum_k r_k J_k and f = min(1, |r| / a - 1) (upper triangle),
-// taken from J^T W J for the steps.
+// plate), steps with the weights' matrix converge only linearly. An observation just outside the
+// core may step back into it, where the curvature along r is whole again: the part taken away
+// grows from none at |r| = a to all of it at |r| >= 2a (docs/solver-rules.md "Huber's curvature").
+// Summed here: f (rho' / |r|^2) u u^T with u = sum_k r_k J_k and f = min(1, |r| / a - 1) (upper
+// triangle), taken from J^T W J for the steps.
 template <int P>
 struct HuberCurvature {
   static constexpr int kTri = P * (P + 1) / 2;
@@ -206,9 +205,9 @@ FusedSums<P> fused_pass_chunks(size_t n, bool jac, tbb::task_arena* arena, const
 }
 
 // One pass over n observations: `row(j, &d)` gives observation j's residual and rows. Without
-// Huber's curvature (the fiber model's pass): the fiber model's fit of the 16-view swirl took 49
-// steps with it against 27 without (its steps there are mostly rejected or damped hard, with or
-// without; the line model's are not).
+// Huber's curvature (the fiber model's pass): the fiber model's steps are mostly rejected or damped
+// hard where it would count, and it took more steps with it (docs/solver-rules.md "Huber's
+// curvature").
 template <int P, class Row>
 FusedSums<P> fused_pass(size_t n, const RobustLoss& loss, bool jac, tbb::task_arena* arena,
                         const Row& row) {
@@ -300,18 +299,14 @@ struct NielsenDamping {
 
 // The damped step from the sums at the current point: with the cost's Gauss-Newton curvature
 // (FusedSums::step_matrix), or with J^T W J where that one is not positive definite once damped.
-// Damped by lambda times the diagonal floored at kMinDiagonal, Ceres' min_diagonal (it was 1e-300,
-// and the line texel LM's 1e-12; fit/maps/texel_solve.cpp uses the same floor).
+// Damped by lambda times the diagonal floored at kMinDiagonal, Ceres' min_diagonal (the texels' LM
+// in fit/maps/texel_solve.cpp uses the same floor).
 constexpr double kMinDiagonal = 1e-6;
 template <int P>
 VecP<P> lm_step(const FusedSums<P>& s, double lambda) {
   // The floor: a column the data hardly see (n where a lobe lights next to no pixel) is damped
-  // too. Global fits are the same to the last digit (no column that small); satin-sphere-fiber's
-  // fiber texels (16 views of 256^2, --maps 64x64) against Ceres: psi more than 0.1 sigma apart
-  // 115 -> 58 of ~1 875, the RMS residual over 1.01 times Ceres' 6 -> 3 (Ceres' over the fused
-  // solver's 9 -> 3), but 4 texels left 1.1 to 2 times higher in a needle that lights no pixel, as
-  // Ceres was: what fit/maps/texel_fiber.cpp fiber_texel's retries now take on (with them 59, 2,
-  // 1).
+  // too, as Ceres damps it; global fits have no column that small (docs/solver-rules.md "The
+  // damping floor").
   auto damped = [lambda](MatP<P> a) {
     a.diagonal() += lambda * a.diagonal().cwiseMax(kMinDiagonal);
     return a;
@@ -328,9 +323,8 @@ VecP<P> lm_step(const FusedSums<P>& s, double lambda) {
 // out of the box is fixed (its row and column of both matrices and its gradient taken out) and the
 // step solved again for the others, until no free coordinate's step points out at its bound. A
 // step clipped at the bound instead is not the reduced problem's step: the rest of it is wrong by
-// the coupling, the step is often rejected, and its size never falls under kStepInSigma (a k_d
-// pinned at 0 on a measured satin took all 200 iterations, each step pushing k_d out by 1 to 6
-// sigma). psi (coordinate 7) wraps and has no bound. Test: FitSolvers.AFitAtABoundConverges.
+// the coupling, the step is often rejected, and its size never falls under kStepInSigma. psi
+// (coordinate 7) wraps and has no bound. Test: FitSolvers.AFitAtABoundConverges.
 template <int P>
 VecP<P> lm_step_in_box(const FusedSums<P>& s, double lambda, const VecP<P>& x, const VecP<P>& lo,
                        const VecP<P>& hi) {

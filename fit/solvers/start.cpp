@@ -20,9 +20,8 @@ namespace aniso::fitting {
 
 void set_start_kd_ks(const double kd[3], const double ks[3], Core* c) {
   // Inside the bounds: where a node's specular column is all but zero (x^n ~1e-14 on every pixel),
-  // any k_s fits as well and the closed form gave up to 3e22; a texel's solver started there, past
-  // the bound of 100, stopped where it started (satin-ball's orbit: 66 texels, sums of squares
-  // 10^2 to 10^10, undetermined).
+  // any k_s fits as well and the closed form can give 1e22; a solver started there, past the bound,
+  // stops where it started (docs/solver-rules.md "The start's k_d, k_s are clamped").
   static const double kd_hi = line_param("kd").hi, ks_hi = line_param("ks").hi;
   for (int ch = 0; ch < 3; ++ch) {
     c->kd[ch] = std::clamp(kd[ch], 1e-4, kd_hi);

@@ -17,9 +17,8 @@ constexpr size_t kMaxStartObs = 4000;  // the start and stage 1 use at most this
 // each other fit the data as well. Of two fits whose predictions differ by D (the sum of squares of
 // their difference), the one that is not the truth comes out lower by more than X with probability
 // Phi(-(X + D) / (2 sigma sqrt(D))): at most Phi(-sqrt(X) / sigma), whatever D. At 16 sigma^2 that
-// is 3e-5; at 9 (the rule before) 1.3e-3, and satin-ball's orbit set (--maps 256x256) had 11 of
-// 3 820 texels with two converged valleys take the wrong one by 9 to 16 sigma^2: determined,
-// more than 45 degrees off.
+// is 3e-5; at 9, 1.3e-3, which took the wrong valley on real maps (docs/solver-rules.md "Two
+// valleys").
 constexpr double kAsWellSigma2 = 16;
 
 // At fixed (psi, n[, topology]) the model is linear in k_d and k_s: per channel, the 2x2

@@ -183,7 +183,7 @@ void load_view_into(const CaptureSet& set, size_t i, ViewData* into, const Topol
                     GeometryCache* cache, const ViewRows* rows,
                     const std::vector<uint8_t>* geometry_rows = nullptr, bool lanes = true);
 // d->use all kOff again, for another view's load_view_into: the rows read are cleared, the only
-// ones whose states can be other than kOff (clearing the whole image's was 4 MB a view a band).
+// ones whose states can be other than kOff (not the whole image's, megabytes a view a band).
 void clear_pixel_states(ViewData* d);
 
 }  // namespace aniso

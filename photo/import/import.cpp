@@ -245,7 +245,7 @@ void solve_cameras(const Shoot& s, const std::vector<Detected>& det, const Impor
   } else {
     constexpr size_t kMinPhotos = 4;
     std::vector<double> first_rms;  // each calibrated photo's RMS in the first round
-    // The calibration's cost grows as the cube of its photos (200: 52 s, 400: 561 s): at most
+    // The calibration's cost grows as the cube of its photos: at most
     // o.calibrate_on, spread evenly over the shoot's order (a walk round the board); the others
     // are posed against the camera it gives.
     const size_t most = static_cast<size_t>(std::max(o.calibrate_on, static_cast<int>(kMinPhotos)));
