@@ -7,10 +7,10 @@
 #include <random>
 #include <vector>
 
-#include "fit/solvers/line_lm.h"
-#include "fit/solvers/line_simd.h"
+#include "fit/solvers/line_solve.h"
+#include "fit/solvers/line_pixel_lanes.h"
 #include "fit/solvers/start.h"
-#include "fit/solvers/texel_simd.h"
+#include "fit/solvers/texel_lanes.h"
 #include "models/evaluate.h"
 #include "models/fiber_model.h"
 #include "models/fiber_reference.h"
@@ -123,7 +123,7 @@ void BM_Bake(benchmark::State& st) {
 }
 BENCHMARK(BM_Bake)->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond);
 
-// The global fit's pass over `range(0)` observations of one light (fit/solvers/line_lm.h
+// The global fit's pass over `range(0)` observations of one light (fit/solvers/line_solve.h
 // line_chunk, with J^T J and J^T r, no robust loss): four at a time in AVX2 lanes (range(1) 1) or
 // one at a time (0), the same equation (fit/solvers/line_equation.inc).
 void BM_LinePass(benchmark::State& st) {
@@ -158,7 +158,7 @@ void BM_LinePass(benchmark::State& st) {
 }
 BENCHMARK(BM_LinePass)->ArgsProduct({{4096}, {0, 1}});
 
-// One texel of --maps in float lanes (fit/solvers/texel_simd.h): the pass with J^T J and J^T r, and
+// One texel of --maps in float lanes (fit/solvers/texel_lanes.h): the pass with J^T J and J^T r, and
 // the eight start nodes (n = 2^4, the power of two nearest that set's global n, 15.7), over
 // `range(0)` observations under one grey light (80: the mean texel of a 1024^2 map from 64 views
 // of 2048^2).

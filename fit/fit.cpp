@@ -23,7 +23,7 @@
 #include "fit/maps/maps_bands.h"
 #include "fit/maps/maps_warnings.h"
 #include "fit/solvers/start.h"
-#include "fit/solvers/texel_simd.h"
+#include "fit/solvers/texel_lanes.h"
 #include "io/files/files.h"
 #include "models/params.h"
 

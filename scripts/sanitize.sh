@@ -7,7 +7,7 @@
 # ToTheFiberModel, Trust.AFiberTexel*, FitFiber.FlatSamplesAcrossTopology, FiberModel.*), and
 # together they were 346 of the 1 035 test-seconds of the sanitized run (517 s on two cores).
 # -O1 -g1: the sanitizers' usual level, and line tables for their stack traces; -O2 -g compiled
-# the sanitized library 2.9 times slower (fit/maps/texel_solve.cpp: 245 s against 86 s).
+# the sanitized library 2.9 times slower (fit/maps/texel_line.cpp: 245 s against 86 s).
 # Leak detection is off: Mesa's llvmpipe and TBB keep allocations until exit by design.
 # Extra args go to ctest.
 set -euo pipefail

@@ -375,7 +375,7 @@ TEST(FiberModel, ExtremelyGrazingViewStaysWithinBounds) {
 namespace aniso {
 namespace {
 
-// The fiber model's fused solve (fit/solvers/fiber_lm.h: Jets of size 3 through the quadrature)
+// The fiber model's fused solve (fit/solvers/fiber_solve.h: Jets of size 3 through the quadrature)
 // against Ceres (the fitter of record, Jets of size 9), at the same quadrature order, on a flat
 // sample (the topology s) and a torus with a topology map (its amplitude A): the same minimum
 // within a tenth of sigma, the same sigmas within 5 %. Then the order chosen from the noise against

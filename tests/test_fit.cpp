@@ -16,7 +16,7 @@
 #include "datasets_synth/presets.h"
 #include "fit/fit.h"
 #include "fit/solvers/isotropic_pixel.h"
-#include "fit/solvers/line_simd.h"
+#include "fit/solvers/line_pixel_lanes.h"
 #include "fit/solvers/model_fit.h"
 #include "io/files/files.h"
 #include "io/formats/material_io.h"
@@ -348,7 +348,7 @@ double worst_in_sigma(const FitResult& ra, const FitResult& rb, double limit) {
 
 // The three solvers of the plain line model land on the same estimate and the same
 // uncertainties: the fused Levenberg-Marquardt (the default: one pass over the observations per
-// step, fit/solvers/line_lm.h), Ceres on 256-pixel blocks with analytic derivatives and Huber by
+// step, fit/solvers/line_solve.h), Ceres on 256-pixel blocks with analytic derivatives and Huber by
 // reweighting (--solver ceres), and Ceres with one autodiff block per pixel and its own Huber loss
 // (the plainest statement of the problem). Same minimum within a tenth of sigma.
 // Progress is told to the sink the options carry (core/progress.h), never printed by the library:
@@ -417,7 +417,7 @@ TEST(FitPaths, FusedSolverAndCeresReachTheSameMinimum) {
                 o->chunked ? "256-pixel blocks" : "per pixel", worst, ra.report.seconds_solve,
                 rb.report.seconds_solve);
   }
-  // The 4-lane pass (fit/solvers/line_simd.h, where the CPU has AVX2) and the scalar pass: the same
+  // The 4-lane pass (fit/solvers/line_pixel_lanes.h, where the CPU has AVX2) and the scalar pass: the same
   // function in another order of operations, so the same minimum to rounding.
   std::printf("4-lane pass on this CPU: %s\n", fitting::line_lanes_on(true) ? "yes" : "no");
   EXPECT_EQ(ra.report.pass.rfind("4 pixels at a time", 0) == 0, fitting::line_lanes_on(true))

@@ -1,4 +1,4 @@
-// The 4-lane pass of the plain line model (fit/solvers/line_simd.h) against the scalar pass it
+// The 4-lane pass of the plain line model (fit/solvers/line_pixel_lanes.h) against the scalar pass it
 // stands for (fit/solvers/line_pixel.h): its own exp and log, and the sums of a pass over pixels
 // that reach every branch (the lobe's x <= 0, the chord near |a| = 1, Huber's outliers, a last
 // group of fewer than four).
@@ -20,10 +20,10 @@
 #include "fit/records/observations.h"
 #include "fit/records/pixel_frames.h"
 #include "fit/records/pixel_records.h"
-#include "fit/solvers/line_lm.h"
-#include "fit/solvers/line_simd.h"
+#include "fit/solvers/line_solve.h"
+#include "fit/solvers/line_pixel_lanes.h"
 #include "fit/solvers/start.h"
-#include "fit/solvers/texel_simd.h"
+#include "fit/solvers/texel_lanes.h"
 #include "io/formats/capture.h"
 #include "test_util.h"
 
@@ -294,7 +294,7 @@ struct TexelWidths {
   }
 };
 
-// A texel's float lanes (fit/solvers/texel_simd.h) against the double pass over the same records:
+// A texel's float lanes (fit/solvers/texel_lanes.h) against the double pass over the same records:
 // the cost, J^T J and J^T r to float's rounding (relative 1e-4 of each sum's scale), the double
 // pass from the lanes to double's, and eight start nodes at once as the double nodes (same cost to
 // 1e-4, the same best node); at either lane width, with an even and an odd number of groups.

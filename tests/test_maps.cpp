@@ -363,7 +363,7 @@ TEST(FitMaps, FiberModelMapsRecoverTheTopologyPerTexel) {
 // start, is turned 35-47 degrees from the fibers across the sphere's middle, and the fiber solve
 // from there ended in another valley: 20 of 86 determined texels more than 45 degrees off, sigma
 // ~1 degree. The fiber model's own nodes give the second look its other valley
-// (fit/maps/texel_solve.cpp fiber_other_valley): none is left more than 10 degrees off. And the
+// (fit/maps/texel_line.cpp fiber_other_valley): none is left more than 10 degrees off. And the
 // fiber texels' solves that crawled along a ridge of k_s and n to their iteration limit (20 of 140
 // solved) end where k_d, psi and s have settled (fit/solvers/fused_lm.h kRidgeIterations): 92
 // texels determined, 76 without.

@@ -724,7 +724,7 @@ void expect_both_determine_alike(const SatinBallTexel& t, double sigma_tol = 0) 
 }
 
 // A texel whose data do not know its lobe is not determined where psi held away from its minimum
-// fits the data nearly as well (its profile, fit/maps/texel_solve.cpp). (105, 141) and (133, 135),
+// fits the data nearly as well (its profile, fit/maps/texel_line.cpp). (105, 141) and (133, 135),
 // 13 pixels each near the sphere's limb: a lobe sharpened toward a needle is aimed at a pixel or
 // two, 80 degrees off the sample's fibers, its psi "known" to a fraction of a degree by the
 // curvature at the minimum (both solvers end there; Ceres ends in the first texel's flat valley
@@ -919,7 +919,7 @@ TEST(Trust, AFiberTexelWithoutALobeLooksForTheGlobalLobe) {
 // degrees off the truth with sigma 1.37 from the curvature at the minimum (16 sigma); (9, 33), 44
 // pixels, 21.4 off, sigma 0.76 (28). Held 15 degrees away their sums of squares rose by no more
 // than sigmas of 6.1 and 4.9 degrees would have them: psi's sigma is the profile's
-// (fit/maps/texel_parts.h texel_psi_profile), in both solvers alike.
+// (fit/maps/texel_shared.h texel_psi_profile), in both solvers alike.
 TEST(Trust, PsisSigmaIsAtLeastWhatItsProfileSays) {
   for (const char* xy : {"28 30", "9 33"}) {
     SCOPED_TRACE(std::string("texel ") + xy);

@@ -12,7 +12,7 @@
 
 #include "core/texture.h"
 #include "fit/global/fiber_order.h"
-#include "fit/solvers/fiber_lm.h"
+#include "fit/solvers/fiber_solve.h"
 #include "fit/solvers/start.h"
 #include "models/fiber_model.h"
 #include "models/params.h"
@@ -199,7 +199,7 @@ class FiberFit : public ModelFit {
     set_core_bounds(pb, &core);
   }
 
-  // The fused solve (fit/solvers/fiber_lm.h) for every topology but a texel map, unless Ceres is
+  // The fused solve (fit/solvers/fiber_solve.h) for every topology but a texel map, unless Ceres is
   // asked.
   bool solve_fused(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
                    const FitOptions& opt, FusedSolve* out) override {

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "fit/solvers/fiber_lm.h"
+#include "fit/solvers/fiber_solve.h"
 
 namespace aniso::fitting {
 

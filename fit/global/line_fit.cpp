@@ -7,8 +7,8 @@
 
 #include "core/angles.h"
 #include "fit/solvers/isotropic_pixel.h"
-#include "fit/solvers/line_lm.h"
 #include "fit/solvers/line_pixel.h"
+#include "fit/solvers/line_solve.h"
 #include "fit/solvers/start.h"
 #include "models/params.h"
 #include "models/safe_math.h"

@@ -19,7 +19,7 @@
 #include "core/progress.h"
 #include "core/timer.h"
 #include "fit/solvers/crawl.h"
-#include "fit/solvers/line_simd.h"
+#include "fit/solvers/line_pixel_lanes.h"
 #include "fit/solvers/start.h"
 #include "models/params.h"
 

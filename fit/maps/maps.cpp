@@ -21,8 +21,8 @@
 #include "core/progress.h"
 #include "fit/maps/texel_sigmas.h"
 #include "fit/maps/texel_solve.h"
-#include "fit/solvers/line_lm.h"
-#include "fit/solvers/texel_simd.h"
+#include "fit/solvers/line_solve.h"
+#include "fit/solvers/texel_lanes.h"
 #include "models/params.h"
 
 namespace aniso::fitting {

@@ -7,10 +7,10 @@
 #include <cmath>
 
 #include "core/angles.h"
-#include "fit/maps/texel_parts.h"
+#include "fit/maps/texel_shared.h"
 #include "fit/maps/texel_sigmas.h"
 #include "fit/maps/texel_solve.h"
-#include "fit/solvers/fiber_lm.h"
+#include "fit/solvers/fiber_solve.h"
 #include "fit/solvers/start.h"
 
 namespace aniso::fitting {
@@ -307,7 +307,7 @@ TexelResult fiber_lm_from(const ObsSet& os, const std::vector<size_t>& idx,
 }  // namespace
 
 // One texel of the fiber model: fiber_texel_start, then the fiber model's fused solve
-// (fit/solvers/fiber_lm.h: the global fit's solver, checked against Ceres there) on the texel
+// (fit/solvers/fiber_solve.h: the global fit's solver, checked against Ceres there) on the texel
 // alone, and from the start's other valley too.
 TexelResult solve_texel_fiber(const ObsSet& os, const std::vector<size_t>& idx,
                               const TexelResult& from, const TexelMapOptions& o,

@@ -1,4 +1,4 @@
-// fit/ internal: one texel of --maps solved (fit/maps/texel_solve.cpp) for fit_texel_maps
+// fit/ internal: one texel of --maps solved (fit/maps/texel_line.cpp) for fit_texel_maps
 // (fit/maps/maps.cpp): the line model by a hand-written Levenberg-Marquardt (float lanes, then
 // double) or by Ceres, the fiber model by its fused solver or by Ceres; each with the texel's
 // sigmas from its own normal equations and the verdict whether its data determine it.
@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "fit/maps/maps.h"
-#include "fit/solvers/line_lm.h"
+#include "fit/solvers/line_solve.h"
 
 namespace aniso::fitting {
 
@@ -36,7 +36,7 @@ struct TexelPrior {
 
 // Solves the texel of observations idx from `from` (with `prior`: pulled toward its neighbours,
 // started where it is; without: started from its own grid over psi).
-// `wide`: the float passes sixteen lanes at a time where the CPU has AVX-512 (texel_simd.h).
+// `wide`: the float passes sixteen lanes at a time where the CPU has AVX-512 (texel_lanes.h).
 TexelResult solve_texel_lm(const ObsSet& os, const std::vector<size_t>& idx, const Core& from,
                            const TexelPrior* prior, int max_iterations = kTexelIterations,
                            bool wide = false);

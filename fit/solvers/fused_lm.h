@@ -1,11 +1,11 @@
 // fit/ internal: the fused Levenberg-Marquardt shared by the models that have one (the plain line
-// model, fit/solvers/line_lm.cpp; the fiber model, fit/solvers/fiber_lm.cpp; the isotropic part
-// alone, fit/global/isotropic_alternative.cpp, P = 7 with log n_iso its one shared column and no
-// psi). Every iteration is
-// one pass over the observations that sums the robust cost, J^T W J and J^T W r together; the pass
-// runs on TBB in fixed chunks summed in order, so the answer does not depend on the scheduling. The
-// parameter vector is the core (k_d 3, k_s 3, log n, psi) and P - 8 of the model's own numbers; a
-// channel's Jacobian row is nonzero at k_d[k], k_s[k] and the P - 6 shared columns (log n, psi,
+// model, fit/solvers/line_solve.cpp; the fiber model, fit/solvers/fiber_solve.cpp; the isotropic
+// part alone, fit/global/isotropic_alternative.cpp, P = 7 with log n_iso its one shared column and
+// no psi). Every iteration is one pass over the observations that sums the robust cost, J^T W J and
+// J^T W r together; the pass runs on TBB in fixed chunks summed in order, so the answer does not
+// depend on the scheduling. The parameter vector is the core (k_d 3, k_s 3, log n, psi) and P - 8
+// of the model's own numbers; a channel's Jacobian row is nonzero at k_d[k], k_s[k] and the P - 6
+// shared columns (log n, psi,
 // ...). The robust loss enters by its weights rho'(|r|^2) at the current point (iteratively
 // reweighted least squares inside LM): its fixed point is the minimum Ceres finds with the same
 // loss.
@@ -254,7 +254,7 @@ constexpr double kLastStepInSigma = 0.1;
 // kRidgeIterations, a texel whose k_d, psi (and s) moved less than kRidgeSettledSigma of their
 // sigma over the last kRidgeWindow accepted steps is done: k_s and n keep the sigma the ridge gives
 // them (named where it passes their bounds' spread). The line model's texel LM
-// (fit/maps/texel_solve.cpp) and the fiber model's texels through fused_lm's `ridge_rule`.
+// (fit/maps/texel_line.cpp) and the fiber model's texels through fused_lm's `ridge_rule`.
 constexpr int kRidgeIterations = 30, kRidgeWindow = 10;
 constexpr double kRidgeSettledSigma = 0.1;
 
@@ -300,7 +300,7 @@ struct NielsenDamping {
 // The damped step from the sums at the current point: with the cost's Gauss-Newton curvature
 // (FusedSums::step_matrix), or with J^T W J where that one is not positive definite once damped.
 // Damped by lambda times the diagonal floored at kMinDiagonal, Ceres' min_diagonal (the texels' LM
-// in fit/maps/texel_solve.cpp uses the same floor).
+// in fit/maps/texel_line.cpp uses the same floor).
 constexpr double kMinDiagonal = 1e-6;
 template <int P>
 VecP<P> lm_step(const FusedSums<P>& s, double lambda) {

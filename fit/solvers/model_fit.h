@@ -40,7 +40,7 @@ struct Block {
   std::vector<std::string> names;
 };
 
-// What a model's own fused solver (fit/solvers/line_lm.h) hands back.
+// What a model's own fused solver (fit/solvers/line_solve.h) hands back.
 struct FusedSolve {
   std::vector<double> info;  // J^T W J at the solution over `order` (row-major)
   // The parameter blocks of `info` (pointer, size): k_d 3, k_s 3, log n, psi and the model's own.
@@ -81,7 +81,7 @@ class ModelFit {
   virtual bool add_reweighted(ceres::Problem*, const ObsSet&, const std::vector<double>*) {
     return false;
   }
-  // The whole solve of a stage by the model's own fused solver (fit/solvers/line_lm.h), from
+  // The whole solve of a stage by the model's own fused solver (fit/solvers/line_solve.h), from
   // `core`, over `subset` (null: every observation): false where the model has none or the options
   // ask for Ceres, and then nothing is changed.
   virtual bool solve_fused(const ObsSet&, const std::vector<size_t>*, FitLoss, double /*scale*/,

@@ -12,7 +12,7 @@
 #include "core/angles.h"
 #include "core/cpu.h"
 #include "core/progress.h"
-#include "fit/solvers/line_simd.h"
+#include "fit/solvers/line_pixel_lanes.h"
 #include "models/params.h"
 #include "models/safe_math.h"
 

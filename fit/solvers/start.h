@@ -13,7 +13,7 @@ namespace aniso::fitting {
 constexpr size_t kMaxStartObs = 4000;  // the start and stage 1 use at most this many pixels
 
 // The start's second look (the global fit's, fit/global/solve.cpp; each texel's,
-// fit/maps/texel_solve.cpp): two valleys whose sums of squares lie within kAsWellSigma2 sigma^2 of
+// fit/maps/texel_line.cpp): two valleys whose sums of squares lie within kAsWellSigma2 sigma^2 of
 // each other fit the data as well. Of two fits whose predictions differ by D (the sum of squares of
 // their difference), the one that is not the truth comes out lower by more than X with probability
 // Phi(-(X + D) / (2 sigma sqrt(D))): at most Phi(-sqrt(X) / sigma), whatever D. At 16 sigma^2 that
@@ -64,7 +64,7 @@ double line_node_cost(const ObsSet& os, const std::vector<size_t>& subset, doubl
                       double kd[3], double ks[3]);
 
 // The same at `count` values of psi: four at a time where the CPU has AVX2 and FMA
-// (fit/solvers/line_simd.h; the same sums up to FMA's rounding), else node by node.
+// (fit/solvers/line_pixel_lanes.h; the same sums up to FMA's rounding), else node by node.
 struct NodeFit {
   double cost = 0, kd[3] = {0, 0, 0}, ks[3] = {0, 0, 0};
 };

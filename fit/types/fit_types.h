@@ -123,7 +123,7 @@ struct FitOptions {
   // equations accumulated in one pass (fit/global/uncertainty.cpp).
   bool ceres_covariance = false;
   // --solver ceres: the plain line model's global fit by Ceres (the fitter of record, IRLS over
-  // 256-pixel blocks) instead of the fused Levenberg-Marquardt (fit/solvers/line_lm.h; the tests
+  // 256-pixel blocks) instead of the fused Levenberg-Marquardt (fit/solvers/line_solve.h; the tests
   // compare the two).
   bool ceres_solver = false;
   // --maps WxH (line model): after the global fit, per-texel maps of k_d, k_s, n and psi over the

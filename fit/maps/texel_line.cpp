@@ -1,8 +1,6 @@
 // One texel of --maps (fit/maps/texel_solve.h), the line model's: its start (a grid over psi with
 // k_d, k_s in closed form), its solve by the LM or by Ceres, and its sigmas (the fiber model's
-// texels: fit/maps/texel_fiber.cpp; the checks after a solve both share: fit/maps/texel_parts.h).
-#include "fit/maps/texel_solve.h"
-
+// texels: fit/maps/texel_fiber.cpp; the checks after a solve both share: fit/maps/texel_shared.h).
 #include <ceres/normal_prior.h>
 
 #include <Eigen/Dense>
@@ -11,12 +9,13 @@
 #include <cmath>
 
 #include "core/angles.h"
-#include "fit/maps/texel_parts.h"
+#include "fit/maps/texel_shared.h"
 #include "fit/maps/texel_sigmas.h"
+#include "fit/maps/texel_solve.h"
 #include "fit/solvers/line_pixel.h"
-#include "fit/solvers/line_simd.h"
+#include "fit/solvers/line_pixel_lanes.h"
 #include "fit/solvers/start.h"
-#include "fit/solvers/texel_simd.h"
+#include "fit/solvers/texel_lanes.h"
 #include "models/params.h"
 
 namespace aniso::fitting {
@@ -36,7 +35,7 @@ namespace {
 
 // Grid over psi with k_d, k_s in closed form at the power of two nearest the global n (x^n by
 // squaring: this grid was most of the texel phase with a pow per pixel): the texel's start. With
-// `lanes`, eight nodes at a time in float (fit/solvers/texel_simd.h). Every 22.5 degrees, then 5.6
+// `lanes`, eight nodes at a time in float (fit/solvers/texel_lanes.h). Every 22.5 degrees, then 5.6
 // and 11.25 degrees either side of the best two: 16 nodes, which end in another basin than the
 // truth's less often than a 15-degree grid with four more (docs/solver-rules.md "The start's
 // grid"). With `other`, the best node of another valley too.
@@ -336,7 +335,7 @@ Vec8 texel_solve(const Mat8& A, const Vec8& b) {
 // One texel with a hand-written Levenberg-Marquardt (the fast path of --maps): the same
 // function (fit/solvers/line_pixel.h), the same bounds (projected) and the same start as the Ceres
 // path; the tests check that both reach the same minimum. The steps run in float
-// (fit/solvers/texel_simd.h) until they are under kFloatStepInSigma, where float's rounding of the
+// (fit/solvers/texel_lanes.h) until they are under kFloatStepInSigma, where float's rounding of the
 // cost (~1e-7 of it) starts to hide a step's gain; then in double from there to the end (J^T J, J^T
 // r and the sigmas too).
 constexpr double kFloatStepInSigma = 0.05;

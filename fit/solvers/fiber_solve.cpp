@@ -1,4 +1,4 @@
-#include "fit/solvers/fiber_lm.h"
+#include "fit/solvers/fiber_solve.h"
 
 #include <ceres/jet.h>
 
@@ -7,7 +7,7 @@
 
 #include "core/progress.h"
 #include "fit/solvers/fused_lm.h"
-#include "fit/solvers/line_lm.h"
+#include "fit/solvers/line_solve.h"
 #include "models/params.h"
 
 namespace aniso::fitting {

@@ -1,4 +1,4 @@
-#include "fit/solvers/line_lm.h"
+#include "fit/solvers/line_solve.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -10,7 +10,7 @@
 
 #include "core/angles.h"
 #include "fit/solvers/line_pixel.h"
-#include "fit/solvers/line_simd.h"
+#include "fit/solvers/line_pixel_lanes.h"
 #include "models/params.h"
 
 namespace aniso::fitting {
@@ -18,8 +18,8 @@ namespace aniso::fitting {
 void line_chunk(const ObsSet& os, const size_t* idx, size_t begin, size_t end,
                 const LinePixelParams& p, const RobustLoss& loss, bool jac, ChannelSums<8>* s,
                 HuberCurvature<8>* curv) {
-  // Pixels with one light go four at a time where the CPU can (fit/solvers/line_simd.h); the rest,
-  // and Cauchy's loss, one at a time.
+  // Pixels with one light go four at a time where the CPU can (fit/solvers/line_pixel_lanes.h); the
+  // rest, and Cauchy's loss, one at a time.
   const bool simd = line_lanes_on(os) && loss.kind != FitLoss::kCauchy;
   size_t ids[kFusedChunk];
   ObsRow<8> row;

@@ -1,4 +1,4 @@
-// fit/ internal to the texel solvers (fit/maps/texel_solve.cpp: the line model's;
+// fit/ internal to the texel solvers (fit/maps/texel_line.cpp: the line model's;
 // fit/maps/texel_fiber.cpp: the fiber model's): what a texel's solve shares with the others - the
 // checks after it (the second look at another valley, psi's profile), the start's nodes, and the
 // Ceres problem's pull and solve. Ceres and Eigen inside: included by those two files alone.
@@ -12,9 +12,9 @@
 
 #include "core/angles.h"
 #include "fit/maps/texel_sigmas.h"
-#include "fit/solvers/line_lm.h"
+#include "fit/solvers/line_solve.h"
 #include "fit/solvers/start.h"
-#include "fit/solvers/texel_simd.h"
+#include "fit/solvers/texel_lanes.h"
 #include "models/params.h"
 
 namespace aniso::fitting {

@@ -1,4 +1,4 @@
-#include "fit/solvers/line_simd.h"
+#include "fit/solvers/line_pixel_lanes.h"
 
 #include <atomic>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include "core/cpu.h"
 #include "fit/solvers/start.h"
-#include "fit/solvers/texel_simd.h"
+#include "fit/solvers/texel_lanes.h"
 
 namespace aniso::fitting {
 
@@ -233,7 +233,7 @@ ANISO_AVX2_FMA_INLINE v4d row4(const float* g, int k) {
   return v4d{g[8 * k], g[8 * k + 1], g[8 * k + 2], g[8 * k + 3]};
 }
 
-// The texel's transposed rows (fit/solvers/texel_simd.h) in double, four lanes at a time: the
+// The texel's transposed rows (fit/solvers/texel_lanes.h) in double, four lanes at a time: the
 // weights already times n_L (Ln 1).
 ANISO_AVX2_FMA void lanes_pass_avx2(const TexelLanes& t, const LinePixelParams& p, bool jac,
                                     ChannelSums<8>* sums) {

@@ -1,4 +1,4 @@
-#include "fit/solvers/texel_simd.h"
+#include "fit/solvers/texel_lanes.h"
 
 #include <immintrin.h>
 
@@ -9,7 +9,7 @@
 #include <cstring>
 
 #include "core/cpu.h"
-#include "fit/solvers/line_simd.h"
+#include "fit/solvers/line_pixel_lanes.h"
 #include "fit/solvers/start.h"
 
 namespace aniso::fitting {
@@ -51,7 +51,7 @@ TK_INLINE vf load_row(const float* f, size_t G, int k) {
 TK_INLINE vf node_row(const float* f, size_t j, int k) {
   return splat(f[((j / 8) * TexelLanes::kRows + k) * 8 + j % 8]);
 }
-#include "fit/solvers/texel_kernels.inc"
+#include "fit/solvers/texel_lanes_kernels.inc"
 #undef TK_TARGET
 #undef TK_INLINE
 }  // namespace x8
@@ -85,7 +85,7 @@ TK_INLINE vf node_row(const float* f, size_t j, int k) {
   std::memcpy(&two, f + ((j / 8) * TexelLanes::kRows + k) * 8 + j % 8, sizeof two);
   return (vf)v8d{two, two, two, two, two, two, two, two};
 }
-#include "fit/solvers/texel_kernels.inc"
+#include "fit/solvers/texel_lanes_kernels.inc"
 #undef TK_TARGET
 #undef TK_INLINE
 }  // namespace x16

@@ -21,7 +21,7 @@ void line_pass_simd(const ObsSet& os, const size_t* idx, size_t count, const Lin
                     HuberCurvature<8>* curv = nullptr);
 
 struct TexelLanes;
-// The same over a texel's transposed rows (fit/solvers/texel_simd.h), in double, without a robust
+// The same over a texel's transposed rows (fit/solvers/texel_lanes.h), in double, without a robust
 // loss: the texel's last passes after its float ones.
 void line_pass_lanes(const TexelLanes& t, const LinePixelParams& p, bool jac, ChannelSums<8>* sums);
 

@@ -1,11 +1,11 @@
 // fit/ internal: one texel of --maps eight observations at a time in float (AVX2 and FMA), or
-// sixteen (AVX-512), chosen at run time (fit/solvers/texel_kernels.inc holds the kernels for both).
-// A texel's start and its Levenberg-Marquardt read the same few hundred observations ten times or
-// more, so they are transposed once (TexelLanes: float, structure of arrays, eight to a group) and
-// every pass reads them straight from there; the lobe's exp and log in 8- or 16-wide float. Sums
-// are per lane in float (a texel's lane sums a few dozen terms) and added in double at the end of
-// the pass. The double 4-lane pass (fit/solvers/line_simd.h) stays the global fit's and the
-// reference of the tests.
+// sixteen (AVX-512), chosen at run time (fit/solvers/texel_lanes_kernels.inc holds the kernels for
+// both). A texel's start and its Levenberg-Marquardt read the same few hundred observations ten
+// times or more, so they are transposed once (TexelLanes: float, structure of arrays, eight to a
+// group) and every pass reads them straight from there; the lobe's exp and log in 8- or 16-wide
+// float. Sums are per lane in float (a texel's lane sums a few dozen terms) and added in double at
+// the end of the pass. The double 4-lane pass (fit/solvers/line_pixel_lanes.h) stays the global
+// fit's and the reference of the tests.
 #pragma once
 #include <cmath>
 #include <cstddef>
@@ -56,7 +56,7 @@ void texel_pass_f32(const TexelLanes& t, const LinePixelParams& p, bool jac, Cha
 inline double texel_grid_angle(int m) { return m * M_PI / 32; }
 
 // Eight start nodes at once, psi[i] in lane i (n = 2^log2n, x^n by squaring): line_nodes_simd's
-// sums (fit/solvers/line_simd.h) from the lanes.
+// sums (fit/solvers/line_pixel_lanes.h) from the lanes.
 void texel_nodes_f32(const TexelLanes& t, const double psi[8], int log2n, KdKsSums out[8]);
 
 }  // namespace aniso::fitting
