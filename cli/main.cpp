@@ -9,6 +9,7 @@
 #include <malloc.h>
 #endif
 
+#include "aniso_version.h"  // generated: ANISO_VERSION, ANISO_COMMIT
 #include "cli/command.h"
 #include "core/error.h"
 #include "core/text.h"
@@ -113,7 +114,7 @@ int main(int argc, char** argv) {
       "tables) -> preview (OpenGL, headless).",
       "aniso"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "aniso 0.1");
+  app.set_version_flag("--version", "aniso " ANISO_VERSION " (commit " ANISO_COMMIT ")");
   const std::vector<cli::Command> commands = cli::register_commands(app);
 
   if (argc > 1 && argv[1][0] != '-') {

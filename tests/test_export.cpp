@@ -692,14 +692,22 @@ TEST(Export, AnInstalledAnisoRunsFromItsPrefixWithItsOwnThree) {
   for (const char* f : {"/bin/aniso", "/bin/aniso-full", "/share/aniso/three/three.module.js",
                         "/share/doc/aniso/README.md"})
     EXPECT_TRUE(std::filesystem::exists(prefix + f)) << f;
-  r = run_command("env -u ANISO_THREE_DIR '" + prefix + "/bin/aniso' synth brushed-metal '" + root +
+  // The prefix moved elsewhere runs from where it is now: everything is found from the binary.
+  const std::string moved = root + "/moved/elsewhere";
+  std::filesystem::create_directories(root + "/moved");
+  std::filesystem::rename(prefix, moved);
+  r = run_command("'" + moved + "/bin/aniso' --version");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("aniso 0."), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("(commit "), std::string::npos) << r.output;
+  r = run_command("env -u ANISO_THREE_DIR '" + moved + "/bin/aniso' synth brushed-metal '" + root +
                   "/set' --size 16x16 --views 1");
   ASSERT_EQ(r.status, 0) << r.output;
-  r = run_command("env -u ANISO_THREE_DIR '" + prefix + "/bin/aniso' export '" + root +
+  r = run_command("env -u ANISO_THREE_DIR '" + moved + "/bin/aniso' export '" + root +
                   "/set/truth.json' --out '" + root + "/export' --size 16");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto j = nlohmann::json::parse(read_text_file(root + "/export/export.json"));
-  EXPECT_NE(j["three"]["three"].get<std::string>().find(prefix + "/share/aniso/three"),
+  EXPECT_NE(j["three"]["three"].get<std::string>().find(moved + "/share/aniso/three"),
             std::string::npos)
       << j["three"].dump();
   EXPECT_TRUE(std::filesystem::exists(root + "/export/three/three.module.js"));
