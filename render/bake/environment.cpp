@@ -139,11 +139,15 @@ EnvironmentTables prefilter_environment(const Environment& env, const BakeTables
     const Vec3 T = cell_direction(x, y, w, h);
     Vec3 e1, e2;
     chi_frame(T, &e1, &e2);
-    std::vector<double> acc(static_cast<size_t>(nb) * 7 * 3, 0.0);
+    // The table is bilinear in (a, b) and a depends on L alone: the environment's weighted basis
+    // is gathered once per table column (split between the two columns a falls between), then
+    // each level sums the columns' values against it: samples + levels x columns work for a
+    // direction T, not samples x levels.
+    std::vector<double> column(static_cast<size_t>(n) * 7 * 3, 0.0);
+    std::vector<char> used(n, 0);
     for (size_t k = 0; k < s.dir.size(); ++k) {
       const Vec3& L = s.dir[k];
       const double a = std::clamp(dot(L, T), -1.0, 1.0);
-      // sqrt(1 - a^2) (cos chi, sin chi), and the double and quadruple angles' terms.
       const double p = dot(L, e1), q = dot(L, e2);
       const double r2 = p * p + q * q;
       const double c2 = r2 > 0 ? (p * p - q * q) / std::sqrt(r2) : 0,
@@ -155,15 +159,25 @@ EnvironmentTables prefilter_environment(const Environment& env, const BakeTables
       const double xc = std::clamp(texel_coord(a, n, tables.index), 0.0, n - 1.0);
       const int x0 = std::min(n - 2, static_cast<int>(xc));
       const double tx = xc - x0;
-      for (int i = 0; i < nb; ++i) {
-        const int y0 = row0[i];
-        const double ty = row_t[i];
+      used[x0] = used[x0 + 1] = 1;
+      for (int t = 0; t < 7; ++t)
         for (int c = 0; c < 3; ++c) {
-          const double f = (1 - ty) * ((1 - tx) * C.at(x0, y0, c) + tx * C.at(x0 + 1, y0, c)) +
-                           ty * ((1 - tx) * C.at(x0, y0 + 1, c) + tx * C.at(x0 + 1, y0 + 1, c));
-          const double wf = s.weight[k][c] * f;
+          const double wb = s.weight[k][c] * basis[t];
+          column[(static_cast<size_t>(x0) * 7 + t) * 3 + c] += (1 - tx) * wb;
+          column[(static_cast<size_t>(x0 + 1) * 7 + t) * 3 + c] += tx * wb;
+        }
+    }
+    std::vector<double> acc(static_cast<size_t>(nb) * 7 * 3, 0.0);
+    for (int i = 0; i < nb; ++i) {
+      const int y0 = row0[i];
+      const double ty = row_t[i];
+      for (int xt = 0; xt < n; ++xt) {
+        if (!used[xt]) continue;
+        for (int c = 0; c < 3; ++c) {
+          const double f = (1 - ty) * C.at(xt, y0, c) + ty * C.at(xt, y0 + 1, c);
           for (int t = 0; t < 7; ++t)
-            acc[(static_cast<size_t>(i) * 7 + t) * 3 + c] += wf * basis[t];
+            acc[(static_cast<size_t>(i) * 7 + t) * 3 + c] +=
+                f * column[(static_cast<size_t>(xt) * 7 + t) * 3 + c];
         }
       }
     }
