@@ -713,6 +713,54 @@ TEST(Export, AnInstalledAnisoRunsFromItsPrefixWithItsOwnThree) {
   EXPECT_TRUE(std::filesystem::exists(root + "/export/three/three.module.js"));
 }
 
+// `aniso export` carries the built-in studio by default, prefiltered for the material in half
+// floats, where it applies; a material it cannot carry is exported without it and export.json says
+// why; --env none leaves it out; a named environment the material cannot carry is an error.
+TEST(Export, TheStudioGoesWithEveryExportThatCanCarryIt) {
+  const std::string root = tmp_dir("studio");
+  nlohmann::json j;
+  material_to_json(brushed(), &j);
+  write_json_file(root + "/m.json", j);
+  auto r = test::run_cli("export " + root + "/m.json --out " + root + "/line --size 32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  auto ej = nlohmann::json::parse(read_text_file(root + "/line/export.json"));
+  ASSERT_TRUE(ej["tables"].contains("environment")) << ej["tables"].dump();
+  EXPECT_EQ(ej["tables"]["environment"]["source"], "studio");
+  const auto& terms = ej["tables"]["environment"]["terms"];
+  ASSERT_EQ(terms.size(), 7u);
+  size_t bytes = 0;
+  for (const auto& t : terms) {
+    const std::string f = root + "/line/" + t.get<std::string>();
+    EXPECT_EQ(read_ktx2(f).format, KtxFormat::kRGBA16Float) << f;
+    bytes += std::filesystem::file_size(f);
+  }
+  std::printf("the studio's terms: %.2f MB\n", bytes / 1e6);
+  EXPECT_LT(bytes, size_t(4) << 20);
+
+  r = test::run_cli("export " + root + "/m.json --env none --out " + root + "/none --size 32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  ej = nlohmann::json::parse(read_text_file(root + "/none/export.json"));
+  EXPECT_FALSE(ej["tables"].contains("environment"));
+  EXPECT_FALSE(std::filesystem::exists(root + "/none/tables/environment_t0.ktx2"));
+
+  Material fiber = brushed();
+  fiber.model = Model::kFiber;
+  fiber.topology = UniformS{0.3};
+  material_to_json(fiber, &j);
+  write_json_file(root + "/f.json", j);
+  r = test::run_cli("export " + root + "/f.json --out " + root + "/fiber --size 32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("no environment"), std::string::npos) << r.output;
+  ej = nlohmann::json::parse(read_text_file(root + "/fiber/export.json"));
+  EXPECT_FALSE(ej["tables"].contains("environment"));
+  EXPECT_NE(ej["tables"]["environment_left_out"].get<std::string>().find("the fiber model"),
+            std::string::npos);
+  r = test::run_cli("export " + root + "/f.json --env studio --out " + root + "/fiber_env --size 32");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("the fiber model"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(root + "/fiber_env"));
+}
+
 TEST(Export, RefusesAFolderThatIsNotAnEarlierExport) {
   const std::string root = tmp_dir("out");
   const std::string dir = root + "/mine";
@@ -883,7 +931,7 @@ TEST(Export, BrowserViewerUnderAnEnvironmentMatchesThePreview) {
   ASSERT_EQ(env["terms"].size(), 7u);
   const KtxTexture t0 = read_ktx2(root + "/export/" + env["terms"][0].get<std::string>());
   EXPECT_EQ(t0.layers, env["layers"].get<int>());
-  EXPECT_EQ(t0.format, KtxFormat::kRGBA32Float);
+  EXPECT_EQ(t0.format, KtxFormat::kRGBA16Float);
   const std::string q = "env=1&view=0.3,-0.8,0.5&size=200x160";
   const auto shot = run_command("'" + web_dir() + "/screenshot.sh' '" + root + "/export' '" + q +
                                 "' '" + root + "/web.png' 200 160");

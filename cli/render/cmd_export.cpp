@@ -143,8 +143,10 @@ Command add_export(CLI::App& app) {
       ->required();
   add_force_flag(ex, &a->force);
   ex->add_option("--env", a->env,
-                 "also prefilter an equirectangular HDR environment (FILE.exr, z up) or the "
-                 "built-in 'studio' for the material: the browser viewer then lights with it");
+                 "the environment prefiltered for the material, which the browser viewer lights "
+                 "with: the built-in 'studio' (the default, left out with a note for a material "
+                 "it cannot carry: the fiber model, maps, a second fiber, an isotropic term), "
+                 "an equirectangular HDR FILE.exr (z up), or 'none'");
   ex->add_flag(
       "--engines", a->engines,
       "also render the exported glTF with three.js's GLTFLoader, Babylon.js and the "
@@ -164,9 +166,10 @@ Command add_export(CLI::App& app) {
         o.size = a->size;
         o.command = shareable_command_line(a->out);
         Environment env;
-        if (!a->env.empty()) {
-          env = named_environment(a->env);
+        if (a->env != "none") {
+          env = named_environment(a->env.empty() ? "studio" : a->env);
           o.environment = &env;
+          o.environment_where_it_applies = a->env.empty();
         }
         std::string web;
         nlohmann::json measured;
@@ -194,11 +197,14 @@ Command add_export(CLI::App& app) {
             "rotation %.1f deg; GGX lobe vs the model's lobe: relative RMS %.3f\n",
             s.pbr.roughness, s.pbr.strength, rad_to_deg(s.pbr.rotation_rad), s.pbr.lobe_rel_rms);
         std::printf("  %s\n", s.pbr.mapping.c_str());
-        if (o.environment)
+        if (o.environment && s.environment_left_out.empty())
           std::printf(
               "  environment %s prefiltered in %.2f s: tables/environment_t0..6.ktx2 (the "
-              "browser viewer lights with it: viewer.html?env=1)\n",
+              "browser viewer's orbit view lights with it; --env none leaves it out)\n",
               env.name.c_str(), s.environment_seconds);
+        else if (o.environment)
+          std::printf("  no environment: %s (the browser viewer lights with its light and fill)\n",
+                      s.environment_left_out.c_str());
         if (s.gltf_texels.w > 0)
           std::printf(
               "  glTF per texel (%dx%d, the lobe fitted at %d values of n): baseColorTexture, "

@@ -510,23 +510,19 @@ void write_gltf(const std::string& tmp, const Material& m, const json& tables, E
 
 namespace {
 
-// --env: the environment's prefiltered terms as seven RGBA32F 2D arrays (a layer per level of
+// --env: the environment's prefiltered terms as seven RGBA16F 2D arrays (a layer per level of
 // <V,T>: the volumes shaders/aniso_environment.glsl samples) beside that file, and their entry in
-// export.json's tables.
+// export.json's tables. Half floats: their rounding (2^-11 relative) is far under the prefilter's
+// own error against brute force, they filter in every WebGL 2, and the terms take half the bytes.
 json write_environment(const std::string& dir, const Material& m, const Environment& env,
                        ExportSummary* sum) {
-  if (m.fiber() || m.maps.any() || m.second_active() || m.isotropic_active())
-    throw Error(
-        "export: --env prefilters the line model with one fiber and no maps; this material has " +
-        std::string(m.fiber()           ? "the fiber model"
-                    : m.maps.any()      ? "maps"
-                    : m.second_active() ? "a second fiber"
-                                        : "an isotropic term"));
+  if (const std::string why = environment_refusal(m); !why.empty())
+    throw Error("export: --env " + env.name + ": " + why);
   const EnvironmentTables et = prefilter_environment(env, sum->line);
   json files = json::array();
   for (int t = 0; t < 7; ++t) {
     KtxTexture k;
-    k.format = KtxFormat::kRGBA32Float;
+    k.format = KtxFormat::kRGBA16Float;
     k.width = et.w, k.height = et.h, k.layers = et.nb;
     k.texels.resize(static_cast<size_t>(et.w) * et.h * et.nb * 4);
     for (size_t p = 0; p < k.texels.size() / 4; ++p) {
@@ -560,6 +556,16 @@ json write_environment(const std::string& dir, const Material& m, const Environm
 
 }  // namespace
 
+std::string environment_refusal(const Material& m) {
+  if (!(m.fiber() || m.maps.any() || m.second_active() || m.isotropic_active())) return "";
+  return "the environment is prefiltered for the line model with one fiber and no maps; this "
+         "material has " +
+         std::string(m.fiber()           ? "the fiber model"
+                     : m.maps.any()      ? "maps"
+                     : m.second_active() ? "a second fiber"
+                                         : "an isotropic term");
+}
+
 ExportSummary export_material(const Material& m, const std::string& dir, const ExportOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   if (o.size < 2 || o.size > 8192) throw Error("export: --size must be between 2 and 8192");
@@ -570,7 +576,14 @@ ExportSummary export_material(const Material& m, const std::string& dir, const E
     // A maps material takes seconds (the specular stack, a lobe fit per glTF texel).
     Progress bar("export: tables, maps, shaders, glTF, viewer", 5, o.progress);
     json tables = write_tables(tmp, m, o, &sum);
-    if (o.environment) tables["environment"] = write_environment(tmp, m, *o.environment, &sum);
+    if (o.environment) {
+      sum.environment_left_out =
+          o.environment_where_it_applies ? environment_refusal(m) : std::string();
+      if (sum.environment_left_out.empty())
+        tables["environment"] = write_environment(tmp, m, *o.environment, &sum);
+      else
+        tables["environment_left_out"] = o.environment->name + ": " + sum.environment_left_out;
+    }
     bar.advance();
     const json maps = write_maps(tmp, m, o, &sum, &tables);
     bar.advance();

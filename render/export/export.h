@@ -35,8 +35,11 @@ struct ExportOptions {
   const ProgressSink* progress = nullptr;  // its bar: tables, maps, shaders, glTF, viewer
   // --env: this environment prefiltered for the material (render/bake/environment.h) as
   // tables/environment_t0..6.ktx2, which the browser viewer lights with (a line material with one
-  // fiber and no maps).
+  // fiber and no maps: environment_refusal). With `environment_where_it_applies` a material it does
+  // not apply to is exported without it, export.json saying why (the CLI's default studio);
+  // otherwise it is an error.
   const Environment* environment = nullptr;
+  bool environment_where_it_applies = false;
   // Called with the export's folder as written so far (everything but export.json), before it
   // replaces the output: what it returns goes into export.json as "engines_measured" (the CLI's
   // --engines renders the glTF with real engines there; null: nothing added).
@@ -77,7 +80,12 @@ struct ExportSummary {
   std::vector<std::string> warnings;  // said to the user and recorded in export.json
   double seconds = 0;
   double environment_seconds = 0;  // --env: the prefilter's
+  std::string environment_left_out;  // why the environment was not written ("" if it was)
 };
+
+// Why an environment cannot be prefiltered for `m` ("" where it can): the prefilter is the line
+// model's with one fiber and no maps.
+std::string environment_refusal(const Material& m);
 
 // Writes the folder atomically: new, empty, or an earlier export holding exactly what it wrote
 // (io/files/files.h); anything else is refused, or with --force moved aside.
