@@ -905,21 +905,36 @@ std::string text_fingerprint(const std::string& text) {
 std::string files_fingerprint(const std::vector<std::string>& files, const std::string& base) {
   std::string all;
   constexpr size_t kPart = size_t(64) << 10;
+  // A capture lists its shared geometry once per view: each file is resolved and read once, its
+  // piece reused where it repeats (the same bytes as reading it again). The base is resolved once.
+  const fs::path b = fs::weakly_canonical(fs::absolute(base));
+  std::map<std::string, std::pair<std::string, bool>> pieces;  // file -> its bytes, regular
   for (const auto& f : files) {
-    all += relative_to(f, base);
-    all.push_back('\0');
-    struct stat st;
-    if (::stat(f.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
-    all += std::to_string(st.st_size);
-    std::ifstream in(f, std::ios::binary);
-    std::string part(std::min<size_t>(kPart, static_cast<size_t>(st.st_size)), '\0');
-    in.read(part.data(), static_cast<std::streamsize>(part.size()));
-    all += part;
-    if (static_cast<size_t>(st.st_size) > kPart) {
-      in.seekg(-static_cast<std::streamoff>(part.size()), std::ios::end);
-      in.read(part.data(), static_cast<std::streamsize>(part.size()));
-      all += part;
+    auto [it, fresh] = pieces.try_emplace(f);
+    std::string& piece = it->second.first;
+    bool& regular = it->second.second;
+    if (fresh) {
+      const fs::path p = fs::weakly_canonical(fs::absolute(f));
+      const fs::path r = p.lexically_relative(b);
+      piece = r.empty() ? p.string() : r.string();  // relative_to's answer
+      piece.push_back('\0');
+      struct stat st;
+      regular = ::stat(f.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+      if (regular) {
+        piece += std::to_string(st.st_size);
+        std::ifstream in(f, std::ios::binary);
+        std::string part(std::min<size_t>(kPart, static_cast<size_t>(st.st_size)), '\0');
+        in.read(part.data(), static_cast<std::streamsize>(part.size()));
+        piece += part;
+        if (static_cast<size_t>(st.st_size) > kPart) {
+          in.seekg(-static_cast<std::streamoff>(part.size()), std::ios::end);
+          in.read(part.data(), static_cast<std::streamsize>(part.size()));
+          piece += part;
+        }
+      }
     }
+    all += piece;
+    if (!regular) continue;        // its name alone
     all += text_fingerprint(all);  // keeps `all` from growing past a few MB per file set
     all.erase(0, all.size() - 16);
   }
