@@ -950,16 +950,7 @@ TEST(Export, BrowserViewerUnderAnEnvironmentMatchesThePreview) {
       mad, lit);
   EXPECT_LT(mad, 0.02);
   EXPECT_GT(lit, 0.1);
-  // A fiber material is refused, naming what it has.
-  Material fiber = brushed();
-  fiber.model = Model::kFiber;
-  fiber.topology = UniformS{0.3};
-  material_to_json(fiber, &j);
-  write_json_file(root + "/f.json", j);
-  r = test::run_cli("export " + root + "/f.json --env studio --out " + root + "/f_export");
-  EXPECT_NE(r.status, 0);
-  EXPECT_NE(r.output.find("the fiber model"), std::string::npos) << r.output;
-  EXPECT_FALSE(std::filesystem::exists(root + "/f_export/export.json"));
+  // A material the prefilter does not cover: Export.TheStudioGoesWithEveryExportThatCanCarryIt.
 }
 
 // The three.js viewer in headless Chromium (SwiftShader WebGL) renders the frame `aniso preview`

@@ -23,61 +23,12 @@ ANISO_AVX2_FMA_INLINE v4d vmax(v4d a, v4d b) { return select(a > b, a, b); }
 ANISO_AVX2_FMA_INLINE v4d vmin(v4d a, v4d b) { return select(a < b, a, b); }
 ANISO_AVX2_FMA_INLINE v4d vsqrt(v4d a) { return __builtin_ia32_sqrtpd256(a); }
 
-// exp(t): t = k ln 2 + r, |r| <= ln 2 / 2, e^r by its Taylor series to r^13 (truncation below
-// 5e-18), times 2^k built in the exponent bits. 0 below -708 (where 2^k would be subnormal).
-ANISO_AVX2_FMA_INLINE v4d vexp(v4d t) {
-  const v4d magic = splat(6755399441055744.0);  // 1.5 * 2^52: adding it rounds to an integer
-  const v4d tc = vmin(vmax(t, splat(-708.0)), splat(709.0));
-  const v4d kd = (tc * splat(1.4426950408889634) + magic) - magic;
-  // ln 2 in two parts (fdlibm's): k * kLn2Hi is exact for |k| < 2^20.
-  const v4d r =
-      (tc - kd * splat(6.93147180369123816490e-01)) - kd * splat(1.90821492927058770002e-10);
-  static constexpr double kInvFact[] = {1.0 / 6227020800.0,
-                                        1.0 / 479001600.0,
-                                        1.0 / 39916800.0,
-                                        1.0 / 3628800.0,
-                                        1.0 / 362880.0,
-                                        1.0 / 40320.0,
-                                        1.0 / 5040.0,
-                                        1.0 / 720.0,
-                                        1.0 / 120.0,
-                                        1.0 / 24.0,
-                                        1.0 / 6.0,
-                                        0.5,
-                                        1.0,
-                                        1.0};
-  v4d p = splat(kInvFact[0]);
-  for (int j = 1; j < 14; ++j) p = p * r + splat(kInvFact[j]);
-  const v4i k = (v4i)(kd + magic) - (v4i)magic;
-  const v4d scale = (v4d)((k + 1023) << 52);
-  return select(t < splat(-708.0), splat(0.0), p * scale);
-}
-
-// log(x), x > 0 (subnormals are taken as the smallest normal): x = m 2^e with m in
-// [sqrt(1/2), sqrt(2)), log m = 2 atanh(s), s = (m - 1) / (m + 1), |s| <= 0.1716, by its series
-// to s^23 (truncation below 1e-17).
-ANISO_AVX2_FMA_INLINE v4d vlog(v4d x) {
-  x = vmax(x, splat(2.2250738585072014e-308));
-  const v4i bits = (v4i)x;
-  const v4i e0 = ((bits >> 52) & 0x7ff) - 1023;
-  v4d m = (v4d)((bits & 0x000fffffffffffffLL) | 0x3ff0000000000000LL);
-  const v4i big = m > splat(1.4142135623730951);
-  m = select(big, m * splat(0.5), m);
-  const v4i e = e0 - big;  // big is -1 where m was halved
-  // int64 to double through the exponent bits (e + 1024 is in [1, 2048]).
-  const v4d ed =
-      ((v4d)((e + 1024) | 0x4330000000000000LL) - splat(4503599627370496.0)) - splat(1024.0);
-  // log m = f - (f^2/2 - s (f^2/2 + R)), R = 2 s^2/3 + 2 s^4/5 + ...: the exact f first, the
-  // small corrections after (fdlibm's order, which keeps the rounding near one ulp).
-  const v4d f = m - splat(1.0);
-  const v4d s = f / (splat(2.0) + f), z = s * s, hfsq = splat(0.5) * f * f;
-  v4d R = splat(2.0 / 23);
-  for (int j = 21; j >= 3; j -= 2) R = R * z + splat(2.0 / j);
-  R = R * z;
-  const v4d hi = ed * splat(6.93147180369123816490e-01),
-            lo = ed * splat(1.90821492927058770002e-10);
-  return hi - ((hfsq - (s * (hfsq + R) + lo)) - f);
-}
+// exp and log of the lanes (core/simd_exp_log.inc, shared with the fiber lobe's nodes).
+typedef v4d vd;
+typedef v4i vl;
+#define SIMD_INLINE ANISO_AVX2_FMA_INLINE
+#include "core/simd_exp_log.inc"
+#undef SIMD_INLINE
 
 // sqrt(1 - a^2) and its derivative, as sin_and_derivative (fit/solvers/line_pixel.h) lane by lane.
 ANISO_AVX2_FMA_INLINE void vsin(v4d a, v4d* s, v4d* ds) {
