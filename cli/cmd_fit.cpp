@@ -136,7 +136,7 @@ void print_report(FILE* o, const FitResult& r) {
   for (const auto& s : p.model_summaries) std::fprintf(o, "fit: --model auto: %s\n", s.c_str());
   if (!p.model_selection.empty())
     std::fprintf(o, "fit: model selection: %s\n", p.model_selection.c_str());
-  for (const auto& w : p.warnings) std::fprintf(o, "fit: WARNING: %s\n", w.c_str());
+  for (const auto& w : p.warnings) std::fprintf(o, "fit: WARNING: %s\n", w.text.c_str());
   for (const auto& n : p.notes) std::fprintf(o, "fit: note: %s\n", n.c_str());
 }
 
@@ -375,7 +375,8 @@ void measured_fit_report(const RglBsdf& b, const SampleTable& table, FitResult* 
     r->undetermined["fiber_angle_deg"] =
         "the measured file is isotropic (its phi_i grid has " + std::to_string(b.phi_i().size()) +
         " value): a fiber direction fitted to it describes no anisotropy of the material";
-    r->report.warnings.push_back("fiber_angle_deg: " + r->undetermined["fiber_angle_deg"]);
+    r->report.warnings.push_back(
+        {"fiber_angle_deg: " + r->undetermined["fiber_angle_deg"], WarningAbout::kFiberAngle});
   }
 }
 

@@ -120,7 +120,7 @@ FitResult fit_one_model(Model model, const ObsSet& os, const FitOptions& opt, Fi
   if (!sol.other_minimum.empty()) {  // a sigma about one of two answers says nothing
     res.sigma.erase("fiber_angle_deg");
     res.undetermined["fiber_angle_deg"] = sol.other_minimum;
-    rep.warnings.push_back("fiber_angle_deg: " + sol.other_minimum);
+    rep.warnings.push_back({"fiber_angle_deg: " + sol.other_minimum, WarningAbout::kFiberAngle});
   }
   rep.covariance = res.report.covariance;
   for (const auto& w : res.report.warnings) rep.warnings.push_back(w);
@@ -159,7 +159,7 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
   // The file's warnings about its global values hold here too; those about its own maps or tile
   // do not (this fit says its own): a --global that was a --maps fit printed each twice.
   for (const auto& w : opt.global->warnings)
-    if (!is_maps_warning(w) && w.rfind("tile ", 0) != 0) rep.warnings.push_back(w);
+    if (w.about != WarningAbout::kMaps && w.about != WarningAbout::kTile) rep.warnings.push_back(w);
   if (opt.global->views > 0 && opt.global->views != rep.views)
     rep.warnings.push_back("--global " + opt.global->file + " was fitted on " +
                            std::to_string(opt.global->views) + " views; this capture has " +
@@ -185,11 +185,12 @@ FitResult maps_on_given_global(Model model, const ObsSet& os, const FitOptions& 
   add_texel_maps(os, opt, c, rep.fiber_order, topo, &rep, &res, bands);
   if (rep.observations == 0) {
     if (opt.tile_count == 0) throw Error(kNoObservations);
-    rep.warnings.push_back("tile " + std::to_string(opt.tile_index) + "/" +
-                           std::to_string(opt.tile_count) +
-                           ": no usable pixel's uv falls in its texel rows (the sample's uv "
-                           "leaves them empty): every texel of it is undetermined, with the "
-                           "global values");
+    rep.warnings.push_back({"tile " + std::to_string(opt.tile_index) + "/" +
+                                std::to_string(opt.tile_count) +
+                                ": no usable pixel's uv falls in its texel rows (the sample's uv "
+                                "leaves them empty): every texel of it is undetermined, with the "
+                                "global values",
+                            WarningAbout::kTile});
   }
   rep.seconds += seconds_since(t0);
   res.report = rep;

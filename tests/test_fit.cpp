@@ -354,6 +354,52 @@ double worst_in_sigma(const FitResult& ra, const FitResult& rb, double limit) {
 // Progress is told to the sink the options carry (core/progress.h), never printed by the library:
 // a fiber fit (views loaded, the start grid, the fused solver's passes) and a Ceres one (its
 // iterations) with a recording sink write nothing to stderr.
+// A warning carries what it is about, and the material file records it beside the text
+// (report.warnings_about): a fit that reads the file back (a --global, the tiles' merge) picks
+// warnings out by that, whatever their words; a file without the key is read by the words each
+// kind began with.
+TEST(FitPaths, WarningsArePickedOutByWhatTheyAreAbout) {
+  const std::string dir = test::tmp_dir("set");
+  simulate_capture(make_preset("brushed-metal", small(2, 24)), dir);
+  FitResult r = fit_capture(read_capture(dir), quiet());
+  r.report.warnings = {{"--maps: 3 texels stopped", WarningAbout::kMaps},
+                       {"texels the data do not know", WarningAbout::kMaps},
+                       {"--maps: only looks like a count", WarningAbout::kOther},
+                       {"tile 1/2: no usable pixel", WarningAbout::kTile},
+                       {"the solver stopped after 5 steps", WarningAbout::kSolverStopped}};
+  const std::string text = fit_text(r);
+  auto j = nlohmann::json::parse(text);
+  EXPECT_EQ(j["report"]["warnings_about"],
+            nlohmann::json({"maps", "maps", "other", "tile", "solver_stopped"}));
+  const GivenGlobal g = given_global(text, "g.json", dir);
+  ASSERT_EQ(g.warnings.size(), 5u);
+  for (size_t k = 0; k < 5; ++k) {
+    EXPECT_EQ(g.warnings[k].text, r.report.warnings[k].text);
+    EXPECT_EQ(g.warnings[k].about, r.report.warnings[k].about) << g.warnings[k].text;
+  }
+  // Written before the key: by the words.
+  j["report"].erase("warnings_about");
+  const GivenGlobal old = given_global(j.dump(), "old.json", dir);
+  ASSERT_EQ(old.warnings.size(), 5u);
+  EXPECT_EQ(old.warnings[0].about, WarningAbout::kMaps);
+  EXPECT_EQ(old.warnings[1].about, WarningAbout::kOther);
+  EXPECT_EQ(old.warnings[2].about, WarningAbout::kMaps);
+  EXPECT_EQ(old.warnings[3].about, WarningAbout::kTile);
+  EXPECT_EQ(old.warnings[4].about, WarningAbout::kSolverStopped);
+  // A fit given it as --global keeps the warnings about its global values, not its counts over
+  // the maps or its tile's rows (it says its own).
+  FitOptions o = quiet();
+  o.global = g;
+  o.maps_w = o.maps_h = 4;
+  const FitResult m = fit_capture(read_capture(dir), o);
+  std::vector<std::string> carried;
+  for (const auto& w : m.report.warnings)
+    for (const auto& given : g.warnings)
+      if (w.text == given.text) carried.push_back(w.text);
+  EXPECT_EQ(carried, (std::vector<std::string>{"--maps: only looks like a count",
+                                               "the solver stopped after 5 steps"}));
+}
+
 TEST(FitPaths, ProgressGoesToTheSinkNotTheTerminal) {
   struct Recorder : ProgressSink {
     mutable std::vector<std::string> labels, statuses;
@@ -417,8 +463,8 @@ TEST(FitPaths, FusedSolverAndCeresReachTheSameMinimum) {
                 o->chunked ? "256-pixel blocks" : "per pixel", worst, ra.report.seconds_solve,
                 rb.report.seconds_solve);
   }
-  // The 4-lane pass (fit/solvers/line_pixel_lanes.h, where the CPU has AVX2) and the scalar pass: the same
-  // function in another order of operations, so the same minimum to rounding.
+  // The 4-lane pass (fit/solvers/line_pixel_lanes.h, where the CPU has AVX2) and the scalar pass:
+  // the same function in another order of operations, so the same minimum to rounding.
   std::printf("4-lane pass on this CPU: %s\n", fitting::line_lanes_on(true) ? "yes" : "no");
   EXPECT_EQ(ra.report.pass.rfind("4 pixels at a time", 0) == 0, fitting::line_lanes_on(true))
       << ra.report.pass;

@@ -408,7 +408,8 @@ void test_isotropic_alternative(const ObsSet& os, const FitOptions& opt, FitResu
         "the data show no anisotropic lobe: " + comparison +
         " (kept by --keep-anisotropic): the fiber direction describes no anisotropy of the "
         "material";
-    rep.warnings.push_back("fiber_angle_deg: " + res->undetermined["fiber_angle_deg"]);
+    rep.warnings.push_back(
+        {"fiber_angle_deg: " + res->undetermined["fiber_angle_deg"], WarningAbout::kFiberAngle});
     return;
   }
 
@@ -460,12 +461,12 @@ void test_isotropic_alternative(const ObsSet& os, const FitOptions& opt, FitResu
   rep.bic = all_values * std::log(std::max(rep.rss, 1e-300) / all_values) +
             kParams * std::log(all_values);
   rep.covariance = "isotropic model: residual-scaled";
-  // The fitted model's misfit and fiber-direction warnings were about a material not written.
-  const std::string old_misfit = misfit_warning(os, before);
-  std::vector<std::string> kept;
+  // The fitted model's misfit, fiber-direction and solver warnings were about a material not
+  // written.
+  std::vector<Warning> kept;
   for (const auto& w : rep.warnings)
-    if (w != old_misfit && w.rfind("fiber_angle_deg: ", 0) != 0 &&
-        w.rfind("the solver stopped", 0) != 0)
+    if (w.about != WarningAbout::kGlobalMisfit && w.about != WarningAbout::kFiberAngle &&
+        w.about != WarningAbout::kSolverStopped)
       kept.push_back(w);
   rep.warnings = std::move(kept);
   rep.warnings.push_back(
@@ -477,7 +478,8 @@ void test_isotropic_alternative(const ObsSet& os, const FitOptions& opt, FitResu
     rep.warnings.push_back(
         "the isotropic material's solve stopped before converging: its numbers may not be the "
         "minimum");
-  if (auto w = misfit_warning(os, rep); !w.empty()) rep.warnings.push_back(w);
+  if (auto w = misfit_warning(os, rep); !w.empty())
+    rep.warnings.push_back({w, WarningAbout::kGlobalMisfit});
   rep.model_selection = (rep.model_selection.empty() ? "" : rep.model_selection + "; then ") +
                         "isotropic part alone: " + comparison;
 }

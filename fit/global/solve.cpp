@@ -243,7 +243,8 @@ void summarize(const ObsSet& os, size_t nparam, Solution* sol, FitReport* rep) {
   rep->bic =
       m * std::log(std::max(rep->rss, 1e-300) / m) + static_cast<double>(nparam) * std::log(m);
   rep->pixel_noise = os.pixel_noise;
-  if (auto w = misfit_warning(os, *rep); !w.empty()) rep->warnings.push_back(w), sol->misfit = true;
+  if (auto w = misfit_warning(os, *rep); !w.empty())
+    rep->warnings.push_back({w, WarningAbout::kGlobalMisfit}), sol->misfit = true;
 }
 
 // Stage 1 by Ceres: plain least squares on the start subset; its residuals.
@@ -431,9 +432,10 @@ Solution solve(ModelFit* m, const ObsSet& os, const FitOptions& opt, FitReport* 
                             std::string(buf) + " in the last of " + std::to_string(kIrlsRounds) +
                             " rounds: the numbers may not be the minimum");
   } else if (rep->termination == "NO_CONVERGENCE") {  // either solver
-    rep->warnings.push_back("the solver stopped after --max-iterations " +
-                            std::to_string(opt.max_iterations) +
-                            " steps before converging: the numbers may not be the minimum");
+    rep->warnings.push_back({"the solver stopped after --max-iterations " +
+                                 std::to_string(opt.max_iterations) +
+                                 " steps before converging: the numbers may not be the minimum",
+                             WarningAbout::kSolverStopped});
   }
   rep->seconds_solve = seconds_since(t_solve);
   return sol;

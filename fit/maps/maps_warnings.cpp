@@ -80,10 +80,10 @@ void warn_misfit_texels(const TexelMaps& m, double noise, FitReport* rep) {
 
 void add_maps_warnings(const TexelMaps& m, double noise, int iterations, FitReport* rep) {
   // The misfit check judged the one global parameter set; say what the maps leave.
-  constexpr const char* kGlobalMisfit[2] = {"the model does not describe the data",
-                                            "one parameter set for the whole sample"};
-  for (auto& w : rep->warnings)
-    if ((w.rfind(kGlobalMisfit[0], 0) == 0 || w.rfind(kGlobalMisfit[1], 0) == 0) && m.values > 0) {
+  const size_t before = rep->warnings.size();
+  for (auto& warning : rep->warnings)
+    if (warning.about == WarningAbout::kGlobalMisfit && m.values > 0) {
+      std::string& w = warning.text;
       char buf[200];
       std::snprintf(buf, sizeof buf,
                     "one parameter set for the whole sample does not describe the data (residual "
@@ -157,6 +157,8 @@ void add_maps_warnings(const TexelMaps& m, double noise, int iterations, FitRepo
         (iterations > 0 ? std::to_string(iterations) + " iterations (--maps-iterations)"
                         : std::string("their iteration limit (--maps-iterations)")) +
         " before their solver converged: marked undetermined, the global values kept");
+  for (size_t k = before; k < rep->warnings.size(); ++k)
+    rep->warnings[k].about = WarningAbout::kMaps;  // each begins "--maps: "
 }
 
 }  // namespace aniso

@@ -70,6 +70,35 @@ void rename_maps(const std::map<std::string, std::string>& names, jsonu::json* j
 
 namespace {
 
+// A report's warnings: their texts, and beside them what each is about (report.warnings_about),
+// which a reader picks them out by.
+void put_warnings(const std::vector<Warning>& warnings, jsonu::json* report) {
+  std::vector<std::string> texts, about;
+  for (const auto& w : warnings) {
+    texts.push_back(w.text);
+    about.push_back(warning_about_name(w.about));
+  }
+  (*report)["warnings"] = texts;
+  (*report)["warnings_about"] = about;
+}
+
+// The same read back; a file without warnings_about (or with another count) is read by the words
+// each kind of warning began with when it was written.
+std::vector<Warning> warnings_read_back(const jsonu::json& report) {
+  std::vector<Warning> out;
+  const jsonu::json texts = report.value("warnings", jsonu::json::array());
+  const jsonu::json about = report.value("warnings_about", jsonu::json::array());
+  const bool named = about.is_array() && about.size() == texts.size();
+  for (size_t k = 0; texts.is_array() && k < texts.size(); ++k) {
+    if (!texts[k].is_string()) continue;
+    const std::string t = texts[k].get<std::string>();
+    out.push_back({t, named && about[k].is_string()
+                          ? warning_about_named(about[k].get<std::string>())
+                          : warning_about_from_words(t)});
+  }
+  return out;
+}
+
 // --maps: the maps (docs/formats.md "Material maps") of the material at `path`, written into
 // `dir` under their plain names, and those names in j (write_material renames both).
 void add_maps(const std::string& path, const std::string& dir, const TexelMaps& t, jsonu::json* j,
@@ -287,7 +316,7 @@ jsonu::json report_json(const FitReport& p) {
           {"ks", {t.iso_ks[0], t.iso_ks[1], t.iso_ks[2]}},
           {"n", t.iso_n}}}};
   }
-  if (!p.warnings.empty()) j["warnings"] = p.warnings;
+  if (!p.warnings.empty()) put_warnings(p.warnings, &j);
   if (!p.notes.empty()) j["notes"] = p.notes;
   if (p.measured_rel_rms >= 0) {
     jsonu::json by = jsonu::json::array();
@@ -464,8 +493,7 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
     g.rms = rep.value("residual_rms", 0.0);
     if (rep.contains("capture_layout") && rep["capture_layout"].is_string())
       g.capture_layout = rep["capture_layout"].get<std::string>();
-    for (const auto& w : rep.value("warnings", jsonu::json::array()))
-      if (w.is_string()) g.warnings.push_back(w);
+    g.warnings = warnings_read_back(rep);
   }
   // "uncertainty": a number or an array per key; null where undetermined.
   const jsonu::json unc = j.value("uncertainty", jsonu::json::object());
@@ -710,11 +738,10 @@ void merge_maps_tiles(const std::vector<std::string>& tiles, const std::string& 
   std::nth_element(noise.begin(), noise.begin() + noise.size() / 2, noise.end());
   FitReport rep;
   rep.rms = fit["report"].value("residual_rms", 0.0);
-  for (const auto& w : fit["report"].value("warnings", jsonu::json::array()))
-    if (w.is_string() && !is_maps_warning(w.get<std::string>()))
-      rep.warnings.push_back(w.get<std::string>());
+  for (const auto& w : warnings_read_back(fit["report"]))
+    if (w.about != WarningAbout::kMaps) rep.warnings.push_back(w);
   add_maps_warnings(m, noise[noise.size() / 2], iterations, &rep);
-  fit["report"]["warnings"] = rep.warnings;
+  put_warnings(rep.warnings, &fit["report"]);
   fit["report"].erase("notes");  // each tile's named its own rows
   if (!rep.notes.empty()) fit["report"]["notes"] = rep.notes;
   fit["report"]["maps_misfit_texels"] = rep.maps_misfit_texels;

@@ -26,4 +26,39 @@ const char* fit_loss_name(FitLoss l) {
   return "none";
 }
 
+namespace {
+constexpr std::pair<WarningAbout, const char*> kWarningAbout[] = {
+    {WarningAbout::kOther, "other"},
+    {WarningAbout::kGlobalMisfit, "global_misfit"},
+    {WarningAbout::kMaps, "maps"},
+    {WarningAbout::kTile, "tile"},
+    {WarningAbout::kFiberAngle, "fiber_angle"},
+    {WarningAbout::kSolverStopped, "solver_stopped"},
+};
+}  // namespace
+
+const char* warning_about_name(WarningAbout about) {
+  for (const auto& [a, name] : kWarningAbout)
+    if (a == about) return name;
+  return "other";
+}
+
+WarningAbout warning_about_named(const std::string& name) {
+  for (const auto& [a, n] : kWarningAbout)
+    if (name == n) return a;
+  return WarningAbout::kOther;
+}
+
+WarningAbout warning_about_from_words(const std::string& text) {
+  const auto starts = [&](const char* w) { return text.rfind(w, 0) == 0; };
+  if (starts("--maps: ")) return WarningAbout::kMaps;
+  if (starts("tile ")) return WarningAbout::kTile;
+  if (starts("fiber_angle_deg: ")) return WarningAbout::kFiberAngle;
+  if (starts("the solver stopped")) return WarningAbout::kSolverStopped;
+  if (starts("the model does not describe the data") ||
+      starts("one parameter set for the whole sample"))
+    return WarningAbout::kGlobalMisfit;
+  return WarningAbout::kOther;
+}
+
 }  // namespace aniso

@@ -52,6 +52,32 @@ struct FiberOrderErrors {
 
 // A global fit given to --maps (--global, or rank 0's under `fit --mpi`): what an earlier fit's
 // file says, read by given_global.
+// What a warning is about: what a later phase, or a fit that reads this one's file back (a
+// --global, the tiles' merge), picks warnings out by, never by their words. The material file
+// records it beside the texts (report.warnings_about, one name per warning).
+enum class WarningAbout {
+  kOther,
+  kGlobalMisfit,   // the one parameter set does not describe the data
+  kMaps,           // counts over the --maps grid (a reader counts its own)
+  kTile,           // which rows a --tile fit holds
+  kFiberAngle,     // the fiber direction is not determined (another minimum fits as well)
+  kSolverStopped,  // the solver ran out of iterations
+};
+const char* warning_about_name(WarningAbout about);  // "other", "global_misfit", "maps", ...
+// A name read back ("other" for one it does not know). A file without report.warnings_about
+// (written before it was recorded): from the words each kind's warnings began with then.
+WarningAbout warning_about_named(const std::string& name);
+WarningAbout warning_about_from_words(const std::string& text);
+
+// A warning: said plainly to the user and recorded in the file, with what it is about.
+struct Warning {
+  std::string text;
+  WarningAbout about = WarningAbout::kOther;
+  Warning(std::string t, WarningAbout a = WarningAbout::kOther) : text(std::move(t)), about(a) {}
+  Warning(const char* t, WarningAbout a = WarningAbout::kOther) : text(t), about(a) {}
+  operator const std::string&() const { return text; }
+};
+
 struct GivenGlobal {
   std::string file;  // where it came from, for messages and the report
   Material material;
@@ -62,7 +88,7 @@ struct GivenGlobal {
   // Its report's views, residual RMS and warnings (carried into this result's report).
   size_t views = 0;
   double rms = 0;
-  std::vector<std::string> warnings;
+  std::vector<Warning> warnings;
   std::string capture_layout;  // report.capture_layout ("" in older files)
 };
 
@@ -286,8 +312,8 @@ struct FitReport {
     double iso_kd[3] = {0, 0, 0}, iso_ks[3] = {0, 0, 0}, iso_n = 0;  // its fit on `values`
   } anisotropy;
   // Said plainly to the user and recorded in the file: a fit that may be wrong (the model does
-  // not describe the data, ...), with the likely cause.
-  std::vector<std::string> warnings;
+  // not describe the data, ...), with the likely cause and what it is about.
+  std::vector<Warning> warnings;
   // Said and recorded, but not trouble: what a person should know of the result (texels that lie
   // outside the sample).
   std::vector<std::string> notes;
@@ -321,9 +347,5 @@ struct FitResult {
   int s_texels_n = 0;
   std::vector<double> s_texels, s_texel_sigma;
 };
-
-// Whether a warning is one of those counts (they all begin "--maps: "): a fit that reads another's
-// report (a --global, the tiles' merge) leaves them out and counts its own.
-inline bool is_maps_warning(const std::string& w) { return w.rfind("--maps: ", 0) == 0; }
 
 }  // namespace aniso
