@@ -146,11 +146,27 @@ struct Lookups {
   gl::Texture kd_map, ks_map, n_map, fiber_map, s_stack, amp_map, f_stack;
 };
 
-// An environment's prefiltered terms as RGB volumes.
+// An environment's prefiltered terms as RGB volumes; for a material with maps, apart for D and S
+// at unit k_d and k_s (`spec` then holds S's).
 struct EnvironmentLookup {
-  gl::Texture terms[7];
+  gl::Texture terms[7], spec[7];
+  bool parts = false;
   int levels = 0;
 };
+
+// The environment's units: after the maps' (5 to 10), D's (or the whole's) terms, then S's.
+constexpr int kEnvUnit = 11, kEnvSpecUnit = 18;
+
+// The line tables of D alone (k_d 1, k_s 0) or S alone (k_d 0, k_s 1), grey: what a material
+// with maps of k_d or k_s is prefiltered with, its colours applied per fragment.
+BakeTables unit_part(const BakeTables& t, bool specular) {
+  BakeTables u = t;
+  const Image& one = specular ? t.specular : t.diffuse;
+  u.combined = Image(one.width, one.height, 3);
+  for (size_t p = 0; p < static_cast<size_t>(one.width) * one.height; ++p)
+    for (int c = 0; c < 3; ++c) u.combined.px[p * 3 + c] = one.px[p];
+  return u;
+}
 
 // A map of k_d or k_s as RGB (one channel stands for all three, as material_at reads it).
 Image as_rgb(const Image& img) {
@@ -274,8 +290,9 @@ void set_local_uniforms(const gl::Program& p, const PreviewLight& light, const P
 }
 
 // Light from an environment: one pass over its prefiltered tables (render/shaders/env.frag).
-int draw_environment(const PreviewOptions& opt, const gl::Program& p, const EnvironmentLookup& env,
-                     const gl::MeshBuffers& mesh, const PreviewCamera& cam) {
+int draw_environment(const Material& m, const PreviewOptions& opt, const gl::Program& p,
+                     const EnvironmentLookup& env, const Lookups& lk, const gl::MeshBuffers& mesh,
+                     const PreviewCamera& cam) {
   glClearColor(float(opt.background[0]), float(opt.background[1]), float(opt.background[2]), 1);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glDisable(GL_BLEND);
@@ -284,10 +301,15 @@ int draw_environment(const PreviewOptions& opt, const gl::Program& p, const Envi
   p.use();
   p.set_matrix("uViewProj", cam.view_proj);
   for (int t = 0; t < 7; ++t) {
-    env.terms[t].bind(t);
-    const std::string name = "anisoEnv[" + std::to_string(t) + "]";
-    p.set(name.c_str(), t);
+    env.terms[t].bind(kEnvUnit + t);
+    p.set(("anisoEnv[" + std::to_string(t) + "]").c_str(), kEnvUnit + t);
+    if (env.parts) env.spec[t].bind(kEnvSpecUnit + t);
+    p.set(("anisoEnvS[" + std::to_string(t) + "]").c_str(), kEnvSpecUnit + t);
   }
+  set_map_uniforms(p, m, lk);
+  p.set("uEnvParts", env.parts ? 1 : 0);
+  p.set("uEnvKd", m.kd);
+  p.set("uEnvKs", m.ks);
   p.set("uV", cam.V);
   p.set("uPerspective", cam.perspective ? 1 : 0);
   p.set("uEye", cam.eye);
@@ -398,15 +420,16 @@ void check_preview_request(const Material& m, const PreviewOptions& opt, bool fi
     throw Error("preview: --size must be between 1x1 and 8192x8192");
   if (opt.environment) {
     const char* what = m.fiber()              ? "the fiber model"
-                       : m.maps.any()         ? "a material with maps"
+                       : m.maps.n             ? "a map of n"
                        : m.second_active()    ? "a second fiber"
                        : m.isotropic_active() ? "an isotropic term"
                        : opt.plain            ? "--plain"
                        : opt.per_vertex       ? "--per-vertex"
                                               : nullptr;
     if (what)
-      throw Error(std::string("preview: --env lights the line model with one fiber and no maps; ") +
-                  "not " + what + " (light it with --light instead)");
+      throw Error(
+          std::string("preview: --env lights the line model with one fiber and no map of n; ") +
+          "not " + what + " (light it with --light instead)");
     return;
   }
   if (opt.light_dirs.empty() && opt.point_lights.empty())
@@ -534,10 +557,20 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   EnvironmentLookup env;
   std::unique_ptr<gl::Program> env_pass;
   if (opt.environment) {
-    EnvironmentTables own;
-    if (!opt.prefiltered) own = prefilter_environment(*opt.environment, lk.tables);
-    const EnvironmentTables& et = opt.prefiltered ? *opt.prefiltered : own;
-    for (int t = 0; t < 7; ++t) env.terms[t].volume_rgb(et.terms[t], et.w, et.h, et.nb);
+    EnvironmentTables own, spec;
+    env.parts = m.maps.any();
+    if (env.parts) {  // D and S apart: the maps' k_d and k_s apply per fragment
+      own = prefilter_environment(*opt.environment, unit_part(lk.tables, false));
+      spec = prefilter_environment(*opt.environment, unit_part(lk.tables, true));
+      own.seconds += spec.seconds;
+    } else if (!opt.prefiltered) {
+      own = prefilter_environment(*opt.environment, lk.tables);
+    }
+    const EnvironmentTables& et = opt.prefiltered && !env.parts ? *opt.prefiltered : own;
+    for (int t = 0; t < 7; ++t) {
+      env.terms[t].volume_rgb(et.terms[t], et.w, et.h, et.nb);
+      if (env.parts) env.spec[t].volume_rgb(spec.terms[t], et.w, et.h, et.nb);
+    }
     env.levels = et.nb;
     res.env_prefilter_seconds = et.seconds;
     res.env_sizes.w = et.w, res.env_sizes.h = et.h, res.env_sizes.nb = et.nb;
@@ -550,7 +583,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   glEnable(GL_DEPTH_TEST);
   const auto t0 = std::chrono::steady_clock::now();
   for (int frame = 0; frame < std::max(1, opt.repeat); ++frame)
-    res.passes = env_pass ? draw_environment(opt, *env_pass, env, buffers, cam)
+    res.passes = env_pass ? draw_environment(m, opt, *env_pass, env, lk, buffers, cam)
                           : draw_frame(m, opt, ps, lk, buffers, cam, lights);
   res.frames = std::max(1, opt.repeat);
   res.seconds_per_frame =

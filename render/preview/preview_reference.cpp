@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "core/angles.h"
 #include "core/frame.h"
@@ -170,13 +171,23 @@ void environment_reference(const Material& m, const PreviewCamera& cam, const En
   const EnvironmentSamples s = environment_samples(env, w, h);
   const int W = g.N.width, H = g.N.height;
   res->reference = Image(W, H, 3);
-  Material local = m;  // in the frame (U = T) the fiber angle is 0
+  // In the frame (U = T) the fiber angle is 0, or the fiber map's (then T is the reference tangent,
+  // turned by the shader); a material with maps is evaluated at each fragment's uv.
+  const bool maps = m.maps.any(), psi_map = maps && m.maps.fiber != nullptr;
+  Material local = m;
   local.fiber_angle_deg = 0;
-  const Evaluator le(local);
+  const Evaluator uniform(local);
   tbb::parallel_for(0, H, [&](int y) {
     for (int x = 0; x < W; ++x) {
       SurfacePoint sp;
       if (!fragment_frame(g, *res, x, y, &sp)) continue;
+      std::optional<Evaluator> at;
+      if (maps) {
+        Material here = material_at(m, g.UV.at(x, y, 0), g.UV.at(x, y, 1));
+        if (!psi_map) here.fiber_angle_deg = 0;
+        at.emplace(here);
+      }
+      const Evaluator& le = maps ? *at : uniform;
       const Vec3 P{g.P.at(x, y, 0), g.P.at(x, y, 1), g.P.at(x, y, 2)};
       const LocalDir Vl = to_local(sp, cam.toward_viewer(P));
       double acc[3] = {0, 0, 0};
