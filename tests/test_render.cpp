@@ -409,7 +409,8 @@ TEST(View, ScreenshotShowsThePreviewAndTheErrorMap) {
 }
 
 // `aniso view` of a line material, with no light asked for, lights it from the built-in studio:
-// it shows what `aniso preview --env studio` renders.
+// it shows what `aniso preview --env studio` renders; a material with maps of k_d and the fiber
+// direction too.
 TEST(View, ByDefaultUnderTheStudioShowsThePreviewsFrame) {
   const std::string dir = test::tmp_dir("view_env");
   nlohmann::json j;
@@ -437,6 +438,31 @@ TEST(View, ByDefaultUnderTheStudioShowsThePreviewsFrame) {
   std::printf("view --env vs preview --env: max difference %.4f\n", diff);
   EXPECT_LE(diff, 2.5 / 255);
   EXPECT_GT(lit / n, 0.05);
+  // A material with maps of k_d and the fiber direction (one n) too, on its flat sample.
+  r = test::run_cli("synth swirl-plate " + dir + "/swirl --size 16x16 --views 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_command(xvfb + ANISO_BIN + " view " + dir + "/swirl/truth.json --size 640x480 " +
+                        "--view 0,-0.5,1 --screenshot " + dir + "/sv.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("preview " + dir +
+                    "/swirl/truth.json --size 640x480 --view 0,-0.5,1 --env studio --fill 0.15 "
+                    "--out " +
+                    dir + "/sp.png");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const Image sv = read_image(dir + "/sv.png").image, sp = read_image(dir + "/sp.png").image;
+  double sdiff = 0, slit = 0;
+  size_t sn = 0;
+  for (int y = 250; y < 370; ++y)  // the sample's lower right, clear of the window's panel
+    for (int x = 330; x < 460; ++x)
+      for (int c = 0; c < 3; ++c) {
+        sdiff = std::max(sdiff, double(std::abs(sv.at(x, y, c) - sp.at(x, y, c))));
+        slit += sp.at(x, y, c);
+        ++sn;
+      }
+  std::printf("view of swirl-plate's maps under the studio vs preview --env: max difference %.4f\n",
+              sdiff);
+  EXPECT_LE(sdiff, 2.5 / 255);
+  EXPECT_GT(slit / sn, 0.05);
 }
 
 // `aniso view EXPORT_DIR` draws the export's own tables and the maps it carries (it drew the

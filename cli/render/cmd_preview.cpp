@@ -48,7 +48,11 @@ Image turntable(const Material& m, PreviewOptions p, int n, PreviewResult* last)
                terminal_progress());
   bake_for_frames(m, &p, &bakes);
   EnvironmentTables prefiltered;  // an environment: prefiltered once too
-  if (p.environment && !p.prefiltered) {
+  EnvironmentParts parts;
+  if (p.environment && m.maps.any() && !p.prefiltered_parts) {
+    parts = prefilter_environment_parts(*p.environment, *p.baked);
+    p.prefiltered_parts = &parts;
+  } else if (p.environment && !p.prefiltered) {
     prefiltered = prefilter_environment(*p.environment, *p.baked);
     p.prefiltered = &prefiltered;
   }

@@ -136,7 +136,7 @@ Command add_view(CLI::App& app) {
             Environment env;
             std::string env_name = a->env;
             const bool env_allowed =
-                !m.fiber() && !m.maps.any() && !m.second_active() && !m.isotropic_active();
+                !m.fiber() && !m.maps.n && !m.second_active() && !m.isotropic_active();
             if (env_name.empty() && a->light.empty() && env_allowed) env_name = "studio";
             if (!env_name.empty() && env_name != "none") {
               env = named_environment(env_name);

@@ -107,6 +107,19 @@ EnvironmentSamples environment_samples(const Environment& env, int w, int h) {
   return s;
 }
 
+EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables) {
+  auto unit_part = [&](bool specular) {
+    BakeTables u = tables;
+    const Image& one = specular ? tables.specular : tables.diffuse;
+    u.combined = Image(one.width, one.height, 3);
+    for (size_t p = 0; p < static_cast<size_t>(one.width) * one.height; ++p)
+      for (int c = 0; c < 3; ++c) u.combined.px[p * 3 + c] = one.px[p];
+    return u;
+  };
+  return {prefilter_environment(env, unit_part(false)),
+          prefilter_environment(env, unit_part(true))};
+}
+
 void chi_frame(const Vec3& T, Vec3* e1, Vec3* e2) {
   Vec3 a = cross(Vec3(0, 0, 1), T);
   if (length(a) < 1e-6) a = cross(Vec3(1, 0, 0), T);

@@ -62,6 +62,15 @@ EnvironmentTables prefilter_environment(const Environment& env, const BakeTables
                                         int w = 64, int h = 32, int nb = 32, int env_w = 64,
                                         int env_h = 32);
 
+// A material with maps of k_d or k_s: the environment prefiltered through D alone (k_d 1, k_s 0)
+// and through S alone (k_d 0, k_s 1), grey, each as prefilter_environment's terms; a fragment's
+// radiance is k_d times the first's sum plus k_s times the second's, its maps' values applied
+// there (render/shaders/env.frag).
+struct EnvironmentParts {
+  EnvironmentTables diffuse, specular;
+};
+EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables);
+
 // The frame round T the tables use for chi.
 void chi_frame(const Vec3& T, Vec3* e1, Vec3* e2);
 

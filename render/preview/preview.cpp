@@ -157,17 +157,6 @@ struct EnvironmentLookup {
 // The environment's units: after the maps' (5 to 10), D's (or the whole's) terms, then S's.
 constexpr int kEnvUnit = 11, kEnvSpecUnit = 18;
 
-// The line tables of D alone (k_d 1, k_s 0) or S alone (k_d 0, k_s 1), grey: what a material
-// with maps of k_d or k_s is prefiltered with, its colours applied per fragment.
-BakeTables unit_part(const BakeTables& t, bool specular) {
-  BakeTables u = t;
-  const Image& one = specular ? t.specular : t.diffuse;
-  u.combined = Image(one.width, one.height, 3);
-  for (size_t p = 0; p < static_cast<size_t>(one.width) * one.height; ++p)
-    for (int c = 0; c < 3; ++c) u.combined.px[p * 3 + c] = one.px[p];
-  return u;
-}
-
 // A map of k_d or k_s as RGB (one channel stands for all three, as material_at reads it).
 Image as_rgb(const Image& img) {
   if (img.channels >= 3) return img;
@@ -557,22 +546,24 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   EnvironmentLookup env;
   std::unique_ptr<gl::Program> env_pass;
   if (opt.environment) {
-    EnvironmentTables own, spec;
-    env.parts = m.maps.any();
-    if (env.parts) {  // D and S apart: the maps' k_d and k_s apply per fragment
-      own = prefilter_environment(*opt.environment, unit_part(lk.tables, false));
-      spec = prefilter_environment(*opt.environment, unit_part(lk.tables, true));
-      own.seconds += spec.seconds;
-    } else if (!opt.prefiltered) {
+    EnvironmentTables own;
+    EnvironmentParts own_parts;
+    env.parts = m.maps.any();  // D and S apart: the maps' k_d and k_s apply per fragment
+    if (env.parts && !opt.prefiltered_parts)
+      own_parts = prefilter_environment_parts(*opt.environment, lk.tables);
+    else if (!env.parts && !opt.prefiltered)
       own = prefilter_environment(*opt.environment, lk.tables);
-    }
-    const EnvironmentTables& et = opt.prefiltered && !env.parts ? *opt.prefiltered : own;
+    const EnvironmentParts& parts = opt.prefiltered_parts ? *opt.prefiltered_parts : own_parts;
+    const EnvironmentTables& et = env.parts         ? parts.diffuse
+                                  : opt.prefiltered ? *opt.prefiltered
+                                                    : own;
     for (int t = 0; t < 7; ++t) {
       env.terms[t].volume_rgb(et.terms[t], et.w, et.h, et.nb);
-      if (env.parts) env.spec[t].volume_rgb(spec.terms[t], et.w, et.h, et.nb);
+      if (env.parts) env.spec[t].volume_rgb(parts.specular.terms[t], et.w, et.h, et.nb);
     }
     env.levels = et.nb;
-    res.env_prefilter_seconds = et.seconds;
+    res.env_prefilter_seconds =
+        env.parts ? parts.diffuse.seconds + parts.specular.seconds : et.seconds;
     res.env_sizes.w = et.w, res.env_sizes.h = et.h, res.env_sizes.nb = et.nb;
     res.env_sizes.env_w = et.env_w, res.env_sizes.env_h = et.env_h;
     env_pass = std::make_unique<gl::Program>(shaders::vertex_vert,

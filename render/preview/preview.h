@@ -57,13 +57,15 @@ struct PreviewOptions {
   const FiberBakeTables* baked_fiber = nullptr;
   const SpecularStack* baked_stack = nullptr;     // a material's map of n: the bake's stack
   const FiberStack* baked_fiber_stack = nullptr;  // and a fiber material's F over it
-  // Light from this environment instead of the lights (the line model with one fiber and no
-  // maps): prefiltered once (render/bake/environment.h), one pass; with `reference` against brute
-  // force, the exact model summed over the environment's directions with <N,L>^+.
+  // Light from this environment instead of the lights (the line model with one fiber, its maps of
+  // k_d, k_s and the fiber direction but not of n): prefiltered once (render/bake/environment.h),
+  // one pass; with `reference` against brute force, the exact model summed over the environment's
+  // directions with <N,L>^+.
   const Environment* environment = nullptr;
-  // Its prefiltered tables for this material, made once for many frames (the interactive view);
-  // prefiltered here when null.
+  // Its prefiltered tables for this material (a material with maps: D's and S's apart), made once
+  // for many frames (the interactive view, the turntable); prefiltered here when null.
   const EnvironmentTables* prefiltered = nullptr;
+  const EnvironmentParts* prefiltered_parts = nullptr;
 };
 
 struct PreviewResult {

@@ -212,7 +212,13 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
   s.environment = env != nullptr;
   EnvironmentTables prefiltered;
   std::pair<bool, bool> prefiltered_for{false, false};  // (diffuse, specular) shown
+  // A material with maps: D and S apart, once (the terms shown are its k_d or k_s at 0).
+  EnvironmentParts parts;
   auto refilter = [&](const Material& shown) {
+    if (m.maps.any()) {
+      if (parts.diffuse.w == 0) parts = prefilter_environment_parts(*env, *p.baked);
+      return;
+    }
     if (prefiltered.w > 0 && prefiltered_for == std::pair{s.diffuse, s.specular}) return;
     prefiltered = prefilter_environment(*env, bake_line(shown, p.baked->size, p.baked->index));
     prefiltered_for = {s.diffuse, s.specular};
@@ -235,9 +241,13 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
       const Material shown = with_terms(m, s);
       p.environment = s.environment ? env : nullptr;
       p.prefiltered = nullptr;
+      p.prefiltered_parts = nullptr;
       if (p.environment) {
         refilter(shown);
-        p.prefiltered = &prefiltered;
+        if (m.maps.any())
+          p.prefiltered_parts = &parts;
+        else
+          p.prefiltered = &prefiltered;
       }
       const auto t0 = std::chrono::steady_clock::now();
       r = render_preview(shown, p);
