@@ -7,8 +7,8 @@
 #include <random>
 #include <vector>
 
-#include "fit/solvers/line_solve.h"
 #include "fit/solvers/line_pixel_lanes.h"
+#include "fit/solvers/line_solve.h"
 #include "fit/solvers/start.h"
 #include "fit/solvers/texel_lanes.h"
 #include "models/evaluate.h"
@@ -158,8 +158,8 @@ void BM_LinePass(benchmark::State& st) {
 }
 BENCHMARK(BM_LinePass)->ArgsProduct({{4096}, {0, 1}});
 
-// One texel of --maps in float lanes (fit/solvers/texel_lanes.h): the pass with J^T J and J^T r, and
-// the eight start nodes (n = 2^4, the power of two nearest that set's global n, 15.7), over
+// One texel of --maps in float lanes (fit/solvers/texel_lanes.h): the pass with J^T J and J^T r,
+// and the eight start nodes (n = 2^4, the power of two nearest that set's global n, 15.7), over
 // `range(0)` observations under one grey light (80: the mean texel of a 1024^2 map from 64 views
 // of 2048^2).
 fitting::TexelLanes texel_lanes_of(size_t count) {

@@ -755,7 +755,8 @@ TEST(Export, TheStudioGoesWithEveryExportThatCanCarryIt) {
   EXPECT_FALSE(ej["tables"].contains("environment"));
   EXPECT_NE(ej["tables"]["environment_left_out"].get<std::string>().find("the fiber model"),
             std::string::npos);
-  r = test::run_cli("export " + root + "/f.json --env studio --out " + root + "/fiber_env --size 32");
+  r = test::run_cli("export " + root + "/f.json --env studio --out " + root +
+                    "/fiber_env --size 32");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("the fiber model"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(root + "/fiber_env"));

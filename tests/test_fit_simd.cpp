@@ -1,5 +1,5 @@
-// The 4-lane pass of the plain line model (fit/solvers/line_pixel_lanes.h) against the scalar pass it
-// stands for (fit/solvers/line_pixel.h): its own exp and log, and the sums of a pass over pixels
+// The 4-lane pass of the plain line model (fit/solvers/line_pixel_lanes.h) against the scalar pass
+// it stands for (fit/solvers/line_pixel.h): its own exp and log, and the sums of a pass over pixels
 // that reach every branch (the lobe's x <= 0, the chord near |a| = 1, Huber's outliers, a last
 // group of fewer than four).
 #include <gtest/gtest.h>
@@ -20,8 +20,8 @@
 #include "fit/records/observations.h"
 #include "fit/records/pixel_frames.h"
 #include "fit/records/pixel_records.h"
-#include "fit/solvers/line_solve.h"
 #include "fit/solvers/line_pixel_lanes.h"
+#include "fit/solvers/line_solve.h"
 #include "fit/solvers/start.h"
 #include "fit/solvers/texel_lanes.h"
 #include "io/formats/capture.h"

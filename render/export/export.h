@@ -79,7 +79,7 @@ struct ExportSummary {
   std::vector<std::string> files;     // relative to the export folder
   std::vector<std::string> warnings;  // said to the user and recorded in export.json
   double seconds = 0;
-  double environment_seconds = 0;  // --env: the prefilter's
+  double environment_seconds = 0;    // --env: the prefilter's
   std::string environment_left_out;  // why the environment was not written ("" if it was)
 };
 
