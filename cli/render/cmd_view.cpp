@@ -10,6 +10,7 @@
 #include "io/formats/material_io.h"
 #include "io/images/image_io.h"
 #include "render/bake/bake.h"
+#include "render/bake/environment.h"
 #include "render/preview/viewer.h"
 
 namespace aniso::cli {
@@ -135,8 +136,7 @@ Command add_view(CLI::App& app) {
             // asked for; --env none keeps the light.
             Environment env;
             std::string env_name = a->env;
-            const bool env_allowed =
-                !m.fiber() && !m.maps.n && !m.second_active() && !m.isotropic_active();
+            const bool env_allowed = environment_unsupported(m) == nullptr;
             if (env_name.empty() && a->light.empty() && env_allowed) env_name = "studio";
             if (!env_name.empty() && env_name != "none") {
               env = named_environment(env_name);

@@ -451,6 +451,14 @@ std::string force_hint(const fs::path& target, bool folder) {
          " (or the next free number) and write there: nothing is deleted";
 }
 
+// `path` relative to `base`, which is already resolved (weakly_canonical of an absolute path);
+// `path` itself where it has no relative form.
+std::string relative_to_resolved(const std::string& path, const fs::path& base) {
+  const fs::path p = fs::weakly_canonical(fs::absolute(path));
+  const fs::path r = p.lexically_relative(base);
+  return r.empty() ? p.string() : r.string();
+}
+
 std::optional<Claim> file_claim(const std::string& path) {
   if (path.empty() || is_stream_path(path)) return std::nullopt;
   const std::string key = normal_target(path).string();
@@ -914,9 +922,7 @@ std::string files_fingerprint(const std::vector<std::string>& files, const std::
     std::string& piece = it->second.first;
     bool& regular = it->second.second;
     if (fresh) {
-      const fs::path p = fs::weakly_canonical(fs::absolute(f));
-      const fs::path r = p.lexically_relative(b);
-      piece = r.empty() ? p.string() : r.string();  // relative_to's answer
+      piece = relative_to_resolved(f, b);
       piece.push_back('\0');
       struct stat st;
       regular = ::stat(f.c_str(), &st) == 0 && S_ISREG(st.st_mode);
@@ -1012,10 +1018,7 @@ std::string program_beside_self(const std::string& name) {
 }
 
 std::string relative_to(const std::string& path, const std::string& base) {
-  const fs::path p = fs::weakly_canonical(fs::absolute(path));
-  const fs::path b = fs::weakly_canonical(fs::absolute(base));
-  const fs::path r = p.lexically_relative(b);
-  return r.empty() ? p.string() : r.string();
+  return relative_to_resolved(path, fs::weakly_canonical(fs::absolute(base)));
 }
 
 }  // namespace aniso

@@ -107,6 +107,14 @@ EnvironmentSamples environment_samples(const Environment& env, int w, int h) {
   return s;
 }
 
+const char* environment_unsupported(const Material& m) {
+  return m.fiber()              ? "the fiber model"
+         : m.maps.n             ? "a map of n"
+         : m.second_active()    ? "a second fiber"
+         : m.isotropic_active() ? "an isotropic term"
+                                : nullptr;
+}
+
 EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables) {
   auto unit_part = [&](bool specular) {
     BakeTables u = tables;

@@ -62,6 +62,11 @@ EnvironmentTables prefilter_environment(const Environment& env, const BakeTables
                                         int w = 64, int h = 32, int nb = 32, int env_w = 64,
                                         int env_h = 32);
 
+// What of `m` the prefilter does not cover ("the fiber model", "a map of n", "a second fiber", "an
+// isotropic term"), null where it covers all of it (the line model with one fiber; maps of k_d,
+// k_s and the fiber direction through prefilter_environment_parts).
+const char* environment_unsupported(const Material& m);
+
 // A material with maps of k_d or k_s: the environment prefiltered through D alone (k_d 1, k_s 0)
 // and through S alone (k_d 0, k_s 1), grey, each as prefilter_environment's terms; a fragment's
 // radiance is k_d times the first's sum plus k_s times the second's, its maps' values applied

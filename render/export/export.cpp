@@ -557,13 +557,14 @@ json write_environment(const std::string& dir, const Material& m, const Environm
 }  // namespace
 
 std::string environment_refusal(const Material& m) {
-  if (!(m.fiber() || m.maps.any() || m.second_active() || m.isotropic_active())) return "";
+  // The export's viewer draws no maps under an environment, beyond what the prefilter covers.
+  const char* what = m.fiber()      ? "the fiber model"
+                     : m.maps.any() ? "maps"
+                                    : environment_unsupported(m);
+  if (!what) return "";
   return "the environment is prefiltered for the line model with one fiber and no maps; this "
          "material has " +
-         std::string(m.fiber()           ? "the fiber model"
-                     : m.maps.any()      ? "maps"
-                     : m.second_active() ? "a second fiber"
-                                         : "an isotropic term");
+         std::string(what);
 }
 
 ExportSummary export_material(const Material& m, const std::string& dir, const ExportOptions& o) {

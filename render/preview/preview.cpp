@@ -408,13 +408,8 @@ void check_preview_request(const Material& m, const PreviewOptions& opt, bool fi
   if (opt.width < 1 || opt.height < 1 || opt.width > 8192 || opt.height > 8192)
     throw Error("preview: --size must be between 1x1 and 8192x8192");
   if (opt.environment) {
-    const char* what = m.fiber()              ? "the fiber model"
-                       : m.maps.n             ? "a map of n"
-                       : m.second_active()    ? "a second fiber"
-                       : m.isotropic_active() ? "an isotropic term"
-                       : opt.plain            ? "--plain"
-                       : opt.per_vertex       ? "--per-vertex"
-                                              : nullptr;
+    const char* what = environment_unsupported(m);
+    if (!what) what = opt.plain ? "--plain" : opt.per_vertex ? "--per-vertex" : nullptr;
     if (what)
       throw Error(
           std::string("preview: --env lights the line model with one fiber and no map of n; ") +
