@@ -454,6 +454,14 @@ TEST(View, ByDefaultUnderTheStudioShowsThePreviewsFrame) {
               diff);
   EXPECT_LE(diff, 2.5 / 255);
   EXPECT_GT(lit, 0.05);
+  // And the fiber model (one topology s).
+  r = test::run_cli("synth fiber-flat " + dir + "/silk --size 16x16 --views 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  compare(dir + "/silk/truth.json", "0,-0.8,0.6", 380, 300, "silk", &diff, &lit);
+  std::printf("view of the fiber model under the studio vs preview --env: max difference %.4f\n",
+              diff);
+  EXPECT_LE(diff, 2.5 / 255);
+  EXPECT_GT(lit, 0.05);
 }
 
 // `aniso view EXPORT_DIR` draws the export's own tables and the maps it carries (it drew the
@@ -872,13 +880,21 @@ TEST(Preview, EnvironmentLightAgainstBruteForce) {
     EXPECT_LT(r.env_rel_rms, 0.05);
     EXPECT_GT(apart, 0.1 * sum);
   }
-  // The fiber model and a map of n are not prefiltered: said, not drawn wrong.
+  // A topology that varies over the surface and a map of n are not prefiltered: said, not drawn
+  // wrong (the fiber model with one topology s is: tests/test_environment.cpp).
   Material fiber = satin();
   fiber.model = Model::kFiber;
-  fiber.topology = UniformS{0.3};
+  fiber.topology = TopologyMapRef{"map.png", 0.25, MathTopology::kTorus};
   PreviewOptions p;
   p.environment = &studio;
-  EXPECT_THROW(render_preview(fiber, p), Error);
+  try {
+    render_preview(fiber, p);
+    ADD_FAILURE() << "a topology map under an environment was drawn";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("a topology that varies over the surface"),
+              std::string::npos)
+        << e.what();
+  }
   PresetOptions po;
   po.views = 1;
   po.width = po.height = 16;

@@ -13,17 +13,16 @@ namespace aniso {
 
 namespace {
 
-// The direction of equirectangular cell (x, y) of a w x h map (the convention of Environment).
-Vec3 cell_direction(int x, int y, int w, int h) {
-  const double phi = 2 * M_PI * (x + 0.5) / w, theta = M_PI * (y + 0.5) / h;
-  return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
-}
-
 // The clamped cosine max(cos x, 0) as a Fourier series: 1/pi + cos(x)/2 + 2 cos(2x)/(3 pi)
 // - 2 cos(4x)/(15 pi) + ... (no odd term past the first); the tables keep these.
 constexpr double kC0 = 1 / M_PI, kC1 = 0.5, kC2 = 2 / (3 * M_PI), kC4 = -2 / (15 * M_PI);
 
 }  // namespace
+
+Vec3 cell_direction(int x, int y, int w, int h) {
+  const double phi = 2 * M_PI * (x + 0.5) / w, theta = M_PI * (y + 0.5) / h;
+  return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+}
 
 Environment read_environment(const std::string& path) {
   Environment env;
@@ -108,11 +107,12 @@ EnvironmentSamples environment_samples(const Environment& env, int w, int h) {
 }
 
 const char* environment_unsupported(const Material& m) {
-  return m.fiber()              ? "the fiber model"
-         : m.maps.n             ? "a map of n"
-         : m.second_active()    ? "a second fiber"
-         : m.isotropic_active() ? "an isotropic term"
-                                : nullptr;
+  return m.fiber() && !m.topology_as<UniformS>() ? "a topology that varies over the surface"
+         : m.fiber() && m.maps.any()             ? "the fiber model with maps"
+         : m.maps.n                              ? "a map of n"
+         : m.second_active()                     ? "a second fiber"
+         : m.isotropic_active()                  ? "an isotropic term"
+                                                 : nullptr;
 }
 
 EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables) {

@@ -62,9 +62,11 @@ EnvironmentTables prefilter_environment(const Environment& env, const BakeTables
                                         int w = 64, int h = 32, int nb = 32, int env_w = 64,
                                         int env_h = 32);
 
-// What of `m` the prefilter does not cover ("the fiber model", "a map of n", "a second fiber", "an
-// isotropic term"), null where it covers all of it (the line model with one fiber; maps of k_d,
-// k_s and the fiber direction through prefilter_environment_parts).
+// What of `m` the prefilters do not cover ("a map of n", "a second fiber", "an isotropic term", the
+// fiber model with maps or a topology that varies), null where they cover all of it (the line
+// model with one fiber, its maps of k_d, k_s and the fiber direction through
+// prefilter_environment_parts; the fiber model with one topology s through
+// render/bake/environment_fiber.h).
 const char* environment_unsupported(const Material& m);
 
 // A material with maps of k_d or k_s: the environment prefiltered through D alone (k_d 1, k_s 0)
@@ -75,6 +77,9 @@ struct EnvironmentParts {
   EnvironmentTables diffuse, specular;
 };
 EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables);
+
+// The direction of equirectangular cell (x, y) of a w x h map (the convention of Environment).
+Vec3 cell_direction(int x, int y, int w, int h);
 
 // The frame round T the tables use for chi.
 void chi_frame(const Vec3& T, Vec3* e1, Vec3* e2);

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "geometry/topology.h"
 #include "io/files/files.h"
+#include "render/bake/environment_fiber.h"
 #include "render/preview/gl.h"
 #include "render/preview/preview_reference.h"
 #include "render/shaders_embedded.h"
@@ -147,12 +148,37 @@ struct Lookups {
 };
 
 // An environment's prefiltered terms as RGB volumes; for a material with maps, apart for D and S
-// at unit k_d and k_s (`spec` then holds S's).
+// at unit k_d and k_s (`spec` then holds S's); for the fiber model its three volumes
+// (render/shaders/env_fiber.frag).
 struct EnvironmentLookup {
   gl::Texture terms[7], spec[7];
   bool parts = false;
   int levels = 0;
+  bool fiber = false;
+  gl::Texture fiber_d, fiber_s, fiber_coef;
+  int order = 0, phis = 0;
 };
+
+// A fiber material's tables as the volumes env_fiber.frag reads: D's terms as layers, S's terms
+// with their levels side by side, the coefficients three to a layer over (phi_v, b).
+void fiber_environment_volumes(const FiberEnvironmentTables& t, EnvironmentLookup* env) {
+  const int nt = t.terms(), layers = (2 * nt + 2) / 3;
+  env->fiber_d.volume_rgb(t.diffuse, t.w, t.h, nt);
+  env->fiber_s.volume_rgb(t.specular, t.w, t.h, nt * t.nb);
+  std::vector<float> coef(static_cast<size_t>(layers) * t.nb * t.nphi * 3, 0.f);
+  for (int l = 0; l < layers; ++l)
+    for (int i = 0; i < t.nb; ++i)
+      for (int j = 0; j < t.nphi; ++j)
+        for (int c = 0; c < 3; ++c)
+          if (const int q = 3 * l + c; q < 2 * nt)
+            coef[((static_cast<size_t>(l) * t.nb + i) * t.nphi + j) * 3 + c] =
+                t.coef[(static_cast<size_t>(i) * t.nphi + j) * 2 * nt + q];
+  env->fiber_coef.volume_rgb(coef, t.nphi, t.nb, layers);
+  env->fiber = true;
+  env->levels = t.nb;
+  env->order = t.order;
+  env->phis = t.nphi;
+}
 
 // The environment's units: after the maps' (5 to 10), D's (or the whole's) terms, then S's.
 constexpr int kEnvUnit = 11, kEnvSpecUnit = 18;
@@ -289,6 +315,25 @@ int draw_environment(const Material& m, const PreviewOptions& opt, const gl::Pro
   glDepthMask(GL_TRUE);
   p.use();
   p.set_matrix("uViewProj", cam.view_proj);
+  p.set("uEnvKd", m.kd);
+  p.set("uEnvKs", m.ks);
+  p.set("uV", cam.V);
+  p.set("uPerspective", cam.perspective ? 1 : 0);
+  p.set("uEye", cam.eye);
+  if (env.fiber) {
+    env.fiber_d.bind(kEnvUnit);
+    env.fiber_s.bind(kEnvUnit + 1);
+    env.fiber_coef.bind(kEnvUnit + 2);
+    p.set("uFibEnvD", kEnvUnit);
+    p.set("uFibEnvS", kEnvUnit + 1);
+    p.set("uFibEnvCoef", kEnvUnit + 2);
+    p.set("uFibEnvOrder", env.order);
+    p.set("uFibEnvLevels", float(env.levels));
+    p.set("uFibEnvPhis", float(env.phis));
+    mesh.draw();
+    glFinish();
+    return 1;
+  }
   for (int t = 0; t < 7; ++t) {
     env.terms[t].bind(kEnvUnit + t);
     p.set(("anisoEnv[" + std::to_string(t) + "]").c_str(), kEnvUnit + t);
@@ -297,11 +342,6 @@ int draw_environment(const Material& m, const PreviewOptions& opt, const gl::Pro
   }
   set_map_uniforms(p, m, lk);
   p.set("uEnvParts", env.parts ? 1 : 0);
-  p.set("uEnvKd", m.kd);
-  p.set("uEnvKs", m.ks);
-  p.set("uV", cam.V);
-  p.set("uPerspective", cam.perspective ? 1 : 0);
-  p.set("uEye", cam.eye);
   p.set("anisoEnvLevels", float(env.levels));
   mesh.draw();
   glFinish();
@@ -412,8 +452,9 @@ void check_preview_request(const Material& m, const PreviewOptions& opt, bool fi
     if (!what) what = opt.plain ? "--plain" : opt.per_vertex ? "--per-vertex" : nullptr;
     if (what)
       throw Error(
-          std::string("preview: --env lights the line model with one fiber and no map of n; ") +
-          "not " + what + " (light it with --light instead)");
+          std::string("preview: --env lights the line model with one fiber and no map of n, and "
+                      "the fiber model with one topology s and no maps; not ") +
+          what + " (light it with --light instead)");
     return;
   }
   if (opt.light_dirs.empty() && opt.point_lights.empty())
@@ -458,6 +499,24 @@ std::vector<PreviewLight> preview_lights(const PreviewOptions& opt, const Vec3& 
     lights.push_back(l);
   }
   return lights;
+}
+
+void prefilter_for_frames(const Material& m, PreviewOptions* p, PreviewPrefiltered* keep) {
+  if (!p->environment || !p->baked) return;
+  if (m.fiber()) {
+    if (!p->prefiltered_fiber && p->baked_fiber) {
+      keep->fiber = prefilter_fiber_environment(*p->environment, m, *p->baked, *p->baked_fiber);
+      p->prefiltered_fiber = &keep->fiber;
+    }
+  } else if (m.maps.any()) {
+    if (!p->prefiltered_parts) {
+      keep->parts = prefilter_environment_parts(*p->environment, *p->baked);
+      p->prefiltered_parts = &keep->parts;
+    }
+  } else if (!p->prefiltered) {
+    keep->tables = prefilter_environment(*p->environment, *p->baked);
+    p->prefiltered = &keep->tables;
+  }
 }
 
 void bake_for_frames(const Material& m, PreviewOptions* p, PreviewBakes* keep) {
@@ -540,7 +599,18 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
 
   EnvironmentLookup env;
   std::unique_ptr<gl::Program> env_pass;
-  if (opt.environment) {
+  if (opt.environment && fiber) {
+    FiberEnvironmentTables own;
+    if (!opt.prefiltered_fiber)
+      own = prefilter_fiber_environment(*opt.environment, m, lk.tables, lk.fb);
+    const FiberEnvironmentTables& ft = opt.prefiltered_fiber ? *opt.prefiltered_fiber : own;
+    fiber_environment_volumes(ft, &env);
+    res.env_prefilter_seconds = ft.seconds;
+    res.env_sizes.w = ft.w, res.env_sizes.h = ft.h, res.env_sizes.nb = ft.nb;
+    res.env_sizes.env_w = ft.env_w, res.env_sizes.env_h = ft.env_h;
+    env_pass = std::make_unique<gl::Program>(shaders::vertex_vert, shaders::env_fiber_frag,
+                                             "env_fiber.frag");
+  } else if (opt.environment) {
     EnvironmentTables own;
     EnvironmentParts own_parts;
     env.parts = m.maps.any();  // D and S apart: the maps' k_d and k_s apply per fragment
@@ -583,7 +653,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
   res.fiber_stack_seconds = lk.fstack.seconds;
   res.fiber_stack_error = lk.fstack.max_abs_error;
   res.n_min = std::exp(lk.fstack.logn0), res.n_max = std::exp(lk.fstack.logn1);
-  if (opt.reference && fiber)
+  if (opt.reference && fiber && !opt.environment)
     fiber_reference(m, opt, cam, lights, lk.tables, lk.fb,
                     lk.fstack.levels > 0 ? &lk.stack : nullptr, &lk.fstack, g, &res);
   if (opt.reference && opt.environment)

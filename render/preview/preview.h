@@ -13,6 +13,7 @@
 #include "models/material.h"
 #include "render/bake/bake.h"
 #include "render/bake/environment.h"
+#include "render/bake/environment_fiber.h"
 
 namespace aniso {
 
@@ -58,14 +59,15 @@ struct PreviewOptions {
   const SpecularStack* baked_stack = nullptr;     // a material's map of n: the bake's stack
   const FiberStack* baked_fiber_stack = nullptr;  // and a fiber material's F over it
   // Light from this environment instead of the lights (the line model with one fiber, its maps of
-  // k_d, k_s and the fiber direction but not of n): prefiltered once (render/bake/environment.h),
-  // one pass; with `reference` against brute force, the exact model summed over the environment's
-  // directions with <N,L>^+.
+  // k_d, k_s and the fiber direction but not of n; the fiber model with one topology s):
+  // prefiltered once (render/bake/environment.h, environment_fiber.h), one pass; with `reference`
+  // against brute force, the exact model summed over the environment's directions.
   const Environment* environment = nullptr;
   // Its prefiltered tables for this material (a material with maps: D's and S's apart), made once
   // for many frames (the interactive view, the turntable); prefiltered here when null.
   const EnvironmentTables* prefiltered = nullptr;
   const EnvironmentParts* prefiltered_parts = nullptr;
+  const FiberEnvironmentTables* prefiltered_fiber = nullptr;  // a fiber material's
 };
 
 struct PreviewResult {
@@ -105,6 +107,15 @@ struct PreviewBakes {
   FiberStack fiber_stack;
 };
 void bake_for_frames(const Material& m, PreviewOptions* p, PreviewBakes* keep);
+
+// The environment of `p` prefiltered once for many frames of `m` (after bake_for_frames): what
+// render_preview would otherwise prefilter at every frame.
+struct PreviewPrefiltered {
+  EnvironmentTables tables;
+  EnvironmentParts parts;
+  FiberEnvironmentTables fiber;
+};
+void prefilter_for_frames(const Material& m, PreviewOptions* p, PreviewPrefiltered* keep);
 
 // The lights a preview draws: each of light_dirs with irradiance 1, the fill light, then the
 // point lights (irradiance 1 at `center`).

@@ -214,7 +214,14 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
   std::pair<bool, bool> prefiltered_for{false, false};  // (diffuse, specular) shown
   // A material with maps: D and S apart, once (the terms shown are its k_d or k_s at 0).
   EnvironmentParts parts;
+  // The fiber model: D and S apart as well, once.
+  FiberEnvironmentTables fiber_prefiltered;
   auto refilter = [&](const Material& shown) {
+    if (m.fiber()) {
+      if (fiber_prefiltered.w == 0)
+        fiber_prefiltered = prefilter_fiber_environment(*env, m, *p.baked, *p.baked_fiber);
+      return;
+    }
     if (m.maps.any()) {
       if (parts.diffuse.w == 0) parts = prefilter_environment_parts(*env, *p.baked);
       return;
@@ -242,9 +249,12 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
       p.environment = s.environment ? env : nullptr;
       p.prefiltered = nullptr;
       p.prefiltered_parts = nullptr;
+      p.prefiltered_fiber = nullptr;
       if (p.environment) {
         refilter(shown);
-        if (m.maps.any())
+        if (m.fiber())
+          p.prefiltered_fiber = &fiber_prefiltered;
+        else if (m.maps.any())
           p.prefiltered_parts = &parts;
         else
           p.prefiltered = &prefiltered;

@@ -1,0 +1,64 @@
+// Light from an environment for the fiber model (docs/models.md §5, ours): the environment
+// prefiltered through the fiber model's baked form (render/bake/bake.h),
+//   D = s_L G(phi_l, phi_v, s),   S = S_line(a, b) F(phi_l, phi_v, s, kappa),
+// where phi_l, phi_v are the angles of the projected L and V from N toward B in the fiber's
+// cross-section. For one fiber T the directions L lie at an angle chi round T (chi measured from
+// e1 toward e2, render/bake/environment.h chi_frame) and phi_l = chi_N - chi, chi_N the normal's
+// angle. So with G and F written as Fourier series in phi_l (zero where the light is below the
+// surface), the reflected radiance is a sum over orders k of
+//   (coefficients of G or F at phi_v)  x  (integrals over the environment of E s_L or E S_line
+//   times cos(k chi) and sin(k chi))
+// turned by k chi_N. The integrals are tables over T (and b = <V,T> for S); the coefficients are
+// a small table over (phi_v, b) at the material's topology s. F depends on L also through kappa;
+// the coefficients take kappa where S_line peaks (a = -b: kappa = 2 (1 - b^2)). What that, the
+// series' truncation and the tables' resolution leave is measured against brute force
+// (aniso preview --env --reference).
+#pragma once
+#include <vector>
+
+#include "core/vec.h"
+#include "render/bake/bake.h"
+#include "render/bake/environment.h"
+
+namespace aniso {
+
+struct FiberEnvironmentTables {
+  int order = 0;  // Fourier orders 0..order in chi; terms = 2 order + 1
+  int w = 0, h = 0, nb = 0, nphi = 0;
+  // Term t: 1 (t = 0), cos(k chi) (t = 2k - 1), sin(k chi) (t = 2k).
+  int terms() const { return 2 * order + 1; }
+  // Integrals of E s_L basis_t over the environment per T (equirectangular, as
+  // EnvironmentTables): (t * h + y) * w + x, RGB.
+  std::vector<float> diffuse;
+  // Integrals of E S_line(a, b) basis_t per T and level of b (acos(-b) = pi i / (nb - 1)):
+  // ((t * nb + i) * h + y) * w + x, RGB.
+  std::vector<float> specular;
+  // The Fourier coefficients in phi_l of F (terms() values, then those of G: 2 terms() in all) at
+  // phi_v = -90 + 180 j / (nphi - 1) degrees and level i of b: (i * nphi + j) * 2 terms() + q.
+  std::vector<float> coef;
+  int env_w = 0, env_h = 0;
+  double seconds = 0;
+};
+
+// The tables of fiber material `m` (one topology s for the whole surface: environment_unsupported
+// says which fiber materials qualify) from its line tables and fiber factor tables.
+FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const Material& m,
+                                                   const BakeTables& line,
+                                                   const FiberBakeTables& fb, int order = 6,
+                                                   int w = 64, int h = 32, int nb = 32,
+                                                   int nphi = 33, int env_w = 64, int env_h = 32);
+
+// The weights of a coefficient pair (c on cos(k phi_l), s on sin(k phi_l)) on the integrals with
+// cos(k chi) and sin(k chi), at the normal's angle chi_N (phi_l = chi_N - chi).
+inline void fiber_environment_turn(double c, double s, double cos_k_chi_n, double sin_k_chi_n,
+                                   double* on_cos, double* on_sin) {
+  *on_cos = c * cos_k_chi_n + s * sin_k_chi_n;
+  *on_sin = c * sin_k_chi_n - s * cos_k_chi_n;
+}
+
+// What the shader computes (render/shaders/env_fiber.frag) at a node of the tables: the T of cell
+// (x, y), level i of b, phi_v at node j, the normal at angle chi_n round T; radiance k_d D + k_s S.
+void fiber_environment_at_node(const FiberEnvironmentTables& t, const Material& m, int x, int y,
+                               int i, int j, double chi_n, double out[3]);
+
+}  // namespace aniso

@@ -1,0 +1,67 @@
+#version 330 core
+// The fiber model under an environment (render/bake/environment_fiber.h): per term of the Fourier
+// series in chi, the environment's integral at the fiber T (and level of b = <V,T> for S) times
+// the coefficient of G or F at phi_v (V's angle from N toward B in the cross-section), turned by
+// the normal's angle chi_N round T. uFibEnvD holds D's terms as layers, uFibEnvS S's terms with
+// their levels of b side by side in depth (term t's level i at layer t * levels + i), uFibEnvCoef
+// the coefficients over (phi_v, b), three to a layer (F's then G's).
+in vec3 vN; in vec3 vT; in vec3 vP; in vec2 vUV;
+uniform vec3 uV; uniform int uPerspective; uniform vec3 uEye;
+uniform vec3 uEnvKd; uniform vec3 uEnvKs;
+uniform sampler3D uFibEnvD;
+uniform sampler3D uFibEnvS;
+uniform sampler3D uFibEnvCoef;
+uniform int uFibEnvOrder; uniform float uFibEnvLevels; uniform float uFibEnvPhis;
+out vec4 frag;
+const int kMaxTerms = 17;  // order 8
+void main() {
+  const float PI = 3.14159265358979;
+  vec3 N = normalize(vN);
+  vec3 V = uPerspective == 1 ? normalize(uEye - vP) : uV;
+  if (dot(N, V) <= 0.0) {
+    frag = vec4(0.0, 0.0, 0.0, 1.0);
+    return;
+  }
+  vec3 T = normalize(vT - N * dot(N, vT));
+  vec3 B = cross(N, T);
+  vec3 e1 = cross(vec3(0.0, 0.0, 1.0), T);
+  if (length(e1) < 1e-6) e1 = cross(vec3(1.0, 0.0, 0.0), T);
+  e1 = normalize(e1);
+  vec3 e2 = cross(T, e1);
+  float c1 = dot(N, e1), s1 = dot(N, e2);
+  float phi = atan(T.y, T.x);
+  vec2 st = vec2(phi / (2.0 * PI) + (phi < 0.0 ? 1.0 : 0.0), acos(clamp(T.z, -1.0, 1.0)) / PI);
+  float levels = uFibEnvLevels;
+  float level = acos(clamp(-dot(V, T), -1.0, 1.0)) / PI * (levels - 1.0);
+  float phi_v = atan(dot(V, B), dot(V, N));
+  vec2 cst = vec2(((phi_v + 0.5 * PI) / PI * (uFibEnvPhis - 1.0) + 0.5) / uFibEnvPhis,
+                  (level + 0.5) / levels);
+  int nt = 2 * uFibEnvOrder + 1;
+  int layers = (2 * nt + 2) / 3;
+  float cf[2 * kMaxTerms + 2];
+  for (int l = 0; l < layers; ++l) {
+    vec3 v = texture(uFibEnvCoef, vec3(cst, (float(l) + 0.5) / float(layers))).rgb;
+    cf[3 * l] = v.r;
+    cf[3 * l + 1] = v.g;
+    cf[3 * l + 2] = v.b;
+  }
+  float depth = float(nt) * levels;
+  vec3 d = cf[nt] * texture(uFibEnvD, vec3(st, 0.5 / float(nt))).rgb;
+  vec3 s = cf[0] * texture(uFibEnvS, vec3(st, (level + 0.5) / depth)).rgb;
+  float ck = 1.0, sk = 0.0;
+  for (int k = 1; k <= uFibEnvOrder; ++k) {
+    float c2 = ck * c1 - sk * s1;
+    sk = sk * c1 + ck * s1;
+    ck = c2;
+    int tc = 2 * k - 1, ts = 2 * k;
+    // A coefficient pair (c on cos(k phi_l), s on sin(k phi_l)) turned onto the integrals with
+    // cos(k chi) and sin(k chi): phi_l = chi_N - chi.
+    float fc = cf[tc] * ck + cf[ts] * sk, fs = cf[tc] * sk - cf[ts] * ck;
+    float gc = cf[nt + tc] * ck + cf[nt + ts] * sk, gs = cf[nt + tc] * sk - cf[nt + ts] * ck;
+    d += gc * texture(uFibEnvD, vec3(st, (float(tc) + 0.5) / float(nt))).rgb +
+         gs * texture(uFibEnvD, vec3(st, (float(ts) + 0.5) / float(nt))).rgb;
+    s += fc * texture(uFibEnvS, vec3(st, (float(tc) * levels + level + 0.5) / depth)).rgb +
+         fs * texture(uFibEnvS, vec3(st, (float(ts) * levels + level + 0.5) / depth)).rgb;
+  }
+  frag = vec4(max(uEnvKd * d + uEnvKs * s, vec3(0.0)), 1.0);
+}
