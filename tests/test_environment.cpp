@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "datasets_synth/presets.h"
 #include "models/evaluate.h"
 #include "render/bake/bake.h"
 #include "render/bake/environment.h"
@@ -58,7 +59,7 @@ TEST(FiberEnvironment, NodesAgreeWithSumsOverTheEnvironment) {
       const Vec3 V = T * b + (N * std::cos(phi_v) + B * std::sin(phi_v)) * std::sqrt(1 - b * b);
       const LocalDir Vl{dot(V, T), dot(V, B), dot(V, N)};
       double pre[3];
-      fiber_environment_at_node(et, m, x, y, i, j, chi_n, pre);
+      fiber_environment_at_node(et, m, x, y, i, j, 0, chi_n, pre);
       double baked = 0, exact = 0;
       for (size_t k = 0; k < es.dir.size(); ++k) {
         const Vec3& L = es.dir[k];
@@ -111,6 +112,58 @@ TEST(FiberEnvironment, PreviewAgainstBruteForce) {
     EXPECT_EQ(r.passes, 1);
     EXPECT_GT(r.env_reference_mean, 0.02);
     EXPECT_LT(r.env_rel_rms, 0.05);
+  }
+}
+
+// The fiber model's topology per fragment under the studio: Hast's torus (the mathematical topology
+// plus a topology map) and swirl-plate's maps of k_d and the fiber direction on a fiber material,
+// each against brute force at every fragment's own s and material, and apart from the same
+// material drawn with one s, or without its maps.
+TEST(FiberEnvironment, TopologyAndMapsPerFragmentAgainstBruteForce) {
+  const Environment studio = studio_environment();
+  Material torus = flat_silk(0, 30);
+  torus.fiber_angle_deg = 90;
+  torus.topology = TopologyMapRef{"map.png", 0.25, MathTopology::kTorus};
+  PreviewOptions tp;
+  tp.shape = "torus";
+  tp.shape_options.torus_r = 0.6;
+  tp.view_dir = {0.3, -0.6, 0.75};
+  tp.topology_map = procedural_topology_map(64, 3);
+  PresetOptions po;
+  po.views = 1;
+  po.width = po.height = 16;
+  po.progress = nullptr;
+  Material swirl = make_preset("swirl-plate", po).truth;
+  ASSERT_TRUE(swirl.maps.kd && swirl.maps.fiber && !swirl.maps.n);
+  swirl.model = Model::kFiber;
+  swirl.topology = UniformS{0.3};
+  PreviewOptions sp;
+  sp.shape = "flat";
+  sp.view_dir = {0, -0.5, 1};
+  for (auto [m, p] : {std::pair{torus, tp}, std::pair{swirl, sp}}) {
+    p.width = p.height = 48;
+    p.reference = true;
+    p.environment = &studio;
+    const PreviewResult r = render_preview(m, p);
+    Material plain = m;
+    if (m.maps.any())
+      plain.maps = MaterialMaps{};
+    else
+      plain.topology = UniformS{0.5};
+    PreviewOptions q = p;
+    q.reference = false;
+    const PreviewResult o = render_preview(plain, q);
+    double apart = 0, sum = 0;
+    for (size_t k = 0; k < r.rgb.px.size(); ++k)
+      apart += std::abs(r.rgb.px[k] - o.rgb.px[k]), sum += r.rgb.px[k];
+    std::printf(
+        "%s: against brute force mean abs %.4g (mean %.4g), relative RMS %.4g, max %.4g; "
+        "against %s %.0f %% of the image's sum apart\n",
+        p.shape.c_str(), r.env_mean_abs, r.env_reference_mean, r.env_rel_rms, r.max_abs_diff,
+        m.maps.any() ? "no maps" : "one s", 100 * apart / sum);
+    EXPECT_GT(r.env_reference_mean, 0.02);
+    EXPECT_LT(r.env_rel_rms, 0.05);
+    EXPECT_GT(apart, 0.03 * sum);
   }
 }
 

@@ -880,20 +880,17 @@ TEST(Preview, EnvironmentLightAgainstBruteForce) {
     EXPECT_LT(r.env_rel_rms, 0.05);
     EXPECT_GT(apart, 0.1 * sum);
   }
-  // A topology that varies over the surface and a map of n are not prefiltered: said, not drawn
-  // wrong (the fiber model with one topology s is: tests/test_environment.cpp).
-  Material fiber = satin();
-  fiber.model = Model::kFiber;
-  fiber.topology = TopologyMapRef{"map.png", 0.25, MathTopology::kTorus};
+  // A map of n and a second fiber are not prefiltered: said, not drawn wrong (the fiber model is:
+  // tests/test_environment.cpp).
+  Material two = satin();
+  two.has_second_fiber = true;
   PreviewOptions p;
   p.environment = &studio;
   try {
-    render_preview(fiber, p);
-    ADD_FAILURE() << "a topology map under an environment was drawn";
+    render_preview(two, p);
+    ADD_FAILURE() << "a second fiber under an environment was drawn";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("a topology that varies over the surface"),
-              std::string::npos)
-        << e.what();
+    EXPECT_NE(std::string(e.what()).find("a second fiber"), std::string::npos) << e.what();
   }
   PresetOptions po;
   po.views = 1;

@@ -107,12 +107,10 @@ EnvironmentSamples environment_samples(const Environment& env, int w, int h) {
 }
 
 const char* environment_unsupported(const Material& m) {
-  return m.fiber() && !m.topology_as<UniformS>() ? "a topology that varies over the surface"
-         : m.fiber() && m.maps.any()             ? "the fiber model with maps"
-         : m.maps.n                              ? "a map of n"
-         : m.second_active()                     ? "a second fiber"
-         : m.isotropic_active()                  ? "an isotropic term"
-                                                 : nullptr;
+  return m.maps.n               ? "a map of n"
+         : m.second_active()    ? "a second fiber"
+         : m.isotropic_active() ? "an isotropic term"
+                                : nullptr;
 }
 
 EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables) {

@@ -62,11 +62,10 @@ EnvironmentTables prefilter_environment(const Environment& env, const BakeTables
                                         int w = 64, int h = 32, int nb = 32, int env_w = 64,
                                         int env_h = 32);
 
-// What of `m` the prefilters do not cover ("a map of n", "a second fiber", "an isotropic term", the
-// fiber model with maps or a topology that varies), null where they cover all of it (the line
-// model with one fiber, its maps of k_d, k_s and the fiber direction through
-// prefilter_environment_parts; the fiber model with one topology s through
-// render/bake/environment_fiber.h).
+// What of `m` the prefilters do not cover ("a map of n", "a second fiber", "an isotropic term"),
+// null where they cover all of it: the line model with one fiber (its maps of k_d, k_s and the
+// fiber direction through prefilter_environment_parts) and the fiber model with any topology and
+// the same maps (render/bake/environment_fiber.h).
 const char* environment_unsupported(const Material& m);
 
 // A material with maps of k_d or k_s: the environment prefiltered through D alone (k_d 1, k_s 0)

@@ -108,12 +108,16 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
     }
   });
 
-  // F's and G's series in phi_l, from the factor tables at the material's s, by the midpoint rule
-  // over the lit half circle (both are 0 beyond it).
+  // F's and G's series in phi_l, from the factor tables, by the midpoint rule over the lit half
+  // circle (both are 0 beyond it).
+  const bool uniform = m.topology_as<UniformS>() != nullptr;
+  out.ns = uniform ? 1 : fb.ns;
   const int kSteps = 360;
-  const double s = std::clamp(m.uniform_s(), 0.0, 1.0), dphi = M_PI / kSteps;
-  out.coef.assign(static_cast<size_t>(nb) * nphi * 2 * nt, 0.f);
-  tbb::parallel_for(0, nb, [&](int i) {
+  const double dphi = M_PI / kSteps;
+  out.coef.assign(static_cast<size_t>(out.ns) * nb * nphi * 2 * nt, 0.f);
+  tbb::parallel_for(0, nb * out.ns, [&](int task) {
+    const int i = task % nb, ks = task / nb;
+    const double s = uniform ? std::clamp(m.uniform_s(), 0.0, 1.0) : double(ks) / (fb.ns - 1);
     const double b = level_b(i, nb), kappa = 2 * (1 - b * b);
     std::vector<double> cf(2 * nt);
     for (int j = 0; j < nphi; ++j) {
@@ -134,7 +138,8 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
         }
       }
       for (int q = 0; q < 2 * nt; ++q)
-        out.coef[(static_cast<size_t>(i) * nphi + j) * 2 * nt + q] = static_cast<float>(cf[q]);
+        out.coef[((static_cast<size_t>(ks) * nb + i) * nphi + j) * 2 * nt + q] =
+            static_cast<float>(cf[q]);
     }
   });
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -142,9 +147,9 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
 }
 
 void fiber_environment_at_node(const FiberEnvironmentTables& t, const Material& m, int x, int y,
-                               int i, int j, double chi_n, double out[3]) {
+                               int i, int j, int k, double chi_n, double out[3]) {
   const int nt = t.terms();
-  const float* cf = &t.coef[(static_cast<size_t>(i) * t.nphi + j) * 2 * nt];
+  const float* cf = &t.coef[((static_cast<size_t>(k) * t.nb + i) * t.nphi + j) * 2 * nt];
   double d[3] = {0, 0, 0}, s[3] = {0, 0, 0};
   auto add = [&](int term, double wf, double wg) {
     for (int c = 0; c < 3; ++c) {
@@ -154,13 +159,13 @@ void fiber_environment_at_node(const FiberEnvironmentTables& t, const Material& 
     }
   };
   add(0, cf[0], cf[nt]);
-  for (int k = 1; k <= t.order; ++k) {
-    const double ck = std::cos(k * chi_n), sk = std::sin(k * chi_n);
+  for (int o = 1; o <= t.order; ++o) {
+    const double co = std::cos(o * chi_n), so = std::sin(o * chi_n);
     double fc, fs, gc, gs;
-    fiber_environment_turn(cf[2 * k - 1], cf[2 * k], ck, sk, &fc, &fs);
-    fiber_environment_turn(cf[nt + 2 * k - 1], cf[nt + 2 * k], ck, sk, &gc, &gs);
-    add(2 * k - 1, fc, gc);
-    add(2 * k, fs, gs);
+    fiber_environment_turn(cf[2 * o - 1], cf[2 * o], co, so, &fc, &fs);
+    fiber_environment_turn(cf[nt + 2 * o - 1], cf[nt + 2 * o], co, so, &gc, &gs);
+    add(2 * o - 1, fc, gc);
+    add(2 * o, fs, gs);
   }
   for (int c = 0; c < 3; ++c) out[c] = m.kd[c] * d[c] + m.ks[c] * s[c];
 }

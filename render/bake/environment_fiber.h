@@ -9,7 +9,7 @@
 //   (coefficients of G or F at phi_v)  x  (integrals over the environment of E s_L or E S_line
 //   times cos(k chi) and sin(k chi))
 // turned by k chi_N. The integrals are tables over T (and b = <V,T> for S); the coefficients are
-// a small table over (phi_v, b) at the material's topology s. F depends on L also through kappa;
+// a small table over (phi_v, b) and the topology s. F depends on L also through kappa;
 // the coefficients take kappa where S_line peaks (a = -b: kappa = 2 (1 - b^2)). What that, the
 // series' truncation and the tables' resolution leave is measured against brute force
 // (aniso preview --env --reference).
@@ -25,6 +25,9 @@ namespace aniso {
 struct FiberEnvironmentTables {
   int order = 0;  // Fourier orders 0..order in chi; terms = 2 order + 1
   int w = 0, h = 0, nb = 0, nphi = 0;
+  // Levels of the topology s: one at the material's s where it has one for the whole surface,
+  // else the fiber tables' (s = k / (ns - 1)).
+  int ns = 1;
   // Term t: 1 (t = 0), cos(k chi) (t = 2k - 1), sin(k chi) (t = 2k).
   int terms() const { return 2 * order + 1; }
   // Integrals of E s_L basis_t over the environment per T (equirectangular, as
@@ -34,14 +37,15 @@ struct FiberEnvironmentTables {
   // ((t * nb + i) * h + y) * w + x, RGB.
   std::vector<float> specular;
   // The Fourier coefficients in phi_l of F (terms() values, then those of G: 2 terms() in all) at
-  // phi_v = -90 + 180 j / (nphi - 1) degrees and level i of b: (i * nphi + j) * 2 terms() + q.
+  // phi_v = -90 + 180 j / (nphi - 1) degrees, level i of b and level k of s:
+  // ((k * nb + i) * nphi + j) * 2 terms() + q.
   std::vector<float> coef;
   int env_w = 0, env_h = 0;
   double seconds = 0;
 };
 
-// The tables of fiber material `m` (one topology s for the whole surface: environment_unsupported
-// says which fiber materials qualify) from its line tables and fiber factor tables.
+// The tables of fiber material `m` (environment_unsupported says which qualify) from its line
+// tables and fiber factor tables.
 FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const Material& m,
                                                    const BakeTables& line,
                                                    const FiberBakeTables& fb, int order = 6,
@@ -57,8 +61,9 @@ inline void fiber_environment_turn(double c, double s, double cos_k_chi_n, doubl
 }
 
 // What the shader computes (render/shaders/env_fiber.frag) at a node of the tables: the T of cell
-// (x, y), level i of b, phi_v at node j, the normal at angle chi_n round T; radiance k_d D + k_s S.
+// (x, y), level i of b, phi_v at node j, level k of s, the normal at angle chi_n round T; radiance
+// k_d D + k_s S.
 void fiber_environment_at_node(const FiberEnvironmentTables& t, const Material& m, int x, int y,
-                               int i, int j, double chi_n, double out[3]);
+                               int i, int j, int k, double chi_n, double out[3]);
 
 }  // namespace aniso

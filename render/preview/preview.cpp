@@ -128,6 +128,7 @@ std::string with_maps(const char* frag) {
   std::string s = frag;
   for (const auto& [marker, part] :
        {std::pair<std::string, const char*>{"// aniso: maps.glsl", shaders::maps_glsl},
+        {"// aniso: topology.glsl", shaders::topology_glsl},
         {"// aniso: aniso_environment.glsl", shaders::aniso_environment_glsl}})
     if (const size_t at = s.find(marker); at != std::string::npos)
       s.replace(at, marker.size(), part);
@@ -156,7 +157,7 @@ struct EnvironmentLookup {
   int levels = 0;
   bool fiber = false;
   gl::Texture fiber_d, fiber_s, fiber_coef;
-  int order = 0, phis = 0;
+  int order = 0, phis = 0, s_levels = 1;
 };
 
 // A fiber material's tables as the volumes env_fiber.frag reads: D's terms as layers, S's terms
@@ -165,19 +166,21 @@ void fiber_environment_volumes(const FiberEnvironmentTables& t, EnvironmentLooku
   const int nt = t.terms(), layers = (2 * nt + 2) / 3;
   env->fiber_d.volume_rgb(t.diffuse, t.w, t.h, nt);
   env->fiber_s.volume_rgb(t.specular, t.w, t.h, nt * t.nb);
-  std::vector<float> coef(static_cast<size_t>(layers) * t.nb * t.nphi * 3, 0.f);
-  for (int l = 0; l < layers; ++l)
-    for (int i = 0; i < t.nb; ++i)
-      for (int j = 0; j < t.nphi; ++j)
-        for (int c = 0; c < 3; ++c)
-          if (const int q = 3 * l + c; q < 2 * nt)
-            coef[((static_cast<size_t>(l) * t.nb + i) * t.nphi + j) * 3 + c] =
-                t.coef[(static_cast<size_t>(i) * t.nphi + j) * 2 * nt + q];
-  env->fiber_coef.volume_rgb(coef, t.nphi, t.nb, layers);
+  std::vector<float> coef(static_cast<size_t>(t.ns) * layers * t.nb * t.nphi * 3, 0.f);
+  for (int k = 0; k < t.ns; ++k)
+    for (int l = 0; l < layers; ++l)
+      for (int i = 0; i < t.nb; ++i)
+        for (int j = 0; j < t.nphi; ++j)
+          for (int c = 0; c < 3; ++c)
+            if (const int q = 3 * l + c; q < 2 * nt)
+              coef[(((static_cast<size_t>(k) * layers + l) * t.nb + i) * t.nphi + j) * 3 + c] =
+                  t.coef[((static_cast<size_t>(k) * t.nb + i) * t.nphi + j) * 2 * nt + q];
+  env->fiber_coef.volume_rgb(coef, t.nphi, t.nb, layers * t.ns);
   env->fiber = true;
   env->levels = t.nb;
   env->order = t.order;
   env->phis = t.nphi;
+  env->s_levels = t.ns;
 }
 
 // The environment's units: after the maps' (5 to 10), D's (or the whole's) terms, then S's.
@@ -260,23 +263,11 @@ void make_lookups(const Material& m, const PreviewOptions& opt, bool fiber, bool
     lk->map.map(opt.topology_map);
 }
 
-// The fiber pass's own uniforms: its tables and the shader's copy of s_at (models/topology.h),
+// The uniforms of the shaders' copy of s_at (models/topology.h, render/shaders/topology.glsl),
 // one branch per topology source.
-void set_fiber_uniforms(const gl::Program& p, const Material& m, const Lookups& lk, const Vec3& V) {
-  lk.G.bind(2);
-  lk.F.bind(3);
+void set_topology_uniforms(const gl::Program& p, const Material& m, const Lookups& lk) {
   if (!lk.map.empty()) lk.map.bind(4);
-  if (!lk.f_stack.empty()) lk.f_stack.bind(11);  // after the maps' units 5 to 10
-  p.set("uG", 2);
-  p.set("uF", 3);
   p.set("uMap", 4);
-  p.set("uFStack", 11);
-  p.set("uFLevels", lk.fstack.levels);
-  p.set("uFLogN0", float(lk.fstack.logn0));
-  p.set("uFLogStep", float(lk.fstack.log_step()));
-  p.set("uNphi", lk.fb.nphi);
-  p.set("uNs", lk.fb.ns);
-  p.set("uNk", lk.fb.nk);
   const auto* map_ref = m.topology_as<TopologyMapRef>();
   const int topo = m.topology_as<SMapRef>()         ? 3
                    : map_ref                        ? 2
@@ -285,6 +276,23 @@ void set_fiber_uniforms(const gl::Program& p, const Material& m, const Lookups& 
   p.set("uTopo", topo);
   p.set("uS0", float(m.uniform_s()));
   p.set("uAmp", float(map_ref ? map_ref->amplitude : 0.0));
+}
+
+// The fiber pass's own uniforms: its tables and the topology's.
+void set_fiber_uniforms(const gl::Program& p, const Material& m, const Lookups& lk, const Vec3& V) {
+  lk.G.bind(2);
+  lk.F.bind(3);
+  if (!lk.f_stack.empty()) lk.f_stack.bind(11);  // after the maps' units 5 to 10
+  p.set("uG", 2);
+  p.set("uF", 3);
+  p.set("uFStack", 11);
+  p.set("uFLevels", lk.fstack.levels);
+  p.set("uFLogN0", float(lk.fstack.logn0));
+  p.set("uFLogStep", float(lk.fstack.log_step()));
+  p.set("uNphi", lk.fb.nphi);
+  p.set("uNs", lk.fb.ns);
+  p.set("uNk", lk.fb.nk);
+  set_topology_uniforms(p, m, lk);
   p.set("uV", V);
 }
 
@@ -330,6 +338,9 @@ int draw_environment(const Material& m, const PreviewOptions& opt, const gl::Pro
     p.set("uFibEnvOrder", env.order);
     p.set("uFibEnvLevels", float(env.levels));
     p.set("uFibEnvPhis", float(env.phis));
+    p.set("uFibEnvSLevels", env.s_levels);
+    set_map_uniforms(p, m, lk);
+    set_topology_uniforms(p, m, lk);
     mesh.draw();
     glFinish();
     return 1;
@@ -447,23 +458,25 @@ GBuffer geometry_pass(const gl::Framebuffer& fb, const gl::MeshBuffers& mesh,
 void check_preview_request(const Material& m, const PreviewOptions& opt, bool fiber) {
   if (opt.width < 1 || opt.height < 1 || opt.width > 8192 || opt.height > 8192)
     throw Error("preview: --size must be between 1x1 and 8192x8192");
+  if (fiber) {
+    if (const auto* r = m.topology_as<SMapRef>(); r && opt.s_map.empty())
+      throw Error("preview: the material uses a map of s (" + r->file + ") but none was loaded");
+    if (const auto* r = m.topology_as<TopologyMapRef>(); r && opt.topology_map.empty())
+      throw Error("preview: the material uses a topology map (" + r->file +
+                  ") but none was loaded");
+  }
   if (opt.environment) {
     const char* what = environment_unsupported(m);
     if (!what) what = opt.plain ? "--plain" : opt.per_vertex ? "--per-vertex" : nullptr;
     if (what)
       throw Error(
-          std::string("preview: --env lights the line model with one fiber and no map of n, and "
-                      "the fiber model with one topology s and no maps; not ") +
+          std::string("preview: --env lights the line and the fiber model with one fiber, maps "
+                      "of k_d, k_s and the fiber direction but not of n; not ") +
           what + " (light it with --light instead)");
     return;
   }
   if (opt.light_dirs.empty() && opt.point_lights.empty())
     throw Error("preview: at least one light is needed");
-  if (!fiber) return;
-  if (const auto* r = m.topology_as<SMapRef>(); r && opt.s_map.empty())
-    throw Error("preview: the material uses a map of s (" + r->file + ") but none was loaded");
-  if (const auto* r = m.topology_as<TopologyMapRef>(); r && opt.topology_map.empty())
-    throw Error("preview: the material uses a topology map (" + r->file + ") but none was loaded");
 }
 
 }  // namespace
@@ -608,8 +621,8 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     res.env_prefilter_seconds = ft.seconds;
     res.env_sizes.w = ft.w, res.env_sizes.h = ft.h, res.env_sizes.nb = ft.nb;
     res.env_sizes.env_w = ft.env_w, res.env_sizes.env_h = ft.env_h;
-    env_pass = std::make_unique<gl::Program>(shaders::vertex_vert, shaders::env_fiber_frag,
-                                             "env_fiber.frag");
+    env_pass = std::make_unique<gl::Program>(
+        shaders::vertex_vert, with_maps(shaders::env_fiber_frag).c_str(), "env_fiber.frag");
   } else if (opt.environment) {
     EnvironmentTables own;
     EnvironmentParts own_parts;
@@ -657,7 +670,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     fiber_reference(m, opt, cam, lights, lk.tables, lk.fb,
                     lk.fstack.levels > 0 ? &lk.stack : nullptr, &lk.fstack, g, &res);
   if (opt.reference && opt.environment)
-    environment_reference(m, cam, *opt.environment, kEnvironmentReferenceW,
+    environment_reference(m, opt, cam, *opt.environment, kEnvironmentReferenceW,
                           kEnvironmentReferenceW / 2, g, &res);
   else if (opt.reference && !opt.plain && !fiber)
     line_reference(m, opt, cam, lights, lk.tables, lk.maps ? &lk.stack : nullptr, g, &res);

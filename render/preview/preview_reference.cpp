@@ -35,6 +35,17 @@ double largest(const std::shared_ptr<const Image>& map, const RGB& scalar) {
   return v;
 }
 
+// The fiber model's topology s at a fragment of `local` (the material at the fragment), as the
+// shaders' topology_at: from its mathematical topology (T2's third channel) and its map.
+double fragment_s(const Material& local, const PreviewOptions& opt, const TopologyMap& map,
+                  const GBuffer& g, int x, int y) {
+  const double u = g.T2.at(x, y, 0), v = g.T2.at(x, y, 1), smath = g.T2.at(x, y, 2);
+  const double mv = local.topology_as<SMapRef>() ? sample_first_channel(opt.s_map, u, v)
+                    : map.h.empty()              ? 0.0
+                                                 : map.sample(u, v);
+  return s_at(local, smath, mv);
+}
+
 }  // namespace
 
 void fiber_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
@@ -45,7 +56,6 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Preview
   res->reference = Image(w, h, 3);
   TopologyMap map;
   map.h = opt.topology_map;
-  const bool s_map = m.topology_as<SMapRef>() != nullptr;
   // With maps every fragment has its own k_d, k_s, fiber direction and amplitude, and n where the
   // pass has the stacks over the map of n (the material's n otherwise), as in the shader.
   const bool maps = m.maps.any(), psi_map = maps && m.maps.fiber != nullptr;
@@ -55,17 +65,13 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Preview
     for (int x = 0; x < w; ++x) {
       SurfacePoint sp;
       if (!fragment_frame(g, *res, x, y, &sp)) continue;
-      const double u = g.T2.at(x, y, 0), v = g.T2.at(x, y, 1), smath = g.T2.at(x, y, 2);
       Material local = maps ? material_at(m, g.UV.at(x, y, 0), g.UV.at(x, y, 1)) : m;
       if (!n_map) local.n = m.n;
       if (psi_map) {  // the frame turned by the map's psi: the fiber along its U, as the shader's T
         const double psi = deg_to_rad(local.fiber_angle_deg);
         make_frame(sp.P, sp.N, sp.U * std::cos(psi) + sp.W * std::sin(psi), &sp);
       }
-      const double mv = s_map           ? sample_first_channel(opt.s_map, u, v)
-                        : map.h.empty() ? 0.0
-                                        : map.sample(u, v);
-      const double s = s_at(local, smath, mv);
+      const double s = fragment_s(local, opt, map, g, x, y);
       Material line_only = local;
       line_only.model = Model::kLine;
       double exact[3] = {0, 0, 0}, baked[3] = {0, 0, 0}, esum = 0;
@@ -165,8 +171,9 @@ void line_reference(const Material& m, const PreviewOptions& opt, const PreviewC
   res->error_bound = max_e * unit_bound + kFloatSlack;
 }
 
-void environment_reference(const Material& m, const PreviewCamera& cam, const Environment& env,
-                           int w, int h, const GBuffer& g, PreviewResult* res) {
+void environment_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
+                           const Environment& env, int w, int h, const GBuffer& g,
+                           PreviewResult* res) {
   const auto t0 = std::chrono::steady_clock::now();
   const EnvironmentSamples s = environment_samples(env, w, h);
   const int W = g.N.width, H = g.N.height;
@@ -177,25 +184,29 @@ void environment_reference(const Material& m, const PreviewCamera& cam, const En
   Material local = m;
   local.fiber_angle_deg = 0;
   const Evaluator uniform(local);
+  TopologyMap map;
+  map.h = opt.topology_map;
   tbb::parallel_for(0, H, [&](int y) {
     for (int x = 0; x < W; ++x) {
       SurfacePoint sp;
       if (!fragment_frame(g, *res, x, y, &sp)) continue;
       std::optional<Evaluator> at;
+      Material here;
       if (maps) {
-        Material here = material_at(m, g.UV.at(x, y, 0), g.UV.at(x, y, 1));
+        here = material_at(m, g.UV.at(x, y, 0), g.UV.at(x, y, 1));
         if (!psi_map) here.fiber_angle_deg = 0;
         at.emplace(here);
       }
       const Evaluator& le = maps ? *at : uniform;
+      const double topo = m.fiber() ? fragment_s(maps ? here : m, opt, map, g, x, y) : 0.0;
       const Vec3 P{g.P.at(x, y, 0), g.P.at(x, y, 1), g.P.at(x, y, 2)};
       const LocalDir Vl = to_local(sp, cam.toward_viewer(P));
       double acc[3] = {0, 0, 0};
       for (size_t k = 0; k < s.dir.size(); ++k) {
         const LocalDir Ll = to_local(sp, s.dir[k]);
         if (!(Ll.n > 0)) continue;
-        double f[3];  // the model's reflectance per unit irradiance, <N,L>^+ included
-        le(Ll, Vl, f);
+        double f[3];  // the model's reflectance per unit irradiance
+        le(Ll, Vl, f, topo);
         for (int c = 0; c < 3; ++c) acc[c] += s.weight[k][c] * f[c];
       }
       for (int c = 0; c < 3; ++c) res->reference.at(x, y, c) = static_cast<float>(acc[c]);

@@ -35,9 +35,11 @@ void fiber_reference(const Material& m, const PreviewOptions& opt, const Preview
 void line_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
                     const std::vector<PreviewLight>& lights, const BakeTables& tables,
                     const SpecularStack* stack, const GBuffer& g, PreviewResult* res);
-// Under an environment: brute force, the exact model at each covered fragment summed over the
-// environment's directions (averaged to w x h cells) with <N,L>^+; the differences from res->rgb.
-void environment_reference(const Material& m, const PreviewCamera& cam, const Environment& env,
-                           int w, int h, const GBuffer& g, PreviewResult* res);
+// Under an environment: brute force, the exact model at each covered fragment (the fiber model at
+// the fragment's topology s) summed over the environment's directions (averaged to w x h cells);
+// the differences from res->rgb.
+void environment_reference(const Material& m, const PreviewOptions& opt, const PreviewCamera& cam,
+                           const Environment& env, int w, int h, const GBuffer& g,
+                           PreviewResult* res);
 
 }  // namespace aniso

@@ -4,7 +4,10 @@
 // the coefficient of G or F at phi_v (V's angle from N toward B in the cross-section), turned by
 // the normal's angle chi_N round T. uFibEnvD holds D's terms as layers, uFibEnvS S's terms with
 // their levels of b side by side in depth (term t's level i at layer t * levels + i), uFibEnvCoef
-// the coefficients over (phi_v, b), three to a layer (F's then G's).
+// the coefficients over (phi_v, b), three to a layer (F's then G's), the layers of each level of
+// the topology s after those of the one before (blended between the two levels either side of the
+// fragment's s). Maps of k_d, k_s and the fiber direction apply per fragment (maps.glsl), the
+// topology s as the fiber pass takes it (topology.glsl).
 in vec3 vN; in vec3 vT; in vec3 vP; in vec2 vUV;
 uniform vec3 uV; uniform int uPerspective; uniform vec3 uEye;
 uniform vec3 uEnvKd; uniform vec3 uEnvKs;
@@ -12,7 +15,10 @@ uniform sampler3D uFibEnvD;
 uniform sampler3D uFibEnvS;
 uniform sampler3D uFibEnvCoef;
 uniform int uFibEnvOrder; uniform float uFibEnvLevels; uniform float uFibEnvPhis;
+uniform int uFibEnvSLevels;
 out vec4 frag;
+// aniso: maps.glsl
+// aniso: topology.glsl
 const int kMaxTerms = 17;  // order 8
 void main() {
   const float PI = 3.14159265358979;
@@ -22,7 +28,7 @@ void main() {
     frag = vec4(0.0, 0.0, 0.0, 1.0);
     return;
   }
-  vec3 T = normalize(vT - N * dot(N, vT));
+  vec3 T = turned_by_map(normalize(vT - N * dot(N, vT)), N);
   vec3 B = cross(N, T);
   vec3 e1 = cross(vec3(0.0, 0.0, 1.0), T);
   if (length(e1) < 1e-6) e1 = cross(vec3(1.0, 0.0, 0.0), T);
@@ -38,9 +44,15 @@ void main() {
                   (level + 0.5) / levels);
   int nt = 2 * uFibEnvOrder + 1;
   int layers = (2 * nt + 2) / 3;
+  float fs = uFibEnvSLevels > 1 ? clamp(topology_at(), 0.0, 1.0) * float(uFibEnvSLevels - 1) : 0.0;
+  int s0 = min(int(fs), max(uFibEnvSLevels - 2, 0));
+  float ws = fs - float(s0);
+  float all_layers = float(layers * uFibEnvSLevels);
   float cf[2 * kMaxTerms + 2];
   for (int l = 0; l < layers; ++l) {
-    vec3 v = texture(uFibEnvCoef, vec3(cst, (float(l) + 0.5) / float(layers))).rgb;
+    float z0 = (float(s0 * layers + l) + 0.5) / all_layers;
+    vec3 v = texture(uFibEnvCoef, vec3(cst, z0)).rgb;
+    if (ws > 0.0) v = mix(v, texture(uFibEnvCoef, vec3(cst, z0 + float(layers) / all_layers)).rgb, ws);
     cf[3 * l] = v.r;
     cf[3 * l + 1] = v.g;
     cf[3 * l + 2] = v.b;
@@ -63,5 +75,6 @@ void main() {
     s += fc * texture(uFibEnvS, vec3(st, (float(tc) * levels + level + 0.5) / depth)).rgb +
          fs * texture(uFibEnvS, vec3(st, (float(ts) * levels + level + 0.5) / depth)).rgb;
   }
-  frag = vec4(max(uEnvKd * d + uEnvKs * s, vec3(0.0)), 1.0);
+  vec3 kd = map_or(1, uKdMap, uEnvKd), ks = map_or(2, uKsMap, uEnvKs);
+  frag = vec4(max(kd * d + ks * s, vec3(0.0)), 1.0);
 }

@@ -5,21 +5,19 @@
 // With a map of n (uMaps & 4) S_line comes from the specular stack (maps.glsl: stack_at) and F
 // from uFStack, F's tables at levels over log n (render/bake.h: FiberStack; layer level * ns + s,
 // the nk tables of phi side by side), each blended between the two levels either side of log n.
-in vec3 vN; in vec3 vT; in vec3 vT2; in vec2 vUV; in float vSmath;
+in vec3 vN; in vec3 vT; in vec3 vT2; in vec2 vUV;
 uniform mat4 uTexMat;
 uniform sampler2D uD;
 uniform sampler2D uS;
 uniform sampler2DArray uG;
 uniform sampler2DArray uF;
 uniform sampler2DArray uFStack; uniform int uFLevels; uniform float uFLogN0; uniform float uFLogStep;
-uniform sampler2D uMap;
 uniform int uAngleIndex; uniform float uTexels;
 uniform int uNphi; uniform int uNs; uniform int uNk;
-uniform int uTopo;  // 0: uniform s, 1: s_math, 2: s_math + map, 3: a map of s itself
-uniform float uS0; uniform float uAmp;
 uniform vec3 uL; uniform vec3 uV; uniform vec3 uE; uniform vec3 uKd; uniform vec3 uKs;
 out vec4 frag;
 // aniso: maps.glsl
+// aniso: topology.glsl
 const float PI = 3.14159265358979;
 // A point light (uPointLight: at uLightPos, irradiance uE at distance uLightD0, falling off as
 // 1/d^2) and a perspective viewer (uPerspective: at uEye) make L and V vary per fragment.
@@ -57,15 +55,7 @@ void main() {
   float sL = length(vec2(lb, ln)), sV = length(vec2(vb, vn));
   float g0 = sL * sV - a * b;
   float kk = g0 > 0.0 ? 2.0 * sL * sV / (g0 + 2.0 * sL * sV) : 1.0;
-  float s = uS0;
-  if (uTopo >= 1) s = vSmath;
-  if (uTopo == 3) s = texture(uMap, vUV).r;
-  if (uTopo == 2) {
-    float m = 2.0 * texture(uMap, vUV).r - 1.0;
-    float amp = (uMaps & 16) != 0 ? map_at(uAmpMap, vUV).r : uAmp;
-    float H = clamp(2.0 * sin(PI / 3.0 * vSmath) + amp * m, 0.0, sqrt(3.0));
-    s = asin(0.5 * H) / (PI / 3.0);
-  }
+  float s = topology_at();
   vec2 uvphi = ((vec2(atan(lb, ln), atan(vb, vn)) + 0.5 * PI) / PI * float(uNphi - 1) + 0.5) / float(uNphi);
   float fs = clamp(s, 0.0, 1.0) * float(uNs - 1);
   int is = min(int(fs), uNs - 2);
