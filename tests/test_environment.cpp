@@ -1,6 +1,7 @@
 // The fiber model under an environment (render/bake/environment_fiber.h): the prefiltered tables
 // at their nodes against sums over the environment through the baked model and through the exact
-// one; the preview's frame against brute force.
+// one; the preview's frame against brute force. And the optional terms of either model (a second
+// fiber, the isotropic term) under an environment.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -171,6 +172,73 @@ TEST(FiberEnvironment, TopologyAndMapsPerFragmentAgainstBruteForce) {
     EXPECT_LT(r.env_rel_rms, 0.05);
     EXPECT_GT(apart, 0.03 * sum);
   }
+}
+
+// A second fiber (the same tables at T2) and the isotropic term (its irradiance and Phong tables)
+// under the studio and a uniform environment, for the line and the fiber model and for the
+// isotropic part alone (what a fit writes where no lobe counts), against brute force.
+TEST(EnvironmentTerms, SecondFiberAndIsotropicTermAgainstBruteForce) {
+  Environment uniform;
+  uniform.name = "uniform";
+  uniform.radiance = Image(64, 32, 3, 1.0f);
+  const Environment studio = studio_environment();
+  Material line;
+  line.kd = {0.25, 0.1, 0.05};
+  line.ks = {0.6, 0.55, 0.5};
+  line.n = 60;
+  line.fiber_angle_deg = 20;
+  Material woven = line;
+  woven.has_second_fiber = true;
+  woven.second_angle_deg = 110;
+  woven.second_weight = 0.6;
+  Material iso = line;
+  iso.has_isotropic = true;
+  iso.iso_kd = {0.05, 0.05, 0.05};
+  iso.iso_ks = {0.3, 0.3, 0.3};
+  iso.iso_n = 40;
+  Material iso_only = iso;
+  iso_only.kd = iso_only.ks = {0, 0, 0};
+  iso_only.iso_kd = {0.4, 0.3, 0.2};
+  Material fiber = flat_silk(0.4, 40);
+  fiber.has_second_fiber = true;
+  fiber.second_angle_deg = 120;
+  fiber.has_isotropic = true;
+  fiber.iso_ks = {0.2, 0.2, 0.2};
+  fiber.iso_n = 80;
+  const std::pair<const char*, Material> cases[] = {
+      {"line, second fiber", woven},
+      {"line, isotropic term", iso},
+      {"isotropic part alone", iso_only},
+      {"fiber, second fiber and isotropic term", fiber}};
+  for (const auto& [what, m] : cases)
+    for (const Environment* env : {&studio, static_cast<const Environment*>(&uniform)}) {
+      PreviewOptions p;
+      p.width = p.height = 48;
+      p.reference = true;
+      p.environment = env;
+      const PreviewResult r = render_preview(m, p);
+      // And apart from the material without the term: the term is drawn.
+      Material without = m;
+      without.has_second_fiber = false;
+      if (!m.second_active()) without.has_isotropic = false;
+      PreviewOptions q = p;
+      q.reference = false;
+      const PreviewResult o = render_preview(without, q);
+      double apart = 0, sum = 0;
+      for (size_t k = 0; k < r.rgb.px.size(); ++k)
+        apart += std::abs(r.rgb.px[k] - o.rgb.px[k]), sum += r.rgb.px[k];
+      std::printf(
+          "%s under %s: against brute force mean abs %.4g (mean %.4g), relative RMS %.4g, max "
+          "%.4g; without the term %.0f %% of the image's sum apart\n",
+          what, env->name.c_str(), r.env_mean_abs, r.env_reference_mean, r.env_rel_rms,
+          r.max_abs_diff, 100 * apart / sum);
+      EXPECT_GT(r.env_reference_mean, 0.02) << what;
+      EXPECT_LT(r.env_rel_rms, 0.05) << what << " under " << env->name;
+      // (Under a uniform environment a second fiber's direction hardly shows.)
+      if (env == &studio) {
+        EXPECT_GT(apart, 0.03 * sum) << what;
+      }
+    }
 }
 
 }  // namespace

@@ -760,6 +760,15 @@ TEST(Export, TheStudioGoesWithEveryExportThatCanCarryIt) {
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("the fiber model"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(root + "/fiber_env"));
+  // The viewer's environment is the one lobe's: a second fiber or an isotropic term (which the
+  // preview lights under an environment) keeps the export from carrying it, and says so.
+  Material iso = brushed(), woven = brushed();
+  iso.has_isotropic = true;
+  iso.iso_ks = {0.2, 0.2, 0.2};
+  woven.has_second_fiber = true;
+  EXPECT_NE(environment_refusal(iso).find("an isotropic term"), std::string::npos);
+  EXPECT_NE(environment_refusal(woven).find("a second fiber"), std::string::npos);
+  EXPECT_EQ(environment_refusal(brushed()), "");
 }
 
 TEST(Export, RefusesAFolderThatIsNotAnEarlierExport) {

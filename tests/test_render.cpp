@@ -880,22 +880,25 @@ TEST(Preview, EnvironmentLightAgainstBruteForce) {
     EXPECT_LT(r.env_rel_rms, 0.05);
     EXPECT_GT(apart, 0.1 * sum);
   }
-  // A map of n and a second fiber are not prefiltered: said, not drawn wrong (the fiber model is:
+  // A map of n, and a second fiber beside a map of the fiber direction, are not prefiltered: said,
+  // not drawn wrong (the fiber model, a second fiber and the isotropic term are:
   // tests/test_environment.cpp).
-  Material two = satin();
+  PresetOptions po;
+  po.views = 1;
+  po.width = po.height = 16;
+  po.progress = nullptr;
+  Material two = make_preset("swirl-plate", po).truth;
   two.has_second_fiber = true;
   PreviewOptions p;
   p.environment = &studio;
   try {
     render_preview(two, p);
-    ADD_FAILURE() << "a second fiber under an environment was drawn";
+    ADD_FAILURE() << "a second fiber beside a fiber map under an environment was drawn";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("a second fiber"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("a second fiber with a map of the fiber direction"),
+              std::string::npos)
+        << e.what();
   }
-  PresetOptions po;
-  po.views = 1;
-  po.width = po.height = 16;
-  po.progress = nullptr;
   const Material woven = make_preset("woven-patch", po).truth;
   ASSERT_TRUE(woven.maps.n);
   EXPECT_THROW(render_preview(woven, p), Error);

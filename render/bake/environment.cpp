@@ -107,10 +107,60 @@ EnvironmentSamples environment_samples(const Environment& env, int w, int h) {
 }
 
 const char* environment_unsupported(const Material& m) {
-  return m.maps.n               ? "a map of n"
-         : m.second_active()    ? "a second fiber"
-         : m.isotropic_active() ? "an isotropic term"
-                                : nullptr;
+  return m.maps.n                                       ? "a map of n"
+         : m.second_active() && m.maps.fiber != nullptr ? "a second fiber with a map of the fiber "
+                                                          "direction"
+                                                        : nullptr;
+}
+
+IsotropicEnvironment prefilter_isotropic_environment(const Environment& env, double n_iso, int w,
+                                                     int h, int env_w, int env_h) {
+  const auto t0 = std::chrono::steady_clock::now();
+  IsotropicEnvironment out;
+  out.w = w, out.h = h;
+  out.irradiance.assign(static_cast<size_t>(w) * h * 3, 0.f);
+  out.glossy.assign(static_cast<size_t>(w) * h * 3, 0.f);
+  const EnvironmentSamples s = environment_samples(env, env_w, env_h);
+  const double np = std::max(n_iso / 4, 0.0);
+  tbb::parallel_for(0, w * h, [&](int cell) {
+    const Vec3 D = cell_direction(cell % w, cell / w, w, h);
+    double irr[3] = {0, 0, 0}, gl[3] = {0, 0, 0};
+    for (size_t k = 0; k < s.dir.size(); ++k) {
+      const double c = dot(D, s.dir[k]);
+      if (!(c > 0)) continue;
+      const double lobe = std::pow(c, np);
+      for (int ch = 0; ch < 3; ++ch)
+        irr[ch] += s.weight[k][ch] * c, gl[ch] += s.weight[k][ch] * lobe;
+    }
+    for (int ch = 0; ch < 3; ++ch) {
+      out.irradiance[static_cast<size_t>(cell) * 3 + ch] = static_cast<float>(irr[ch]);
+      out.glossy[static_cast<size_t>(cell) * 3 + ch] = static_cast<float>(gl[ch]);
+    }
+  });
+  // The factor: with N = z and V at <N,V> = c, the Blinn-Phong lobe summed over the half-vectors H
+  // round N (dOmega_L = 4 <V,H> dOmega_H), where L = 2 <V,H> H - V is above the surface, over the
+  // Phong lobe's 2 pi / (n_iso / 4 + 1).
+  const int nt = 128, np_steps = 128;
+  const double theta_max = std::min(M_PI / 2, 8 / std::sqrt(n_iso + 1));
+  const double dt = theta_max / nt, dp = 2 * M_PI / np_steps, phong = 2 * M_PI / (np + 1);
+  for (int i = 0; i < IsotropicEnvironment::kScaleNodes; ++i) {
+    const double c = std::max(double(i) / (IsotropicEnvironment::kScaleNodes - 1), 1e-3);
+    const Vec3 V{std::sqrt(1 - c * c), 0, c};
+    double sum = 0;
+    for (int a = 0; a < nt; ++a) {
+      const double th = (a + 0.5) * dt, lobe = std::pow(std::cos(th), n_iso) * std::sin(th);
+      for (int b = 0; b < np_steps; ++b) {
+        const double ph = (b + 0.5) * dp;
+        const Vec3 H{std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th)};
+        const double vh = dot(V, H);
+        if (!(vh > 0) || !(2 * vh * H.z - V.z > 0)) continue;
+        sum += lobe * 4 * vh * dt * dp;
+      }
+    }
+    out.scale[i] = static_cast<float>(sum / phong);
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
 }
 
 EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables) {

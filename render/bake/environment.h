@@ -62,10 +62,11 @@ EnvironmentTables prefilter_environment(const Environment& env, const BakeTables
                                         int w = 64, int h = 32, int nb = 32, int env_w = 64,
                                         int env_h = 32);
 
-// What of `m` the prefilters do not cover ("a map of n", "a second fiber", "an isotropic term"),
-// null where they cover all of it: the line model with one fiber (its maps of k_d, k_s and the
-// fiber direction through prefilter_environment_parts) and the fiber model with any topology and
-// the same maps (render/bake/environment_fiber.h).
+// What of `m` the prefilters do not cover ("a map of n", "a second fiber with a map of the fiber
+// direction"), null where they cover all of it: the line model (its maps of k_d, k_s and the fiber
+// direction through prefilter_environment_parts) and the fiber model with any topology and the
+// same maps (render/bake/environment_fiber.h), a second fiber (the same tables at T2) and an
+// isotropic term (prefilter_isotropic_environment).
 const char* environment_unsupported(const Material& m);
 
 // A material with maps of k_d or k_s: the environment prefiltered through D alone (k_d 1, k_s 0)
@@ -76,6 +77,24 @@ struct EnvironmentParts {
   EnvironmentTables diffuse, specular;
 };
 EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables);
+
+// The isotropic term (docs/models.md §3: k_d,iso <N,L>^+ + k_s,iso (<N,H>^+)^n_iso) under an
+// environment: two equirectangular tables, the irradiance over the normal N (the sum of L_env
+// <N,L>^+ dOmega, exact) and the Blinn-Phong lobe as a Phong lobe over the mirror direction R of V
+// (the sum of L_env (<R,L>^+)^(n_iso / 4) dOmega: round its peak the angle between L and R is twice
+// that between H and N), times a factor over <N,V> that makes it exact for a uniform environment:
+// the Blinn-Phong lobe's integral over the lit hemisphere over the Phong lobe's over the sphere.
+// What remains is measured against brute force (aniso preview --env).
+struct IsotropicEnvironment {
+  int w = 0, h = 0;
+  std::vector<float> irradiance, glossy;  // (y * w + x) * 3, RGB
+  static constexpr int kScaleNodes = 33;  // <N,V> = i / 32
+  float scale[kScaleNodes] = {};
+  double seconds = 0;
+};
+IsotropicEnvironment prefilter_isotropic_environment(const Environment& env, double n_iso,
+                                                     int w = 64, int h = 32, int env_w = 128,
+                                                     int env_h = 64);
 
 // The direction of equirectangular cell (x, y) of a w x h map (the convention of Environment).
 Vec3 cell_direction(int x, int y, int w, int h);

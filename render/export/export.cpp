@@ -557,10 +557,13 @@ json write_environment(const std::string& dir, const Material& m, const Environm
 }  // namespace
 
 std::string environment_refusal(const Material& m) {
-  // The export's viewer draws no maps under an environment, beyond what the prefilter covers.
-  const char* what = m.fiber()      ? "the fiber model"
-                     : m.maps.any() ? "maps"
-                                    : environment_unsupported(m);
+  // The export's viewer draws the line model's one lobe under an environment: not what the
+  // preview's prefilters cover beyond it.
+  const char* what = m.fiber()              ? "the fiber model"
+                     : m.maps.any()         ? "maps"
+                     : m.second_active()    ? "a second fiber"
+                     : m.isotropic_active() ? "an isotropic term"
+                                            : environment_unsupported(m);
   if (!what) return "";
   return "the environment is prefiltered for the line model with one fiber and no maps; this "
          "material has " +

@@ -129,6 +129,7 @@ std::string with_maps(const char* frag) {
   for (const auto& [marker, part] :
        {std::pair<std::string, const char*>{"// aniso: maps.glsl", shaders::maps_glsl},
         {"// aniso: topology.glsl", shaders::topology_glsl},
+        {"// aniso: environment_isotropic.glsl", shaders::environment_isotropic_glsl},
         {"// aniso: aniso_environment.glsl", shaders::aniso_environment_glsl}})
     if (const size_t at = s.find(marker); at != std::string::npos)
       s.replace(at, marker.size(), part);
@@ -158,6 +159,9 @@ struct EnvironmentLookup {
   bool fiber = false;
   gl::Texture fiber_d, fiber_s, fiber_coef;
   int order = 0, phis = 0, s_levels = 1;
+  bool iso = false;  // the isotropic term's irradiance and glossy tables
+  gl::Texture iso_irr, iso_gloss;
+  float iso_scale[IsotropicEnvironment::kScaleNodes] = {};
 };
 
 // A fiber material's tables as the volumes env_fiber.frag reads: D's terms as layers, S's terms
@@ -183,8 +187,9 @@ void fiber_environment_volumes(const FiberEnvironmentTables& t, EnvironmentLooku
   env->s_levels = t.ns;
 }
 
-// The environment's units: after the maps' (5 to 10), D's (or the whole's) terms, then S's.
-constexpr int kEnvUnit = 11, kEnvSpecUnit = 18;
+// The environment's units: after the maps' (5 to 10), D's (or the whole's) terms, then S's, then
+// the isotropic term's two tables.
+constexpr int kEnvUnit = 11, kEnvSpecUnit = 18, kEnvIsoUnit = 25;
 
 // A map of k_d or k_s as RGB (one channel stands for all three, as material_at reads it).
 Image as_rgb(const Image& img) {
@@ -328,6 +333,19 @@ int draw_environment(const Material& m, const PreviewOptions& opt, const gl::Pro
   p.set("uV", cam.V);
   p.set("uPerspective", cam.perspective ? 1 : 0);
   p.set("uEye", cam.eye);
+  p.set("uEnvSecond", m.second_active() ? 1 : 0);
+  p.set("uEnvW", float(m.second_weight));
+  p.set("uEnvIso", env.iso ? 1 : 0);
+  p.set("uEnvKdIso", m.iso_kd);
+  p.set("uEnvKsIso", m.iso_ks);
+  if (env.iso) {
+    env.iso_irr.bind(kEnvIsoUnit);
+    env.iso_gloss.bind(kEnvIsoUnit + 1);
+    glUniform1fv(glGetUniformLocation(p.id(), "uEnvIsoScale"), IsotropicEnvironment::kScaleNodes,
+                 env.iso_scale);
+  }
+  p.set("uEnvIrr", kEnvIsoUnit);
+  p.set("uEnvGloss", kEnvIsoUnit + 1);
   if (env.fiber) {
     env.fiber_d.bind(kEnvUnit);
     env.fiber_s.bind(kEnvUnit + 1);
@@ -516,6 +534,10 @@ std::vector<PreviewLight> preview_lights(const PreviewOptions& opt, const Vec3& 
 
 void prefilter_for_frames(const Material& m, PreviewOptions* p, PreviewPrefiltered* keep) {
   if (!p->environment || !p->baked) return;
+  if (m.isotropic_active() && !p->prefiltered_isotropic) {
+    keep->isotropic = prefilter_isotropic_environment(*p->environment, m.iso_n);
+    p->prefiltered_isotropic = &keep->isotropic;
+  }
   if (m.fiber()) {
     if (!p->prefiltered_fiber && p->baked_fiber) {
       keep->fiber = prefilter_fiber_environment(*p->environment, m, *p->baked, *p->baked_fiber);
@@ -612,13 +634,24 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
 
   EnvironmentLookup env;
   std::unique_ptr<gl::Program> env_pass;
+  if (opt.environment && m.isotropic_active()) {
+    IsotropicEnvironment own;
+    if (!opt.prefiltered_isotropic)
+      own = prefilter_isotropic_environment(*opt.environment, m.iso_n);
+    const IsotropicEnvironment& it = opt.prefiltered_isotropic ? *opt.prefiltered_isotropic : own;
+    env.iso_irr.volume_rgb(it.irradiance, it.w, it.h, 1);
+    env.iso_gloss.volume_rgb(it.glossy, it.w, it.h, 1);
+    env.iso = true;
+    std::copy(std::begin(it.scale), std::end(it.scale), env.iso_scale);
+    res.env_prefilter_seconds += it.seconds;
+  }
   if (opt.environment && fiber) {
     FiberEnvironmentTables own;
     if (!opt.prefiltered_fiber)
       own = prefilter_fiber_environment(*opt.environment, m, lk.tables, lk.fb);
     const FiberEnvironmentTables& ft = opt.prefiltered_fiber ? *opt.prefiltered_fiber : own;
     fiber_environment_volumes(ft, &env);
-    res.env_prefilter_seconds = ft.seconds;
+    res.env_prefilter_seconds += ft.seconds;
     res.env_sizes.w = ft.w, res.env_sizes.h = ft.h, res.env_sizes.nb = ft.nb;
     res.env_sizes.env_w = ft.env_w, res.env_sizes.env_h = ft.env_h;
     env_pass = std::make_unique<gl::Program>(
@@ -640,7 +673,7 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
       if (env.parts) env.spec[t].volume_rgb(parts.specular.terms[t], et.w, et.h, et.nb);
     }
     env.levels = et.nb;
-    res.env_prefilter_seconds =
+    res.env_prefilter_seconds +=
         env.parts ? parts.diffuse.seconds + parts.specular.seconds : et.seconds;
     res.env_sizes.w = et.w, res.env_sizes.h = et.h, res.env_sizes.nb = et.nb;
     res.env_sizes.env_w = et.env_w, res.env_sizes.env_h = et.env_h;

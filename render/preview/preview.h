@@ -67,7 +67,8 @@ struct PreviewOptions {
   // for many frames (the interactive view, the turntable); prefiltered here when null.
   const EnvironmentTables* prefiltered = nullptr;
   const EnvironmentParts* prefiltered_parts = nullptr;
-  const FiberEnvironmentTables* prefiltered_fiber = nullptr;  // a fiber material's
+  const FiberEnvironmentTables* prefiltered_fiber = nullptr;    // a fiber material's
+  const IsotropicEnvironment* prefiltered_isotropic = nullptr;  // an isotropic term's
 };
 
 struct PreviewResult {
@@ -114,6 +115,7 @@ struct PreviewPrefiltered {
   EnvironmentTables tables;
   EnvironmentParts parts;
   FiberEnvironmentTables fiber;
+  IsotropicEnvironment isotropic;
 };
 void prefilter_for_frames(const Material& m, PreviewOptions* p, PreviewPrefiltered* keep);
 

@@ -178,11 +178,13 @@ void environment_reference(const Material& m, const PreviewOptions& opt, const P
   const EnvironmentSamples s = environment_samples(env, w, h);
   const int W = g.N.width, H = g.N.height;
   res->reference = Image(W, H, 3);
-  // In the frame (U = T) the fiber angle is 0, or the fiber map's (then T is the reference tangent,
-  // turned by the shader); a material with maps is evaluated at each fragment's uv.
+  // In the frame (U = T) the fiber angle is 0 and a second fiber's is its angle from the first, or
+  // the fiber map's (then T is the reference tangent, turned by the shader); a material with maps
+  // is evaluated at each fragment's uv.
   const bool maps = m.maps.any(), psi_map = maps && m.maps.fiber != nullptr;
   Material local = m;
   local.fiber_angle_deg = 0;
+  local.second_angle_deg = m.second_angle_deg - m.fiber_angle_deg;
   const Evaluator uniform(local);
   TopologyMap map;
   map.h = opt.topology_map;
@@ -194,7 +196,10 @@ void environment_reference(const Material& m, const PreviewOptions& opt, const P
       Material here;
       if (maps) {
         here = material_at(m, g.UV.at(x, y, 0), g.UV.at(x, y, 1));
-        if (!psi_map) here.fiber_angle_deg = 0;
+        if (!psi_map) {
+          here.second_angle_deg = m.second_angle_deg - here.fiber_angle_deg;
+          here.fiber_angle_deg = 0;
+        }
         at.emplace(here);
       }
       const Evaluator& le = maps ? *at : uniform;

@@ -216,6 +216,9 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
   EnvironmentParts parts;
   // The fiber model: D and S apart as well, once.
   FiberEnvironmentTables fiber_prefiltered;
+  // The isotropic term's tables depend on its n alone: once.
+  IsotropicEnvironment iso_prefiltered;
+  if (env && m.isotropic_active()) iso_prefiltered = prefilter_isotropic_environment(*env, m.iso_n);
   auto refilter = [&](const Material& shown) {
     if (m.fiber()) {
       if (fiber_prefiltered.w == 0)
@@ -250,6 +253,7 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
       p.prefiltered = nullptr;
       p.prefiltered_parts = nullptr;
       p.prefiltered_fiber = nullptr;
+      p.prefiltered_isotropic = iso_prefiltered.w > 0 ? &iso_prefiltered : nullptr;
       if (p.environment) {
         refilter(shown);
         if (m.fiber())
