@@ -218,8 +218,8 @@ Command add_preview(CLI::App& app) {
   prev->add_option("--env", a->env,
                    "light from an equirectangular HDR environment (FILE.exr, z up, twice as wide "
                    "as high) or the built-in 'studio', instead of the lights: prefiltered for the "
-                   "line model (with its maps of k_d, k_s and the fiber direction; not a map of "
-                   "n) or the fiber model (any topology, the same maps) and drawn in one pass, then "
+                   "line model (with its maps, a second fiber, an isotropic term) or the fiber "
+                   "model (any topology, the same but a map of n) and drawn in one pass, then "
                    "held against brute force");
   prev->add_flag("--env-check", a->env_check,
                  "--env: hold the frame against brute force whatever its size (by default up to "

@@ -130,8 +130,10 @@ SpecularStack bake_specular_stack(double n_min, double n_max, int size, BakeInde
                                   uint64_t seed = 1);
 
 // The stack a line material with maps draws with: over its map of n's range (throws, naming the
-// map, where it holds no positive value), or at its one n without a map of n.
-SpecularStack bake_material_stack(const Material& m, int size, BakeIndex index);
+// map, where it holds no positive value), or at its one n without a map of n; levels as
+// bake_specular_stack's.
+SpecularStack bake_material_stack(const Material& m, int size, BakeIndex index,
+                                  double max_log_step = 0.05, int max_levels = 64);
 
 // bake.json's "specular_stack" section, with specular_stack.exr written into `dir`; and the stack
 // read back from such a section of `file` (errors name the file and key) beside tables `t`.

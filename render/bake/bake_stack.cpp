@@ -81,11 +81,12 @@ SpecularStack bake_specular_stack(double n_min, double n_max, int size, BakeInde
   return st;
 }
 
-SpecularStack bake_material_stack(const Material& m, int size, BakeIndex index) {
+SpecularStack bake_material_stack(const Material& m, int size, BakeIndex index, double max_log_step,
+                                  int max_levels) {
   double lo = m.n, hi = m.n;
   if (m.maps.n && !map_range(*m.maps.n, &lo, &hi))
     throw Error("bake: the material's map of n (" + m.maps.n_file + ") holds no positive value");
-  return bake_specular_stack(lo, hi, size, index);
+  return bake_specular_stack(lo, hi, size, index, max_log_step, max_levels);
 }
 
 double stack_lookup(const SpecularStack& st, double a, double b, double n) {

@@ -107,7 +107,7 @@ EnvironmentSamples environment_samples(const Environment& env, int w, int h) {
 }
 
 const char* environment_unsupported(const Material& m) {
-  return m.maps.n                                       ? "a map of n"
+  return m.fiber() && m.maps.n                          ? "the fiber model with a map of n"
          : m.second_active() && m.maps.fiber != nullptr ? "a second fiber with a map of the fiber "
                                                           "direction"
                                                         : nullptr;
@@ -163,17 +163,30 @@ IsotropicEnvironment prefilter_isotropic_environment(const Environment& env, dou
   return out;
 }
 
-EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables) {
-  auto unit_part = [&](bool specular) {
+EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables,
+                                             const Material* with_n) {
+  auto unit_part = [&](bool specular, const Image* level = nullptr) {
     BakeTables u = tables;
-    const Image& one = specular ? tables.specular : tables.diffuse;
+    const Image& one = level ? *level : specular ? tables.specular : tables.diffuse;
     u.combined = Image(one.width, one.height, 3);
     for (size_t p = 0; p < static_cast<size_t>(one.width) * one.height; ++p)
       for (int c = 0; c < 3; ++c) u.combined.px[p * 3 + c] = one.px[p];
     return u;
   };
-  return {prefilter_environment(env, unit_part(false)),
-          prefilter_environment(env, unit_part(true))};
+  EnvironmentParts parts{prefilter_environment(env, unit_part(false)),
+                         prefilter_environment(env, unit_part(true)),
+                         {},
+                         0,
+                         0};
+  if (with_n && with_n->maps.n) {
+    const SpecularStack st = bake_material_stack(*with_n, tables.size, tables.index, 0.2, 16);
+    for (const Image& level : st.S) {
+      parts.specular_n.push_back(prefilter_environment(env, unit_part(true, &level)));
+      parts.specular.seconds += parts.specular_n.back().seconds;
+    }
+    parts.logn0 = st.logn0, parts.log_step = st.log_step();
+  }
+  return parts;
 }
 
 void chi_frame(const Vec3& T, Vec3* e1, Vec3* e2) {

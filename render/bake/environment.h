@@ -62,21 +62,26 @@ EnvironmentTables prefilter_environment(const Environment& env, const BakeTables
                                         int w = 64, int h = 32, int nb = 32, int env_w = 64,
                                         int env_h = 32);
 
-// What of `m` the prefilters do not cover ("a map of n", "a second fiber with a map of the fiber
-// direction"), null where they cover all of it: the line model (its maps of k_d, k_s and the fiber
-// direction through prefilter_environment_parts) and the fiber model with any topology and the
-// same maps (render/bake/environment_fiber.h), a second fiber (the same tables at T2) and an
-// isotropic term (prefilter_isotropic_environment).
+// What of `m` the prefilters do not cover ("the fiber model with a map of n", "a second fiber with
+// a map of the fiber direction"), null where they cover all of it: the line model (its maps of k_d,
+// k_s, n and the fiber direction through prefilter_environment_parts) and the fiber model with any
+// topology and the same maps but n's (render/bake/environment_fiber.h), a second fiber (the same
+// tables at T2) and an isotropic term (prefilter_isotropic_environment).
 const char* environment_unsupported(const Material& m);
 
 // A material with maps of k_d or k_s: the environment prefiltered through D alone (k_d 1, k_s 0)
 // and through S alone (k_d 0, k_s 1), grey, each as prefilter_environment's terms; a fragment's
 // radiance is k_d times the first's sum plus k_s times the second's, its maps' values applied
-// there (render/shaders/env.frag).
+// there (render/shaders/env.frag). With a map of n (`with_n`: the material), S's terms also at
+// levels of n spaced evenly in log n over the map's range, at most 0.2 apart (bake.h
+// bake_specular_stack): the shader blends the two levels either side of its fragment's log n.
 struct EnvironmentParts {
   EnvironmentTables diffuse, specular;
+  std::vector<EnvironmentTables> specular_n;
+  double logn0 = 0, log_step = 0;
 };
-EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables);
+EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables,
+                                             const Material* with_n = nullptr);
 
 // The isotropic term (docs/models.md §3: k_d,iso <N,L>^+ + k_s,iso (<N,H>^+)^n_iso) under an
 // environment: two equirectangular tables, the irradiance over the normal N (the sum of L_env

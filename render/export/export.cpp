@@ -565,8 +565,9 @@ std::string environment_refusal(const Material& m) {
                      : m.isotropic_active() ? "an isotropic term"
                                             : environment_unsupported(m);
   if (!what) return "";
-  return "the environment is prefiltered for the line model with one fiber and no maps; this "
-         "material has " +
+  return "the export's viewer lights the line model with one fiber, no maps and no isotropic term "
+         "under an environment (aniso preview --env and aniso view light more); this material "
+         "has " +
          std::string(what);
 }
 

@@ -83,8 +83,8 @@ struct ExportSummary {
   std::string environment_left_out;  // why the environment was not written ("" if it was)
 };
 
-// Why an environment cannot be prefiltered for `m` ("" where it can): the prefilter is the line
-// model's with one fiber and no maps.
+// Why the export cannot carry an environment for `m` ("" where it can): its viewer lights the line
+// model's one lobe, without maps or an isotropic term.
 std::string environment_refusal(const Material& m);
 
 // Writes the folder atomically: new, empty, or an earlier export holding exactly what it wrote

@@ -159,6 +159,8 @@ struct EnvironmentLookup {
   bool fiber = false;
   gl::Texture fiber_d, fiber_s, fiber_coef;
   int order = 0, phis = 0, s_levels = 1;
+  int n_levels = 1;  // a map of n: S's terms at levels of n (spaced log_step in log n)
+  double logn0 = 0, log_step = 0;
   bool iso = false;  // the isotropic term's irradiance and glossy tables
   gl::Texture iso_irr, iso_gloss;
   float iso_scale[IsotropicEnvironment::kScaleNodes] = {};
@@ -371,6 +373,9 @@ int draw_environment(const Material& m, const PreviewOptions& opt, const gl::Pro
   }
   set_map_uniforms(p, m, lk);
   p.set("uEnvParts", env.parts ? 1 : 0);
+  p.set("uEnvNLevels", env.n_levels);
+  p.set("uEnvLogN0", float(env.logn0));
+  p.set("uEnvLogStep", float(env.log_step));
   p.set("anisoEnvLevels", float(env.levels));
   mesh.draw();
   glFinish();
@@ -545,7 +550,7 @@ void prefilter_for_frames(const Material& m, PreviewOptions* p, PreviewPrefilter
     }
   } else if (m.maps.any()) {
     if (!p->prefiltered_parts) {
-      keep->parts = prefilter_environment_parts(*p->environment, *p->baked);
+      keep->parts = prefilter_environment_parts(*p->environment, *p->baked, &m);
       p->prefiltered_parts = &keep->parts;
     }
   } else if (!p->prefiltered) {
@@ -661,18 +666,30 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     EnvironmentParts own_parts;
     env.parts = m.maps.any();  // D and S apart: the maps' k_d and k_s apply per fragment
     if (env.parts && !opt.prefiltered_parts)
-      own_parts = prefilter_environment_parts(*opt.environment, lk.tables);
+      own_parts = prefilter_environment_parts(*opt.environment, lk.tables, &m);
     else if (!env.parts && !opt.prefiltered)
       own = prefilter_environment(*opt.environment, lk.tables);
     const EnvironmentParts& parts = opt.prefiltered_parts ? *opt.prefiltered_parts : own_parts;
     const EnvironmentTables& et = env.parts         ? parts.diffuse
                                   : opt.prefiltered ? *opt.prefiltered
                                                     : own;
+    // With a map of n, S's terms at its levels of n one after the other in depth.
+    const int n_levels = env.parts ? std::max<int>(1, parts.specular_n.size()) : 1;
     for (int t = 0; t < 7; ++t) {
       env.terms[t].volume_rgb(et.terms[t], et.w, et.h, et.nb);
-      if (env.parts) env.spec[t].volume_rgb(parts.specular.terms[t], et.w, et.h, et.nb);
+      if (!env.parts) continue;
+      if (parts.specular_n.empty()) {
+        env.spec[t].volume_rgb(parts.specular.terms[t], et.w, et.h, et.nb);
+        continue;
+      }
+      std::vector<float> all;
+      for (const EnvironmentTables& level : parts.specular_n)
+        all.insert(all.end(), level.terms[t].begin(), level.terms[t].end());
+      env.spec[t].volume_rgb(all, et.w, et.h, et.nb * n_levels);
     }
     env.levels = et.nb;
+    env.n_levels = n_levels;
+    env.logn0 = parts.logn0, env.log_step = parts.log_step;
     res.env_prefilter_seconds +=
         env.parts ? parts.diffuse.seconds + parts.specular.seconds : et.seconds;
     res.env_sizes.w = et.w, res.env_sizes.h = et.h, res.env_sizes.nb = et.nb;

@@ -226,7 +226,7 @@ void run_viewer(const Material& m, const ViewerOptions& opt) {
       return;
     }
     if (m.maps.any()) {
-      if (parts.diffuse.w == 0) parts = prefilter_environment_parts(*env, *p.baked);
+      if (parts.diffuse.w == 0) parts = prefilter_environment_parts(*env, *p.baked, &m);
       return;
     }
     if (prefiltered.w > 0 && prefiltered_for == std::pair{s.diffuse, s.specular}) return;
