@@ -130,6 +130,7 @@ std::string with_maps(const char* frag) {
        {std::pair<std::string, const char*>{"// aniso: maps.glsl", shaders::maps_glsl},
         {"// aniso: topology.glsl", shaders::topology_glsl},
         {"// aniso: environment_isotropic.glsl", shaders::environment_isotropic_glsl},
+        {"// aniso: aniso_environment_fiber.glsl", shaders::aniso_environment_fiber_glsl},
         {"// aniso: aniso_environment.glsl", shaders::aniso_environment_glsl}})
     if (const size_t at = s.find(marker); at != std::string::npos)
       s.replace(at, marker.size(), part);
@@ -352,13 +353,13 @@ int draw_environment(const Material& m, const PreviewOptions& opt, const gl::Pro
     env.fiber_d.bind(kEnvUnit);
     env.fiber_s.bind(kEnvUnit + 1);
     env.fiber_coef.bind(kEnvUnit + 2);
-    p.set("uFibEnvD", kEnvUnit);
-    p.set("uFibEnvS", kEnvUnit + 1);
-    p.set("uFibEnvCoef", kEnvUnit + 2);
-    p.set("uFibEnvOrder", env.order);
-    p.set("uFibEnvLevels", float(env.levels));
-    p.set("uFibEnvPhis", float(env.phis));
-    p.set("uFibEnvSLevels", env.s_levels);
+    p.set("anisoFibEnvD", kEnvUnit);
+    p.set("anisoFibEnvS", kEnvUnit + 1);
+    p.set("anisoFibEnvCoef", kEnvUnit + 2);
+    p.set("anisoFibEnvOrder", env.order);
+    p.set("anisoFibEnvLevels", float(env.levels));
+    p.set("anisoFibEnvPhis", float(env.phis));
+    p.set("anisoFibEnvSLevels", env.s_levels);
     set_map_uniforms(p, m, lk);
     set_topology_uniforms(p, m, lk);
     mesh.draw();
