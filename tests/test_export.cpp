@@ -743,9 +743,24 @@ TEST(Export, TheStudioGoesWithEveryExportThatCanCarryIt) {
   EXPECT_FALSE(ej["tables"].contains("environment"));
   EXPECT_FALSE(std::filesystem::exists(root + "/none/tables/environment_t0.ktx2"));
 
+  // A fiber material at one s carries it (the viewer's frame: Export.BrowserViewerUnderAn-
+  // EnvironmentMatchesThePreview); one with a topology map, which the viewer does not draw under
+  // an environment, goes without.
   Material fiber = brushed();
   fiber.model = Model::kFiber;
   fiber.topology = UniformS{0.3};
+  material_to_json(fiber, &j);
+  write_json_file(root + "/one_s.json", j);
+  r = test::run_cli("export " + root + "/one_s.json --out " + root + "/one_s --size 32");
+  ASSERT_EQ(r.status, 0) << r.output;
+  ej = nlohmann::json::parse(read_text_file(root + "/one_s/export.json"));
+  ASSERT_TRUE(ej["tables"].contains("environment"));
+  EXPECT_EQ(ej["tables"]["environment"]["model"], "fiber");
+  for (const char* key : {"D", "S", "coef"})
+    EXPECT_TRUE(std::filesystem::exists(
+        root + "/one_s/" + ej["tables"]["environment"]["tables"][key].get<std::string>()));
+  fiber.topology = TopologyMapRef{"topo.png", 0.25, MathTopology::kSphere};
+  write_png(root + "/topo.png", Image(8, 8, 1, 0.5f), 8);
   material_to_json(fiber, &j);
   write_json_file(root + "/f.json", j);
   r = test::run_cli("export " + root + "/f.json --out " + root + "/fiber --size 32");
@@ -753,12 +768,12 @@ TEST(Export, TheStudioGoesWithEveryExportThatCanCarryIt) {
   EXPECT_NE(r.output.find("no environment"), std::string::npos) << r.output;
   ej = nlohmann::json::parse(read_text_file(root + "/fiber/export.json"));
   EXPECT_FALSE(ej["tables"].contains("environment"));
-  EXPECT_NE(ej["tables"]["environment_left_out"].get<std::string>().find("the fiber model"),
+  EXPECT_NE(ej["tables"]["environment_left_out"].get<std::string>().find("a topology map"),
             std::string::npos);
   r = test::run_cli("export " + root + "/f.json --env studio --out " + root +
                     "/fiber_env --size 32");
   EXPECT_NE(r.status, 0);
-  EXPECT_NE(r.output.find("the fiber model"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("a topology map"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(root + "/fiber_env"));
   // The viewer's environment is the one lobe's: a second fiber or an isotropic term (which the
   // preview lights under an environment) keeps the export from carrying it, and says so.
@@ -960,6 +975,37 @@ TEST(Export, BrowserViewerUnderAnEnvironmentMatchesThePreview) {
       mad, lit);
   EXPECT_LT(mad, 0.02);
   EXPECT_GT(lit, 0.1);
+  // The fiber model (shaders/aniso_environment_fiber.glsl over its three volumes), at one s and
+  // over the sample sphere's mathematical topology.
+  for (const bool sphere : {false, true}) {
+    Material fiber = brushed();
+    fiber.model = Model::kFiber;
+    fiber.topology = sphere ? Topology{MathematicalS{MathTopology::kSphere}} : UniformS{0.3};
+    const std::string dir = root + (sphere ? "/fiber_sphere" : "/fiber");
+    material_to_json(fiber, &j);
+    write_json_file(dir + ".json", j);
+    r = test::run_cli("export " + dir + ".json --env studio --out " + dir);
+    ASSERT_EQ(r.status, 0) << r.output;
+    const auto fj = nlohmann::json::parse(read_text_file(dir + "/export.json"));
+    ASSERT_EQ(fj["tables"]["environment"]["model"], "fiber");
+    const KtxTexture coef =
+        read_ktx2(dir + "/" + fj["tables"]["environment"]["tables"]["coef"].get<std::string>());
+    EXPECT_EQ(coef.format, KtxFormat::kRGBA32Float);
+    const auto fshot = run_command("'" + web_dir() + "/screenshot.sh' '" + dir + "' '" + q + "' '" +
+                                   dir + "/web.png' 200 160");
+    ASSERT_EQ(fshot.status, 0) << fshot.output;
+    r = test::run_cli("preview " + dir +
+                      ".json --env studio --view 0.3,-0.8,0.5 --size 200x160 --out " + dir +
+                      "/preview.png");
+    ASSERT_EQ(r.status, 0) << r.output;
+    const double fmad = mean_abs_difference(dir + "/web.png", dir + "/preview.png", &lit);
+    std::printf(
+        "browser viewer, fiber model (%s), under the studio against aniso preview --env studio: "
+        "mean |diff| %.4f of full scale (preview mean %.3f)\n",
+        sphere ? "the sphere's topology" : "one s", fmad, lit);
+    EXPECT_LT(fmad, 0.02);
+    EXPECT_GT(lit, 0.1);
+  }
   // A material the prefilter does not cover: Export.TheStudioGoesWithEveryExportThatCanCarryIt.
 }
 

@@ -142,11 +142,13 @@ Command add_export(CLI::App& app) {
                  "atomically)")
       ->required();
   add_force_flag(ex, &a->force);
-  ex->add_option("--env", a->env,
-                 "the environment prefiltered for the material, which the browser viewer lights "
-                 "with: the built-in 'studio' (the default, left out with a note for a material "
-                 "it cannot carry: the fiber model, maps, a second fiber, an isotropic term), "
-                 "an equirectangular HDR FILE.exr (z up), or 'none'");
+  ex->add_option(
+      "--env", a->env,
+      "the environment prefiltered for the material, which the browser viewer lights "
+      "with: the built-in 'studio' (the default, left out with a note for a material "
+      "it cannot carry: maps, a second fiber, an isotropic term, a fiber material's topology "
+      "map or map of s), "
+      "an equirectangular HDR FILE.exr (z up), or 'none'");
   ex->add_flag(
       "--engines", a->engines,
       "also render the exported glTF with three.js's GLTFLoader, Babylon.js and the "
@@ -199,9 +201,11 @@ Command add_export(CLI::App& app) {
         std::printf("  %s\n", s.pbr.mapping.c_str());
         if (o.environment && s.environment_left_out.empty())
           std::printf(
-              "  environment %s prefiltered in %.2f s: tables/environment_t0..6.ktx2 (the "
-              "browser viewer's orbit view lights with it; --env none leaves it out)\n",
-              env.name.c_str(), s.environment_seconds);
+              "  environment %s prefiltered in %.2f s: %s (the browser viewer's orbit view "
+              "lights with it; --env none leaves it out)\n",
+              env.name.c_str(), s.environment_seconds,
+              m.fiber() ? "tables/fiber_environment_{D,S,coef}.ktx2"
+                        : "tables/environment_t0..6.ktx2");
         else if (o.environment)
           std::printf("  no environment: %s (the browser viewer lights with its light and fill)\n",
                       s.environment_left_out.c_str());

@@ -146,6 +146,20 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
   return out;
 }
 
+std::vector<float> fiber_environment_coef_volume(const FiberEnvironmentTables& t) {
+  const int nt = t.terms(), layers = t.coef_layers();
+  std::vector<float> v(static_cast<size_t>(t.ns) * layers * t.nb * t.nphi * 3, 0.f);
+  for (int k = 0; k < t.ns; ++k)
+    for (int l = 0; l < layers; ++l)
+      for (int i = 0; i < t.nb; ++i)
+        for (int j = 0; j < t.nphi; ++j)
+          for (int c = 0; c < 3; ++c)
+            if (const int q = 3 * l + c; q < 2 * nt)
+              v[(((static_cast<size_t>(k) * layers + l) * t.nb + i) * t.nphi + j) * 3 + c] =
+                  t.coef[((static_cast<size_t>(k) * t.nb + i) * t.nphi + j) * 2 * nt + q];
+  return v;
+}
+
 void fiber_environment_at_node(const FiberEnvironmentTables& t, const Material& m, int x, int y,
                                int i, int j, int k, double chi_n, double out[3]) {
   const int nt = t.terms();

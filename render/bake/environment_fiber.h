@@ -42,6 +42,8 @@ struct FiberEnvironmentTables {
   std::vector<float> coef;
   int env_w = 0, env_h = 0;
   double seconds = 0;
+  // The coefficients' layers at one level of s, three to a layer (fiber_environment_coef_volume).
+  int coef_layers() const { return (2 * terms() + 2) / 3; }
 };
 
 // The tables of fiber material `m` (environment_unsupported says which qualify) from its line
@@ -51,6 +53,11 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
                                                    const FiberBakeTables& fb, int order = 6,
                                                    int w = 64, int h = 32, int nb = 32,
                                                    int nphi = 33, int env_w = 64, int env_h = 32);
+
+// The coefficients as the shader's volume reads them (aniso_environment_fiber.glsl): nphi x nb
+// texels, coef_layers() * ns layers (level k of s's layers after level k - 1's), RGB holding three
+// coefficients, F's then G's (0 past the last).
+std::vector<float> fiber_environment_coef_volume(const FiberEnvironmentTables& t);
 
 // The weights of a coefficient pair (c on cos(k phi_l), s on sin(k phi_l)) on the integrals with
 // cos(k chi) and sin(k chi), at the normal's angle chi_N (phi_l = chi_N - chi).

@@ -18,6 +18,7 @@
 #include "io/formats/material_io.h"
 #include "io/images/image_io.h"
 #include "render/export/export_engines.h"
+#include "render/export/export_environment.h"
 #include "render/export/export_tables.h"
 #include "render/shaders_embedded.h"
 
@@ -506,69 +507,6 @@ void write_gltf(const std::string& tmp, const Material& m, const json& tables, E
                   std::string(sphere.bin.begin(), sphere.bin.end()));
   sum->files.push_back("gltf/sample.gltf");
   sum->files.push_back("gltf/sample.bin");
-}
-
-namespace {
-
-// --env: the environment's prefiltered terms as seven RGBA16F 2D arrays (a layer per level of
-// <V,T>: the volumes shaders/aniso_environment.glsl samples) beside that file, and their entry in
-// export.json's tables. Half floats: their rounding (2^-11 relative) is far under the prefilter's
-// own error against brute force, they filter in every WebGL 2, and the terms take half the bytes.
-json write_environment(const std::string& dir, const Material& m, const Environment& env,
-                       ExportSummary* sum) {
-  if (const std::string why = environment_refusal(m); !why.empty())
-    throw Error("export: --env " + env.name + ": " + why);
-  const EnvironmentTables et = prefilter_environment(env, sum->line);
-  json files = json::array();
-  for (int t = 0; t < 7; ++t) {
-    KtxTexture k;
-    k.format = KtxFormat::kRGBA16Float;
-    k.width = et.w, k.height = et.h, k.layers = et.nb;
-    k.texels.resize(static_cast<size_t>(et.w) * et.h * et.nb * 4);
-    for (size_t p = 0; p < k.texels.size() / 4; ++p) {
-      for (int c = 0; c < 3; ++c) k.texels[4 * p + c] = et.terms[t][3 * p + c];
-      k.texels[4 * p + 3] = 1.f;
-    }
-    k.metadata["aniso.meaning"] = "environment term " + std::to_string(t);
-    const std::string name = "tables/environment_t" + std::to_string(t) + ".ktx2";
-    write_ktx2(join_path(dir, name), k);
-    sum->files.push_back(name);
-    files.push_back(name);
-  }
-  write_text_file(join_path(dir, "shaders/aniso_environment.glsl"),
-                  shaders::aniso_environment_glsl);
-  sum->files.push_back("shaders/aniso_environment.glsl");
-  sum->environment_seconds = et.seconds;
-  return {{"source", env.name},
-          {"shader", "shaders/aniso_environment.glsl"},
-          {"terms", files},
-          {"size", {et.w, et.h}},
-          {"layers", et.nb},
-          {"cells", {et.env_w, et.env_h}},
-          {"lookup",
-           "T, the fiber: s = atan2(T.y, T.x) / 2 pi (repeat), t = acos(T.z) / pi; layer: b = "
-           "<V,T> at acos(-b) = pi k / (layers - 1), linear between layers; radiance = t0 + c t1 + "
-           "s t2 + (c^2 - s^2) t3 + 2 c s t4 + cos 4chi t5 + sin 4chi t6, with (c, s) = (<N,e1>, "
-           "<N,e2>), e1 = normalize(z x T) (x x T near z), e2 = T x e1: "
-           "shaders/aniso_environment.glsl's anisoEnvironmentRadiance"},
-          {"seconds", et.seconds}};
-}
-
-}  // namespace
-
-std::string environment_refusal(const Material& m) {
-  // The export's viewer draws the line model's one lobe under an environment: not what the
-  // preview's prefilters cover beyond it.
-  const char* what = m.fiber()              ? "the fiber model"
-                     : m.maps.any()         ? "maps"
-                     : m.second_active()    ? "a second fiber"
-                     : m.isotropic_active() ? "an isotropic term"
-                                            : environment_unsupported(m);
-  if (!what) return "";
-  return "the export's viewer lights the line model with one fiber, no maps and no isotropic term "
-         "under an environment (aniso preview --env and aniso view light more); this material "
-         "has " +
-         std::string(what);
 }
 
 ExportSummary export_material(const Material& m, const std::string& dir, const ExportOptions& o) {

@@ -164,6 +164,16 @@ void main() {
   gl_Position = projectionMatrix * modelViewMatrix * vec4(position, 1.0);
 }`;
 
+// The sphere's mathematical topology (docs/models.md §4, geometry/topology.cpp): meridian fibers
+// compressed by 1 / sin(polar angle), the in-cycle rule c' = c / 2^floor(log2 c), s = acos(1/c')
+// / 60 deg; the sample sphere is centred at the origin, its poles on z.
+const SPHERE_SMATH = `
+float sphereSmath(vec3 P) {
+  float c = 1.0 / max(length(P.xy) / max(length(P), 1e-12), 1e-6);
+  float cp = c / exp2(floor(log2(c)));
+  return acos(1.0 / cp) / (3.14159265358979 / 3.0);
+}`;
+
 // The fragment shader: the export's own lookup functions (shaders/aniso_lookup.glsl, for the
 // fiber model shaders/aniso_fiber.glsl, for a material with maps shaders/aniso_maps.glsl) summed
 // over the light and the fill light, sRGB-encoded.
@@ -172,14 +182,7 @@ uniform vec3 kd; uniform vec3 ks; uniform float topologyS; uniform int sphereTop
 uniform vec3 L0; uniform float E0; uniform vec3 L1; uniform float E1; uniform vec3 V;
 in vec3 vN; in vec3 vT; in vec2 vUV; in vec3 vP;
 out vec4 fragColor;
-// The sphere's mathematical topology (docs/models.md §4, geometry/topology.cpp): meridian fibers
-// compressed by 1 / sin(polar angle), the in-cycle rule c' = c / 2^floor(log2 c), s = acos(1/c')
-// / 60 deg; the sample sphere is centred at the origin, its poles on z.
-float sphereSmath(vec3 P) {
-  float c = 1.0 / max(length(P.xy) / max(length(P), 1e-12), 1e-6);
-  float cp = c / exp2(floor(log2(c)));
-  return acos(1.0 / cp) / (3.14159265358979 / 3.0);
-}
+${SPHERE_SMATH}
 vec3 radiance(vec3 N, vec3 T, vec3 L, float E) {
   float s = sphereTopology == 1 ? sphereSmath(vP) : topologyS;  // with a topology map: s_math
 #if defined(ANISO_NPHI) && defined(ANISO_VIEWER_MAPS)
@@ -223,6 +226,21 @@ float enc(float v) { v = clamp(v, 0.0, 1.0);
   return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
 void main() {
   vec3 r = anisoEnvironmentRadiance(normalize(vN), vT, V);
+  fragColor = vec4(enc(r.r), enc(r.g), enc(r.b), 1.0);
+}`;
+
+// The fiber model under an environment: the export's shaders/aniso_environment_fiber.glsl over its
+// three volumes (tables/fiber_environment_*.ktx2) at the fragment's topology s.
+const FRAGMENT_ENV_FIBER_MAIN = `
+uniform vec3 V; uniform vec3 kd; uniform vec3 ks; uniform float topologyS; uniform int sphereTopology;
+in vec3 vN; in vec3 vT; in vec2 vUV; in vec3 vP;
+out vec4 fragColor;
+${SPHERE_SMATH}
+float enc(float v) { v = clamp(v, 0.0, 1.0);
+  return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
+void main() {
+  float s = sphereTopology == 1 ? sphereSmath(vP) : topologyS;
+  vec3 r = anisoFiberEnvironmentRadiance(normalize(vN), vT, V, s, kd, ks);
   fragColor = vec4(enc(r.r), enc(r.g), enc(r.b), 1.0);
 }`;
 
@@ -322,11 +340,24 @@ export async function start(q) {
   let envFragment = '';
   if (useEnv) {
     const env = info.tables.environment;
-    const terms = await Promise.all(env.terms.map((f) => loadKtx2('../' + f)));
-    uniforms.anisoEnv = { value: terms.map((t) => tableTexture(t, floatLinear, true)) };
-    uniforms.anisoEnvLevels = { value: env.layers };
-    envFragment = 'precision highp float;\nprecision highp sampler3D;\n' +
-                  await (await fetch('../' + env.shader)).text() + FRAGMENT_ENV_MAIN;
+    const shader = 'precision highp float;\nprecision highp sampler3D;\n' +
+                   await (await fetch('../' + env.shader)).text();
+    if (env.model === 'fiber') {
+      const [fd, fs, fc] = await Promise.all(['D', 'S', 'coef'].map((k) => loadKtx2('../' + env.tables[k])));
+      uniforms.anisoFibEnvD = { value: tableTexture(fd, floatLinear, true) };
+      uniforms.anisoFibEnvS = { value: tableTexture(fs, floatLinear, true) };
+      uniforms.anisoFibEnvCoef = { value: tableTexture(fc, floatLinear, true) };
+      uniforms.anisoFibEnvOrder = { value: env.order };
+      uniforms.anisoFibEnvLevels = { value: env.layers };
+      uniforms.anisoFibEnvPhis = { value: env.phis };
+      uniforms.anisoFibEnvSLevels = { value: env.s_levels };
+      envFragment = shader + FRAGMENT_ENV_FIBER_MAIN;
+    } else {
+      const terms = await Promise.all(env.terms.map((f) => loadKtx2('../' + f)));
+      uniforms.anisoEnv = { value: terms.map((t) => tableTexture(t, floatLinear, true)) };
+      uniforms.anisoEnvLevels = { value: env.layers };
+      envFragment = shader + FRAGMENT_ENV_MAIN;
+    }
   }
   const material = new THREE.ShaderMaterial({ glslVersion: THREE.GLSL3, vertexShader: VERTEX,
                                               fragmentShader: q.has('plain') ? FRAGMENT_PLAIN

@@ -170,19 +170,11 @@ struct EnvironmentLookup {
 // A fiber material's tables as the volumes env_fiber.frag reads: D's terms as layers, S's terms
 // with their levels side by side, the coefficients three to a layer over (phi_v, b).
 void fiber_environment_volumes(const FiberEnvironmentTables& t, EnvironmentLookup* env) {
-  const int nt = t.terms(), layers = (2 * nt + 2) / 3;
+  const int nt = t.terms();
   env->fiber_d.volume_rgb(t.diffuse, t.w, t.h, nt);
   env->fiber_s.volume_rgb(t.specular, t.w, t.h, nt * t.nb);
-  std::vector<float> coef(static_cast<size_t>(t.ns) * layers * t.nb * t.nphi * 3, 0.f);
-  for (int k = 0; k < t.ns; ++k)
-    for (int l = 0; l < layers; ++l)
-      for (int i = 0; i < t.nb; ++i)
-        for (int j = 0; j < t.nphi; ++j)
-          for (int c = 0; c < 3; ++c)
-            if (const int q = 3 * l + c; q < 2 * nt)
-              coef[(((static_cast<size_t>(k) * layers + l) * t.nb + i) * t.nphi + j) * 3 + c] =
-                  t.coef[((static_cast<size_t>(k) * t.nb + i) * t.nphi + j) * 2 * nt + q];
-  env->fiber_coef.volume_rgb(coef, t.nphi, t.nb, layers * t.ns);
+  env->fiber_coef.volume_rgb(fiber_environment_coef_volume(t), t.nphi, t.nb,
+                             t.coef_layers() * t.ns);
   env->fiber = true;
   env->levels = t.nb;
   env->order = t.order;
