@@ -219,7 +219,7 @@ Command add_preview(CLI::App& app) {
                    "light from an equirectangular HDR environment (FILE.exr, z up, twice as wide "
                    "as high) or the built-in 'studio', instead of the lights: prefiltered for the "
                    "line model (with its maps, a second fiber, an isotropic term) or the fiber "
-                   "model (any topology, the same but a map of n) and drawn in one pass, then "
+                   "model (any topology, the same maps and terms) and drawn in one pass, then "
                    "held against brute force");
   prev->add_flag("--env-check", a->env_check,
                  "--env: hold the frame against brute force whatever its size (by default up to "

@@ -100,9 +100,9 @@ Command add_view(CLI::App& app) {
   v->add_option("--light", a->light, "starting direction toward the light x,y,z");
   v->add_option("--env", a->env,
                 "light from an equirectangular HDR environment (FILE.exr, z up), the built-in "
-                "'studio' (the default where the preview's --env can light the material: every line "
-                "material but a second fiber beside a map of the fiber direction, every fiber "
-                "material without a map of n; unless --light is given) or 'none' (the light); the panel switches between the two");
+                "'studio' (the default where the preview's --env can light the material: every "
+                "material but a second fiber beside a map of the fiber direction; unless --light "
+                "is given) or 'none' (the light); the panel switches between the two");
   v->add_option("--screenshot", a->screenshot,
                 "render, save the window (panel included) as this PNG and exit (scripted use)");
   add_force_flag(v, &a->force);

@@ -107,8 +107,7 @@ EnvironmentSamples environment_samples(const Environment& env, int w, int h) {
 }
 
 const char* environment_unsupported(const Material& m) {
-  return m.fiber() && m.maps.n                          ? "the fiber model with a map of n"
-         : m.second_active() && m.maps.fiber != nullptr ? "a second fiber with a map of the fiber "
+  return m.second_active() && m.maps.fiber != nullptr ? "a second fiber with a map of the fiber "
                                                           "direction"
                                                         : nullptr;
 }

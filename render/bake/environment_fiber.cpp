@@ -47,8 +47,24 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
   out.env_w = env_w, out.env_h = env_h;
   const int nt = out.terms();
   const EnvironmentSamples es = environment_samples(env, env_w, env_h);
+  // S_line and F at each level of n: the material's one n, or levels over its map of n's range.
+  std::vector<const Image*> S_levels{&line.specular};
+  std::vector<std::vector<float>> F_levels;
+  SpecularStack stack;
+  if (m.maps.n) {
+    stack = bake_material_stack(m, line.size, line.index, 0.2, 16);
+    S_levels.clear();
+    for (const Image& level : stack.S) S_levels.push_back(&level);
+    out.logn0 = stack.logn0, out.log_step = stack.log_step();
+    for (int k = 0; k < stack.levels; ++k) {
+      F_levels.emplace_back(fb.F.size());
+      bake_fiber_F(std::exp(stack.logn0 + k * stack.log_step()), fb.nphi, fb.ns, fb.nk,
+                   F_levels.back().data());
+    }
+  }
+  out.nn = static_cast<int>(S_levels.size());
   out.diffuse.assign(static_cast<size_t>(nt) * h * w * 3, 0.f);
-  out.specular.assign(static_cast<size_t>(nt) * nb * h * w * 3, 0.f);
+  out.specular.assign(static_cast<size_t>(out.nn) * nt * nb * h * w * 3, 0.f);
 
   // The line table's rows at each level of b.
   const int n = line.size;
@@ -59,7 +75,6 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
     row0[i] = std::min(n - 2, static_cast<int>(yc));
     row_t[i] = yc - row0[i];
   }
-  const Image& S = line.specular;
   tbb::parallel_for(0, w * h, [&](int cell) {
     const int x = cell % w, y = cell / w;
     const Vec3 T = cell_direction(x, y, w, h);
@@ -92,19 +107,23 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
         out.diffuse[((static_cast<size_t>(t) * h + y) * w + x) * 3 + c] =
             static_cast<float>(diffuse[t * 3 + c]);
     std::vector<double> acc(static_cast<size_t>(nt) * 3);
-    for (int i = 0; i < nb; ++i) {
-      std::fill(acc.begin(), acc.end(), 0.0);
-      for (int xt = 0; xt < n; ++xt) {
-        if (!used[xt]) continue;
-        const double f =
-            (1 - row_t[i]) * S.at(xt, row0[i], 0) + row_t[i] * S.at(xt, row0[i] + 1, 0);
-        if (f == 0) continue;
-        for (int q = 0; q < nt * 3; ++q) acc[q] += f * column[static_cast<size_t>(xt) * nt * 3 + q];
+    for (int kn = 0; kn < out.nn; ++kn) {
+      const Image& S = *S_levels[kn];
+      for (int i = 0; i < nb; ++i) {
+        std::fill(acc.begin(), acc.end(), 0.0);
+        for (int xt = 0; xt < n; ++xt) {
+          if (!used[xt]) continue;
+          const double f =
+              (1 - row_t[i]) * S.at(xt, row0[i], 0) + row_t[i] * S.at(xt, row0[i] + 1, 0);
+          if (f == 0) continue;
+          for (int q = 0; q < nt * 3; ++q)
+            acc[q] += f * column[static_cast<size_t>(xt) * nt * 3 + q];
+        }
+        for (int t = 0; t < nt; ++t)
+          for (int c = 0; c < 3; ++c)
+            out.specular[((((static_cast<size_t>(kn) * nt + t) * nb + i) * h + y) * w + x) * 3 +
+                         c] = static_cast<float>(acc[t * 3 + c]);
       }
-      for (int t = 0; t < nt; ++t)
-        for (int c = 0; c < 3; ++c)
-          out.specular[(((static_cast<size_t>(t) * nb + i) * h + y) * w + x) * 3 + c] =
-              static_cast<float>(acc[t * 3 + c]);
     }
   });
 
@@ -114,9 +133,10 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
   out.ns = uniform ? 1 : fb.ns;
   const int kSteps = 360;
   const double dphi = M_PI / kSteps;
-  out.coef.assign(static_cast<size_t>(out.ns) * nb * nphi * 2 * nt, 0.f);
-  tbb::parallel_for(0, nb * out.ns, [&](int task) {
-    const int i = task % nb, ks = task / nb;
+  out.coef.assign(static_cast<size_t>(out.nn) * out.ns * nb * nphi * 2 * nt, 0.f);
+  tbb::parallel_for(0, nb * out.ns * out.nn, [&](int task) {
+    const int i = task % nb, ks = task / nb % out.ns, kn = task / nb / out.ns;
+    const float* Ftab = F_levels.empty() ? fb.F.data() : F_levels[kn].data();
     const double s = uniform ? std::clamp(m.uniform_s(), 0.0, 1.0) : double(ks) / (fb.ns - 1);
     const double b = level_b(i, nb), kappa = 2 * (1 - b * b);
     std::vector<double> cf(2 * nt);
@@ -126,7 +146,7 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
       for (int k = 0; k < kSteps; ++k) {
         const double phi_l = -M_PI / 2 + (k + 0.5) * dphi;
         double G, F;
-        fiber_factors(fb, fb.F.data(), phi_l, phi_v, s, kappa, &G, &F);
+        fiber_factors(fb, Ftab, phi_l, phi_v, s, kappa, &G, &F);
         for (int part = 0; part < 2; ++part) {
           const double f = (part ? G : F) * dphi;
           double* c = &cf[part * nt];
@@ -138,7 +158,7 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
         }
       }
       for (int q = 0; q < 2 * nt; ++q)
-        out.coef[((static_cast<size_t>(ks) * nb + i) * nphi + j) * 2 * nt + q] =
+        out.coef[(((static_cast<size_t>(kn) * out.ns + ks) * nb + i) * nphi + j) * 2 * nt + q] =
             static_cast<float>(cf[q]);
     }
   });
@@ -146,10 +166,23 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
   return out;
 }
 
+std::vector<float> fiber_environment_specular_volume(const FiberEnvironmentTables& t) {
+  if (t.nn == 1) return t.specular;
+  const int nt = t.terms();
+  const size_t row = static_cast<size_t>(t.w) * 3;
+  std::vector<float> v(t.specular.size());
+  for (int kn = 0; kn < t.nn; ++kn)
+    for (int layer = 0; layer < nt * t.nb; ++layer)
+      for (int y = 0; y < t.h; ++y)
+        std::copy_n(&t.specular[((static_cast<size_t>(kn) * nt * t.nb + layer) * t.h + y) * row],
+                    row, &v[((static_cast<size_t>(layer) * t.nn + kn) * t.h + y) * row]);
+  return v;
+}
+
 std::vector<float> fiber_environment_coef_volume(const FiberEnvironmentTables& t) {
   const int nt = t.terms(), layers = t.coef_layers();
-  std::vector<float> v(static_cast<size_t>(t.ns) * layers * t.nb * t.nphi * 3, 0.f);
-  for (int k = 0; k < t.ns; ++k)
+  std::vector<float> v(static_cast<size_t>(t.nn) * t.ns * layers * t.nb * t.nphi * 3, 0.f);
+  for (int k = 0; k < t.nn * t.ns; ++k)  // level of n times ns plus level of s
     for (int l = 0; l < layers; ++l)
       for (int i = 0; i < t.nb; ++i)
         for (int j = 0; j < t.nphi; ++j)

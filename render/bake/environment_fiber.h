@@ -28,17 +28,21 @@ struct FiberEnvironmentTables {
   // Levels of the topology s: one at the material's s where it has one for the whole surface,
   // else the fiber tables' (s = k / (ns - 1)).
   int ns = 1;
+  // Levels of n: one at the material's n, or with a map of n levels spaced log_step in log n from
+  // logn0 over its range (at most 0.2 apart, bake.h bake_specular_stack): S_line and F at each.
+  int nn = 1;
+  double logn0 = 0, log_step = 0;
   // Term t: 1 (t = 0), cos(k chi) (t = 2k - 1), sin(k chi) (t = 2k).
   int terms() const { return 2 * order + 1; }
   // Integrals of E s_L basis_t over the environment per T (equirectangular, as
   // EnvironmentTables): (t * h + y) * w + x, RGB.
   std::vector<float> diffuse;
-  // Integrals of E S_line(a, b) basis_t per T and level of b (acos(-b) = pi i / (nb - 1)):
-  // ((t * nb + i) * h + y) * w + x, RGB.
+  // Integrals of E S_line(a, b) basis_t per T, level of b (acos(-b) = pi i / (nb - 1)) and level
+  // kn of n: (((kn * terms() + t) * nb + i) * h + y) * w + x, RGB.
   std::vector<float> specular;
   // The Fourier coefficients in phi_l of F (terms() values, then those of G: 2 terms() in all) at
-  // phi_v = -90 + 180 j / (nphi - 1) degrees, level i of b and level k of s:
-  // ((k * nb + i) * nphi + j) * 2 terms() + q.
+  // phi_v = -90 + 180 j / (nphi - 1) degrees, level i of b, level k of s and level kn of n:
+  // (((kn * ns + k) * nb + i) * nphi + j) * 2 terms() + q.
   std::vector<float> coef;
   int env_w = 0, env_h = 0;
   double seconds = 0;
@@ -54,9 +58,14 @@ FiberEnvironmentTables prefilter_fiber_environment(const Environment& env, const
                                                    int w = 64, int h = 32, int nb = 32,
                                                    int nphi = 33, int env_w = 64, int env_h = 32);
 
+// S's terms as the shader's volume reads them (aniso_environment_fiber.glsl): w x (h * nn) texels
+// (the levels of n one above the other: a volume's depth stays under the 2048 layers graphics
+// hardware holds), terms() * nb layers (term t's level i of b at t * nb + i), RGB.
+std::vector<float> fiber_environment_specular_volume(const FiberEnvironmentTables& t);
+
 // The coefficients as the shader's volume reads them (aniso_environment_fiber.glsl): nphi x nb
-// texels, coef_layers() * ns layers (level k of s's layers after level k - 1's), RGB holding three
-// coefficients, F's then G's (0 past the last).
+// texels, coef_layers() * ns * nn layers (level k of s's layers after level k - 1's, each level of
+// n's after the one before), RGB holding three coefficients, F's then G's (0 past the last).
 std::vector<float> fiber_environment_coef_volume(const FiberEnvironmentTables& t);
 
 // The weights of a coefficient pair (c on cos(k phi_l), s on sin(k phi_l)) on the integrals with

@@ -83,9 +83,10 @@ json write_fiber_environment(const std::string& dir, const Material& m, const En
   const int nt = ft.terms();
   write("D", KtxFormat::kRGBA16Float, ft.w, ft.h, nt, ft.diffuse,
         "fiber model under an environment: D's terms");
-  write("S", KtxFormat::kRGBA16Float, ft.w, ft.h, nt * ft.nb, ft.specular,
+  write("S", KtxFormat::kRGBA16Float, ft.w, ft.h * ft.nn, nt * ft.nb,
+        fiber_environment_specular_volume(ft),
         "fiber model under an environment: S's terms, levels of b side by side");
-  write("coef", KtxFormat::kRGBA32Float, ft.nphi, ft.nb, ft.coef_layers() * ft.ns,
+  write("coef", KtxFormat::kRGBA32Float, ft.nphi, ft.nb, ft.coef_layers() * ft.ns * ft.nn,
         fiber_environment_coef_volume(ft),
         "fiber model under an environment: F's and G's coefficients over (phi_v, b, s)");
   write_text_file(join_path(dir, "shaders/aniso_environment_fiber.glsl"),

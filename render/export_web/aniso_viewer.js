@@ -240,7 +240,7 @@ float enc(float v) { v = clamp(v, 0.0, 1.0);
   return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
 void main() {
   float s = sphereTopology == 1 ? sphereSmath(vP) : topologyS;
-  vec3 r = anisoFiberEnvironmentRadiance(normalize(vN), vT, V, s, kd, ks);
+  vec3 r = anisoFiberEnvironmentRadiance(normalize(vN), vT, V, s, 1.0, kd, ks);
   fragColor = vec4(enc(r.r), enc(r.g), enc(r.b), 1.0);
 }`;
 
@@ -351,6 +351,8 @@ export async function start(q) {
       uniforms.anisoFibEnvLevels = { value: env.layers };
       uniforms.anisoFibEnvPhis = { value: env.phis };
       uniforms.anisoFibEnvSLevels = { value: env.s_levels };
+      uniforms.anisoFibEnvNLevels = { value: 1 };  // (an export's environment has no map of n)
+      uniforms.anisoFibEnvRows = { value: env.size[1] };
       envFragment = shader + FRAGMENT_ENV_FIBER_MAIN;
     } else {
       const terms = await Promise.all(env.terms.map((f) => loadKtx2('../' + f)));

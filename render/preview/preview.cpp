@@ -161,6 +161,7 @@ struct EnvironmentLookup {
   gl::Texture fiber_d, fiber_s, fiber_coef;
   int order = 0, phis = 0, s_levels = 1;
   int n_levels = 1;  // a map of n: S's terms at levels of n (spaced log_step in log n)
+  int rows = 0;      // the fiber model's: the rows of a level of n in S's volume
   double logn0 = 0, log_step = 0;
   bool iso = false;  // the isotropic term's irradiance and glossy tables
   gl::Texture iso_irr, iso_gloss;
@@ -172,9 +173,12 @@ struct EnvironmentLookup {
 void fiber_environment_volumes(const FiberEnvironmentTables& t, EnvironmentLookup* env) {
   const int nt = t.terms();
   env->fiber_d.volume_rgb(t.diffuse, t.w, t.h, nt);
-  env->fiber_s.volume_rgb(t.specular, t.w, t.h, nt * t.nb);
+  env->fiber_s.volume_rgb(fiber_environment_specular_volume(t), t.w, t.h * t.nn, nt * t.nb);
   env->fiber_coef.volume_rgb(fiber_environment_coef_volume(t), t.nphi, t.nb,
-                             t.coef_layers() * t.ns);
+                             t.coef_layers() * t.ns * t.nn);
+  env->n_levels = t.nn;
+  env->rows = t.h;
+  env->logn0 = t.logn0, env->log_step = t.log_step;
   env->fiber = true;
   env->levels = t.nb;
   env->order = t.order;
@@ -352,6 +356,10 @@ int draw_environment(const Material& m, const PreviewOptions& opt, const gl::Pro
     p.set("anisoFibEnvLevels", float(env.levels));
     p.set("anisoFibEnvPhis", float(env.phis));
     p.set("anisoFibEnvSLevels", env.s_levels);
+    p.set("anisoFibEnvNLevels", env.n_levels);
+    p.set("anisoFibEnvRows", float(env.rows));
+    p.set("anisoFibEnvLogN0", float(env.logn0));
+    p.set("anisoFibEnvLogStep", float(env.log_step));
     set_map_uniforms(p, m, lk);
     set_topology_uniforms(p, m, lk);
     mesh.draw();

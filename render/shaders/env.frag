@@ -36,7 +36,9 @@ void parts_at(vec3 N, vec3 T, vec3 V, out vec3 d, out vec3 s) {
     return;
   }
   float n = map_at(uNMap, vUV).r;
-  float f = clamp((log(max(n, 1e-6)) - uEnvLogN0) / uEnvLogStep, 0.0, float(uEnvNLevels - 1));
+  float f = uEnvLogStep > 0.0
+                ? clamp((log(max(n, 1e-6)) - uEnvLogN0) / uEnvLogStep, 0.0, float(uEnvNLevels - 1))
+                : 0.0;
   float k0 = min(floor(f), float(uEnvNLevels - 2));
   s = mix(specular_at(st, w, k0), specular_at(st, w, k0 + 1.0), f - k0);
 }

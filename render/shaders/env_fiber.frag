@@ -20,11 +20,12 @@ void main() {
     return;
   }
   float topo = topology_at();
+  float n = (uMaps & 4) != 0 ? map_at(uNMap, vUV).r : 1.0;  // (one level of n without its map)
   vec3 d, s;
-  anisoFiberEnvironmentParts(N, turned_by_map(normalize(vT - N * dot(N, vT)), N), V, topo, d, s);
+  anisoFiberEnvironmentParts(N, turned_by_map(normalize(vT - N * dot(N, vT)), N), V, topo, n, d, s);
   if (uEnvSecond == 1) {
     vec3 d2, s2;
-    anisoFiberEnvironmentParts(N, normalize(vT2 - N * dot(N, vT2)), V, topo, d2, s2);
+    anisoFiberEnvironmentParts(N, normalize(vT2 - N * dot(N, vT2)), V, topo, n, d2, s2);
     d = uEnvW * d + (1.0 - uEnvW) * d2;
     s = uEnvW * s + (1.0 - uEnvW) * s2;
   }
