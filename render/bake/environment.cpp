@@ -108,8 +108,8 @@ EnvironmentSamples environment_samples(const Environment& env, int w, int h) {
 
 const char* environment_unsupported(const Material& m) {
   return m.second_active() && m.maps.fiber != nullptr ? "a second fiber with a map of the fiber "
-                                                          "direction"
-                                                        : nullptr;
+                                                        "direction"
+                                                      : nullptr;
 }
 
 IsotropicEnvironment prefilter_isotropic_environment(const Environment& env, double n_iso, int w,
@@ -186,6 +186,28 @@ EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeT
     parts.logn0 = st.logn0, parts.log_step = st.log_step();
   }
   return parts;
+}
+
+std::vector<float> environment_parts_d_volume(const EnvironmentParts& p) {
+  std::vector<float> v;
+  for (const auto& term : p.diffuse.terms) v.insert(v.end(), term.begin(), term.end());
+  return v;
+}
+
+std::vector<float> environment_parts_s_volume(const EnvironmentParts& p) {
+  const EnvironmentTables& e = p.specular;
+  const int L = std::max<int>(1, static_cast<int>(p.specular_n.size()));
+  const size_t row = static_cast<size_t>(e.w) * 3;
+  std::vector<float> v(static_cast<size_t>(7) * e.nb * L * e.h * row);
+  for (int t = 0; t < 7; ++t)
+    for (int kn = 0; kn < L; ++kn) {
+      const std::vector<float>& src = p.specular_n.empty() ? e.terms[t] : p.specular_n[kn].terms[t];
+      for (int i = 0; i < e.nb; ++i)
+        for (int y = 0; y < e.h; ++y)
+          std::copy_n(&src[(static_cast<size_t>(i) * e.h + y) * row], row,
+                      &v[((static_cast<size_t>(t) * e.nb + i) * L * e.h + kn * e.h + y) * row]);
+    }
+  return v;
 }
 
 void chi_frame(const Vec3& T, Vec3* e1, Vec3* e2) {

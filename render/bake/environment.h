@@ -82,6 +82,11 @@ struct EnvironmentParts {
 };
 EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeTables& tables,
                                              const Material* with_n = nullptr);
+// The parts as the volumes aniso_environment_parts.glsl reads, RGB: D's w x h x (7 nb) (term t's
+// level i of b at layer t * nb + i) and S's w x (h * levels of n) x (7 nb) (the levels of n one
+// above the other).
+std::vector<float> environment_parts_d_volume(const EnvironmentParts& p);
+std::vector<float> environment_parts_s_volume(const EnvironmentParts& p);
 
 // The isotropic term (docs/models.md §3: k_d,iso <N,L>^+ + k_s,iso (<N,H>^+)^n_iso) under an
 // environment: two equirectangular tables, the irradiance over the normal N (the sum of L_env

@@ -131,6 +131,7 @@ std::string with_maps(const char* frag) {
         {"// aniso: topology.glsl", shaders::topology_glsl},
         {"// aniso: environment_isotropic.glsl", shaders::environment_isotropic_glsl},
         {"// aniso: aniso_environment_fiber.glsl", shaders::aniso_environment_fiber_glsl},
+        {"// aniso: aniso_environment_parts.glsl", shaders::aniso_environment_parts_glsl},
         {"// aniso: aniso_environment.glsl", shaders::aniso_environment_glsl}})
     if (const size_t at = s.find(marker); at != std::string::npos)
       s.replace(at, marker.size(), part);
@@ -154,14 +155,14 @@ struct Lookups {
 // at unit k_d and k_s (`spec` then holds S's); for the fiber model its three volumes
 // (render/shaders/env_fiber.frag).
 struct EnvironmentLookup {
-  gl::Texture terms[7], spec[7];
+  gl::Texture terms[7], part_d, part_s;
   bool parts = false;
   int levels = 0;
   bool fiber = false;
   gl::Texture fiber_d, fiber_s, fiber_coef;
   int order = 0, phis = 0, s_levels = 1;
   int n_levels = 1;  // a map of n: S's terms at levels of n (spaced log_step in log n)
-  int rows = 0;      // the fiber model's: the rows of a level of n in S's volume
+  int rows = 0;      // the rows of a level of n in S's volume
   double logn0 = 0, log_step = 0;
   bool iso = false;  // the isotropic term's irradiance and glossy tables
   gl::Texture iso_irr, iso_gloss;
@@ -186,8 +187,9 @@ void fiber_environment_volumes(const FiberEnvironmentTables& t, EnvironmentLooku
   env->s_levels = t.ns;
 }
 
-// The environment's units: after the maps' (5 to 10), D's (or the whole's) terms, then S's, then
-// the isotropic term's two tables.
+// The environment's units: after the maps' (5 to 10), the whole's seven terms (or the fiber
+// model's three volumes), a maps material's two volumes of D and S, the isotropic term's two
+// tables.
 constexpr int kEnvUnit = 11, kEnvSpecUnit = 18, kEnvIsoUnit = 25;
 
 // A map of k_d or k_s as RGB (one channel stands for all three, as material_at reads it).
@@ -367,16 +369,21 @@ int draw_environment(const Material& m, const PreviewOptions& opt, const gl::Pro
     return 1;
   }
   for (int t = 0; t < 7; ++t) {
-    env.terms[t].bind(kEnvUnit + t);
+    if (!env.parts) env.terms[t].bind(kEnvUnit + t);
     p.set(("anisoEnv[" + std::to_string(t) + "]").c_str(), kEnvUnit + t);
-    if (env.parts) env.spec[t].bind(kEnvSpecUnit + t);
-    p.set(("anisoEnvS[" + std::to_string(t) + "]").c_str(), kEnvSpecUnit + t);
   }
+  if (env.parts) {
+    env.part_d.bind(kEnvSpecUnit);
+    env.part_s.bind(kEnvSpecUnit + 1);
+  }
+  p.set("anisoEnvPartD", kEnvSpecUnit);
+  p.set("anisoEnvPartS", kEnvSpecUnit + 1);
   set_map_uniforms(p, m, lk);
   p.set("uEnvParts", env.parts ? 1 : 0);
-  p.set("uEnvNLevels", env.n_levels);
-  p.set("uEnvLogN0", float(env.logn0));
-  p.set("uEnvLogStep", float(env.log_step));
+  p.set("anisoEnvPartRows", float(env.rows));
+  p.set("anisoEnvPartNLevels", env.n_levels);
+  p.set("anisoEnvPartLogN0", float(env.logn0));
+  p.set("anisoEnvPartLogStep", float(env.log_step));
   p.set("anisoEnvLevels", float(env.levels));
   mesh.draw();
   glFinish();
@@ -674,21 +681,17 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
     const EnvironmentTables& et = env.parts         ? parts.diffuse
                                   : opt.prefiltered ? *opt.prefiltered
                                                     : own;
-    // With a map of n, S's terms at its levels of n one after the other in depth.
+    // A material with maps: D's and S's terms packed into one volume each (with a map of n, S's
+    // levels of n one above the other).
     const int n_levels = env.parts ? std::max<int>(1, parts.specular_n.size()) : 1;
-    for (int t = 0; t < 7; ++t) {
-      env.terms[t].volume_rgb(et.terms[t], et.w, et.h, et.nb);
-      if (!env.parts) continue;
-      if (parts.specular_n.empty()) {
-        env.spec[t].volume_rgb(parts.specular.terms[t], et.w, et.h, et.nb);
-        continue;
-      }
-      std::vector<float> all;
-      for (const EnvironmentTables& level : parts.specular_n)
-        all.insert(all.end(), level.terms[t].begin(), level.terms[t].end());
-      env.spec[t].volume_rgb(all, et.w, et.h, et.nb * n_levels);
+    if (env.parts) {
+      env.part_d.volume_rgb(environment_parts_d_volume(parts), et.w, et.h, 7 * et.nb);
+      env.part_s.volume_rgb(environment_parts_s_volume(parts), et.w, et.h * n_levels, 7 * et.nb);
+    } else {
+      for (int t = 0; t < 7; ++t) env.terms[t].volume_rgb(et.terms[t], et.w, et.h, et.nb);
     }
     env.levels = et.nb;
+    env.rows = et.h;
     env.n_levels = n_levels;
     env.logn0 = parts.logn0, env.log_step = parts.log_step;
     res.env_prefilter_seconds +=
