@@ -130,6 +130,7 @@ std::string with_maps(const char* frag) {
        {std::pair<std::string, const char*>{"// aniso: maps.glsl", shaders::maps_glsl},
         {"// aniso: topology.glsl", shaders::topology_glsl},
         {"// aniso: environment_isotropic.glsl", shaders::environment_isotropic_glsl},
+        {"// aniso: aniso_environment_isotropic.glsl", shaders::aniso_environment_isotropic_glsl},
         {"// aniso: aniso_environment_fiber.glsl", shaders::aniso_environment_fiber_glsl},
         {"// aniso: aniso_environment_parts.glsl", shaders::aniso_environment_parts_glsl},
         {"// aniso: aniso_environment.glsl", shaders::aniso_environment_glsl}})
@@ -342,11 +343,11 @@ int draw_environment(const Material& m, const PreviewOptions& opt, const gl::Pro
   if (env.iso) {
     env.iso_irr.bind(kEnvIsoUnit);
     env.iso_gloss.bind(kEnvIsoUnit + 1);
-    glUniform1fv(glGetUniformLocation(p.id(), "uEnvIsoScale"), IsotropicEnvironment::kScaleNodes,
-                 env.iso_scale);
+    glUniform1fv(glGetUniformLocation(p.id(), "anisoEnvIsoScale"),
+                 IsotropicEnvironment::kScaleNodes, env.iso_scale);
   }
-  p.set("uEnvIrr", kEnvIsoUnit);
-  p.set("uEnvGloss", kEnvIsoUnit + 1);
+  p.set("anisoEnvIrr", kEnvIsoUnit);
+  p.set("anisoEnvGloss", kEnvIsoUnit + 1);
   if (env.fiber) {
     env.fiber_d.bind(kEnvUnit);
     env.fiber_s.bind(kEnvUnit + 1);

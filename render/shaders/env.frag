@@ -11,6 +11,7 @@ out vec4 frag;
 // aniso: aniso_environment.glsl
 // aniso: aniso_environment_parts.glsl
 // aniso: maps.glsl
+// aniso: aniso_environment_isotropic.glsl
 // aniso: environment_isotropic.glsl
 void main() {
   vec3 N = normalize(vN);

@@ -9,6 +9,7 @@ uniform vec3 uEnvKd; uniform vec3 uEnvKs;
 out vec4 frag;
 // aniso: maps.glsl
 // aniso: topology.glsl
+// aniso: aniso_environment_isotropic.glsl
 // aniso: environment_isotropic.glsl
 // aniso: aniso_environment_fiber.glsl
 void main() {
