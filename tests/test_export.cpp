@@ -744,8 +744,8 @@ TEST(Export, TheStudioGoesWithEveryExportThatCanCarryIt) {
   EXPECT_FALSE(std::filesystem::exists(root + "/none/tables/environment_t0.ktx2"));
 
   // A fiber material at one s carries it (the viewer's frame: Export.BrowserViewerUnderAn-
-  // EnvironmentMatchesThePreview); one with a topology map, which the viewer does not draw under
-  // an environment, goes without.
+  // EnvironmentMatchesThePreview); one on a torus's topology, a shape the viewer does not have,
+  // goes without.
   Material fiber = brushed();
   fiber.model = Model::kFiber;
   fiber.topology = UniformS{0.3};
@@ -759,8 +759,7 @@ TEST(Export, TheStudioGoesWithEveryExportThatCanCarryIt) {
   for (const char* key : {"D", "S", "coef"})
     EXPECT_TRUE(std::filesystem::exists(
         root + "/one_s/" + ej["tables"]["environment"]["tables"][key].get<std::string>()));
-  fiber.topology = TopologyMapRef{"topo.png", 0.25, MathTopology::kSphere};
-  write_png(root + "/topo.png", Image(8, 8, 1, 0.5f), 8);
+  fiber.topology = MathematicalS{MathTopology::kTorus};
   material_to_json(fiber, &j);
   write_json_file(root + "/f.json", j);
   r = test::run_cli("export " + root + "/f.json --out " + root + "/fiber --size 32");
@@ -768,21 +767,26 @@ TEST(Export, TheStudioGoesWithEveryExportThatCanCarryIt) {
   EXPECT_NE(r.output.find("no environment"), std::string::npos) << r.output;
   ej = nlohmann::json::parse(read_text_file(root + "/fiber/export.json"));
   EXPECT_FALSE(ej["tables"].contains("environment"));
-  EXPECT_NE(ej["tables"]["environment_left_out"].get<std::string>().find("a topology map"),
+  const std::string torus = "a mathematical topology other than the sample sphere's";
+  EXPECT_NE(ej["tables"]["environment_left_out"].get<std::string>().find(torus),
             std::string::npos);
   r = test::run_cli("export " + root + "/f.json --env studio --out " + root +
                     "/fiber_env --size 32");
   EXPECT_NE(r.status, 0);
-  EXPECT_NE(r.output.find("a topology map"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(torus), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(root + "/fiber_env"));
-  // The viewer's environment is the one lobe's: a second fiber or an isotropic term (which the
-  // preview lights under an environment) keeps the export from carrying it, and says so.
+  // A second fiber and an isotropic term travel with it (the viewer's frames:
+  // Export.BrowserViewerUnderAnEnvironmentDrawsMapsAndTerms); a second fiber beside a map of the
+  // fiber direction, which the preview does not light under an environment either, does not.
   Material iso = brushed(), woven = brushed();
   iso.has_isotropic = true;
   iso.iso_ks = {0.2, 0.2, 0.2};
   woven.has_second_fiber = true;
-  EXPECT_NE(environment_refusal(iso).find("an isotropic term"), std::string::npos);
-  EXPECT_NE(environment_refusal(woven).find("a second fiber"), std::string::npos);
+  EXPECT_EQ(environment_refusal(iso), "");
+  EXPECT_EQ(environment_refusal(woven), "");
+  woven.maps.fiber = std::make_shared<Image>(4, 4, 4, 0.0f);
+  EXPECT_NE(environment_refusal(woven).find("a second fiber with a map of the fiber direction"),
+            std::string::npos);
   EXPECT_EQ(environment_refusal(brushed()), "");
 }
 
@@ -1007,6 +1011,63 @@ TEST(Export, BrowserViewerUnderAnEnvironmentMatchesThePreview) {
     EXPECT_GT(lit, 0.1);
   }
   // A material the prefilter does not cover: Export.TheStudioGoesWithEveryExportThatCanCarryIt.
+}
+
+// Under an environment the viewer draws what `aniso preview --env` draws for materials with maps
+// (swirl-plate's k_d and fiber direction, woven-patch's with n), a second fiber (woven cloth), an
+// isotropic term, and the fiber model with maps and a map of n, each on its own shape.
+TEST(Export, BrowserViewerUnderAnEnvironmentDrawsMapsAndTerms) {
+  const std::string root = test::tmp_dir("viewer_env_terms");
+  // The presets' truths with their maps on disk; the others written beside them.
+  for (const char* preset : {"swirl-plate", "woven-patch", "woven-cloth"}) {
+    const auto r = test::run_cli("synth " + std::string(preset) + " " + root + "/" + preset +
+                                 " --size 16x16 --views 1");
+    ASSERT_EQ(r.status, 0) << r.output;
+  }
+  nlohmann::json j;
+  Material iso = brushed();
+  iso.has_isotropic = true;
+  iso.iso_kd = {0.05, 0.04, 0.03};
+  iso.iso_ks = {0.3, 0.3, 0.3};
+  iso.iso_n = 40;
+  material_to_json(iso, &j);
+  write_json_file(root + "/iso.json", j);
+  Material fiber_woven = read_material(root + "/woven-patch/truth.json");
+  fiber_woven.model = Model::kFiber;
+  fiber_woven.topology = UniformS{0.3};
+  material_to_json(fiber_woven, &j);
+  write_json_file(root + "/woven-patch/fiber.json", j);
+  ASSERT_TRUE(read_material(root + "/woven-cloth/truth.json").second_active());
+  const std::tuple<const char*, std::string, const char*> cases[] = {
+      {"swirl", root + "/swirl-plate/truth.json", "flat"},
+      {"woven", root + "/woven-patch/truth.json", "flat"},
+      {"cloth", root + "/woven-cloth/truth.json", "sphere"},
+      {"iso", root + "/iso.json", "sphere"},
+      {"fiber_woven", root + "/woven-patch/fiber.json", "flat"}};
+  for (const auto& [name, material, shape] : cases) {
+    const std::string dir = root + "/" + name;
+    auto r = test::run_cli("export " + material + " --out " + dir + "/export --size 64");
+    ASSERT_EQ(r.status, 0) << r.output;
+    const auto ej = nlohmann::json::parse(read_text_file(dir + "/export/export.json"));
+    ASSERT_TRUE(ej["tables"].contains("environment")) << name << ": " << ej["tables"].dump();
+    const std::string view = "0.3,-0.8,0.5";
+    const std::string q = "env=1&shape=" + std::string(shape) + "&view=" + view + "&size=200x160";
+    const auto shot = run_command("'" + web_dir() + "/screenshot.sh' '" + dir + "/export' '" + q +
+                                  "' '" + dir + "/web.png' 200 160");
+    ASSERT_EQ(shot.status, 0) << shot.output;
+    EXPECT_NE(shot.output.find("aniso viewer: rendered"), std::string::npos) << shot.output;
+    r = test::run_cli("preview " + material + " --env studio --shape " + shape + " --view " +
+                      view + " --size 200x160 --out " + dir + "/preview.png");
+    ASSERT_EQ(r.status, 0) << r.output;
+    double lit = 0;
+    const double mad = mean_abs_difference(dir + "/web.png", dir + "/preview.png", &lit);
+    std::printf(
+        "%s under the studio: browser viewer against aniso preview --env: mean |diff| %.4f of "
+        "full scale (preview mean %.3f)\n",
+        name, mad, lit);
+    EXPECT_LT(mad, 0.02) << name;
+    EXPECT_GT(lit, 0.05) << name;
+  }
 }
 
 // The three.js viewer in headless Chromium (SwiftShader WebGL) renders the frame `aniso preview`

@@ -1,6 +1,7 @@
 // aniso export: tables, shaders and glTF for engines and browsers (render/export/export.h).
 #include <stdlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -146,8 +147,8 @@ Command add_export(CLI::App& app) {
       "--env", a->env,
       "the environment prefiltered for the material, which the browser viewer lights "
       "with: the built-in 'studio' (the default, left out with a note for a material "
-      "it cannot carry: maps, a second fiber, an isotropic term, a fiber material's topology "
-      "map or map of s), "
+      "it cannot carry: a second fiber beside a map of the fiber direction, the fiber model on "
+      "a torus's topology), "
       "an equirectangular HDR FILE.exr (z up), or 'none'");
   ex->add_flag(
       "--engines", a->engines,
@@ -201,11 +202,13 @@ Command add_export(CLI::App& app) {
         std::printf("  %s\n", s.pbr.mapping.c_str());
         if (o.environment && s.environment_left_out.empty())
           std::printf(
-              "  environment %s prefiltered in %.2f s: %s (the browser viewer's orbit view "
-              "lights with it; --env none leaves it out)\n",
+              "  environment %s prefiltered in %.2f s: %d tables in tables/, export.json "
+              "tables.environment (the browser viewer's orbit view lights with it; --env none "
+              "leaves it out)\n",
               env.name.c_str(), s.environment_seconds,
-              m.fiber() ? "tables/fiber_environment_{D,S,coef}.ktx2"
-                        : "tables/environment_t0..6.ktx2");
+              static_cast<int>(std::count_if(s.files.begin(), s.files.end(), [](const auto& f) {
+                return f.rfind("tables/", 0) == 0 && f.find("environment") != std::string::npos;
+              })));
         else if (o.environment)
           std::printf("  no environment: %s (the browser viewer lights with its light and fill)\n",
                       s.environment_left_out.c_str());

@@ -76,10 +76,19 @@ function tableTexture(t, floatLinear, volume = false) {
   return tex;
 }
 
+// A second fiber direction per vertex (woven cloth): T2 = U cos(psi2) + W sin(psi2), W = N x U, as
+// the first (aniso preview's vertex_attributes).
+function fiber2(g, U, W, psi2Deg) {
+  const c = Math.cos(psi2Deg * Math.PI / 180), s = Math.sin(psi2Deg * Math.PI / 180);
+  const T2 = new Float32Array(U.length);
+  for (let i = 0; i < U.length; i++) T2[i] = U[i] * c + W[i] * s;
+  g.setAttribute('fiber2', new THREE.BufferAttribute(T2, 3));
+}
+
 // The sample sphere of gltf/sample.gltf with its texture coordinates and the fiber direction per
 // vertex: T = U cos(psi) + (N x U) sin(psi), U the glTF tangent (psi 0 with a map of the fiber
 // direction: the shader turns U per fragment).
-async function loadSphere(psiDeg) {
+async function loadSphere(psiDeg, psi2Deg) {
   const gltf = await (await fetch('../gltf/sample.gltf')).json();
   const bin = await (await fetch('../gltf/sample.bin')).arrayBuffer();
   const prim = gltf.meshes[0].primitives[0];
@@ -91,16 +100,21 @@ async function loadSphere(psiDeg) {
   const UV = acc(prim.attributes.TEXCOORD_0, Float32Array, 2);
   const idx = acc(prim.indices, Uint32Array, 1);
   const c = Math.cos(psiDeg * Math.PI / 180), s = Math.sin(psiDeg * Math.PI / 180);
-  const T = new Float32Array(P.length);
+  const T = new Float32Array(P.length), U3 = new Float32Array(P.length), W3 = new Float32Array(P.length);
   for (let i = 0; i < P.length / 3; i++) {
     const n = [N[3 * i], N[3 * i + 1], N[3 * i + 2]], u = [U[4 * i], U[4 * i + 1], U[4 * i + 2]];
     const w = [n[1] * u[2] - n[2] * u[1], n[2] * u[0] - n[0] * u[2], n[0] * u[1] - n[1] * u[0]];
-    for (let k = 0; k < 3; k++) T[3 * i + k] = u[k] * c + w[k] * s;
+    for (let k = 0; k < 3; k++) {
+      T[3 * i + k] = u[k] * c + w[k] * s;
+      U3[3 * i + k] = u[k];
+      W3[3 * i + k] = w[k];
+    }
   }
   const g = new THREE.BufferGeometry();
   g.setAttribute('position', new THREE.BufferAttribute(P, 3));
   g.setAttribute('normal', new THREE.BufferAttribute(N, 3));
   g.setAttribute('fiber', new THREE.BufferAttribute(T, 3));
+  fiber2(g, U3, W3, psi2Deg);
   g.setAttribute('uv', new THREE.BufferAttribute(UV, 2));
   g.setIndex(new THREE.BufferAttribute(idx, 1));
   g.computeBoundingBox();
@@ -109,7 +123,7 @@ async function loadSphere(psiDeg) {
 
 // The flat sample of `aniso preview --shape flat`: x = 2u - 1, y = 1 - 2v (uv as the sample lies),
 // the normal +z, U along +x; the fiber direction as for the sphere.
-function flatGeometry(psiDeg) {
+function flatGeometry(psiDeg, psi2Deg) {
   const P = new Float32Array([-1, 1, 0, 1, 1, 0, -1, -1, 0, 1, -1, 0]);
   const N = new Float32Array([0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1]);
   const UV = new Float32Array([0, 0, 1, 0, 0, 1, 1, 1]);
@@ -119,6 +133,8 @@ function flatGeometry(psiDeg) {
   g.setAttribute('position', new THREE.BufferAttribute(P, 3));
   g.setAttribute('normal', new THREE.BufferAttribute(N, 3));
   g.setAttribute('fiber', new THREE.BufferAttribute(T, 3));
+  fiber2(g, new Float32Array([1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0]),
+         new Float32Array([0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0]), psi2Deg);
   g.setAttribute('uv', new THREE.BufferAttribute(UV, 2));
   g.setIndex([0, 2, 1, 1, 2, 3]);
   g.computeBoundingBox();
@@ -128,10 +144,10 @@ function flatGeometry(psiDeg) {
 // aniso preview's open cylinder (geometry/mesh.cpp "cylinder": radius 1, height 2, axis z, a
 // 128 x 32 grid over u around and v down, U = dP/du along the circles), the fiber turned by psi
 // from U toward N x U. Both sides drawn, as the preview draws them.
-function cylinderGeometry(psiDeg) {
+function cylinderGeometry(psiDeg, psi2Deg) {
   const nu = 128, nv = 32;
   const c = Math.cos(psiDeg * Math.PI / 180), s = Math.sin(psiDeg * Math.PI / 180);
-  const P = [], N = [], T = [], UV = [], idx = [];
+  const P = [], N = [], T = [], UV = [], idx = [], Us = [], Ws = [];
   for (let j = 0; j <= nv; j++)
     for (let i = 0; i <= nu; i++) {
       const u = i / nu, v = j / nv, phi = 2 * Math.PI * u;
@@ -140,6 +156,8 @@ function cylinderGeometry(psiDeg) {
       P.push(n[0], n[1], 1 - 2 * v);
       N.push(...n);
       T.push(U[0] * c + w[0] * s, U[1] * c + w[1] * s, U[2] * c + w[2] * s);
+      Us.push(...U);
+      Ws.push(...w);
       UV.push(u, v);
     }
   const id = (i, j) => j * (nu + 1) + i;
@@ -150,6 +168,7 @@ function cylinderGeometry(psiDeg) {
   g.setAttribute('position', new THREE.BufferAttribute(new Float32Array(P), 3));
   g.setAttribute('normal', new THREE.BufferAttribute(new Float32Array(N), 3));
   g.setAttribute('fiber', new THREE.BufferAttribute(new Float32Array(T), 3));
+  fiber2(g, new Float32Array(Us), new Float32Array(Ws), psi2Deg);
   g.setAttribute('uv', new THREE.BufferAttribute(new Float32Array(UV), 2));
   g.setIndex(idx);
   g.computeBoundingBox();
@@ -157,10 +176,10 @@ function cylinderGeometry(psiDeg) {
 }
 
 const VERTEX = `
-in vec3 fiber;
-out vec3 vN; out vec3 vT; out vec2 vUV; out vec3 vP;
+in vec3 fiber; in vec3 fiber2;
+out vec3 vN; out vec3 vT; out vec3 vT2; out vec2 vUV; out vec3 vP;
 void main() {
-  vN = normal; vT = fiber; vUV = uv; vP = position;
+  vN = normal; vT = fiber; vT2 = fiber2; vUV = uv; vP = position;
   gl_Position = projectionMatrix * modelViewMatrix * vec4(position, 1.0);
 }`;
 
@@ -204,43 +223,89 @@ void main() {
   fragColor = vec4(enc(c.r), enc(c.g), enc(c.b), 1.0);
 }`;
 
-async function fragmentShader(info, fiber) {
+// The material's function files: shaders.glsl[0], for the fiber model shaders.fiber[0], for a
+// material with maps shaders.maps[0].
+async function materialFunctions(info, fiber) {
   const text = async (f) => (await fetch('../' + f)).text();
-  // The function files: shaders.glsl[0], for the fiber model shaders.fiber[0], for a material with
-  // maps shaders.maps[0].
-  const parts = ['precision highp float;\nprecision highp sampler2DArray;\n',
+  const parts = ['precision highp float;\nprecision highp sampler2DArray;\nprecision highp sampler3D;\n',
                  await text(info.shaders.glsl[0])];
   if (fiber) parts.push(await text(info.shaders.fiber[0]));
   if (info.shaders.maps) parts.push('#define ANISO_VIEWER_MAPS', await text(info.shaders.maps[0]));
-  return parts.join('\n') + FRAGMENT_MAIN;
+  return parts.join('\n') + '\n';
 }
 
-// Light from an environment (an export made with --env): the export's own
-// shaders/aniso_environment.glsl over its prefiltered terms (tables/environment_t0..6.ktx2),
-// sRGB-encoded.
-const FRAGMENT_ENV_MAIN = `
-uniform vec3 V;
-in vec3 vN; in vec3 vT; in vec2 vUV; in vec3 vP;
-out vec4 fragColor;
-float enc(float v) { v = clamp(v, 0.0, 1.0);
-  return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
-void main() {
-  vec3 r = anisoEnvironmentRadiance(normalize(vN), vT, V);
-  fragColor = vec4(enc(r.r), enc(r.g), enc(r.b), 1.0);
-}`;
+async function fragmentShader(info, fiber) {
+  return (await materialFunctions(info, fiber)) + FRAGMENT_MAIN;
+}
 
-// The fiber model under an environment: the export's shaders/aniso_environment_fiber.glsl over its
-// three volumes (tables/fiber_environment_*.ktx2) at the fragment's topology s.
-const FRAGMENT_ENV_FIBER_MAIN = `
+// Light from an environment (an export made with --env): the export's own shaders over its
+// prefiltered tables, as aniso preview --env draws them, sRGB-encoded. The line model with one k_d
+// and k_s: shaders/aniso_environment.glsl's seven terms (k_d and k_s in them); with maps, D's and
+// S's terms apart (aniso_environment_parts.glsl), the fragment's k_d, k_s, n and fiber from the
+// maps (aniso_maps.glsl); the fiber model: aniso_environment_fiber.glsl at the fragment's topology.
+// A second fiber reads the same tables at T2; the isotropic term its own tables
+// (aniso_environment_isotropic.glsl).
+const FRAGMENT_ENV_MAIN = `
 uniform vec3 V; uniform vec3 kd; uniform vec3 ks; uniform float topologyS; uniform int sphereTopology;
-in vec3 vN; in vec3 vT; in vec2 vUV; in vec3 vP;
+uniform vec3 kdIso; uniform vec3 ksIso; uniform float secondWeight;
+in vec3 vN; in vec3 vT; in vec3 vT2; in vec2 vUV; in vec3 vP;
 out vec4 fragColor;
 ${SPHERE_SMATH}
 float enc(float v) { v = clamp(v, 0.0, 1.0);
   return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
+// The radiance of the lobes at T (and T2) for k_d, k_s and n at the fragment.
+vec3 lobes(vec3 N, vec3 T, vec3 T2, vec3 V, float n, vec3 kdv, vec3 ksv) {
+#if defined(ANISO_ENV_FIBER) || defined(ANISO_ENV_PARTS)
+  vec3 d, s;
+#if defined(ANISO_ENV_FIBER)
+  float topo = sphereTopology == 1 ? sphereSmath(vP) : topologyS;
+#ifdef ANISO_VIEWER_MAPS
+  topo = anisoTopologyAt(vUV, topo);
+#endif
+  anisoFiberEnvironmentParts(N, T, V, topo, n, d, s);
+#ifdef ANISO_ENV_SECOND
+  vec3 d2, s2;
+  anisoFiberEnvironmentParts(N, T2, V, topo, n, d2, s2);
+  d = mix(d2, d, secondWeight);
+  s = mix(s2, s, secondWeight);
+#endif
+#else
+  anisoEnvironmentParts(N, T, V, n, d, s);
+#ifdef ANISO_ENV_SECOND
+  vec3 d2, s2;
+  anisoEnvironmentParts(N, T2, V, n, d2, s2);
+  d = mix(d2, d, secondWeight);
+  s = mix(s2, s, secondWeight);
+#endif
+#endif
+  return max(kdv * d + ksv * s, vec3(0.0));
+#else
+  vec3 r = anisoEnvironmentRadiance(N, T, V);
+#ifdef ANISO_ENV_SECOND
+  r = mix(anisoEnvironmentRadiance(N, T2, V), r, secondWeight);
+#endif
+  return r;
+#endif
+}
 void main() {
-  float s = sphereTopology == 1 ? sphereSmath(vP) : topologyS;
-  vec3 r = anisoFiberEnvironmentRadiance(normalize(vN), vT, V, s, 1.0, kd, ks);
+  vec3 N = normalize(vN);
+  vec3 T = normalize(vT - N * dot(N, vT)), T2 = normalize(vT2 - N * dot(N, vT2));
+  vec3 kdv = kd, ksv = ks;
+  float n = 1.0;
+#ifdef ANISO_VIEWER_MAPS
+  n = anisoMapsAt(vUV, N, T, kdv, ksv);
+#endif
+  vec3 r = vec3(0.0);
+#ifdef ANISO_ENV_FIBER
+  if (dot(N, V) > 0.0) {  // the fibres show nothing from below
+#else
+  {
+#endif
+    r = lobes(N, T, T2, V, n, kdv, ksv);
+#ifdef ANISO_ENV_ISO
+    r += anisoIsotropicEnvironment(N, V, kdIso, ksIso);
+#endif
+  }
   fragColor = vec4(enc(r.r), enc(r.g), enc(r.b), 1.0);
 }`;
 
@@ -291,11 +356,14 @@ export async function start(q) {
   document.body.appendChild(renderer.domElement);
   const floatLinear = renderer.extensions.has('OES_texture_float_linear');
 
+  // The fiber angles at each vertex (0 with a map of the fiber direction: the shader turns U).
+  const psi = info.maps.fiber ? 0 : m.fiber_angle_deg || 0;
+  const second = m.second_fiber || {};
+  const psi2 = typeof second.angle_deg === 'number' ? second.angle_deg : (m.fiber_angle_deg || 0) + 90;
   const [D, S, geometry] = await Promise.all([
     loadKtx2('../' + info.tables.diffuse.ktx2), loadKtx2('../' + info.tables.specular.ktx2),
-    shape === 'flat' ? flatGeometry(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)
-    : shape === 'cylinder' ? cylinderGeometry(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)
-                           : loadSphere(info.maps.fiber ? 0 : m.fiber_angle_deg || 0)]);
+    shape === 'flat' ? flatGeometry(psi, psi2)
+    : shape === 'cylinder' ? cylinderGeometry(psi, psi2) : loadSphere(psi, psi2)]);
   const fiberTables = fiber ? await Promise.all([loadKtx2('../' + info.tables.fiber_G.ktx2),
                                                  loadKtx2('../' + info.tables.fiber_F.ktx2)])
                             : null;
@@ -340,26 +408,54 @@ export async function start(q) {
   let envFragment = '';
   if (useEnv) {
     const env = info.tables.environment;
-    const shader = 'precision highp float;\nprecision highp sampler3D;\n' +
-                   await (await fetch('../' + env.shader)).text();
+    const text = async (f) => (await fetch('../' + f)).text();
+    const volume = async (f) => tableTexture(await loadKtx2('../' + f), floatLinear, true);
+    const defines = [];
+    const shaders = [await text(env.shader)];
     if (env.model === 'fiber') {
-      const [fd, fs, fc] = await Promise.all(['D', 'S', 'coef'].map((k) => loadKtx2('../' + env.tables[k])));
-      uniforms.anisoFibEnvD = { value: tableTexture(fd, floatLinear, true) };
-      uniforms.anisoFibEnvS = { value: tableTexture(fs, floatLinear, true) };
-      uniforms.anisoFibEnvCoef = { value: tableTexture(fc, floatLinear, true) };
+      defines.push('ANISO_ENV_FIBER');
+      uniforms.anisoFibEnvD = { value: await volume(env.tables.D) };
+      uniforms.anisoFibEnvS = { value: await volume(env.tables.S) };
+      uniforms.anisoFibEnvCoef = { value: await volume(env.tables.coef) };
       uniforms.anisoFibEnvOrder = { value: env.order };
       uniforms.anisoFibEnvLevels = { value: env.layers };
       uniforms.anisoFibEnvPhis = { value: env.phis };
       uniforms.anisoFibEnvSLevels = { value: env.s_levels };
-      uniforms.anisoFibEnvNLevels = { value: 1 };  // (an export's environment has no map of n)
+      uniforms.anisoFibEnvNLevels = { value: env.n_levels };
+      uniforms.anisoFibEnvLogN0 = { value: env.log_n0 };
+      uniforms.anisoFibEnvLogStep = { value: env.log_step };
       uniforms.anisoFibEnvRows = { value: env.size[1] };
-      envFragment = shader + FRAGMENT_ENV_FIBER_MAIN;
-    } else {
-      const terms = await Promise.all(env.terms.map((f) => loadKtx2('../' + f)));
-      uniforms.anisoEnv = { value: terms.map((t) => tableTexture(t, floatLinear, true)) };
+    } else if (env.parts) {
+      defines.push('ANISO_ENV_PARTS');
+      shaders.push(await text(env.parts_shader));
+      uniforms.anisoEnvPartD = { value: await volume(env.parts.D) };
+      uniforms.anisoEnvPartS = { value: await volume(env.parts.S) };
       uniforms.anisoEnvLevels = { value: env.layers };
-      envFragment = shader + FRAGMENT_ENV_MAIN;
+      uniforms.anisoEnvPartRows = { value: env.size[1] };
+      uniforms.anisoEnvPartNLevels = { value: env.n_levels };
+      uniforms.anisoEnvPartLogN0 = { value: env.log_n0 };
+      uniforms.anisoEnvPartLogStep = { value: env.log_step };
+    } else {
+      uniforms.anisoEnv = { value: await Promise.all(env.terms.map(volume)) };
+      uniforms.anisoEnvLevels = { value: env.layers };
     }
+    const rgb = (x) => (Array.isArray(x) ? x : [x || 0, x || 0, x || 0]);
+    if (env.isotropic) {
+      defines.push('ANISO_ENV_ISO');
+      shaders.push(await text(env.isotropic.shader));
+      uniforms.anisoEnvIrr = { value: await volume(env.isotropic.tables.irradiance) };
+      uniforms.anisoEnvGloss = { value: await volume(env.isotropic.tables.glossy) };
+      uniforms.anisoEnvIsoScale = { value: env.isotropic.scale };
+      uniforms.kdIso = { value: new THREE.Vector3(...rgb(m.isotropic.kd)) };
+      uniforms.ksIso = { value: new THREE.Vector3(...rgb(m.isotropic.ks)) };
+    }
+    if (env.second_fiber) {
+      defines.push('ANISO_ENV_SECOND');
+      uniforms.secondWeight = { value: env.second_fiber.weight };
+    }
+    envFragment = (await materialFunctions(info, fiber)) +
+                  defines.map((d) => '#define ' + d + '\n').join('') + shaders.join('\n') +
+                  FRAGMENT_ENV_MAIN;
   }
   const material = new THREE.ShaderMaterial({ glslVersion: THREE.GLSL3, vertexShader: VERTEX,
                                               fragmentShader: q.has('plain') ? FRAGMENT_PLAIN
