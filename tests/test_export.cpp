@@ -768,8 +768,7 @@ TEST(Export, TheStudioGoesWithEveryExportThatCanCarryIt) {
   ej = nlohmann::json::parse(read_text_file(root + "/fiber/export.json"));
   EXPECT_FALSE(ej["tables"].contains("environment"));
   const std::string torus = "a mathematical topology other than the sample sphere's";
-  EXPECT_NE(ej["tables"]["environment_left_out"].get<std::string>().find(torus),
-            std::string::npos);
+  EXPECT_NE(ej["tables"]["environment_left_out"].get<std::string>().find(torus), std::string::npos);
   r = test::run_cli("export " + root + "/f.json --env studio --out " + root +
                     "/fiber_env --size 32");
   EXPECT_NE(r.status, 0);
@@ -979,43 +978,16 @@ TEST(Export, BrowserViewerUnderAnEnvironmentMatchesThePreview) {
       mad, lit);
   EXPECT_LT(mad, 0.02);
   EXPECT_GT(lit, 0.1);
-  // The fiber model (shaders/aniso_environment_fiber.glsl over its three volumes), at one s and
-  // over the sample sphere's mathematical topology.
-  for (const bool sphere : {false, true}) {
-    Material fiber = brushed();
-    fiber.model = Model::kFiber;
-    fiber.topology = sphere ? Topology{MathematicalS{MathTopology::kSphere}} : UniformS{0.3};
-    const std::string dir = root + (sphere ? "/fiber_sphere" : "/fiber");
-    material_to_json(fiber, &j);
-    write_json_file(dir + ".json", j);
-    r = test::run_cli("export " + dir + ".json --env studio --out " + dir);
-    ASSERT_EQ(r.status, 0) << r.output;
-    const auto fj = nlohmann::json::parse(read_text_file(dir + "/export.json"));
-    ASSERT_EQ(fj["tables"]["environment"]["model"], "fiber");
-    const KtxTexture coef =
-        read_ktx2(dir + "/" + fj["tables"]["environment"]["tables"]["coef"].get<std::string>());
-    EXPECT_EQ(coef.format, KtxFormat::kRGBA32Float);
-    const auto fshot = run_command("'" + web_dir() + "/screenshot.sh' '" + dir + "' '" + q + "' '" +
-                                   dir + "/web.png' 200 160");
-    ASSERT_EQ(fshot.status, 0) << fshot.output;
-    r = test::run_cli("preview " + dir +
-                      ".json --env studio --view 0.3,-0.8,0.5 --size 200x160 --out " + dir +
-                      "/preview.png");
-    ASSERT_EQ(r.status, 0) << r.output;
-    const double fmad = mean_abs_difference(dir + "/web.png", dir + "/preview.png", &lit);
-    std::printf(
-        "browser viewer, fiber model (%s), under the studio against aniso preview --env studio: "
-        "mean |diff| %.4f of full scale (preview mean %.3f)\n",
-        sphere ? "the sphere's topology" : "one s", fmad, lit);
-    EXPECT_LT(fmad, 0.02);
-    EXPECT_GT(lit, 0.1);
-  }
+  // The fiber model, maps and the optional terms: Export.BrowserViewerUnderAnEnvironmentDrawsMaps-
+  // AndTerms.
   // A material the prefilter does not cover: Export.TheStudioGoesWithEveryExportThatCanCarryIt.
 }
 
 // Under an environment the viewer draws what `aniso preview --env` draws for materials with maps
 // (swirl-plate's k_d and fiber direction, woven-patch's with n), a second fiber (woven cloth), an
-// isotropic term, and the fiber model with maps and a map of n, each on its own shape.
+// isotropic term, and the fiber model (shaders/aniso_environment_fiber.glsl over its three
+// volumes) at one s, over the sample sphere's mathematical topology, and with maps and a map of n,
+// each on its own shape.
 TEST(Export, BrowserViewerUnderAnEnvironmentDrawsMapsAndTerms) {
   const std::string root = test::tmp_dir("viewer_env_terms");
   // The presets' truths with their maps on disk; the others written beside them.
@@ -1038,11 +1010,22 @@ TEST(Export, BrowserViewerUnderAnEnvironmentDrawsMapsAndTerms) {
   material_to_json(fiber_woven, &j);
   write_json_file(root + "/woven-patch/fiber.json", j);
   ASSERT_TRUE(read_material(root + "/woven-cloth/truth.json").second_active());
+  Material fiber = brushed();
+  fiber.model = Model::kFiber;
+  fiber.topology = UniformS{0.3};
+  nlohmann::json one_s, sphere;
+  material_to_json(fiber, &one_s);
+  write_json_file(root + "/fiber.json", one_s);
+  fiber.topology = MathematicalS{MathTopology::kSphere};
+  material_to_json(fiber, &sphere);
+  write_json_file(root + "/fiber_sphere.json", sphere);
   const std::tuple<const char*, std::string, const char*> cases[] = {
       {"swirl", root + "/swirl-plate/truth.json", "flat"},
       {"woven", root + "/woven-patch/truth.json", "flat"},
       {"cloth", root + "/woven-cloth/truth.json", "sphere"},
       {"iso", root + "/iso.json", "sphere"},
+      {"fiber", root + "/fiber.json", "sphere"},
+      {"fiber_sphere", root + "/fiber_sphere.json", "sphere"},
       {"fiber_woven", root + "/woven-patch/fiber.json", "flat"}};
   for (const auto& [name, material, shape] : cases) {
     const std::string dir = root + "/" + name;
@@ -1050,14 +1033,19 @@ TEST(Export, BrowserViewerUnderAnEnvironmentDrawsMapsAndTerms) {
     ASSERT_EQ(r.status, 0) << r.output;
     const auto ej = nlohmann::json::parse(read_text_file(dir + "/export/export.json"));
     ASSERT_TRUE(ej["tables"].contains("environment")) << name << ": " << ej["tables"].dump();
+    if (ej["tables"]["environment"]["model"] == "fiber") {  // its coefficients in 32-bit floats
+      const KtxTexture coef = read_ktx2(
+          dir + "/export/" + ej["tables"]["environment"]["tables"]["coef"].get<std::string>());
+      EXPECT_EQ(coef.format, KtxFormat::kRGBA32Float);
+    }
     const std::string view = "0.3,-0.8,0.5";
     const std::string q = "env=1&shape=" + std::string(shape) + "&view=" + view + "&size=200x160";
     const auto shot = run_command("'" + web_dir() + "/screenshot.sh' '" + dir + "/export' '" + q +
                                   "' '" + dir + "/web.png' 200 160");
     ASSERT_EQ(shot.status, 0) << shot.output;
     EXPECT_NE(shot.output.find("aniso viewer: rendered"), std::string::npos) << shot.output;
-    r = test::run_cli("preview " + material + " --env studio --shape " + shape + " --view " +
-                      view + " --size 200x160 --out " + dir + "/preview.png");
+    r = test::run_cli("preview " + material + " --env studio --shape " + shape + " --view " + view +
+                      " --size 200x160 --out " + dir + "/preview.png");
     ASSERT_EQ(r.status, 0) << r.output;
     double lit = 0;
     const double mad = mean_abs_difference(dir + "/web.png", dir + "/preview.png", &lit);
