@@ -947,15 +947,14 @@ TEST(Export, BrowserViewerDrawsTheCylinderAsThePreviewDoes) {
 
 // `aniso export --env studio` carries the environment's prefiltered terms, and the browser viewer
 // lit by them (env=1) draws the frame `aniso preview --env studio` draws: for a line material's
-// seven terms (half floats), for materials with maps
-// (swirl-plate's k_d and fiber direction, woven-patch's with n), a second fiber (woven cloth), an
-// isotropic term, and the fiber model (shaders/aniso_environment_fiber.glsl over its three
-// volumes) at one s, over the sample sphere's mathematical topology, and with maps and a map of n,
-// each on its own shape.
+// seven terms (half floats), for a material with maps (woven-patch's k_d, n and fiber direction),
+// a second fiber (woven cloth), an isotropic term, and the fiber model
+// (shaders/aniso_environment_fiber.glsl over its three volumes) at one s, over the sample sphere's
+// mathematical topology, and with maps and a map of n, each on its own shape.
 TEST(Export, BrowserViewerUnderAnEnvironmentDrawsMapsAndTerms) {
   const std::string root = test::tmp_dir("viewer_env_terms");
   // The presets' truths with their maps on disk; the others written beside them.
-  for (const char* preset : {"swirl-plate", "woven-patch", "woven-cloth"}) {
+  for (const char* preset : {"woven-patch", "woven-cloth"}) {
     const auto r = test::run_cli("synth " + std::string(preset) + " " + root + "/" + preset +
                                  " --size 16x16 --views 1");
     ASSERT_EQ(r.status, 0) << r.output;
@@ -985,7 +984,6 @@ TEST(Export, BrowserViewerUnderAnEnvironmentDrawsMapsAndTerms) {
   write(fiber, root + "/fiber_sphere.json");
   const std::tuple<const char*, std::string, const char*> cases[] = {
       {"brushed", root + "/brushed.json", "sphere"},
-      {"swirl", root + "/swirl-plate/truth.json", "flat"},
       {"woven", root + "/woven-patch/truth.json", "flat"},
       {"cloth", root + "/woven-cloth/truth.json", "sphere"},
       {"iso", root + "/iso.json", "sphere"},
