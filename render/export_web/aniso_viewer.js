@@ -401,10 +401,26 @@ export async function start(q) {
         { value: tableTexture(await loadKtx2('../' + info.tables.fiber_F_stack.ktx2), floatLinear) };
   // An export with an environment lights with it (env=0 asks for the lights; a scripted query, for
   // the lights unless it says env=1).
-  const useEnv = info.tables.environment && !q.has('plain') &&
-                 (q.has('env') ? q.get('env') !== '0' : !scripted);
+  let useEnv = info.tables.environment && !q.has('plain') &&
+               (q.has('env') ? q.get('env') !== '0' : !scripted);
   if (q.get('env') === '1' && !info.tables.environment)
     throw new Error('env=1: this export has no environment (aniso export --env studio or FILE.exr)');
+  // The environment's volumes hold up to 13 x 32 layers (the fiber model's S): WebGL 2 promises
+  // 3D textures of 256 only. Where this browser holds fewer than they need, say so: an error when
+  // asked for (env=1), else the light.
+  if (useEnv) {
+    const gl = renderer.getContext(), most = gl.getParameter(gl.MAX_3D_TEXTURE_SIZE);
+    const env = info.tables.environment;
+    const need = env.model === 'fiber' ? (2 * env.order + 1) * env.layers
+               : env.parts ? 7 * env.layers : env.layers;
+    if (need > most) {
+      const why = `this browser's WebGL holds 3D textures of ${most} layers; the environment ` +
+                  `needs ${need} (aniso view draws it)`;
+      if (q.get('env') === '1') throw new Error('env=1: ' + why);
+      document.getElementById('info').textContent = 'aniso viewer: lit by the light: ' + why;
+      useEnv = false;
+    }
+  }
   let envFragment = '';
   if (useEnv) {
     const env = info.tables.environment;
