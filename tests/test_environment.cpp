@@ -223,7 +223,7 @@ TEST(EnvironmentTerms, SecondFiberAndIsotropicTermAgainstBruteForce) {
   for (const auto& [what, m] : cases)
     for (const Environment* env : {&studio, static_cast<const Environment*>(&uniform)}) {
       PreviewOptions p;
-      p.width = p.height = 48;
+      p.width = p.height = m.fiber() ? 32 : 48;  // (the fiber model's brute force is the slow one)
       p.reference = true;
       p.environment = env;
       // And apart from the material without the term: the term is drawn.
@@ -269,7 +269,7 @@ TEST(EnvironmentTerms, MapOfNAgainstBruteForce) {
   for (const Material& m : {woven, fiber, checker}) {
     PreviewOptions p;
     p.shape = "flat";
-    p.width = p.height = m.fiber() ? 40 : 64;  // (the fiber model's brute force is the slow one)
+    p.width = p.height = m.fiber() ? 28 : 64;  // (the fiber model's brute force is the slow one)
     p.view_dir = {0.2, -0.5, 1};
     p.reference = true;
     p.environment = &studio;
