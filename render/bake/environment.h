@@ -62,11 +62,11 @@ EnvironmentTables prefilter_environment(const Environment& env, const BakeTables
                                         int w = 64, int h = 32, int nb = 32, int env_w = 64,
                                         int env_h = 32);
 
-// What of `m` the prefilters do not cover ("the fiber model with a map of n", "a second fiber with
-// a map of the fiber direction"), null where they cover all of it: the line model (its maps of k_d,
-// k_s, n and the fiber direction through prefilter_environment_parts) and the fiber model with any
-// topology and the same maps but n's (render/bake/environment_fiber.h), a second fiber (the same
-// tables at T2) and an isotropic term (prefilter_isotropic_environment).
+// What of `m` the prefilters do not cover ("a second fiber with a map of the fiber direction"),
+// null where they cover all of it: the line model (its maps of k_d, k_s, n and the fiber direction
+// through prefilter_environment_parts), the fiber model with any topology and the same maps
+// (render/bake/environment_fiber.h), a second fiber (the same tables at T2) and an isotropic term
+// (prefilter_isotropic_environment).
 const char* environment_unsupported(const Material& m);
 
 // A material with maps of k_d or k_s: the environment prefiltered through D alone (k_d 1, k_s 0)

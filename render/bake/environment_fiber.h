@@ -8,11 +8,12 @@
 // surface), the reflected radiance is a sum over orders k of
 //   (coefficients of G or F at phi_v)  x  (integrals over the environment of E s_L or E S_line
 //   times cos(k chi) and sin(k chi))
-// turned by k chi_N. The integrals are tables over T (and b = <V,T> for S); the coefficients are
-// a small table over (phi_v, b) and the topology s. F depends on L also through kappa;
+// turned by k chi_N. The integrals are tables over T (and b = <V,T> for S, and n with a map of n);
+// the coefficients are a small table over (phi_v, b), the topology s and n. F depends on L also
+// through kappa;
 // the coefficients take kappa where S_line peaks (a = -b: kappa = 2 (1 - b^2)). What that, the
 // series' truncation and the tables' resolution leave is measured against brute force
-// (aniso preview --env --reference).
+// (aniso preview --env checks it).
 #pragma once
 #include <vector>
 
