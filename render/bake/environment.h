@@ -9,7 +9,7 @@
 // (equirectangular over the sphere) and b = V.T, the first five Fourier terms in chi of everything
 // but the clamp; the clamped cosine max(cos x, 0) = 1/pi + cos(x)/2 + 2 cos(2x)/(3 pi) - ... is
 // applied in the shader at the fragment's chi_N. What the truncation and the tables' resolution
-// leave is measured against brute force (render/preview: --env with --reference).
+// leave is measured against brute force (aniso preview --env; --env-check on large frames).
 #pragma once
 #include <string>
 #include <vector>
