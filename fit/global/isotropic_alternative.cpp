@@ -360,8 +360,11 @@ void test_isotropic_alternative(const ObsSet& os, const FitOptions& opt, FitResu
     return b < t.bic_isotropic && iso.rss - x.rss > kLobeShare * signal;
   };
   t.isotropic_preferred = !shown(t.bic_anisotropic, fitted);
-  // A line fit with its isotropic part is already the model that holds both.
+  // A line fit with its isotropic part is already the model that holds both. It also holds the
+  // isotropic part alone (k_d = k_s = 0): where it fits worse than that part, its solver stopped in
+  // a worse minimum, which says nothing of whether the data have a lobe.
   const bool fitted_holds_both = opt.fit_isotropic && res->material.model == Model::kLine;
+  const bool worse_minimum = fitted_holds_both && fitted.cost > iso.cost;
   if (t.isotropic_preferred && !fitted_holds_both) {
     // Is there an anisotropic lobe the fitted model draws worse than Blinn-Phong (a GGX lobe, a
     // lobe of two parts)? The model that holds both answers it.
@@ -442,8 +445,14 @@ void test_isotropic_alternative(const ObsSet& os, const FitOptions& opt, FitResu
                            " times the residual variance";
   res->correlation_names.clear();
   res->correlation.clear();
-  const std::string why = "the data show no anisotropic lobe (" + comparison +
-                          "): the material is the isotropic part alone";
+  const std::string why =
+      worse_minimum
+          ? "the fitted line model with its isotropic part fits worse than that part alone (" +
+                comparison +
+                "): it holds that part, so its solver stopped in a worse minimum and whether the "
+                "data have a lobe is not shown; the material is the isotropic part alone"
+          : "the data show no anisotropic lobe (" + comparison +
+                "): the material is the isotropic part alone";
   res->undetermined.clear();
   res->undetermined["fiber_angle_deg"] = why;
   res->undetermined["n"] = why;
@@ -470,10 +479,19 @@ void test_isotropic_alternative(const ObsSet& os, const FitOptions& opt, FitResu
       kept.push_back(w);
   rep.warnings = std::move(kept);
   rep.warnings.push_back(
-      "the data show no anisotropic lobe: " + comparison +
-      ". The material written is the isotropic part alone (Lambert + Blinn-Phong) with k_d = "
-      "k_s = 0 and no fiber direction; --keep-anisotropic writes the " +
-      model + " fit instead");
+      (worse_minimum ? "the fit with --fit-isotropic stopped in a worse minimum than its own "
+                       "isotropic part: " +
+                           comparison +
+                           ". The material written is that part alone (Lambert + Blinn-Phong) "
+                           "with k_d = k_s = 0 and no fiber direction; fit without "
+                           "--fit-isotropic for the line model's lobe, or --keep-anisotropic "
+                           "writes the " +
+                           model + " fit as it stopped"
+                     : "the data show no anisotropic lobe: " + comparison +
+                           ". The material written is the isotropic part alone (Lambert + "
+                           "Blinn-Phong) with k_d = k_s = 0 and no fiber direction; "
+                           "--keep-anisotropic writes the " +
+                           model + " fit instead"));
   if (!all.converged)
     rep.warnings.push_back(
         "the isotropic material's solve stopped before converging: its numbers may not be the "
