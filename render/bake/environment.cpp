@@ -172,12 +172,11 @@ EnvironmentParts prefilter_environment_parts(const Environment& env, const BakeT
       for (int c = 0; c < 3; ++c) u.combined.px[p * 3 + c] = one.px[p];
     return u;
   };
-  EnvironmentParts parts{prefilter_environment(env, unit_part(false)),
-                         prefilter_environment(env, unit_part(true)),
-                         {},
-                         0,
-                         0};
-  if (with_n && with_n->maps.n) {
+  EnvironmentParts parts;
+  parts.diffuse = prefilter_environment(env, unit_part(false));
+  if (!with_n || !with_n->maps.n) {
+    parts.specular = prefilter_environment(env, unit_part(true));
+  } else {
     const SpecularStack st = bake_material_stack(*with_n, tables.size, tables.index, 0.2, 16);
     for (const Image& level : st.S) {
       parts.specular_n.push_back(prefilter_environment(env, unit_part(true, &level)));
@@ -195,13 +194,14 @@ std::vector<float> environment_parts_d_volume(const EnvironmentParts& p) {
 }
 
 std::vector<float> environment_parts_s_volume(const EnvironmentParts& p) {
-  const EnvironmentTables& e = p.specular;
+  const EnvironmentTables& e = p.diffuse;  // (the same sizes)
   const int L = std::max<int>(1, static_cast<int>(p.specular_n.size()));
   const size_t row = static_cast<size_t>(e.w) * 3;
   std::vector<float> v(static_cast<size_t>(7) * e.nb * L * e.h * row);
   for (int t = 0; t < 7; ++t)
     for (int kn = 0; kn < L; ++kn) {
-      const std::vector<float>& src = p.specular_n.empty() ? e.terms[t] : p.specular_n[kn].terms[t];
+      const std::vector<float>& src =
+          p.specular_n.empty() ? p.specular.terms[t] : p.specular_n[kn].terms[t];
       for (int i = 0; i < e.nb; ++i)
         for (int y = 0; y < e.h; ++y)
           std::copy_n(&src[(static_cast<size_t>(i) * e.h + y) * row], row,

@@ -76,7 +76,10 @@ const char* environment_unsupported(const Material& m);
 // levels of n spaced evenly in log n over the map's range, at most 0.2 apart (bake.h
 // bake_specular_stack): the shader blends the two levels either side of its fragment's log n.
 struct EnvironmentParts {
-  EnvironmentTables diffuse, specular;
+  EnvironmentTables diffuse;
+  // S's terms at the material's n; with a map of n, its levels instead (specular then holds only
+  // their prefilter's seconds).
+  EnvironmentTables specular;
   std::vector<EnvironmentTables> specular_n;
   double logn0 = 0, log_step = 0;
 };

@@ -13,7 +13,7 @@ namespace aniso {
 
 // Writes the tables and the shader into `dir` (the export's folder being written) and returns
 // export.json's tables.environment; throws where environment_refusal(m) says why not.
-nlohmann::json write_environment(const std::string& dir, const Material& m,
-                                 const Environment& env, ExportSummary* sum);
+nlohmann::json write_environment(const std::string& dir, const Material& m, const Environment& env,
+                                 ExportSummary* sum);
 
 }  // namespace aniso

@@ -648,59 +648,52 @@ PreviewResult render_preview(const Material& m, const PreviewOptions& opt) {
 
   EnvironmentLookup env;
   std::unique_ptr<gl::Program> env_pass;
-  if (opt.environment && m.isotropic_active()) {
-    IsotropicEnvironment own;
-    if (!opt.prefiltered_isotropic)
-      own = prefilter_isotropic_environment(*opt.environment, m.iso_n);
-    const IsotropicEnvironment& it = opt.prefiltered_isotropic ? *opt.prefiltered_isotropic : own;
-    env.iso_irr.volume_rgb(it.irradiance, it.w, it.h, 1);
-    env.iso_gloss.volume_rgb(it.glossy, it.w, it.h, 1);
-    env.iso = true;
-    std::copy(std::begin(it.scale), std::end(it.scale), env.iso_scale);
-    res.env_prefilter_seconds += it.seconds;
-  }
-  if (opt.environment && fiber) {
-    FiberEnvironmentTables own;
-    if (!opt.prefiltered_fiber)
-      own = prefilter_fiber_environment(*opt.environment, m, lk.tables, lk.fb);
-    const FiberEnvironmentTables& ft = opt.prefiltered_fiber ? *opt.prefiltered_fiber : own;
-    fiber_environment_volumes(ft, &env);
-    res.env_prefilter_seconds += ft.seconds;
-    res.env_sizes.w = ft.w, res.env_sizes.h = ft.h, res.env_sizes.nb = ft.nb;
-    res.env_sizes.env_w = ft.env_w, res.env_sizes.env_h = ft.env_h;
-    env_pass = std::make_unique<gl::Program>(
-        shaders::vertex_vert, with_maps(shaders::env_fiber_frag).c_str(), "env_fiber.frag");
-  } else if (opt.environment) {
-    EnvironmentTables own;
-    EnvironmentParts own_parts;
-    env.parts = m.maps.any();  // D and S apart: the maps' k_d and k_s apply per fragment
-    if (env.parts && !opt.prefiltered_parts)
-      own_parts = prefilter_environment_parts(*opt.environment, lk.tables, &m);
-    else if (!env.parts && !opt.prefiltered)
-      own = prefilter_environment(*opt.environment, lk.tables);
-    const EnvironmentParts& parts = opt.prefiltered_parts ? *opt.prefiltered_parts : own_parts;
-    const EnvironmentTables& et = env.parts         ? parts.diffuse
-                                  : opt.prefiltered ? *opt.prefiltered
-                                                    : own;
-    // A material with maps: D's and S's terms packed into one volume each (with a map of n, S's
-    // levels of n one above the other).
-    const int n_levels = env.parts ? std::max<int>(1, parts.specular_n.size()) : 1;
-    if (env.parts) {
-      env.part_d.volume_rgb(environment_parts_d_volume(parts), et.w, et.h, 7 * et.nb);
-      env.part_s.volume_rgb(environment_parts_s_volume(parts), et.w, et.h * n_levels, 7 * et.nb);
-    } else {
-      for (int t = 0; t < 7; ++t) env.terms[t].volume_rgb(et.terms[t], et.w, et.h, et.nb);
+  if (opt.environment) {
+    // What the caller did not prefilter once for many frames, prefiltered here for this one.
+    PreviewOptions with = opt;
+    with.baked = &lk.tables;
+    with.baked_fiber = &lk.fb;
+    PreviewPrefiltered own;
+    prefilter_for_frames(m, &with, &own);
+    if (const IsotropicEnvironment* it = with.prefiltered_isotropic) {
+      env.iso_irr.volume_rgb(it->irradiance, it->w, it->h, 1);
+      env.iso_gloss.volume_rgb(it->glossy, it->w, it->h, 1);
+      env.iso = true;
+      std::copy(std::begin(it->scale), std::end(it->scale), env.iso_scale);
+      res.env_prefilter_seconds += it->seconds;
     }
-    env.levels = et.nb;
-    env.rows = et.h;
-    env.n_levels = n_levels;
-    env.logn0 = parts.logn0, env.log_step = parts.log_step;
-    res.env_prefilter_seconds +=
-        env.parts ? parts.diffuse.seconds + parts.specular.seconds : et.seconds;
-    res.env_sizes.w = et.w, res.env_sizes.h = et.h, res.env_sizes.nb = et.nb;
-    res.env_sizes.env_w = et.env_w, res.env_sizes.env_h = et.env_h;
-    env_pass = std::make_unique<gl::Program>(shaders::vertex_vert,
-                                             with_maps(shaders::env_frag).c_str(), "env.frag");
+    if (fiber) {
+      const FiberEnvironmentTables& ft = *with.prefiltered_fiber;
+      fiber_environment_volumes(ft, &env);
+      res.env_prefilter_seconds += ft.seconds;
+      res.env_sizes.w = ft.w, res.env_sizes.h = ft.h, res.env_sizes.nb = ft.nb;
+      res.env_sizes.env_w = ft.env_w, res.env_sizes.env_h = ft.env_h;
+      env_pass = std::make_unique<gl::Program>(
+          shaders::vertex_vert, with_maps(shaders::env_fiber_frag).c_str(), "env_fiber.frag");
+    } else {
+      env.parts = m.maps.any();  // D and S apart: the maps' k_d and k_s apply per fragment
+      const EnvironmentParts* parts = with.prefiltered_parts;
+      const EnvironmentTables& et = env.parts ? parts->diffuse : *with.prefiltered;
+      // A material with maps: D's and S's terms packed into one volume each (with a map of n,
+      // S's levels of n one above the other).
+      if (env.parts) {
+        env.n_levels = std::max<int>(1, static_cast<int>(parts->specular_n.size()));
+        env.logn0 = parts->logn0, env.log_step = parts->log_step;
+        env.part_d.volume_rgb(environment_parts_d_volume(*parts), et.w, et.h, 7 * et.nb);
+        env.part_s.volume_rgb(environment_parts_s_volume(*parts), et.w, et.h * env.n_levels,
+                              7 * et.nb);
+      } else {
+        for (int t = 0; t < 7; ++t) env.terms[t].volume_rgb(et.terms[t], et.w, et.h, et.nb);
+      }
+      env.levels = et.nb;
+      env.rows = et.h;
+      res.env_prefilter_seconds +=
+          env.parts ? parts->diffuse.seconds + parts->specular.seconds : et.seconds;
+      res.env_sizes.w = et.w, res.env_sizes.h = et.h, res.env_sizes.nb = et.nb;
+      res.env_sizes.env_w = et.env_w, res.env_sizes.env_h = et.env_h;
+      env_pass = std::make_unique<gl::Program>(shaders::vertex_vert,
+                                               with_maps(shaders::env_frag).c_str(), "env.frag");
+    }
   }
 
   fb.draw_to(1);
