@@ -217,7 +217,8 @@ std::string options_fingerprint(const FitOptions& fo) {
                 fo.max_iterations, static_cast<int>(fo.loss), fo.fiber_order, fo.topology_texels,
                 fo.ceres_solver, fo.ceres_covariance, fo.maps_w, fo.maps_h, fo.maps_ceres,
                 fo.maps_smooth, fo.maps_sweeps, fo.maps_iterations);
-  return text_fingerprint(std::string(text) + (fo.keep_anisotropic ? " keep_anisotropic" : ""));
+  return text_fingerprint(std::string(text) + (fo.keep_anisotropic ? " keep_anisotropic" : "") +
+                          (fo.lamps_from_highlight ? " lamps_from_highlight" : ""));
 }
 
 void parse_tile(const std::string& tile, FitOptions* fo) {
@@ -631,6 +632,12 @@ Command add_fit(CLI::App& app) {
       ->transform(CLI::CheckedTransformer(losses));
   fit->add_flag("--fit-isotropic", fo.fit_isotropic,
                 "also fit the isotropic (Lambert + Blinn-Phong) term");
+  fit->add_flag("--lamps-from-highlight", fo.lamps_from_highlight,
+                "a photo shoot's capture: place each photo's point lamp again by the sample's own "
+                "highlight, its position fitted together with the line model's material (the "
+                "position import found, within its sigma, as the prior), then fit under the lamps "
+                "found; the report lists each lamp as given and as found, and names a lamp the "
+                "highlight moves more than 5 sigmas");
   fit->add_flag("--keep-anisotropic", fo.keep_anisotropic,
                 "where the isotropic part alone (Lambert + Blinn-Phong) fits the data better by "
                 "BIC, keep the anisotropic fit (its fiber direction marked undetermined) instead "

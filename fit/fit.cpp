@@ -19,6 +19,7 @@
 #include "core/timer.h"
 #include "fit/global/isotropic_alternative.h"
 #include "fit/global/solve.h"
+#include "fit/lamps/highlight_lamps.h"
 #include "fit/maps/maps.h"
 #include "fit/maps/maps_bands.h"
 #include "fit/maps/maps_warnings.h"
@@ -414,6 +415,92 @@ FitResult fit_capture_here(const CaptureSet& set, const FitOptions& opt) {
   return r;
 }
 
+// A lamp the highlight moves more than this many of its stated sigmas from where the capture puts
+// it is named in a warning: the position written for it is likely wrong.
+constexpr double kLampMovedSigmas = 5;
+
+// --lamps-from-highlight: the line model fitted under the lamps as given, its material and every
+// point lamp fitted together (fit/lamps/highlight_lamps.h), then the fit asked for under the lamps
+// found, their sigma as the problem gave it.
+FitResult fit_with_lamps_from_highlight(const CaptureSet& set, const FitOptions& opt) {
+  if (opt.global || opt.tile_count > 0)
+    throw Error(
+        "fit: --lamps-from-highlight places the lamps with the global fit: leave out --global and "
+        "--tile (fit the global values with it, then give that material to --global)");
+  if (opt.model != FitModel::kLine)
+    throw Error("fit: --lamps-from-highlight places the lamps with the line model: give --model line");
+  const auto t0 = Clock::now();
+  FitOptions g = opt;
+  g.lamps_from_highlight = false;
+  g.maps_w = g.maps_h = 0;
+  g.maps_smooth = 0;
+  g.fit_isotropic = g.fit_second = false;
+  g.test_isotropic = false;
+  const FitResult first = fit_capture_here(set, g);
+  if (opt.progress) opt.progress->status("fit: the lamps from the sample's highlight");
+  const double sigma = std::max(first.report.rms, first.report.pixel_noise);
+  const HighlightLamps hl = lamps_from_highlight(set, first.material, sigma, opt.threads);
+  if (opt.progress) opt.progress->status("");
+  CaptureSet placed = set;
+  for (const HighlightLamp& h : hl.lamps) {
+    Light& l = placed.views[h.view].lights[h.light];
+    l.position = h.found;
+    l.position_sigma_m = h.sigma_m;
+  }
+  FitOptions rest = opt;
+  rest.lamps_from_highlight = false;
+  FitResult r = fit_capture_here(placed, rest);
+  FitReport::LampsFromHighlight& out = r.report.lamps_from_highlight;
+  out.asked = true;
+  out.skipped = hl.skipped;
+  out.pixels = hl.pixels;
+  out.views_left_out = hl.views_left_out;
+  out.pixel_sigma = hl.pixel_sigma;
+  out.iterations = hl.iterations;
+  out.seconds = hl.seconds;
+  out.jackknife_sigma = hl.jackknife_sigma;
+  out.jackknife_views = hl.jackknife_views;
+  // The lamps were fitted to the same pixels: the views' own residuals, which the whole sigma is
+  // the spread of, no longer show the lamps' errors (the lamps took them). Each sigma is at least
+  // the jackknife's (a --maps fit's scalars are the maps' means, whose sigma is the texels').
+  if (!hl.jackknife_sigma.empty() && opt.maps_w == 0) {
+    const std::pair<const char*, int> at[] = {{"kd", 0}, {"ks", 3}, {"n", 6}, {"fiber_angle_deg", 7}};
+    for (const auto& [key, k0] : at) {
+      auto it = r.sigma.find(key);
+      if (it == r.sigma.end()) continue;
+      for (size_t i = 0; i < it->second.size(); ++i)
+        it->second[i] = std::max(it->second[i], hl.jackknife_sigma[k0 + i]);
+    }
+    r.uncertainty_basis += "; with the lamps placed by the highlight, at least the spread of a "
+                           "jackknife over the " +
+                           std::to_string(hl.jackknife_views) +
+                           " views of the lamps' and the material's joint fit";
+  }
+  for (const HighlightLamp& h : hl.lamps) {
+    FitReport::LampPlaced p;
+    p.view = h.view, p.light = h.light, p.stated = h.stated, p.pixels = h.pixels;
+    p.moved_sigmas = h.moved_sigmas;
+    const Vec3* from[4] = {&h.given, &h.prior_sigma_m, &h.found, &h.sigma_m};
+    double* to[4] = {p.given, p.prior_sigma_m, p.found, p.sigma_m};
+    for (int a = 0; a < 4; ++a) to[a][0] = from[a]->x, to[a][1] = from[a]->y, to[a][2] = from[a]->z;
+    out.lamps.push_back(p);
+    if (h.moved_sigmas > kLampMovedSigmas) {
+      const ViewSpec& v = set.views[h.view];
+      char buf[600];
+      std::snprintf(buf, sizeof buf,
+                    "view %zu%s%s: the sample's highlight places its lamp %.0f mm from where %s "
+                    "puts it (%.1f of its sigmas): the position written for that photo's lamp is "
+                    "likely wrong (measured from another corner, in another unit, or the photo "
+                    "of another lamp)",
+                    h.view, v.source.empty() ? "" : " (", v.source.empty() ? "" : (v.source[0] + ")").c_str(),
+                    1e3 * length(h.found - h.given), set.file.c_str(), h.moved_sigmas);
+      r.report.warnings.push_back(std::string(buf));
+    }
+  }
+  r.report.seconds = seconds_since(t0);
+  return r;
+}
+
 FitResult fit_table_here(const SampleTable& t, const FitOptions& opt) {
   const auto t0 = Clock::now();
   FitReport rep;
@@ -439,7 +526,10 @@ FitResult on_threads(const FitOptions& opt, F f) {
 int default_fit_threads() { return std::max(1, tbb::info::default_concurrency()); }
 
 FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
-  return on_threads(opt, [&] { return fit_capture_here(set, opt); });
+  return on_threads(opt, [&] {
+    return opt.lamps_from_highlight ? fit_with_lamps_from_highlight(set, opt)
+                                    : fit_capture_here(set, opt);
+  });
 }
 
 FitResult fit_table(const SampleTable& t, const FitOptions& opt) {

@@ -20,6 +20,10 @@ struct Light {
   RGB attenuation{0, 0, 1};
   double cutoff_deg = 90.0;
   double exponent = 0.0;
+  // How well a point or spot light's position is known, one standard deviation per world axis in
+  // metres (a photo shoot's lamps, as found from the board's paper); 0: not stated (the light is
+  // taken as exact). Not part of the forward model.
+  Vec3 position_sigma_m{0, 0, 0};
 };
 
 // The light at surface point x (docs/models.md §2): unit direction toward the light, the irradiance

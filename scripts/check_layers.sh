@@ -7,7 +7,7 @@
 #   render (its shaders: render/shaders_embedded.h, generated) <- render/bake
 #     <- {render/preview, render/export} <- render/report
 #   photo/shoot <- photo/lamps <- photo/import
-#   fit/types <- fit/records <- fit/solvers <- {fit/global, fit/maps} <- fit/output <- fit
+#   fit/types <- fit/records <- fit/solvers <- {fit/global, fit/maps, fit/lamps} <- fit/output <- fit
 #   cli (the entry point, the commands' registry and helpers, the fit's commands)
 #     <- {cli/render, cli/photo} (the commands of the preview and export, of the photo shoot)
 # A folder may include its own files and any folder of a lower rank; none of the same rank, so
@@ -20,7 +20,7 @@ declare -A rank=([core]=0 [models]=1 [geometry]=2 [io]=3 [capture_sim]=4 [fit]=4
 declare -A floor=([io/files]=0 [io/images]=1 [io/formats]=2
                   [render]=0 [render/bake]=1 [render/preview]=2 [render/export]=2 [render/report]=3
                   [photo/shoot]=0 [photo/lamps]=1 [photo/import]=2
-                  [fit/types]=0 [fit/records]=1 [fit/solvers]=2 [fit/global]=3 [fit/maps]=3
+                  [fit/types]=0 [fit/records]=1 [fit/solvers]=2 [fit/global]=3 [fit/maps]=3 [fit/lamps]=3
                   [fit/output]=4 [fit]=5
                   [cli]=0 [cli/render]=1 [cli/photo]=1)
 max_lines=3000

@@ -21,7 +21,9 @@ ap.add_argument("--preset", default="brushed-metal")
 ap.add_argument("--lamp-error", default="0.02")
 ap.add_argument("--brdf", default="truth", choices=["truth", "ggx"])
 ap.add_argument("--vignetting", default="0", help="synth --photos --vignetting (the lens's falloff)")
-ap.add_argument("--work", default=None, help="folder for the shoots (default: a temporary one)")
+ap.add_argument("--work", default=None, help="folder for the shoots (default: a temporary one); "
+                "a shoot already imported there is fitted again, not made again")
+ap.add_argument("--fit-args", default="", help="more options for aniso fit, e.g. --lamps-from-highlight")
 a = ap.parse_args()
 work = a.work or tempfile.mkdtemp(prefix="aniso_sigma_")
 
@@ -30,15 +32,19 @@ def run(*args):
     if r.returncode != 0:
         sys.exit(f"aniso {' '.join(args)} failed:\n{r.stdout}{r.stderr}")
 
-rows = {"whole": [], "noise": []}
-print(f"{'seed':>4} {'psi err':>9} {'sigma':>7} {'psi/sig':>8} {'n err %':>8} {'n/sig':>7} {'kd err %':>9} {'kd/sig':>7}  (whole sigma; noise-only in brackets)")
-for seed in range(a.first_seed, a.first_seed + a.seeds):
-    d = os.path.join(work, f"s{seed}")
+def make_shoot(d, seed):
     run("synth", "--photos", a.preset, d + "/shoot", "--views", str(a.views), "--walk", "upright",
         "--lamp-error", a.lamp_error, "--hide-intensity", "--seed", str(seed), "--brdf", a.brdf,
         "--vignetting", a.vignetting, "--force")
     run("import", d + "/shoot/shoot.json", "--out", d + "/cap", "--no-overlays", "--quiet", "--force")
-    run("fit", d + "/cap", "--out", d + "/m.json", "--force")
+
+rows = {"whole": [], "noise": []}
+print(f"{'seed':>4} {'psi err':>9} {'sigma':>7} {'psi/sig':>8} {'n err %':>8} {'n/sig':>7} {'kd err %':>9} {'kd/sig':>7}  (whole sigma; noise-only in brackets)")
+for seed in range(a.first_seed, a.first_seed + a.seeds):
+    d = os.path.join(work, f"s{seed}")
+    if not os.path.exists(d + "/cap/capture.json"):
+        make_shoot(d, seed)
+    run("fit", d + "/cap", "--out", d + "/m.json", "--force", *a.fit_args.split())
     truth = json.load(open(d + "/shoot/material.json"))
     m = json.load(open(d + "/m.json"))
     err = {"psi": (m["fiber_angle_deg"] - truth["fiber_angle_deg"] + 90) % 180 - 90,

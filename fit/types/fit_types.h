@@ -128,6 +128,10 @@ struct FitOptions {
   // --keep-anisotropic: where an isotropic model fits the data better by BIC, keep the fitted
   // anisotropic material (its fiber direction undetermined) instead of writing the isotropic one.
   bool keep_anisotropic = false;
+  // --lamps-from-highlight: a photo shoot's point lamps placed again by the sample's highlight,
+  // each position fitted together with the line model's material (fit/lamps/highlight_lamps.h),
+  // then the fit asked for made under the lamps found.
+  bool lamps_from_highlight = false;
   // The global fit's comparison with the isotropic part alone: off for the global fit a --maps
   // fit starts its texels from (every texel is fitted with the anisotropic model).
   bool test_isotropic = true;
@@ -318,6 +322,25 @@ struct FitReport {
   // outside the sample).
   std::vector<std::string> notes;
   std::vector<std::string> model_summaries;  // --model auto: one line per model
+  // --lamps-from-highlight: each lamp as the capture gave it and as the highlight placed it.
+  struct LampPlaced {
+    size_t view = 0, light = 0;
+    double given[3] = {}, prior_sigma_m[3] = {}, found[3] = {}, sigma_m[3] = {};
+    bool stated = false;  // the capture stated the prior's sigma
+    double moved_sigmas = 0;
+    size_t pixels = 0;
+  };
+  struct LampsFromHighlight {
+    bool asked = false;
+    std::string skipped;  // why no lamp was placed
+    std::vector<LampPlaced> lamps;
+    size_t pixels = 0, views_left_out = 0;
+    double pixel_sigma = 0, seconds = 0;
+    int iterations = 0;
+    // The jackknife over views of the joint problem (k_d, k_s, n, psi in degrees), and its views.
+    std::vector<double> jackknife_sigma;
+    size_t jackknife_views = 0;
+  } lamps_from_highlight;
   // A measured file's fit: relative RMS of the material against its readings, and per viewer
   // angle (degrees) of the file's grid.
   double measured_rel_rms = -1, measured_median_rel = -1;

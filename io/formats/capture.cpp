@@ -51,11 +51,12 @@ Light parse_light(const json& j, const Ctx& c) {
   Light l;
   const std::string type = jsonu::str(jsonu::need(j, "type", c), c.at("type"));
   if (type == "point")
-    jsonu::check_keys(j, {"type", "position", "intensity", "attenuation"}, c);
+    jsonu::check_keys(j, {"type", "position", "intensity", "attenuation", "position_sigma_m"}, c);
   else if (type == "spot")
-    jsonu::check_keys(
-        j, {"type", "position", "intensity", "attenuation", "direction", "cutoff_deg", "exponent"},
-        c);
+    jsonu::check_keys(j,
+                      {"type", "position", "intensity", "attenuation", "direction", "cutoff_deg",
+                       "exponent", "position_sigma_m"},
+                      c);
   else if (type == "directional")
     jsonu::check_keys(j, {"type", "direction", "irradiance"}, c);
   if (type == "point" || type == "spot") {
@@ -74,6 +75,19 @@ Light parse_light(const json& j, const Ctx& c) {
       l.exponent = jsonu::num_or(j, "exponent", 0.0, c);
       if (l.cutoff_deg <= 0 || l.cutoff_deg > 180) c.at("cutoff_deg").fail("must be in (0, 180]");
       if (length(l.direction) == 0) c.at("direction").fail("zero vector");
+    }
+    if (j.contains("position_sigma_m")) {
+      const json& s = j["position_sigma_m"];
+      const Ctx cs = c.at("position_sigma_m");
+      if (s.is_number()) {
+        const double v = jsonu::num(s, cs);
+        l.position_sigma_m = {v, v, v};
+      } else {
+        l.position_sigma_m = jsonu::vec3(s, cs);
+      }
+      const Vec3& v = l.position_sigma_m;
+      if (!(v.x >= 0 && v.y >= 0 && v.z >= 0 && std::isfinite(v.x + v.y + v.z)))
+        cs.fail("must be a finite number of metres, 0 or more (one, or one per axis)");
     }
   } else if (type == "directional") {
     l.type = Light::Type::kDirectional;
@@ -112,6 +126,8 @@ json light_json(const Light& l) {
       jl["cutoff_deg"] = l.cutoff_deg;
       jl["exponent"] = l.exponent;
     }
+    const Vec3& s = l.position_sigma_m;
+    if (s.x > 0 || s.y > 0 || s.z > 0) jl["position_sigma_m"] = jsonu::to_json(s);
   }
   return jl;
 }

@@ -519,11 +519,18 @@ void write_view(const Shoot& s, size_t i, const ViewGeometry& g, const MergedCro
   view->image = std::string("images/") + stem + ".exr";
   view->world_from_camera = p.world_from_camera;
   view->lights = s.photos[i].lights;
-  for (size_t k = 0; k < p.lamps.size() && k < view->lights.size(); ++k)
-    if (p.lamps[k].solved) {
-      view->lights[k].position = p.lamps[k].found;
-      view->lights[k].intensity = p.lamps[k].found_intensity;
+  for (size_t k = 0; k < view->lights.size(); ++k) {
+    Light& l = view->lights[k];
+    if (l.type == Light::Type::kDirectional) continue;
+    const double written = sigma_of(s.photos[i], k);
+    l.position_sigma_m = {written, written, written};
+    if (k < p.lamps.size() && p.lamps[k].solved) {
+      const LampFound& f = p.lamps[k];
+      l.position = f.found;
+      l.intensity = f.found_intensity;
+      l.position_sigma_m = {f.sigma_m[0], f.sigma_m[1], f.sigma_m[2]};
     }
+  }
   view->camera = k;
   view->camera.width = g.w;
   view->camera.height = g.h;
