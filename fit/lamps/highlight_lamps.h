@@ -18,11 +18,11 @@ namespace aniso::fitting {
 // One lamp as the joint problem found it.
 struct HighlightLamp {
   size_t view = 0, light = 0;
-  Vec3 given;             // as the capture states it
-  Vec3 prior_sigma_m;     // its sigma as stated (or the default where the capture states none)
-  bool stated = false;    // the capture stated that sigma
-  Vec3 found;             // where the joint problem puts it
-  Vec3 sigma_m{0, 0, 0};  // of `found`, per world axis
+  Vec3 given;               // as the capture states it
+  Vec3 prior_sigma_m;       // its sigma as stated (or the default where the capture states none)
+  bool stated = false;      // the capture stated that sigma
+  Vec3 found;               // where the joint problem puts it
+  Vec3 sigma_m{0, 0, 0};    // of `found`, per world axis
   double moved_sigmas = 0;  // |found - given| in the prior's sigmas (Mahalanobis, per axis)
   size_t pixels = 0;        // of this view in the problem
 };
@@ -39,9 +39,11 @@ struct HighlightLamps {
   // The material's spread over the views: the joint problem solved again without each view in
   // turn (a jackknife over views, (V - 1) / V times the replicates' variance about their mean),
   // per number k_d (3), k_s (3), n, psi (degrees); empty with fewer than kMinJackknifeViews views.
-  // The sigma of the lamps found is what the problem alone says of them.
   std::vector<double> jackknife_sigma;
   size_t jackknife_views = 0;
+  // The lamps' sigma is what the problem says of them times this: the jackknife's spread of the
+  // material over the problem's own sigma of it (1 without a jackknife).
+  double lamp_sigma_scale = 1;
 };
 inline constexpr size_t kMinJackknifeViews = 4;
 

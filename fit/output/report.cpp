@@ -330,11 +330,13 @@ jsonu::json report_json(const FitReport& p) {
                        {"found_sigma_m", v3(l.sigma_m)},
                        {"moved_sigmas", l.moved_sigmas},
                        {"pixels", l.pixels}});
-    j["lamps_from_highlight"] = {{"lamps", lamps},
+    j["lamps_from_highlight"] = {{"used", h.used},
+                                 {"lamps", lamps},
                                  {"pixels", h.pixels},
                                  {"views_left_out", h.views_left_out},
                                  {"pixel_sigma", h.pixel_sigma},
                                  {"iterations", h.iterations},
+                                 {"lamp_sigma_scale", h.lamp_sigma_scale},
                                  {"time_s", h.seconds}};
     if (!h.jackknife_sigma.empty()) {
       const auto& s = h.jackknife_sigma;

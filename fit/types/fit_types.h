@@ -332,7 +332,10 @@ struct FitReport {
   };
   struct LampsFromHighlight {
     bool asked = false;
-    std::string skipped;  // why no lamp was placed
+    // The fit was made under the lamps found; where not, `skipped` says why (the fit is then made
+    // under the lamps as given).
+    bool used = false;
+    std::string skipped;
     std::vector<LampPlaced> lamps;
     size_t pixels = 0, views_left_out = 0;
     double pixel_sigma = 0, seconds = 0;
@@ -340,6 +343,7 @@ struct FitReport {
     // The jackknife over views of the joint problem (k_d, k_s, n, psi in degrees), and its views.
     std::vector<double> jackknife_sigma;
     size_t jackknife_views = 0;
+    double lamp_sigma_scale = 1;  // the lamps' sigma over what the problem alone says of them
   } lamps_from_highlight;
   // A measured file's fit: relative RMS of the material against its readings, and per viewer
   // angle (degrees) of the file's grid.
