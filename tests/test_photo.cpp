@@ -24,6 +24,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// A simulated shoot of brushed metal walked round upright (`synth --photos ... OPTIONS`) in
+// dir/shoot, imported into dir/cap.
+void shoot_and_import(const std::string& dir, const std::string& options) {
+  auto r =
+      test::run_cli("synth --photos brushed-metal " + dir + "/shoot --walk upright " + options);
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/cap --no-overlays");
+  ASSERT_EQ(r.status, 0) << r.output;
+}
+
 // The printed board is found again by OpenCV's aruco detector: every marker, every inner corner,
 // each where the board frame of docs/formats.md puts it (metres times pixels per metre, OpenCV's
 // pixel centres), to a fraction of a pixel.
@@ -447,16 +457,12 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
 // capture.json is named, and the fit's sigma still covers its error.
 TEST(Import, TheSamplesHighlightPlacesTheLampsWithTheMaterial) {
   const std::string dir = test::tmp_dir("highlight");
-  auto r = test::run_cli("synth --photos brushed-metal " + dir +
-                         "/shoot --views 8 --size 640x480 --walk upright --lamp-error 0.02 "
-                         "--hide-intensity --seed 5");
-  ASSERT_EQ(r.status, 0) << r.output;
-  r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/cap --no-overlays");
-  ASSERT_EQ(r.status, 0) << r.output;
+  ASSERT_NO_FATAL_FAILURE(shoot_and_import(
+      dir, "--views 8 --size 640x480 --lamp-error 0.02 --hide-intensity --seed 5"));
   const auto capture = nlohmann::json::parse(read_text_file(dir + "/cap/capture.json"));
   ASSERT_TRUE(capture["views"][0]["lights"][0].contains("position_sigma_m")) << capture.dump();
   const auto truth = nlohmann::json::parse(read_text_file(dir + "/shoot/truth.json"));
-  r = test::run_cli("fit " + dir + "/cap --out " + dir + "/plain.json");
+  auto r = test::run_cli("fit " + dir + "/cap --out " + dir + "/plain.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto plain = nlohmann::json::parse(read_text_file(dir + "/plain.json"));
   const auto fit_with_highlight = [&](const std::string& cap, const std::string& out) {
@@ -515,12 +521,10 @@ TEST(Import, TheSamplesHighlightPlacesTheLampsWithTheMaterial) {
 // before, the fit gave k_d 0.39 of the truth and psi 22.7 degrees.)
 TEST(Import, TwoLampsInAPhotoAreFoundTogether) {
   const std::string dir = test::tmp_dir("two_lamps");
-  auto r = test::run_cli("synth --photos brushed-metal " + dir +
-                         "/shoot --views 10 --size 800x600 --walk upright --lamp-error 0.02 "
-                         "--hide-intensity --seed 5 --fill-lamp --grey-card 0.18");
-  ASSERT_EQ(r.status, 0) << r.output;
-  r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/cap --no-overlays");
-  ASSERT_EQ(r.status, 0) << r.output;
+  ASSERT_NO_FATAL_FAILURE(
+      shoot_and_import(dir,
+                       "--views 10 --size 800x600 --lamp-error 0.02 "
+                       "--hide-intensity --seed 5 --fill-lamp --grey-card 0.18"));
   const auto rep = nlohmann::json::parse(read_text_file(dir + "/cap/import_report.json"));
   const auto truth = nlohmann::json::parse(read_text_file(dir + "/shoot/truth.json"));
   std::vector<double> found[2], written[2];
@@ -548,7 +552,7 @@ TEST(Import, TwoLampsInAPhotoAreFoundTogether) {
               1000 * median(written[1]));
   EXPECT_LT(median(found[0]), 0.5 * median(written[0]));
   EXPECT_LT(median(found[1]), median(written[1]));
-  r = test::run_cli("fit " + dir + "/cap --out " + dir + "/m.json");
+  auto r = test::run_cli("fit " + dir + "/cap --out " + dir + "/m.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto m = nlohmann::json::parse(read_text_file(dir + "/m.json"));
   std::printf("two lamps: psi %.3f +- %.3f, n %.2f, k_d %.4f, k_s %.4f\n",
