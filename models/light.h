@@ -26,6 +26,13 @@ struct Light {
   Vec3 position_sigma_m{0, 0, 0};
 };
 
+// A point light whose irradiance falls as the inverse square and nothing else: what the board's
+// paper and the sample's highlight can place (photo/lamps, fit/lamps).
+inline bool inverse_square_point(const Light& l) {
+  return l.type == Light::Type::kPoint && l.attenuation[0] == 0 && l.attenuation[1] == 0 &&
+         l.attenuation[2] == 1;
+}
+
 // The light at surface point x (docs/models.md §2): unit direction toward the light, the irradiance
 // scale E (RGB) and the distance (infinity for a directional light). False when it delivers
 // nothing there (outside a spot's cone, zero intensity).

@@ -62,10 +62,6 @@ struct PriorCost {
   }
 };
 
-bool inverse_square_point(const Light& l) {
-  return l.type == Light::Type::kPoint && l.attenuation[0] == 0 && l.attenuation[1] == 0 &&
-         l.attenuation[2] == 1;
-}
 
 // Up to kHighlightPixelsPerView usable pixels of view i, spread over them.
 std::vector<LampPixel> view_pixels(const CaptureSet& set, size_t i, GeometryCache* cache) {

@@ -99,12 +99,6 @@ struct LampFound {
 };
 inline constexpr double kDisagreeSigmas = 5;
 
-// Whether the paper's shading model holds for this light: a point lamp whose irradiance falls as
-// the inverse square and nothing else.
-inline bool inverse_square_point(const Light& l) {
-  return l.type == Light::Type::kPoint && l.attenuation[0] == 0 && l.attenuation[1] == 0 &&
-         l.attenuation[2] == 1;
-}
 
 // The lamp of one photo from its paper samples; `light` as written, `rho` the paper's reflectance
 // per channel. Needs a point lamp (no attenuation other than the inverse square) and enough paper:
