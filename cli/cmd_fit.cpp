@@ -638,6 +638,16 @@ Command add_fit(CLI::App& app) {
                 "position import found, within its sigma, as the prior), then fit under the lamps "
                 "found; the report lists each lamp as given and as found, and names a lamp the "
                 "highlight moves more than 5 sigmas");
+  const std::map<std::string, PsiSymmetry> symmetries{{"auto", PsiSymmetry::kAuto},
+                                                      {"always", PsiSymmetry::kAlways},
+                                                      {"never", PsiSymmetry::kNever}};
+  fit->add_option("--psi-from-symmetry", fo.psi_symmetry,
+                  "the line model's fiber direction placed again by the highlight's mirror "
+                  "symmetry alone, whatever the lobe's shape (a jackknife over views its sigma), "
+                  "and taken with the other numbers fitted under it where it is surer than the "
+                  "model's own: auto (where the model misses the data), always, never")
+      ->default_str("auto")
+      ->transform(CLI::CheckedTransformer(symmetries));
   fit->add_flag("--keep-anisotropic", fo.keep_anisotropic,
                 "where the isotropic part alone (Lambert + Blinn-Phong) fits the data better by "
                 "BIC, keep the anisotropic fit (its fiber direction marked undetermined) instead "

@@ -18,6 +18,7 @@
 #include "core/progress.h"
 #include "core/timer.h"
 #include "fit/global/isotropic_alternative.h"
+#include "fit/global/psi_symmetry.h"
 #include "fit/global/solve.h"
 #include "fit/lamps/highlight_lamps.h"
 #include "fit/maps/maps.h"
@@ -537,6 +538,102 @@ FitResult fit_with_lamps_from_highlight(const CaptureSet& set, const FitOptions&
   return r;
 }
 
+// The fiber direction from the highlight's symmetry (fit/global/psi_symmetry.h) for the line
+// model's global fit: by default where that model misses the data (a lobe of another shape: its
+// own psi is then the one its shape fits best, uncertain by degrees), taken where its jackknife's
+// sigma is smaller than the model's own and the two agree within 3 of their sigmas; the other
+// numbers are then fitted again under it.
+FitResult with_psi_from_symmetry(const CaptureSet& set, const FitOptions& opt, FitResult r) {
+  if (opt.psi_symmetry == PsiSymmetry::kNever) return r;
+  const bool always = opt.psi_symmetry == PsiSymmetry::kAlways;
+  FitReport::PsiFromSymmetry rep;
+  rep.mode = psi_symmetry_name(opt.psi_symmetry);
+  const auto keep = [&](std::string why) {
+    rep.why = std::move(why);
+    r.report.psi_from_symmetry = rep;
+    return r;
+  };
+  if (r.material.model != Model::kLine || r.material.has_second_fiber)
+    return keep("the line model with one fiber direction only");
+  if (opt.maps_w > 0 || opt.global || opt.tile_count > 0)
+    return keep("the global fit only (a --maps fit has each texel's own psi)");
+  if (r.report.lamps_from_highlight.used)
+    return keep("not with the lamps placed by the highlight (the model's own psi then holds)");
+  bool misfit = false;
+  for (const Warning& w : r.report.warnings) misfit |= w.about == WarningAbout::kGlobalMisfit;
+  if (!misfit && !always)
+    return keep("the line model describes the data (--psi-from-symmetry auto)");
+  rep.ran = true;
+  rep.why = misfit ? "the line model misses the data" : "asked (--psi-from-symmetry always)";
+  if (opt.progress) opt.progress->status("fit: the fiber direction from the highlight's symmetry");
+  const PsiFromSymmetry ps = psi_from_symmetry(set, r.material.fiber_angle_deg, opt.threads);
+  if (opt.progress) opt.progress->status("");
+  rep.psi_deg = ps.psi_deg, rep.sigma_deg = ps.sigma_deg;
+  rep.model_psi_deg = r.material.fiber_angle_deg;
+  const auto own = r.sigma.find("fiber_angle_deg");
+  rep.model_sigma_deg = own == r.sigma.end() ? -1 : own->second[0];
+  rep.relative_rms = ps.relative_rms, rep.seconds = ps.seconds;
+  rep.views = ps.views, rep.pixels = ps.pixels;
+  rep.jackknife_psi_deg = ps.jackknife_psi_deg;
+  const double apart = std::abs(std::remainder(ps.psi_deg - rep.model_psi_deg, 180.0));
+  char buf[600];
+  if (!ps.skipped.empty()) {
+    rep.why_not = ps.skipped;
+  } else if (ps.views < kMinJackknifeViews) {
+    rep.why_not = "its sigma needs at least " + std::to_string(kMinJackknifeViews) + " views";
+  } else if (ps.replicate_at_edge) {
+    rep.why_not = "a view left out moves it more than 3 degrees: it is not measured";
+  } else if (rep.model_sigma_deg >= 0 && !(ps.sigma_deg < rep.model_sigma_deg)) {
+    std::snprintf(buf, sizeof buf,
+                  "the line model's own psi is surer (sigma %.3g against %.3g deg)",
+                  rep.model_sigma_deg, ps.sigma_deg);
+    rep.why_not = buf;
+  } else if (rep.model_sigma_deg >= 0 &&
+             apart > 3 * std::hypot(rep.model_sigma_deg, ps.sigma_deg)) {
+    std::snprintf(buf, sizeof buf,
+                  "the highlight's symmetry puts the fiber at %.2f +- %.2f deg, %.1f deg from the "
+                  "line model's %.2f +- %.2f deg, more than 3 of their sigmas: the lobe is not a "
+                  "mirror image of itself across one fiber direction (two fibers: "
+                  "--fit-second-fiber; a material that varies over the sample: --maps WxH)",
+                  ps.psi_deg, ps.sigma_deg, apart, rep.model_psi_deg, rep.model_sigma_deg);
+    rep.why_not = buf;
+    r.report.warnings.push_back({std::string(buf), WarningAbout::kFiberAngle});
+  }
+  std::snprintf(buf, sizeof buf,
+                "the fiber direction from the highlight's symmetry alone: %.3f +- %.3g deg over %zu "
+                "views (the line model's own: %.3f +- %.3g deg)",
+                ps.psi_deg, ps.sigma_deg, ps.views, rep.model_psi_deg, rep.model_sigma_deg);
+  const std::string said = buf;
+  if (!rep.why_not.empty()) {
+    r.report.psi_from_symmetry = rep;
+    r.report.notes.push_back(said + "; not taken: " + rep.why_not);
+    return r;
+  }
+  FitOptions held = opt;
+  held.hold_psi_deg = ps.psi_deg;
+  held.psi_symmetry = PsiSymmetry::kNever;
+  FitResult h = fit_capture_here(set, held);
+  h.sigma["fiber_angle_deg"] = {ps.sigma_deg};
+  h.undetermined.erase("fiber_angle_deg");
+  const auto noise = r.sigma_noise_only.find("fiber_angle_deg");
+  if (noise != r.sigma_noise_only.end()) h.sigma_noise_only["fiber_angle_deg"] = noise->second;
+  std::snprintf(buf, sizeof buf,
+                "; the fiber angle's: the spread of a jackknife over the %zu views of the "
+                "highlight's symmetry (the line model's own: %.3f +- %.3g deg), the other numbers "
+                "fitted under it",
+                ps.views, rep.model_psi_deg, rep.model_sigma_deg);
+  h.uncertainty_basis += buf;
+  rep.used = true;
+  h.report.psi_from_symmetry = rep;
+  // What --lamps-from-highlight said of lamps it kept as given (used, it returned above).
+  h.report.lamps_from_highlight = r.report.lamps_from_highlight;
+  for (const Warning& w : r.report.warnings)
+    if (w.text.rfind("--lamps-from-highlight", 0) == 0) h.report.warnings.push_back(w);
+  h.report.notes.push_back(said + "; taken, the other numbers fitted under it");
+  h.report.seconds += r.report.seconds + ps.seconds;
+  return h;
+}
+
 FitResult fit_table_here(const SampleTable& t, const FitOptions& opt) {
   const auto t0 = Clock::now();
   FitReport rep;
@@ -563,8 +660,9 @@ int default_fit_threads() { return std::max(1, tbb::info::default_concurrency())
 
 FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
   return on_threads(opt, [&] {
-    return opt.lamps_from_highlight ? fit_with_lamps_from_highlight(set, opt)
-                                    : fit_capture_here(set, opt);
+    FitResult r = opt.lamps_from_highlight ? fit_with_lamps_from_highlight(set, opt)
+                                           : fit_capture_here(set, opt);
+    return with_psi_from_symmetry(set, opt, std::move(r));
   });
 }
 

@@ -39,6 +39,7 @@ def make_shoot(d, seed):
     run("import", d + "/shoot/shoot.json", "--out", d + "/cap", "--no-overlays", "--quiet", "--force")
 
 rows = {"whole": [], "noise": []}
+psi_err, psi_sigma, by_symmetry = [], [], 0
 print(f"{'seed':>4} {'psi err':>9} {'sigma':>7} {'psi/sig':>8} {'n err %':>8} {'n/sig':>7} {'kd err %':>9} {'kd/sig':>7}  (whole sigma; noise-only in brackets)")
 for seed in range(a.first_seed, a.first_seed + a.seeds):
     d = os.path.join(work, f"s{seed}")
@@ -54,6 +55,9 @@ for seed in range(a.first_seed, a.first_seed + a.seeds):
         sig = {"psi": unc["fiber_angle_deg"], "n": unc["n"], "kd": unc["kd"]["g"] if isinstance(unc["kd"], dict) else unc["kd"][1]}
         # A sigma that is not given (the number undetermined, as the isotropic part's n may be) is nan.
         rows[kind].append({k: err[k] / sig[k] if sig[k] else float("nan") for k in err})
+    psi_err.append(err["psi"])
+    psi_sigma.append(m["uncertainty"].get("fiber_angle_deg") or float("nan"))
+    by_symmetry += bool(m["report"].get("psi_from_symmetry", {}).get("used"))
     w, n = rows["whole"][-1], rows["noise"][-1]
     print(f"{seed:4d} {err['psi']:9.4f} {m['uncertainty']['fiber_angle_deg'] or float('nan'):7.4f} {w['psi']:8.2f} {100 * err['n'] / truth['n']:8.3f} {w['n']:7.2f} "
           f"{100 * err['kd'] / truth['kd'][1]:9.3f} {w['kd']:7.2f}  [{n['psi']:.1f} {n['n']:.1f} {n['kd']:.1f}]", flush=True)
@@ -65,3 +69,9 @@ for kind in ("whole", "noise"):
     print(f"RMS err/sigma over {len(rows[kind])} shoots, {kind:5s} sigma: psi {rms['psi']:.2f}, n {rms['n']:.2f}, k_d {rms['kd']:.2f}")
     worst = max((abs(r["psi"]) for r in rows[kind] if math.isfinite(r["psi"])), default=float("nan"))
     print(f"  largest |psi err| / sigma: {worst:.2f}")
+known = sorted(s for s in psi_sigma if math.isfinite(s))
+print(f"psi error RMS {math.sqrt(sum(e * e for e in psi_err) / len(psi_err)):.3f} deg, largest "
+      f"{max(abs(e) for e in psi_err):.3f}; sigma median "
+      f"{known[len(known) // 2] if known else float('nan'):.3f} deg, at most 1 deg in "
+      f"{sum(s <= 1 for s in known)} of {len(psi_sigma)}; psi from the highlight's symmetry in "
+      f"{by_symmetry}")

@@ -153,14 +153,23 @@ class LineChunkResidual : public ceres::CostFunction {
 class LineFit : public ModelFit {
  public:
   explicit LineFit(const FitOptions& opt)
-      : iso_(opt.fit_isotropic), second_(opt.fit_second), chunked_(opt.chunked) {}
+      : iso_(opt.fit_isotropic),
+        second_(opt.fit_second),
+        chunked_(opt.chunked),
+        hold_psi_(opt.hold_psi_deg.has_value()),
+        held_psi_(opt.hold_psi_deg ? deg_to_rad(*opt.hold_psi_deg) : 0.0) {}
 
   Model model() const override { return Model::kLine; }
   size_t parameters() const override { return 8 + (iso_ ? 7 : 0) + (second_ ? 2 : 0); }
 
   std::string start(const ObsSet& os, const ProgressSink* progress) override {
     // The second look only where the core is all there is (optional terms start from the core).
-    std::string s = line_grid_start(os, &core, progress, iso_ || second_ ? nullptr : &other);
+    std::string s =
+        line_grid_start(os, &core, progress, iso_ || second_ || hold_psi_ ? nullptr : &other);
+    if (hold_psi_) {
+      core.psi = held_psi_;
+      s += "; psi held at " + std::to_string(rad_to_deg(held_psi_)) + " deg";
+    }
     sec_[0] = wrap_half_turn(core.psi + M_PI / 2);
     return s;
   }
@@ -176,6 +185,7 @@ class LineFit : public ModelFit {
     else
       add_blocks<false, false>(pb, os, idx, loss);
     set_core_bounds(pb, &core);
+    if (hold_psi_) pb->SetParameterBlockConstant(&core.psi);
     if (iso_) {
       for (int k = 0; k < 3; ++k) {
         set_param_bounds(pb, iso_block_, k, "isotropic.kd");
@@ -203,13 +213,14 @@ class LineFit : public ModelFit {
                            nullptr, core.kd, core.ks, &core.logn, &core.psi);
     }
     set_core_bounds(pb, &core);
+    if (hold_psi_) pb->SetParameterBlockConstant(&core.psi);
     return true;
   }
 
   bool solve_fused(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
                    const FitOptions& opt, FusedSolve* out) override {
     if (iso_ || second_ || !chunked_ || opt.ceres_solver || opt.ceres_covariance) return false;
-    line_lm_solve(os, subset, loss, scale, opt.max_iterations, opt.threads, &core, out);
+    line_lm_solve(os, subset, loss, scale, opt.max_iterations, opt.threads, &core, out, hold_psi_);
     out->order = {{core.kd, 3}, {core.ks, 3}, {&core.logn, 1}, {&core.psi, 1}};
     return true;
   }
@@ -241,6 +252,7 @@ class LineFit : public ModelFit {
   // leaves its angle free: hold the free coordinate (a subset manifold), name it, and keep
   // everyone else's sigma.
   void hold_undetermined(ceres::Problem* pb, double kd_max, FitResult* res) override {
+    if (hold_psi_ && pb->HasParameterBlock(&core.psi)) pb->SetParameterBlockConstant(&core.psi);
     if (iso_) {
       const double iso_ks = std::max({iso_block_[3], iso_block_[4], iso_block_[5]});
       if (!(iso_ks > kKsNegligible * std::max(1.0, kd_max))) {
@@ -327,7 +339,8 @@ class LineFit : public ModelFit {
     }
   }
 
-  const bool iso_, second_, chunked_;
+  const bool iso_, second_, chunked_, hold_psi_;
+  const double held_psi_;  // radians
   bool iso_n_free_ = true, sec_angle_free_ = true;
   // isotropic k_d (3), k_s (3), log n_iso; second fiber psi_2, w. Dummies are held constant.
   double iso_block_[7] = {0.01, 0.01, 0.01, 0.01, 0.01, 0.01, std::log(20.0)};

@@ -280,17 +280,20 @@ void correlation(const CovarianceSource& cov, ceres::Problem* pb, const std::vec
 }
 
 // sigma of the core numbers; psi or n this uncertain says nothing.
-void core_sigmas(const SigmaOf& sigma, Core* c, bool n_free, FitResult* res) {
+// A psi held constant (FitOptions::hold_psi_deg) has its sigma from the caller.
+void core_sigmas(const SigmaOf& sigma, Core* c, bool n_free, bool psi_free, FitResult* res) {
   res->sigma["kd"] = sigma(c->kd, 3);
   res->sigma["ks"] = sigma(c->ks, 3);
-  const double spsi = rad_to_deg(sigma(&c->psi, 1)[0]);
-  // A lone light along T (s_L -> 0), or no lobe.
-  constexpr double kPsiUndeterminedDeg = 10.0;
-  if (spsi > kPsiUndeterminedDeg)
-    res->undetermined["fiber_angle_deg"] =
-        "sigma " + std::to_string(spsi) + " deg: the data barely constrain psi";
-  else
-    res->sigma["fiber_angle_deg"] = {spsi};
+  if (psi_free) {
+    const double spsi = rad_to_deg(sigma(&c->psi, 1)[0]);
+    // A lone light along T (s_L -> 0), or no lobe.
+    constexpr double kPsiUndeterminedDeg = 10.0;
+    if (spsi > kPsiUndeterminedDeg)
+      res->undetermined["fiber_angle_deg"] =
+          "sigma " + std::to_string(spsi) + " deg: the data barely constrain psi";
+    else
+      res->sigma["fiber_angle_deg"] = {spsi};
+  }
   if (!n_free) return;
   const double sl = sigma(&c->logn, 1)[0];
   constexpr double kLogNUndetermined = 1.0;  // a factor e either way: n is not known
@@ -322,7 +325,8 @@ void drop_nonfinite_sigmas(FitResult* res) {
 // spread the views' own residuals show.
 void whole_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, const Solution& sol,
                        const CovarianceSource& cov, ceres::Problem* pb,
-                       const std::vector<Block>& blocks, double s2, bool n_free, FitResult* res) {
+                       const std::vector<Block>& blocks, double s2, bool n_free, bool psi_free,
+                       FitResult* res) {
   const bool misfit = sol.misfit;
   if (os.view_lights.empty() || (!os.from_shoot && !misfit)) return;
   std::vector<std::pair<double*, int>> free;
@@ -368,7 +372,7 @@ void whole_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, con
     return d;
   };
   res->sigma.clear();
-  core_sigmas(whole, &m->core, n_free, res);
+  core_sigmas(whole, &m->core, n_free, psi_free, res);
   m->sigmas(whole, pb, res);
   drop_nonfinite_sigmas(res);
   char buf[400];
@@ -393,9 +397,10 @@ void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, 
   }
   ceres::Problem* pb = sol->problem.get();
   const bool n_free = hold_free_exponent(m, pb, res);
+  const bool psi_free = !pb->IsParameterBlockConstant(&c.psi);
   std::vector<Block> blocks = {{c.kd, 3, {"kd.r", "kd.g", "kd.b"}},
-                               {c.ks, 3, {"ks.r", "ks.g", "ks.b"}},
-                               {&c.psi, 1, {"fiber_angle"}}};
+                               {c.ks, 3, {"ks.r", "ks.g", "ks.b"}}};
+  if (psi_free) blocks.push_back({&c.psi, 1, {"fiber_angle"}});
   if (n_free) blocks.push_back({&c.logn, 1, {"log n"}});
   for (Block& b : m->blocks(pb)) blocks.push_back(std::move(b));
 
@@ -434,7 +439,7 @@ void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, 
     for (int i = 0; i < size; ++i) d[i] = std::sqrt(std::max(cv[i * size + i], 0.0) * s2);
     return d;
   };
-  core_sigmas(sigma, &c, n_free, res);
+  core_sigmas(sigma, &c, n_free, psi_free, res);
   m->sigmas(sigma, pb, res);
   // A grey set's shared parameters (n, psi, ...) see each reading in all three channels, which
   // s2 above undoes; a colour parameter's channel sees it once, so its sigma takes s2 / 3 (test
@@ -446,7 +451,7 @@ void estimate_uncertainty(ModelFit* m, const ObsSet& os, const FitOptions& opt, 
   drop_nonfinite_sigmas(res);
   res->sigma_noise_only = res->sigma;
   res->uncertainty_basis = "the images' noise (the residuals' spread pixel by pixel)";
-  whole_uncertainty(m, os, opt, *sol, cov, pb, blocks, s2, n_free, res);
+  whole_uncertainty(m, os, opt, *sol, cov, pb, blocks, s2, n_free, psi_free, res);
 }
 
 }  // namespace aniso::fitting

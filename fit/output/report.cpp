@@ -17,6 +17,7 @@
 #include "fit/maps/maps_means.h"
 #include "fit/maps/maps_warnings.h"
 #include "fit/output/map_previews.h"
+#include "fit/output/report_shoot.h"
 #include "io/files/files.h"
 #include "io/files/json_util.h"
 #include "io/formats/material_io.h"
@@ -316,38 +317,10 @@ jsonu::json report_json(const FitReport& p) {
           {"ks", {t.iso_ks[0], t.iso_ks[1], t.iso_ks[2]}},
           {"n", t.iso_n}}}};
   }
-  if (p.lamps_from_highlight.asked) {
-    const auto& h = p.lamps_from_highlight;
-    jsonu::json lamps = jsonu::json::array();
-    auto v3 = [](const double* v) { return jsonu::json::array({v[0], v[1], v[2]}); };
-    for (const auto& l : h.lamps)
-      lamps.push_back({{"view", l.view},
-                       {"light", l.light},
-                       {"given_m", v3(l.given)},
-                       {"given_sigma_m", v3(l.prior_sigma_m)},
-                       {"given_sigma_stated", l.stated},
-                       {"found_m", v3(l.found)},
-                       {"found_sigma_m", v3(l.sigma_m)},
-                       {"moved_sigmas", l.moved_sigmas},
-                       {"pixels", l.pixels}});
-    j["lamps_from_highlight"] = {{"used", h.used},
-                                 {"lamps", lamps},
-                                 {"pixels", h.pixels},
-                                 {"views_left_out", h.views_left_out},
-                                 {"pixel_sigma", h.pixel_sigma},
-                                 {"iterations", h.iterations},
-                                 {"lamp_sigma_scale", h.lamp_sigma_scale},
-                                 {"time_s", h.seconds}};
-    if (!h.jackknife_sigma.empty()) {
-      const auto& s = h.jackknife_sigma;
-      j["lamps_from_highlight"]["jackknife"] = {{"views", h.jackknife_views},
-                                                {"kd", {s[0], s[1], s[2]}},
-                                                {"ks", {s[3], s[4], s[5]}},
-                                                {"n", s[6]},
-                                                {"fiber_angle_deg", s[7]}};
-    }
-    if (!h.skipped.empty()) j["lamps_from_highlight"]["skipped"] = h.skipped;
-  }
+  if (p.lamps_from_highlight.asked)
+    j["lamps_from_highlight"] = lamps_from_highlight_json(p.lamps_from_highlight);
+  if (!p.psi_from_symmetry.mode.empty())
+    j["psi_from_symmetry"] = psi_from_symmetry_json(p.psi_from_symmetry);
   if (!p.warnings.empty()) put_warnings(p.warnings, &j);
   if (!p.notes.empty()) j["notes"] = p.notes;
   if (p.measured_rel_rms >= 0) {

@@ -324,12 +324,14 @@ VecP<P> lm_step(const FusedSums<P>& s, double lambda) {
 // step solved again for the others, until no free coordinate's step points out at its bound. A
 // step clipped at the bound instead is not the reduced problem's step: the rest of it is wrong by
 // the coupling, the step is often rejected, and its size never falls under kStepInSigma. psi
-// (coordinate 7) wraps and has no bound. Test: FitSolvers.AFitAtABoundConverges.
+// (coordinate 7) wraps and has no bound. A coordinate whose bounds are equal is held from the
+// start (a psi held at a value). Test: FitSolvers.AFitAtABoundConverges.
 template <int P>
 VecP<P> lm_step_in_box(const FusedSums<P>& s, double lambda, const VecP<P>& x, const VecP<P>& lo,
                        const VecP<P>& hi) {
   FusedSums<P> r = s;
   bool held[P] = {};
+  for (int k = 0; k < P; ++k) held[k] = lo(k) == hi(k);
   // First the coordinates whose gradient points out (the cost falls outward), then those the
   // reduced step pushes out.
   VecP<P> step = -s.g;

@@ -84,12 +84,17 @@ void core_bounds(Vec8* lo, Vec8* hi) {
 }
 
 void line_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss_kind,
-                   double scale, int max_iterations, int threads, Core* c, FusedSolve* out) {
+                   double scale, int max_iterations, int threads, Core* c, FusedSolve* out,
+                   bool hold_psi) {
   tbb::task_arena arena(std::max(1, threads));
   const RobustLoss loss{loss_kind, scale};
   const double values = 3.0 * static_cast<double>(subset ? subset->size() : os.obs.size());
   Vec8 lo, hi;
   core_bounds(&lo, &hi);
+  if (hold_psi) {
+    c->psi = wrap_half_turn(c->psi);
+    lo(7) = hi(7) = c->psi;
+  }
   Vec8 x = pack_core(*c);
   FusedSums<8> cur;
   fused_lm<8>([&](const Vec8& at, bool jac) { return pass(os, subset, at, loss, jac, &arena); }, lo,

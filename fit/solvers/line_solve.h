@@ -32,8 +32,9 @@ void line_chunk(const ObsSet& os, const size_t* idx, size_t begin, size_t end,
                 HuberCurvature<8>* curv = nullptr);
 
 // Solves from `c` (updated in place) over the observations in `subset` (null: all), at most
-// `max_iterations` steps on `threads` threads.
+// `max_iterations` steps on `threads` threads; with hold_psi, psi stays where `c` has it.
 void line_lm_solve(const ObsSet& os, const std::vector<size_t>* subset, FitLoss loss, double scale,
-                   int max_iterations, int threads, Core* c, FusedSolve* out);
+                   int max_iterations, int threads, Core* c, FusedSolve* out,
+                   bool hold_psi = false);
 
 }  // namespace aniso::fitting

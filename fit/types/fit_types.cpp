@@ -26,6 +26,18 @@ const char* fit_loss_name(FitLoss l) {
   return "none";
 }
 
+const char* psi_symmetry_name(PsiSymmetry p) {
+  switch (p) {
+    case PsiSymmetry::kAlways:
+      return "always";
+    case PsiSymmetry::kNever:
+      return "never";
+    case PsiSymmetry::kAuto:
+      break;
+  }
+  return "auto";
+}
+
 namespace {
 constexpr std::pair<WarningAbout, const char*> kWarningAbout[] = {
     {WarningAbout::kOther, "other"},

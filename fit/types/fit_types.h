@@ -21,6 +21,10 @@ class ProgressSink;  // core/progress.h
 enum class FitModel { kLine, kFiber, kAuto };
 // --loss: the robust loss of the final solve, scaled to 3 robust sigmas of the residuals.
 enum class FitLoss { kHuber, kCauchy, kNone };
+// --psi-from-symmetry: when the fiber direction is placed again by the highlight's symmetry alone
+// (fit/global/psi_symmetry.h): where the line model misses the data (auto), always, or never.
+enum class PsiSymmetry { kAuto, kAlways, kNever };
+const char* psi_symmetry_name(PsiSymmetry p);
 const char* fit_model_name(FitModel m);
 const char* fit_loss_name(FitLoss l);
 
@@ -190,6 +194,10 @@ struct FitOptions {
   // memory is its share of the sample, not the whole set.
   std::optional<GivenGlobal> global;
   LineLanes line_lanes;
+  PsiSymmetry psi_symmetry = PsiSymmetry::kAuto;
+  // The line model's fiber angle held at this (degrees) instead of fitted, with every other
+  // number fitted under it by Ceres; its sigma is the caller's. Unset: fitted.
+  std::optional<double> hold_psi_deg;
 };
 
 // --maps: every texel's fit (row-major, glTF uv: texel (i, j) covers u in [i/W, (i+1)/W)). Texels
@@ -345,6 +353,19 @@ struct FitReport {
     size_t jackknife_views = 0;
     double lamp_sigma_scale = 1;  // the lamps' sigma over what the problem alone says of them
   } lamps_from_highlight;
+  // The fiber direction from the highlight's symmetry alone (fit/global/psi_symmetry.h): whether
+  // it ran (`ran`; `why` says why not, or why it ran), what it found, and whether the material's
+  // psi is it (`used`: the other numbers then fitted under it; `why_not` where not).
+  struct PsiFromSymmetry {
+    bool ran = false, used = false;
+    std::string mode, why, why_not;
+    double psi_deg = 0, sigma_deg = 0;  // the symmetry's
+    double model_psi_deg = 0,
+           model_sigma_deg = -1;  // the line model's own (sigma -1: undetermined)
+    double relative_rms = 0, seconds = 0;
+    size_t views = 0, pixels = 0;
+    std::vector<double> jackknife_psi_deg;
+  } psi_from_symmetry;
   // A measured file's fit: relative RMS of the material against its readings, and per viewer
   // angle (degrees) of the file's grid.
   double measured_rel_rms = -1, measured_median_rel = -1;
