@@ -416,10 +416,6 @@ FitResult fit_capture_here(const CaptureSet& set, const FitOptions& opt) {
   return r;
 }
 
-// A lamp the highlight moves more than this many of its stated sigmas from where the capture puts
-// it is named in a warning: the position written for it is likely wrong.
-constexpr double kLampMovedSigmas = 5;
-
 // --lamps-from-highlight: the line model fitted under the lamps as given, its material and every
 // point lamp fitted together (fit/lamps/highlight_lamps.h), then the fit asked for under the lamps
 // found, their sigma as the problem gave it.
@@ -515,6 +511,7 @@ FitResult fit_with_lamps_from_highlight(const CaptureSet& set, const FitOptions&
     FitReport::LampPlaced p;
     p.view = h.view, p.light = h.light, p.stated = h.stated, p.pixels = h.pixels;
     p.moved_sigmas = h.moved_sigmas;
+    p.released = h.released;
     const Vec3* from[4] = {&h.given, &h.prior_sigma_m, &h.found, &h.sigma_m};
     double* to[4] = {p.given, p.prior_sigma_m, p.found, p.sigma_m};
     for (int a = 0; a < 4; ++a) to[a][0] = from[a]->x, to[a][1] = from[a]->y, to[a][2] = from[a]->z;
@@ -599,10 +596,11 @@ FitResult with_psi_from_symmetry(const CaptureSet& set, const FitOptions& opt, F
     rep.why_not = buf;
     r.report.warnings.push_back({std::string(buf), WarningAbout::kFiberAngle});
   }
-  std::snprintf(buf, sizeof buf,
-                "the fiber direction from the highlight's symmetry alone: %.3f +- %.3g deg over %zu "
-                "views (the line model's own: %.3f +- %.3g deg)",
-                ps.psi_deg, ps.sigma_deg, ps.views, rep.model_psi_deg, rep.model_sigma_deg);
+  std::snprintf(
+      buf, sizeof buf,
+      "the fiber direction from the highlight's symmetry alone: %.3f +- %.3g deg over %zu "
+      "views (the line model's own: %.3f +- %.3g deg)",
+      ps.psi_deg, ps.sigma_deg, ps.views, rep.model_psi_deg, rep.model_sigma_deg);
   const std::string said = buf;
   if (!rep.why_not.empty()) {
     r.report.psi_from_symmetry = rep;

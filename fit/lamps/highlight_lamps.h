@@ -24,7 +24,10 @@ struct HighlightLamp {
   Vec3 found;               // where the joint problem puts it
   Vec3 sigma_m{0, 0, 0};    // of `found`, per world axis
   double moved_sigmas = 0;  // |found - given| in the prior's sigmas (Mahalanobis, per axis)
-  size_t pixels = 0;        // of this view in the problem
+  // Moved more than kLampMovedSigmas by the first solve: its prior was then widened
+  // kReleasedPriorScale times and the problem solved again (the position written is wrong).
+  bool released = false;
+  size_t pixels = 0;  // of this view in the problem
 };
 
 struct HighlightLamps {
@@ -50,6 +53,10 @@ inline constexpr size_t kMinJackknifeViews = 4;
 // A lamp whose capture states no sigma is taken as placed to within this (metres), as a tape
 // measure places it (docs/formats.md, a shoot's position_sigma_m).
 inline constexpr double kUnstatedLampSigmaM = 0.02;
+// A lamp the highlight moves more than this many of its stated sigmas from where the capture puts
+// it was likely written wrong: it is named, and solved again with its prior this many times wider.
+inline constexpr double kLampMovedSigmas = 5;
+inline constexpr double kReleasedPriorScale = 10;
 // Pixels of each view in the problem, spread over its usable pixels.
 inline constexpr size_t kHighlightPixelsPerView = 3000;
 

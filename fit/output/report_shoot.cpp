@@ -14,6 +14,7 @@ jsonu::json lamps_from_highlight_json(const FitReport::LampsFromHighlight& h) {
                      {"found_m", v3(l.found)},
                      {"found_sigma_m", v3(l.sigma_m)},
                      {"moved_sigmas", l.moved_sigmas},
+                     {"prior_released", l.released},
                      {"pixels", l.pixels}});
   jsonu::json j = {{"used", h.used},
                    {"lamps", lamps},

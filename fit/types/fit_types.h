@@ -336,6 +336,7 @@ struct FitReport {
     double given[3] = {}, prior_sigma_m[3] = {}, found[3] = {}, sigma_m[3] = {};
     bool stated = false;  // the capture stated the prior's sigma
     double moved_sigmas = 0;
+    bool released = false;  // moved past 5 of its sigmas: solved again with its prior widened
     size_t pixels = 0;
   };
   struct LampsFromHighlight {
