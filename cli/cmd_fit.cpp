@@ -217,8 +217,11 @@ std::string options_fingerprint(const FitOptions& fo) {
                 fo.max_iterations, static_cast<int>(fo.loss), fo.fiber_order, fo.topology_texels,
                 fo.ceres_solver, fo.ceres_covariance, fo.maps_w, fo.maps_h, fo.maps_ceres,
                 fo.maps_smooth, fo.maps_sweeps, fo.maps_iterations);
-  return text_fingerprint(std::string(text) + (fo.keep_anisotropic ? " keep_anisotropic" : "") +
-                          (fo.lamps_from_highlight ? " lamps_from_highlight" : ""));
+  return text_fingerprint(
+      std::string(text) + (fo.keep_anisotropic ? " keep_anisotropic" : "") +
+      (fo.lamps_from_highlight == LampsFromHighlight::kAlways  ? " lamps_from_highlight"
+       : fo.lamps_from_highlight == LampsFromHighlight::kNever ? " lamps_as_imported"
+                                                               : ""));
 }
 
 void parse_tile(const std::string& tile, FitOptions* fo) {
@@ -632,12 +635,19 @@ Command add_fit(CLI::App& app) {
       ->transform(CLI::CheckedTransformer(losses));
   fit->add_flag("--fit-isotropic", fo.fit_isotropic,
                 "also fit the isotropic (Lambert + Blinn-Phong) term");
-  fit->add_flag("--lamps-from-highlight", fo.lamps_from_highlight,
-                "a photo shoot's capture: place each photo's point lamp again by the sample's own "
-                "highlight, its position fitted together with the line model's material (the "
-                "position import found, within its sigma, as the prior), then fit under the lamps "
-                "found; the report lists each lamp as given and as found, and names a lamp the "
-                "highlight moves more than 5 sigmas");
+  auto* from_highlight = fit->add_flag_callback(
+      "--lamps-from-highlight", [&fo] { fo.lamps_from_highlight = LampsFromHighlight::kAlways; },
+      "place each photo's point lamp again by the sample's own highlight, its position fitted "
+      "together with the line model's material (the position import found, within its sigma, as "
+      "the prior), then fit under the lamps found; the report lists each lamp as given and as "
+      "found, and names a lamp the highlight moves more than 5 sigmas. The default for a capture "
+      "whose lamps state their sigma (an imported shoot) where the fit can (line model, not "
+      "--global or --tile); this flag makes it an error where it cannot");
+  fit->add_flag_callback(
+         "--lamps-as-imported", [&fo] { fo.lamps_from_highlight = LampsFromHighlight::kNever; },
+         "fit under the lamps as the capture gives them (as import placed them from the board's "
+         "paper), without placing them again by the highlight")
+      ->excludes(from_highlight);
   const std::map<std::string, PsiSymmetry> symmetries{{"auto", PsiSymmetry::kAuto},
                                                       {"always", PsiSymmetry::kAlways},
                                                       {"never", PsiSymmetry::kNever}};

@@ -429,7 +429,7 @@ FitResult fit_with_lamps_from_highlight(const CaptureSet& set, const FitOptions&
         "fit: --lamps-from-highlight places the lamps with the line model: give --model line");
   const auto t0 = Clock::now();
   FitOptions g = opt;
-  g.lamps_from_highlight = false;
+  g.lamps_from_highlight = LampsFromHighlight::kNever;
   g.maps_w = g.maps_h = 0;
   g.maps_smooth = 0;
   g.fit_isotropic = g.fit_second = false;
@@ -446,7 +446,7 @@ FitResult fit_with_lamps_from_highlight(const CaptureSet& set, const FitOptions&
     l.position_sigma_m = h.sigma_m;
   }
   FitOptions rest = opt;
-  rest.lamps_from_highlight = false;
+  rest.lamps_from_highlight = LampsFromHighlight::kNever;
   FitResult r = fit_capture_here(hl.skipped.empty() ? placed : set, rest);
   std::string skipped = hl.skipped;
   // Where the model misses the data even under the lamps found and the typical lamp moved more
@@ -477,11 +477,18 @@ FitResult fit_with_lamps_from_highlight(const CaptureSet& set, const FitOptions&
   }
   FitReport::LampsFromHighlight& out = r.report.lamps_from_highlight;
   out.asked = true;
+  out.by_default = opt.lamps_from_highlight == LampsFromHighlight::kAuto;
   out.used = skipped.empty();
   out.skipped = skipped;
-  if (!out.used)
-    r.report.warnings.push_back("--lamps-from-highlight: the lamps are kept as " + set.file +
-                                " gives them: " + skipped);
+  // Asked for, a lamp not placed is a warning; by default, what the fit would have done anyway.
+  if (!out.used) {
+    const std::string kept =
+        "--lamps-from-highlight: the lamps are kept as " + set.file + " gives them: " + skipped;
+    if (out.by_default)
+      r.report.notes.push_back(kept);
+    else
+      r.report.warnings.push_back(kept);
+  }
   out.pixels = hl.pixels;
   out.views_left_out = hl.views_left_out;
   out.pixel_sigma = hl.pixel_sigma;
@@ -531,8 +538,31 @@ FitResult fit_with_lamps_from_highlight(const CaptureSet& set, const FitOptions&
       r.report.warnings.push_back(std::string(buf));
     }
   }
+  if (out.used && !hl.lamps.empty()) {
+    std::vector<double> mm;
+    for (const HighlightLamp& h : hl.lamps) mm.push_back(1e3 * length(h.found - h.given));
+    std::sort(mm.begin(), mm.end());
+    char buf[400];
+    std::snprintf(buf, sizeof buf,
+                  "the %zu lamps placed again by the sample's highlight together with the "
+                  "material: moved %.1f mm (median), at most %.0f mm, from where %s puts them%s",
+                  mm.size(), mm[mm.size() / 2], mm.back(), set.file.c_str(),
+                  out.by_default ? " (--lamps-as-imported fits under them as given)" : "");
+    r.report.notes.push_back(buf);
+  }
   r.report.seconds = seconds_since(t0);
   return r;
+}
+
+// The capture with each lamp the highlight placed where it placed it (report.lamps_from_highlight).
+CaptureSet with_lamps_placed(const CaptureSet& set, const FitReport::LampsFromHighlight& placed) {
+  CaptureSet out = set;
+  for (const FitReport::LampPlaced& p : placed.lamps) {
+    Light& l = out.views[p.view].lights[p.light];
+    l.position = {p.found[0], p.found[1], p.found[2]};
+    l.position_sigma_m = {p.sigma_m[0], p.sigma_m[1], p.sigma_m[2]};
+  }
+  return out;
 }
 
 // The fiber direction from the highlight's symmetry (fit/global/psi_symmetry.h) for the line
@@ -554,8 +584,6 @@ FitResult with_psi_from_symmetry(const CaptureSet& set, const FitOptions& opt, F
     return keep("the line model with one fiber direction only");
   if (opt.maps_w > 0 || opt.global || opt.tile_count > 0)
     return keep("the global fit only (a --maps fit has each texel's own psi)");
-  if (r.report.lamps_from_highlight.used)
-    return keep("not with the lamps placed by the highlight (the model's own psi then holds)");
   bool misfit = false;
   for (const Warning& w : r.report.warnings) misfit |= w.about == WarningAbout::kGlobalMisfit;
   if (!misfit && !always)
@@ -563,7 +591,11 @@ FitResult with_psi_from_symmetry(const CaptureSet& set, const FitOptions& opt, F
   rep.ran = true;
   rep.why = misfit ? "the line model misses the data" : "asked (--psi-from-symmetry always)";
   if (opt.progress) opt.progress->status("fit: the fiber direction from the highlight's symmetry");
-  const PsiFromSymmetry ps = psi_from_symmetry(set, r.material.fiber_angle_deg, opt.threads);
+  // Under the lamps the fit was made under: those the highlight placed where it did.
+  const CaptureSet lit = r.report.lamps_from_highlight.used
+                             ? with_lamps_placed(set, r.report.lamps_from_highlight)
+                             : set;
+  const PsiFromSymmetry ps = psi_from_symmetry(lit, r.material.fiber_angle_deg, opt.threads);
   if (opt.progress) opt.progress->status("");
   rep.psi_deg = ps.psi_deg, rep.sigma_deg = ps.sigma_deg;
   rep.model_psi_deg = r.material.fiber_angle_deg;
@@ -610,7 +642,14 @@ FitResult with_psi_from_symmetry(const CaptureSet& set, const FitOptions& opt, F
   FitOptions held = opt;
   held.hold_psi_deg = ps.psi_deg;
   held.psi_symmetry = PsiSymmetry::kNever;
-  FitResult h = fit_capture_here(set, held);
+  FitResult h = fit_capture_here(lit, held);
+  // The lamps' jackknife widened the other numbers' sigma (fit_with_lamps_from_highlight): kept.
+  if (r.report.lamps_from_highlight.used)
+    for (auto& [key, s] : h.sigma) {
+      const auto was = r.sigma.find(key);
+      if (was == r.sigma.end() || was->second.size() != s.size()) continue;
+      for (size_t i = 0; i < s.size(); ++i) s[i] = std::max(s[i], was->second[i]);
+    }
   h.sigma["fiber_angle_deg"] = {ps.sigma_deg};
   h.undetermined.erase("fiber_angle_deg");
   const auto noise = r.sigma_noise_only.find("fiber_angle_deg");
@@ -627,9 +666,28 @@ FitResult with_psi_from_symmetry(const CaptureSet& set, const FitOptions& opt, F
   h.report.lamps_from_highlight = r.report.lamps_from_highlight;
   for (const Warning& w : r.report.warnings)
     if (w.text.rfind("--lamps-from-highlight", 0) == 0) h.report.warnings.push_back(w);
+  for (const std::string& n : r.report.notes)
+    if (n.rfind("--lamps-from-highlight", 0) == 0) h.report.notes.push_back(n);
   h.report.notes.push_back(said + "; taken, the other numbers fitted under it");
   h.report.seconds += r.report.seconds + ps.seconds;
   return h;
+}
+
+// Whether the fit places the lamps by the highlight: asked, or by default where the capture states
+// its lamps' sigma (what import writes: the lamps are a measurement) for at least
+// kMinJackknifeViews views of one inverse-square point lamp and the fit is the line model's from
+// the data (not --global, not --tile).
+bool places_lamps(const CaptureSet& set, const FitOptions& opt) {
+  if (opt.lamps_from_highlight != LampsFromHighlight::kAuto)
+    return opt.lamps_from_highlight == LampsFromHighlight::kAlways;
+  if (opt.model != FitModel::kLine || opt.global || opt.tile_count > 0) return false;
+  size_t stated = 0;
+  for (const ViewSpec& v : set.views) {
+    if (v.lights.size() != 1 || !inverse_square_point(v.lights[0])) continue;
+    const Vec3& s = v.lights[0].position_sigma_m;
+    stated += s.x > 0 || s.y > 0 || s.z > 0;
+  }
+  return stated >= kMinJackknifeViews;
 }
 
 FitResult fit_table_here(const SampleTable& t, const FitOptions& opt) {
@@ -658,8 +716,8 @@ int default_fit_threads() { return std::max(1, tbb::info::default_concurrency())
 
 FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
   return on_threads(opt, [&] {
-    FitResult r = opt.lamps_from_highlight ? fit_with_lamps_from_highlight(set, opt)
-                                           : fit_capture_here(set, opt);
+    FitResult r = places_lamps(set, opt) ? fit_with_lamps_from_highlight(set, opt)
+                                         : fit_capture_here(set, opt);
     return with_psi_from_symmetry(set, opt, std::move(r));
   });
 }

@@ -23,7 +23,7 @@ ap.add_argument("--brdf", default="truth", choices=["truth", "ggx"])
 ap.add_argument("--vignetting", default="0", help="synth --photos --vignetting (the lens's falloff)")
 ap.add_argument("--work", default=None, help="folder for the shoots (default: a temporary one); "
                 "a shoot already imported there is fitted again, not made again")
-ap.add_argument("--fit-args", default="", help="more options for aniso fit, e.g. --lamps-from-highlight")
+ap.add_argument("--fit-args", default="", help="more options for aniso fit, e.g. --lamps-as-imported or \"--psi-from-symmetry never\"")
 a = ap.parse_args()
 work = a.work or tempfile.mkdtemp(prefix="aniso_sigma_")
 

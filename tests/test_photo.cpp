@@ -321,11 +321,19 @@ TEST(Import, AShootRenderedWithGgxKeepsPsiWithinItsWholeSigma) {
       psi, s_psi, (psi - 30) / s_psi, sym["model_fiber_angle_deg"].get<double>(),
       sym["model_sigma_deg"].dump().c_str());
   EXPECT_NEAR(sym["fiber_angle_deg"].get<double>(), psi, 1e-9);
+  // By default the highlight was asked to place the lamps too, and (the model missing the data)
+  // kept them, in a note rather than a warning.
+  EXPECT_EQ(m["report"]["lamps_from_highlight"]["mode"], "auto");
+  EXPECT_FALSE(m["report"]["lamps_from_highlight"]["used"].get<bool>());
+  EXPECT_NE(r.output.find("fit: note: --lamps-from-highlight: the lamps are kept as"),
+            std::string::npos)
+      << r.output;
   EXPECT_LT(std::abs(psi - 30), 3 * s_psi);
   EXPECT_LT(s_psi, 1.0);
   EXPECT_GT(sym["model_sigma_deg"].get<double>(), 3 * s_psi);
   // Never asked: the line model's own psi, its sigma as wide as the views' disagreement.
-  r = test::run_cli("fit " + dir + "/cap --psi-from-symmetry never --out " + dir + "/own.json");
+  r = test::run_cli("fit " + dir + "/cap --psi-from-symmetry never --lamps-as-imported --out " +
+                    dir + "/own.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto own = nlohmann::json::parse(read_text_file(dir + "/own.json"));
   EXPECT_EQ(own["fiber_angle_deg"], sym["model_fiber_angle_deg"]);
@@ -341,7 +349,8 @@ TEST(Import, AShootRenderedWithGgxKeepsPsiWithinItsWholeSigma) {
   EXPECT_EQ(test["preferred"], "anisotropic");
   // With the isotropic part too, 15 numbers: 12 views cannot show their spread, and the fit says
   // its sigma is the noise's alone.
-  r = test::run_cli("fit " + dir + "/cap --fit-isotropic --subsample 4 --out " + dir + "/i.json");
+  r = test::run_cli("fit " + dir + "/cap --fit-isotropic --subsample 4 --lamps-as-imported --out " +
+                    dir + "/i.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("WARNING: the uncertainty is the images' noise alone"), std::string::npos)
       << r.output;
@@ -499,9 +508,10 @@ TEST(Import, TheSamplesHighlightPlacesTheLampsWithTheMaterial) {
   const auto capture = nlohmann::json::parse(read_text_file(dir + "/cap/capture.json"));
   ASSERT_TRUE(capture["views"][0]["lights"][0].contains("position_sigma_m")) << capture.dump();
   const auto truth = nlohmann::json::parse(read_text_file(dir + "/shoot/truth.json"));
-  auto r = test::run_cli("fit " + dir + "/cap --out " + dir + "/plain.json");
+  auto r = test::run_cli("fit " + dir + "/cap --lamps-as-imported --out " + dir + "/plain.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto plain = nlohmann::json::parse(read_text_file(dir + "/plain.json"));
+  EXPECT_FALSE(plain["report"].contains("lamps_from_highlight"));
   const auto fit_with_highlight = [&](const std::string& cap, const std::string& out) {
     auto rr = test::run_cli("fit " + dir + "/" + cap + " --lamps-from-highlight --out " + dir +
                             "/" + out);
@@ -558,6 +568,11 @@ TEST(Import, TheSamplesHighlightPlacesTheLampsWithTheMaterial) {
               1e3 * std::sqrt(e2));
   EXPECT_LT(std::sqrt(e2), 0.025);
   EXPECT_LT(std::abs(moved["fiber_angle_deg"].get<double>() - 30), 0.2);
+  // Asked for both ways: refused, naming both.
+  r = test::run_cli("fit " + dir + "/cap --lamps-from-highlight --lamps-as-imported --out " + dir +
+                    "/both.json");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("--lamps-as-imported"), std::string::npos) << r.output;
   // The fiber model is refused, with what to give.
   r = test::run_cli("fit " + dir + "/cap --model fiber --lamps-from-highlight --out " + dir +
                     "/f.json");

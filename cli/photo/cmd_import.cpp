@@ -99,7 +99,7 @@ int run(const ImportArgs& a) {
       "(merge+detect %.2f, calibrate+pose %.2f, write %.2f); %d photos merged at once within "
       "--memory %.0f MB (merges %.0f MB, samples' regions up to %.0f MB)%s\n"
       "import: lamp intensities %s\n"
-      "import: then: aniso fit %s --lamps-from-highlight --out material.json\n",
+      "import: then: aniso fit %s --out material.json\n",
       r.views, r.photos.size(), a.out.c_str(), r.views, r.seconds, r.seconds_detect,
       r.seconds_calibrate, r.seconds_write, r.merge_threads, o.memory_mb, r.memory_estimate_mb,
       r.crop_budget_mb, twice.c_str(), r.intensities.c_str(), a.out.c_str());

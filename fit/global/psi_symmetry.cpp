@@ -40,33 +40,27 @@ std::vector<SymPixel> view_pixels(const CaptureSet& set, size_t i, GeometryCache
   const ViewSpec& v = set.views[i];
   if (v.lights.size() != 1) return {};
   const ViewData d = load_view(set, i, nullptr, cache);
-  const ViewGeometry& g = *d.geo;
   std::vector<SymPixel> all;
-  const int w = d.rgb.width, h = d.rgb.height;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const size_t p = static_cast<size_t>(y) * w + x;
-      SurfacePoint sp;
-      if (!d.usable(p) || !frame_at(g.P, g.N, g.U, x, y, &sp)) continue;
-      Vec3 L;
-      RGB E;
-      double dist;
-      if (!light_at(v.lights[0], sp.P, &L, &E, &dist)) continue;
-      const LocalDir l = to_local(sp, L), vv = to_local(sp, normalize(d.eye - sp.P));
-      if (l.n < kMinCos || vv.n < kMinCos) continue;
-      SymPixel q{{l.u, l.w, l.n}, {vv.u, vv.w, vv.n}, 0, 0};
-      double var = 0;
-      bool ok = true;
-      for (int k = 0; k < 3; ++k) {
-        const double e = E[k] * v.exposure;
-        if (!(e > 0)) ok = false;
-        q.z += d.rgb.at(x, y, k) / e;
-        var += 1 / (e * e);
-      }
-      if (!ok) continue;
-      q.w = 1 / var;
-      all.push_back(q);
+  for_each_framed_pixel(d, [&](int x, int y, const SurfacePoint& sp) {
+    Vec3 L;
+    RGB E;
+    double dist;
+    if (!light_at(v.lights[0], sp.P, &L, &E, &dist)) return;
+    const LocalDir l = to_local(sp, L), vv = to_local(sp, normalize(d.eye - sp.P));
+    if (l.n < kMinCos || vv.n < kMinCos) return;
+    SymPixel q{{l.u, l.w, l.n}, {vv.u, vv.w, vv.n}, 0, 0};
+    double var = 0;
+    bool ok = true;
+    for (int k = 0; k < 3; ++k) {
+      const double e = E[k] * v.exposure;
+      if (!(e > 0)) ok = false;
+      q.z += d.rgb.at(x, y, k) / e;
+      var += 1 / (e * e);
     }
+    if (!ok) return;
+    q.w = 1 / var;
+    all.push_back(q);
+  });
   std::vector<SymPixel> out;
   for (size_t k : start_subset(all.size(), kPixelsPerView)) out.push_back(all[k]);
   return out;

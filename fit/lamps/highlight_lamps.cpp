@@ -1,6 +1,7 @@
 #include "fit/lamps/highlight_lamps.h"
 
 #include <ceres/ceres.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -64,25 +65,18 @@ struct PriorCost {
 // Up to kHighlightPixelsPerView usable pixels of view i, spread over them.
 std::vector<LampPixel> view_pixels(const CaptureSet& set, size_t i, GeometryCache* cache) {
   const ViewData d = load_view(set, i, nullptr, cache);
-  const ViewGeometry& g = *d.geo;
   const ViewSpec& v = set.views[i];
   const Light& l = v.lights[0];
   std::vector<LampPixel> all;
-  const int w = d.rgb.width, h = d.rgb.height;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const size_t p = static_cast<size_t>(y) * w + x;
-      SurfacePoint sp;
-      if (!d.usable(p) || !frame_at(g.P, g.N, g.U, x, y, &sp)) continue;
-      LampPixel q;
-      const Vec3* axes[4] = {&sp.P, &sp.U, &sp.W, &sp.N};
-      double* to[4] = {q.P, q.U, q.W, q.N};
-      for (int a = 0; a < 4; ++a)
-        to[a][0] = axes[a]->x, to[a][1] = axes[a]->y, to[a][2] = axes[a]->z;
-      q.V = to_local(sp, normalize(d.eye - sp.P));
-      for (int k = 0; k < 3; ++k) q.y[k] = d.rgb.at(x, y, k), q.I[k] = v.exposure * l.intensity[k];
-      all.push_back(q);
-    }
+  for_each_framed_pixel(d, [&](int x, int y, const SurfacePoint& sp) {
+    LampPixel q;
+    const Vec3* axes[4] = {&sp.P, &sp.U, &sp.W, &sp.N};
+    double* to[4] = {q.P, q.U, q.W, q.N};
+    for (int a = 0; a < 4; ++a) to[a][0] = axes[a]->x, to[a][1] = axes[a]->y, to[a][2] = axes[a]->z;
+    q.V = to_local(sp, normalize(d.eye - sp.P));
+    for (int k = 0; k < 3; ++k) q.y[k] = d.rgb.at(x, y, k), q.I[k] = v.exposure * l.intensity[k];
+    all.push_back(q);
+  });
   std::vector<LampPixel> out;
   for (size_t k : start_subset(all.size(), kHighlightPixelsPerView)) out.push_back(all[k]);
   return out;

@@ -17,6 +17,7 @@ jsonu::json lamps_from_highlight_json(const FitReport::LampsFromHighlight& h) {
                      {"prior_released", l.released},
                      {"pixels", l.pixels}});
   jsonu::json j = {{"used", h.used},
+                   {"mode", h.by_default ? "auto" : "always"},
                    {"lamps", lamps},
                    {"pixels", h.pixels},
                    {"views_left_out", h.views_left_out},

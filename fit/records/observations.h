@@ -9,8 +9,10 @@
 #include <utility>
 #include <vector>
 
+#include "core/frame.h"
 #include "core/local_dir.h"
 #include "fit/types/fit_types.h"
+#include "io/formats/capture.h"
 #include "models/material.h"
 
 namespace aniso::fitting {
@@ -129,6 +131,20 @@ ObsSet table_observations(const SampleTable& table, const FitOptions& opt, FitRe
 // fixed stride: a stride can alias with the layout of the data (10 000 identical views, a
 // stride equal to the view size, gave two distinct pixels and psi 131 deg for 30).
 std::vector<size_t> start_subset(size_t n, size_t count);
+
+// f(x, y, frame) for every usable pixel of a loaded view whose geometry gives a shading frame, in
+// row order.
+template <class F>
+void for_each_framed_pixel(const ViewData& d, F&& f) {
+  const ViewGeometry& g = *d.geo;
+  const int w = d.rgb.width, h = d.rgb.height;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      SurfacePoint sp;
+      if (d.usable(static_cast<size_t>(y) * w + x) && frame_at(g.P, g.N, g.U, x, y, &sp))
+        f(x, y, sp);
+    }
+}
 
 double median_abs(std::vector<double> v);
 

@@ -24,6 +24,7 @@ enum class FitLoss { kHuber, kCauchy, kNone };
 // --psi-from-symmetry: when the fiber direction is placed again by the highlight's symmetry alone
 // (fit/global/psi_symmetry.h): where the line model misses the data (auto), always, or never.
 enum class PsiSymmetry { kAuto, kAlways, kNever };
+enum class LampsFromHighlight { kAuto, kAlways, kNever };
 const char* psi_symmetry_name(PsiSymmetry p);
 const char* fit_model_name(FitModel m);
 const char* fit_loss_name(FitLoss l);
@@ -132,10 +133,12 @@ struct FitOptions {
   // --keep-anisotropic: where an isotropic model fits the data better by BIC, keep the fitted
   // anisotropic material (its fiber direction undetermined) instead of writing the isotropic one.
   bool keep_anisotropic = false;
-  // --lamps-from-highlight: a photo shoot's point lamps placed again by the sample's highlight,
-  // each position fitted together with the line model's material (fit/lamps/highlight_lamps.h),
-  // then the fit asked for made under the lamps found.
-  bool lamps_from_highlight = false;
+  // A photo shoot's point lamps placed again by the sample's highlight, each position fitted
+  // together with the line model's material (fit/lamps/highlight_lamps.h), then the fit asked for
+  // made under the lamps found: by default where the capture states its lamps' sigma (an imported
+  // shoot) and the fit can (auto), or always (--lamps-from-highlight), or never
+  // (--lamps-as-imported).
+  LampsFromHighlight lamps_from_highlight = LampsFromHighlight::kAuto;
   // The global fit's comparison with the isotropic part alone: off for the global fit a --maps
   // fit starts its texels from (every texel is fitted with the anisotropic model).
   bool test_isotropic = true;
@@ -341,6 +344,7 @@ struct FitReport {
   };
   struct LampsFromHighlight {
     bool asked = false;
+    bool by_default = false;  // not asked for: the default for an imported shoot's capture
     // The fit was made under the lamps found; where not, `skipped` says why (the fit is then made
     // under the lamps as given).
     bool used = false;
