@@ -10,7 +10,7 @@ and the question is whether psi's error stays within 3 sigma with sigma under 1 
   scripts/shoot_sigma_calibration.py [--aniso build/aniso] [--seeds 20] [--views 12] [--brdf ggx]
                                      [--work DIR]
 """
-import argparse, json, math, os, subprocess, sys, tempfile
+import argparse, json, math, os, statistics, subprocess, sys, tempfile
 
 ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
 ap.add_argument("--aniso", default=os.path.join(os.path.dirname(__file__), "..", "build", "aniso"))
@@ -72,6 +72,6 @@ for kind in ("whole", "noise"):
 known = sorted(s for s in psi_sigma if math.isfinite(s))
 print(f"psi error RMS {math.sqrt(sum(e * e for e in psi_err) / len(psi_err)):.3f} deg, largest "
       f"{max(abs(e) for e in psi_err):.3f}; sigma median "
-      f"{known[len(known) // 2] if known else float('nan'):.3f} deg, at most 1 deg in "
+      f"{statistics.median(known) if known else float('nan'):.3f} deg, at most 1 deg in "
       f"{sum(s <= 1 for s in known)} of {len(psi_sigma)}; psi from the highlight's symmetry in "
       f"{by_symmetry}")

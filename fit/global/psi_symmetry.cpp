@@ -22,6 +22,7 @@ namespace {
 struct SymPixel {
   double L[3], V[3];
   double z, w;
+  double robust = 1;  // Huber's weight at the coarse minimum
 };
 
 constexpr size_t kPixelsPerView = 6000;
@@ -80,31 +81,43 @@ struct Normal {
   double c = 0;
 };
 
+// A pixel's row of the design at psi (cos c, sin s): its 5 nonzero columns and their values; false
+// where its half vector is too near the horizon.
+bool row_of(const SymPixel& q, double c, double s, int idx[5], double row[5]) {
+  double H[3] = {q.L[0] + q.V[0], q.L[1] + q.V[1], q.L[2] + q.V[2]};
+  const double len = std::sqrt(H[0] * H[0] + H[1] * H[1] + H[2] * H[2]);
+  for (double& h : H) h /= len;
+  if (H[2] < kMinCos) return false;
+  const double ht = c * H[0] + s * H[1], hb = -s * H[0] + c * H[1];
+  const double x = node_of(std::abs(ht) / H[2]), y = node_of(std::abs(hb) / H[2]);
+  const int i0 = static_cast<int>(x), j0 = static_cast<int>(y);
+  const double fx = x - i0, fy = y - j0;
+  const double J = 1 / (4 * H[2] * H[2] * H[2] * H[2] * q.V[2]);
+  const int at[5] = {0, 1 + j0 * kNodes + i0, 1 + j0 * kNodes + i0 + 1, 1 + (j0 + 1) * kNodes + i0,
+                     1 + (j0 + 1) * kNodes + i0 + 1};
+  const double v[5] = {q.L[2], J * (1 - fx) * (1 - fy), J * fx * (1 - fy), J * (1 - fx) * fy,
+                       J * fx * fy};
+  std::copy(at, at + 5, idx);
+  std::copy(v, v + 5, row);
+  return true;
+}
+
 void accumulate(const std::vector<SymPixel>& px, double psi, Normal* out) {
   out->A.setZero(kUnknowns, kUnknowns);
   out->b.setZero(kUnknowns);
   out->c = 0;
   const double c = std::cos(psi), s = std::sin(psi);
   for (const SymPixel& q : px) {
-    double H[3] = {q.L[0] + q.V[0], q.L[1] + q.V[1], q.L[2] + q.V[2]};
-    const double len = std::sqrt(H[0] * H[0] + H[1] * H[1] + H[2] * H[2]);
-    for (double& h : H) h /= len;
-    if (H[2] < kMinCos) continue;
-    const double ht = c * H[0] + s * H[1], hb = -s * H[0] + c * H[1];
-    const double x = node_of(std::abs(ht) / H[2]), y = node_of(std::abs(hb) / H[2]);
-    const int i0 = static_cast<int>(x), j0 = static_cast<int>(y);
-    const double fx = x - i0, fy = y - j0;
-    const double J = 1 / (4 * H[2] * H[2] * H[2] * H[2] * q.V[2]);
-    const int idx[5] = {0, 1 + j0 * kNodes + i0, 1 + j0 * kNodes + i0 + 1,
-                        1 + (j0 + 1) * kNodes + i0, 1 + (j0 + 1) * kNodes + i0 + 1};
-    const double row[5] = {q.L[2], J * (1 - fx) * (1 - fy), J * fx * (1 - fy), J * (1 - fx) * fy,
-                           J * fx * fy};
+    int idx[5];
+    double row[5];
+    if (!row_of(q, c, s, idx, row)) continue;
+    const double w = q.w * q.robust;
     for (int a = 0; a < 5; ++a) {
-      const double wa = q.w * row[a];
+      const double wa = w * row[a];
       out->b[idx[a]] += wa * q.z;
       for (int b = 0; b < 5; ++b) out->A(idx[a], idx[b]) += wa * row[b];
     }
-    out->c += q.w * q.z * q.z;
+    out->c += w * q.z * q.z;
   }
 }
 
@@ -125,13 +138,42 @@ Eigen::MatrixXd smoothness() {
   return R;
 }
 
-// The least-squares cost of the normal equations with the prior (lambda R).
-double cost_of(const Normal& n, const Eigen::MatrixXd& R, double lambda) {
+// The least-squares solution of the normal equations with the prior (lambda R), and its cost.
+Eigen::VectorXd solve(const Normal& n, const Eigen::MatrixXd& R, double lambda) {
   Eigen::MatrixXd A = n.A + lambda * R;
   for (int k = 0; k < kUnknowns; ++k) A(k, k) += 1e-12 * (1 + A(k, k));
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(A);
-  const Eigen::VectorXd t = ldlt.solve(n.b);
-  return n.c - n.b.dot(t);
+  return A.ldlt().solve(n.b);
+}
+double cost_of(const Normal& n, const Eigen::MatrixXd& R, double lambda) {
+  return n.c - n.b.dot(solve(n, R, lambda));
+}
+
+// Each pixel's Huber weight at psi under the solution t: 1 within kHuberScale robust sigmas (the
+// weighted residuals' MAD) of the free lobe, that scale over the residual beyond. At 1.5 the
+// jackknife's sigma stays honest (err/sigma RMS 1.0 over 20 GGX shoots, against 0.9 unweighted and
+// 1.5 at 0.6) and is 20 % smaller.
+constexpr double kHuberScale = 1.5;
+void robust_weights(std::vector<std::vector<SymPixel>>* views, double psi,
+                    const Eigen::VectorXd& t) {
+  const double c = std::cos(psi), s = std::sin(psi);
+  std::vector<double> r;
+  for (const auto& px : *views)
+    for (const SymPixel& q : px) {
+      int idx[5];
+      double row[5], pred = 0;
+      if (row_of(q, c, s, idx, row))
+        for (int a = 0; a < 5; ++a) pred += row[a] * t[idx[a]];
+      r.push_back(std::abs(q.z - pred) * std::sqrt(q.w));
+    }
+  std::vector<double> sorted = r;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double scale = kHuberScale * 1.4826 * sorted[sorted.size() / 2];
+  size_t k = 0;
+  for (auto& px : *views)
+    for (SymPixel& q : px) {
+      const double e = r[k++];
+      q.robust = e > scale ? scale / e : 1.0;
+    }
 }
 
 // The minimum of a sampled curve: a parabola through the lowest sample and its neighbours.
@@ -196,6 +238,10 @@ PsiFromSymmetry psi_from_symmetry(const CaptureSet& set, double start_psi_deg, i
   }
   bool edge = false;
   const double coarse = parabola_min(xs, ys, &edge);
+  // Huber's weights from the residuals at the coarse minimum, held from there on (the jackknife's
+  // replicates too): the pixels the free lobe draws worst pull psi less.
+  at(coarse, &whole);
+  robust_weights(&views, deg_to_rad(coarse), solve(whole, R, lambda));
   // Fine: every 0.05 degree over +-3 about it, the whole and each view left out.
   const size_t V = views.size();
   std::vector<double> fx;
@@ -229,7 +275,7 @@ PsiFromSymmetry psi_from_symmetry(const CaptureSet& set, double start_psi_deg, i
   at(psi, &whole);
   double zw = 0, w = 0;
   for (const auto& px : views)
-    for (const SymPixel& q : px) zw += q.w * q.z, w += q.w;
+    for (const SymPixel& q : px) zw += q.w * q.robust * q.z, w += q.w * q.robust;
   const double var = whole.c - zw * zw / w;
   out.relative_rms = std::sqrt(std::max(0.0, cost_of(whole, R, lambda)) / std::max(var, 1e-300));
   out.psi_deg = wrap_fiber_deg(psi);
