@@ -554,10 +554,16 @@ FitResult fit_with_lamps_from_highlight(const CaptureSet& set, const FitOptions&
   return r;
 }
 
-// The capture with each lamp the highlight placed where it placed it (report.lamps_from_highlight).
-CaptureSet with_lamps_placed(const CaptureSet& set, const FitReport::LampsFromHighlight& placed) {
+// The capture with each lamp the highlight placed where it placed it (report.lamps_from_highlight);
+// `from` names where they came from for an error (a material of another capture).
+CaptureSet with_lamps_placed(const CaptureSet& set, const std::vector<LampPlaced>& placed,
+                             const std::string& from) {
   CaptureSet out = set;
-  for (const FitReport::LampPlaced& p : placed.lamps) {
+  for (const LampPlaced& p : placed) {
+    if (p.view >= out.views.size() || p.light >= out.views[p.view].lights.size())
+      throw Error(from + ": report.lamps_from_highlight places lamp " + std::to_string(p.light) +
+                  " of view " + std::to_string(p.view) + ", which " + set.file +
+                  " does not have: is it a fit of another capture?");
     Light& l = out.views[p.view].lights[p.light];
     l.position = {p.found[0], p.found[1], p.found[2]};
     l.position_sigma_m = {p.sigma_m[0], p.sigma_m[1], p.sigma_m[2]};
@@ -593,7 +599,7 @@ FitResult with_psi_from_symmetry(const CaptureSet& set, const FitOptions& opt, F
   if (opt.progress) opt.progress->status("fit: the fiber direction from the highlight's symmetry");
   // Under the lamps the fit was made under: those the highlight placed where it did.
   const CaptureSet lit = r.report.lamps_from_highlight.used
-                             ? with_lamps_placed(set, r.report.lamps_from_highlight)
+                             ? with_lamps_placed(set, r.report.lamps_from_highlight.lamps, set.file)
                              : set;
   const PsiFromSymmetry ps = psi_from_symmetry(lit, r.material.fiber_angle_deg, opt.threads);
   if (opt.progress) opt.progress->status("");
@@ -716,6 +722,20 @@ int default_fit_threads() { return std::max(1, tbb::info::default_concurrency())
 
 FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
   return on_threads(opt, [&] {
+    // A global fit made under lamps the highlight placed: the rest of the fit under them too.
+    if (opt.global && !opt.global->lamps_placed.empty()) {
+      const CaptureSet lit = with_lamps_placed(set, opt.global->lamps_placed, opt.global->file);
+      FitResult r = fit_capture_here(lit, opt);
+      FitReport::LampsFromHighlight& h = r.report.lamps_from_highlight;
+      h.asked = h.used = true;
+      h.from_global = opt.global->file;
+      h.lamps = opt.global->lamps_placed;
+      r.report.notes.push_back(
+          "under the " + std::to_string(opt.global->lamps_placed.size()) +
+          " lamps as the sample's highlight placed them with the global fit (" + opt.global->file +
+          ")");
+      return r;
+    }
     FitResult r = places_lamps(set, opt) ? fit_with_lamps_from_highlight(set, opt)
                                          : fit_capture_here(set, opt);
     return with_psi_from_symmetry(set, opt, std::move(r));

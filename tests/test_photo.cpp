@@ -547,6 +547,20 @@ TEST(Import, TheSamplesHighlightPlacesTheLampsWithTheMaterial) {
           l["found_m"][k].get<double>() - truth["lamps"][v]["position_m"][k].get<double>(), 2);
     EXPECT_LT(std::sqrt(e), 0.01) << l.dump();
   }
+  // Maps from that global fit (--global, as tiles and fit --mpi take it) are made under the lamps
+  // it was made under, and say so.
+  r = test::run_cli("fit " + dir + "/cap --global " + dir + "/m.json --maps 4x4 --out " + dir +
+                    "/maps.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("under the 8 lamps as the sample's highlight placed them"),
+            std::string::npos)
+      << r.output;
+  const auto maps = nlohmann::json::parse(read_text_file(dir + "/maps.json"));
+  EXPECT_EQ(maps["report"]["lamps_from_highlight"]["mode"], "global");
+  EXPECT_EQ(maps["report"]["lamps_from_highlight"]["lamps"], hl["lamps"]);
+  std::printf("maps under the global fit's lamps: psi %.3f (mean of the texels)\n",
+              maps["fiber_angle_deg"].get<double>());
+  EXPECT_LT(std::abs(maps["fiber_angle_deg"].get<double>() - 30), 0.5);
   // View 2's lamp moved 5 cm in x: named, and the fit's sigma still covers its error.
   test::edit_json(dir + "/cap/capture.json", [](nlohmann::json& j) {
     auto& p = j["views"][2]["lights"][0]["position"];

@@ -499,6 +499,7 @@ GivenGlobal given_global(const std::string& text, const std::string& file,
     if (rep.contains("capture_layout") && rep["capture_layout"].is_string())
       g.capture_layout = rep["capture_layout"].get<std::string>();
     g.warnings = warnings_read_back(rep);
+    g.lamps_placed = lamps_placed_read_back(rep, file);
   }
   // "uncertainty": a number or an array per key; null where undetermined.
   const jsonu::json unc = j.value("uncertainty", jsonu::json::object());
@@ -531,6 +532,7 @@ GivenGlobal given_global_of(const FitResult& r, const std::string& file,
   g.rms = rep.rms;
   g.capture_layout = rep.capture_layout;
   g.warnings = rep.warnings;
+  if (rep.lamps_from_highlight.used) g.lamps_placed = rep.lamps_from_highlight.lamps;
   // As the file's "uncertainty" is read: the top-level keys with finite values, not those the
   // data do not determine (null there), not the nested ones ("topology.s").
   for (const auto& [key, v] : r.sigma) {

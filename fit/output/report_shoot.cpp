@@ -1,5 +1,10 @@
 #include "fit/output/report_shoot.h"
 
+#include <cmath>
+#include <tuple>
+
+#include "core/error.h"
+
 namespace aniso {
 
 jsonu::json lamps_from_highlight_json(const FitReport::LampsFromHighlight& h) {
@@ -17,7 +22,9 @@ jsonu::json lamps_from_highlight_json(const FitReport::LampsFromHighlight& h) {
                      {"prior_released", l.released},
                      {"pixels", l.pixels}});
   jsonu::json j = {{"used", h.used},
-                   {"mode", h.by_default ? "auto" : "always"},
+                   {"mode", !h.from_global.empty() ? "global"
+                            : h.by_default         ? "auto"
+                                                   : "always"},
                    {"lamps", lamps},
                    {"pixels", h.pixels},
                    {"views_left_out", h.views_left_out},
@@ -34,6 +41,7 @@ jsonu::json lamps_from_highlight_json(const FitReport::LampsFromHighlight& h) {
                       {"fiber_angle_deg", s[7]}};
   }
   if (!h.skipped.empty()) j["skipped"] = h.skipped;
+  if (!h.from_global.empty()) j["from_global"] = h.from_global;
   return j;
 }
 
@@ -52,6 +60,45 @@ jsonu::json psi_from_symmetry_json(const FitReport::PsiFromSymmetry& p) {
   j["time_s"] = p.seconds;
   if (!p.why_not.empty()) j["why_not"] = p.why_not;
   return j;
+}
+
+std::vector<LampPlaced> lamps_placed_read_back(const jsonu::json& report, const std::string& file) {
+  std::vector<LampPlaced> out;
+  if (!report.contains("lamps_from_highlight")) return out;
+  const jsonu::json& h = report["lamps_from_highlight"];
+  if (!h.is_object() || !h.value("used", false)) return out;
+  const auto bad = [&](const std::string& what) {
+    return Error(file + ": report.lamps_from_highlight.lamps: " + what);
+  };
+  if (!h.contains("lamps") || !h["lamps"].is_array()) throw bad("missing or not an array");
+  for (const auto& l : h["lamps"]) {
+    LampPlaced p;
+    if (!l.is_object() || !l.contains("view") || !l["view"].is_number_unsigned() ||
+        !l.contains("light") || !l["light"].is_number_unsigned())
+      throw bad("each lamp needs its view and light (whole numbers)");
+    p.view = l["view"].get<size_t>(), p.light = l["light"].get<size_t>();
+    // found_m and found_sigma_m are what a fit under these lamps needs; the rest is kept as read.
+    const std::tuple<const char*, double*, bool> v3[] = {{"found_m", p.found, true},
+                                                         {"found_sigma_m", p.sigma_m, true},
+                                                         {"given_m", p.given, false},
+                                                         {"given_sigma_m", p.prior_sigma_m, false}};
+    for (const auto& [key, to, needed] : v3) {
+      if (!needed && !l.contains(key)) continue;
+      if (!l.contains(key) || !l[key].is_array() || l[key].size() != 3)
+        throw bad(std::string(key) + " must be three numbers");
+      for (int k = 0; k < 3; ++k) {
+        if (!l[key][k].is_number()) throw bad(std::string(key) + " must be three numbers");
+        to[k] = l[key][k].get<double>();
+        if (!std::isfinite(to[k])) throw bad(std::string(key) + " must be finite");
+      }
+    }
+    p.stated = l.value("given_sigma_stated", false);
+    p.moved_sigmas = l.value("moved_sigmas", 0.0);
+    p.released = l.value("prior_released", false);
+    p.pixels = l.value("pixels", size_t(0));
+    out.push_back(p);
+  }
+  return out;
 }
 
 }  // namespace aniso

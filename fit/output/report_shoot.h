@@ -9,5 +9,9 @@ namespace aniso {
 
 jsonu::json lamps_from_highlight_json(const FitReport::LampsFromHighlight& h);
 jsonu::json psi_from_symmetry_json(const FitReport::PsiFromSymmetry& p);
+// The lamps a fit was made under where the highlight placed them (report.lamps_from_highlight
+// used; none otherwise): view, light, found_m and found_sigma_m of each. A malformed block is an
+// error naming `file`.
+std::vector<LampPlaced> lamps_placed_read_back(const jsonu::json& report, const std::string& file);
 
 }  // namespace aniso

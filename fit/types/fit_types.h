@@ -83,6 +83,17 @@ struct Warning {
   operator const std::string&() const { return text; }
 };
 
+// A lamp of a capture as the sample's highlight placed it (fit/lamps/highlight_lamps.h), as the
+// capture gave it and as found (report.lamps_from_highlight.lamps).
+struct LampPlaced {
+  size_t view = 0, light = 0;
+  double given[3] = {}, prior_sigma_m[3] = {}, found[3] = {}, sigma_m[3] = {};
+  bool stated = false;  // the capture stated the prior's sigma
+  double moved_sigmas = 0;
+  bool released = false;  // moved past 5 of its sigmas: solved again with its prior widened
+  size_t pixels = 0;
+};
+
 struct GivenGlobal {
   std::string file;  // where it came from, for messages and the report
   Material material;
@@ -95,6 +106,9 @@ struct GivenGlobal {
   double rms = 0;
   std::vector<Warning> warnings;
   std::string capture_layout;  // report.capture_layout ("" in older files)
+  // The lamps its fit was made under where the highlight placed them (report.lamps_from_highlight
+  // used): the fit with it is made under them too.
+  std::vector<LampPlaced> lamps_placed;
 };
 
 // --maps-iterations' default: the iterations each texel's solver (LM or Ceres) may take.
@@ -333,18 +347,11 @@ struct FitReport {
   // outside the sample).
   std::vector<std::string> notes;
   std::vector<std::string> model_summaries;  // --model auto: one line per model
-  // --lamps-from-highlight: each lamp as the capture gave it and as the highlight placed it.
-  struct LampPlaced {
-    size_t view = 0, light = 0;
-    double given[3] = {}, prior_sigma_m[3] = {}, found[3] = {}, sigma_m[3] = {};
-    bool stated = false;  // the capture stated the prior's sigma
-    double moved_sigmas = 0;
-    bool released = false;  // moved past 5 of its sigmas: solved again with its prior widened
-    size_t pixels = 0;
-  };
+  using LampPlaced = aniso::LampPlaced;
   struct LampsFromHighlight {
     bool asked = false;
     bool by_default = false;  // not asked for: the default for an imported shoot's capture
+    std::string from_global;  // placed with the global fit of this --global file, not here
     // The fit was made under the lamps found; where not, `skipped` says why (the fit is then made
     // under the lamps as given).
     bool used = false;
