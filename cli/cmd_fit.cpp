@@ -615,7 +615,8 @@ Command add_fit(CLI::App& app) {
   fit->add_option("--model", fo.model,
                   "model to fit: line, fiber, or auto (both; the lower BIC is kept)")
       ->default_str("line")
-      ->transform(CLI::CheckedTransformer(models));
+      ->transform(CLI::CheckedTransformer(models))
+      ->option_text("line|fiber|auto (default line)");
   fit->add_option("--out", a->out, "material file to write ('-' = standard output)")->required();
   fit->add_option("--report", a->report,
                   "also write the fit as a page (DIR/index.html), as `aniso report` does with "
@@ -632,7 +633,8 @@ Command add_fit(CLI::App& app) {
   fit->add_option("--loss", fo.loss,
                   "robust loss: huber, cauchy or none, scaled to 3 robust sigmas of the residuals")
       ->default_str("huber")
-      ->transform(CLI::CheckedTransformer(losses));
+      ->transform(CLI::CheckedTransformer(losses))
+      ->option_text("huber|cauchy|none (default huber)");
   fit->add_flag("--fit-isotropic", fo.fit_isotropic,
                 "also fit the isotropic (Lambert + Blinn-Phong) term");
   auto* from_highlight = fit->add_flag_callback(
@@ -657,7 +659,8 @@ Command add_fit(CLI::App& app) {
                   "and taken with the other numbers fitted under it where it is surer than the "
                   "model's own: auto (where the model misses the data), always, never")
       ->default_str("auto")
-      ->transform(CLI::CheckedTransformer(symmetries));
+      ->transform(CLI::CheckedTransformer(symmetries))
+      ->option_text("auto|always|never (default auto)");
   fit->add_flag("--keep-anisotropic", fo.keep_anisotropic,
                 "where the isotropic part alone (Lambert + Blinn-Phong) fits the data better by "
                 "BIC, keep the anisotropic fit (its fiber direction marked undetermined) instead "
