@@ -437,44 +437,51 @@ FitResult fit_with_lamps_from_highlight(const CaptureSet& set, const FitOptions&
   const FitResult first = fit_capture_here(set, g);
   if (opt.progress) opt.progress->status("fit: the lamps from the sample's highlight");
   const double sigma = std::max(first.report.rms, first.report.pixel_noise);
-  const HighlightLamps hl = lamps_from_highlight(set, first.material, sigma, opt.threads);
-  if (opt.progress) opt.progress->status("");
-  CaptureSet placed = set;
-  for (const HighlightLamp& h : hl.lamps) {
-    Light& l = placed.views[h.view].lights[h.light];
-    l.position = h.found;
-    l.position_sigma_m = h.sigma_m;
-  }
   FitOptions rest = opt;
   rest.lamps_from_highlight = LampsFromHighlight::kNever;
-  FitResult r = fit_capture_here(hl.skipped.empty() ? placed : set, rest);
-  std::string skipped = hl.skipped;
-  // Where the model misses the data even under the lamps found and the typical lamp moved more
-  // than kTypicalLampMovedSigmas, the highlight has moved them to take up the misfit, not to where
-  // the lamps are (on shoots rendered with a BRDF the line model does not have they went 8-14 cm
-  // astray, 4-7 sigmas the median): the fit is made under the lamps as given. One or two lamps
-  // far off with the rest in place is what the highlight is there to find.
-  constexpr double kTypicalLampMovedSigmas = 3;
-  std::vector<double> moved;
-  for (const HighlightLamp& h : hl.lamps) moved.push_back(h.moved_sigmas);
-  std::nth_element(moved.begin(), moved.begin() + moved.size() / 2, moved.end());
-  const double typical = moved.empty() ? 0 : moved[moved.size() / 2];
+  const auto placed_at = [&](const HighlightLamps& hl) {
+    CaptureSet placed = set;
+    for (const HighlightLamp& h : hl.lamps) {
+      Light& l = placed.views[h.view].lights[h.light];
+      l.position = h.found;
+      l.position_sigma_m = h.sigma_m;
+    }
+    return placed;
+  };
   const auto misfit = [](const FitResult& x) {
     for (const Warning& w : x.report.warnings)
       if (w.about == WarningAbout::kGlobalMisfit) return true;
     return false;
   };
-  if (skipped.empty() && misfit(r) && typical > kTypicalLampMovedSigmas) {
+  // Where the model misses the data even under the lamps found and the typical lamp moved more
+  // than kTypicalLampMovedSigmas, the highlight has moved them to take up the misfit, not to where
+  // the lamps are (on shoots rendered with a BRDF the line model does not have they went 8-14 cm
+  // astray, 4-7 sigmas the median): the fit is made under the lamps as given, and the lamps'
+  // jackknife is not run. One or two lamps far off with the rest in place is what the highlight is
+  // there to find.
+  constexpr double kTypicalLampMovedSigmas = 3;
+  const auto keep = [&](const HighlightLamps& hl) -> std::string {
+    std::vector<double> moved;
+    for (const HighlightLamp& h : hl.lamps) moved.push_back(h.moved_sigmas);
+    std::nth_element(moved.begin(), moved.begin() + moved.size() / 2, moved.end());
+    const double typical = moved.empty() ? 0 : moved[moved.size() / 2];
+    if (!(typical > kTypicalLampMovedSigmas)) return "";
+    const FitResult under = fit_capture_here(placed_at(hl), rest);
+    if (!misfit(under)) return "";
     char buf[400];
     std::snprintf(buf, sizeof buf,
                   "under the lamps the highlight found the model still misses the data (residual "
                   "RMS %.3g, %.1fx the images' noise) and the typical lamp moved %.1f of its "
                   "sigmas: the highlight would place the lamps where they take up the model's "
                   "misfit",
-                  r.report.rms, r.report.rms / std::max(r.report.pixel_noise, 1e-300), typical);
-    skipped = buf;
-    r = fit_capture_here(set, rest);
-  }
+                  under.report.rms, under.report.rms / std::max(under.report.pixel_noise, 1e-300),
+                  typical);
+    return buf;
+  };
+  const HighlightLamps hl = lamps_from_highlight(set, first.material, sigma, opt.threads, keep);
+  if (opt.progress) opt.progress->status("");
+  const std::string& skipped = hl.skipped;
+  FitResult r = fit_capture_here(skipped.empty() ? placed_at(hl) : set, rest);
   FitReport::LampsFromHighlight& out = r.report.lamps_from_highlight;
   out.asked = true;
   out.by_default = opt.lamps_from_highlight == LampsFromHighlight::kAuto;

@@ -166,7 +166,7 @@ TEST(Import, SimulatedShootCalibratesPosesAndFitsTheMaterial) {
   EXPECT_LT(worst_pos, 0.002);
   EXPECT_LT(worst_rot, 0.2);
 
-  r = test::run_cli("fit " + dir + "/cap --out " + dir + "/fit.json");
+  r = test::run_cli("fit " + dir + "/cap --lamps-as-imported --out " + dir + "/fit.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto fit = nlohmann::json::parse(read_text_file(dir + "/fit.json"));
   const auto mat = nlohmann::json::parse(read_text_file(dir + "/shoot/material.json"));
@@ -431,7 +431,8 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
               card["points"].get<size_t>());
   EXPECT_NEAR(card["paper_reflectance_found"][1].get<double>(), 0.78, 0.01);
   EXPECT_EQ(card["photos"].get<size_t>(), 12u);
-  r = test::run_cli("fit " + dir + "/cap --out " + dir + "/m.json");
+  // The paper's lamps as import placed them (the highlight places them again by default: below).
+  r = test::run_cli("fit " + dir + "/cap --lamps-as-imported --out " + dir + "/m.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto m = nlohmann::json::parse(read_text_file(dir + "/m.json"));
   EXPECT_NEAR(m["fiber_angle_deg"].get<double>(), 30, 0.5);
@@ -457,7 +458,7 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   r = test::run_cli("import " + shoot + " --out " + dir + "/capr --no-overlays --quiet");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("intensities relative"), std::string::npos) << r.output;
-  r = test::run_cli("fit " + dir + "/capr --out " + dir + "/mr.json");
+  r = test::run_cli("fit " + dir + "/capr --lamps-as-imported --out " + dir + "/mr.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("k_d and k_s are relative"), std::string::npos) << r.output;
   const auto mr = nlohmann::json::parse(read_text_file(dir + "/mr.json"));
@@ -468,7 +469,7 @@ TEST(Import, LampsAreFoundFromTheBoardsPaper) {
   r = test::run_cli("import " + dir + "/shoot/shoot.json --out " + dir + "/capw --no-overlays " +
                     "--lamps-as-written");
   ASSERT_EQ(r.status, 0) << r.output;
-  r = test::run_cli("fit " + dir + "/capw --out " + dir + "/mw.json");
+  r = test::run_cli("fit " + dir + "/capw --lamps-as-imported --out " + dir + "/mw.json");
   const auto mw = nlohmann::json::parse(read_text_file(dir + "/mw.json"));
   EXPECT_GT(std::abs(mw["kd"][0].get<double>() / 0.2 - 1), 0.3) << mw.dump();
   // x measured from the right edge: named, with the key.
@@ -513,8 +514,7 @@ TEST(Import, TheSamplesHighlightPlacesTheLampsWithTheMaterial) {
   const auto plain = nlohmann::json::parse(read_text_file(dir + "/plain.json"));
   EXPECT_FALSE(plain["report"].contains("lamps_from_highlight"));
   const auto fit_with_highlight = [&](const std::string& cap, const std::string& out) {
-    auto rr = test::run_cli("fit " + dir + "/" + cap + " --lamps-from-highlight --out " + dir +
-                            "/" + out);
+    auto rr = test::run_cli("fit " + dir + "/" + cap + " --out " + dir + "/" + out);
     EXPECT_EQ(rr.status, 0) << rr.output;
     return std::make_pair(rr.output, nlohmann::json::parse(read_text_file(dir + "/" + out)));
   };
@@ -534,6 +534,7 @@ TEST(Import, TheSamplesHighlightPlacesTheLampsWithTheMaterial) {
   check(m, "the lamps from the highlight");
   const auto& hl = m["report"]["lamps_from_highlight"];
   EXPECT_TRUE(hl["used"].get<bool>()) << hl.dump();
+  EXPECT_EQ(hl["mode"], "auto");  // the default for an imported shoot
   ASSERT_EQ(hl["lamps"].size(), 8u);
   EXPECT_EQ(hl["jackknife"]["views"], 8);
   EXPECT_NE(m["report"]["uncertainty"].get<std::string>().find("jackknife"), std::string::npos);

@@ -229,9 +229,9 @@ PsiFromSymmetry psi_from_symmetry(const CaptureSet& set, double start_psi_deg, i
   double diag = 0;
   for (int k = 1; k < kUnknowns; ++k) diag += whole.A(k, k);
   const double lambda = kSmoothness * diag / (kUnknowns - 1);
-  // Coarse: every degree over +-45.
+  // Coarse: every 2 degrees over +-45 (the valley is wider than that).
   std::vector<double> xs, ys;
-  for (int d = -45; d <= 45; ++d) {
+  for (int d = -45; d <= 45; d += 2) {
     at(start_psi_deg + d, &whole);
     xs.push_back(start_psi_deg + d);
     ys.push_back(cost_of(whole, R, lambda));
@@ -242,12 +242,12 @@ PsiFromSymmetry psi_from_symmetry(const CaptureSet& set, double start_psi_deg, i
   // replicates too): the pixels the free lobe draws worst pull psi less.
   at(coarse, &whole);
   robust_weights(&views, deg_to_rad(coarse), solve(whole, R, lambda));
-  // Fine: every 0.05 degree over +-3 about it, the whole and each view left out.
+  // Fine: every 0.1 degree over +-3 about it, the whole and each view left out.
   const size_t V = views.size();
   std::vector<double> fx;
   std::vector<std::vector<double>> fy(V + 1);
-  for (int k = -60; k <= 60; ++k) {
-    const double p = coarse + 0.05 * k;
+  for (int k = -30; k <= 30; ++k) {
+    const double p = coarse + 0.1 * k;
     at(p, &whole);
     fx.push_back(p);
     fy[V].push_back(cost_of(whole, R, lambda));

@@ -85,7 +85,7 @@ std::vector<LampPixel> view_pixels(const CaptureSet& set, size_t i, GeometryCach
 }  // namespace
 
 HighlightLamps lamps_from_highlight(const CaptureSet& set, const Material& start,
-                                    double pixel_sigma, int threads) {
+                                    double pixel_sigma, int threads, const KeepLamps& keep) {
   const auto t0 = SteadyClock::now();
   HighlightLamps out;
   out.material = start;
@@ -212,6 +212,17 @@ HighlightLamps lamps_from_highlight(const CaptureSet& set, const Material& start
   for (int k = 0; k < 3; ++k) out.material.kd[k] = m[k], out.material.ks[k] = m[3 + k];
   out.material.n = std::exp(m[6]);
   out.material.fiber_angle_deg = wrap_fiber_deg(rad_to_deg(m[7]));
+  for (size_t j = 0; j < out.lamps.size(); ++j) {
+    out.lamps[j].found = {lamp[j][0], lamp[j][1], lamp[j][2]};
+    out.lamps[j].moved_sigmas = moved_sigmas(out.lamps[j], lamp[j]);
+  }
+  if (keep) {
+    out.skipped = keep(out);
+    if (!out.skipped.empty()) {
+      out.seconds = seconds_since(t0);
+      return out;
+    }
+  }
 
   // The jackknife over views, each replicate started from the whole problem's solution.
   const size_t V = out.lamps.size();
@@ -277,13 +288,11 @@ HighlightLamps lamps_from_highlight(const CaptureSet& set, const Material& start
   out.lamp_sigma_scale = scale;
   for (size_t j = 0; j < out.lamps.size(); ++j) {
     HighlightLamp& h = out.lamps[j];
-    h.found = {lamp[j][0], lamp[j][1], lamp[j][2]};
     double c[9] = {};
     if (have_cov && cov.GetCovarianceBlock(lamp[j].data(), lamp[j].data(), c))
       h.sigma_m = Vec3{std::sqrt(std::max(c[0], 0.0)), std::sqrt(std::max(c[4], 0.0)),
                        std::sqrt(std::max(c[8], 0.0))} *
                   scale;
-    h.moved_sigmas = moved_sigmas(h, lamp[j]);
   }
   out.seconds = seconds_since(t0);
   return out;

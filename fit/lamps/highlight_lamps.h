@@ -6,6 +6,7 @@
 // with the line model's material (k_d, k_s, n, psi), the position stated in the capture
 // (Light::position_sigma_m) its prior, and the images' pixels its data.
 #pragma once
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -63,7 +64,11 @@ inline constexpr size_t kHighlightPixelsPerView = 3000;
 // The joint problem for the set's views with one point lamp (inverse-square falloff), started from
 // `start` (a line model fit of the set, without optional terms), each pixel's residual weighted by
 // 1 / pixel_sigma (the plain fit's residual sigma) with Huber's loss at 3. `threads`: Ceres'.
+// `keep`, given, is asked once the lamps are placed (found and moved_sigmas set), before the
+// jackknife and the covariance: a reason not to use them ends the work there (HighlightLamps::
+// skipped).
+using KeepLamps = std::function<std::string(const HighlightLamps&)>;
 HighlightLamps lamps_from_highlight(const CaptureSet& set, const Material& start,
-                                    double pixel_sigma, int threads);
+                                    double pixel_sigma, int threads, const KeepLamps& keep = {});
 
 }  // namespace aniso::fitting
