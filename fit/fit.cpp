@@ -1,7 +1,8 @@
 // fit: the public entry points. Observations (fit/records/observations.cpp) go to the model's part
 // (fit/global/line_fit.cpp, fit/global/fiber_fit.cpp) and the solver (fit/global/solve.cpp), which
 // knows only the numbers every model shares; the uncertainty comes from fit/global/uncertainty.cpp
-// and the output from fit/report.cpp.
+// and the output from fit/report.cpp. A photo shoot's steps around a capture's fit (the lamps placed
+// by the highlight, the fiber direction from its symmetry) are in fit/fit_steps.cpp.
 #include "fit/fit.h"
 
 #include <tbb/info.h>
@@ -17,10 +18,9 @@
 #include "core/error.h"
 #include "core/progress.h"
 #include "core/timer.h"
+#include "fit/fit_steps.h"
 #include "fit/global/isotropic_alternative.h"
-#include "fit/global/psi_symmetry.h"
 #include "fit/global/solve.h"
-#include "fit/lamps/highlight_lamps.h"
 #include "fit/maps/maps.h"
 #include "fit/maps/maps_bands.h"
 #include "fit/maps/maps_warnings.h"
@@ -392,6 +392,8 @@ FitResult maps_after_subsampled_global(const CaptureSet& set, const FitOptions& 
   return r;
 }
 
+}  // namespace
+
 FitResult fit_capture_here(const CaptureSet& set, const FitOptions& opt) {
   if (const int k = global_subsample_for(set, opt))
     return maps_after_subsampled_global(set, opt, k);
@@ -416,292 +418,7 @@ FitResult fit_capture_here(const CaptureSet& set, const FitOptions& opt) {
   return r;
 }
 
-// --lamps-from-highlight: the line model fitted under the lamps as given, its material and every
-// point lamp fitted together (fit/lamps/highlight_lamps.h), then the fit asked for under the lamps
-// found, their sigma as the problem gave it.
-FitResult fit_with_lamps_from_highlight(const CaptureSet& set, const FitOptions& opt) {
-  if (opt.global || opt.tile_count > 0)
-    throw Error(
-        "fit: --lamps-from-highlight places the lamps with the global fit: leave out --global and "
-        "--tile (fit the global values with it, then give that material to --global)");
-  if (opt.model != FitModel::kLine)
-    throw Error(
-        "fit: --lamps-from-highlight places the lamps with the line model: give --model line");
-  const auto t0 = Clock::now();
-  FitOptions g = opt;
-  g.lamps_from_highlight = LampsFromHighlight::kNever;
-  g.maps_w = g.maps_h = 0;
-  g.maps_smooth = 0;
-  g.fit_isotropic = g.fit_second = false;
-  g.test_isotropic = false;
-  const FitResult first = fit_capture_here(set, g);
-  if (opt.progress) opt.progress->status("fit: the lamps from the sample's highlight");
-  const double sigma = std::max(first.report.rms, first.report.pixel_noise);
-  FitOptions rest = opt;
-  rest.lamps_from_highlight = LampsFromHighlight::kNever;
-  const auto placed_at = [&](const HighlightLamps& hl) {
-    CaptureSet placed = set;
-    for (const HighlightLamp& h : hl.lamps) {
-      Light& l = placed.views[h.view].lights[h.light];
-      l.position = h.found;
-      l.position_sigma_m = h.sigma_m;
-    }
-    return placed;
-  };
-  const auto misfit = [](const FitResult& x) {
-    for (const Warning& w : x.report.warnings)
-      if (w.about == WarningAbout::kGlobalMisfit) return true;
-    return false;
-  };
-  // Where the model misses the data even under the lamps found and the typical lamp moved more
-  // than kTypicalLampMovedSigmas, the highlight has moved them to take up the misfit, not to where
-  // the lamps are (on shoots rendered with a BRDF the line model does not have they went 8-14 cm
-  // astray, 4-7 sigmas the median): the fit is made under the lamps as given, and the lamps'
-  // jackknife is not run. One or two lamps far off with the rest in place is what the highlight is
-  // there to find.
-  constexpr double kTypicalLampMovedSigmas = 3;
-  const auto keep = [&](const HighlightLamps& hl) -> std::string {
-    std::vector<double> moved;
-    for (const HighlightLamp& h : hl.lamps) moved.push_back(h.moved_sigmas);
-    std::nth_element(moved.begin(), moved.begin() + moved.size() / 2, moved.end());
-    const double typical = moved.empty() ? 0 : moved[moved.size() / 2];
-    if (!(typical > kTypicalLampMovedSigmas)) return "";
-    const FitResult under = fit_capture_here(placed_at(hl), rest);
-    if (!misfit(under)) return "";
-    char buf[400];
-    std::snprintf(buf, sizeof buf,
-                  "under the lamps the highlight found the model still misses the data (residual "
-                  "RMS %.3g, %.1fx the images' noise) and the typical lamp moved %.1f of its "
-                  "sigmas: the highlight would place the lamps where they take up the model's "
-                  "misfit",
-                  under.report.rms, under.report.rms / std::max(under.report.pixel_noise, 1e-300),
-                  typical);
-    return buf;
-  };
-  const HighlightLamps hl = lamps_from_highlight(set, first.material, sigma, opt.threads, keep);
-  if (opt.progress) opt.progress->status("");
-  const std::string& skipped = hl.skipped;
-  FitResult r = fit_capture_here(skipped.empty() ? placed_at(hl) : set, rest);
-  FitReport::LampsFromHighlight& out = r.report.lamps_from_highlight;
-  out.asked = true;
-  out.by_default = opt.lamps_from_highlight == LampsFromHighlight::kAuto;
-  out.used = skipped.empty();
-  out.skipped = skipped;
-  // Asked for, a lamp not placed is a warning; by default, what the fit would have done anyway.
-  if (!out.used) {
-    const std::string kept =
-        "--lamps-from-highlight: the lamps are kept as " + set.file + " gives them: " + skipped;
-    if (out.by_default)
-      r.report.notes.push_back(kept);
-    else
-      r.report.warnings.push_back(kept);
-  }
-  out.pixels = hl.pixels;
-  out.views_left_out = hl.views_left_out;
-  out.pixel_sigma = hl.pixel_sigma;
-  out.iterations = hl.iterations;
-  out.seconds = hl.seconds;
-  out.jackknife_sigma = hl.jackknife_sigma;
-  out.jackknife_views = hl.jackknife_views;
-  out.lamp_sigma_scale = hl.lamp_sigma_scale;
-  // The lamps were fitted to the same pixels: the views' own residuals, which the whole sigma is
-  // the spread of, no longer show the lamps' errors (the lamps took them). Each sigma is at least
-  // the jackknife's (a --maps fit's scalars are the maps' means, whose sigma is the texels').
-  if (out.used && !hl.jackknife_sigma.empty() && opt.maps_w == 0) {
-    const std::pair<const char*, int> at[] = {
-        {"kd", 0}, {"ks", 3}, {"n", 6}, {"fiber_angle_deg", 7}};
-    for (const auto& [key, k0] : at) {
-      auto it = r.sigma.find(key);
-      if (it == r.sigma.end()) continue;
-      for (size_t i = 0; i < it->second.size(); ++i)
-        it->second[i] = std::max(it->second[i], hl.jackknife_sigma[k0 + i]);
-    }
-    r.uncertainty_basis +=
-        "; with the lamps placed by the highlight, at least the spread of a "
-        "jackknife over the " +
-        std::to_string(hl.jackknife_views) + " views of the lamps' and the material's joint fit";
-  }
-  for (const HighlightLamp& h : hl.lamps) {
-    FitReport::LampPlaced p;
-    p.view = h.view, p.light = h.light, p.stated = h.stated, p.pixels = h.pixels;
-    p.moved_sigmas = h.moved_sigmas;
-    p.released = h.released;
-    const Vec3* from[4] = {&h.given, &h.prior_sigma_m, &h.found, &h.sigma_m};
-    double* to[4] = {p.given, p.prior_sigma_m, p.found, p.sigma_m};
-    for (int a = 0; a < 4; ++a) to[a][0] = from[a]->x, to[a][1] = from[a]->y, to[a][2] = from[a]->z;
-    out.lamps.push_back(p);
-    if (out.used && h.moved_sigmas > kLampMovedSigmas) {
-      const ViewSpec& v = set.views[h.view];
-      char buf[600];
-      std::snprintf(buf, sizeof buf,
-                    "view %zu%s%s: the sample's highlight places its lamp %.0f mm from where %s "
-                    "puts it (%.1f of its sigmas): check the lamp's position written for that "
-                    "photo (measured from another corner, in another unit, the photo of another "
-                    "lamp), and the photo itself (a pose from few corners, a highlight off the "
-                    "sample)",
-                    h.view, v.source.empty() ? "" : " (",
-                    v.source.empty() ? "" : (v.source[0] + ")").c_str(),
-                    1e3 * length(h.found - h.given), set.file.c_str(), h.moved_sigmas);
-      r.report.warnings.push_back(std::string(buf));
-    }
-  }
-  if (out.used && !hl.lamps.empty()) {
-    std::vector<double> mm;
-    for (const HighlightLamp& h : hl.lamps) mm.push_back(1e3 * length(h.found - h.given));
-    std::sort(mm.begin(), mm.end());
-    char buf[400];
-    std::snprintf(buf, sizeof buf,
-                  "the %zu lamps placed again by the sample's highlight together with the "
-                  "material: moved %.1f mm (median), at most %.0f mm, from where %s puts them%s",
-                  mm.size(), mm[mm.size() / 2], mm.back(), set.file.c_str(),
-                  out.by_default ? " (--lamps-as-imported fits under them as given)" : "");
-    r.report.notes.push_back(buf);
-  }
-  r.report.seconds = seconds_since(t0);
-  return r;
-}
-
-// The capture with each lamp the highlight placed where it placed it (report.lamps_from_highlight);
-// `from` names where they came from for an error (a material of another capture).
-CaptureSet with_lamps_placed(const CaptureSet& set, const std::vector<LampPlaced>& placed,
-                             const std::string& from) {
-  CaptureSet out = set;
-  for (const LampPlaced& p : placed) {
-    if (p.view >= out.views.size() || p.light >= out.views[p.view].lights.size())
-      throw Error(from + ": report.lamps_from_highlight places lamp " + std::to_string(p.light) +
-                  " of view " + std::to_string(p.view) + ", which " + set.file +
-                  " does not have: is it a fit of another capture?");
-    Light& l = out.views[p.view].lights[p.light];
-    l.position = {p.found[0], p.found[1], p.found[2]};
-    l.position_sigma_m = {p.sigma_m[0], p.sigma_m[1], p.sigma_m[2]};
-  }
-  return out;
-}
-
-// The fiber direction from the highlight's symmetry (fit/global/psi_symmetry.h) for the line
-// model's global fit: by default where that model misses the data (a lobe of another shape: its
-// own psi is then the one its shape fits best, uncertain by degrees), taken where its jackknife's
-// sigma is smaller than the model's own and the two agree within 3 of their sigmas; the other
-// numbers are then fitted again under it.
-FitResult with_psi_from_symmetry(const CaptureSet& set, const FitOptions& opt, FitResult r) {
-  if (opt.psi_symmetry == PsiSymmetry::kNever) return r;
-  const bool always = opt.psi_symmetry == PsiSymmetry::kAlways;
-  FitReport::PsiFromSymmetry rep;
-  rep.mode = psi_symmetry_name(opt.psi_symmetry);
-  const auto keep = [&](std::string why) {
-    rep.why = std::move(why);
-    r.report.psi_from_symmetry = rep;
-    return r;
-  };
-  if (r.material.model != Model::kLine || r.material.has_second_fiber)
-    return keep("the line model with one fiber direction only");
-  if (opt.maps_w > 0 || opt.global || opt.tile_count > 0)
-    return keep("the global fit only (a --maps fit has each texel's own psi)");
-  bool misfit = false;
-  for (const Warning& w : r.report.warnings) misfit |= w.about == WarningAbout::kGlobalMisfit;
-  if (!misfit && !always)
-    return keep("the line model describes the data (--psi-from-symmetry auto)");
-  rep.ran = true;
-  rep.why = misfit ? "the line model misses the data" : "asked (--psi-from-symmetry always)";
-  if (opt.progress) opt.progress->status("fit: the fiber direction from the highlight's symmetry");
-  // Under the lamps the fit was made under: those the highlight placed where it did.
-  const CaptureSet lit = r.report.lamps_from_highlight.used
-                             ? with_lamps_placed(set, r.report.lamps_from_highlight.lamps, set.file)
-                             : set;
-  const PsiFromSymmetry ps = psi_from_symmetry(lit, r.material.fiber_angle_deg, opt.threads);
-  if (opt.progress) opt.progress->status("");
-  rep.psi_deg = ps.psi_deg, rep.sigma_deg = ps.sigma_deg;
-  rep.model_psi_deg = r.material.fiber_angle_deg;
-  const auto own = r.sigma.find("fiber_angle_deg");
-  rep.model_sigma_deg = own == r.sigma.end() ? -1 : own->second[0];
-  rep.relative_rms = ps.relative_rms, rep.seconds = ps.seconds;
-  rep.views = ps.views, rep.pixels = ps.pixels;
-  rep.jackknife_psi_deg = ps.jackknife_psi_deg;
-  const double apart = std::abs(std::remainder(ps.psi_deg - rep.model_psi_deg, 180.0));
-  char buf[600];
-  if (!ps.skipped.empty()) {
-    rep.why_not = ps.skipped;
-  } else if (ps.views < kMinJackknifeViews) {
-    rep.why_not = "its sigma needs at least " + std::to_string(kMinJackknifeViews) + " views";
-  } else if (ps.replicate_at_edge) {
-    rep.why_not = "a view left out moves it more than 3 degrees: it is not measured";
-  } else if (rep.model_sigma_deg >= 0 && !(ps.sigma_deg < rep.model_sigma_deg)) {
-    std::snprintf(buf, sizeof buf,
-                  "the line model's own psi is surer (sigma %.3g against %.3g deg)",
-                  rep.model_sigma_deg, ps.sigma_deg);
-    rep.why_not = buf;
-  } else if (rep.model_sigma_deg >= 0 &&
-             apart > 3 * std::hypot(rep.model_sigma_deg, ps.sigma_deg)) {
-    std::snprintf(buf, sizeof buf,
-                  "the highlight's symmetry puts the fiber at %.2f +- %.2f deg, %.1f deg from the "
-                  "line model's %.2f +- %.2f deg, more than 3 of their sigmas: the lobe is not a "
-                  "mirror image of itself across one fiber direction (two fibers: "
-                  "--fit-second-fiber; a material that varies over the sample: --maps WxH)",
-                  ps.psi_deg, ps.sigma_deg, apart, rep.model_psi_deg, rep.model_sigma_deg);
-    rep.why_not = buf;
-    r.report.warnings.push_back({std::string(buf), WarningAbout::kFiberAngle});
-  }
-  std::snprintf(
-      buf, sizeof buf,
-      "the fiber direction from the highlight's symmetry alone: %.3f +- %.3g deg over %zu "
-      "views (the line model's own: %.3f +- %.3g deg)",
-      ps.psi_deg, ps.sigma_deg, ps.views, rep.model_psi_deg, rep.model_sigma_deg);
-  const std::string said = buf;
-  if (!rep.why_not.empty()) {
-    r.report.psi_from_symmetry = rep;
-    r.report.notes.push_back(said + "; not taken: " + rep.why_not);
-    return r;
-  }
-  FitOptions held = opt;
-  held.hold_psi_deg = ps.psi_deg;
-  held.psi_symmetry = PsiSymmetry::kNever;
-  FitResult h = fit_capture_here(lit, held);
-  // The lamps' jackknife widened the other numbers' sigma (fit_with_lamps_from_highlight): kept.
-  if (r.report.lamps_from_highlight.used)
-    for (auto& [key, s] : h.sigma) {
-      const auto was = r.sigma.find(key);
-      if (was == r.sigma.end() || was->second.size() != s.size()) continue;
-      for (size_t i = 0; i < s.size(); ++i) s[i] = std::max(s[i], was->second[i]);
-    }
-  h.sigma["fiber_angle_deg"] = {ps.sigma_deg};
-  h.undetermined.erase("fiber_angle_deg");
-  const auto noise = r.sigma_noise_only.find("fiber_angle_deg");
-  if (noise != r.sigma_noise_only.end()) h.sigma_noise_only["fiber_angle_deg"] = noise->second;
-  std::snprintf(buf, sizeof buf,
-                "; the fiber angle's: the spread of a jackknife over the %zu views of the "
-                "highlight's symmetry (the line model's own: %.3f +- %.3g deg), the other numbers "
-                "fitted under it",
-                ps.views, rep.model_psi_deg, rep.model_sigma_deg);
-  h.uncertainty_basis += buf;
-  rep.used = true;
-  h.report.psi_from_symmetry = rep;
-  // What --lamps-from-highlight said of lamps it kept as given (used, it returned above).
-  h.report.lamps_from_highlight = r.report.lamps_from_highlight;
-  for (const Warning& w : r.report.warnings)
-    if (w.text.rfind("--lamps-from-highlight", 0) == 0) h.report.warnings.push_back(w);
-  for (const std::string& n : r.report.notes)
-    if (n.rfind("--lamps-from-highlight", 0) == 0) h.report.notes.push_back(n);
-  h.report.notes.push_back(said + "; taken, the other numbers fitted under it");
-  h.report.seconds += r.report.seconds + ps.seconds;
-  return h;
-}
-
-// Whether the fit places the lamps by the highlight: asked, or by default where the capture states
-// its lamps' sigma (what import writes: the lamps are a measurement) for at least
-// kMinJackknifeViews views of one inverse-square point lamp and the fit is the line model's from
-// the data (not --global, not --tile).
-bool places_lamps(const CaptureSet& set, const FitOptions& opt) {
-  if (opt.lamps_from_highlight != LampsFromHighlight::kAuto)
-    return opt.lamps_from_highlight == LampsFromHighlight::kAlways;
-  if (opt.model != FitModel::kLine || opt.global || opt.tile_count > 0) return false;
-  size_t stated = 0;
-  for (const ViewSpec& v : set.views) {
-    if (v.lights.size() != 1 || !inverse_square_point(v.lights[0])) continue;
-    const Vec3& s = v.lights[0].position_sigma_m;
-    stated += s.x > 0 || s.y > 0 || s.z > 0;
-  }
-  return stated >= kMinJackknifeViews;
-}
+namespace {
 
 FitResult fit_table_here(const SampleTable& t, const FitOptions& opt) {
   const auto t0 = Clock::now();
@@ -728,25 +445,7 @@ FitResult on_threads(const FitOptions& opt, F f) {
 int default_fit_threads() { return std::max(1, tbb::info::default_concurrency()); }
 
 FitResult fit_capture(const CaptureSet& set, const FitOptions& opt) {
-  return on_threads(opt, [&] {
-    // A global fit made under lamps the highlight placed: the rest of the fit under them too.
-    if (opt.global && !opt.global->lamps_placed.empty()) {
-      const CaptureSet lit = with_lamps_placed(set, opt.global->lamps_placed, opt.global->file);
-      FitResult r = fit_capture_here(lit, opt);
-      FitReport::LampsFromHighlight& h = r.report.lamps_from_highlight;
-      h.asked = h.used = true;
-      h.from_global = opt.global->file;
-      h.lamps = opt.global->lamps_placed;
-      r.report.notes.push_back(
-          "under the " + std::to_string(opt.global->lamps_placed.size()) +
-          " lamps as the sample's highlight placed them with the global fit (" + opt.global->file +
-          ")");
-      return r;
-    }
-    FitResult r = places_lamps(set, opt) ? fit_with_lamps_from_highlight(set, opt)
-                                         : fit_capture_here(set, opt);
-    return with_psi_from_symmetry(set, opt, std::move(r));
-  });
+  return on_threads(opt, [&] { return fit_capture_steps(set, opt); });
 }
 
 FitResult fit_table(const SampleTable& t, const FitOptions& opt) {
