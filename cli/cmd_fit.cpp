@@ -283,6 +283,7 @@ bool share_global_fit(const std::string& in, const MpiWorld* world, FitOptions* 
       g.maps_smooth = 0;
       g.tile_index = g.tile_count = 0;
       g.test_isotropic = false;  // the texels' start: the anisotropic fit whatever BIC says
+      g.psi_symmetry = PsiSymmetry::kNever;  // as a --maps fit's own global fit
       const FitResult r = fit_capture(read_capture(in), g);
       bytes = fit_text(r);
       std::printf(
