@@ -1,8 +1,8 @@
 // fit: the public entry points. Observations (fit/records/observations.cpp) go to the model's part
 // (fit/global/line_fit.cpp, fit/global/fiber_fit.cpp) and the solver (fit/global/solve.cpp), which
 // knows only the numbers every model shares; the uncertainty comes from fit/global/uncertainty.cpp
-// and the output from fit/report.cpp. A photo shoot's steps around a capture's fit (the lamps placed
-// by the highlight, the fiber direction from its symmetry) are in fit/fit_steps.cpp.
+// and the output from fit/report.cpp. A photo shoot's steps around a capture's fit (the lamps
+// placed by the highlight, the fiber direction from its symmetry) are in fit/fit_steps.cpp.
 #include "fit/fit.h"
 
 #include <tbb/info.h>

@@ -121,7 +121,7 @@ HighlightLamps lamps_from_highlight(const CaptureSet& set, const Material& start
     HighlightLamp h;
     h.view = i;
     h.given = l.position;
-    h.stated = l.position_sigma_m.x > 0 || l.position_sigma_m.y > 0 || l.position_sigma_m.z > 0;
+    h.stated = position_sigma_stated(l);
     const Vec3& s = l.position_sigma_m;
     // An axis stated as 0 (exact) is held within a micrometre.
     h.prior_sigma_m = h.stated
@@ -188,8 +188,9 @@ HighlightLamps lamps_from_highlight(const CaptureSet& set, const Material& start
     }
   }
   // A lamp written wrong (measured from another corner, in another unit) is moved by the highlight
-  // but held part of the way back by its prior, and the material with it (8 photos, a lamp moved
-  // 5 cm: found 58 mm from the truth): such lamps are solved again with the prior widened.
+  // but held part of the way back by its prior, and the material with it (8 photos, a lamp written
+  // 5 cm off: 58 mm from the truth so held, 16 mm with its prior widened): such lamps are solved
+  // again with the prior widened.
   const auto moved_sigmas = [](const HighlightLamp& h, const std::array<double, 3>& at) {
     const Vec3 d = Vec3{at[0], at[1], at[2]} - h.given;
     return std::sqrt(d.x * d.x / (h.prior_sigma_m.x * h.prior_sigma_m.x) +

@@ -51,6 +51,11 @@ struct HighlightLamps {
 };
 inline constexpr size_t kMinJackknifeViews = 4;
 
+// Whether the capture states how well the light's position is known (Light::position_sigma_m).
+inline bool position_sigma_stated(const Light& l) {
+  return l.position_sigma_m.x > 0 || l.position_sigma_m.y > 0 || l.position_sigma_m.z > 0;
+}
+
 // A lamp whose capture states no sigma is taken as placed to within this (metres), as a tape
 // measure places it (docs/formats.md, a shoot's position_sigma_m).
 inline constexpr double kUnstatedLampSigmaM = 0.02;

@@ -99,7 +99,6 @@ struct LampFound {
 };
 inline constexpr double kDisagreeSigmas = 5;
 
-
 // The lamp of one photo from its paper samples; `light` as written, `rho` the paper's reflectance
 // per channel. Needs a point lamp (no attenuation other than the inverse square) and enough paper:
 // otherwise returns solved = false and why. `alternatives`: other readings of the written
